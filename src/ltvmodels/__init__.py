@@ -1,0 +1,31 @@
+"""ltvmodels: identification of linear time-varying dynamical models.
+
+Implements Bagge Carlson, Robertsson & Johansson (2018), "Identification of
+LTV Dynamical Models with Smooth or Discontinuous Time Evolution by means of
+Convex Optimization".
+
+Quick use::
+
+    import ltvmodels as ltv
+    model = ltv.fit(x, u, lam=10.0, norm="sq", order=1)
+    model.A, model.B, model.cov, model.loglik
+"""
+
+from .errors import IdentifiabilityWarning, SingularProblemError
+from .fit import fit, fit_lti
+from .models import LTVModel, load
+from .priors import OutputPrior, Prior
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "fit",
+    "fit_lti",
+    "LTVModel",
+    "load",
+    "Prior",
+    "OutputPrior",
+    "SingularProblemError",
+    "IdentifiabilityWarning",
+    "__version__",
+]

@@ -1,0 +1,277 @@
+"""Coercion and validation of every public input, in one place.
+
+Each check raises :class:`ValueError` or :class:`TypeError` with a message that
+names the argument, what was expected and what was received. Arrays are always
+copied into fresh float64 arrays, so user data are never mutated and never
+aliased by a returned model.
+"""
+
+from __future__ import annotations
+
+from numbers import Integral, Real
+from typing import Any, Sequence
+
+import numpy as np
+
+NORMS = ("sq", "group", "l1")
+IMPLEMENTED_NORMS = ("sq",)
+
+
+def _describe(value: Any) -> str:
+    """Short description of a received value for error messages."""
+    if isinstance(value, np.ndarray):
+        return f"array of shape {value.shape} and dtype {value.dtype}"
+    if hasattr(value, "shape") and hasattr(value, "dtype"):
+        return f"{type(value).__name__} of shape {tuple(value.shape)}"
+    text = repr(value)
+    if len(text) > 60:
+        text = text[:57] + "..."
+    return f"{text} ({type(value).__name__})"
+
+
+def as_float_array(value: Any, name: str) -> np.ndarray:
+    """Convert lists, numpy arrays and pandas objects to a new float64 array.
+
+    Raises TypeError for values that are not numeric and ValueError for
+    NaN or infinite entries.
+    """
+    if value is None:
+        raise TypeError(f"{name}: expected an array of numbers, received None")
+    if hasattr(value, "to_numpy"):  # pandas DataFrame / Series
+        value = value.to_numpy()
+    try:
+        arr = np.array(value, dtype=np.float64, copy=True)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(
+            f"{name}: expected an array of real numbers, received {_describe(value)}"
+        ) from exc
+    if np.iscomplexobj(np.asarray(value)):
+        raise TypeError(f"{name}: expected real numbers, received complex values")
+    if not np.all(np.isfinite(arr)):
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        raise ValueError(
+            f"{name}: expected finite values, received NaN or inf "
+            f"(first at index {tuple(int(i) for i in bad)})"
+        )
+    return arr
+
+
+def as_time_series(value: Any, name: str, *, allow_1d: bool = True) -> np.ndarray:
+    """Return a (T, d) float64 copy of a time series with time on axis 0.
+
+    A 1-d input of length T becomes (T, 1) when ``allow_1d``.
+    """
+    arr = as_float_array(value, name)
+    if arr.ndim == 1 and allow_1d:
+        arr = arr[:, None]
+    if arr.ndim != 2:
+        raise ValueError(
+            f"{name}: expected a 2-d array of shape (T, d) with time on axis 0, "
+            f"received {arr.ndim}-d array of shape {arr.shape}"
+        )
+    if arr.shape[1] == 0:
+        raise ValueError(f"{name}: expected at least one column, received shape {arr.shape}")
+    return arr
+
+
+def state_and_input(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Validate states ``x`` (T, n) and inputs ``u`` (T, m) | (T,) | None.
+
+    Returns float64 copies; ``u`` is (T, 0) when None.
+    """
+    x = as_time_series(x, "x", allow_1d=True)
+    T = x.shape[0]
+    if T < 2:
+        raise ValueError(f"x: expected at least 2 time steps, received T={T}")
+    if u is None:
+        u = np.zeros((T, 0))
+    else:
+        u = as_time_series(u, "u", allow_1d=True)
+        if u.shape[0] != T:
+            raise ValueError(
+                f"u: expected {T} rows (one per time step, as x), received {u.shape[0]}"
+            )
+    return x, u
+
+
+def norm_name(norm: Any) -> str:
+    """Validate the regularization norm name."""
+    if not isinstance(norm, str) or norm not in NORMS:
+        raise ValueError(f"norm: expected one of {NORMS}, received {_describe(norm)}")
+    if norm not in IMPLEMENTED_NORMS:
+        raise NotImplementedError(
+            f"norm={norm!r} is not available yet; use norm='sq' "
+            "(squared differences, slowly varying / smooth coefficients)"
+        )
+    return norm
+
+
+def difference_coefficients(order: Any) -> np.ndarray:
+    """Return the coefficients (c_0, ..., c_d) of the difference operator.
+
+    ``order`` is an integer d >= 1, giving the d-th difference
+    (Dk)_t = sum_j (-1)^(d-j) binom(d, j) k_{t+j}, or a sequence of polynomial
+    coefficients c_0..c_d with (Dk)_t = sum_j c_j k_{t+j}; the coefficients must
+    sum to zero (paper Proposition 1) and c_d must be nonzero.
+    """
+    if isinstance(order, bool):
+        raise TypeError(f"order: expected an integer >= 1 or a sequence of coefficients, "
+                        f"received {_describe(order)}")
+    if isinstance(order, Integral):
+        d = int(order)
+        if d < 1:
+            raise ValueError(f"order: expected an integer >= 1, received {d}")
+        coeffs = np.array([1.0])
+        for _ in range(d):
+            coeffs = np.convolve(coeffs, [-1.0, 1.0])
+        return coeffs
+    if isinstance(order, Real):
+        raise TypeError(f"order: expected an integer >= 1 or a sequence of coefficients, "
+                        f"received {_describe(order)}")
+    coeffs = as_float_array(order, "order")
+    if coeffs.ndim != 1 or coeffs.size < 2:
+        raise ValueError(
+            "order: expected an integer >= 1 or a 1-d sequence of at least 2 polynomial "
+            f"coefficients, received shape {coeffs.shape}"
+        )
+    if coeffs[-1] == 0 or coeffs[0] == 0:
+        raise ValueError(
+            "order: the first and last polynomial coefficients must be nonzero "
+            f"(trim them to lower the degree), received {coeffs.tolist()}"
+        )
+    scale = np.abs(coeffs).sum()
+    if abs(coeffs.sum()) > 1e-10 * scale:
+        raise ValueError(
+            "order: polynomial coefficients must sum to zero so that constant "
+            f"coefficients are not penalized (P(1) = 0), received {coeffs.tolist()} "
+            f"with sum {coeffs.sum():g}"
+        )
+    return coeffs
+
+
+def nonnegative_scalar(value: Any, name: str, *, allow_inf: bool = False) -> float:
+    """Validate a real scalar >= 0."""
+    if isinstance(value, bool) or not isinstance(value, (Real, np.floating, np.integer)):
+        raise TypeError(f"{name}: expected a real number >= 0, received {_describe(value)}")
+    v = float(value)
+    if np.isnan(v) or v < 0 or (np.isinf(v) and not allow_inf):
+        raise ValueError(f"{name}: expected a finite real number >= 0, received {v}")
+    return v
+
+
+def positive_scalar(value: Any, name: str) -> float:
+    """Validate a finite real scalar > 0."""
+    v = nonnegative_scalar(value, name)
+    if v == 0:
+        raise ValueError(f"{name}: expected a real number > 0, received 0")
+    return v
+
+
+def penalty_weight(lam: Any, K: int) -> np.ndarray:
+    """Turn ``lam`` into the K x K penalty weight matrix W of sum_t (Dk)_t' W (Dk)_t.
+
+    * scalar λ >= 0:   W = λ² I;
+    * vector (K,):     W = diag(λ_j²); ``inf`` marks a coefficient constant in
+      time, 0 a coefficient free to change arbitrarily;
+    * matrix (K, K):   W = Λ, symmetric positive semidefinite (used as is, so
+      λ² I is equivalent to the scalar λ).
+
+    Infinite diagonal entries of the returned matrix mark constant coefficients.
+    """
+    if lam is None or isinstance(lam, (str, bool)):
+        raise TypeError(
+            "lam: expected a number >= 0, a (K,) vector or a (K, K) matrix "
+            f"(K={K}), received {_describe(lam)}"
+        )
+    if np.ndim(lam) == 0:
+        value = nonnegative_scalar(lam, "lam", allow_inf=True)
+        return np.eye(K) * value**2
+    arr = np.array(lam.to_numpy() if hasattr(lam, "to_numpy") else lam, dtype=float)
+    if np.isnan(arr).any():
+        raise ValueError("lam: expected numbers, received NaN")
+    if arr.ndim == 1:
+        if arr.shape != (K,):
+            raise ValueError(
+                f"lam: expected a vector of length K={K} (one weight per parameter), "
+                f"received shape {arr.shape}"
+            )
+        if (arr < 0).any():
+            raise ValueError(f"lam: expected entries >= 0, received min {arr.min()}")
+        return np.diag(arr**2)
+    if arr.ndim == 2:
+        if arr.shape != (K, K):
+            raise ValueError(f"lam: expected a ({K}, {K}) matrix, received shape {arr.shape}")
+        if not np.all(np.isfinite(arr)):
+            raise ValueError("lam: a weight matrix must be finite (use a vector with inf "
+                             "entries to hold coefficients constant)")
+        if not np.allclose(arr, arr.T, rtol=1e-10, atol=1e-12 * np.abs(arr).max()):
+            raise ValueError("lam: expected a symmetric weight matrix, received a non-symmetric one")
+        eig_min = np.linalg.eigvalsh(arr).min()
+        if eig_min < -1e-10 * max(np.abs(arr).max(), 1e-300):
+            raise ValueError(
+                f"lam: expected a positive semidefinite weight matrix, received one with "
+                f"eigenvalue {eig_min:g}"
+            )
+        return 0.5 * (arr + arr.T)
+    raise ValueError(
+        f"lam: expected a scalar, a (K,) vector or a (K, K) matrix (K={K}), "
+        f"received shape {arr.shape}"
+    )
+
+
+def covariance(value: Any, name: str, N: int, d: int) -> np.ndarray:
+    """Validate a covariance given as scalar, (d, d) or (N, d, d).
+
+    Returns an array of shape (), (d, d) or (N, d, d). Matrices must be
+    symmetric positive definite (checked by a Cholesky factorization).
+    """
+    arr = as_float_array(value, name)
+    if arr.ndim == 0:
+        if arr <= 0:
+            raise ValueError(f"{name}: expected a variance > 0, received {float(arr)}")
+        return arr
+    if arr.shape not in ((d, d), (N, d, d)):
+        raise ValueError(
+            f"{name}: expected a scalar, a ({d}, {d}) matrix or an ({N}, {d}, {d}) array, "
+            f"received shape {arr.shape}"
+        )
+    if not np.allclose(arr, np.swapaxes(arr, -1, -2), rtol=1e-8, atol=1e-12 * np.abs(arr).max()):
+        raise ValueError(f"{name}: expected symmetric covariance matrices")
+    try:
+        np.linalg.cholesky(arr)
+    except np.linalg.LinAlgError:
+        raise ValueError(f"{name}: expected positive definite covariance matrices") from None
+    return arr
+
+
+def mean_sequence(value: Any, name: str, N: int, d: int) -> np.ndarray:
+    """Validate a mean given as (d,) or (N, d); returns (N, d)."""
+    arr = as_float_array(value, name)
+    if arr.shape == (d,):
+        return np.broadcast_to(arr, (N, d)).copy()
+    if arr.shape != (N, d):
+        raise ValueError(f"{name}: expected shape ({d},) or ({N}, {d}), received {arr.shape}")
+    return arr
+
+
+def choice(value: Any, name: str, options: Sequence[str]) -> str:
+    """Validate that ``value`` is one of the string ``options``."""
+    if not isinstance(value, str) or value not in options:
+        raise ValueError(f"{name}: expected one of {tuple(options)}, received {_describe(value)}")
+    return value
+
+
+def enough_samples(N: int, n_params_per_row: int, n_diff: int) -> None:
+    """Require enough time steps to identify the parameters at all.
+
+    With a difference operator of degree d the penalty leaves a d-dimensional
+    family of trajectories per parameter unpenalized, so at least
+    d * p regression equations per output row are needed.
+    """
+    needed = max(n_params_per_row * n_diff, n_diff + 1)
+    if N < needed:
+        raise ValueError(
+            f"x: too few samples: {N} transitions (T={N + 1}) cannot identify "
+            f"{n_params_per_row} regressors per output with a difference operator of "
+            f"degree {n_diff}; need at least {needed} transitions (T >= {needed + 1})"
+        )

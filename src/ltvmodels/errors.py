@@ -1,0 +1,28 @@
+"""Exceptions and warnings raised by ltvmodels.
+
+Bad user input raises plain :class:`ValueError` / :class:`TypeError` (see
+:mod:`ltvmodels._validate`); the classes here describe problems that only show
+up once the data meet the model.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class SingularProblemError(np.linalg.LinAlgError):
+    """The estimation problem has no unique solution.
+
+    Raised instead of returning an arbitrary minimizer. The message says which
+    part of the data is insufficient and what to do (more excitation, a larger
+    λ, a prior, fewer parameters). Subclasses :class:`numpy.linalg.LinAlgError`
+    and therefore :class:`ValueError`.
+    """
+
+
+class IdentifiabilityWarning(UserWarning):
+    """The data alone do not (or only barely) identify the parameters.
+
+    Issued when a prior or the regularization decides directions that the
+    data cannot, or when the problem is numerically ill-conditioned.
+    """

@@ -1,0 +1,207 @@
+"""Front-ends: state-space data → regression problem → solver → LTVModel."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from . import _validate, identifiability, priors as _priors
+from .errors import SingularProblemError
+from .models import LTVModel
+from .problem import state_space_problem
+from .solvers.squared import CovarianceBlocks, fit_squared
+
+
+def _regressor_names(n: int, m: int) -> list[str]:
+    return [f"x{i}" for i in range(n)] + [f"u{j}" for j in range(m)]
+
+
+def fit_lti(x: Any, u: Any = None) -> LTVModel:
+    """Least-squares LTI model x[t+1] = A x[t] + B u[t] + v_t (paper eqs. lscost, ls).
+
+    Minimizes Σ_t ‖x_{t+1} − A x_t − B u_t‖². All output rows share the
+    regressor φ_t = [x_t; u_t], so this is one least-squares problem with n
+    right-hand sides.
+
+    Parameters
+    ----------
+    x : array_like, shape (T, n)
+        States, time on axis 0. Lists and pandas DataFrames are accepted.
+    u : array_like, shape (T, m) or (T,), optional
+        Inputs.
+
+    Returns
+    -------
+    LTVModel
+        Constant A, B repeated over the N = T − 1 time steps. ``noise_cov`` is
+        the unbiased residual covariance EᵀE / (N − p), ``cov`` the covariance
+        Σ_v ⊗ (ΦᵀΦ)⁻¹ of k, ``loglik`` the Gaussian log-likelihood at the ML
+        noise covariance.
+
+    Raises
+    ------
+    SingularProblemError
+        If the regressors are linearly dependent (no unique solution).
+    """
+    x, u = _validate.state_and_input(x, u)
+    n, m = x.shape[1], u.shape[1]
+    problem = state_space_problem(x, u, np.array([-1.0, 1.0]))
+    N, p = problem.N, problem.p
+    if N < p:
+        raise ValueError(
+            f"x: too few samples: {N} transitions cannot determine {p} regressors per "
+            f"output; need T >= {p + 1}"
+        )
+    identifiability.check(problem, has_prior=False, regressor_names=_regressor_names(n, m))
+    # QR-based least squares: solve, don't form (ΦᵀΦ)⁻¹ for the estimate.
+    q, r = np.linalg.qr(problem.phi)
+    theta = np.linalg.solve(r, q.T @ problem.y).T  # (n, p)
+    resid = problem.y - problem.phi @ theta.T
+    dof = N - p
+    noise_cov = resid.T @ resid / dof if dof > 0 else np.full((n, n), np.nan)
+    r_inv = np.linalg.solve(r, np.eye(p))
+    gram_inv = r_inv @ r_inv.T  # (ΦᵀΦ)⁻¹ = R⁻¹R⁻ᵀ
+    ml_cov = resid.T @ resid / N
+    sign, logdet = np.linalg.slogdet(ml_cov)
+    loglik = -0.5 * N * (n * np.log(2 * np.pi) + logdet + n) if sign > 0 else float("inf")
+    K = n * p
+    k = np.broadcast_to(theta.ravel(), (N, K)).copy()
+    cov = None
+    if dof > 0:
+        cov_k = np.kron(noise_cov, gram_inv)
+        cov = CovarianceBlocks(np.broadcast_to(cov_k, (N, K, K)), None)
+    info = {"solver": "least-squares (QR)", "rss": float(np.sum(resid**2)), "dof": int(dof)}
+    return LTVModel(
+        k, n, m, norm="lti", coeffs=None, lam=float("inf"), cov=cov,
+        noise_var=float(np.trace(noise_cov) / n) if dof > 0 else float("nan"),
+        noise_cov=noise_cov, loglik=float(loglik), info=info,
+        changepoints=np.zeros(0, dtype=int),
+    )
+
+
+def fit(
+    x: Any,
+    u: Any = None,
+    *,
+    lam: Any,
+    norm: str = "sq",
+    order: Any = 1,
+    prior: Any = None,
+    prior_mode: str = "exact",
+    noise_var: float | None = None,
+    compute_cov: bool = True,
+) -> LTVModel:
+    """Identify an LTV model x[t+1] = A_t x[t] + B_t u[t] + v_t.
+
+    With ``norm="sq"`` this is the exact minimizer of (paper eqs. slow, smooth,
+    generalkalman)
+
+        Σ_t ‖x_{t+1} − A_t x_t − B_t u_t‖² + λ² Σ_t ‖(Dk)_t‖²,
+
+    with k_t = vec([A_tᵀ B_tᵀ]) and (Dk)_t = Σ_j c_j k_{t+j} the difference
+    operator given by ``order``. It is also the posterior mode of the Gaussian
+    random walk (paper eq. dynsys) with measurement noise σ² I and parameter
+    drift σ²/λ² I, computed in O(N) by one banded Cholesky factorization shared
+    by all rows of [A_t B_t].
+
+    Parameters
+    ----------
+    x : array_like, shape (T, n)
+        States, time on axis 0 (lists and pandas DataFrames are accepted).
+    u : array_like, shape (T, m) or (T,), optional
+        Inputs.
+    lam : float, array_like (K,) or (K, K)
+        Regularization. A scalar λ >= 0 gives λ² Σ‖(Dk)_t‖². A (K,) vector gives
+        Σ_j λ_j² ‖(Dk_j)‖²: ``np.inf`` holds coefficient j constant in time and
+        0 leaves it free. A (K, K) positive semidefinite matrix Λ gives
+        Σ_t (Dk)_tᵀ Λ (Dk)_t (the paper's Discussion). Large λ → LTI model.
+    norm : {"sq"}
+        "sq": squared 2-norm (slowly varying / smooth). "group" and "l1"
+        (sparse changes) are reserved for the convex sparse solvers.
+    order : int or sequence of float
+        1: first difference (slowly varying, eq. slow); 2: second difference
+        (smooth, eq. smooth); an integer d: d-th difference; or polynomial
+        coefficients c_0 … c_d, summing to zero, for (Dk)_t = Σ_j c_j k_{t+j}
+        (Proposition 1), e.g. ``[-1, 3, -3, 1]``.
+    prior : Prior, OutputPrior, or a list of them, optional
+        Gaussian priors on k_t or on the one-step output (paper Section IV).
+    prior_mode : {"exact", "posthoc"}
+        "exact" solves eq. prioropt exactly (the prior as a second measurement
+        in the normal equations); "posthoc" applies the paper's correction
+        (eqs. postk–postcov) to the prior-free smoothed estimates.
+    noise_var : float, optional
+        Noise variance σ²; weighs priors against the data and scales the
+        covariances. Default: maximum-likelihood estimate given λ.
+    compute_cov : bool
+        Compute posterior covariances (selected inversion, O(N)); False skips them.
+
+    Returns
+    -------
+    LTVModel
+        With ``cov``, ``noise_var``, ``loglik`` (log marginal likelihood, see
+        :mod:`ltvmodels.solvers.squared`) and ``info``.
+
+    Raises
+    ------
+    ValueError, TypeError
+        Invalid input (the message names the argument).
+    SingularProblemError
+        The data do not identify the model (with the reason and remedies).
+    """
+    x, u = _validate.state_and_input(x, u)
+    norm = _validate.norm_name(norm)
+    coeffs = _validate.difference_coefficients(order)
+    prior_mode = _validate.choice(prior_mode, "prior_mode", ("exact", "posthoc"))
+    if noise_var is not None:
+        noise_var = _validate.positive_scalar(noise_var, "noise_var")
+    if not isinstance(compute_cov, bool):
+        raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
+    n, m = x.shape[1], u.shape[1]
+    problem = state_space_problem(x, u, coeffs)
+    N, p, K = problem.N, problem.p, problem.K
+    W = _validate.penalty_weight(lam, K)
+    _validate.enough_samples(N, p, problem.degree)
+    terms = _priors.resolve(prior, N, n, p)
+
+    const = np.isinf(np.diag(W)).reshape(n, p)
+    identifiability.check(
+        problem,
+        has_prior=bool(terms),
+        regressor_names=_regressor_names(n, m),
+        const_mask=const.all(axis=0) if const.any() else None,
+    )
+
+    exact_terms = terms if prior_mode == "exact" else []
+    result = fit_squared(
+        problem, W, exact_terms, noise_var=noise_var,
+        compute_cov=compute_cov or (prior_mode == "posthoc" and bool(terms)),
+    )
+    k = result.theta.reshape(N, K)
+    cov = result.cov
+    info = {
+        "solver": "banded-cholesky",
+        "objective": result.objective,
+        "rss": result.rss,
+        "penalty": result.penalty,
+        "prior_cost": result.prior_cost,
+        "n_factorizations": result.n_factorizations,
+        "noise_var_estimated": result.noise_var_estimated,
+        "n_eff": result.n_eff,
+        "prior_mode": prior_mode if terms else "none",
+        **result.info,
+    }
+    loglik = result.loglik
+    if terms and prior_mode == "posthoc":
+        blocks = np.array(cov.full(n, p))
+        for term in terms:
+            k, blocks = _priors.posthoc_correction(k, blocks, term, problem.phi)
+        cov = CovarianceBlocks(blocks, None) if compute_cov else None
+        loglik = float("nan")
+        info["loglik_note"] = "no likelihood is defined for the posthoc correction"
+    noise_cov = np.eye(n) * result.noise_var
+    return LTVModel(
+        k, n, m, norm=norm, coeffs=coeffs, lam=float(lam) if np.ndim(lam) == 0 else np.asarray(lam, float),
+        cov=cov, noise_var=result.noise_var, noise_cov=noise_cov, loglik=loglik, info=info,
+    )
+

@@ -1,0 +1,155 @@
+"""The one problem every estimator solves: time-varying linear regression.
+
+    y_t = Θ_t φ_t + e_t,   t = 0 … N-1,   y_t ∈ R^n,  φ_t ∈ R^p,  Θ_t ∈ R^{n×p}
+
+with a penalty on the time differences (DΘ)_t = Σ_j c_j Θ_{t+j} of the
+coefficients, where c_0 … c_d are the coefficients of the difference
+polynomial P(z) (paper Proposition 1): c = (-1, 1) is the first difference,
+(1, -2, 1) the second. The parameter vector of the paper is
+k_t = vec([A_tᵀ B_tᵀ]) = Θ_t.ravel() (rows of Θ_t concatenated), K = n·p.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+
+@dataclass(frozen=True)
+class RegressionProblem:
+    """Data of a time-varying regression.
+
+    Attributes
+    ----------
+    y : ndarray, shape (N, n)
+        Outputs (for a state-space model, x[1:]).
+    phi : ndarray, shape (N, p)
+        Regressors shared by all output rows (for a state-space model,
+        [x[:-1], u[:-1]]).
+    coeffs : ndarray, shape (d + 1,)
+        Difference-operator coefficients c_0 … c_d.
+    """
+
+    y: np.ndarray
+    phi: np.ndarray
+    coeffs: np.ndarray
+
+    @property
+    def N(self) -> int:
+        return self.y.shape[0]
+
+    @property
+    def n(self) -> int:
+        return self.y.shape[1]
+
+    @property
+    def p(self) -> int:
+        return self.phi.shape[1]
+
+    @property
+    def K(self) -> int:
+        return self.n * self.p
+
+    @property
+    def degree(self) -> int:
+        return len(self.coeffs) - 1
+
+    def residuals(self, theta: np.ndarray) -> np.ndarray:
+        """y_t − Θ_t φ_t for Θ of shape (N, n, p); returns (N, n)."""
+        return self.y - np.einsum("tij,tj->ti", theta, self.phi)
+
+
+def state_space_problem(x: np.ndarray, u: np.ndarray, coeffs: np.ndarray) -> RegressionProblem:
+    """Regression form of x[t+1] = A_t x[t] + B_t u[t]: y = x[1:], φ = [x, u][:-1]."""
+    phi = np.hstack([x[:-1], u[:-1]])
+    return RegressionProblem(y=x[1:], phi=phi, coeffs=coeffs)
+
+
+def apply_difference(values: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
+    """(Dv)_t = Σ_j c_j v_{t+j} along axis 0; returns N − d rows."""
+    d = len(coeffs) - 1
+    N = values.shape[0]
+    out = coeffs[0] * values[: N - d]
+    for j in range(1, d + 1):
+        out = out + coeffs[j] * values[j : N - d + j]
+    return out
+
+
+def difference_matrix(N: int, coeffs: np.ndarray) -> sp.csr_matrix:
+    """Sparse (N − d) × N matrix D with (Dv)_t = Σ_j c_j v_{t+j}."""
+    d = len(coeffs) - 1
+    return sp.diags(list(coeffs), offsets=list(range(d + 1)), shape=(N - d, N), format="csr")
+
+
+def gram_bands(N: int, coeffs: np.ndarray) -> list[np.ndarray]:
+    """Lower diagonals of DᵀD: entry l (length N − l) holds (DᵀD)_{s+l, s}.
+
+    Computed in O(N d²) without forming D: (DᵀD)_{s+l,s} = Σ_t c_{s+l−t} c_{s−t}
+    over the rows t of D that touch both columns.
+    """
+    d = len(coeffs) - 1
+    bands = [np.zeros(N - l) for l in range(d + 1)]
+    rows = N - d  # number of rows of D
+    for l in range(d + 1):
+        for j in range(d + 1 - l):
+            # row t of D contributes c_j c_{j+l} to column s = t + j, row s + l.
+            bands[l][j : j + rows] += coeffs[j] * coeffs[j + l]
+    return bands
+
+
+def logdet_dd(N: int, coeffs: np.ndarray) -> float:
+    """log det(D Dᵀ) for the (N − d) × N difference matrix D, in O(N d²).
+
+    D has full row rank (c_d ≠ 0), so D Dᵀ is positive definite and banded;
+    log det(D Dᵀ) is the log pseudo-determinant of DᵀD.
+    """
+    from scipy.linalg import cholesky_banded
+
+    d = len(coeffs) - 1
+    rows = N - d
+    if rows <= 0:
+        return 0.0
+    # (D Dᵀ)_{t, t+l} = Σ_j c_j c_{j+l}, constant along each diagonal.
+    acf = np.array([np.dot(coeffs[: d + 1 - l], coeffs[l:]) for l in range(d + 1)])
+    width = min(d, rows - 1)
+    ab = np.zeros((width + 1, rows))
+    for l in range(width + 1):
+        ab[l, : rows - l] = acf[l]
+    chol = cholesky_banded(ab, lower=True, check_finite=False)
+    return 2.0 * float(np.sum(np.log(chol[0])))
+
+
+def null_space_basis(N: int, coeffs: np.ndarray) -> np.ndarray:
+    """Basis (N, d) of the sequences v with Dv = 0 (unpenalized trajectories).
+
+    Built from the roots r of the polynomial (sequences t^m r^t for a root of
+    multiplicity > m); time is scaled to [0, 1] and roots outside the unit circle
+    are referenced to the last sample so that nothing overflows. Complex roots
+    contribute their real and imaginary parts. Columns are orthonormalized.
+    """
+    d = len(coeffs) - 1
+    roots = np.roots(coeffs[::-1])  # P(z) = Σ c_j z^j
+    t = np.arange(N, dtype=float)
+    cols: list[np.ndarray] = []
+    used = np.zeros(len(roots), dtype=bool)
+    for i, r in enumerate(roots):
+        if used[i] or (np.iscomplex(r) and r.imag < 0):
+            used[i] = True
+            continue
+        same = np.isclose(roots, r, atol=1e-6)
+        multiplicity = int(same.sum())
+        used |= same
+        ref = 0.0 if abs(r) <= 1 else N - 1.0
+        if abs(r) < 1e-12:
+            continue  # a root at 0 contributes no persistent sequence
+        base = np.exp((t - ref) * np.log(complex(r)))
+        for m in range(multiplicity):
+            seq = base * (t / max(N - 1, 1)) ** m
+            cols.append(seq.real)
+            if abs(r.imag) > 1e-12:
+                cols.append(seq.imag)
+    basis = np.column_stack(cols)[:, :d] if cols else np.zeros((N, 0))
+    q, _ = np.linalg.qr(basis)
+    return q

@@ -1,0 +1,1 @@
+"""Numerical solvers behind :func:`ltvmodels.fit` (not public API)."""

@@ -1,0 +1,375 @@
+"""norm="sq": the exact minimizer of the squared-difference problem, with priors.
+
+Objective (paper eqs. slow, smooth, generalkalman, prioropt), with σ² the
+noise variance:
+
+    J(k) = Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t (Dk)_tᵀ W (Dk)_t
+           + σ² Σ_t ‖μ_t − k_t‖²_{Σ_t⁻¹}  + σ² Σ_t ‖ȳ_t − Θ_t φ_t‖²_{S_t⁻¹}
+
+W = λ² I for a scalar λ. It is the negative log posterior (times σ²) of the
+Gaussian random walk k_{t+1} = k_t + w_t (paper eq. dynsys; for higher orders
+the polynomial model of Proposition 1) with measurement noise R2 = σ² I and
+parameter drift R1 = σ²/λ² I.
+
+When the penalty weight and the priors do not mix output rows, every row of
+Θ is a separate problem with the same regressor; rows whose systems coincide
+(the usual case: scalar λ) share one banded factorization.
+
+Log marginal likelihood (``loglik``). Without priors the penalty is an improper
+Gaussian prior on the trajectory whose unpenalized directions (the initial
+state of the random walk) get a flat prior, i.e. diffuse initialization:
+
+    log p(y) = −½ N_eff log(2πσ²) + ½ log pdet(DᵀD ⊗ W) − ½ log det H − ½ J(k̂)/σ²,
+
+with H = ΦᵀΦ + DᵀD ⊗ W and N_eff = N·n − #unpenalized directions. With priors
+it is the proper log p(y | prior) = log N(y; Φ m, σ² I + Φ H_μ⁻¹ Φᵀ), where
+H_μ (= H without the data) and m = argmin of J without the data come from a
+second banded factorization:
+
+    log p(y | prior) = −½ N n log(2πσ²) − ½ log det H + ½ log det H_μ
+                       − ½ (J(k̂) − J_μ(m)) / σ².
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import SingularProblemError
+from ..priors import PriorTerm
+from ..problem import RegressionProblem, apply_difference, logdet_dd
+from .banded import BlockSolution, solve_block_banded
+
+LOG_2PI = float(np.log(2.0 * np.pi))
+
+
+@dataclass
+class CovarianceBlocks:
+    """Compact posterior covariance of k_t (in units of σ², i.e. blocks of H⁻¹).
+
+    Either ``rowwise`` — ``blocks`` is (G, N, p, p) and row i of Θ_t has
+    covariance ``blocks[row_group[i]]``, rows independent — or ``full`` —
+    ``blocks`` is (N, K, K).
+    """
+
+    blocks: np.ndarray
+    row_group: np.ndarray | None
+
+    def scaled(self, factor: float) -> CovarianceBlocks:
+        return CovarianceBlocks(self.blocks * factor, self.row_group)
+
+    def full(self, n: int, p: int) -> np.ndarray:
+        """The (N, K, K) covariance, K = n·p (rows independent in rowwise form)."""
+        if self.row_group is None:
+            return self.blocks
+        N = self.blocks.shape[1]
+        full = np.zeros((N, n, p, n, p))
+        for i in range(n):
+            full[:, i, :, i, :] = self.blocks[self.row_group[i]]
+        return full.reshape(N, n * p, n * p)
+
+
+@dataclass
+class SquaredResult:
+    """Everything the squared-norm solver computes."""
+
+    theta: np.ndarray  # (N, n, p)
+    cov: CovarianceBlocks | None  # posterior covariance (σ² included)
+    noise_var: float
+    noise_var_estimated: bool
+    loglik: float
+    objective: float
+    rss: float
+    penalty: float
+    prior_cost: float
+    n_eff: float
+    n_factorizations: int
+    info: dict = field(default_factory=dict)
+
+
+def _is_row_separable(matrix: np.ndarray, n: int, p: int) -> bool:
+    """True if a (…, n·p, n·p) matrix has no entries coupling different rows of Θ."""
+    blocks = matrix.reshape(matrix.shape[:-2] + (n, p, n, p))
+    blocks = np.moveaxis(blocks, -3, -2)  # (…, row i, row j, p, p)
+    return not np.any(blocks[..., ~np.eye(n, dtype=bool), :, :])
+
+
+def _finite(W: np.ndarray) -> np.ndarray:
+    """W with the rows/columns of constant coefficients (inf) set to zero."""
+    const = np.isinf(np.diag(W))
+    W0 = W.copy()
+    W0[const, :] = 0.0
+    W0[:, const] = 0.0
+    return W0
+
+
+@dataclass
+class _System:
+    """One banded system: rows of Θ it solves (or None for the coupled form)."""
+
+    rows: np.ndarray | None
+    W: np.ndarray
+    gram: np.ndarray
+    rhs: np.ndarray
+
+
+class SquaredSolver:
+    """Assemble and solve the normal equations of one regression problem.
+
+    Parameters
+    ----------
+    problem : RegressionProblem
+    W : ndarray, shape (K, K)
+        Penalty weight (inf on the diagonal: constant coefficient).
+    priors : list of PriorTerm
+    """
+
+    def __init__(self, problem: RegressionProblem, W: np.ndarray, priors: list[PriorTerm]):
+        self.problem = problem
+        self.W = W
+        self.priors = priors
+        n, p = problem.n, problem.p
+        separable = _is_row_separable(np.where(np.isinf(W), 0.0, W), n, p)
+        for term in priors:
+            if term.on == "parameters":
+                separable &= _is_row_separable(term.precision, n, p)
+            else:
+                separable &= not np.any(term.precision * ~np.eye(n, dtype=bool))
+        self.separable = separable
+
+    # -- assembly -----------------------------------------------------------------
+    def _prior_parts(self, scale: float):
+        """Prior contributions in k-space: Gram (N, K, K) | None and rhs (N, K)."""
+        pb = self.problem
+        N, n, p = pb.N, pb.n, pb.p
+        K = n * p
+        if not self.priors:
+            return None, None
+        gram = np.zeros((N, K, K))
+        rhs = np.zeros((N, K))
+        for term in self.priors:
+            P = term.precision_at(N)
+            if term.on == "parameters":
+                gram += P
+                rhs += np.einsum("tij,tj->ti", P, term.mean)
+            else:
+                # M_t = I_n ⊗ φ_tᵀ:  M_tᵀ P M_t = P ⊗ φφᵀ,  M_tᵀ P ȳ = (P ȳ) ⊗ φ.
+                gram += np.einsum("tij,ta,tb->tiajb", P, pb.phi, pb.phi).reshape(N, K, K)
+                rhs += np.einsum("tij,tj,ta->tia", P, term.mean, pb.phi).reshape(N, K)
+        return scale * gram, scale * rhs
+
+    def _systems(self, prior_scale: float, include_data: bool) -> list[_System]:
+        pb = self.problem
+        N, n, p = pb.N, pb.n, pb.p
+        K = n * p
+        phi_gram = np.einsum("ta,tb->tab", pb.phi, pb.phi) if include_data else None
+        prior_gram, prior_rhs = self._prior_parts(prior_scale)
+        if not self.separable:
+            gram = np.zeros((N, K, K)) if prior_gram is None else prior_gram
+            rhs = np.zeros((N, K)) if prior_rhs is None else prior_rhs
+            if include_data:
+                gram = gram + np.einsum("ij,tab->tiajb", np.eye(n), phi_gram).reshape(N, K, K)
+                rhs = rhs + np.einsum("ti,ta->tia", pb.y, pb.phi).reshape(N, K)
+            return [_System(None, self.W, gram, rhs[:, :, None])]
+        systems: list[_System] = []
+        for i in range(n):
+            sl = slice(i * p, (i + 1) * p)
+            W_i = self.W[sl, sl]
+            extra = None if prior_gram is None else prior_gram[:, sl, sl]
+            if include_data:
+                gram_i = phi_gram if extra is None else phi_gram + extra
+            else:
+                gram_i = extra if extra is not None else np.zeros((N, p, p))
+            rhs_i = pb.y[:, i, None] * pb.phi if include_data else np.zeros((N, p))
+            if prior_rhs is not None:
+                rhs_i = rhs_i + prior_rhs[:, sl]
+            for system in systems:  # share the factorization with an identical row
+                if np.array_equal(system.W, W_i, equal_nan=True) and (
+                    system.gram is gram_i or np.array_equal(system.gram, gram_i)
+                ):
+                    system.rows = np.append(system.rows, i)
+                    system.rhs = np.concatenate([system.rhs, rhs_i[:, :, None]], axis=2)
+                    break
+            else:
+                systems.append(_System(np.array([i]), W_i, gram_i, rhs_i[:, :, None]))
+        return systems
+
+    # -- solving ------------------------------------------------------------------
+    def solve(self, prior_scale: float, *, include_data: bool = True, compute_cov: bool = False):
+        """Minimize J with the prior terms weighted by ``prior_scale`` (= σ²).
+
+        Returns (theta (N, n, p), CovarianceBlocks | None, logdet H, #factorizations).
+        """
+        pb = self.problem
+        N, n, p = pb.N, pb.n, pb.p
+        what = "the normal equations" if include_data else "the prior alone"
+        systems = self._systems(prior_scale, include_data)
+        theta = np.empty((N, n, p))
+        logdet = 0.0
+        covs = []
+        row_group = np.zeros(n, dtype=int)
+        for g, system in enumerate(systems):
+            sol: BlockSolution = solve_block_banded(
+                system.gram, system.rhs, system.W, pb.coeffs, compute_cov=compute_cov, what=what
+            )
+            if system.rows is None:
+                theta[:] = sol.theta[:, :, 0].reshape(N, n, p)
+                logdet += sol.logdet
+            else:
+                theta[:, system.rows, :] = np.transpose(sol.theta, (0, 2, 1))
+                logdet += sol.logdet * len(system.rows)
+                row_group[system.rows] = g
+            covs.append(sol.cov)
+        cov = None
+        if compute_cov:
+            if systems[0].rows is None:
+                cov = CovarianceBlocks(covs[0], None)
+            else:
+                cov = CovarianceBlocks(np.stack(covs), row_group)
+        return theta, cov, logdet, len(systems)
+
+    # -- objective pieces -----------------------------------------------------------
+    def penalty(self, theta: np.ndarray) -> float:
+        N = self.problem.N
+        Dk = apply_difference(theta.reshape(N, -1), self.problem.coeffs)
+        return float(np.einsum("tk,kl,tl->", Dk, _finite(self.W), Dk))
+
+    def prior_cost(self, theta: np.ndarray) -> float:
+        """Σ_t ‖μ_t − M_t k_t‖²_{P_t} over all prior terms (not scaled by σ²)."""
+        pb = self.problem
+        N = pb.N
+        total = 0.0
+        for term in self.priors:
+            if term.on == "parameters":
+                r = term.mean - theta.reshape(N, -1)
+            else:
+                r = term.mean - np.einsum("tij,tj->ti", theta, pb.phi)
+            total += float(np.einsum("ti,tij,tj->", r, term.precision_at(N), r))
+        return total
+
+    def log_pdet_penalty(self) -> tuple[float, float]:
+        """log pdet(DᵀD ⊗ W) summed over rows, and the number of diffuse directions.
+
+        The penalty is an improper Gaussian prior on the trajectory; its
+        unpenalized directions (per row: d·|varying| + |constant| + the null space
+        of W) are integrated with a flat prior (diffuse initialization).
+        """
+        pb = self.problem
+        N, n, p = pb.N, pb.n, pb.p
+        d = pb.degree
+        log_dd = logdet_dd(N, pb.coeffs)
+        blocks = [self.W[i * p : (i + 1) * p, i * p : (i + 1) * p] for i in range(n)] \
+            if self.separable else [self.W]
+        log_pdet = 0.0
+        diffuse = 0.0
+        for Wb in blocks:
+            varying = ~np.isinf(np.diag(Wb))
+            Wv = Wb[np.ix_(varying, varying)]
+            eig = np.linalg.eigvalsh(Wv) if Wv.size else np.zeros(0)
+            pos = eig[eig > 1e-12 * max(eig.max(initial=0.0), 1e-300)]
+            rank = pos.size
+            log_pdet += rank * log_dd + (N - d) * float(np.sum(np.log(pos)))
+            diffuse += N * varying.sum() + (~varying).sum() - (N - d) * rank
+        return log_pdet, diffuse
+
+
+def fit_squared(
+    problem: RegressionProblem,
+    W: np.ndarray,
+    priors: list[PriorTerm],
+    *,
+    noise_var: float | None,
+    compute_cov: bool,
+) -> SquaredResult:
+    """Exact MAP estimate, posterior covariances and log marginal likelihood.
+
+    Parameters
+    ----------
+    problem : RegressionProblem
+    W : ndarray, shape (K, K)
+    priors : list of PriorTerm
+    noise_var : float or None
+        σ². None estimates it by maximum (diffuse) likelihood given λ:
+        σ̂² = (RSS + penalty) / N_eff, N_eff = N·n − #diffuse directions; with
+        priors, from the prior-free problem at the same λ.
+    compute_cov : bool
+    """
+    solver = SquaredSolver(problem, W, priors)
+    N, n = problem.N, problem.n
+    log_pdet, diffuse = solver.log_pdet_penalty()
+    n_eff = N * n - diffuse
+    info: dict = {"row_separable": bool(solver.separable)}
+
+    if priors and noise_var is None:
+        try:
+            theta0, _, _, _ = SquaredSolver(problem, W, []).solve(0.0)
+        except SingularProblemError as exc:
+            raise ValueError(
+                "noise_var: the data alone do not identify the parameters, so the noise "
+                "variance that weighs the prior against the data cannot be estimated; "
+                "pass noise_var explicitly"
+            ) from exc
+        if n_eff <= 0:
+            raise ValueError("noise_var: too few samples to estimate it; pass noise_var explicitly")
+        s0 = float(np.sum(problem.residuals(theta0) ** 2)) + solver.penalty(theta0)
+        noise_var = s0 / n_eff
+        estimated = True
+    else:
+        estimated = noise_var is None
+
+    prior_scale = 1.0 if noise_var is None else noise_var
+    theta, cov, logdet, n_fact = solver.solve(prior_scale, compute_cov=compute_cov)
+    rss = float(np.sum(problem.residuals(theta) ** 2))
+    pen = solver.penalty(theta)
+    prior_cost = solver.prior_cost(theta)
+
+    if not priors:
+        if noise_var is None:
+            if n_eff <= 0:
+                raise SingularProblemError(
+                    "too few samples to estimate the noise variance: the unpenalized "
+                    "directions use up all observations; pass noise_var or use more data"
+                )
+            noise_var = (rss + pen) / n_eff
+        loglik = (
+            -0.5 * n_eff * (LOG_2PI + np.log(noise_var))
+            + 0.5 * log_pdet
+            - 0.5 * logdet
+            - 0.5 * (rss + pen) / noise_var
+        )
+    else:
+        # log p(y | prior) = log N(y; M m, σ²I + M H_μ⁻¹ Mᵀ), written with the
+        # two factorizations (data + prior, prior alone): see module docs.
+        j_y = rss + pen + noise_var * prior_cost
+        try:
+            m, _, logdet_mu, _ = solver.solve(noise_var, include_data=False)
+            j_mu = solver.penalty(m) + noise_var * solver.prior_cost(m)
+            loglik = (
+                -0.5 * N * n * (LOG_2PI + np.log(noise_var))
+                - 0.5 * logdet
+                + 0.5 * logdet_mu
+                - 0.5 * (j_y - j_mu) / noise_var
+            )
+        except SingularProblemError:
+            loglik = float("nan")
+            info["loglik_note"] = (
+                "the prior alone does not determine every parameter, so log p(y | prior) "
+                "is not defined"
+            )
+
+    objective = rss + pen + noise_var * prior_cost
+    return SquaredResult(
+        theta=theta,
+        cov=None if cov is None else cov.scaled(noise_var),
+        noise_var=float(noise_var),
+        noise_var_estimated=estimated,
+        loglik=float(loglik),
+        objective=float(objective),
+        rss=rss,
+        penalty=pen,
+        prior_cost=prior_cost,
+        n_eff=float(n_eff),
+        n_factorizations=n_fact,
+        info=info,
+    )
