@@ -99,28 +99,6 @@ def gram_bands(N: int, coeffs: np.ndarray) -> list[np.ndarray]:
     return bands
 
 
-def logdet_dd(N: int, coeffs: np.ndarray) -> float:
-    """log det(D Dᵀ) for the (N − d) × N difference matrix D, in O(N d²).
-
-    D has full row rank (c_d ≠ 0), so D Dᵀ is positive definite and banded;
-    log det(D Dᵀ) is the log pseudo-determinant of DᵀD.
-    """
-    from scipy.linalg import cholesky_banded
-
-    d = len(coeffs) - 1
-    rows = N - d
-    if rows <= 0:
-        return 0.0
-    # (D Dᵀ)_{t, t+l} = Σ_j c_j c_{j+l}, constant along each diagonal.
-    acf = np.array([np.dot(coeffs[: d + 1 - l], coeffs[l:]) for l in range(d + 1)])
-    width = min(d, rows - 1)
-    ab = np.zeros((width + 1, rows))
-    for l in range(width + 1):
-        ab[l, : rows - l] = acf[l]
-    chol = cholesky_banded(ab, lower=True, check_finite=False)
-    return 2.0 * float(np.sum(np.log(chol[0])))
-
-
 def null_space_basis(N: int, coeffs: np.ndarray) -> np.ndarray:
     """Basis (N, d) of the sequences v with Dv = 0 (unpenalized trajectories).
 

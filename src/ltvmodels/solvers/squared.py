@@ -19,9 +19,11 @@ Log marginal likelihood (``loglik``). Without priors the penalty is an improper
 Gaussian prior on the trajectory whose unpenalized directions (the initial
 state of the random walk) get a flat prior, i.e. diffuse initialization:
 
-    log p(y) = −½ N_eff log(2πσ²) + ½ log pdet(DᵀD ⊗ W) − ½ log det H − ½ J(k̂)/σ²,
+    log p(y) = −½ N_eff log(2πσ²) + ½ log Z − ½ log det H − ½ J(k̂)/σ²,
 
-with H = ΦᵀΦ + DᵀD ⊗ W and N_eff = N·n − #unpenalized directions. With priors
+with H = ΦᵀΦ + DᵀD ⊗ W, N_eff = N·n − #unpenalized directions and Z the
+normalizer of the penalty (see SquaredSolver.log_penalty_normalizer). This is
+the limit of a proper prior k_0 ~ N(0, κI) as κ → ∞ without its κ terms. With priors
 it is the proper log p(y | prior) = log N(y; Φ m, σ² I + Φ H_μ⁻¹ Φᵀ), where
 H_μ (= H without the data) and m = argmin of J without the data come from a
 second banded factorization:
@@ -38,7 +40,7 @@ import numpy as np
 
 from ..errors import SingularProblemError
 from ..priors import PriorTerm
-from ..problem import RegressionProblem, apply_difference, logdet_dd
+from ..problem import RegressionProblem, apply_difference
 from .banded import BlockSolution, solve_block_banded
 
 LOG_2PI = float(np.log(2.0 * np.pi))
@@ -248,17 +250,23 @@ class SquaredSolver:
             total += float(np.einsum("ti,tij,tj->", r, term.precision_at(N), r))
         return total
 
-    def log_pdet_penalty(self) -> tuple[float, float]:
-        """log pdet(DᵀD ⊗ W) summed over rows, and the number of diffuse directions.
+    def log_penalty_normalizer(self) -> tuple[float, float]:
+        """Log normalizer of the penalty as a prior, and the number of diffuse directions.
 
-        The penalty is an improper Gaussian prior on the trajectory; its
-        unpenalized directions (per row: d·|varying| + |constant| + the null space
-        of W) are integrated with a flat prior (diffuse initialization).
+        The penalty is the improper Gaussian prior of the random walk
+        Σ_j c_j k_{t+j} = w_t, w_t ~ N(0, W⁻¹), whose initial state k_0 … k_{d-1}
+        gets a flat prior (the diffuse Kalman filter's convention: the limit of
+        k_0 ~ N(0, κI) as κ → ∞ less its κ terms). The map from (initial state,
+        w) to the trajectory is triangular with determinant c_d^-(N-d) per
+        coefficient, so the normalizer is
+        log Z = rank(W)·2(N − d)·log|c_d| + (N − d)·log pdet(W).
+        Unpenalized directions (per row: d·|varying| + |constant| + the null
+        space of W) are diffuse.
         """
         pb = self.problem
         N, n, p = pb.N, pb.n, pb.p
         d = pb.degree
-        log_dd = logdet_dd(N, pb.coeffs)
+        log_dd = 2.0 * (N - d) * float(np.log(abs(pb.coeffs[-1])))
         blocks = [self.W[i * p : (i + 1) * p, i * p : (i + 1) * p] for i in range(n)] \
             if self.separable else [self.W]
         log_pdet = 0.0
@@ -266,8 +274,12 @@ class SquaredSolver:
         for Wb in blocks:
             varying = ~np.isinf(np.diag(Wb))
             Wv = Wb[np.ix_(varying, varying)]
-            eig = np.linalg.eigvalsh(Wv) if Wv.size else np.zeros(0)
-            pos = eig[eig > 1e-12 * max(eig.max(initial=0.0), 1e-300)]
+            if not np.any(Wv - np.diag(np.diag(Wv))):
+                eig = np.diag(Wv)  # exact for the usual diagonal weights
+            else:
+                eig = np.linalg.eigvalsh(Wv)
+            tol = 10 * Wv.shape[0] * np.finfo(float).eps * max(eig.max(initial=0.0), 1e-300)
+            pos = eig[eig > tol]
             rank = pos.size
             log_pdet += rank * log_dd + (N - d) * float(np.sum(np.log(pos)))
             diffuse += N * varying.sum() + (~varying).sum() - (N - d) * rank
@@ -297,7 +309,7 @@ def fit_squared(
     """
     solver = SquaredSolver(problem, W, priors)
     N, n = problem.N, problem.n
-    log_pdet, diffuse = solver.log_pdet_penalty()
+    log_pdet, diffuse = solver.log_penalty_normalizer()
     n_eff = N * n - diffuse
     info: dict = {"row_separable": bool(solver.separable)}
 
