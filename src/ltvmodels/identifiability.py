@@ -62,6 +62,8 @@ def diagnose(problem: RegressionProblem, const_mask: np.ndarray | None = None) -
     phi = problem.phi
     N, p = phi.shape
     lti_eig, lti_dir = _scaled_min_eig(phi.T @ phi)
+    if problem.degree == 1:  # null space: constants, the LTI condition itself
+        return Diagnosis(lti_min_eig=lti_eig, null_space_min_eig=lti_eig, direction=lti_dir)
     basis = null_space_basis(N, problem.coeffs)
     if const_mask is None:
         const_mask = np.zeros(p, dtype=bool)

@@ -58,7 +58,11 @@ class RegressionProblem:
 
     def residuals(self, theta: np.ndarray) -> np.ndarray:
         """y_t − Θ_t φ_t for Θ of shape (N, n, p); returns (N, n)."""
-        return self.y - np.einsum("tij,tj->ti", theta, self.phi)
+        from .solvers._blockkernels import rowwise_matvec
+
+        fitted = np.empty_like(self.y)
+        rowwise_matvec(np.ascontiguousarray(theta), self.phi, fitted)
+        return np.subtract(self.y, fitted, out=fitted)
 
 
 def state_space_problem(x: np.ndarray, u: np.ndarray, coeffs: np.ndarray) -> RegressionProblem:

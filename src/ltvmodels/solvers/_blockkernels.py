@@ -4,14 +4,21 @@ The matrix H has N × N blocks of size b × b and block bandwidth d:
 
     H_{t,s} = δ_{ts} G_t + β_{t−s}(s) W   for 0 <= t − s <= d,
 
-where G_t are per-time Gram blocks, W is the penalty weight and β_l(s) =
-(DᵀD)_{s+l,s} are the diagonals of DᵀD. Its Cholesky factor L has the same
-block structure; it is stored as ``L[t, l] = L_{t, t−l}`` (shape (N, d+1, b, b),
-``L[t, 0]`` lower triangular).
+where β_l(s) = (DᵀD)_{s+l,s} are the diagonals of DᵀD, W is the penalty weight
+and the Gram blocks are
 
-Everything works block by block with small explicit loops: for the block sizes
-of interest (b ≲ 20) this is several times faster than LAPACK's banded
-routines, whose per-column BLAS calls dominate at small bandwidths.
+    G_t = data_scale · (I_r ⊗ φ_t φ_tᵀ) + E_t,        b = r · p,
+
+(φ_t ∈ R^p the shared regressor, r = 1 when output rows decouple, r = n for
+the coupled form) plus optional extra blocks E_t (prior precision). The data
+part is formed on the fly so that no N × b × b array is ever built.
+
+The Cholesky factor L has the same block structure, stored as
+``L[t, l] = L_{t, t−l}`` (shape (N, d+1, b, b), ``L[t, 0]`` lower triangular).
+Two sweeps do everything: forward (factor + forward substitution) and
+backward (back substitution + selected inversion). Small explicit loops over
+b × b blocks are several times faster than LAPACK's banded routines here,
+whose per-column BLAS calls dominate at small bandwidths.
 """
 
 from __future__ import annotations
@@ -21,7 +28,17 @@ import numpy as np
 
 
 @numba.njit(cache=True, inline="always")
-def _chol_with_reference(A, ref, b):  # pragma: no cover - compiled
+def _gram_entry(phi, n_rep, data_scale, extra, t, i, j):  # pragma: no cover - compiled
+    """Entry (i, j) of G_t."""
+    p = phi.shape[1]
+    value = extra[t if extra.shape[0] > 1 else 0, i, j] if extra.shape[0] > 0 else 0.0
+    if data_scale != 0.0 and i // p == j // p:
+        value += data_scale * phi[t, i % p] * phi[t, j % p]
+    return value
+
+
+@numba.njit(cache=True, inline="always")
+def _cholesky_block(A, ref, b):  # pragma: no cover - compiled
     """Lower Cholesky of A in place; smallest pivot² / ref_a (−1 if not positive definite)."""
     worst = np.inf
     for j in range(b):
@@ -45,25 +62,77 @@ def _chol_with_reference(A, ref, b):  # pragma: no cover - compiled
     return worst
 
 
+@numba.njit(cache=True, inline="always")
+def _forward_step(L, X, t, d):  # pragma: no cover - compiled
+    """z_t = L_tt⁻¹ (rhs_t − Σ_l L_{t,t−l} z_{t−l}), in place in X."""
+    b = L.shape[2]
+    r = X.shape[2]
+    for l in range(1, min(d, t) + 1):
+        Ll = L[t, l]
+        for i in range(b):
+            for c in range(r):
+                acc = 0.0
+                for q in range(b):
+                    acc += Ll[i, q] * X[t - l, q, c]
+                X[t, i, c] -= acc
+    Ltt = L[t, 0]
+    for c in range(r):
+        for i in range(b):
+            acc = X[t, i, c]
+            for q in range(i):
+                acc -= Ltt[i, q] * X[t, q, c]
+            X[t, i, c] = acc / Ltt[i, i]
+
+
+@numba.njit(cache=True, inline="always")
+def _backward_step(L, X, t, d):  # pragma: no cover - compiled
+    """x_t = L_tt⁻ᵀ (z_t − Σ_l L_{t+l,t}ᵀ x_{t+l}), in place in X."""
+    N = L.shape[0]
+    b = L.shape[2]
+    r = X.shape[2]
+    for l in range(1, min(d, N - 1 - t) + 1):
+        Ll = L[t + l, l]
+        for q in range(b):
+            for i in range(b):
+                lqi = Ll[q, i]
+                for c in range(r):
+                    X[t, i, c] -= lqi * X[t + l, q, c]
+    Ltt = L[t, 0]
+    for c in range(r):
+        for i in range(b - 1, -1, -1):
+            acc = X[t, i, c]
+            for q in range(i + 1, b):
+                acc -= Ltt[q, i] * X[t, q, c]
+            X[t, i, c] = acc / Ltt[i, i]
+
+
 @numba.njit(cache=True)
-def block_cholesky(gram, W, bands):  # pragma: no cover - compiled
-    """Factor H = L Lᵀ.
+def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L):  # pragma: no cover - compiled
+    """Factor H = L Lᵀ and forward-substitute the right-hand sides, in place.
+
+    Output arrays are allocated by the caller with numpy, which requests
+    transparent huge pages for large arrays: page faults on freshly allocated
+    memory otherwise cost as much as the arithmetic at N ~ 1e6.
 
     Parameters
     ----------
-    gram : (N, b, b);  W : (b, b);  bands : (d+1, N) with bands[l, s] = (DᵀD)_{s+l, s}
+    phi : (N, p);  n_rep : int, b = n_rep·p;  data_scale : float
+    extra : (0 | 1 | N, b, b) extra Gram blocks (prior precision)
+    W : (b, b);  bands : (d+1, N), bands[l, s] = (DᵀD)_{s+l, s}
+    Z : (N, b, r) right-hand sides (r may be 0), overwritten with L⁻¹ rhs
+    L : (N, d+1, b, b) output, the factor
 
     Returns
     -------
-    L : (N, d+1, b, b)
     worst_ratio : float
-        Smallest pivot² relative to the diagonal it came from (−1: not positive definite).
+        Smallest pivot² relative to the diagonal of H it came from (−1: not
+        positive definite).
     worst_t : int
         Time step where it occurred.
     """
-    N, b, _ = gram.shape
+    N = phi.shape[0]
+    b = W.shape[0]
     d = bands.shape[0] - 1
-    L = np.zeros((N, d + 1, b, b))
     M = np.empty((b, b))
     ref = np.empty(b)
     worst = np.inf
@@ -94,12 +163,13 @@ def block_cholesky(gram, W, bands):  # pragma: no cover - compiled
                     for q in range(j):
                         acc -= out[i, q] * Lss[j, q]
                     out[i, j] = acc / Lss[j, j]
-        # Diagonal block.
+        # Diagonal block: G_t + β_0 W − Σ_l L_{t,t−l} L_{t,t−l}ᵀ (lower triangle).
         beta = bands[0, t]
         Ltt = L[t, 0]
         for i in range(b):
-            for j in range(b):
-                Ltt[i, j] = gram[t, i, j] + beta * W[i, j]
+            for j in range(i + 1):
+                Ltt[i, j] = _gram_entry(phi, n_rep, data_scale, extra, t, i, j) + beta * W[i, j]
+            ref[i] = Ltt[i, i]
         for l in range(1, min(d, t) + 1):
             Ll = L[t, l]
             for i in range(b):
@@ -108,86 +178,44 @@ def block_cholesky(gram, W, bands):  # pragma: no cover - compiled
                     for q in range(b):
                         acc += Ll[i, q] * Ll[j, q]
                     Ltt[i, j] -= acc
-        for i in range(b):
-            for j in range(i + 1, b):
-                Ltt[i, j] = Ltt[j, i]
-        # Pivot ratios are relative to the diagonal of H itself.
-        for a in range(b):
-            ref[a] = gram[t, a, a] + beta * W[a, a]
-        ratio = _chol_with_reference(Ltt, ref, b)
+        ratio = _cholesky_block(Ltt, ref, b)
         if ratio < worst:
             worst = ratio
             worst_t = t
         if ratio < 0:
-            return L, -1.0, t
-    return L, worst, worst_t
+            return -1.0, t
+        _forward_step(L, Z, t, d)
+    return worst, worst_t
 
 
 @numba.njit(cache=True)
-def block_solve(L, rhs):  # pragma: no cover - compiled
-    """Solve L Lᵀ X = rhs for rhs of shape (N, b, r); returns X."""
-    N, dp1, b, _ = L.shape
-    d = dp1 - 1
-    r = rhs.shape[2]
-    X = rhs.copy()
-    # Forward: z_t = L_tt⁻¹ (rhs_t − Σ_l L_{t,t−l} z_{t−l}).
-    for t in range(N):
-        for l in range(1, min(d, t) + 1):
-            Ll = L[t, l]
-            for i in range(b):
-                for c in range(r):
-                    acc = 0.0
-                    for q in range(b):
-                        acc += Ll[i, q] * X[t - l, q, c]
-                    X[t, i, c] -= acc
-        Ltt = L[t, 0]
-        for c in range(r):
-            for i in range(b):
-                acc = X[t, i, c]
-                for q in range(i):
-                    acc -= Ltt[i, q] * X[t, q, c]
-                X[t, i, c] = acc / Ltt[i, i]
-    # Backward: x_t = L_tt⁻ᵀ (z_t − Σ_l L_{t+l,t}ᵀ x_{t+l}).
-    for t in range(N - 1, -1, -1):
-        for l in range(1, min(d, N - 1 - t) + 1):
-            Ll = L[t + l, l]
-            for i in range(b):
-                for c in range(r):
-                    acc = 0.0
-                    for q in range(b):
-                        acc += Ll[q, i] * X[t + l, q, c]
-                    X[t, i, c] -= acc
-        Ltt = L[t, 0]
-        for c in range(r):
-            for i in range(b - 1, -1, -1):
-                acc = X[t, i, c]
-                for q in range(i + 1, b):
-                    acc -= Ltt[q, i] * X[t, q, c]
-                X[t, i, c] = acc / Ltt[i, i]
-    return X
+def backward(L, X, cov):  # pragma: no cover - compiled
+    """Back substitution X ← L⁻ᵀ X in place and the diagonal blocks of H⁻¹ into ``cov``.
 
-
-@numba.njit(cache=True)
-def block_selected_inverse(L):  # pragma: no cover - compiled
-    """Diagonal blocks (N, b, b) of H⁻¹ by block Takahashi recursion.
-
-    From Lᵀ Σ = L⁻¹ (block lower triangular with diagonal blocks L_tt⁻¹), for
-    i >= t:
+    Selected inversion (block Takahashi recursion): from Lᵀ Σ = L⁻¹, for i >= t,
 
         L_ttᵀ Σ_{t,i} = δ_{ti} L_tt⁻¹ − Σ_{k=t+1}^{t+d} L_{k,t}ᵀ Σ_{k,i},
 
     solved by back substitution, for t from N − 1 down, keeping the blocks
     Σ_{i,j}, |i − j| <= d, of the last d + 1 time steps in a rolling window.
-    L_tt⁻¹ is never formed: in the upper triangle (which is all the diagonal
-    block needs, by symmetry) it is zero except for 1 / L_aa on the diagonal.
+    L_tt⁻¹ is never formed: in the upper triangle (all the diagonal block
+    needs, by symmetry) it is zero except for 1 / L_aa on the diagonal.
+
+    Parameters
+    ----------
+    L : (N, d+1, b, b) factor;  X : (N, b, r), overwritten
+    cov : (N, b, b) output, or (0, b, b) to skip the covariances
     """
     N, dp1, b, _ = L.shape
     d = dp1 - 1
     w = d + 1
+    compute_cov = cov.shape[0] == N
     window = np.zeros((w, w, b, b))  # window[i % w, j % w] = Σ_{i,j}
-    out = np.empty((N, b, b))
     rhs = np.empty((b, b))
     for t in range(N - 1, -1, -1):
+        _backward_step(L, X, t, d)
+        if not compute_cov:
+            continue
         Ltt = L[t, 0]
         top = min(d, N - 1 - t)
         for m in range(top, -1, -1):
@@ -198,16 +226,15 @@ def block_selected_inverse(L):  # pragma: no cover - compiled
                     rhs[a, c] = 0.0
             for q in range(1, top + 1):
                 Lkt = L[t + q, q]  # L_{t+q, t}
-                S = window[(t + q) % w, i % w]  # both indices > t, or this step's mirror
-                for a in range(b):
-                    for e in range(b):
+                S = window[(t + q) % w, i % w]  # indices > t, or this step's mirror
+                for e in range(b):
+                    for a in range(b):
                         le = Lkt[e, a]
-                        if le != 0.0:
-                            for c in range(b):
-                                rhs[a, c] -= le * S[e, c]
+                        for c in range(b):
+                            rhs[a, c] -= le * S[e, c]
             dest = window[t % w, i % w]
             if m > 0:
-                # Back substitution L_ttᵀ X = rhs, all columns.
+                # Back substitution L_ttᵀ Σ_{t,i} = rhs, all columns.
                 for c in range(b):
                     for a in range(b - 1, -1, -1):
                         acc = rhs[a, c]
@@ -219,17 +246,38 @@ def block_selected_inverse(L):  # pragma: no cover - compiled
                     for c in range(b):
                         mirror[c, a] = dest[a, c]
             else:
-                # Upper triangle of Σ_tt (rows descending, columns descending),
+                # Upper triangle of Σ_tt (rows and columns descending), then
                 # the lower one by symmetry.
                 for a in range(b - 1, -1, -1):
                     for c in range(b - 1, a - 1, -1):
                         acc = rhs[a, c] + (1.0 / Ltt[a, a] if a == c else 0.0)
                         for e in range(a + 1, b):
-                            # Σ_{e,c}: upper part if e <= c, else mirror Σ_{c,e}.
                             acc -= Ltt[e, a] * (dest[e, c] if e <= c else dest[c, e])
                         dest[a, c] = acc / Ltt[a, a]
                 for a in range(b):
                     for c in range(a):
                         dest[a, c] = dest[c, a]
-        out[t] = window[t % w, t % w]
-    return out
+        cov[t] = window[t % w, t % w]
+
+
+@numba.njit(cache=True)
+def solve(L, X):  # pragma: no cover - compiled
+    """Solve L Lᵀ X = rhs in place; X (N, b, r) holds rhs on entry."""
+    N, dp1, _, _ = L.shape
+    d = dp1 - 1
+    for t in range(N):
+        _forward_step(L, X, t, d)
+    for t in range(N - 1, -1, -1):
+        _backward_step(L, X, t, d)
+
+
+@numba.njit(cache=True)
+def rowwise_matvec(theta, phi, out):  # pragma: no cover - compiled
+    """out[t] = Θ_t φ_t for Θ (N, n, p), φ (N, p), out (N, n)."""
+    N, n, p = theta.shape
+    for t in range(N):
+        for i in range(n):
+            acc = 0.0
+            for j in range(p):
+                acc += theta[t, i, j] * phi[t, j]
+            out[t, i] = acc

@@ -6,11 +6,11 @@ unknowns θ_t ∈ R^b, t = 0 … N-1, are
     H = blkdiag(G_0, …, G_{N-1}) + (DᵀD) ⊗ W,
 
 where G_t is the per-time Gram matrix (data, plus prior precision) and W the
-b × b penalty weight. H is block-banded with block bandwidth d (the degree of the
-difference operator), so its block Cholesky factor costs O(N d² b³) and every
-right-hand side O(N d b²). Marginal covariances (diagonal blocks of H⁻¹) come
-from the same factor by block selected inversion (Takahashi's recursion). The
-kernels are sequential loops over time and live, compiled, in
+b × b penalty weight. H is block-banded with block bandwidth d (the degree of
+the difference operator), so its block Cholesky factor costs O(N d² b³) and
+every right-hand side O(N d b²). Marginal covariances (diagonal blocks of H⁻¹)
+come from the same factor by block selected inversion (Takahashi's
+recursion). The kernels are sequential loops over time and live, compiled, in
 :mod:`._blockkernels`.
 
 Coefficients held constant in time (weight ``inf``) enter as a small dense
@@ -27,7 +27,7 @@ from scipy.linalg import cho_factor, cho_solve
 
 from ..errors import SingularProblemError
 from ..problem import gram_bands
-from ._blockkernels import block_cholesky, block_selected_inverse, block_solve
+from . import _blockkernels as kernels
 
 # A pivot whose square is below this fraction of the matrix diagonal it came
 # from means the system is singular to working precision.
@@ -40,52 +40,69 @@ SINGULAR_ADVICE = (
 
 
 @dataclass
-class BlockCholesky:
-    """Cholesky factor of H = blkdiag(G_t) + (DᵀD) ⊗ W, N blocks of size b."""
+class BlockSystem:
+    """H = blkdiag(G_t) + (DᵀD) ⊗ W with G_t = data_scale·(I_r ⊗ φ_tφ_tᵀ) + E_t.
 
-    L: np.ndarray  # (N, d+1, b, b), L[t, l] = L_{t, t−l}
+    Attributes
+    ----------
+    phi : ndarray, shape (N, p)
+        Regressors shared by the r = n_rep output rows in this system.
+    n_rep : int
+        1 when rows decouple (b = p), n for the coupled form (b = n·p).
+    data_scale : float
+        1 to include the data, 0 for the prior alone.
+    extra : ndarray, shape (0 | 1 | N, b, b)
+        Extra Gram blocks (prior precision); leading size 1 broadcasts.
+    W : ndarray, shape (b, b)
+        Penalty weight; an infinite diagonal entry holds that coefficient
+        constant in time.
+    coeffs : ndarray
+        Difference operator coefficients c_0 … c_d.
+    """
 
-    @classmethod
-    def factor(
-        cls, gram: np.ndarray, W: np.ndarray, coeffs: np.ndarray, what: str = "the normal equations"
-    ) -> BlockCholesky:
-        """Factor H; raise SingularProblemError if it is singular to working precision."""
-        N, b, _ = gram.shape
-        d = len(coeffs) - 1
-        bands = np.zeros((d + 1, N))
-        for lag, band in enumerate(gram_bands(N, coeffs)):
-            bands[lag, : band.size] = band
-        L, worst, worst_t = block_cholesky(
-            np.ascontiguousarray(gram), np.ascontiguousarray(W), bands
-        )
-        if worst < 0:
-            raise SingularProblemError(
-                f"{what} are singular (not positive definite at time step {worst_t}): the "
-                f"data do not determine a unique solution. {SINGULAR_ADVICE}"
-            )
-        if worst < RELATIVE_PIVOT_TOL:
-            raise SingularProblemError(
-                f"{what} are singular to working precision near time step {worst_t} "
-                f"(relative pivot {worst:.1e}). {SINGULAR_ADVICE}"
-            )
-        return cls(L=L)
+    phi: np.ndarray
+    n_rep: int
+    data_scale: float
+    extra: np.ndarray
+    W: np.ndarray
+    coeffs: np.ndarray
 
-    def solve(self, rhs: np.ndarray) -> np.ndarray:
-        """Solve H X = rhs for rhs of shape (N, b, r); returns (N, b, r)."""
-        return block_solve(self.L, np.ascontiguousarray(rhs, dtype=float))
+    @property
+    def N(self) -> int:
+        return self.phi.shape[0]
 
-    def logdet(self) -> float:
-        """log det H."""
-        return 2.0 * float(np.sum(np.log(np.diagonal(self.L[:, 0], axis1=1, axis2=2))))
+    @property
+    def b(self) -> int:
+        return self.W.shape[0]
 
-    def marginal_cov(self) -> np.ndarray:
-        """Diagonal blocks (N, b, b) of H⁻¹ by selected inversion, O(N d² b³)."""
-        return block_selected_inverse(self.L)
+    def bands(self) -> np.ndarray:
+        """(d+1, N) diagonals of DᵀD, zero-padded."""
+        d = len(self.coeffs) - 1
+        out = np.zeros((d + 1, self.N))
+        for lag, band in enumerate(gram_bands(self.N, self.coeffs)):
+            out[lag, : band.size] = band
+        return out
+
+    def gram(self) -> np.ndarray:
+        """The Gram blocks G_t as an (N, b, b) array."""
+        phi_gram = self.data_scale * phi_outer(self.phi)
+        G = np.zeros((self.N, self.b, self.b))
+        p = self.phi.shape[1]
+        for i in range(self.n_rep):
+            G[:, i * p : (i + 1) * p, i * p : (i + 1) * p] = phi_gram
+        if self.extra.shape[0]:
+            G += self.extra
+        return G
+
+
+def phi_outer(phi: np.ndarray) -> np.ndarray:
+    """(N, p, p) array of φ_t φ_tᵀ."""
+    return phi[:, :, None] * phi[:, None, :]
 
 
 @dataclass
 class BlockSolution:
-    """Solution of the bordered system for one group of rows.
+    """Solution of one block system.
 
     Attributes
     ----------
@@ -102,64 +119,88 @@ class BlockSolution:
     logdet: float
 
 
-def solve_block_banded(
-    gram: np.ndarray,
-    rhs: np.ndarray,
-    W: np.ndarray,
-    coeffs: np.ndarray,
-    *,
-    compute_cov: bool,
-    what: str = "the normal equations",
-) -> BlockSolution:
-    """Solve (blkdiag(gram) + DᵀD ⊗ W) θ = rhs, with constants where diag(W) = inf.
+def _check_pivots(worst: float, worst_t: int, what: str) -> None:
+    if worst < 0:
+        raise SingularProblemError(
+            f"{what} are singular (not positive definite at time step {worst_t}): the "
+            f"data do not determine a unique solution. {SINGULAR_ADVICE}"
+        )
+    if worst < RELATIVE_PIVOT_TOL:
+        raise SingularProblemError(
+            f"{what} are singular to working precision near time step {worst_t} "
+            f"(relative pivot {worst:.1e}). {SINGULAR_ADVICE}"
+        )
 
-    Parameters
-    ----------
-    gram : ndarray, shape (N, b, b)
-        Per-time Gram matrices (symmetric positive semidefinite).
-    rhs : ndarray, shape (N, b, r)
-    W : ndarray, shape (b, b)
-        Penalty weight; an infinite diagonal entry holds that coefficient
-        constant over time (its row/column is otherwise ignored).
-    coeffs : ndarray
-        Difference operator coefficients.
-    compute_cov : bool
-        Also return the diagonal blocks of H⁻¹ (selected inversion).
+
+def _factor_solve(system: BlockSystem, rhs: np.ndarray, compute_cov: bool, what: str):
+    """Factor, solve and (optionally) selected-invert; returns (X, cov, logdet).
+
+    ``rhs`` (N, b, r) is overwritten with the solution X.
     """
-    N, b, r = rhs.shape
-    const = np.isinf(np.diag(W))
+    N, b = system.N, system.b
+    d = len(system.coeffs) - 1
+    L = np.empty((N, d + 1, b, b))
+    worst, worst_t = kernels.factor_forward(
+        np.ascontiguousarray(system.phi), system.n_rep, float(system.data_scale),
+        np.ascontiguousarray(system.extra), np.ascontiguousarray(system.W),
+        system.bands(), rhs, L,
+    )
+    _check_pivots(worst, worst_t, what)
+    cov = np.empty((N if compute_cov else 0, b, b))
+    kernels.backward(L, rhs, cov)
+    logdet = 2.0 * float(np.sum(np.log(np.diagonal(L[:, 0], axis1=1, axis2=2))))
+    return rhs, (cov if compute_cov else None), logdet
+
+
+def solve_block_banded(
+    system: BlockSystem, rhs: np.ndarray, *, compute_cov: bool, what: str = "the normal equations"
+) -> BlockSolution:
+    """Solve H θ = rhs for rhs of shape (N, b, r), with constants where diag(W) = inf.
+
+    ``rhs`` must be a C-contiguous float array owned by the caller: it is
+    overwritten (with the solution when no coefficient is constant).
+
+    Raises
+    ------
+    SingularProblemError
+        If H is singular to working precision.
+    """
+    const = np.isinf(np.diag(system.W))
     if not const.any():
-        factor = BlockCholesky.factor(gram, W, coeffs, what)
-        theta = factor.solve(rhs)
-        cov = factor.marginal_cov() if compute_cov else None
-        return BlockSolution(theta=theta, cov=cov, logdet=factor.logdet())
-    return _solve_bordered(gram, rhs, W, coeffs, const, compute_cov=compute_cov, what=what)
+        theta, cov, logdet = _factor_solve(system, rhs, compute_cov, what)
+        return BlockSolution(theta=theta, cov=cov, logdet=logdet)
+    return _solve_bordered(system, rhs, const, compute_cov=compute_cov, what=what)
 
 
-def _solve_bordered(gram, rhs, W, coeffs, const, *, compute_cov, what) -> BlockSolution:
+def _solve_bordered(system: BlockSystem, rhs, const, *, compute_cov, what) -> BlockSolution:
     """Constant coefficients c shared by all t: the system [[A, E], [Eᵀ, G]].
 
-    A is the banded system of the varying coefficients, E_t = gram_t[V, C] and
-    G = Σ_t gram_t[C, C]. Eliminating the varying part leaves the Schur
+    A is the banded system of the varying coefficients, E_t = G_t[V, C] and
+    G = Σ_t G_t[C, C]. Eliminating the varying part leaves the Schur
     complement S = G − Eᵀ A⁻¹ E of size |C|.
     """
     N, b, r = rhs.shape
     V = np.flatnonzero(~const)
     C = np.flatnonzero(const)
+    gram = system.gram()
     E = gram[:, V][:, :, C]  # (N, |V|, |C|)
     G = gram[:, C][:, :, C].sum(axis=0)
     rhs_C = rhs[:, C, :].sum(axis=0)  # (|C|, r)
     if V.size:
-        factor = BlockCholesky.factor(gram[:, V][:, :, V], W[np.ix_(V, V)], coeffs, what)
-        X = factor.solve(np.concatenate([rhs[:, V, :], E], axis=2))
+        varying = BlockSystem(
+            phi=system.phi, n_rep=1, data_scale=0.0, extra=gram[:, V][:, :, V],
+            W=system.W[np.ix_(V, V)], coeffs=system.coeffs,
+        )
+        X, cov_A, logdet_A = _factor_solve(
+            varying, np.concatenate([rhs[:, V, :], E], axis=2), compute_cov, what
+        )
         X_rhs, X_E = X[:, :, :r], X[:, :, r:]
         schur = G - np.einsum("tvc,tvd->cd", E, X_E)
         schur_rhs = rhs_C - np.einsum("tvc,tvr->cr", E, X_rhs)
-        logdet_A = factor.logdet()
     else:  # every coefficient constant: plain least squares
-        factor = None
+        cov_A, logdet_A = None, 0.0
         X_rhs, X_E = np.zeros((N, 0, r)), np.zeros((N, 0, C.size))
-        schur, schur_rhs, logdet_A = G, rhs_C, 0.0
+        schur, schur_rhs = G, rhs_C
     try:
         schur_factor = cho_factor(0.5 * (schur + schur.T), lower=True, check_finite=False)
     except np.linalg.LinAlgError as exc:
@@ -167,8 +208,8 @@ def _solve_bordered(gram, rhs, W, coeffs, const, *, compute_cov, what) -> BlockS
             f"{what}: the coefficients held constant (lam = inf) are not identified by the "
             f"data. {SINGULAR_ADVICE}"
         ) from exc
-    diag_s = np.diag(schur_factor[0]) ** 2 / np.maximum(np.diag(G), 1e-300)
-    if diag_s.min() < RELATIVE_PIVOT_TOL:
+    ratio = np.diag(schur_factor[0]) ** 2 / np.maximum(np.diag(G), 1e-300)
+    if ratio.min() < RELATIVE_PIVOT_TOL:
         raise SingularProblemError(
             f"{what}: the coefficients held constant (lam = inf) are not identified by the "
             f"data (singular to working precision). {SINGULAR_ADVICE}"
@@ -186,6 +227,6 @@ def _solve_bordered(gram, rhs, W, coeffs, const, *, compute_cov, what) -> BlockS
         cov[:, C[:, None], C] = S_inv
         cov[:, V[:, None], C] = -XS
         cov[:, C[:, None], V] = -np.swapaxes(XS, 1, 2)
-        if factor is not None:
-            cov[:, V[:, None], V] = factor.marginal_cov() + np.einsum("tvc,twc->tvw", XS, X_E)
+        if V.size:
+            cov[:, V[:, None], V] = cov_A + np.einsum("tvc,twc->tvw", XS, X_E)
     return BlockSolution(theta=theta, cov=cov, logdet=logdet)

@@ -41,7 +41,8 @@ import numpy as np
 from ..errors import SingularProblemError
 from ..priors import PriorTerm
 from ..problem import RegressionProblem, apply_difference
-from .banded import BlockSolution, solve_block_banded
+from ._blockkernels import rowwise_matvec
+from .banded import BlockSolution, BlockSystem, solve_block_banded
 
 LOG_2PI = float(np.log(2.0 * np.pi))
 
@@ -58,8 +59,9 @@ class CovarianceBlocks:
     blocks: np.ndarray
     row_group: np.ndarray | None
 
-    def scaled(self, factor: float) -> CovarianceBlocks:
-        return CovarianceBlocks(self.blocks * factor, self.row_group)
+    def scale_inplace(self, factor: float) -> CovarianceBlocks:
+        self.blocks *= factor
+        return self
 
     def full(self, n: int, p: int) -> np.ndarray:
         """The (N, K, K) covariance, K = n·p (rows independent in rowwise form)."""
@@ -107,13 +109,12 @@ def _finite(W: np.ndarray) -> np.ndarray:
 
 
 @dataclass
-class _System:
-    """One banded system: rows of Θ it solves (or None for the coupled form)."""
+class _Group:
+    """Output rows (None: all, coupled form) solved with one block system."""
 
     rows: np.ndarray | None
-    W: np.ndarray
-    gram: np.ndarray
-    rhs: np.ndarray
+    system: BlockSystem
+    rhs: np.ndarray  # (N, b, r)
 
 
 class SquaredSolver:
@@ -142,60 +143,63 @@ class SquaredSolver:
 
     # -- assembly -----------------------------------------------------------------
     def _prior_parts(self, scale: float):
-        """Prior contributions in k-space: Gram (N, K, K) | None and rhs (N, K)."""
+        """Prior contributions in k-space: Gram (1 | N, K, K) and rhs (N, K), or Nones."""
         pb = self.problem
         N, n, p = pb.N, pb.n, pb.p
         K = n * p
         if not self.priors:
             return None, None
-        gram = np.zeros((N, K, K))
+        time_varying = any(
+            t.precision.ndim == 3 or t.on == "output" for t in self.priors
+        )
+        gram = np.zeros((N if time_varying else 1, K, K))
         rhs = np.zeros((N, K))
         for term in self.priors:
-            P = term.precision_at(N)
             if term.on == "parameters":
-                gram += P
-                rhs += np.einsum("tij,tj->ti", P, term.mean)
+                gram += term.precision
+                rhs += np.einsum("...ij,tj->ti", term.precision, term.mean)
             else:
                 # M_t = I_n ⊗ φ_tᵀ:  M_tᵀ P M_t = P ⊗ φφᵀ,  M_tᵀ P ȳ = (P ȳ) ⊗ φ.
+                P = term.precision_at(N)
                 gram += np.einsum("tij,ta,tb->tiajb", P, pb.phi, pb.phi).reshape(N, K, K)
                 rhs += np.einsum("tij,tj,ta->tia", P, term.mean, pb.phi).reshape(N, K)
         return scale * gram, scale * rhs
 
-    def _systems(self, prior_scale: float, include_data: bool) -> list[_System]:
+    def _groups(self, prior_scale: float, include_data: bool) -> list[_Group]:
         pb = self.problem
         N, n, p = pb.N, pb.n, pb.p
         K = n * p
-        phi_gram = np.einsum("ta,tb->tab", pb.phi, pb.phi) if include_data else None
+        data_scale = 1.0 if include_data else 0.0
         prior_gram, prior_rhs = self._prior_parts(prior_scale)
+        data_rhs = pb.phi[:, :, None] * pb.y[:, None, :] * data_scale  # (N, p, n)
         if not self.separable:
-            gram = np.zeros((N, K, K)) if prior_gram is None else prior_gram
-            rhs = np.zeros((N, K)) if prior_rhs is None else prior_rhs
-            if include_data:
-                gram = gram + np.einsum("ij,tab->tiajb", np.eye(n), phi_gram).reshape(N, K, K)
-                rhs = rhs + np.einsum("ti,ta->tia", pb.y, pb.phi).reshape(N, K)
-            return [_System(None, self.W, gram, rhs[:, :, None])]
-        systems: list[_System] = []
+            rhs = np.swapaxes(data_rhs, 1, 2).reshape(N, K)
+            if prior_rhs is not None:
+                rhs = rhs + prior_rhs
+            extra = np.zeros((0, K, K)) if prior_gram is None else prior_gram
+            system = BlockSystem(pb.phi, n, data_scale, extra, self.W, pb.coeffs)
+            return [_Group(None, system, rhs[:, :, None])]
+        # Rows with the same weight and prior blocks share one factorization.
+        row_sets: list[list[int]] = []
+        keys: list[tuple[np.ndarray, np.ndarray]] = []
         for i in range(n):
             sl = slice(i * p, (i + 1) * p)
-            W_i = self.W[sl, sl]
-            extra = None if prior_gram is None else prior_gram[:, sl, sl]
-            if include_data:
-                gram_i = phi_gram if extra is None else phi_gram + extra
-            else:
-                gram_i = extra if extra is not None else np.zeros((N, p, p))
-            rhs_i = pb.y[:, i, None] * pb.phi if include_data else np.zeros((N, p))
-            if prior_rhs is not None:
-                rhs_i = rhs_i + prior_rhs[:, sl]
-            for system in systems:  # share the factorization with an identical row
-                if np.array_equal(system.W, W_i, equal_nan=True) and (
-                    system.gram is gram_i or np.array_equal(system.gram, gram_i)
-                ):
-                    system.rows = np.append(system.rows, i)
-                    system.rhs = np.concatenate([system.rhs, rhs_i[:, :, None]], axis=2)
+            key = (self.W[sl, sl], np.zeros((0, p, p)) if prior_gram is None else prior_gram[:, sl, sl])
+            for rows, (W_g, extra_g) in zip(row_sets, keys):
+                if np.array_equal(W_g, key[0]) and np.array_equal(extra_g, key[1]):
+                    rows.append(i)
                     break
             else:
-                systems.append(_System(np.array([i]), W_i, gram_i, rhs_i[:, :, None]))
-        return systems
+                row_sets.append([i])
+                keys.append(key)
+        groups = []
+        for rows, (W_g, extra_g) in zip(row_sets, keys):
+            rhs = data_rhs if len(rows) == n else data_rhs[:, :, rows]
+            if prior_rhs is not None:
+                rhs = rhs + prior_rhs.reshape(N, n, p)[:, rows, :].transpose(0, 2, 1)
+            system = BlockSystem(pb.phi, 1, data_scale, extra_g, W_g, pb.coeffs)
+            groups.append(_Group(np.array(rows), system, rhs))
+        return groups
 
     # -- solving ------------------------------------------------------------------
     def solve(self, prior_scale: float, *, include_data: bool = True, compute_cov: bool = False):
@@ -206,36 +210,40 @@ class SquaredSolver:
         pb = self.problem
         N, n, p = pb.N, pb.n, pb.p
         what = "the normal equations" if include_data else "the prior alone"
-        systems = self._systems(prior_scale, include_data)
+        groups = self._groups(prior_scale, include_data)
         theta = np.empty((N, n, p))
         logdet = 0.0
         covs = []
         row_group = np.zeros(n, dtype=int)
-        for g, system in enumerate(systems):
+        for g, group in enumerate(groups):
             sol: BlockSolution = solve_block_banded(
-                system.gram, system.rhs, system.W, pb.coeffs, compute_cov=compute_cov, what=what
+                group.system, group.rhs, compute_cov=compute_cov, what=what
             )
-            if system.rows is None:
+            if group.rows is None:
                 theta[:] = sol.theta[:, :, 0].reshape(N, n, p)
                 logdet += sol.logdet
             else:
-                theta[:, system.rows, :] = np.transpose(sol.theta, (0, 2, 1))
-                logdet += sol.logdet * len(system.rows)
-                row_group[system.rows] = g
+                theta[:, group.rows, :] = np.swapaxes(sol.theta, 1, 2)
+                logdet += sol.logdet * len(group.rows)
+                row_group[group.rows] = g
             covs.append(sol.cov)
         cov = None
         if compute_cov:
-            if systems[0].rows is None:
+            if groups[0].rows is None:
                 cov = CovarianceBlocks(covs[0], None)
             else:
-                cov = CovarianceBlocks(np.stack(covs), row_group)
-        return theta, cov, logdet, len(systems)
+                blocks = covs[0][None] if len(covs) == 1 else np.stack(covs)
+                cov = CovarianceBlocks(blocks, row_group)
+        return theta, cov, logdet, len(groups)
 
     # -- objective pieces -----------------------------------------------------------
     def penalty(self, theta: np.ndarray) -> float:
         N = self.problem.N
         Dk = apply_difference(theta.reshape(N, -1), self.problem.coeffs)
-        return float(np.einsum("tk,kl,tl->", Dk, _finite(self.W), Dk))
+        W0 = _finite(self.W)
+        if not np.any(W0 - np.diag(np.diag(W0))):  # diagonal: Σ_j w_j ‖(Dk)_j‖²
+            return float(np.einsum("tk,tk->k", Dk, Dk) @ np.diag(W0))
+        return float(np.sum((Dk @ W0) * Dk))
 
     def prior_cost(self, theta: np.ndarray) -> float:
         """Σ_t ‖μ_t − M_t k_t‖²_{P_t} over all prior terms (not scaled by σ²)."""
@@ -246,7 +254,9 @@ class SquaredSolver:
             if term.on == "parameters":
                 r = term.mean - theta.reshape(N, -1)
             else:
-                r = term.mean - np.einsum("tij,tj->ti", theta, pb.phi)
+                fitted = np.empty_like(term.mean)
+                rowwise_matvec(np.ascontiguousarray(theta), pb.phi, fitted)
+                r = term.mean - fitted
             total += float(np.einsum("ti,tij,tj->", r, term.precision_at(N), r))
         return total
 
@@ -373,7 +383,7 @@ def fit_squared(
     objective = rss + pen + noise_var * prior_cost
     return SquaredResult(
         theta=theta,
-        cov=None if cov is None else cov.scaled(noise_var),
+        cov=None if cov is None else cov.scale_inplace(noise_var),
         noise_var=float(noise_var),
         noise_var_estimated=estimated,
         loglik=float(loglik),
