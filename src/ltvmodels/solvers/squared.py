@@ -296,6 +296,65 @@ class SquaredSolver:
         return log_pdet, diffuse
 
 
+def _loglik_with_prior(solver: SquaredSolver, noise_var: float, theta: np.ndarray, logdet: float) -> float:
+    """log p(y | prior) = log N(y; M m, σ²I + M H_μ⁻¹ Mᵀ), from two factorizations.
+
+    NaN when the prior alone does not determine every parameter (H_μ singular).
+    """
+    pb = solver.problem
+    j_y = (
+        float(np.sum(pb.residuals(theta) ** 2)) + solver.penalty(theta)
+        + noise_var * solver.prior_cost(theta)
+    )
+    try:
+        m, _, logdet_mu, _ = solver.solve(noise_var, include_data=False)
+    except SingularProblemError:
+        return float("nan")
+    j_mu = solver.penalty(m) + noise_var * solver.prior_cost(m)
+    return (
+        -0.5 * pb.N * pb.n * (LOG_2PI + np.log(noise_var))
+        - 0.5 * logdet
+        + 0.5 * logdet_mu
+        - 0.5 * (j_y - j_mu) / noise_var
+    )
+
+
+def _noise_var_guess(problem: RegressionProblem, W: np.ndarray, n_eff: float) -> float:
+    """A starting value for σ²: the prior-free ML estimate, else the LTI residual variance."""
+    try:
+        theta, _, _, _ = SquaredSolver(problem, W, []).solve(0.0)
+        if n_eff > 0:
+            return (float(np.sum(problem.residuals(theta) ** 2))
+                    + SquaredSolver(problem, W, []).penalty(theta)) / n_eff
+    except SingularProblemError:
+        pass
+    # Minimum-norm least squares works for rank-deficient regressors too.
+    coef, _, rank, _ = np.linalg.lstsq(problem.phi, problem.y, rcond=None)
+    resid = problem.y - problem.phi @ coef
+    dof = max(problem.N - rank, 1) * problem.n
+    return max(float(np.sum(resid**2)) / dof, 1e-300)
+
+
+def _ml_noise_var_with_prior(solver: SquaredSolver, guess: float) -> float | None:
+    """argmax over σ² of log p(y | prior, σ²) (empirical Bayes), or None if undefined."""
+    from scipy.optimize import minimize_scalar
+
+    def negative_loglik(log_var: float) -> float:
+        var = float(np.exp(log_var))
+        theta, _, logdet, _ = solver.solve(var)
+        value = _loglik_with_prior(solver, var, theta, logdet)
+        return np.inf if np.isnan(value) else -value
+
+    center = np.log(guess)
+    if not np.isfinite(negative_loglik(center)):
+        return None
+    res = minimize_scalar(
+        negative_loglik, bounds=(center - np.log(1e3), center + np.log(1e3)),
+        method="bounded", options={"xatol": 1e-4},
+    )
+    return float(np.exp(res.x))
+
+
 def fit_squared(
     problem: RegressionProblem,
     W: np.ndarray,
@@ -312,9 +371,11 @@ def fit_squared(
     W : ndarray, shape (K, K)
     priors : list of PriorTerm
     noise_var : float or None
-        σ². None estimates it by maximum (diffuse) likelihood given λ:
-        σ̂² = (RSS + penalty) / N_eff, N_eff = N·n − #diffuse directions; with
-        priors, from the prior-free problem at the same λ.
+        σ². None estimates it by maximum likelihood given λ. Without priors in
+        closed form, σ̂² = (RSS + penalty) / N_eff with N_eff = N·n − #diffuse
+        directions; with priors by a bounded scalar search maximizing
+        log p(y | prior, σ²) (falling back to the prior-free estimate when
+        the prior alone does not determine the parameters).
     compute_cov : bool
     """
     solver = SquaredSolver(problem, W, priors)
@@ -322,26 +383,20 @@ def fit_squared(
     log_pdet, diffuse = solver.log_penalty_normalizer()
     n_eff = N * n - diffuse
     info: dict = {"row_separable": bool(solver.separable)}
+    estimated = noise_var is None
 
     if priors and noise_var is None:
-        try:
-            theta0, _, _, _ = SquaredSolver(problem, W, []).solve(0.0)
-        except SingularProblemError as exc:
-            raise ValueError(
-                "noise_var: the data alone do not identify the parameters, so the noise "
-                "variance that weighs the prior against the data cannot be estimated; "
-                "pass noise_var explicitly"
-            ) from exc
-        if n_eff <= 0:
-            raise ValueError("noise_var: too few samples to estimate it; pass noise_var explicitly")
-        s0 = float(np.sum(problem.residuals(theta0) ** 2)) + solver.penalty(theta0)
-        noise_var = s0 / n_eff
-        estimated = True
-    else:
-        estimated = noise_var is None
+        guess = _noise_var_guess(problem, W, n_eff)
+        noise_var = _ml_noise_var_with_prior(solver, guess)
+        if noise_var is None:
+            noise_var = guess
+            info["noise_var_note"] = (
+                "log p(y | prior) is not defined, so noise_var is the prior-free estimate"
+            )
 
-    prior_scale = 1.0 if noise_var is None else noise_var
-    theta, cov, logdet, n_fact = solver.solve(prior_scale, compute_cov=compute_cov)
+    theta, cov, logdet, n_fact = solver.solve(
+        1.0 if noise_var is None else noise_var, compute_cov=compute_cov
+    )
     rss = float(np.sum(problem.residuals(theta) ** 2))
     pen = solver.penalty(theta)
     prior_cost = solver.prior_cost(theta)
@@ -361,20 +416,8 @@ def fit_squared(
             - 0.5 * (rss + pen) / noise_var
         )
     else:
-        # log p(y | prior) = log N(y; M m, σ²I + M H_μ⁻¹ Mᵀ), written with the
-        # two factorizations (data + prior, prior alone): see module docs.
-        j_y = rss + pen + noise_var * prior_cost
-        try:
-            m, _, logdet_mu, _ = solver.solve(noise_var, include_data=False)
-            j_mu = solver.penalty(m) + noise_var * solver.prior_cost(m)
-            loglik = (
-                -0.5 * N * n * (LOG_2PI + np.log(noise_var))
-                - 0.5 * logdet
-                + 0.5 * logdet_mu
-                - 0.5 * (j_y - j_mu) / noise_var
-            )
-        except SingularProblemError:
-            loglik = float("nan")
+        loglik = _loglik_with_prior(solver, noise_var, theta, logdet)
+        if np.isnan(loglik):
             info["loglik_note"] = (
                 "the prior alone does not determine every parameter, so log p(y | prior) "
                 "is not defined"
