@@ -11,6 +11,7 @@ Quick use::
     model.A, model.B, model.cov, model.loglik
 """
 
+from . import plotting, systems
 from .errors import IdentifiabilityWarning, SingularProblemError
 from .fit import fit, fit_lti
 from .models import LTVModel, load
@@ -27,5 +28,7 @@ __all__ = [
     "OutputPrior",
     "SingularProblemError",
     "IdentifiabilityWarning",
+    "systems",
+    "plotting",
     "__version__",
 ]

@@ -1,0 +1,113 @@
+"""Figures: ltvmodels.plotting (headless, Agg backend)."""
+
+from __future__ import annotations
+
+import io
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from matplotlib.axes import Axes  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+import ltvmodels as ltv  # noqa: E402
+from ltvmodels import plotting, systems  # noqa: E402
+
+TITLES = ["A[0,0]", "A[0,1]", "B[0,0]", "A[1,0]", "A[1,1]", "B[1,0]"]
+
+
+@pytest.fixture(scope="module")
+def data():
+    return systems.jump_linear(T=120, change_at=60, seed=0)
+
+
+@pytest.fixture(scope="module")
+def model(data):
+    return ltv.fit(data.x, data.u, lam=30.0)
+
+
+def test_plot_coefficients_grid_bands_truth(model, data):
+    fig = plotting.plot_coefficients(model, truth=data)
+    assert isinstance(fig, Figure)
+    assert len(fig.axes) == 6  # n rows x (n + m) columns
+    assert [ax.get_title() for ax in fig.axes] == TITLES
+    for ax in fig.axes:
+        assert len(ax.collections) == 1  # the ±2σ band
+        est, truth = ax.lines
+        assert truth.get_linestyle() == "--"
+        assert matplotlib.colors.to_hex(truth.get_color()) == "#000000"
+        assert len(est.get_xdata()) == model.N
+    np.testing.assert_array_equal(fig.axes[3].lines[1].get_ydata(), data.A[:, 1, 0])
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    assert buf.getvalue()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_plot_coefficients_without_truth_or_bands(model):
+    fig = plotting.plot_coefficients(model, bands=False)
+    assert len(fig.axes) == 6
+    assert all(len(ax.collections) == 0 and len(ax.lines) == 1 for ax in fig.axes)
+
+
+def test_plot_coefficients_no_covariance_no_bands(data):
+    model = ltv.fit(data.x, data.u, lam=30.0, compute_cov=False)
+    fig = plotting.plot_coefficients(model, truth=data.k)
+    assert all(len(ax.collections) == 0 and len(ax.lines) == 2 for ax in fig.axes)
+
+
+def test_plot_coefficients_truth_forms(model, data):
+    for truth in (data.k, data.theta, data.k[0], data):
+        fig = plotting.plot_coefficients(model, truth=truth)
+        np.testing.assert_array_equal(fig.axes[0].lines[1].get_ydata()[:1], [0.95])
+    with pytest.raises(ValueError, match="truth"):
+        plotting.plot_coefficients(model, truth=np.zeros((5, 6)))
+    with pytest.raises(TypeError, match="model"):
+        plotting.plot_coefficients(object())
+    with pytest.raises(TypeError, match="bands"):
+        plotting.plot_coefficients(model, bands="yes")
+
+
+def test_plot_coefficients_into_given_figure_and_method(model, data):
+    fig = Figure()
+    fig.add_subplot()
+    out = plotting.plot_coefficients(model, truth=data, fig=fig)
+    assert out is fig and len(fig.axes) == 6
+    fig2 = model.plot(truth=data)
+    assert isinstance(fig2, Figure) and len(fig2.axes) == 6
+
+
+def test_plot_coefficients_three_states_two_inputs():
+    rw = systems.random_walk_system(T=200, seed=0)
+    model = ltv.fit(rw.x, rw.u, lam=100.0)
+    fig = plotting.plot_coefficients(model, truth=rw)
+    assert len(fig.axes) == 15
+    assert fig.axes[4].get_title() == "B[0,1]"
+
+
+def test_plot_coefficients_lti_model(data):
+    fig = plotting.plot_coefficients(ltv.fit_lti(data.x, data.u), truth=data)
+    assert len(fig.axes) == 6 and len(fig.axes[0].collections) == 1
+
+
+def test_plot_activation(model):
+    ax = plotting.plot_activation(model)
+    assert isinstance(ax, Axes) and len(ax.figure.axes) == 1
+    np.testing.assert_allclose(ax.lines[0].get_ydata(), model.activation())
+    fig = Figure()
+    axes = fig.subplots(1, 2)
+    assert plotting.plot_activation(model, ax=axes[1]) is axes[1]
+    assert len(axes[1].lines) == 1 and len(axes[0].lines) == 0
+
+
+def test_plot_eigenvalues(model):
+    ax = plotting.plot_eigenvalues(model)
+    assert isinstance(ax, Axes) and len(ax.figure.axes) == 1
+    assert len(ax.lines) == 3  # |λ_1|, |λ_2| and the line |λ| = 1
+    np.testing.assert_array_equal(ax.lines[-1].get_ydata(), [1.0, 1.0])
+    expected = np.sort(np.abs(np.linalg.eigvals(model.A)), axis=1)[:, ::-1]
+    np.testing.assert_allclose(ax.lines[0].get_ydata(), expected[:, 0])
+    with pytest.raises(TypeError, match="model"):
+        plotting.plot_eigenvalues(object())
