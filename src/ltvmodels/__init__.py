@@ -16,6 +16,13 @@ from .errors import IdentifiabilityWarning, SingularProblemError
 from .fit import fit, fit_lti
 from .models import LTVModel, load
 from .priors import OutputPrior, Prior
+from .solvers.kalman import (
+    KalmanFilterResult,
+    KalmanSmootherResult,
+    OnlineParameterFilter,
+    kalman_filter,
+    kalman_smoother,
+)
 
 __version__ = "0.1.0"
 
@@ -26,6 +33,11 @@ __all__ = [
     "load",
     "Prior",
     "OutputPrior",
+    "kalman_filter",
+    "kalman_smoother",
+    "OnlineParameterFilter",
+    "KalmanFilterResult",
+    "KalmanSmootherResult",
     "SingularProblemError",
     "IdentifiabilityWarning",
     "systems",

@@ -106,13 +106,15 @@ def norm_name(norm: Any) -> str:
     return norm
 
 
-def difference_coefficients(order: Any) -> np.ndarray:
+def difference_coefficients(order: Any, max_degree: int | None = None) -> np.ndarray:
     """Return the coefficients (c_0, ..., c_d) of the difference operator.
 
     ``order`` is an integer d >= 1, giving the d-th difference
     (Dk)_t = sum_j (-1)^(d-j) binom(d, j) k_{t+j}, or a sequence of polynomial
     coefficients c_0..c_d with (Dk)_t = sum_j c_j k_{t+j}; the coefficients must
-    sum to zero (paper Proposition 1) and c_d must be nonzero.
+    sum to zero (paper Proposition 1) and c_d must be nonzero. ``max_degree``
+    (the largest degree the data can support, if given) rejects a huge integer
+    order before its coefficients are built.
     """
     if isinstance(order, bool):
         raise TypeError(f"order: expected an integer >= 1 or a sequence of coefficients, "
@@ -121,6 +123,11 @@ def difference_coefficients(order: Any) -> np.ndarray:
         d = int(order)
         if d < 1:
             raise ValueError(f"order: expected an integer >= 1, received {d}")
+        if max_degree is not None and d > max_degree:
+            raise ValueError(
+                f"order: expected a degree of at most {max_degree} (a difference of degree "
+                f"d needs more than d + 1 samples), received {d}"
+            )
         coeffs = np.array([1.0])
         for _ in range(d):
             coeffs = np.convolve(coeffs, [-1.0, 1.0])
@@ -161,7 +168,12 @@ def nonnegative_scalar(value: Any, name: str, *, allow_inf: bool = False) -> flo
 
 def positive_scalar(value: Any, name: str) -> float:
     """Validate a finite real scalar > 0."""
-    v = nonnegative_scalar(value, name)
+    try:
+        v = nonnegative_scalar(value, name)
+    except ValueError:  # NaN, negative or infinite: say "> 0", not ">= 0"
+        raise ValueError(
+            f"{name}: expected a finite real number > 0, received {float(value)}"
+        ) from None
     if v == 0:
         raise ValueError(f"{name}: expected a real number > 0, received 0")
     return v
@@ -185,8 +197,14 @@ def penalty_weight(lam: Any, K: int) -> np.ndarray:
         )
     if np.ndim(lam) == 0:
         value = nonnegative_scalar(lam, "lam", allow_inf=True)
-        return np.eye(K) * value**2
-    arr = np.array(lam.to_numpy() if hasattr(lam, "to_numpy") else lam, dtype=float)
+        return np.diag(np.full(K, value**2))  # no 0·inf off the diagonal
+    try:
+        arr = np.array(lam.to_numpy() if hasattr(lam, "to_numpy") else lam, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(
+            "lam: expected a number >= 0, a (K,) vector or a (K, K) matrix of real numbers "
+            f"(K={K}), received {_describe(lam)}"
+        ) from exc
     if np.isnan(arr).any():
         raise ValueError("lam: expected numbers, received NaN")
     if arr.ndim == 1:
@@ -275,3 +293,101 @@ def enough_samples(N: int, n_params_per_row: int, n_diff: int) -> None:
             f"{n_params_per_row} regressors per output with a difference operator of "
             f"degree {n_diff}; need at least {needed} transitions (T >= {needed + 1})"
         )
+
+
+# -- Kalman form (ltvmodels.solvers.kalman) ---------------------------------------------
+
+
+def scalar_lam(lam: Any) -> float:
+    """Validate a scalar regularization weight 0 < λ < inf for the Kalman form.
+
+    The Kalman filter realizes the isotropic penalty λ² Σ_t ‖(Dk)_t‖² only;
+    vector and matrix weights are handled by :func:`ltvmodels.fit`.
+    """
+    if np.ndim(lam) != 0 or isinstance(lam, (str, bytes)):
+        raise TypeError(
+            "lam: the Kalman filter/smoother supports a scalar λ > 0 only (use "
+            f"ltvmodels.fit for vector or matrix weights), received {_describe(lam)}"
+        )
+    return positive_scalar(lam.item() if hasattr(lam, "item") else lam, "lam")
+
+
+def integer(value: Any, name: str, minimum: int) -> int:
+    """Validate an integer >= ``minimum`` (bools are rejected)."""
+    if isinstance(value, bool) or not isinstance(value, Integral) or value < minimum:
+        raise ValueError(f"{name}: expected an integer >= {minimum}, received {_describe(value)}")
+    return int(value)
+
+
+def vector(value: Any, name: str, size: int) -> np.ndarray:
+    """Validate a finite 1-d vector of the given length; returns a float64 copy."""
+    arr = as_float_array(value, name)
+    if arr.ndim == 0 and size == 1:
+        arr = arr.reshape(1)
+    if arr.shape != (size,):
+        raise ValueError(f"{name}: expected a vector of length {size}, received shape {arr.shape}")
+    return arr
+
+
+def initial_state_prior(
+    init_mean: Any, init_cov: Any, degree: int, n: int, p: int
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Validate a Gaussian prior on the initial state of the parameter random walk.
+
+    The state of the realization of a degree-d difference operator is
+    s_0 = (k_0, k_{-1}, …, k_{-d+1}); per output row i it is
+    (θ_{0,i}, θ_{-1,i}, …) of size D = d·p, rows independent a priori with a
+    shared covariance.
+
+    Parameters
+    ----------
+    init_mean : array_like, shape (d, K), (K,) when d = 1, or None
+        Row j is the mean of k_{-j}. None means zero (only with ``init_cov``).
+    init_cov : float or array_like, shape (D, D), or None
+        Covariance of one row's state; a scalar v means v·I. None (with
+        ``init_mean`` None) selects the exact diffuse initialization.
+
+    Returns
+    -------
+    None for the diffuse initialization, else (mean (D, n), cov (D, D)) with
+    column i the mean of row i's state.
+    """
+    D, K = degree * p, n * p
+    if init_cov is None:
+        if init_mean is not None:
+            raise ValueError(
+                "init_cov: expected a covariance to go with init_mean (a scalar or a "
+                f"({D}, {D}) matrix), received None"
+            )
+        return None
+    cov = as_float_array(init_cov, "init_cov")
+    if cov.ndim == 0:
+        if cov <= 0:
+            raise ValueError(f"init_cov: expected a variance > 0, received {float(cov)}")
+        cov = float(cov) * np.eye(D)
+    elif cov.shape != (D, D):
+        raise ValueError(
+            f"init_cov: expected a scalar or a ({D}, {D}) matrix (the covariance of one "
+            f"output row's state: {degree} block(s) of {p} regressors), received shape "
+            f"{cov.shape}"
+        )
+    if not np.allclose(cov, cov.T, rtol=1e-8, atol=1e-12 * np.abs(cov).max()):
+        raise ValueError("init_cov: expected a symmetric covariance matrix")
+    try:
+        np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:
+        raise ValueError("init_cov: expected a positive definite covariance matrix") from None
+    cov = 0.5 * (cov + cov.T)
+    if init_mean is None:
+        return np.zeros((D, n)), cov
+    mean = as_float_array(init_mean, "init_mean")
+    if degree == 1 and mean.shape == (K,):
+        mean = mean[None, :]
+    if mean.shape != (degree, K):
+        expected = f"({K},) or (1, {K})" if degree == 1 else f"({degree}, {K})"
+        raise ValueError(
+            f"init_mean: expected shape {expected} (row j: mean of k_(-j)), received "
+            f"shape {mean.shape}"
+        )
+    # (d, n, p) → (d, p, n) → (D, n): column i stacks θ_{0,i}, θ_{-1,i}, …
+    return np.ascontiguousarray(mean.reshape(degree, n, p).transpose(0, 2, 1).reshape(D, n)), cov
