@@ -129,6 +129,8 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L):  # pragma: no
         positive definite).
     worst_t : int
         Time step where it occurred.
+    logdet : float
+        log det H = 2 Σ log diag(L).
     """
     N = phi.shape[0]
     b = W.shape[0]
@@ -137,6 +139,7 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L):  # pragma: no
     ref = np.empty(b)
     worst = np.inf
     worst_t = 0
+    logdet = 0.0
     for t in range(N):
         # Off-diagonal blocks L_{t,s}, s = t − l, in increasing s.
         for l in range(min(d, t), 0, -1):
@@ -183,9 +186,11 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L):  # pragma: no
             worst = ratio
             worst_t = t
         if ratio < 0:
-            return -1.0, t
+            return -1.0, t, 0.0
+        for a in range(b):
+            logdet += 2.0 * np.log(Ltt[a, a])
         _forward_step(L, Z, t, d)
-    return worst, worst_t
+    return worst, worst_t, logdet
 
 
 @numba.njit(cache=True)

@@ -140,7 +140,7 @@ def _factor_solve(system: BlockSystem, rhs: np.ndarray, compute_cov: bool, what:
     N, b = system.N, system.b
     d = len(system.coeffs) - 1
     L = np.empty((N, d + 1, b, b))
-    worst, worst_t = kernels.factor_forward(
+    worst, worst_t, logdet = kernels.factor_forward(
         np.ascontiguousarray(system.phi), system.n_rep, float(system.data_scale),
         np.ascontiguousarray(system.extra), np.ascontiguousarray(system.W),
         system.bands(), rhs, L,
@@ -148,7 +148,6 @@ def _factor_solve(system: BlockSystem, rhs: np.ndarray, compute_cov: bool, what:
     _check_pivots(worst, worst_t, what)
     cov = np.empty((N if compute_cov else 0, b, b))
     kernels.backward(L, rhs, cov)
-    logdet = 2.0 * float(np.sum(np.log(np.diagonal(L[:, 0], axis1=1, axis2=2))))
     return rhs, (cov if compute_cov else None), logdet
 
 
