@@ -12,7 +12,7 @@ Quick use::
 """
 
 from . import plotting, systems
-from .errors import IdentifiabilityWarning, SingularProblemError
+from .errors import IdentifiabilityWarning, PrecisionWarning, SingularProblemError
 from .fit import fit, fit_lti
 from .models import LTVModel, load
 from .priors import OutputPrior, Prior
@@ -40,6 +40,7 @@ __all__ = [
     "KalmanSmootherResult",
     "SingularProblemError",
     "IdentifiabilityWarning",
+    "PrecisionWarning",
     "systems",
     "plotting",
     "__version__",

@@ -39,14 +39,21 @@ def as_float_array(value: Any, name: str) -> np.ndarray:
         raise TypeError(f"{name}: expected an array of numbers, received None")
     if hasattr(value, "to_numpy"):  # pandas DataFrame / Series
         value = value.to_numpy()
+    expected = f"{name}: expected an array of real numbers, received {_describe(value)}"
+    if isinstance(value, (str, bytes)):
+        raise TypeError(expected)
     try:
-        arr = np.array(value, dtype=np.float64, copy=True)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(
-            f"{name}: expected an array of real numbers, received {_describe(value)}"
-        ) from exc
-    if np.iscomplexobj(np.asarray(value)):
+        raw = np.asarray(value)
+    except ValueError as exc:  # ragged nested sequences
+        raise TypeError(expected) from exc
+    if np.iscomplexobj(raw):  # checked before the cast, which would only warn
         raise TypeError(f"{name}: expected real numbers, received complex values")
+    if raw.dtype.kind in "USV":  # text (even "1.5") or raw bytes are not numbers
+        raise TypeError(expected)
+    try:
+        arr = np.array(raw, dtype=np.float64, copy=True)
+    except (TypeError, ValueError) as exc:  # objects that are not numbers
+        raise TypeError(expected) from exc
     if not np.all(np.isfinite(arr)):
         bad = np.argwhere(~np.isfinite(arr))[0]
         raise ValueError(
@@ -157,7 +164,9 @@ def difference_coefficients(order: Any, max_degree: int | None = None) -> np.nda
 
 
 def nonnegative_scalar(value: Any, name: str, *, allow_inf: bool = False) -> float:
-    """Validate a real scalar >= 0."""
+    """Validate a real scalar >= 0 (0-d numpy arrays are accepted)."""
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        value = value.item()
     if isinstance(value, bool) or not isinstance(value, (Real, np.floating, np.integer)):
         raise TypeError(f"{name}: expected a real number >= 0, received {_describe(value)}")
     v = float(value)

@@ -26,3 +26,11 @@ class IdentifiabilityWarning(UserWarning):
     Issued when a prior or the regularization decides directions that the
     data cannot, or when the problem is numerically ill-conditioned.
     """
+
+
+class PrecisionWarning(UserWarning):
+    """A result is computed, but with fewer correct digits than usual.
+
+    Issued for example when λ is so large relative to the data that the normal
+    equations lose many digits; the message says how many and what to do.
+    """

@@ -151,7 +151,7 @@ def fit(
     """
     x, u = _validate.state_and_input(x, u)
     norm = _validate.norm_name(norm)
-    coeffs = _validate.difference_coefficients(order)
+    coeffs = _validate.difference_coefficients(order, max_degree=x.shape[0])
     prior_mode = _validate.choice(prior_mode, "prior_mode", ("exact", "posthoc"))
     if noise_var is not None:
         noise_var = _validate.positive_scalar(noise_var, "noise_var")
@@ -201,7 +201,7 @@ def fit(
         info["loglik_note"] = "no likelihood is defined for the posthoc correction"
     noise_cov = np.eye(n) * result.noise_var
     return LTVModel(
-        k, n, m, norm=norm, coeffs=coeffs, lam=float(lam) if np.ndim(lam) == 0 else np.asarray(lam, float),
+        k, n, m, norm=norm, coeffs=coeffs, lam=float(lam) if np.ndim(lam) == 0 else np.array(lam, float),  # a copy: no aliasing
         cov=cov, noise_var=result.noise_var, noise_cov=noise_cov, loglik=loglik, info=info,
     )
 

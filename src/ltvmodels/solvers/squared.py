@@ -34,17 +34,21 @@ second banded factorization:
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import SingularProblemError
+from ..errors import PrecisionWarning, SingularProblemError
 from ..priors import PriorTerm
 from ..problem import RegressionProblem, apply_difference
 from ._blockkernels import rowwise_matvec
 from .banded import BlockSolution, BlockSystem, solve_block_banded
 
 LOG_2PI = float(np.log(2.0 * np.pi))
+# Warn when the penalty dominates the data by more than 1e10: results keep fewer
+# than about 6 correct digits.
+PRECISION_DIGITS_WARN = 10.0
 
 
 @dataclass
@@ -157,7 +161,7 @@ class SquaredSolver:
         for term in self.priors:
             if term.on == "parameters":
                 gram += term.precision
-                rhs += np.einsum("...ij,tj->ti", term.precision, term.mean)
+                rhs += np.einsum("tij,tj->ti", term.precision_at(N), term.mean)
             else:
                 # M_t = I_n ⊗ φ_tᵀ:  M_tᵀ P M_t = P ⊗ φφᵀ,  M_tᵀ P ȳ = (P ȳ) ⊗ φ.
                 P = term.precision_at(N)
@@ -235,6 +239,23 @@ class SquaredSolver:
                 blocks = covs[0][None] if len(covs) == 1 else np.stack(covs)
                 cov = CovarianceBlocks(blocks, row_group)
         return theta, cov, logdet, len(groups)
+
+    def digits_lost(self) -> float:
+        """Estimated decimal digits the normal equations lose to a large penalty.
+
+        The penalty block of H has eigenvalues up to ‖W‖·(Σ_j |c_j|)² while the
+        data contribute about mean ‖φ_t‖²/p per coefficient; the unpenalized
+        directions are determined by the data alone, so Cholesky resolves them
+        with relative accuracy about eps times that ratio.
+        """
+        W0 = _finite(self.W)
+        penalty = float(np.abs(np.linalg.eigvalsh(W0)).max(initial=0.0)) * np.abs(
+            self.problem.coeffs
+        ).sum() ** 2
+        data = float(np.mean(self.problem.phi**2))
+        if penalty == 0.0 or data == 0.0:
+            return 0.0
+        return max(0.0, float(np.log10(penalty / data)))
 
     # -- objective pieces -----------------------------------------------------------
     def penalty(self, theta: np.ndarray) -> float:
@@ -394,9 +415,29 @@ def fit_squared(
                 "log p(y | prior) is not defined, so noise_var is the prior-free estimate"
             )
 
-    theta, cov, logdet, n_fact = solver.solve(
-        1.0 if noise_var is None else noise_var, compute_cov=compute_cov
-    )
+    lost = solver.digits_lost()
+    try:
+        theta, cov, logdet, n_fact = solver.solve(
+            1.0 if noise_var is None else noise_var, compute_cov=compute_cov
+        )
+    except SingularProblemError as exc:
+        if lost > PRECISION_DIGITS_WARN:
+            raise SingularProblemError(
+                f"lam is too large for the scale of the data (the penalty exceeds the data "
+                f"term by about 1e{lost:.0f}), so the normal equations are singular to working "
+                "precision. For coefficients constant in time use lam=np.inf (an exact LTI "
+                "fit); otherwise use a smaller lam."
+            ) from exc
+        raise
+    if lost > PRECISION_DIGITS_WARN:
+        info["digits_lost"] = lost
+        warnings.warn(
+            f"lam is very large for the scale of the data: the normal equations lose about "
+            f"{lost:.0f} of 16 significant digits. For coefficients constant in time use "
+            "lam=np.inf (an exact LTI fit); otherwise use a smaller lam.",
+            PrecisionWarning,
+            stacklevel=3,
+        )
     rss = float(np.sum(problem.residuals(theta) ** 2))
     pen = solver.penalty(theta)
     prior_cost = solver.prior_cost(theta)
