@@ -16,7 +16,14 @@ part is formed on the fly so that no N × b × b array is ever built.
 The Cholesky factor L has the same block structure, stored as
 ``L[t, l] = L_{t, t−l}`` (shape (N, d+1, b, b), ``L[t, 0]`` lower triangular).
 Two sweeps do everything: forward (factor + forward substitution) and
-backward (back substitution + selected inversion). Small explicit loops over
+backward (back substitution + selected inversion).
+
+The block size b is an argument of every kernel. The ``*_fixed`` entry
+points take it as a tuple of length b instead: a tuple's length is part of
+its type, so they compile one version per block size with b a compile-time
+constant (the kernels are inlined into them), and the b × b loops unroll.
+That is about 1.5× faster, at the price of one compilation per block size
+(cached on disk); it pays off for long series only. Small explicit loops over
 b × b blocks are several times faster than LAPACK's banded routines here,
 whose per-column BLAS calls dominate at small bandwidths.
 """
@@ -63,9 +70,8 @@ def _cholesky_block(A, ref, b):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, inline="always")
-def _forward_step(L, X, t, d):  # pragma: no cover - compiled
+def _forward_step(L, X, t, d, b):  # pragma: no cover - compiled
     """z_t = L_tt⁻¹ (rhs_t − Σ_l L_{t,t−l} z_{t−l}), in place in X."""
-    b = L.shape[2]
     r = X.shape[2]
     for l in range(1, min(d, t) + 1):
         Ll = L[t, l]
@@ -85,10 +91,9 @@ def _forward_step(L, X, t, d):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, inline="always")
-def _backward_step(L, X, t, d):  # pragma: no cover - compiled
+def _backward_step(L, X, t, d, b):  # pragma: no cover - compiled
     """x_t = L_tt⁻ᵀ (z_t − Σ_l L_{t+l,t}ᵀ x_{t+l}), in place in X."""
     N = L.shape[0]
-    b = L.shape[2]
     r = X.shape[2]
     for l in range(1, min(d, N - 1 - t) + 1):
         Ll = L[t + l, l]
@@ -106,8 +111,8 @@ def _backward_step(L, X, t, d):  # pragma: no cover - compiled
             X[t, i, c] = acc / Ltt[i, i]
 
 
-@numba.njit(cache=True)
-def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L):  # pragma: no cover - compiled
+@numba.njit(cache=True, inline="always")
+def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, b):  # pragma: no cover - compiled
     """Factor H = L Lᵀ and forward-substitute the right-hand sides, in place.
 
     Output arrays are allocated by the caller with numpy, which requests
@@ -116,11 +121,12 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L):  # pragma: no
 
     Parameters
     ----------
-    phi : (N, p);  n_rep : int, b = n_rep·p;  data_scale : float
+    phi : (N, p);  n_rep : int;  data_scale : float
     extra : (0 | 1 | N, b, b) extra Gram blocks (prior precision)
     W : (b, b);  bands : (d+1, N), bands[l, s] = (DᵀD)_{s+l, s}
     Z : (N, b, r) right-hand sides (r may be 0), overwritten with L⁻¹ rhs
     L : (N, d+1, b, b) output, the factor
+    b : int, the block size n_rep·p (see ``factor_forward_fixed``)
 
     Returns
     -------
@@ -133,7 +139,6 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L):  # pragma: no
         log det H = 2 Σ log diag(L).
     """
     N = phi.shape[0]
-    b = W.shape[0]
     d = bands.shape[0] - 1
     M = np.empty((b, b))
     ref = np.empty(b)
@@ -189,12 +194,12 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L):  # pragma: no
             return -1.0, t, 0.0
         for a in range(b):
             logdet += 2.0 * np.log(Ltt[a, a])
-        _forward_step(L, Z, t, d)
+        _forward_step(L, Z, t, d, b)
     return worst, worst_t, logdet
 
 
-@numba.njit(cache=True)
-def backward(L, X, cov):  # pragma: no cover - compiled
+@numba.njit(cache=True, inline="always")
+def backward(L, X, cov, b):  # pragma: no cover - compiled
     """Back substitution X ← L⁻ᵀ X in place and the diagonal blocks of H⁻¹ into ``cov``.
 
     Selected inversion (block Takahashi recursion): from Lᵀ Σ = L⁻¹, for i >= t,
@@ -210,15 +215,16 @@ def backward(L, X, cov):  # pragma: no cover - compiled
     ----------
     L : (N, d+1, b, b) factor;  X : (N, b, r), overwritten
     cov : (N, b, b) output, or (0, b, b) to skip the covariances
+    b : int, the block size
     """
-    N, dp1, b, _ = L.shape
+    N, dp1, _, _ = L.shape
     d = dp1 - 1
     w = d + 1
     compute_cov = cov.shape[0] == N
     window = np.zeros((w, w, b, b))  # window[i % w, j % w] = Σ_{i,j}
     rhs = np.empty((b, b))
     for t in range(N - 1, -1, -1):
-        _backward_step(L, X, t, d)
+        _backward_step(L, X, t, d, b)
         if not compute_cov:
             continue
         Ltt = L[t, 0]
@@ -266,14 +272,15 @@ def backward(L, X, cov):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def solve(L, X):  # pragma: no cover - compiled
-    """Solve L Lᵀ X = rhs in place; X (N, b, r) holds rhs on entry."""
-    N, dp1, _, _ = L.shape
-    d = dp1 - 1
+def rowwise_matvec(theta, phi, out):  # pragma: no cover - compiled
+    """out[t] = Θ_t φ_t for Θ (N, n, p), φ (N, p), out (N, n)."""
+    N, n, p = theta.shape
     for t in range(N):
-        _forward_step(L, X, t, d)
-    for t in range(N - 1, -1, -1):
-        _backward_step(L, X, t, d)
+        for i in range(n):
+            acc = 0.0
+            for j in range(p):
+                acc += theta[t, i, j] * phi[t, j]
+            out[t, i] = acc
 
 
 @numba.njit(cache=True)
@@ -286,3 +293,27 @@ def rowwise_matvec(theta, phi, out):  # pragma: no cover - compiled
             for j in range(p):
                 acc += theta[t, i, j] * phi[t, j]
             out[t, i] = acc
+
+
+@numba.njit(cache=True)
+def factor_forward_fixed(phi, n_rep, data_scale, extra, W, bands, Z, L, b):  # pragma: no cover
+    """:func:`factor_forward` compiled for the block size ``b`` as a constant."""
+    return factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, literally(b))
+
+
+@numba.njit(cache=True)
+def backward_fixed(L, X, cov, b):  # pragma: no cover - compiled
+    """:func:`backward` compiled for the block size ``b`` as a constant."""
+    backward(L, X, cov, literally(b))
+
+
+@numba.njit(cache=True)
+def factor_forward_fixed(phi, n_rep, data_scale, extra, W, bands, Z, L, b_tuple):  # pragma: no cover
+    """:func:`factor_forward` with the block size ``len(b_tuple)`` as a constant."""
+    return factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, len(b_tuple))
+
+
+@numba.njit(cache=True)
+def backward_fixed(L, X, cov, b_tuple):  # pragma: no cover - compiled
+    """:func:`backward` with the block size ``len(b_tuple)`` as a constant."""
+    backward(L, X, cov, len(b_tuple))
