@@ -175,7 +175,9 @@ class SquaredSolver:
         K = n * p
         data_scale = 1.0 if include_data else 0.0
         prior_gram, prior_rhs = self._prior_parts(prior_scale)
-        data_rhs = pb.phi[:, :, None] * pb.y[:, None, :] * data_scale  # (N, p, n)
+        data_rhs = pb.phi[:, :, None] * pb.y[:, None, :]  # (N, p, n)
+        if not include_data:
+            data_rhs[:] = 0.0
         if not self.separable:
             rhs = np.swapaxes(data_rhs, 1, 2).reshape(N, K)
             if prior_rhs is not None:
