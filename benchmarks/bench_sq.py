@@ -89,7 +89,8 @@ def main() -> None:
         ltv.fit(warm.x, warm.u, lam=LAM, order=order, noise_var=NOISE_VAR)
 
     print(f"norm='sq', n=3, m=2 (K=15), lam={LAM}, noise_var={NOISE_VAR}, covariances on")
-    header = f"{'T':>9} {'order':>5} {'ltvmodels [s]':>14} {'statsmodels [s]':>16} {'ratio':>7} {'max|Δk|':>9}"
+    header = (f"{'T':>9} {'order':>5} {'ltvmodels [s]':>14} {'statsmodels [s]':>16} "
+              f"{'ratio':>7} {'max|Δk|':>9}")
     print(header)
     print("-" * len(header))
     for size in args.sizes:
@@ -98,12 +99,16 @@ def main() -> None:
         peer_time = peer_k = None
         if T <= args.peer_max:
             try:
-                peer_time, peer_k = best_time(lambda: statsmodels_smoother(data.x, data.u), 1)
+                peer_time, peer_k = best_time(
+                    lambda data=data: statsmodels_smoother(data.x, data.u), 1
+                )
             except ImportError:
                 pass
         for order in (1, 2):
             ours, model = best_time(
-                lambda: ltv.fit(data.x, data.u, lam=LAM, order=order, noise_var=NOISE_VAR),
+                lambda data=data, order=order: ltv.fit(
+                    data.x, data.u, lam=LAM, order=order, noise_var=NOISE_VAR
+                ),
                 args.repeat if T < 10**6 else max(1, args.repeat - 1),
             )
             if order == 1 and peer_time is not None:

@@ -232,7 +232,9 @@ def penalty_weight(lam: Any, K: int) -> np.ndarray:
             raise ValueError("lam: a weight matrix must be finite (use a vector with inf "
                              "entries to hold coefficients constant)")
         if not np.allclose(arr, arr.T, rtol=1e-10, atol=1e-12 * np.abs(arr).max()):
-            raise ValueError("lam: expected a symmetric weight matrix, received a non-symmetric one")
+            raise ValueError(
+                "lam: expected a symmetric weight matrix, received a non-symmetric one"
+            )
         eig_min = np.linalg.eigvalsh(arr).min()
         if eig_min < -1e-10 * max(np.abs(arr).max(), 1e-300):
             raise ValueError(

@@ -192,7 +192,8 @@ def run_jump_linear_demo(
         try:
             fig.savefig(path, format=fmt, dpi=110)
         except OSError as exc:
-            raise OutputPathError(f"out: cannot write {str(path)!r}: {exc.strerror or exc}") from exc
+            reason = exc.strerror or exc
+            raise OutputPathError(f"out: cannot write {str(path)!r}: {reason}") from exc
         result["out"] = path
         lines.append(f"wrote {path}")
     print("\n".join(lines), file=stream)

@@ -7,7 +7,6 @@ from typing import Any
 import numpy as np
 
 from . import _validate, identifiability, priors as _priors
-from .errors import SingularProblemError
 from .models import LTVModel
 from .problem import state_space_problem
 from .solvers.squared import CovarianceBlocks, fit_squared
@@ -201,7 +200,8 @@ def fit(
         info["loglik_note"] = "no likelihood is defined for the posthoc correction"
     noise_cov = np.eye(n) * result.noise_var
     return LTVModel(
-        k, n, m, norm=norm, coeffs=coeffs, lam=float(lam) if np.ndim(lam) == 0 else np.array(lam, float),  # a copy: no aliasing
+        k, n, m, norm=norm, coeffs=coeffs,
+        lam=float(lam) if np.ndim(lam) == 0 else np.array(lam, float),  # a copy: no aliasing
         cov=cov, noise_var=result.noise_var, noise_cov=noise_cov, loglik=loglik, info=info,
     )
 

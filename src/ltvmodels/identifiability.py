@@ -77,7 +77,7 @@ def diagnose(problem: RegressionProblem, const_mask: np.ndarray | None = None) -
 
 def _describe_direction(direction: np.ndarray, names: list[str]) -> str:
     v = direction / np.abs(direction).max()
-    terms = [f"{c:+.3g}·{name}" for c, name in zip(v, names) if abs(c) > 1e-3]
+    terms = [f"{c:+.3g}·{name}" for c, name in zip(v, names, strict=True) if abs(c) > 1e-3]
     return " ".join(terms) if terms else "0"
 
 

@@ -17,7 +17,8 @@ FORMAT_VERSION = 1
 
 
 @numba.njit(cache=True)
-def _simulate(A: np.ndarray, B: np.ndarray, x0: np.ndarray, u: np.ndarray) -> np.ndarray:  # pragma: no cover
+def _simulate(A, B, x0, u):  # pragma: no cover - compiled
+    """x[t+1] = A_t x[t] + B_t u[t] from x[0] = x0; returns (N + 1, n)."""
     N, n, _ = A.shape
     m = B.shape[2]
     x = np.empty((N + 1, n))
@@ -302,7 +303,10 @@ class LTVModel:
         return "\n".join(lines)
 
     def plot(self, truth: Any = None, *, bands: bool = True, fig: Any = None):
-        """Plot the coefficients of [A_t B_t] over time (see :func:`ltvmodels.plotting.plot_coefficients`)."""
+        """Plot the coefficients of [A_t B_t] over time.
+
+        See :func:`ltvmodels.plotting.plot_coefficients`; returns the Figure.
+        """
         from .plotting import plot_coefficients
 
         return plot_coefficients(self, truth=truth, bands=bands, fig=fig)

@@ -88,18 +88,18 @@ def difference_matrix(N: int, coeffs: np.ndarray) -> sp.csr_matrix:
 
 
 def gram_bands(N: int, coeffs: np.ndarray) -> list[np.ndarray]:
-    """Lower diagonals of DᵀD: entry l (length N − l) holds (DᵀD)_{s+l, s}.
+    """Lower diagonals of DᵀD: entry lag (length N − lag) holds (DᵀD)_{s+lag, s}.
 
-    Computed in O(N d²) without forming D: (DᵀD)_{s+l,s} = Σ_t c_{s+l−t} c_{s−t}
+    Computed in O(N d²) without forming D: (DᵀD)_{s+lag,s} = Σ_t c_{s+lag−t} c_{s−t}
     over the rows t of D that touch both columns.
     """
     d = len(coeffs) - 1
-    bands = [np.zeros(N - l) for l in range(d + 1)]
+    bands = [np.zeros(N - lag) for lag in range(d + 1)]
     rows = N - d  # number of rows of D
-    for l in range(d + 1):
-        for j in range(d + 1 - l):
-            # row t of D contributes c_j c_{j+l} to column s = t + j, row s + l.
-            bands[l][j : j + rows] += coeffs[j] * coeffs[j + l]
+    for lag in range(d + 1):
+        for j in range(d + 1 - lag):
+            # row t of D contributes c_j c_{j+lag} to column s = t + j, row s + lag.
+            bands[lag][j : j + rows] += coeffs[j] * coeffs[j + lag]
     return bands
 
 

@@ -4,7 +4,7 @@ The matrix H has N × N blocks of size b × b and block bandwidth d:
 
     H_{t,s} = δ_{ts} G_t + β_{t−s}(s) W   for 0 <= t − s <= d,
 
-where β_l(s) = (DᵀD)_{s+l,s} are the diagonals of DᵀD, W is the penalty weight
+where β_l(s) = (DᵀD)_{s+lag,s} are the diagonals of DᵀD, W is the penalty weight
 and the Gram blocks are
 
     G_t = data_scale · (I_r ⊗ φ_t φ_tᵀ) + E_t,        b = r · p,
@@ -14,7 +14,7 @@ the coupled form) plus optional extra blocks E_t (prior precision). The data
 part is formed on the fly so that no N × b × b array is ever built.
 
 The Cholesky factor L has the same block structure, stored as
-``L[t, l] = L_{t, t−l}`` (shape (N, d+1, b, b), ``L[t, 0]`` lower triangular).
+``L[t, lag] = L_{t, t−lag}`` (shape (N, d+1, b, b), ``L[t, 0]`` lower triangular).
 Two sweeps do everything: forward (factor + forward substitution) and
 backward (back substitution + selected inversion).
 
@@ -71,15 +71,15 @@ def _cholesky_block(A, ref, b):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, inline="always")
 def _forward_step(L, X, t, d, b):  # pragma: no cover - compiled
-    """z_t = L_tt⁻¹ (rhs_t − Σ_l L_{t,t−l} z_{t−l}), in place in X."""
+    """z_t = L_tt⁻¹ (rhs_t − Σ_l L_{t,t−lag} z_{t−lag}), in place in X."""
     r = X.shape[2]
-    for l in range(1, min(d, t) + 1):
-        Ll = L[t, l]
+    for lag in range(1, min(d, t) + 1):
+        Ll = L[t, lag]
         for i in range(b):
             for c in range(r):
                 acc = 0.0
                 for q in range(b):
-                    acc += Ll[i, q] * X[t - l, q, c]
+                    acc += Ll[i, q] * X[t - lag, q, c]
                 X[t, i, c] -= acc
     Ltt = L[t, 0]
     for c in range(r):
@@ -92,16 +92,16 @@ def _forward_step(L, X, t, d, b):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, inline="always")
 def _backward_step(L, X, t, d, b):  # pragma: no cover - compiled
-    """x_t = L_tt⁻ᵀ (z_t − Σ_l L_{t+l,t}ᵀ x_{t+l}), in place in X."""
+    """x_t = L_tt⁻ᵀ (z_t − Σ_l L_{t+lag,t}ᵀ x_{t+lag}), in place in X."""
     N = L.shape[0]
     r = X.shape[2]
-    for l in range(1, min(d, N - 1 - t) + 1):
-        Ll = L[t + l, l]
+    for lag in range(1, min(d, N - 1 - t) + 1):
+        Ll = L[t + lag, lag]
         for q in range(b):
             for i in range(b):
                 lqi = Ll[q, i]
                 for c in range(r):
-                    X[t, i, c] -= lqi * X[t + l, q, c]
+                    X[t, i, c] -= lqi * X[t + lag, q, c]
     Ltt = L[t, 0]
     for c in range(r):
         for i in range(b - 1, -1, -1):
@@ -123,7 +123,7 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, b):  # pragma:
     ----------
     phi : (N, p);  n_rep : int;  data_scale : float
     extra : (0 | 1 | N, b, b) extra Gram blocks (prior precision)
-    W : (b, b);  bands : (d+1, N), bands[l, s] = (DᵀD)_{s+l, s}
+    W : (b, b);  bands : (d+1, N), bands[lag, s] = (DᵀD)_{s+lag, s}
     Z : (N, b, r) right-hand sides (r may be 0), overwritten with L⁻¹ rhs
     L : (N, d+1, b, b) output, the factor
     b : int, the block size n_rep·p (see ``factor_forward_fixed``)
@@ -146,10 +146,10 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, b):  # pragma:
     worst_t = 0
     logdet = 0.0
     for t in range(N):
-        # Off-diagonal blocks L_{t,s}, s = t − l, in increasing s.
-        for l in range(min(d, t), 0, -1):
-            s = t - l
-            beta = bands[l, s]
+        # Off-diagonal blocks L_{t,s}, s = t − lag, in increasing s.
+        for lag in range(min(d, t), 0, -1):
+            s = t - lag
+            beta = bands[lag, s]
             for i in range(b):
                 for j in range(b):
                     M[i, j] = beta * W[i, j]
@@ -164,22 +164,22 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, b):  # pragma:
                         M[i, j] -= acc
             # L_{t,s} = M L_ss⁻ᵀ: forward substitution on each row.
             Lss = L[s, 0]
-            out = L[t, l]
+            out = L[t, lag]
             for i in range(b):
                 for j in range(b):
                     acc = M[i, j]
                     for q in range(j):
                         acc -= out[i, q] * Lss[j, q]
                     out[i, j] = acc / Lss[j, j]
-        # Diagonal block: G_t + β_0 W − Σ_l L_{t,t−l} L_{t,t−l}ᵀ (lower triangle).
+        # Diagonal block: G_t + β_0 W − Σ_l L_{t,t−lag} L_{t,t−lag}ᵀ (lower triangle).
         beta = bands[0, t]
         Ltt = L[t, 0]
         for i in range(b):
             for j in range(i + 1):
                 Ltt[i, j] = _gram_entry(phi, n_rep, data_scale, extra, t, i, j) + beta * W[i, j]
             ref[i] = Ltt[i, i]
-        for l in range(1, min(d, t) + 1):
-            Ll = L[t, l]
+        for lag in range(1, min(d, t) + 1):
+            Ll = L[t, lag]
             for i in range(b):
                 for j in range(i + 1):
                     acc = 0.0
@@ -284,31 +284,9 @@ def rowwise_matvec(theta, phi, out):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def rowwise_matvec(theta, phi, out):  # pragma: no cover - compiled
-    """out[t] = Θ_t φ_t for Θ (N, n, p), φ (N, p), out (N, n)."""
-    N, n, p = theta.shape
-    for t in range(N):
-        for i in range(n):
-            acc = 0.0
-            for j in range(p):
-                acc += theta[t, i, j] * phi[t, j]
-            out[t, i] = acc
-
-
-@numba.njit(cache=True)
-def factor_forward_fixed(phi, n_rep, data_scale, extra, W, bands, Z, L, b):  # pragma: no cover
-    """:func:`factor_forward` compiled for the block size ``b`` as a constant."""
-    return factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, literally(b))
-
-
-@numba.njit(cache=True)
-def backward_fixed(L, X, cov, b):  # pragma: no cover - compiled
-    """:func:`backward` compiled for the block size ``b`` as a constant."""
-    backward(L, X, cov, literally(b))
-
-
-@numba.njit(cache=True)
-def factor_forward_fixed(phi, n_rep, data_scale, extra, W, bands, Z, L, b_tuple):  # pragma: no cover
+def factor_forward_fixed(
+    phi, n_rep, data_scale, extra, W, bands, Z, L, b_tuple
+):  # pragma: no cover - compiled
     """:func:`factor_forward` with the block size ``len(b_tuple)`` as a constant."""
     return factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, len(b_tuple))
 

@@ -190,8 +190,9 @@ class SquaredSolver:
         keys: list[tuple[np.ndarray, np.ndarray]] = []
         for i in range(n):
             sl = slice(i * p, (i + 1) * p)
-            key = (self.W[sl, sl], np.zeros((0, p, p)) if prior_gram is None else prior_gram[:, sl, sl])
-            for rows, (W_g, extra_g) in zip(row_sets, keys):
+            extra = np.zeros((0, p, p)) if prior_gram is None else prior_gram[:, sl, sl]
+            key = (self.W[sl, sl], extra)
+            for rows, (W_g, extra_g) in zip(row_sets, keys, strict=True):
                 if np.array_equal(W_g, key[0]) and np.array_equal(extra_g, key[1]):
                     rows.append(i)
                     break
@@ -199,7 +200,7 @@ class SquaredSolver:
                 row_sets.append([i])
                 keys.append(key)
         groups = []
-        for rows, (W_g, extra_g) in zip(row_sets, keys):
+        for rows, (W_g, extra_g) in zip(row_sets, keys, strict=True):
             rhs = data_rhs if len(rows) == n else data_rhs[:, :, rows]
             if prior_rhs is not None:
                 rhs = rhs + prior_rhs.reshape(N, n, p)[:, rows, :].transpose(0, 2, 1)
@@ -319,7 +320,9 @@ class SquaredSolver:
         return log_pdet, diffuse
 
 
-def _loglik_with_prior(solver: SquaredSolver, noise_var: float, theta: np.ndarray, logdet: float) -> float:
+def _loglik_with_prior(
+    solver: SquaredSolver, noise_var: float, theta: np.ndarray, logdet: float
+) -> float:
     """log p(y | prior) = log N(y; M m, σ²I + M H_μ⁻¹ Mᵀ), from two factorizations.
 
     NaN when the prior alone does not determine every parameter (H_μ singular).
