@@ -293,7 +293,8 @@ class LTVModel:
     def summary(self) -> str:
         """Human-readable multi-line summary."""
         lines = [repr(self)]
-        for key in ("solver", "objective", "n_factorizations", "noise_var_estimated", "prior_mode"):
+        keys = ("solver", "objective", "n_factorizations", "noise_var_estimated", "prior_mode")
+        for key in keys:
             if key in self.info:
                 lines.append(f"  {key}: {self.info[key]}")
         act = self.activation()

@@ -72,6 +72,7 @@ import numpy as np
 from .. import _validate
 from ..errors import SingularProblemError
 from ..problem import state_space_problem
+from .squared import CovarianceBlocks
 
 LOG_2PI = float(np.log(2.0 * np.pi))
 
@@ -433,15 +434,6 @@ def _smoother_kernel(vecs, mats, in_info, F, F_inv, p, q):  # pragma: no cover -
 # ---------------------------------------------------------------------------------------
 
 
-def _full_cov(cov: np.ndarray, n: int) -> np.ndarray:
-    """(N, K, K) block-diagonal I_n ⊗ cov[t]."""
-    N, p, _ = cov.shape
-    full = np.zeros((N, n, p, n, p))
-    for i in range(n):
-        full[:, i, :, i, :] = cov
-    return full.reshape(N, n * p, n * p)
-
-
 class _ParameterAccess:
     """A_t, B_t and the full covariance from ``k`` (N, K), ``cov`` (N, p, p), ``n_states``."""
 
@@ -463,7 +455,9 @@ class _ParameterAccess:
 
     def cov_full(self) -> np.ndarray:
         """(N, K, K) covariance of k_t, I_n ⊗ cov[t]."""
-        return _full_cov(self.cov, self.n_states)
+        n = self.n_states
+        shared = CovarianceBlocks(self.cov[None], np.zeros(n, dtype=int))
+        return shared.full(n, self.cov.shape[1])
 
 
 @dataclass(frozen=True)
