@@ -37,6 +37,8 @@ RELATIVE_PIVOT_TOL = 1e-12
 # a constant: ~1.5x faster, but each block size compiles once (~5 s, then
 # cached on disk), which only long series repay.
 FIXED_BLOCK_MIN_SIZE = 250_000
+# Beyond this block size unrolling bloats the compiled code more than it helps.
+FIXED_BLOCK_MAX_B = 16
 
 SINGULAR_ADVICE = (
     "Remedies: more excitation in the inputs, a larger lam, a prior "
@@ -145,7 +147,7 @@ def _factor_solve(system: BlockSystem, rhs: np.ndarray, compute_cov: bool, what:
     N, b = system.N, system.b
     d = len(system.coeffs) - 1
     L = np.empty((N, d + 1, b, b))
-    if N * b >= FIXED_BLOCK_MIN_SIZE:
+    if N * b >= FIXED_BLOCK_MIN_SIZE and b <= FIXED_BLOCK_MAX_B:
         factor_forward, backward = kernels.factor_forward_fixed, kernels.backward_fixed
         size = (0,) * b  # the block size, carried in the type
     else:
