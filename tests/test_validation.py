@@ -170,10 +170,21 @@ def test_prior_from_a_different_system_names_prior_mean(data):
 
 
 @pytest.mark.parametrize("norm", ["group", "l1"])
-def test_reserved_norms_are_not_implemented_yet(data, norm):
+def test_sparse_norms_reject_what_they_do_not_support(data, norm):
     x, u = data
-    with pytest.raises(NotImplementedError, match=norm):
-        ltv.fit(x, u, lam=1.0, norm=norm)
+    K = x.shape[1] * (x.shape[1] + u.shape[1])
+    with pytest.raises(ValueError, match=r"^lam:.*ill-posed"):
+        ltv.fit(x, u, lam=0.0, norm=norm)
+    with pytest.raises(ValueError, match=r"^lam:.*norm='sq' only"):
+        ltv.fit(x, u, lam=np.eye(K), norm=norm)
+    with pytest.raises(NotImplementedError, match=r"^lam:.*inf"):
+        ltv.fit(x, u, lam=np.full(K, np.inf), norm=norm)
+    with pytest.raises(NotImplementedError, match=r"^prior:"):
+        ltv.fit(x, u, lam=1.0, norm=norm, prior=ltv.Prior(np.zeros(K), 1.0))
+    with pytest.raises(ValueError, match=r"^max_iter:"):
+        ltv.fit(x, u, lam=1.0, norm=norm, max_iter=0)
+    with pytest.raises(ValueError, match=r"^tol:"):
+        ltv.fit(x, u, lam=1.0, norm=norm, tol=-1.0)
 
 
 class _TookTooLong(Exception):

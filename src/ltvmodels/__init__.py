@@ -12,7 +12,12 @@ Quick use::
 """
 
 from . import plotting, systems
-from .errors import IdentifiabilityWarning, PrecisionWarning, SingularProblemError
+from .errors import (
+    ConvergenceWarning,
+    IdentifiabilityWarning,
+    PrecisionWarning,
+    SingularProblemError,
+)
 from .fit import fit, fit_lti
 from .models import LTVModel, load
 from .priors import OutputPrior, Prior
@@ -40,6 +45,7 @@ __all__ = [
     "KalmanSmootherResult",
     "SingularProblemError",
     "IdentifiabilityWarning",
+    "ConvergenceWarning",
     "PrecisionWarning",
     "systems",
     "plotting",

@@ -14,7 +14,6 @@ from typing import Any, Sequence
 import numpy as np
 
 NORMS = ("sq", "group", "l1")
-IMPLEMENTED_NORMS = ("sq",)
 
 
 def _describe(value: Any) -> str:
@@ -105,12 +104,32 @@ def norm_name(norm: Any) -> str:
     """Validate the regularization norm name."""
     if not isinstance(norm, str) or norm not in NORMS:
         raise ValueError(f"norm: expected one of {NORMS}, received {_describe(norm)}")
-    if norm not in IMPLEMENTED_NORMS:
-        raise NotImplementedError(
-            f"norm={norm!r} is not available yet; use norm='sq' "
-            "(squared differences, slowly varying / smooth coefficients)"
-        )
     return norm
+
+
+def sparse_weights(lam: Any, K: int) -> np.ndarray:
+    """λ for norm="group"/"l1": a scalar > 0 or a (K,) vector of finite weights >= 0.
+
+    Returns the (K,) weight vector Λ of the penalty Σ_t R(Λ (Dk)_t).
+    """
+    W = penalty_weight(lam, K)  # shape and sign checks shared with norm="sq"
+    if np.ndim(lam) == 2:
+        raise ValueError(
+            "lam: a (K, K) weight matrix applies to norm='sq' only; use a scalar or a "
+            f"(K,) vector with norm='group' or 'l1', received shape {np.shape(lam)}"
+        )
+    weights = np.sqrt(np.diag(W))
+    if np.isinf(weights).any():
+        raise NotImplementedError(
+            "lam: constant coefficients (lam = inf) are not supported yet with "
+            "norm='group' or 'l1'; use norm='sq' or a large finite weight"
+        )
+    if not np.any(weights > 0):
+        raise ValueError(
+            "lam: expected lam > 0 with norm='group' or 'l1': with lam = 0 every time step "
+            "has its own unregularized model and the problem is ill-posed (paper Section V)"
+        )
+    return weights
 
 
 def difference_coefficients(order: Any, max_degree: int | None = None) -> np.ndarray:
@@ -402,3 +421,105 @@ def initial_state_prior(
         )
     # (d, n, p) → (d, p, n) → (D, n): column i stacks θ_{0,i}, θ_{-1,i}, …
     return np.ascontiguousarray(mean.reshape(degree, n, p).transpose(0, 2, 1).reshape(D, n)), cov
+
+
+# -- change points and piecewise refits (ltvmodels.changepoints, ltvmodels.piecewise) ---
+
+
+def fraction(value: Any, name: str) -> float:
+    """Validate a real number in [0, 1]."""
+    v = nonnegative_scalar(value, name)
+    if v > 1:
+        raise ValueError(f"{name}: expected a number in [0, 1], received {v}")
+    return v
+
+
+def optional_nonnegative(value: Any, name: str) -> float | None:
+    """Validate None or a finite real number >= 0."""
+    return None if value is None else nonnegative_scalar(value, name)
+
+
+def optional_integer(value: Any, name: str, minimum: int) -> int | None:
+    """Validate None or an integer >= ``minimum``."""
+    return None if value is None else integer(value, name, minimum)
+
+
+def activation_series(value: Any, name: str) -> np.ndarray:
+    """Validate an activation a_t = ‖(Dk)_t‖: a 1-d array of finite numbers >= 0."""
+    arr = as_float_array(value, name)
+    if arr.ndim != 1:
+        raise ValueError(
+            f"{name}: expected an LTVModel or a 1-d activation array a_t = ‖(Dk)_t‖ "
+            f"(for (Dk)_t of shape (L, K) use np.linalg.norm(Dk, axis=1)), received "
+            f"{arr.ndim}-d array of shape {arr.shape}"
+        )
+    if arr.size and arr.min() < 0:
+        raise ValueError(
+            f"{name}: expected nonnegative activations (norms), received min {arr.min():g} "
+            f"at index {int(arr.argmin())}"
+        )
+    return arr
+
+
+def piecewise_order(order: Any) -> int:
+    """Validate the order of a piecewise refit: 1 (constant) or 2 (linear, continuous)."""
+    expected = "1 (piecewise constant) or 2 (piecewise linear, continuous)"
+    if isinstance(order, bool) or not isinstance(order, Integral):
+        raise TypeError(f"order: expected {expected}, received {_describe(order)}")
+    if order < 1:
+        raise ValueError(f"order: expected {expected}, received {int(order)}")
+    if order > 2:
+        raise NotImplementedError(
+            f"order={int(order)}: piecewise polynomials of degree >= 2 are not implemented; "
+            f"use order=1 or order=2"
+        )
+    return int(order)
+
+
+def changepoint_indices(
+    value: Any, N: int, *, last: int, note: str = "", name: str = "changepoints"
+) -> np.ndarray:
+    """Validate change points: integers in [1, ``last``], strictly increasing.
+
+    A scalar is one change point; an empty sequence none. Unsorted or
+    repeated values are an error (never silently sorted or deduplicated).
+    Integral floats (200.0) are accepted; booleans are not. ``note`` is added
+    to the range message (e.g. why ``last`` is N − 2).
+
+    Returns
+    -------
+    ndarray of int64, shape (M,)
+        A new array.
+    """
+    if value is None:
+        raise TypeError(
+            f"{name}: expected a sequence of integer change points (e.g. from "
+            "ltvmodels.find_changepoints; [] for none), received None"
+        )
+    arr = as_float_array(value, name)
+    if np.asarray(value.to_numpy() if hasattr(value, "to_numpy") else value).dtype == bool:
+        raise TypeError(f"{name}: expected integers, received booleans ({_describe(value)})")
+    if arr.ndim == 0:
+        arr = arr.reshape(1)
+    if arr.ndim != 1:
+        raise ValueError(f"{name}: expected a 1-d sequence of integers, received shape {arr.shape}")
+    if np.any(arr != np.round(arr)):
+        bad = arr[arr != np.round(arr)][0]
+        raise ValueError(f"{name}: expected integers, received {bad:g}")
+    outside = (arr < 1) | (arr > last)
+    if outside.any():
+        raise ValueError(
+            f"{name}: expected model indices in [1, {last}] (a change point c starts a new "
+            f"segment at model index c; N = {N} model steps{note}), received "
+            f"{int(arr[outside][0])}"
+        )
+    out = arr.astype(np.int64)
+    steps = np.diff(out)
+    if np.any(steps <= 0):
+        i = int(np.flatnonzero(steps <= 0)[0]) + 1
+        raise ValueError(
+            f"{name}: expected strictly increasing indices without repeats, received "
+            f"{int(out[i])} after {int(out[i - 1])} (position {i}); sort and deduplicate them"
+        )
+    return out
+

@@ -34,3 +34,10 @@ class PrecisionWarning(UserWarning):
     Issued for example when λ is so large relative to the data that the normal
     equations lose many digits; the message says how many and what to do.
     """
+
+
+class ConvergenceWarning(UserWarning):
+    """An iterative solver stopped at its iteration limit before meeting its tolerance.
+
+    The returned model is the last iterate; ``model.info`` reports the residuals.
+    """

@@ -81,6 +81,15 @@ def apply_difference(values: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
     return out
 
 
+def apply_difference_adjoint(values: np.ndarray, coeffs: np.ndarray, N: int) -> np.ndarray:
+    """(Dᵀv)_s = Σ_j c_j v_{s−j} for v with N − d rows; returns N rows."""
+    d = len(coeffs) - 1
+    out = np.zeros((N,) + values.shape[1:])
+    for j in range(d + 1):
+        out[j : N - d + j] += coeffs[j] * values
+    return out
+
+
 def difference_matrix(N: int, coeffs: np.ndarray) -> sp.csr_matrix:
     """Sparse (N − d) × N matrix D with (Dv)_t = Σ_j c_j v_{t+j}."""
     d = len(coeffs) - 1

@@ -271,6 +271,17 @@ def backward(L, X, cov, b):  # pragma: no cover - compiled
         cov[t] = window[t % w, t % w]
 
 
+@numba.njit(cache=True, inline="always")
+def solve(L, X, b):  # pragma: no cover - compiled
+    """Solve L Lᵀ X = rhs in place; X (N, b, r) holds rhs on entry."""
+    N, dp1, _, _ = L.shape
+    d = dp1 - 1
+    for t in range(N):
+        _forward_step(L, X, t, d, b)
+    for t in range(N - 1, -1, -1):
+        _backward_step(L, X, t, d, b)
+
+
 @numba.njit(cache=True)
 def rowwise_matvec(theta, phi, out):  # pragma: no cover - compiled
     """out[t] = Θ_t φ_t for Θ (N, n, p), φ (N, p), out (N, n)."""
@@ -295,3 +306,9 @@ def factor_forward_fixed(
 def backward_fixed(L, X, cov, b_tuple):  # pragma: no cover - compiled
     """:func:`backward` with the block size ``len(b_tuple)`` as a constant."""
     backward(L, X, cov, len(b_tuple))
+
+
+@numba.njit(cache=True)
+def solve_fixed(L, X, b_tuple):  # pragma: no cover - compiled
+    """:func:`solve` with the block size ``len(b_tuple)`` as a constant."""
+    solve(L, X, len(b_tuple))

@@ -139,29 +139,66 @@ def _check_pivots(worst: float, worst_t: int, what: str) -> None:
         )
 
 
-def _factor_solve(system: BlockSystem, rhs: np.ndarray, compute_cov: bool, what: str):
-    """Factor, solve and (optionally) selected-invert; returns (X, cov, logdet).
+def _kernel_size(N: int, b: int) -> int | tuple:
+    """The block size as the kernels take it: an int, or a tuple of that length.
 
-    ``rhs`` (N, b, r) is overwritten with the solution X.
+    A tuple selects the kernels compiled for that block size as a constant.
     """
+    if N * b >= FIXED_BLOCK_MIN_SIZE and b <= FIXED_BLOCK_MAX_B:
+        return (0,) * b
+    return b
+
+
+def _factor_forward(system: BlockSystem, rhs: np.ndarray, what: str):
+    """Factor H and forward-substitute ``rhs`` in place; returns (L, logdet, size)."""
     N, b = system.N, system.b
     d = len(system.coeffs) - 1
     L = np.empty((N, d + 1, b, b))
-    if N * b >= FIXED_BLOCK_MIN_SIZE and b <= FIXED_BLOCK_MAX_B:
-        factor_forward, backward = kernels.factor_forward_fixed, kernels.backward_fixed
-        size = (0,) * b  # the block size, carried in the type
-    else:
-        factor_forward, backward = kernels.factor_forward, kernels.backward
-        size = b
+    size = _kernel_size(N, b)
+    factor_forward = kernels.factor_forward_fixed if isinstance(size, tuple) else \
+        kernels.factor_forward
     worst, worst_t, logdet = factor_forward(
         np.ascontiguousarray(system.phi), system.n_rep, float(system.data_scale),
         np.ascontiguousarray(system.extra), np.ascontiguousarray(system.W),
         system.bands(), rhs, L, size,
     )
     _check_pivots(worst, worst_t, what)
-    cov = np.empty((N if compute_cov else 0, b, b))
+    return L, logdet, size
+
+
+def _factor_solve(system: BlockSystem, rhs: np.ndarray, compute_cov: bool, what: str):
+    """Factor, solve and (optionally) selected-invert; returns (X, cov, logdet).
+
+    ``rhs`` (N, b, r) is overwritten with the solution X.
+    """
+    L, logdet, size = _factor_forward(system, rhs, what)
+    cov = np.empty((system.N if compute_cov else 0, system.b, system.b))
+    backward = kernels.backward_fixed if isinstance(size, tuple) else kernels.backward
     backward(L, rhs, cov, size)
     return rhs, (cov if compute_cov else None), logdet
+
+
+class BlockFactor:
+    """A factorization of H kept for many right-hand sides (e.g. ADMM iterations).
+
+    Constant coefficients (inf weights) are not supported here.
+    """
+
+    def __init__(self, system: BlockSystem, what: str = "the normal equations") -> None:
+        if np.isinf(np.diag(system.W)).any():
+            raise ValueError("BlockFactor does not handle constant (inf-weight) coefficients")
+        self.N, self.b = system.N, system.b
+        self.L, self.logdet, self._size = _factor_forward(
+            system, np.zeros((system.N, system.b, 0)), what
+        )
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """Solve H X = rhs; ``rhs`` (N, b, r), C-contiguous float, is overwritten and returned."""
+        if isinstance(self._size, tuple):
+            kernels.solve_fixed(self.L, rhs, self._size)
+        else:
+            kernels.solve(self.L, rhs, self._size)
+        return rhs
 
 
 def solve_block_banded(

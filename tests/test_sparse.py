@@ -1,0 +1,90 @@
+"""norm="group" / "l1": agreement with cvxpy + Clarabel and the λ_max limit."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import ltvmodels as ltv
+from ltvmodels.problem import state_space_problem
+from ltvmodels.solvers.admm import lambda_max
+
+cp = pytest.importorskip("cvxpy")
+
+
+def clarabel_optimum(x, u, weights, norm, coeffs):
+    """Optimal value of Σ‖y − Φk‖² + Σ_t R(Λ(Dk)_t) by cvxpy + Clarabel."""
+    u = np.zeros((len(x), 0)) if u is None else u
+    pb = state_space_problem(x, u, np.asarray(coeffs, float))
+    N, n, p = pb.N, pb.n, pb.p
+    theta = cp.Variable((N, n * p))
+    fitted = [cp.sum(cp.multiply(theta[:, i * p:(i + 1) * p], pb.phi), axis=1) for i in range(n)]
+    loss = sum(cp.sum_squares(pb.y[:, i] - fitted[i]) for i in range(n))
+    d = len(coeffs) - 1
+    Dk = sum(coeffs[j] * theta[j:N - d + j, :] for j in range(d + 1))
+    Z = cp.multiply(Dk, np.tile(weights, (N - d, 1)))
+    reg = cp.sum(cp.norm(Z, 2, axis=1)) if norm == "group" else cp.sum(cp.abs(Z))
+    problem = cp.Problem(cp.Minimize(loss + reg))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # "may be inaccurate" at these tight tolerances
+        problem.solve(solver=cp.CLARABEL, tol_gap_abs=1e-12, tol_gap_rel=1e-12, tol_feas=1e-12)
+    return problem.value, theta.value
+
+
+def data(seed, with_input=True):
+    d = ltv.systems.jump_linear(T=50, change_at=25, seed=seed)
+    return d.x, (d.u if with_input else None)
+
+
+@pytest.mark.parametrize("norm", ["group", "l1"])
+@pytest.mark.parametrize("order,coeffs", [(1, [-1.0, 1.0]), (2, [1.0, -2.0, 1.0])])
+@pytest.mark.parametrize("seed,frac", [(0, 0.05), (1, 0.3), (2, 0.8)])
+def test_matches_clarabel(norm, order, coeffs, seed, frac):
+    x, u = data(seed)
+    pb = state_space_problem(x, u, np.array(coeffs))
+    lam = frac * lambda_max(pb, norm)
+    model = ltv.fit(x, u, lam=lam, norm=norm, order=order, tol=1e-9, max_iter=100_000)
+    optimum, theta = clarabel_optimum(x, u, np.full(pb.K, lam), norm, coeffs)
+    assert model.info["converged"]
+    assert abs(model.info["objective"] - optimum) <= 1e-6 * optimum
+    assert np.abs(model.k - theta).max() <= 1e-3 * np.abs(theta).max()
+
+
+@pytest.mark.parametrize("norm", ["group", "l1"])
+def test_without_inputs_and_with_weight_vector(norm):
+    x, _ = data(3, with_input=False)
+    weights = np.array([1.0, 0.5, 2.0, 1.5])  # K = 4, one weight per coefficient
+    pb = state_space_problem(x, np.zeros((len(x), 0)), np.array([-1.0, 1.0]))
+    lam = 0.3 * lambda_max(pb, norm, weights)
+    model = ltv.fit(x, None, lam=lam * weights, norm=norm, tol=1e-9, max_iter=100_000)
+    optimum, _ = clarabel_optimum(x, None, lam * weights, norm, [-1.0, 1.0])
+    assert abs(model.info["objective"] - optimum) <= 1e-6 * optimum
+
+
+@pytest.mark.parametrize("norm", ["group", "l1"])
+def test_lambda_max_separates_lti_from_ltv(norm):
+    """λ >= λ_max gives the LTI solution exactly; just below it the model changes."""
+    x, u = data(4)
+    pb = state_space_problem(x, u, np.array([-1.0, 1.0]))
+    lam_max = lambda_max(pb, norm)
+    lti = ltv.fit_lti(x, u)
+    above = ltv.fit(x, u, lam=1.001 * lam_max, norm=norm, tol=1e-10, max_iter=100_000)
+    assert np.abs(above.k - lti.k).max() < 1e-7 * np.abs(lti.k).max()
+    assert above.info["lambda_max"] == pytest.approx(lam_max, rel=1e-12)
+    below = ltv.fit(x, u, lam=0.9 * lam_max, norm=norm, tol=1e-10, max_iter=100_000)
+    assert below.activation().max() > 1e-3 * np.abs(lti.k).max()
+
+
+def test_lambda_max_order_two_gives_linear_trend():
+    x, u = data(5)
+    pb = state_space_problem(x, u, np.array([1.0, -2.0, 1.0]))
+    lam_max = lambda_max(pb, "group")
+    model = ltv.fit(x, u, lam=1.001 * lam_max, norm="group", order=2, tol=1e-10, max_iter=100_000)
+    assert model.activation().max() < 1e-7 * np.abs(model.k).max()  # k_t linear in t
+
+
+def test_not_converging_warns():
+    x, u = data(6)
+    with pytest.warns(ltv.ConvergenceWarning, match="did not converge"):
+        model = ltv.fit(x, u, lam=1.0, norm="group", max_iter=3)
+    assert model.info["converged"] is False
