@@ -88,3 +88,25 @@ def test_not_converging_warns():
     with pytest.warns(ltv.ConvergenceWarning, match="did not converge"):
         model = ltv.fit(x, u, lam=1.0, norm="group", max_iter=3)
     assert model.info["converged"] is False
+
+
+@pytest.mark.parametrize("norm", ["group", "l1"])
+def test_path_equals_independent_fits(norm):
+    x, u = data(7)
+    lam_max = ltv.fit(x, u, lam=1.0, norm=norm).info["lambda_max"]
+    lams = lam_max * np.array([0.05, 0.5, 0.2])  # unsorted on purpose
+    path = ltv.fit_path(x, u, lams=lams, norm=norm, tol=1e-9, max_iter=100_000)
+    assert [m.lam for m in path] == list(lams)
+    assert [m.info["path_position"] for m in path] == [2, 0, 1]  # solved from the largest
+    for model, lam in zip(path, lams, strict=True):
+        alone = ltv.fit(x, u, lam=lam, norm=norm, tol=1e-9, max_iter=100_000)
+        assert model.info["objective"] == pytest.approx(alone.info["objective"], rel=1e-7)
+
+
+def test_path_sq_equals_fit():
+    x, u = data(8)
+    path = ltv.fit_path(x, u, lams=[1.0, 10.0], norm="sq", order=2)
+    for model, lam in zip(path, [1.0, 10.0], strict=True):
+        np.testing.assert_allclose(model.k, ltv.fit(x, u, lam=lam, order=2).k, rtol=1e-12)
+    with pytest.raises(ValueError, match=r"^lams:"):
+        ltv.fit_path(x, u, lams=[], norm="group")

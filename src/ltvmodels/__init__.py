@@ -18,7 +18,7 @@ from .errors import (
     PrecisionWarning,
     SingularProblemError,
 )
-from .fit import fit, fit_lti
+from .fit import fit, fit_lti, fit_path
 from .models import LTVModel, load
 from .priors import OutputPrior, Prior
 from .solvers.kalman import (
@@ -34,6 +34,7 @@ __version__ = "0.1.0"
 __all__ = [
     "fit",
     "fit_lti",
+    "fit_path",
     "LTVModel",
     "load",
     "Prior",

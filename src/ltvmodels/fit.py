@@ -232,11 +232,19 @@ def _fit_sparse_norm(
         )
     max_iter = _validate.integer(max_iter, "max_iter", minimum=1)
     tol = _validate.positive_scalar(tol, "tol")
-    N, K = problem.N, problem.K
-    weights = _validate.sparse_weights(lam, K)
-    _validate.enough_samples(N, problem.p, problem.degree)
+    weights = _validate.sparse_weights(lam, problem.K)
+    _validate.enough_samples(problem.N, problem.p, problem.degree)
     identifiability.check(problem, has_prior=False, regressor_names=_regressor_names(n, m))
-    result = admm.fit_sparse(problem, weights, norm, max_iter=max_iter, tol=tol)
+    model, _ = _solve_sparse(problem, lam, weights, norm, n, m, max_iter=max_iter, tol=tol)
+    return model
+
+
+def _solve_sparse(problem, lam, weights, norm, n, m, *, max_iter, tol, warm_start=None):
+    """Run ADMM on validated inputs; returns (LTVModel, SparseResult)."""
+    N, K = problem.N, problem.K
+    result = admm.fit_sparse(
+        problem, weights, norm, max_iter=max_iter, tol=tol, warm_start=warm_start
+    )
     k = result.theta.reshape(N, K)
     rss = float(np.sum(problem.residuals(result.theta) ** 2))
     noise_var = rss / (N * n)
@@ -253,8 +261,68 @@ def _fit_sparse_norm(
         # The largest weight at which this weight pattern gives the LTI fit.
         "lambda_max": admm.lambda_max(problem, norm, weights / weights.max()),
     }
-    return LTVModel(
+    model = LTVModel(
         k, n, m, norm=norm, coeffs=problem.coeffs,
         lam=float(lam) if np.ndim(lam) == 0 else np.array(lam, float),
         noise_var=noise_var, noise_cov=np.eye(n) * noise_var, info=info,
     )
+    return model, result
+
+
+def fit_path(
+    x: Any,
+    u: Any = None,
+    *,
+    lams: Any,
+    norm: str = "sq",
+    order: Any = 1,
+    compute_cov: bool = True,
+    max_iter: int = 10000,
+    tol: float = 1e-6,
+) -> list[LTVModel]:
+    """Fit one model per scalar λ in ``lams`` (a regularization path).
+
+    Equivalent to ``[fit(x, u, lam=lam, norm=norm, order=order) for lam in lams]``,
+    but for the sparse norms the path is solved from the largest λ down, each
+    ADMM run warm-started from the previous solution (its z, w and ρ).
+
+    Parameters
+    ----------
+    x, u, norm, order, compute_cov, max_iter, tol
+        As in :func:`fit`.
+    lams : sequence of float
+        Scalar λ values (> 0 for "group" and "l1").
+
+    Returns
+    -------
+    list of LTVModel
+        In the order of ``lams``; ``model.info["path_position"]`` is the index
+        in the order they were solved.
+    """
+    values = _validate.as_float_array(lams, "lams")
+    if values.ndim != 1 or values.size == 0:
+        raise ValueError(f"lams: expected a non-empty 1-d sequence of λ values, received "
+                         f"shape {values.shape}")
+    norm = _validate.norm_name(norm)
+    if norm == "sq":
+        return [fit(x, u, lam=float(lam), norm=norm, order=order, compute_cov=compute_cov)
+                for lam in values]
+    x, u = _validate.state_and_input(x, u)
+    coeffs = _validate.difference_coefficients(order, max_degree=x.shape[0])
+    max_iter = _validate.integer(max_iter, "max_iter", minimum=1)
+    tol = _validate.positive_scalar(tol, "tol")
+    n, m = x.shape[1], u.shape[1]
+    problem = state_space_problem(x, u, coeffs)
+    _validate.enough_samples(problem.N, problem.p, problem.degree)
+    identifiability.check(problem, has_prior=False, regressor_names=_regressor_names(n, m))
+    models: list[LTVModel | None] = [None] * values.size
+    warm = None
+    for position, index in enumerate(np.argsort(-values, kind="stable")):
+        weights = _validate.sparse_weights(float(values[index]), problem.K)
+        model, warm = _solve_sparse(
+            problem, float(values[index]), weights, norm, n, m,
+            max_iter=max_iter, tol=tol, warm_start=warm,
+        )
+        model.info["path_position"] = position
+        models[index] = model
+    return models
