@@ -12,6 +12,7 @@ Quick use::
 """
 
 from . import plotting, systems
+from .changepoints import find_changepoints
 from .errors import (
     ConvergenceWarning,
     IdentifiabilityWarning,
@@ -20,6 +21,7 @@ from .errors import (
 )
 from .fit import fit, fit_lti, fit_path
 from .models import LTVModel, load
+from .piecewise import fit_piecewise
 from .priors import OutputPrior, Prior
 from .solvers.kalman import (
     KalmanFilterResult,
@@ -35,6 +37,8 @@ __all__ = [
     "fit",
     "fit_lti",
     "fit_path",
+    "fit_piecewise",
+    "find_changepoints",
     "LTVModel",
     "load",
     "Prior",

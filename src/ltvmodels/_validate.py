@@ -511,7 +511,7 @@ def changepoint_indices(
         raise ValueError(
             f"{name}: expected model indices in [1, {last}] (a change point c starts a new "
             f"segment at model index c; N = {N} model steps{note}), received "
-            f"{int(arr[outside][0])}"
+            f"{_integer_text(arr[outside][0])}"
         )
     out = arr.astype(np.int64)
     steps = np.diff(out)
@@ -523,3 +523,7 @@ def changepoint_indices(
         )
     return out
 
+
+def _integer_text(value: float) -> str:
+    """An integral float as an integer, or in exponent notation when huge."""
+    return str(int(value)) if abs(value) < 1e15 else f"{value:g}"
