@@ -4,7 +4,7 @@ Simulates the seeded jump-linear system (A switches at t = 200, process and
 measurement noise σ = 0.2), fits a slowly varying LTV model (squared first
 differences, fixed λ), prints a report and writes a figure of the estimated
 coefficients (±2σ) against the truth. Headless: no display needed. This is
-what ``ltvmodels demo jump-linear`` does.
+what ``ltvmodels demo jump-linear --norm sq`` does.
 
 Usage::
 
@@ -28,7 +28,7 @@ def main(argv: list[str] | None = None) -> int:
                         help=f"regularization lambda (default: {JUMP_LINEAR_LAM:g})")
     args = parser.parse_args(argv)
     try:
-        run_jump_linear_demo(seed=args.seed, lam=args.lam, out=args.out)
+        run_jump_linear_demo(seed=args.seed, norm="sq", lam=args.lam, out=args.out)
     except OutputPathError as exc:
         print(f"error: --{exc}", file=sys.stderr)
         return 2

@@ -22,8 +22,9 @@ def test_demo_writes_png_to_current_directory(tmp_path, monkeypatch, capsys):
     assert main(["demo", "jump-linear"]) == 0
     out, err = capsys.readouterr()
     assert _is_png(tmp_path / "ltvmodels-jump-linear.png")
-    assert "LTVModel(N=399, n_states=2, n_inputs=1, norm='sq'" in out  # model.summary()
-    assert f"lambda = {JUMP_LINEAR_LAM:g}" in out
+    assert "LTVModel(N=399, n_states=2, n_inputs=1, norm='piecewise'" in out  # summary()
+    assert "change points found: [200] (true: 200)" in out
+    assert "norm='group', order=1, lambda = " in out
     assert "coefficient RMS error" in out and "one-step prediction RMS" in out
     assert "wrote ltvmodels-jump-linear.png" in out
 
@@ -97,7 +98,7 @@ def test_demo_function_results(tmp_path):
     import io
 
     stream = io.StringIO()
-    result = run_jump_linear_demo(out=None, stream=stream)
+    result = run_jump_linear_demo(norm="sq", out=None, stream=stream)
     assert result["out"] is None and "wrote" not in stream.getvalue()
     assert result["coef_rms"] < 0.1
     assert result["coef_rms"] < 0.5 * result["coef_rms_lti"]
@@ -106,3 +107,16 @@ def test_demo_function_results(tmp_path):
     assert len(result["figure"].axes) == 6
     with pytest.raises(OutputPathError, match="^out:"):
         run_jump_linear_demo(out=tmp_path / "missing" / "x.png", stream=stream)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_demo_default_is_paper_fig1(seed):
+    """Group lasso + two-step refinement finds the switch within ±3 samples of 200."""
+    import io
+
+    result = run_jump_linear_demo(seed=seed, out=None, stream=io.StringIO())
+    model = result["model"]
+    assert model.norm == "piecewise" and model.info["first_step"]["norm"] == "group"
+    assert model.info["first_step"]["converged"]
+    assert len(result["changepoints"]) == 1 and abs(int(result["changepoints"][0]) - 200) <= 3
+    assert result["coef_rms"] < 0.5 * result["coef_rms_lti"]

@@ -7,7 +7,9 @@ from typing import Any
 import numpy as np
 
 from . import _validate, identifiability, priors as _priors
-from .models import LTVModel
+from .changepoints import find_changepoints
+from .models import LTVModel, model_activation
+from .piecewise import fit_piecewise
 from .problem import state_space_problem
 from .solvers import admm
 from .solvers.squared import CovarianceBlocks, fit_squared
@@ -93,6 +95,7 @@ def fit(
     compute_cov: bool = True,
     max_iter: int = 10000,
     tol: float = 1e-6,
+    refine: bool = False,
 ) -> LTVModel:
     """Identify an LTV model x[t+1] = A_t x[t] + B_t u[t] + v_t.
 
@@ -146,6 +149,14 @@ def fit(
     max_iter, tol : int, float
         Iteration limit and relative tolerance on the primal and dual residuals
         of the iterative solver for "group" and "l1" (unused for "sq").
+    refine : bool
+        Two-step refinement (paper Section III-G): find the change points of
+        this fit (:func:`ltvmodels.find_changepoints`, default rules) and refit
+        with coefficients constant (order 1) or linear and continuous (order 2)
+        between them (:func:`ltvmodels.fit_piecewise`), removing the penalty's
+        shrinkage of the changes. The refined model is returned;
+        ``info["first_step"]`` summarizes the first fit and
+        ``info["first_step_k"]`` holds its coefficients.
 
     Returns
     -------
@@ -160,6 +171,14 @@ def fit(
     SingularProblemError
         The data do not identify the model (with the reason and remedies).
     """
+    if not isinstance(refine, bool):
+        raise TypeError(f"refine: expected True or False, received {refine!r}")
+    if refine:
+        first = fit(
+            x, u, lam=lam, norm=norm, order=order, prior=prior, prior_mode=prior_mode,
+            noise_var=noise_var, compute_cov=False, max_iter=max_iter, tol=tol,
+        )
+        return _refine(x, u, first)
     x, u = _validate.state_and_input(x, u)
     norm = _validate.norm_name(norm)
     coeffs = _validate.difference_coefficients(order, max_degree=x.shape[0])
@@ -265,8 +284,31 @@ def _solve_sparse(problem, lam, weights, norm, n, m, *, max_iter, tol, warm_star
         k, n, m, norm=norm, coeffs=problem.coeffs,
         lam=float(lam) if np.ndim(lam) == 0 else np.array(lam, float),
         noise_var=noise_var, noise_cov=np.eye(n) * noise_var, info=info,
+        changepoints=find_changepoints(model_activation(k, problem.coeffs), degree=problem.degree),
     )
     return model, result
+
+
+def _refine(x: Any, u: Any, first: LTVModel) -> LTVModel:
+    """Second step of the two-step refinement: refit between the change points."""
+    degree = len(first.coeffs) - 1
+    if degree not in (1, 2):
+        raise NotImplementedError(
+            f"refine: the refit is defined for order 1 and 2, received a difference "
+            f"operator of degree {degree}"
+        )
+    changepoints = first.changepoints if first.norm != "sq" else find_changepoints(first)
+    refined = fit_piecewise(x, u, changepoints, order=degree)
+    refined.info["first_step"] = {
+        "norm": first.norm,
+        "lam": first.lam if np.ndim(first.lam) == 0 else np.asarray(first.lam).tolist(),
+        "objective": first.info.get("objective"),
+        "iterations": first.info.get("iterations"),
+        "converged": first.info.get("converged"),
+        "changepoints": [int(c) for c in changepoints],
+    }
+    refined.info["first_step_k"] = np.array(first.k)
+    return refined
 
 
 def fit_path(

@@ -240,7 +240,7 @@ class LTVModel:
         Uses the model's difference operator (first difference for LTI models).
         """
         coeffs = self.coeffs if self.coeffs is not None else np.array([-1.0, 1.0])
-        return np.linalg.norm(apply_difference(self._k, coeffs), axis=1)
+        return model_activation(self._k, coeffs)
 
     @property
     def changepoints(self) -> np.ndarray:
@@ -311,6 +311,11 @@ class LTVModel:
         from .plotting import plot_coefficients
 
         return plot_coefficients(self, truth=truth, bands=bands, fig=fig)
+
+
+def model_activation(k: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
+    """a_t = ‖(Dk)_t‖₂ for t = 0 … N − d − 1 (paper Section III-G)."""
+    return np.linalg.norm(apply_difference(k, coeffs), axis=1)
 
 
 def _order_text(coeffs: np.ndarray) -> str:
