@@ -11,7 +11,7 @@ from .changepoints import find_changepoints
 from .models import LTVModel, model_activation
 from .piecewise import fit_piecewise
 from .problem import state_space_problem
-from .solvers import admm
+from .solvers import admm, ipm
 from .solvers.squared import CovarianceBlocks, fit_squared
 
 
@@ -127,9 +127,9 @@ def fit(
         few time steps where all coefficients change together (piecewise
         constant for order 1, piecewise linear for order 2). "l1":
         λ Σ_t ‖(Dk)_t‖₁ (eq. pwconstant_naive): sparse changes per coefficient.
-        The sparse norms are solved by ADMM (:mod:`ltvmodels.solvers.admm`) and
-        take a scalar or (K,) vector λ > 0; priors, covariances and the
-        likelihood are available for "sq" only.
+        The sparse norms take a scalar or (K,) vector λ > 0 (see ``tol`` for the
+        solvers); priors, covariances and the likelihood are available for "sq"
+        only.
     order : int or sequence of float
         1: first difference (slowly varying, eq. slow); 2: second difference
         (smooth, eq. smooth); an integer d: d-th difference; or polynomial
@@ -147,8 +147,14 @@ def fit(
     compute_cov : bool
         Compute posterior covariances (selected inversion, O(N)); False skips them.
     max_iter, tol : int, float
-        Iteration limit and relative tolerance on the primal and dual residuals
-        of the iterative solver for "group" and "l1" (unused for "sq").
+        For "group" and "l1" (unused for "sq"): the iteration limit and the
+        relative tolerance. With K <= 20 parameters per time step the solver is
+        a barrier (interior-point) method whose Newton systems are block-banded
+        (:mod:`ltvmodels.solvers.ipm`): ``tol`` bounds the duality gap relative
+        to the objective (``info["duality_gap_bound"]`` is the certified bound)
+        and ``max_iter`` the Newton steps. Otherwise ADMM
+        (:mod:`ltvmodels.solvers.admm`): ``tol`` applies to the relative primal
+        and dual residuals.
     refine : bool
         Two-step refinement (paper Section III-G): find the change points of
         this fit (:func:`ltvmodels.find_changepoints`, default rules) and refit
@@ -258,28 +264,44 @@ def _fit_sparse_norm(
     return model
 
 
+# Up to this many parameters per time step the barrier method's dense K × K
+# Newton blocks are cheap; beyond, ADMM's per-row p × p systems win.
+BARRIER_MAX_K = 20
+
+
 def _solve_sparse(problem, lam, weights, norm, n, m, *, max_iter, tol, warm_start=None):
-    """Run ADMM on validated inputs; returns (LTVModel, SparseResult)."""
+    """Solve on validated inputs; returns (LTVModel, ADMM result or None).
+
+    The barrier method (:mod:`ltvmodels.solvers.ipm`) is used when every weight
+    is positive and K <= BARRIER_MAX_K, ADMM otherwise.
+    """
     N, K = problem.N, problem.K
-    result = admm.fit_sparse(
-        problem, weights, norm, max_iter=max_iter, tol=tol, warm_start=warm_start
-    )
-    k = result.theta.reshape(N, K)
-    rss = float(np.sum(problem.residuals(result.theta) ** 2))
+    info: dict = {}
+    if K <= BARRIER_MAX_K and np.all(weights > 0):
+        barrier = ipm.fit_sparse_barrier(problem, weights, norm, tol=tol, max_newton=max_iter)
+        theta, result = barrier.theta, None
+        info.update(
+            solver="barrier (block-banded Newton)", iterations=barrier.newton_steps,
+            converged=barrier.converged, objective=barrier.objective,
+            duality_gap_bound=barrier.gap_bound,
+        )
+    else:
+        result = admm.fit_sparse(
+            problem, weights, norm, max_iter=max_iter, tol=tol, warm_start=warm_start
+        )
+        theta = result.theta
+        info.update(
+            solver="ADMM (banded k-update)", iterations=result.iterations,
+            converged=result.converged, objective=result.objective,
+            primal_residual=result.primal_residual, dual_residual=result.dual_residual,
+            rho=result.rho, n_factorizations=result.n_factorizations,
+        )
+    k = theta.reshape(N, K)
+    rss = float(np.sum(problem.residuals(theta) ** 2))
     noise_var = rss / (N * n)
-    info = {
-        "solver": "ADMM (banded k-update)",
-        "iterations": result.iterations,
-        "converged": result.converged,
-        "objective": result.objective,
-        "rss": rss,
-        "primal_residual": result.primal_residual,
-        "dual_residual": result.dual_residual,
-        "rho": result.rho,
-        "n_factorizations": result.n_factorizations,
-        # The largest weight at which this weight pattern gives the LTI fit.
-        "lambda_max": admm.lambda_max(problem, norm, weights / weights.max()),
-    }
+    info["rss"] = rss
+    # The largest weight at which this weight pattern gives the LTI fit.
+    info["lambda_max"] = admm.lambda_max(problem, norm, weights / weights.max())
     model = LTVModel(
         k, n, m, norm=norm, coeffs=problem.coeffs,
         lam=float(lam) if np.ndim(lam) == 0 else np.array(lam, float),
@@ -325,8 +347,9 @@ def fit_path(
     """Fit one model per scalar λ in ``lams`` (a regularization path).
 
     Equivalent to ``[fit(x, u, lam=lam, norm=norm, order=order) for lam in lams]``,
-    but for the sparse norms the path is solved from the largest λ down, each
-    ADMM run warm-started from the previous solution (its z, w and ρ).
+    but for the sparse norms the path is solved from the largest λ down; where
+    ADMM is the solver each run is warm-started from the previous solution (its
+    z, w and ρ).
 
     Parameters
     ----------

@@ -271,6 +271,77 @@ def backward(L, X, cov, b):  # pragma: no cover - compiled
         cov[t] = window[t % w, t % w]
 
 
+@numba.njit(cache=True)
+def factor_forward_blocks(diag, off, Z, L):  # pragma: no cover - compiled
+    """Factor a block-banded SPD matrix given by its blocks; forward-substitute Z.
+
+    Parameters
+    ----------
+    diag : (N, b, b) diagonal blocks H_{t,t}
+    off : (d, N, b, b) off-diagonal blocks, off[l-1, s] = H_{s+l, s}
+    Z : (N, b, r) right-hand sides, overwritten with L⁻¹ rhs
+    L : (N, d+1, b, b) output factor
+
+    Returns
+    -------
+    worst_ratio, worst_t, logdet : as :func:`factor_forward`
+    """
+    N, b, _ = diag.shape
+    d = off.shape[0]
+    M = np.empty((b, b))
+    ref = np.empty(b)
+    worst = np.inf
+    worst_t = 0
+    logdet = 0.0
+    for t in range(N):
+        for lag in range(min(d, t), 0, -1):
+            s = t - lag
+            blk = off[lag - 1, s]
+            for i in range(b):
+                for j in range(b):
+                    M[i, j] = blk[i, j]
+            for jj in range(max(0, t - d), s):
+                Lt = L[t, t - jj]
+                Ls = L[s, s - jj]
+                for i in range(b):
+                    for j in range(b):
+                        acc = 0.0
+                        for q in range(b):
+                            acc += Lt[i, q] * Ls[j, q]
+                        M[i, j] -= acc
+            Lss = L[s, 0]
+            out = L[t, lag]
+            for i in range(b):
+                for j in range(b):
+                    acc = M[i, j]
+                    for q in range(j):
+                        acc -= out[i, q] * Lss[j, q]
+                    out[i, j] = acc / Lss[j, j]
+        Ltt = L[t, 0]
+        for i in range(b):
+            for j in range(i + 1):
+                Ltt[i, j] = diag[t, i, j]
+            ref[i] = Ltt[i, i]
+        for lag in range(1, min(d, t) + 1):
+            Ll = L[t, lag]
+            for i in range(b):
+                for j in range(i + 1):
+                    acc = 0.0
+                    for q in range(b):
+                        acc += Ll[i, q] * Ll[j, q]
+                    Ltt[i, j] -= acc
+        ratio = _cholesky_block(Ltt, ref, b)
+        if ratio < worst:
+            worst = ratio
+            worst_t = t
+        if ratio < 0:
+            return -1.0, t, 0.0
+        for a in range(b):
+            logdet += 2.0 * np.log(Ltt[a, a])
+        _forward_step(L, Z, t, d, b)
+    return worst, worst_t, logdet
+
+
 @numba.njit(cache=True, inline="always")
 def solve(L, X, b):  # pragma: no cover - compiled
     """Solve L Lᵀ X = rhs in place; X (N, b, r) holds rhs on entry."""
