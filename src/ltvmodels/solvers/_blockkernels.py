@@ -112,6 +112,57 @@ def _backward_step(L, X, t, d, b):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, inline="always")
+def _offdiagonal_step(L, M, t, lag, d, b):  # pragma: no cover - compiled
+    """L_{t,s} = (M − Σ_j L_{t,j} L_{s,j}ᵀ) L_ss⁻ᵀ for s = t − lag; M holds H_{t,s}."""
+    s = t - lag
+    for jj in range(max(0, t - d), s):
+        Lt = L[t, t - jj]
+        Ls = L[s, s - jj]
+        for i in range(b):
+            for j in range(b):
+                acc = 0.0
+                for q in range(b):
+                    acc += Lt[i, q] * Ls[j, q]
+                M[i, j] -= acc
+    # Forward substitution on each row of M against L_ssᵀ.
+    Lss = L[s, 0]
+    out = L[t, lag]
+    for i in range(b):
+        for j in range(b):
+            acc = M[i, j]
+            for q in range(j):
+                acc -= out[i, q] * Lss[j, q]
+            out[i, j] = acc / Lss[j, j]
+
+
+@numba.njit(cache=True, inline="always")
+def _diagonal_step(L, Z, t, d, b, ref):  # pragma: no cover - compiled
+    """Finish block row t: L[t, 0] holds H_tt (lower triangle), ref its diagonal.
+
+    Subtracts Σ_l L_{t,t−l} L_{t,t−l}ᵀ, factors the block, forward-substitutes
+    row t of Z. Returns (smallest pivot² / ref ratio, −1 if not positive
+    definite; this block's contribution to log det H).
+    """
+    Ltt = L[t, 0]
+    for lag in range(1, min(d, t) + 1):
+        Ll = L[t, lag]
+        for i in range(b):
+            for j in range(i + 1):
+                acc = 0.0
+                for q in range(b):
+                    acc += Ll[i, q] * Ll[j, q]
+                Ltt[i, j] -= acc
+    ratio = _cholesky_block(Ltt, ref, b)
+    if ratio < 0:
+        return ratio, 0.0
+    logdet = 0.0
+    for a in range(b):
+        logdet += 2.0 * np.log(Ltt[a, a])
+    _forward_step(L, Z, t, d, b)
+    return ratio, logdet
+
+
+@numba.njit(cache=True, inline="always")
 def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, b):  # pragma: no cover - compiled
     """Factor H = L Lᵀ and forward-substitute the right-hand sides, in place.
 
@@ -148,53 +199,25 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, b):  # pragma:
     for t in range(N):
         # Off-diagonal blocks L_{t,s}, s = t − lag, in increasing s.
         for lag in range(min(d, t), 0, -1):
-            s = t - lag
-            beta = bands[lag, s]
+            beta = bands[lag, t - lag]
             for i in range(b):
                 for j in range(b):
                     M[i, j] = beta * W[i, j]
-            for jj in range(max(0, t - d), s):
-                Lt = L[t, t - jj]
-                Ls = L[s, s - jj]
-                for i in range(b):
-                    for j in range(b):
-                        acc = 0.0
-                        for q in range(b):
-                            acc += Lt[i, q] * Ls[j, q]
-                        M[i, j] -= acc
-            # L_{t,s} = M L_ss⁻ᵀ: forward substitution on each row.
-            Lss = L[s, 0]
-            out = L[t, lag]
-            for i in range(b):
-                for j in range(b):
-                    acc = M[i, j]
-                    for q in range(j):
-                        acc -= out[i, q] * Lss[j, q]
-                    out[i, j] = acc / Lss[j, j]
-        # Diagonal block: G_t + β_0 W − Σ_l L_{t,t−lag} L_{t,t−lag}ᵀ (lower triangle).
+            _offdiagonal_step(L, M, t, lag, d, b)
+        # Diagonal block G_t + β_0 W (lower triangle).
         beta = bands[0, t]
         Ltt = L[t, 0]
         for i in range(b):
             for j in range(i + 1):
                 Ltt[i, j] = _gram_entry(phi, n_rep, data_scale, extra, t, i, j) + beta * W[i, j]
             ref[i] = Ltt[i, i]
-        for lag in range(1, min(d, t) + 1):
-            Ll = L[t, lag]
-            for i in range(b):
-                for j in range(i + 1):
-                    acc = 0.0
-                    for q in range(b):
-                        acc += Ll[i, q] * Ll[j, q]
-                    Ltt[i, j] -= acc
-        ratio = _cholesky_block(Ltt, ref, b)
+        ratio, contribution = _diagonal_step(L, Z, t, d, b, ref)
         if ratio < worst:
             worst = ratio
             worst_t = t
         if ratio < 0:
             return -1.0, t, 0.0
-        for a in range(b):
-            logdet += 2.0 * np.log(Ltt[a, a])
-        _forward_step(L, Z, t, d, b)
+        logdet += contribution
     return worst, worst_t, logdet
 
 
@@ -295,50 +318,23 @@ def factor_forward_blocks(diag, off, Z, L):  # pragma: no cover - compiled
     logdet = 0.0
     for t in range(N):
         for lag in range(min(d, t), 0, -1):
-            s = t - lag
-            blk = off[lag - 1, s]
+            blk = off[lag - 1, t - lag]
             for i in range(b):
                 for j in range(b):
                     M[i, j] = blk[i, j]
-            for jj in range(max(0, t - d), s):
-                Lt = L[t, t - jj]
-                Ls = L[s, s - jj]
-                for i in range(b):
-                    for j in range(b):
-                        acc = 0.0
-                        for q in range(b):
-                            acc += Lt[i, q] * Ls[j, q]
-                        M[i, j] -= acc
-            Lss = L[s, 0]
-            out = L[t, lag]
-            for i in range(b):
-                for j in range(b):
-                    acc = M[i, j]
-                    for q in range(j):
-                        acc -= out[i, q] * Lss[j, q]
-                    out[i, j] = acc / Lss[j, j]
+            _offdiagonal_step(L, M, t, lag, d, b)
         Ltt = L[t, 0]
         for i in range(b):
             for j in range(i + 1):
                 Ltt[i, j] = diag[t, i, j]
             ref[i] = Ltt[i, i]
-        for lag in range(1, min(d, t) + 1):
-            Ll = L[t, lag]
-            for i in range(b):
-                for j in range(i + 1):
-                    acc = 0.0
-                    for q in range(b):
-                        acc += Ll[i, q] * Ll[j, q]
-                    Ltt[i, j] -= acc
-        ratio = _cholesky_block(Ltt, ref, b)
+        ratio, contribution = _diagonal_step(L, Z, t, d, b, ref)
         if ratio < worst:
             worst = ratio
             worst_t = t
         if ratio < 0:
             return -1.0, t, 0.0
-        for a in range(b):
-            logdet += 2.0 * np.log(Ltt[a, a])
-        _forward_step(L, Z, t, d, b)
+        logdet += contribution
     return worst, worst_t, logdet
 
 
