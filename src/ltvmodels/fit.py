@@ -149,12 +149,12 @@ def fit(
     max_iter, tol : int, float
         For "group" and "l1" (unused for "sq"): the iteration limit and the
         relative tolerance. With K <= 20 parameters per time step the solver is
-        a barrier (interior-point) method whose Newton systems are block-banded
-        (:mod:`ltvmodels.solvers.ipm`): ``tol`` bounds the duality gap relative
-        to the objective (``info["duality_gap_bound"]`` is the certified bound)
-        and ``max_iter`` the Newton steps. Otherwise ADMM
-        (:mod:`ltvmodels.solvers.admm`): ``tol`` applies to the relative primal
-        and dual residuals.
+        a primal-dual interior-point method whose Newton systems are
+        block-banded (:mod:`ltvmodels.solvers.ipm`, 15–30 iterations): ``tol``
+        bounds the duality gap relative to the objective
+        (``info["duality_gap"]``) and the relative primal and dual residuals.
+        Otherwise ADMM (:mod:`ltvmodels.solvers.admm`): ``tol`` applies to the
+        relative primal and dual residuals.
     refine : bool
         Two-step refinement (paper Section III-G): find the change points of
         this fit (:func:`ltvmodels.find_changepoints`, default rules) and refit
@@ -264,26 +264,36 @@ def _fit_sparse_norm(
     return model
 
 
-# Up to this many parameters per time step the barrier method's dense K × K
-# Newton blocks are cheap; beyond, ADMM's per-row p × p systems win.
-BARRIER_MAX_K = 20
+# Up to this many parameters per time step the interior-point method's dense
+# K × K Newton blocks are cheap; beyond, ADMM's per-row p × p systems win.
+IPM_MAX_K = 20
 
 
 def _solve_sparse(problem, lam, weights, norm, n, m, *, max_iter, tol, warm_start=None):
     """Solve on validated inputs; returns (LTVModel, ADMM result or None).
 
-    The barrier method (:mod:`ltvmodels.solvers.ipm`) is used when every weight
-    is positive and K <= BARRIER_MAX_K, ADMM otherwise.
+    The interior-point method (:mod:`ltvmodels.solvers.ipm`) is used when every
+    weight is positive and K <= IPM_MAX_K, ADMM otherwise.
     """
     N, K = problem.N, problem.K
     info: dict = {}
-    if K <= BARRIER_MAX_K and np.all(weights > 0):
-        barrier = ipm.fit_sparse_barrier(problem, weights, norm, tol=tol, max_newton=max_iter)
-        theta, result = barrier.theta, None
+    theta_bar = admm.null_space_fit(problem)
+    # The largest weight at which this weight pattern gives the LTI fit.
+    lam_max = admm.lambda_max(problem, norm, weights / weights.max(), theta_bar)
+    if np.all(weights > 0) and weights.max() >= lam_max:
+        # Dk = 0 is optimal (λ_max's dual certificate): the null-space fit, exactly.
+        theta, result = theta_bar, None
         info.update(
-            solver="barrier (block-banded Newton)", iterations=barrier.newton_steps,
-            converged=barrier.converged, objective=barrier.objective,
-            duality_gap_bound=barrier.gap_bound,
+            solver="closed form (lam >= lambda_max)", iterations=0, converged=True,
+            objective=float(np.sum(problem.residuals(theta) ** 2)), duality_gap=0.0,
+        )
+    elif K <= IPM_MAX_K and np.all(weights > 0):
+        ip = ipm.fit_sparse_ipm(problem, weights, norm, tol=tol, max_iter=max_iter)
+        theta, result = ip.theta, None
+        info.update(
+            solver="interior point (block-banded Newton systems)", iterations=ip.iterations,
+            converged=ip.converged, objective=ip.objective, duality_gap=ip.duality_gap,
+            primal_residual=ip.primal_residual, dual_residual=ip.dual_residual,
         )
     else:
         result = admm.fit_sparse(
@@ -300,8 +310,7 @@ def _solve_sparse(problem, lam, weights, norm, n, m, *, max_iter, tol, warm_star
     rss = float(np.sum(problem.residuals(theta) ** 2))
     noise_var = rss / (N * n)
     info["rss"] = rss
-    # The largest weight at which this weight pattern gives the LTI fit.
-    info["lambda_max"] = admm.lambda_max(problem, norm, weights / weights.max())
+    info["lambda_max"] = lam_max
     model = LTVModel(
         k, n, m, norm=norm, coeffs=problem.coeffs,
         lam=float(lam) if np.ndim(lam) == 0 else np.array(lam, float),

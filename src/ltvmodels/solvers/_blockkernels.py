@@ -339,6 +339,58 @@ def factor_forward_blocks(diag, off, Z, L):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, inline="always")
+def _penalty_block(P, coeffs, t, s, out, b):  # pragma: no cover - compiled
+    """out = block (t, s) of Dᵀ blkdiag(P_r) D = Σ_r c_{t−r} c_{s−r} P_r, for s <= t."""
+    d = coeffs.shape[0] - 1
+    for i in range(b):
+        for j in range(b):
+            out[i, j] = 0.0
+    for r in range(max(0, t - d), min(s, P.shape[0] - 1) + 1):
+        weight = coeffs[t - r] * coeffs[s - r]
+        Pr = P[r]
+        for i in range(b):
+            for j in range(b):
+                out[i, j] += weight * Pr[i, j]
+
+
+@numba.njit(cache=True, inline="always")
+def factor_forward_penalty(phi, n_rep, data_scale, P, coeffs, Z, L, b):  # pragma: no cover
+    """Factor H = data_scale · blkdiag(I_r ⊗ φ_t φ_tᵀ) + Dᵀ blkdiag(P_r) D; forward-substitute Z.
+
+    The penalty blocks P_r (b × b, one per row r of the difference operator D
+    with coefficients ``coeffs``) vary over time, unlike the fixed β·W of
+    :func:`factor_forward`: this is the Newton matrix of the interior-point
+    method. Arguments and return values otherwise as :func:`factor_forward`.
+    """
+    N = phi.shape[0]
+    d = coeffs.shape[0] - 1
+    M = np.empty((b, b))
+    ref = np.empty(b)
+    no_extra = np.empty((0, b, b))
+    worst = np.inf
+    worst_t = 0
+    logdet = 0.0
+    for t in range(N):
+        for lag in range(min(d, t), 0, -1):
+            _penalty_block(P, coeffs, t, t - lag, M, b)
+            _offdiagonal_step(L, M, t, lag, d, b)
+        _penalty_block(P, coeffs, t, t, M, b)
+        Ltt = L[t, 0]
+        for i in range(b):
+            for j in range(i + 1):
+                Ltt[i, j] = _gram_entry(phi, n_rep, data_scale, no_extra, t, i, j) + M[i, j]
+            ref[i] = Ltt[i, i]
+        ratio, contribution = _diagonal_step(L, Z, t, d, b, ref)
+        if ratio < worst:
+            worst = ratio
+            worst_t = t
+        if ratio < 0:
+            return -1.0, t, 0.0
+        logdet += contribution
+    return worst, worst_t, logdet
+
+
+@numba.njit(cache=True, inline="always")
 def solve(L, X, b):  # pragma: no cover - compiled
     """Solve L Lᵀ X = rhs in place; X (N, b, r) holds rhs on entry."""
     N, dp1, _, _ = L.shape
@@ -379,3 +431,12 @@ def backward_fixed(L, X, cov, b_tuple):  # pragma: no cover - compiled
 def solve_fixed(L, X, b_tuple):  # pragma: no cover - compiled
     """:func:`solve` with the block size ``len(b_tuple)`` as a constant."""
     solve(L, X, len(b_tuple))
+
+
+@numba.njit(cache=True)
+def factor_forward_penalty_fixed(
+    phi, n_rep, data_scale, P, coeffs, Z, L, b_tuple
+):  # pragma: no cover - compiled
+    """:func:`factor_forward_penalty` with the block size ``len(b_tuple)`` as a constant."""
+    return factor_forward_penalty(phi, n_rep, data_scale, P, coeffs, Z, L, len(b_tuple))
+

@@ -199,7 +199,27 @@ def fit_sparse(
     )
 
 
-def lambda_max(problem: RegressionProblem, norm: str, weights: np.ndarray | None = None) -> float:
+def null_space_fit(problem: RegressionProblem) -> np.ndarray:
+    """Least squares with Dk = 0 (the LTI fit for order 1); returns Θ̄ (N, n, p).
+
+    Every coefficient trajectory lies in null(D); the rows share the regressor.
+    """
+    from ..problem import null_space_basis
+
+    N, p = problem.N, problem.p
+    U = null_space_basis(N, problem.coeffs)  # (N, d)
+    Z = (U[:, :, None] * problem.phi[:, None, :]).reshape(N, -1)  # (N, d·p)
+    coef, *_ = np.linalg.lstsq(Z, problem.y, rcond=None)  # (d·p, n)
+    theta = np.einsum("tl,lan->tna", U, coef.reshape(U.shape[1], p, problem.n))
+    return np.ascontiguousarray(theta)
+
+
+def lambda_max(
+    problem: RegressionProblem,
+    norm: str,
+    weights: np.ndarray | None = None,
+    theta_bar: np.ndarray | None = None,
+) -> float:
     """Smallest λ (scaling ``weights``) for which the solution has Dk = 0.
 
     At λ ≥ λ_max the minimizer is the least-squares fit within the null space
@@ -214,19 +234,15 @@ def lambda_max(problem: RegressionProblem, norm: str, weights: np.ndarray | None
     norm : {"group", "l1"}
     weights : ndarray, shape (K,), optional
         Relative weights (default ones); coefficients with weight 0 are free.
+    theta_bar : ndarray, shape (N, n, p), optional
+        :func:`null_space_fit` of the problem, if already computed.
     """
     from scipy.linalg import solveh_banded
-
-    from ..problem import null_space_basis as basis_of
 
     N, n, p = problem.N, problem.n, problem.p
     K = n * p
     weights = np.ones(K) if weights is None else weights
-    # k̄: least squares with every trajectory in null(D) (rows share the regressor).
-    U = basis_of(N, problem.coeffs)  # (N, d)
-    Z = (U[:, :, None] * problem.phi[:, None, :]).reshape(N, -1)  # (N, d·p)
-    coef, *_ = np.linalg.lstsq(Z, problem.y, rcond=None)  # (d·p, n)
-    theta = np.einsum("tl,lan->tna", U, coef.reshape(U.shape[1], p, n))
+    theta = null_space_fit(problem) if theta_bar is None else theta_bar
     resid = problem.residuals(np.ascontiguousarray(theta))  # (N, n)
     g = (-2.0 * resid[:, :, None] * problem.phi[:, None, :]).reshape(N, K)
     free = weights == 0  # unpenalized coefficients: their dual part is unconstrained

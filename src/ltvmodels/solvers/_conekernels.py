@@ -1,0 +1,203 @@
+"""Compiled per-cone operations of the interior-point method (:mod:`.ipm`).
+
+Cone vectors are rows of (n_cones, g + 1) arrays: entry 0 is the scalar part
+v₀, entries 1… the vector part v₁. Cone i = r·C + c belongs to row r of the
+difference operator D and covers the coefficients c·g … c·g + g − 1 of that
+row (group: C = 1, g = K; l1: C = K, g = 1), so the vector parts of all cones
+of row r, in order, are the K entries of (ΛDk)_r.
+
+Every kernel is a plain loop over cones or time steps: the per-cone algebra
+is a few dozen flops, far too little for numpy's per-call overhead.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True)
+def weighted_difference(k, coeffs, w, out):  # pragma: no cover - compiled
+    """out[r·C + c, 1 + i] = w_j (Dk)_{r, j}, j = c·g + i; column 0 is left alone."""
+    R = k.shape[0] - coeffs.shape[0] + 1
+    K = k.shape[1]
+    g = out.shape[1] - 1
+    C = K // g
+    for r in range(R):
+        for j in range(K):
+            acc = 0.0
+            for q in range(coeffs.shape[0]):
+                acc += coeffs[q] * k[r + q, j]
+            out[r * C + j // g, 1 + j % g] = w[j] * acc
+
+
+@numba.njit(cache=True)
+def add_weighted_difference_adjoint(v, coeffs, w, scale, out):  # pragma: no cover - compiled
+    """out += scale · DᵀΛ v₁ for cone vectors v; out is (N, K)."""
+    K = out.shape[1]
+    g = v.shape[1] - 1
+    C = K // g
+    R = v.shape[0] // C
+    for r in range(R):
+        for j in range(K):
+            value = scale * w[j] * v[r * C + j // g, 1 + j % g]
+            for q in range(coeffs.shape[0]):
+                out[r + q, j] += coeffs[q] * value
+
+
+@numba.njit(cache=True)
+def nt_scaling(s, z, v, eta, lam):  # pragma: no cover - compiled
+    """Nesterov–Todd scaling W = η(2vvᵀ − J) of every cone and λ = Wz.
+
+    With s̄ = s/√(sᵀJs), z̄ = z/√(zᵀJz), γ = √((1 + s̄ᵀz̄)/2), the NT point
+    w̄ = (s̄ + Jz̄)/2γ satisfies η²(2w̄w̄ᵀ − J) z = s with η = (sᵀJs / zᵀJz)^¼;
+    W is the square root of that matrix, v = (w̄ + e)/√(2(w̄₀ + 1)).
+    """
+    n_cones, m = s.shape
+    for i in range(n_cones):
+        s_j = s[i, 0] * s[i, 0]
+        z_j = z[i, 0] * z[i, 0]
+        for a in range(1, m):
+            s_j -= s[i, a] * s[i, a]
+            z_j -= z[i, a] * z[i, a]
+        s_n = np.sqrt(s_j)
+        z_n = np.sqrt(z_j)
+        dot = 0.0
+        for a in range(m):
+            dot += s[i, a] * z[i, a]
+        gamma = np.sqrt(0.5 * (1.0 + dot / (s_n * z_n)))
+        w0 = (s[i, 0] / s_n + z[i, 0] / z_n) / (2.0 * gamma)
+        norm = 1.0 / np.sqrt(2.0 * (w0 + 1.0))
+        v[i, 0] = (w0 + 1.0) * norm
+        for a in range(1, m):
+            v[i, a] = (s[i, a] / s_n - z[i, a] / z_n) / (2.0 * gamma) * norm
+        eta[i] = np.sqrt(s_n / z_n)
+    apply_scaling(v, eta, z, 1.0, lam)
+
+
+@numba.njit(cache=True)
+def apply_scaling(v, eta, x, power, out):  # pragma: no cover - compiled
+    """out = W x (power = 1) or W⁻¹ x (power = −1) per cone; out may alias x.
+
+    W⁻¹ = η⁻¹(2Jv vᵀJ − J): the same reflection with v₁ negated.
+    """
+    n_cones, m = x.shape
+    for i in range(n_cones):
+        sign = 1.0 if power > 0 else -1.0
+        dot = v[i, 0] * x[i, 0]
+        for a in range(1, m):
+            dot += sign * v[i, a] * x[i, a]
+        factor = eta[i] if power > 0 else 1.0 / eta[i]
+        out[i, 0] = factor * (2.0 * dot * v[i, 0] - x[i, 0])
+        for a in range(1, m):
+            out[i, a] = factor * (2.0 * dot * sign * v[i, a] + x[i, a])
+
+
+@numba.njit(cache=True)
+def newton_blocks(v, eta, w, S, alpha, beta, s_coef):  # pragma: no cover - compiled
+    """Blocks of W⁻² = [[α, βᵀ], [β, Γ]] and the penalty blocks ΛSΛ of the Newton matrix.
+
+    Eliminating t_c leaves S_c = Γ − ββᵀ/α, the inverse of the lower-right
+    block of W² = η²(2vvᵀ − J)², which is η²(I + 8v₀² v₁v₁ᵀ) because
+    v₀² − ‖v₁‖² = 1; so S_c = η⁻² (I − s_coef_c v₁v₁ᵀ) with
+    s_coef_c = 8v₀² / (1 + 8v₀²‖v₁‖²). S (R, K, K) is filled with
+    Λ blkdiag_c(S_c) Λ for every row of D.
+    """
+    n_cones, m = v.shape
+    g = m - 1
+    K = S.shape[1]
+    C = K // g
+    for r in range(S.shape[0]):
+        for i in range(K):
+            for j in range(K):
+                S[r, i, j] = 0.0
+    for i in range(n_cones):
+        v0 = v[i, 0]
+        v1sq = 0.0
+        for a in range(1, m):
+            v1sq += v[i, a] * v[i, a]
+        inv_eta2 = 1.0 / (eta[i] * eta[i])
+        alpha[i] = inv_eta2 * ((2.0 * v0 * v0 - 1.0) ** 2 + 4.0 * v0 * v0 * v1sq)
+        b = -4.0 * inv_eta2 * v0 * (v0 * v0 + v1sq)
+        for a in range(1, m):
+            beta[i, a - 1] = b * v[i, a]
+        s_coef[i] = 8.0 * v0 * v0 / (1.0 + 8.0 * v0 * v0 * v1sq)
+        coef = inv_eta2 * s_coef[i]
+        r = i // C
+        base = (i % C) * g
+        for a in range(g):
+            ja = base + a
+            for c in range(g):
+                jc = base + c
+                value = -coef * v[i, 1 + a] * v[i, 1 + c]
+                if a == c:
+                    value += inv_eta2
+                S[r, ja, jc] = w[ja] * w[jc] * value
+
+
+@numba.njit(cache=True)
+def jordan_product(x, y, out):  # pragma: no cover - compiled
+    """out = x ∘ y = (xᵀy, x₀y₁ + y₀x₁) per cone."""
+    n_cones, m = x.shape
+    for i in range(n_cones):
+        dot = 0.0
+        for a in range(m):
+            dot += x[i, a] * y[i, a]
+        for a in range(1, m):
+            out[i, a] = x[i, 0] * y[i, a] + y[i, 0] * x[i, a]
+        out[i, 0] = dot
+
+
+@numba.njit(cache=True)
+def jordan_divide(lam, d, out):  # pragma: no cover - compiled
+    """out = x with λ ∘ x = d per cone (λ in the interior)."""
+    n_cones, m = lam.shape
+    for i in range(n_cones):
+        det = lam[i, 0] * lam[i, 0]
+        dot = lam[i, 0] * d[i, 0]
+        for a in range(1, m):
+            det -= lam[i, a] * lam[i, a]
+            dot -= lam[i, a] * d[i, a]
+        x0 = dot / det
+        for a in range(1, m):
+            out[i, a] = (d[i, a] - x0 * lam[i, a]) / lam[i, 0]
+        out[i, 0] = x0
+
+
+@numba.njit(cache=True)
+def max_step(x, dx):  # pragma: no cover - compiled
+    """Largest α with x + α·dx in every cone (inf if unbounded), x in the interior.
+
+    ‖x₁ + αd₁‖ <= x₀ + αd₀ is a quadratic inequality aα² + 2bα + c >= 0 with
+    c = xᵀJx > 0; unless d is itself in the cone the boundary is its smallest
+    positive root, c / (√(b² − ac) − b), written without cancellation.
+    """
+    n_cones, m = x.shape
+    best = np.inf
+    for i in range(n_cones):
+        a = dx[i, 0] * dx[i, 0]
+        b = x[i, 0] * dx[i, 0]
+        c = x[i, 0] * x[i, 0]
+        for q in range(1, m):
+            a -= dx[i, q] * dx[i, q]
+            b -= x[i, q] * dx[i, q]
+            c -= x[i, q] * x[i, q]
+        if dx[i, 0] >= 0.0 and a >= 0.0:
+            continue
+        root = c / max(np.sqrt(max(b * b - a * c, 0.0)) - b, 1e-300)
+        if root < best:
+            best = root
+    return best
+
+
+@numba.njit(cache=True)
+def apply_schur(v, eta, s_coef, e, out):  # pragma: no cover - compiled
+    """out₁ −= S_c e₁ per cone, S_c = η⁻² (I − s_coef v₁v₁ᵀ) (see :func:`newton_blocks`)."""
+    n_cones, m = v.shape
+    for i in range(n_cones):
+        dot = 0.0
+        for a in range(1, m):
+            dot += v[i, a] * e[i, a]
+        inv_eta2 = 1.0 / (eta[i] * eta[i])
+        for a in range(1, m):
+            out[i, a] -= inv_eta2 * (e[i, a] - s_coef[i] * dot * v[i, a])
