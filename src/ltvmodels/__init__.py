@@ -23,6 +23,7 @@ from .fit import fit, fit_lti, fit_path
 from .models import LTVModel, load
 from .piecewise import fit_piecewise
 from .priors import OutputPrior, Prior
+from .segments import fit_segments
 from .solvers.kalman import (
     KalmanFilterResult,
     KalmanSmootherResult,
@@ -38,6 +39,7 @@ __all__ = [
     "fit_lti",
     "fit_path",
     "fit_piecewise",
+    "fit_segments",
     "find_changepoints",
     "LTVModel",
     "load",

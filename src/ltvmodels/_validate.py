@@ -527,3 +527,99 @@ def changepoint_indices(
 def _integer_text(value: float) -> str:
     """An integral float as an integer, or in exponent notation when huge."""
     return str(int(value)) if abs(value) < 1e15 else f"{value:g}"
+
+
+# -- L0 segmentation (ltvmodels.segments) ---------------------------------------------------
+
+PENALTY_RULES = ("bic", "aic")
+
+
+def regression_data(y: Any, phi: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Validate a regression y_t = Θ φ_t: y (N, n) or (N,), φ (N, p) or (N,).
+
+    Returns float64 copies of shapes (N, n) and (N, p).
+    """
+    y = as_time_series(y, "y", allow_1d=True)
+    phi = as_time_series(phi, "phi", allow_1d=True)
+    if phi.shape[0] != y.shape[0]:
+        raise ValueError(
+            f"phi: expected {y.shape[0]} rows (one regressor vector per row of y), "
+            f"received {phi.shape[0]}"
+        )
+    return y, phi
+
+
+def segment_min_size(value: Any, p: int) -> int:
+    """Minimum segment length: None (→ p) or an integer >= p.
+
+    A segment with fewer samples than the p regressors of each output row has
+    no unique least-squares fit.
+    """
+    if value is None:
+        return p
+    if isinstance(value, bool) or not isinstance(value, Integral):
+        raise TypeError(
+            f"min_size: expected None or an integer >= p = {p}, received {_describe(value)}"
+        )
+    if value < p:
+        raise ValueError(
+            f"min_size: expected an integer >= p = {p} (a segment needs at least as many "
+            f"samples as regressors for its least squares to be well posed), received "
+            f"{int(value)}"
+        )
+    return int(value)
+
+
+def segmentable_length(N: int, min_size: int, data_name: str) -> None:
+    """Require at least one segment of ``min_size`` samples."""
+    if N < min_size:
+        extra = " (T = N + 1)" if data_name == "x" else ""
+        raise ValueError(
+            f"{data_name}: too few samples: {N} regression rows{extra} cannot hold a single "
+            f"segment of min_size = {min_size} samples"
+        )
+
+
+def n_changes_count(value: Any, N: int, min_size: int) -> int:
+    """Number of changes M: an integer >= 0 with (M + 1) · min_size <= N."""
+    if isinstance(value, bool) or not isinstance(value, Integral):
+        raise TypeError(
+            f"n_changes: expected an integer >= 0, received {_describe(value)}"
+        )
+    if value < 0:
+        raise ValueError(f"n_changes: expected an integer >= 0, received {int(value)}")
+    M = int(value)
+    if (M + 1) * min_size > N:
+        raise ValueError(
+            f"n_changes: {M} changes make {M + 1} segments of at least min_size = {min_size} "
+            f"samples, i.e. at least {(M + 1) * min_size} regression rows, but the data have "
+            f"N = {N}; use n_changes <= {N // min_size - 1} or a smaller min_size"
+        )
+    return M
+
+
+def segment_penalty(value: Any) -> float | str:
+    """Penalty per change: a finite real number >= 0, or one of the rules 'bic', 'aic'."""
+    if isinstance(value, str):
+        if value not in PENALTY_RULES:
+            raise ValueError(
+                f"penalty: expected a number >= 0 or one of {PENALTY_RULES}, received "
+                f"{_describe(value)}"
+            )
+        return value
+    if isinstance(value, bool) or np.ndim(value) != 0:
+        raise TypeError(
+            f"penalty: expected a number >= 0 or one of {PENALTY_RULES}, received "
+            f"{_describe(value)}"
+        )
+    return nonnegative_scalar(value.item() if hasattr(value, "item") else value, "penalty")
+
+
+def segment_mode(n_changes: Any, penalty: Any) -> None:
+    """n_changes and penalty are alternatives: at most one may be given."""
+    if n_changes is not None and penalty is not None:
+        raise TypeError(
+            "n_changes, penalty: expected one of them (n_changes=M for exactly M changes, "
+            f"penalty=β for a cost of β per change), received both (n_changes={n_changes!r}, "
+            f"penalty={penalty!r})"
+        )
