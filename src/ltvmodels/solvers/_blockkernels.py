@@ -140,8 +140,8 @@ def _diagonal_step(L, Z, t, d, b, ref):  # pragma: no cover - compiled
     """Finish block row t: L[t, 0] holds H_tt (lower triangle), ref its diagonal.
 
     Subtracts Σ_l L_{t,t−l} L_{t,t−l}ᵀ, factors the block, forward-substitutes
-    row t of Z. Returns (smallest pivot² / ref ratio, −1 if not positive
-    definite; this block's contribution to log det H).
+    row t of Z. Returns the smallest pivot² / ref ratio, −1 if not positive
+    definite.
     """
     Ltt = L[t, 0]
     for lag in range(1, min(d, t) + 1):
@@ -153,13 +153,18 @@ def _diagonal_step(L, Z, t, d, b, ref):  # pragma: no cover - compiled
                     acc += Ll[i, q] * Ll[j, q]
                 Ltt[i, j] -= acc
     ratio = _cholesky_block(Ltt, ref, b)
-    if ratio < 0:
-        return ratio, 0.0
+    if ratio >= 0:
+        _forward_step(L, Z, t, d, b)
+    return ratio
+
+
+@numba.njit(cache=True, inline="always")
+def _log_det_block(L, t, b):  # pragma: no cover - compiled
+    """This block's contribution to log det H = 2 Σ log diag(L_tt)."""
     logdet = 0.0
     for a in range(b):
-        logdet += 2.0 * np.log(Ltt[a, a])
-    _forward_step(L, Z, t, d, b)
-    return ratio, logdet
+        logdet += 2.0 * np.log(L[t, 0, a, a])
+    return logdet
 
 
 @numba.njit(cache=True, inline="always")
@@ -211,13 +216,13 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, b):  # pragma:
             for j in range(i + 1):
                 Ltt[i, j] = _gram_entry(phi, n_rep, data_scale, extra, t, i, j) + beta * W[i, j]
             ref[i] = Ltt[i, i]
-        ratio, contribution = _diagonal_step(L, Z, t, d, b, ref)
+        ratio = _diagonal_step(L, Z, t, d, b, ref)
         if ratio < worst:
             worst = ratio
             worst_t = t
         if ratio < 0:
             return -1.0, t, 0.0
-        logdet += contribution
+        logdet += _log_det_block(L, t, b)
     return worst, worst_t, logdet
 
 
@@ -328,13 +333,13 @@ def factor_forward_blocks(diag, off, Z, L):  # pragma: no cover - compiled
             for j in range(i + 1):
                 Ltt[i, j] = diag[t, i, j]
             ref[i] = Ltt[i, i]
-        ratio, contribution = _diagonal_step(L, Z, t, d, b, ref)
+        ratio = _diagonal_step(L, Z, t, d, b, ref)
         if ratio < worst:
             worst = ratio
             worst_t = t
         if ratio < 0:
             return -1.0, t, 0.0
-        logdet += contribution
+        logdet += _log_det_block(L, t, b)
     return worst, worst_t, logdet
 
 
@@ -360,7 +365,8 @@ def factor_forward_penalty(phi, n_rep, data_scale, P, coeffs, Z, L, b):  # pragm
     The penalty blocks P_r (b × b, one per row r of the difference operator D
     with coefficients ``coeffs``) vary over time, unlike the fixed β·W of
     :func:`factor_forward`: this is the Newton matrix of the interior-point
-    method. Arguments and return values otherwise as :func:`factor_forward`.
+    method. Arguments as :func:`factor_forward`; returns (worst_ratio,
+    worst_t) only, the log-determinant is not needed there.
     """
     N = phi.shape[0]
     d = coeffs.shape[0] - 1
@@ -369,7 +375,6 @@ def factor_forward_penalty(phi, n_rep, data_scale, P, coeffs, Z, L, b):  # pragm
     no_extra = np.empty((0, b, b))
     worst = np.inf
     worst_t = 0
-    logdet = 0.0
     for t in range(N):
         for lag in range(min(d, t), 0, -1):
             _penalty_block(P, coeffs, t, t - lag, M, b)
@@ -380,14 +385,13 @@ def factor_forward_penalty(phi, n_rep, data_scale, P, coeffs, Z, L, b):  # pragm
             for j in range(i + 1):
                 Ltt[i, j] = _gram_entry(phi, n_rep, data_scale, no_extra, t, i, j) + M[i, j]
             ref[i] = Ltt[i, i]
-        ratio, contribution = _diagonal_step(L, Z, t, d, b, ref)
+        ratio = _diagonal_step(L, Z, t, d, b, ref)
         if ratio < worst:
             worst = ratio
             worst_t = t
         if ratio < 0:
-            return -1.0, t, 0.0
-        logdet += contribution
-    return worst, worst_t, logdet
+            return -1.0, t
+    return worst, worst_t
 
 
 @numba.njit(cache=True, inline="always")

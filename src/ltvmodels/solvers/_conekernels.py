@@ -149,22 +149,6 @@ def jordan_product(x, y, out):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def jordan_divide(lam, d, out):  # pragma: no cover - compiled
-    """out = x with λ ∘ x = d per cone (λ in the interior)."""
-    n_cones, m = lam.shape
-    for i in range(n_cones):
-        det = lam[i, 0] * lam[i, 0]
-        dot = lam[i, 0] * d[i, 0]
-        for a in range(1, m):
-            det -= lam[i, a] * lam[i, a]
-            dot -= lam[i, a] * d[i, a]
-        x0 = dot / det
-        for a in range(1, m):
-            out[i, a] = (d[i, a] - x0 * lam[i, a]) / lam[i, 0]
-        out[i, 0] = x0
-
-
-@numba.njit(cache=True)
 def max_step(x, dx):  # pragma: no cover - compiled
     """Largest α with x + α·dx in every cone (inf if unbounded), x in the interior.
 
@@ -191,13 +175,146 @@ def max_step(x, dx):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def apply_schur(v, eta, s_coef, e, out):  # pragma: no cover - compiled
-    """out₁ −= S_c e₁ per cone, S_c = η⁻² (I − s_coef v₁v₁ᵀ) (see :func:`newton_blocks`)."""
-    n_cones, m = v.shape
-    for i in range(n_cones):
+def kkt_residuals(k, t, s, z, y, phi, coeffs, w, r_z, r_k):  # pragma: no cover - compiled
+    """Residuals of the optimality conditions at (k, t, s, z), in one pass.
+
+    Fills r_z = s − (t, ΛDk) (cone constraints) and r_k = 2Φᵀ(Φk − y) − DᵀΛz₁
+    (stationarity in k); the stationarity residual in t is 1 − z₀.
+
+    Returns
+    -------
+    loss, reg : float
+        ‖y − Φk‖² and Σ_c ‖(ΛDk)_c‖: the objective is their sum.
+    gap : float
+        sᵀz.
+    rz_norm, s_norm, rk_norm, rt_max : float
+        ‖r_z‖, ‖s‖, ‖r_k‖ and max |1 − z₀|.
+    """
+    N, n = y.shape
+    p = phi.shape[1]
+    K = n * p
+    g = s.shape[1] - 1
+    loss = 0.0
+    for tt in range(N):
+        for i in range(n):
+            e = y[tt, i]
+            for a in range(p):
+                e -= k[tt, i * p + a] * phi[tt, a]
+            loss += e * e
+            for a in range(p):
+                r_k[tt, i * p + a] = -2.0 * e * phi[tt, a]
+    add_weighted_difference_adjoint(z, coeffs, w, -1.0, r_k)
+    weighted_difference(k, coeffs, w, r_z)  # vector parts: ΛDk
+    reg = gap = rz_sq = s_sq = 0.0
+    rt_max = 0.0
+    for c in range(s.shape[0]):
+        norm_sq = 0.0
+        r_z[c, 0] = s[c, 0] - t[c]
+        for a in range(1, g + 1):
+            norm_sq += r_z[c, a] * r_z[c, a]
+            r_z[c, a] = s[c, a] - r_z[c, a]
+        reg += np.sqrt(norm_sq)
+        for a in range(g + 1):
+            gap += s[c, a] * z[c, a]
+            rz_sq += r_z[c, a] * r_z[c, a]
+            s_sq += s[c, a] * s[c, a]
+        rt_max = max(rt_max, abs(1.0 - z[c, 0]))
+    rk_sq = 0.0
+    for tt in range(N):
+        for j in range(K):
+            rk_sq += r_k[tt, j] * r_k[tt, j]
+    return loss, reg, gap, np.sqrt(rz_sq), np.sqrt(s_sq), np.sqrt(rk_sq), rt_max
+
+
+@numba.njit(cache=True)
+def direction_rhs(
+    target, lam, v, eta, r_z, z, alpha, beta, r_k, coeffs, w, work, rhs
+):  # pragma: no cover - compiled
+    """First half of a Newton direction: the right-hand side of the banded system.
+
+    With r̂ = r_z + W(λ ⋄ target), u = W⁻²r̂ and f_t = u₀ − (1 − z₀), stores
+    work = (f_t, u₁ − β f_t/α) per cone and rhs = −r_k + DᵀΛ work₁.
+    """
+    n_cones, m = target.shape
+    x = np.empty((1, m))
+    for c in range(n_cones):
+        det = lam[c, 0] * lam[c, 0]
+        dot = lam[c, 0] * target[c, 0]
+        for a in range(1, m):
+            det -= lam[c, a] * lam[c, a]
+            dot -= lam[c, a] * target[c, a]
+        x0 = dot / det
+        x[0, 0] = x0
+        for a in range(1, m):
+            x[0, a] = (target[c, a] - x0 * lam[c, a]) / lam[c, 0]
+        _scale_one(v, eta, c, x, 1.0)
+        for a in range(m):
+            x[0, a] += r_z[c, a]
+        _scale_one(v, eta, c, x, -1.0)
+        _scale_one(v, eta, c, x, -1.0)
+        f_t = x[0, 0] - (1.0 - z[c, 0])
+        work[c, 0] = f_t
+        for a in range(1, m):
+            work[c, a] = x[0, a] - beta[c, a - 1] * f_t / alpha[c]
+    for tt in range(rhs.shape[0]):
+        for j in range(rhs.shape[1]):
+            rhs[tt, j] = -r_k[tt, j]
+    add_weighted_difference_adjoint(work, coeffs, w, 1.0, rhs)
+
+
+@numba.njit(cache=True)
+def direction_finish(
+    dk, work, r_z, z, alpha, beta, v, eta, s_coef, coeffs, w, dt, ds, dz
+):  # pragma: no cover - compiled
+    """Second half of a Newton direction, from the solution Δk of the banded system.
+
+    With e = ΛDΔk: Δt = (f_t − βᵀe)/α, Δs = (Δt, e) − r_z and
+    Δz = u − W⁻²(Δt, e) = (1 − z₀, work₁ − S e), using (W⁻²(Δt, e))₀ = f_t and
+    (W⁻²(Δt, e))₁ = S e + β f_t/α, which avoid cancellation between large terms.
+    """
+    weighted_difference(dk, coeffs, w, ds)  # vector parts: e
+    n_cones, m = ds.shape
+    for c in range(n_cones):
+        acc = work[c, 0]
         dot = 0.0
         for a in range(1, m):
-            dot += v[i, a] * e[i, a]
-        inv_eta2 = 1.0 / (eta[i] * eta[i])
+            acc -= beta[c, a - 1] * ds[c, a]
+            dot += v[c, a] * ds[c, a]
+        dt[c] = acc / alpha[c]
+        inv_eta2 = 1.0 / (eta[c] * eta[c])
+        dz[c, 0] = 1.0 - z[c, 0]
         for a in range(1, m):
-            out[i, a] -= inv_eta2 * (e[i, a] - s_coef[i] * dot * v[i, a])
+            dz[c, a] = work[c, a] - inv_eta2 * (ds[c, a] - s_coef[c] * dot * v[c, a])
+        ds[c, 0] = dt[c] - r_z[c, 0]
+        for a in range(1, m):
+            ds[c, a] -= r_z[c, a]
+
+
+@numba.njit(cache=True)
+def corrector_target(lam, v, eta, ds_a, dz_a, sigma_mu, out):  # pragma: no cover - compiled
+    """Mehrotra's target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a); ds_a, dz_a are overwritten."""
+    apply_scaling(v, eta, ds_a, -1.0, ds_a)
+    apply_scaling(v, eta, dz_a, 1.0, dz_a)
+    jordan_product(ds_a, dz_a, out)
+    n_cones, m = lam.shape
+    for c in range(n_cones):
+        sq = 0.0
+        for a in range(m):
+            sq += lam[c, a] * lam[c, a]
+        out[c, 0] = sigma_mu - sq - out[c, 0]
+        for a in range(1, m):
+            out[c, a] = -2.0 * lam[c, 0] * lam[c, a] - out[c, a]
+
+
+@numba.njit(cache=True, inline="always")
+def _scale_one(v, eta, c, x, power):  # pragma: no cover - compiled
+    """x[0] ← W_c x[0] (power 1) or W_c⁻¹ x[0] (power −1)."""
+    m = x.shape[1]
+    sign = 1.0 if power > 0 else -1.0
+    dot = v[c, 0] * x[0, 0]
+    for a in range(1, m):
+        dot += sign * v[c, a] * x[0, a]
+    factor = eta[c] if power > 0 else 1.0 / eta[c]
+    x[0, 0] = factor * (2.0 * dot * v[c, 0] - x[0, 0])
+    for a in range(1, m):
+        x[0, a] = factor * (2.0 * dot * sign * v[c, a] + x[0, a])

@@ -42,7 +42,7 @@ STEP_FRACTION = 0.99
 # A step shorter than this makes no progress: the iterate is as good as it gets.
 MIN_STEP = 1e-10
 # Use the kernels compiled for a constant block size from this many unknowns on.
-FIXED_KERNEL_MIN_SIZE = 20_000
+FIXED_KERNEL_MIN_SIZE = 2_000
 
 
 @dataclass
@@ -59,120 +59,135 @@ class InteriorPointResult:
 
 
 class _ConicProblem:
-    """The data of the conic program, its workspace and the operators it needs.
+    """The data of the conic program and the factorization of its Newton matrix.
 
     Cone vectors are (n_cones, g + 1) arrays as in :mod:`._conekernels`.
     """
 
     def __init__(self, problem: RegressionProblem, weights: np.ndarray, norm: str):
-        self.pb = problem
         self.N, self.n, self.p, self.K = problem.N, problem.n, problem.p, problem.K
-        self.coeffs = np.ascontiguousarray(problem.coeffs, dtype=float)
-        self.rows = self.N - problem.degree
-        self.w = np.ascontiguousarray(weights, dtype=float)
-        g = self.K if norm == "group" else 1  # cone size without t
-        self.n_cones = self.rows * (self.K // g)
-        self.cone_shape = (self.n_cones, g + 1)
+        self.y = np.ascontiguousarray(problem.y)
         self.phi = np.ascontiguousarray(problem.phi)
-        self.phity = (problem.y[:, :, None] * self.phi[:, None, :]).reshape(self.N, self.K)
-        size = self.N * self.K
-        self.fixed = (0,) * self.K if size >= FIXED_KERNEL_MIN_SIZE and self.K <= 16 else None
-        self.S = np.empty((self.rows, self.K, self.K))
-        self.L = np.empty((self.N, problem.degree + 1, self.K, self.K))
-
-    def cones(self, k: np.ndarray, t: np.ndarray | float = 0.0) -> np.ndarray:
-        """The cone vectors (t_c, (ΛDk)_c)."""
-        out = np.empty(self.cone_shape)
-        out[:, 0] = t
-        cones.weighted_difference(k, self.coeffs, self.w, out)
-        return out
-
-    def residuals(self, k: np.ndarray) -> np.ndarray:
-        return self.pb.residuals(k.reshape(self.N, self.n, self.p))
-
-    def half_gradient(self, k: np.ndarray) -> np.ndarray:
-        """ΦᵀΦk − Φᵀy = −Φᵀ(y − Φk), (N, K)."""
-        return (-self.residuals(k)[:, :, None] * self.phi[:, None, :]).reshape(self.N, self.K)
-
-    def objective(self, k: np.ndarray) -> float:
-        reg = np.sqrt(np.sum(self.cones(k)[:, 1:] ** 2, axis=-1)).sum()
-        return float(np.sum(self.residuals(k) ** 2) + reg)
-
-    def factor(self) -> None:
-        """Factor 2ΦᵀΦ + DᵀΛSΛD (the penalty blocks in ``self.S``) into ``self.L``."""
-        rhs = np.empty((self.N, self.K, 0))
-        if self.fixed is not None:
-            worst, worst_t, _ = kernels.factor_forward_penalty_fixed(
-                self.phi, self.n, 2.0, self.S, self.coeffs, rhs, self.L, self.fixed
-            )
+        self.coeffs = np.ascontiguousarray(problem.coeffs, dtype=float)
+        self.w = np.ascontiguousarray(weights, dtype=float)
+        rows = self.N - problem.degree
+        g = self.K if norm == "group" else 1  # cone size without t
+        self.n_cones = rows * (self.K // g)
+        self.cone_shape = (self.n_cones, g + 1)
+        # The data couple the coefficients of a time step only within an output
+        # row (ΦᵀΦ = blkdiag_t(I_n ⊗ φ_tφ_tᵀ)); the l1 cones are single
+        # coefficients, so then the Newton matrix splits into n systems with
+        # p × p blocks, one per row. The group cones couple all K coefficients.
+        if norm == "l1":
+            self.systems = [slice(i * self.p, (i + 1) * self.p) for i in range(self.n)]
+            self.n_rep = 1
         else:
-            worst, worst_t, _ = kernels.factor_forward_penalty(
-                self.phi, self.n, 2.0, self.S, self.coeffs, rhs, self.L, self.K
-            )
-        if worst < 0:
-            raise SingularProblemError(
-                f"the Newton system is singular near time step {worst_t}: the data do not "
-                "determine the model; more excitation or a larger lam helps"
-            )
+            self.systems = [slice(0, self.K)]
+            self.n_rep = self.n
+        b = self.systems[0].stop - self.systems[0].start
+        self.b = b
+        self.fixed = (0,) * b if self.N * b >= FIXED_KERNEL_MIN_SIZE and b <= 16 else None
+        self.S = np.empty((rows, self.K, self.K))
+        self.L = np.empty((len(self.systems), self.N, problem.degree + 1, b, b))
+
+    def factor(self, rhs: np.ndarray) -> None:
+        """Factor 2ΦᵀΦ + DᵀΛSΛD (penalty blocks in ``self.S``) into ``self.L``.
+
+        The right-hand side ``rhs`` (N, K) is forward-substituted in the same
+        sweep; :meth:`back_substitute` then completes its solution.
+        """
+        for L, rows in zip(self.L, self.systems, strict=True):
+            Z = np.ascontiguousarray(rhs[:, rows])[:, :, None]
+            S = np.ascontiguousarray(self.S[:, rows, rows])
+            args = (self.phi, self.n_rep, 2.0, S, self.coeffs, Z, L)
+            if self.fixed is not None:
+                worst, worst_t = kernels.factor_forward_penalty_fixed(*args, self.fixed)
+            else:
+                worst, worst_t = kernels.factor_forward_penalty(*args, self.b)
+            if worst < 0:
+                raise SingularProblemError(
+                    f"the Newton system is singular near time step {worst_t}: the data do "
+                    "not determine the model; more excitation or a larger lam helps"
+                )
+            rhs[:, rows] = Z[:, :, 0]
+
+    def back_substitute(self, rhs: np.ndarray) -> np.ndarray:
+        """Complete the solution of a right-hand side forward-substituted by :meth:`factor`."""
+        no_cov = np.empty((0, self.b, self.b))
+        for L, rows in zip(self.L, self.systems, strict=True):
+            X = np.ascontiguousarray(rhs[:, rows])[:, :, None]
+            if self.fixed is not None:
+                kernels.backward_fixed(L, X, no_cov, self.fixed)
+            else:
+                kernels.backward(L, X, no_cov, self.b)
+            rhs[:, rows] = X[:, :, 0]
+        return rhs
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """Solve the factored Newton system for rhs (N, K), in place."""
-        X = rhs[:, :, None]
-        if self.fixed is not None:
-            kernels.solve_fixed(self.L, X, self.fixed)
-        else:
-            kernels.solve(self.L, X, self.K)
+        for L, rows in zip(self.L, self.systems, strict=True):
+            X = np.ascontiguousarray(rhs[:, rows])[:, :, None]
+            if self.fixed is not None:
+                kernels.solve_fixed(L, X, self.fixed)
+            else:
+                kernels.solve(L, X, self.b)
+            rhs[:, rows] = X[:, :, 0]
         return rhs
 
 
 class _NewtonSystem:
     """The linearized KKT system at one iterate, factored once for several targets.
 
-    Newton's equations for the residuals r_x = (r_t, r_k) (stationarity in t
+    Newton's equations for the residuals r_x = (1 − z₀, r_k) (stationarity in t
     and k) and r_z = s − (t, ΛDk) (the cone constraints), in scaled form, are
 
         P Δx + GᵀΔz = −r_x,   GΔx + Δs = −r_z,   λ ∘ (WΔz + W⁻¹Δs) = target,
 
     with G(t, k) = −(t, ΛDk). Eliminating Δs, then Δz = W⁻²(GΔx + r̂) with
-    r̂ = r_z + W(λ ⋄ target), then Δt per cone, leaves the banded system in Δk.
+    r̂ = r_z + W(λ ⋄ target), then Δt per cone, leaves the banded system in Δk
+    (see :func:`._conekernels.direction_rhs` and :func:`._conekernels.direction_finish`).
     """
 
-    def __init__(self, cp: _ConicProblem, s, z, r_z, r_t, r_k):
-        self.cp, self.r_z, self.r_t, self.r_k = cp, r_z, r_t, r_k
+    def __init__(self, cp: _ConicProblem, s, z, r_z, r_k):
+        self.cp, self.z, self.r_z, self.r_k = cp, z, r_z, r_k
         n_cones, m = s.shape
         self.v, self.eta, self.lam = np.empty_like(s), np.empty(n_cones), np.empty_like(s)
         self.alpha, self.beta = np.empty(n_cones), np.empty((n_cones, m - 1))
         self.s_coef = np.empty(n_cones)
         cones.nt_scaling(s, z, self.v, self.eta, self.lam)
         cones.newton_blocks(self.v, self.eta, cp.w, cp.S, self.alpha, self.beta, self.s_coef)
-        cp.factor()
+        self.lam_sq = np.empty_like(s)
+        cones.jordan_product(self.lam, self.lam, self.lam_sq)
 
-    def scale(self, x: np.ndarray, power: float) -> np.ndarray:
-        """W x (power 1) or W⁻¹ x (power −1), as a new array."""
-        out = np.empty_like(x)
-        cones.apply_scaling(self.v, self.eta, x, power, out)
-        return out
+    def affine_direction(self):
+        """Factor the Newton matrix and solve for the predictor target −λ∘λ."""
+        work, rhs = self._rhs(-self.lam_sq)
+        self.cp.factor(rhs)  # the forward substitution rides along
+        return self._finish(self.cp.back_substitute(rhs), work)
 
     def direction(self, target: np.ndarray):
-        """(Δk, Δt, Δs, Δz) for the complementarity target."""
+        """(Δk, Δt, Δs, Δz) for the complementarity target (after :meth:`affine_direction`)."""
+        work, rhs = self._rhs(target)
+        return self._finish(self.cp.solve(rhs), work)
+
+    def _rhs(self, target: np.ndarray):
         cp = self.cp
         work = np.empty_like(target)
-        cones.jordan_divide(self.lam, target, work)
-        r_hat = self.scale(work, 1.0) + self.r_z
-        u = self.scale(self.scale(r_hat, -1.0), -1.0)  # W⁻² r̂
-        f_t = u[:, 0] - self.r_t
-        work[:, 1:] = u[:, 1:] - self.beta * (f_t / self.alpha)[:, None]
-        rhs = -self.r_k
-        cones.add_weighted_difference_adjoint(work, cp.coeffs, cp.w, 1.0, rhs)
-        dk = cp.solve(rhs)
-        dv = cp.cones(dk)  # (Δt, ΛDΔk), Δt from its elimination
-        dv[:, 0] = (f_t - np.sum(self.beta * dv[:, 1:], axis=1)) / self.alpha
-        # Δz = u − W⁻²(Δt, e) with e = ΛDΔk. By the elimination, (W⁻²(Δt, e))₀ = f_t
-        # and (W⁻²(Δt, e))₁ = S e + β f_t/α: no cancellation between large terms.
-        dz = work
-        dz[:, 0] = self.r_t
-        cones.apply_schur(self.v, self.eta, self.s_coef, dv, dz)
-        return dk, dv[:, 0].copy(), dv - self.r_z, dz
+        rhs = np.empty((cp.N, cp.K))
+        cones.direction_rhs(
+            target, self.lam, self.v, self.eta, self.r_z, self.z, self.alpha, self.beta,
+            self.r_k, cp.coeffs, cp.w, work, rhs,
+        )
+        return work, rhs
+
+    def _finish(self, dk: np.ndarray, work: np.ndarray):
+        cp = self.cp
+        dt, ds, dz = np.empty(cp.n_cones), np.empty_like(work), np.empty_like(work)
+        cones.direction_finish(
+            dk, work, self.r_z, self.z, self.alpha, self.beta, self.v, self.eta, self.s_coef,
+            cp.coeffs, cp.w, dt, ds, dz,
+        )
+        return dk, dt, ds, dz
 
 
 def fit_sparse_ipm(
@@ -207,33 +222,36 @@ def fit_sparse_ipm(
     cp = _ConicProblem(problem, weights, norm)
     N, K, n_cones = cp.N, cp.K, cp.n_cones
     k = np.zeros((N, K)) if k0 is None else np.array(k0, dtype=float)
+    t = np.zeros(n_cones)
+    s, z = np.zeros(cp.cone_shape), np.zeros(cp.cone_shape)
+    r_z, r_k = np.empty(cp.cone_shape), np.empty((N, K))
+    loss, reg, *_ = cones.kkt_residuals(k, t, s, z, cp.y, cp.phi, cp.coeffs, cp.w, r_z, r_k)
     # Start: s = (‖z_c‖ + δ, z_c) with t = s₀, so the cone constraints hold;
     # dual z = e. Then the gap is δ per cone; δ matches the objective's scale.
-    s = cp.cones(k)
-    delta = max(cp.objective(k) / n_cones, 1e-12)
-    s[:, 0] = np.sqrt(np.sum(s[:, 1:] ** 2, axis=1)) + delta
-    t = s[:, 0].copy()
-    z = np.zeros_like(s)
+    s[:, 1:] = -r_z[:, 1:]
+    s[:, 0] = np.sqrt(np.sum(s[:, 1:] ** 2, axis=1)) + max((loss + reg) / n_cones, 1e-12)
+    t[:] = s[:, 0]
     z[:, 0] = 1.0
-    scale_k = 1.0 + 2.0 * float(np.linalg.norm(cp.phity))
+    scale_k = 1.0 + 2.0 * float(np.linalg.norm(cp.y)) * float(np.linalg.norm(cp.phi))
     converged = stalled = False
     iterations = 0
     while True:
-        r_z = s - cp.cones(k, t)
-        r_t = 1.0 - z[:, 0]
-        r_k = 2.0 * cp.half_gradient(k)
-        cones.add_weighted_difference_adjoint(z, cp.coeffs, cp.w, -1.0, r_k)
-        gap = float(np.sum(s * z))
-        objective = cp.objective(k)
-        primal_res = float(np.linalg.norm(r_z)) / (1.0 + float(np.linalg.norm(s)))
-        dual_res = max(float(np.linalg.norm(r_k)) / scale_k, float(np.abs(r_t).max()))
+        loss, reg, gap, rz_norm, s_norm, rk_norm, rt_max = cones.kkt_residuals(
+            k, t, s, z, cp.y, cp.phi, cp.coeffs, cp.w, r_z, r_k
+        )
+        objective = loss + reg
+        primal_res = rz_norm / (1.0 + s_norm)
+        dual_res = max(rk_norm / scale_k, rt_max)
         if gap <= tol * max(objective, 1e-300) and primal_res <= tol and dual_res <= tol:
             converged = True
             break
         if iterations == max_iter:
             break
+        newton = _NewtonSystem(cp, s, z, r_z, r_k)
+        # Predictor (affine) step, target −λ∘λ; then Mehrotra's corrector with the
+        # target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a), σ = (1 − α_a)³.
         try:
-            newton = _NewtonSystem(cp, s, z, r_z, r_t, r_k)
+            _, _, ds_a, dz_a = newton.affine_direction()
         except SingularProblemError:
             if iterations == 0:
                 raise
@@ -243,17 +261,10 @@ def fit_sparse_ipm(
             stalled = True
             break
         iterations += 1
-        lam_sq = np.empty_like(s)
-        cones.jordan_product(newton.lam, newton.lam, lam_sq)
-        # Predictor (affine) step, then Mehrotra's corrector with the target
-        # σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a), σ = (1 − α_a)³.
-        _, _, ds_a, dz_a = newton.direction(-lam_sq)
         step = min(1.0, cones.max_step(s, ds_a), cones.max_step(z, dz_a))
+        sigma_mu = (1.0 - step) ** 3 * gap / n_cones
         target = np.empty_like(s)
-        cones.jordan_product(newton.scale(ds_a, -1.0), newton.scale(dz_a, 1.0), target)
-        target += lam_sq
-        target *= -1.0
-        target[:, 0] += (1.0 - step) ** 3 * gap / n_cones
+        cones.corrector_target(newton.lam, newton.v, newton.eta, ds_a, dz_a, sigma_mu, target)
         dk, dt, ds, dz = newton.direction(target)
         step = min(1.0, STEP_FRACTION * min(cones.max_step(s, ds), cones.max_step(z, dz)))
         if step < MIN_STEP:
