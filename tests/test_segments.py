@@ -102,6 +102,22 @@ def test_dynamic_program_equals_brute_force(seed, N, n, p, min_size, M):
     assert all(b - a >= min_size for a, b in result.segments)
 
 
+def test_one_change_shortcut_equals_full_dynamic_program():
+    """M = 1 takes two O(N) passes; the general O(N²) program gives the same."""
+    from ltvmodels.solvers import segment as seg
+
+    x, u = switching_system(17, 80, 2, 1, changes=(33,), noise=0.3)
+    u[50:58] = 0.0  # an infeasible stretch
+    phi = np.hstack([x[:-1], u[:-1]])
+    data = seg.scale_data(x[1:], phi).data
+    for min_size in (3, 7):
+        a_max = seg.feasible_starts(data, 3, min_size, seg.FEASIBILITY_TOL * 79)
+        fast, fast_starts = seg.one_change(data, 3, a_max)
+        full, full_starts = seg.dynamic_program(data, 3, 1, min_size, a_max)
+        np.testing.assert_allclose(fast, full, rtol=1e-12)
+        assert fast_starts[1, -1] == full_starts[1, -1]
+
+
 def test_costs_guarded_against_cancellation():
     """A nearly exact fit with a large regressor offset: the costs still match lstsq.
 

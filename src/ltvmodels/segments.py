@@ -158,8 +158,9 @@ def fit_segments(
     segment [a, b) is computed by a sequential QR update (one Givens row
     update per start, O(p (p + n)), shared by the n output rows; no normal
     equations and no differences of large prefix sums, so no cancellation).
-    The dynamic program evaluates all N(N+1)/2 segments once, whatever M,
-    and gives the optimal cost for every number of changes 0 … M; PELT
+    The dynamic program evaluates all N(N+1)/2 segments once, whatever M
+    (for M = 1 one forward and one backward pass suffice: O(N)), and gives
+    the optimal cost for every number of changes 0 … M; PELT
     evaluates only unpruned starts, near-linear when changes are frequent and
     up to quadratic when they are rare.
 
@@ -358,7 +359,10 @@ def _segment(
     unit = scaled.y_scale**2
 
     if M >= 0:
-        best, starts = _seg.dynamic_program(scaled.data, p, M, min_size, a_max)
+        if M == 1:  # O(N): one forward and one backward pass
+            best, starts = _seg.one_change(scaled.data, p, a_max)
+        else:
+            best, starts = _seg.dynamic_program(scaled.data, p, M, min_size, a_max)
         costs = best * unit
         finite = np.isfinite(costs)
         lowest = costs[finite].min()
@@ -370,7 +374,7 @@ def _segment(
         result = dict(
             cost=cost, objective=cost, costs_by_n_changes=costs, penalty=None,
             penalty_rule=None, noise_var=None, solver="dynamic programming",
-            work=N * (N + 1) // 2,
+            work=2 * N if M == 1 else N * (N + 1) // 2,
         )
     else:
         if isinstance(beta_spec, str):

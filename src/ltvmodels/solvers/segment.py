@@ -259,6 +259,42 @@ def dynamic_program(data, p, n_changes, min_size, a_max):  # pragma: no cover - 
 
 
 @numba.njit(cache=True)
+def one_change(data, p, a_max):  # pragma: no cover - compiled
+    """The dynamic program for M = 1 in O(N): one forward and one backward pass.
+
+    C(0, b) for every b comes from rotating rows 0, 1, … in turn, C(b, N)
+    from rows N−1, N−2, …; the best split minimizes their sum over the b
+    with both segments feasible. Returns the same as :func:`dynamic_program`.
+    """
+    N = data.shape[0]
+    q = data.shape[1]
+    W = np.zeros((p, q))
+    v = np.empty(q)
+    head = np.empty(N + 1)  # head[b] = C(0, b)
+    head[0] = 0.0
+    rss = 0.0
+    for b in range(1, N + 1):
+        for j in range(q):
+            v[j] = data[b - 1, j]
+        rss += _add_row(W, v, p, q)
+        head[b] = rss
+    tail = np.empty(N + 1)  # tail[a] = C(a, N)
+    segment_costs_ending_at(data, p, N, 0, tail, W, v)
+    best = np.full(2, np.inf)
+    starts = np.full((2, N + 1), -1, dtype=np.int64)
+    best[0] = head[N]
+    starts[0, N] = 0
+    for b in range(1, a_max[N] + 1):  # [b, N) feasible
+        if a_max[b] < 0:  # [0, b) infeasible
+            continue
+        val = head[b] + tail[b]
+        if val < best[1]:
+            best[1] = val
+            starts[1, N] = b
+    return best, starts
+
+
+@numba.njit(cache=True)
 def pelt(data, p, beta, min_size, a_max, margin):  # pragma: no cover - compiled
     """Minimize Σ C + β · #changes exactly by PELT (see the module docstring).
 
