@@ -99,7 +99,11 @@ def test_noise_var_none_is_the_ml_estimate(order, kind):
     res = minimize_scalar(lambda v: -ref.loglik_kappa(np.inf, np.exp(v)),
                           bounds=(np.log(s2) - 3, np.log(s2) + 3), method="bounded",
                           options={"xatol": 1e-10})
-    assert np.exp(res.x) == pytest.approx(s2, rel=1e-6)
+    # The likelihood is flat at its maximum (a relative change δ in σ² costs
+    # ~N·δ²/2), so the optimizer's argmax is only good to ~1e-6 relative:
+    # compare the likelihood values, which are good to ~1e-11.
+    assert np.exp(res.x) == pytest.approx(s2, rel=1e-5)
+    assert ref.loglik_kappa(np.inf, s2) >= -res.fun - 1e-9
     assert model.loglik == pytest.approx(-res.fun, abs=1e-8)
 
 

@@ -59,11 +59,12 @@ def _cholesky_block(A, ref, b):  # pragma: no cover - compiled
             return -1.0
         piv = np.sqrt(s)
         A[j, j] = piv
+        inv = 1.0 / piv
         for i in range(j + 1, b):
             acc = A[i, j]
             for q in range(j):
                 acc -= A[i, q] * A[j, q]
-            A[i, j] = acc / piv
+            A[i, j] = acc * inv
         for i in range(j):
             A[i, j] = 0.0
     return worst
@@ -87,7 +88,7 @@ def _forward_step(L, X, t, d, b):  # pragma: no cover - compiled
             acc = X[t, i, c]
             for q in range(i):
                 acc -= Ltt[i, q] * X[t, q, c]
-            X[t, i, c] = acc / Ltt[i, i]
+            X[t, i, c] = acc * (1.0 / Ltt[i, i])  # reciprocal off the dependency chain
 
 
 @numba.njit(cache=True, inline="always")
@@ -97,18 +98,19 @@ def _backward_step(L, X, t, d, b):  # pragma: no cover - compiled
     r = X.shape[2]
     for lag in range(1, min(d, N - 1 - t) + 1):
         Ll = L[t + lag, lag]
-        for q in range(b):
+        for c in range(r):
             for i in range(b):
-                lqi = Ll[q, i]
-                for c in range(r):
-                    X[t, i, c] -= lqi * X[t + lag, q, c]
+                acc = 0.0  # in a register: X[t] and X[t + lag] may alias for the compiler
+                for q in range(b):
+                    acc += Ll[q, i] * X[t + lag, q, c]
+                X[t, i, c] -= acc
     Ltt = L[t, 0]
     for c in range(r):
         for i in range(b - 1, -1, -1):
             acc = X[t, i, c]
             for q in range(i + 1, b):
                 acc -= Ltt[q, i] * X[t, q, c]
-            X[t, i, c] = acc / Ltt[i, i]
+            X[t, i, c] = acc * (1.0 / Ltt[i, i])
 
 
 @numba.njit(cache=True, inline="always")
@@ -124,15 +126,17 @@ def _offdiagonal_step(L, M, t, lag, d, b):  # pragma: no cover - compiled
                 for q in range(b):
                     acc += Lt[i, q] * Ls[j, q]
                 M[i, j] -= acc
-    # Forward substitution on each row of M against L_ssᵀ.
+    # Forward substitution on each row of M against L_ssᵀ (one division per
+    # pivot, not per entry).
     Lss = L[s, 0]
     out = L[t, lag]
-    for i in range(b):
-        for j in range(b):
+    for j in range(b):
+        inv = 1.0 / Lss[j, j]
+        for i in range(b):
             acc = M[i, j]
             for q in range(j):
                 acc -= out[i, q] * Lss[j, q]
-            out[i, j] = acc / Lss[j, j]
+            out[i, j] = acc * inv
 
 
 @numba.njit(cache=True, inline="always")
@@ -344,57 +348,6 @@ def factor_forward_blocks(diag, off, Z, L):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, inline="always")
-def _penalty_block(P, coeffs, t, s, out, b):  # pragma: no cover - compiled
-    """out = block (t, s) of Dᵀ blkdiag(P_r) D = Σ_r c_{t−r} c_{s−r} P_r, for s <= t."""
-    d = coeffs.shape[0] - 1
-    for i in range(b):
-        for j in range(b):
-            out[i, j] = 0.0
-    for r in range(max(0, t - d), min(s, P.shape[0] - 1) + 1):
-        weight = coeffs[t - r] * coeffs[s - r]
-        Pr = P[r]
-        for i in range(b):
-            for j in range(b):
-                out[i, j] += weight * Pr[i, j]
-
-
-@numba.njit(cache=True, inline="always")
-def factor_forward_penalty(phi, n_rep, data_scale, P, coeffs, Z, L, b):  # pragma: no cover
-    """Factor H = data_scale · blkdiag(I_r ⊗ φ_t φ_tᵀ) + Dᵀ blkdiag(P_r) D; forward-substitute Z.
-
-    The penalty blocks P_r (b × b, one per row r of the difference operator D
-    with coefficients ``coeffs``) vary over time, unlike the fixed β·W of
-    :func:`factor_forward`: this is the Newton matrix of the interior-point
-    method. Arguments as :func:`factor_forward`; returns (worst_ratio,
-    worst_t) only, the log-determinant is not needed there.
-    """
-    N = phi.shape[0]
-    d = coeffs.shape[0] - 1
-    M = np.empty((b, b))
-    ref = np.empty(b)
-    no_extra = np.empty((0, b, b))
-    worst = np.inf
-    worst_t = 0
-    for t in range(N):
-        for lag in range(min(d, t), 0, -1):
-            _penalty_block(P, coeffs, t, t - lag, M, b)
-            _offdiagonal_step(L, M, t, lag, d, b)
-        _penalty_block(P, coeffs, t, t, M, b)
-        Ltt = L[t, 0]
-        for i in range(b):
-            for j in range(i + 1):
-                Ltt[i, j] = _gram_entry(phi, n_rep, data_scale, no_extra, t, i, j) + M[i, j]
-            ref[i] = Ltt[i, i]
-        ratio = _diagonal_step(L, Z, t, d, b, ref)
-        if ratio < worst:
-            worst = ratio
-            worst_t = t
-        if ratio < 0:
-            return -1.0, t
-    return worst, worst_t
-
-
-@numba.njit(cache=True, inline="always")
 def solve(L, X, b):  # pragma: no cover - compiled
     """Solve L Lᵀ X = rhs in place; X (N, b, r) holds rhs on entry."""
     N, dp1, _, _ = L.shape
@@ -435,12 +388,4 @@ def backward_fixed(L, X, cov, b_tuple):  # pragma: no cover - compiled
 def solve_fixed(L, X, b_tuple):  # pragma: no cover - compiled
     """:func:`solve` with the block size ``len(b_tuple)`` as a constant."""
     solve(L, X, len(b_tuple))
-
-
-@numba.njit(cache=True)
-def factor_forward_penalty_fixed(
-    phi, n_rep, data_scale, P, coeffs, Z, L, b_tuple
-):  # pragma: no cover - compiled
-    """:func:`factor_forward_penalty` with the block size ``len(b_tuple)`` as a constant."""
-    return factor_forward_penalty(phi, n_rep, data_scale, P, coeffs, Z, L, len(b_tuple))
 

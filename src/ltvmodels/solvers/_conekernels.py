@@ -15,6 +15,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from ._blockkernels import _diagonal_step, _offdiagonal_step
+
 
 @numba.njit(cache=True)
 def weighted_difference(k, coeffs, w, out):  # pragma: no cover - compiled
@@ -94,23 +96,15 @@ def apply_scaling(v, eta, x, power, out):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def newton_blocks(v, eta, w, S, alpha, beta, s_coef):  # pragma: no cover - compiled
-    """Blocks of W⁻² = [[α, βᵀ], [β, Γ]] and the penalty blocks ΛSΛ of the Newton matrix.
+def elimination_terms(v, eta, alpha, beta, s_coef):  # pragma: no cover - compiled
+    """Blocks of W⁻² = [[α, βᵀ], [β, Γ]] used to eliminate t_c, and S_c = Γ − ββᵀ/α.
 
-    Eliminating t_c leaves S_c = Γ − ββᵀ/α, the inverse of the lower-right
-    block of W² = η²(2vvᵀ − J)², which is η²(I + 8v₀² v₁v₁ᵀ) because
-    v₀² − ‖v₁‖² = 1; so S_c = η⁻² (I − s_coef_c v₁v₁ᵀ) with
-    s_coef_c = 8v₀² / (1 + 8v₀²‖v₁‖²). S (R, K, K) is filled with
-    Λ blkdiag_c(S_c) Λ for every row of D.
+    S_c is the inverse of the lower-right block of W² = η²(2vvᵀ − J)², which is
+    η²(I + 8v₀² v₁v₁ᵀ) because v₀² − ‖v₁‖² = 1; so S_c = η⁻² (I − s_coef_c v₁v₁ᵀ)
+    with s_coef_c = 8v₀² / (1 + 8v₀²‖v₁‖²). The penalty blocks ΛSΛ of the
+    Newton matrix are formed from it inside :func:`factor_newton`.
     """
     n_cones, m = v.shape
-    g = m - 1
-    K = S.shape[1]
-    C = K // g
-    for r in range(S.shape[0]):
-        for i in range(K):
-            for j in range(K):
-                S[r, i, j] = 0.0
     for i in range(n_cones):
         v0 = v[i, 0]
         v1sq = 0.0
@@ -122,17 +116,109 @@ def newton_blocks(v, eta, w, S, alpha, beta, s_coef):  # pragma: no cover - comp
         for a in range(1, m):
             beta[i, a - 1] = b * v[i, a]
         s_coef[i] = 8.0 * v0 * v0 / (1.0 + 8.0 * v0 * v0 * v1sq)
-        coef = inv_eta2 * s_coef[i]
-        r = i // C
-        base = (i % C) * g
-        for a in range(g):
-            ja = base + a
-            for c in range(g):
-                jc = base + c
-                value = -coef * v[i, 1 + a] * v[i, 1 + c]
-                if a == c:
-                    value += inv_eta2
-                S[r, ja, jc] = w[ja] * w[jc] * value
+
+
+@numba.njit(cache=True, inline="always")
+def _penalty_row(v, eta, s_coef, w, r, offset, out, b):  # pragma: no cover - compiled
+    """out = (ΛSΛ)_r restricted to the coefficients offset … offset + b − 1.
+
+    Group cones (g = K = b): out = ΛSΛ with S = η_r⁻²(I − s_coef v₁v₁ᵀ). Scalar
+    cones (l1, g = 1): a diagonal block, one cone per coefficient.
+    """
+    g = v.shape[1] - 1
+    if g == 1:
+        K = w.shape[0]
+        for i in range(b):
+            for j in range(b):
+                out[i, j] = 0.0
+            c = r * K + offset + i
+            wi = w[offset + i]
+            out[i, i] = wi * wi * (1.0 - s_coef[c] * v[c, 1] * v[c, 1]) / (eta[c] * eta[c])
+    else:
+        inv_eta2 = 1.0 / (eta[r] * eta[r])
+        coef = s_coef[r]
+        for i in range(b):
+            for j in range(i + 1):
+                value = -coef * v[r, 1 + i] * v[r, 1 + j]
+                if i == j:
+                    value += 1.0
+                value *= inv_eta2 * w[i] * w[j]
+                out[i, j] = value
+                out[j, i] = value
+
+
+@numba.njit(cache=True, inline="always")
+def factor_newton(
+    phi, n_rep, v, eta, s_coef, w, coeffs, offset, Z, L, b
+):  # pragma: no cover - compiled
+    """Factor the Newton matrix 2ΦᵀΦ + DᵀΛSΛD and forward-substitute Z, in one sweep.
+
+    The block-banded Cholesky of :mod:`._blockkernels` with the penalty
+    blocks (ΛSΛ)_r formed on the fly from the cone scaling (one per row of D,
+    kept in a ring buffer of d + 1), restricted to the b coefficients from
+    ``offset`` on (one output row for l1, all K for group). Z (N, b, r) is
+    overwritten with L⁻¹Z; L (N, d+1, b, b) receives the factor.
+
+    Returns (smallest pivot² ratio, −1 if not positive definite; its time step).
+    """
+    N = phi.shape[0]
+    p = phi.shape[1]
+    d = coeffs.shape[0] - 1
+    R = N - d
+    ring = np.empty((d + 1, b, b))
+    M = np.empty((b, b))
+    ref = np.empty(b)
+    worst = np.inf
+    worst_t = 0
+    for t in range(N):
+        if t < R:
+            _penalty_row(v, eta, s_coef, w, t, offset, ring[t % (d + 1)], b)
+        for lag in range(min(d, t), -1, -1):
+            s = t - lag
+            # Block (t, s) of DᵀΛSΛD = Σ_r c_{t−r} c_{s−r} (ΛSΛ)_r.
+            for i in range(b):
+                for j in range(b):
+                    M[i, j] = 0.0
+            for r in range(max(0, t - d), min(s, R - 1) + 1):
+                weight = coeffs[t - r] * coeffs[s - r]
+                P = ring[r % (d + 1)]
+                for i in range(b):
+                    for j in range(b):
+                        M[i, j] += weight * P[i, j]
+            if lag > 0:
+                _offdiagonal_step(L, M, t, lag, d, b)
+        Ltt = L[t, 0]
+        for i in range(b):
+            for j in range(i + 1):
+                Ltt[i, j] = M[i, j]
+        for rep in range(n_rep):  # the data part, 2 I_r ⊗ φ_tφ_tᵀ
+            base = rep * p
+            for i in range(p):
+                for j in range(i + 1):
+                    Ltt[base + i, base + j] += 2.0 * phi[t, i] * phi[t, j]
+        for i in range(b):
+            ref[i] = Ltt[i, i]
+        ratio = _diagonal_step(L, Z, t, d, b, ref)
+        if ratio < worst:
+            worst = ratio
+            worst_t = t
+        if ratio < 0:
+            return -1.0, t
+    return worst, worst_t
+
+
+@numba.njit(cache=True)
+def factor_newton_any(phi, n_rep, v, eta, s_coef, w, coeffs, offset, Z, L):  # pragma: no cover
+    """:func:`factor_newton` with the block size taken from ``L`` at run time."""
+    return factor_newton(phi, n_rep, v, eta, s_coef, w, coeffs, offset, Z, L, L.shape[2])
+
+
+@numba.njit(cache=True)
+def factor_newton_fixed(
+    phi, n_rep, v, eta, s_coef, w, coeffs, offset, Z, L, b_tuple
+):  # pragma: no cover - compiled
+    """:func:`factor_newton` with the block size ``len(b_tuple)`` as a compile-time constant."""
+    return factor_newton(phi, n_rep, v, eta, s_coef, w, coeffs, offset, Z, L, len(b_tuple))
 
 
 @numba.njit(cache=True)
@@ -228,11 +314,12 @@ def kkt_residuals(k, t, s, z, y, phi, coeffs, w, r_z, r_k):  # pragma: no cover 
 
 @numba.njit(cache=True)
 def direction_rhs(
-    target, lam, v, eta, r_z, z, alpha, beta, r_k, coeffs, w, work, rhs
+    target, lam, v, eta, u_rz, z, alpha, beta, r_k, coeffs, w, work, rhs
 ):  # pragma: no cover - compiled
     """First half of a Newton direction: the right-hand side of the banded system.
 
-    With r̂ = r_z + W(λ ⋄ target), u = W⁻²r̂ and f_t = u₀ − (1 − z₀), stores
+    With u = W⁻²(r_z + W(λ ⋄ target)) = u_rz + W⁻¹(λ ⋄ target), where
+    u_rz = W⁻² r_z is shared by all targets, and f_t = u₀ − (1 − z₀), stores
     work = (f_t, u₁ − β f_t/α) per cone and rhs = −r_k + DᵀΛ work₁.
     """
     n_cones, m = target.shape
@@ -244,18 +331,16 @@ def direction_rhs(
             det -= lam[c, a] * lam[c, a]
             dot -= lam[c, a] * target[c, a]
         x0 = dot / det
+        inv_lam0 = 1.0 / lam[c, 0]
         x[0, 0] = x0
         for a in range(1, m):
-            x[0, a] = (target[c, a] - x0 * lam[c, a]) / lam[c, 0]
-        _scale_one(v, eta, c, x, 1.0)
-        for a in range(m):
-            x[0, a] += r_z[c, a]
+            x[0, a] = (target[c, a] - x0 * lam[c, a]) * inv_lam0
         _scale_one(v, eta, c, x, -1.0)
-        _scale_one(v, eta, c, x, -1.0)
-        f_t = x[0, 0] - (1.0 - z[c, 0])
+        f_t = x[0, 0] + u_rz[c, 0] - (1.0 - z[c, 0])
         work[c, 0] = f_t
+        ratio = f_t / alpha[c]
         for a in range(1, m):
-            work[c, a] = x[0, a] - beta[c, a - 1] * f_t / alpha[c]
+            work[c, a] = x[0, a] + u_rz[c, a] - beta[c, a - 1] * ratio
     for tt in range(rhs.shape[0]):
         for j in range(rhs.shape[1]):
             rhs[tt, j] = -r_k[tt, j]

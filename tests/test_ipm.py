@@ -1,0 +1,119 @@
+"""The interior-point method's building blocks against dense linear algebra."""
+
+import numpy as np
+import pytest
+
+import ltvmodels as ltv
+from ltvmodels.problem import difference_matrix, state_space_problem
+from ltvmodels.solvers import _conekernels as cones
+from ltvmodels.solvers import ipm
+
+
+def interior_points(rng, n_cones, g):
+    """Random points strictly inside second-order cones of size g + 1."""
+    x = rng.normal(size=(n_cones, g + 1))
+    x[:, 0] = np.linalg.norm(x[:, 1:], axis=1) + rng.uniform(0.05, 2.0, n_cones)
+    return x
+
+
+def cone_matrices(v, eta, power):
+    """W (power 1) or W⁻¹ (power −1) of every cone as dense matrices."""
+    n_cones, m = v.shape
+    cols = []
+    for j in range(m):
+        e = np.zeros((n_cones, m))
+        e[:, j] = 1.0
+        out = np.empty_like(e)
+        cones.apply_scaling(v, eta, e, power, out)
+        cols.append(out)
+    return np.stack(cols, axis=-1)
+
+
+@pytest.mark.parametrize("g", [1, 4])
+def test_nesterov_todd_scaling(g):
+    rng = np.random.default_rng(g)
+    s, z = interior_points(rng, 5, g), interior_points(rng, 5, g)
+    v, eta, lam = np.empty_like(s), np.empty(5), np.empty_like(s)
+    cones.nt_scaling(s, z, v, eta, lam)
+    W, W_inv = cone_matrices(v, eta, 1.0), cone_matrices(v, eta, -1.0)
+    np.testing.assert_allclose(W @ W_inv, np.broadcast_to(np.eye(g + 1), W.shape), atol=1e-12)
+    np.testing.assert_allclose(W, np.swapaxes(W, 1, 2), atol=1e-12)
+    np.testing.assert_allclose(np.einsum("cij,cj->ci", W, z), lam, atol=1e-12)  # λ = Wz
+    np.testing.assert_allclose(np.einsum("cij,cj->ci", W_inv, s), lam, atol=1e-12)  # = W⁻¹s
+    # The elimination terms: W⁻² = [[α, βᵀ], [β, Γ]] and S = Γ − ββᵀ/α.
+    alpha, beta, s_coef = np.empty(5), np.empty((5, g)), np.empty(5)
+    cones.elimination_terms(v, eta, alpha, beta, s_coef)
+    W2_inv = W_inv @ W_inv
+    np.testing.assert_allclose(alpha, W2_inv[:, 0, 0], rtol=1e-12)
+    np.testing.assert_allclose(beta, W2_inv[:, 1:, 0], rtol=1e-10, atol=1e-12)
+    schur = W2_inv[:, 1:, 1:] - W2_inv[:, 1:, :1] * W2_inv[:, :1, 1:] / W2_inv[:, :1, :1]
+    rank_one = s_coef[:, None, None] * v[:, 1:, None] * v[:, None, 1:]
+    S = (np.eye(g) - rank_one) / eta[:, None, None] ** 2
+    np.testing.assert_allclose(S, schur, rtol=1e-10, atol=1e-12)
+
+
+def test_max_step_reaches_the_boundary():
+    rng = np.random.default_rng(3)
+    x = interior_points(rng, 1, 3)
+    for _ in range(20):
+        dx = rng.normal(size=(1, 4)) * 3
+        alpha = cones.max_step(x, dx)
+        if np.isinf(alpha):  # the direction stays in the cone
+            assert dx[0, 0] >= np.linalg.norm(dx[0, 1:])
+            continue
+        edge = x[0] + alpha * dx[0]
+        assert edge[0] == pytest.approx(np.linalg.norm(edge[1:]), abs=1e-9)
+        inside = x[0] + 0.999 * alpha * dx[0]
+        assert inside[0] > np.linalg.norm(inside[1:])
+
+
+@pytest.mark.parametrize("norm", ["group", "l1"])
+@pytest.mark.parametrize("coeffs", [[-1.0, 1.0], [1.0, -2.0, 1.0]])
+def test_newton_direction_solves_the_linearized_kkt_system(norm, coeffs):
+    """Δ from the banded elimination satisfies the three blocks of Newton's equations."""
+    data = ltv.systems.jump_linear(T=30, change_at=15, seed=4)
+    pb = state_space_problem(data.x, data.u, np.array(coeffs))
+    rng = np.random.default_rng(5)
+    weights = rng.uniform(0.5, 2.0, pb.K)
+    cp = ipm._ConicProblem(pb, weights, norm)
+    n_cones, m = cp.cone_shape
+    N, K = cp.N, cp.K
+    k, t = rng.normal(size=(N, K)), rng.uniform(1, 2, n_cones)
+    s, z = interior_points(rng, n_cones, m - 1), interior_points(rng, n_cones, m - 1)
+    r_z, r_k = np.empty_like(s), np.empty((N, K))
+    cones.kkt_residuals(k, t, s, z, cp.y, cp.phi, cp.coeffs, cp.w, r_z, r_k)
+    newton = ipm._NewtonSystem(cp, s, z, r_z, r_k)
+    newton.affine_direction()  # factors
+    target = rng.normal(size=s.shape)
+    dk, dt, ds, dz = newton.direction(target)
+    # G(Δt, Δk) = −(Δt, ΛDΔk);  Gᵀ(v₀, v₁) = (−v₀, −DᵀΛv₁).
+    Dt = difference_matrix(N, np.array(coeffs)).toarray()
+    Dk = (Dt @ dk) * weights
+    G_dx = -np.concatenate([dt[:, None], Dk.reshape(n_cones, m - 1)], axis=1)
+    np.testing.assert_allclose(G_dx + ds, -r_z, atol=1e-8)  # GΔx + Δs = −r_z
+    # PΔx + GᵀΔz = −r_x: t-part −Δz₀ = −(1 − z₀); k-part 2ΦᵀΦΔk − DᵀΛΔz₁ = −r_k.
+    np.testing.assert_allclose(dz[:, 0], 1.0 - z[:, 0], atol=1e-10)
+    adj = Dt.T @ (dz[:, 1:].reshape(-1, K) * weights)
+    theta = dk.reshape(N, pb.n, pb.p)
+    data_term = 2.0 * (np.einsum("tij,tj->ti", theta, pb.phi)[:, :, None]
+                       * pb.phi[:, None, :]).reshape(N, K)
+    np.testing.assert_allclose(data_term - adj, -r_k, atol=1e-7 * np.abs(r_k).max())
+    # λ ∘ (WΔz + W⁻¹Δs) = target.
+    W, W_inv = cone_matrices(newton.v, newton.eta, 1.0), cone_matrices(newton.v, newton.eta, -1.0)
+    scaled = np.einsum("cij,cj->ci", W, dz) + np.einsum("cij,cj->ci", W_inv, ds)
+    out = np.empty_like(scaled)
+    cones.jordan_product(newton.lam, scaled, out)
+    np.testing.assert_allclose(out, target, atol=1e-7)
+
+
+@pytest.mark.parametrize("norm", ["group", "l1"])
+def test_compiled_block_size_kernels_agree(norm, monkeypatch):
+    """The kernels specialized to a constant block size give the same iterates."""
+    data = ltv.systems.jump_linear(T=60, change_at=30, seed=6)
+    pb = state_space_problem(data.x, data.u, np.array([-1.0, 1.0]))
+    weights = np.full(pb.K, 2.0)
+    generic = ipm.fit_sparse_ipm(pb, weights, norm)
+    monkeypatch.setattr(ipm, "FIXED_KERNEL_MIN_SIZE", 1)
+    fixed = ipm.fit_sparse_ipm(pb, weights, norm)
+    assert fixed.iterations == generic.iterations
+    np.testing.assert_allclose(fixed.theta, generic.theta, rtol=1e-9, atol=1e-12)
