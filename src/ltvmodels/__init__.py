@@ -23,6 +23,7 @@ from .fit import fit, fit_lti, fit_path
 from .models import LTVModel, load
 from .piecewise import fit_piecewise
 from .priors import OutputPrior, Prior
+from .selection import LambdaSelection, select_lambda
 from .segments import fit_segments
 from .solvers.kalman import (
     KalmanFilterResult,
@@ -45,6 +46,8 @@ __all__ = [
     "load",
     "Prior",
     "OutputPrior",
+    "select_lambda",
+    "LambdaSelection",
     "kalman_filter",
     "kalman_smoother",
     "OnlineParameterFilter",

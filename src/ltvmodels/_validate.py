@@ -623,3 +623,24 @@ def segment_mode(n_changes: Any, penalty: Any) -> None:
             f"penalty=β for a cost of β per change), received both (n_changes={n_changes!r}, "
             f"penalty={penalty!r})"
         )
+
+
+def positive_grid(value: Any, name: str) -> np.ndarray:
+    """A non-empty 1-d array of finite values > 0, sorted increasing (a λ grid)."""
+    arr = as_float_array(value, name)
+    if arr.ndim != 1 or arr.size == 0:
+        raise ValueError(f"{name}: expected a non-empty 1-d sequence, received shape {arr.shape}")
+    if np.any(arr <= 0):
+        raise ValueError(f"{name}: expected values > 0, received a minimum of {arr.min():g}")
+    return np.unique(arr)
+
+
+def count_grid(value: Any, name: str) -> np.ndarray:
+    """A non-empty 1-d array of whole numbers >= 0, sorted increasing (numbers of changes)."""
+    arr = as_float_array(value, name)
+    if arr.ndim != 1 or arr.size == 0:
+        raise ValueError(f"{name}: expected a non-empty 1-d sequence, received shape {arr.shape}")
+    if np.any(arr < 0) or np.any(arr != np.round(arr)):
+        bad = arr[(arr < 0) | (arr != np.round(arr))][0]
+        raise ValueError(f"{name}: expected whole numbers >= 0, received {bad:g}")
+    return np.unique(arr.astype(np.int64))

@@ -1,0 +1,90 @@
+"""Choosing λ: marginal likelihood, GCV, L-curve, cross-validation, and M for L0."""
+
+import numpy as np
+import pytest
+
+import ltvmodels as ltv
+from ltvmodels.problem import difference_matrix, state_space_problem
+from ltvmodels.selection import _fit, select_lambda
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("method", ["ml", "gcv", "cv"])
+def test_recovers_the_random_walk_ratio(seed, method):
+    """λ = σ_noise / σ_drift is the generative value of the squared-norm model."""
+    data = ltv.systems.random_walk_system(T=2000, n=2, m=1, drift_std=1e-2, noise_std=0.1,
+                                          seed=seed)
+    chosen = select_lambda(data.x, data.u, norm="sq", method=method).lam
+    assert 10.0 / 2 <= chosen <= 10.0 * 2
+
+
+def test_gcv_degrees_of_freedom_equal_the_dense_hat_trace():
+    data = ltv.systems.jump_linear(T=25, change_at=12, seed=3)
+    pb = state_space_problem(data.x, data.u, np.array([1.0, -2.0, 1.0]))
+    N, n, K = pb.N, pb.n, pb.K
+    lam = 2.5
+    Phi = np.zeros((N * n, N * K))
+    for t in range(N):
+        Phi[t * n:(t + 1) * n, t * K:(t + 1) * K] = np.kron(np.eye(n), pb.phi[t])
+    D = np.kron(difference_matrix(N, pb.coeffs).toarray(), np.eye(K))
+    hat = Phi @ np.linalg.solve(Phi.T @ Phi + lam**2 * D.T @ D, Phi.T)
+    assert _fit(pb, "sq", lam, compute_cov=True)["dof"] == pytest.approx(np.trace(hat), rel=1e-9)
+
+
+@pytest.mark.parametrize("norm,power", [("sq", 1), ("group", 2), ("l1", 2)])
+def test_lcurve_corner_is_equivariant_to_rescaling(norm, power):
+    """Scaling x and u by c scales the data term by c², so λ by c (sq) or c² (sparse)."""
+    data = ltv.systems.jump_linear(T=200, change_at=100, seed=4)
+    base = select_lambda(data.x, data.u, norm=norm, method="lcurve")
+    scaled = select_lambda(10.0 * data.x, 10.0 * data.u, norm=norm, method="lcurve")
+    assert scaled.lam == pytest.approx(base.lam * 10.0**power, rel=1e-6)
+    assert np.argmax(scaled.scores) == np.argmax(base.scores)
+
+
+def test_lcurve_and_cv_on_the_jump_linear_system_find_the_switch():
+    data = ltv.systems.jump_linear(seed=0)
+    for method in ("lcurve", "cv"):
+        choice = select_lambda(data.x, data.u, norm="group", method=method)
+        model = ltv.fit(data.x, data.u, lam=choice.lam, norm="group", refine=True)
+        assert len(model.changepoints) == 1
+        assert abs(int(model.changepoints[0]) - 200) <= 3
+
+
+def test_l0_bic_chooses_the_true_number_of_changes():
+    data = ltv.systems.jump_linear(seed=1)
+    choice = select_lambda(data.x, data.u, norm="l0", max_changes=4)
+    assert choice.lam == 1.0
+    np.testing.assert_array_equal(choice.lams, np.arange(5.0))
+    assert np.argmin(choice.scores) == 1
+
+
+def test_result_object_and_plot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    data = ltv.systems.jump_linear(T=150, change_at=75, seed=5)
+    grid = [1.0, 3.0, 10.0, 30.0, 100.0]
+    for method in ("ml", "gcv", "lcurve", "cv"):
+        choice = select_lambda(data.x, data.u, method=method, lams=grid[::-1])
+        np.testing.assert_array_equal(choice.lams, grid)  # sorted
+        assert choice.scores.shape == (5,) and np.all(np.isfinite(choice.scores[1:-1]))
+        assert grid[0] <= choice.lam <= grid[-1]
+        assert choice.plot() is not None
+
+
+@pytest.mark.parametrize(
+    "kwargs,match",
+    [
+        ({"norm": "sq", "method": "bic"}, r"^method:"),
+        ({"norm": "group", "method": "gcv"}, r"^method:"),
+        ({"norm": "huber"}, r"^norm:"),
+        ({"lams": [1.0, -2.0]}, r"^lams:"),
+        ({"lams": []}, r"^lams:"),
+        ({"method": "cv", "n_folds": 1}, r"^n_folds:"),
+        ({"norm": "l0", "lams": [0, 1.5]}, r"^lams:"),
+    ],
+)
+def test_bad_input_is_rejected(kwargs, match):
+    data = ltv.systems.jump_linear(T=60, change_at=30, seed=6)
+    with pytest.raises(ValueError, match=match):
+        select_lambda(data.x, data.u, **kwargs)
