@@ -221,8 +221,8 @@ def _fit(problem: RegressionProblem, norm: str, lam: float, *, compute_cov: bool
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
-        model, _ = _solve_sparse(problem, lam, np.full(K, lam), norm, problem.n, problem.p,
-                                 max_iter=200, tol=1e-6)
+        model, _ = _solve_sparse(problem, lam, np.full(K, lam), norm, problem.n,
+                                 problem.p - problem.n, max_iter=200, tol=1e-6)
     theta = model.k.reshape(problem.N, problem.n, problem.p)
     Dk = apply_difference(model.k, problem.coeffs)
     reg = np.linalg.norm(Dk, axis=1).sum() if norm == "group" else np.abs(Dk).sum()
