@@ -12,6 +12,7 @@ Quick use::
 """
 
 from . import plotting, systems
+from .ar import ARModel, ARXModel, ar_regressors, arx_regressors, fit_ar, fit_arx
 from .changepoints import find_changepoints
 from .errors import (
     ConvergenceWarning,
@@ -19,8 +20,8 @@ from .errors import (
     PrecisionWarning,
     SingularProblemError,
 )
-from .fit import fit, fit_lti, fit_path
-from .models import LTVModel, load
+from .fit import fit, fit_lti, fit_path, fit_regression
+from .models import LTVModel, RegressionModel, load
 from .piecewise import fit_piecewise
 from .priors import OutputPrior, Prior
 from .selection import LambdaSelection, select_lambda
@@ -41,8 +42,16 @@ __all__ = [
     "fit_path",
     "fit_piecewise",
     "fit_segments",
+    "fit_regression",
+    "fit_ar",
+    "fit_arx",
+    "ar_regressors",
+    "arx_regressors",
     "find_changepoints",
     "LTVModel",
+    "RegressionModel",
+    "ARModel",
+    "ARXModel",
     "load",
     "Prior",
     "OutputPrior",

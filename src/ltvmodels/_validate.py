@@ -644,3 +644,144 @@ def count_grid(value: Any, name: str) -> np.ndarray:
         bad = arr[(arr < 0) | (arr != np.round(arr))][0]
         raise ValueError(f"{name}: expected whole numbers >= 0, received {bad:g}")
     return np.unique(arr.astype(np.int64))
+
+
+# -- general regressions and AR/ARX models (ltvmodels.fit_regression, ltvmodels.ar) -------
+
+
+def flag(value: Any, name: str) -> bool:
+    """Validate True or False (no other truthy values)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name}: expected True or False, received {_describe(value)}")
+    return bool(value)
+
+
+def enough_rows(N: int, n_params_per_row: int, n_diff: int, name: str, note: str = "") -> None:
+    """Require enough regression rows to identify p regressors per output row.
+
+    As :func:`enough_samples` for a regression with N rows (``name`` is the
+    data argument; ``note`` says how the rows relate to the series, e.g. for AR).
+    """
+    needed = max(n_params_per_row * n_diff, n_diff + 1)
+    if N < needed:
+        raise ValueError(
+            f"{name}: too few samples: {N} regression rows{note} cannot identify "
+            f"{n_params_per_row} regressors per output with a difference operator of "
+            f"degree {n_diff}; need at least {needed} rows"
+        )
+
+
+def regressor_rows(value: Any, N: int, p: int, name: str = "phi") -> np.ndarray:
+    """Regressors for a fitted regression: (N, p), or (N,) when p = 1; returns a copy."""
+    arr = as_time_series(value, name, allow_1d=(p == 1))
+    if arr.shape != (N, p):
+        raise ValueError(
+            f"{name}: expected shape ({N}, {p}) (one row of {p} regressors per model time "
+            f"step), received shape {arr.shape}"
+        )
+    return arr
+
+
+def lag_orders(na: Any, nb: Any, nk: Any, *, min_na: int, min_nb: int) -> tuple[int, int, int]:
+    """Validate the AR/ARX orders: integers na >= ``min_na``, nb >= ``min_nb``, nk >= 0."""
+    na = integer(na, "na", minimum=min_na)
+    nb = integer(nb, "nb", minimum=min_nb)
+    nk = integer(nk, "nk", minimum=0)
+    return na, nb, nk
+
+
+def lagged_series(
+    y: Any, u: Any, lag: int, structure: str, *, n_inputs: int | None = None,
+    require_inputs: bool = False,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Validate AR/ARX data: y (T, n) or (T,), u (T, m) or (T,) or None; T > lag.
+
+    ``u`` may be None unless ``require_inputs``; ``n_inputs`` (if given) is the
+    required number of columns of ``u``. ``structure`` names the orders (e.g.
+    "na = 2, nb = 1, nk = 1") in the too-short message. Returns float64
+    copies, u of shape (T, 0) when None.
+    """
+    y = as_time_series(y, "y", allow_1d=True)
+    T = y.shape[0]
+    if u is None:
+        if require_inputs:
+            expected = f"({T}, {n_inputs})" if n_inputs else f"({T}, m) or ({T},)"
+            raise TypeError(f"u: expected inputs of shape {expected}, received None")
+        u = np.zeros((T, 0))
+    else:
+        u = as_time_series(u, "u", allow_1d=True)
+        if u.shape[0] != T:
+            raise ValueError(
+                f"u: expected {T} rows (one per sample of y), received {u.shape[0]}"
+            )
+        if n_inputs is not None and u.shape[1] != n_inputs:
+            raise ValueError(f"u: expected {n_inputs} columns, received {u.shape[1]}")
+    if T <= lag:
+        raise ValueError(
+            f"y: the series is shorter than the lag structure: {structure} reaches back "
+            f"{lag} samples, so y needs more than {lag} samples, received T = {T}"
+        )
+    return y, u
+
+
+def model_series(
+    y: Any, u: Any, *, N: int, n: int, m: int, lag: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Data for a fitted AR/ARX model: y (N + lag, n), u (N + lag, m) (None if m = 0)."""
+    y, u = lagged_series(y, u, lag, f"the model's lags ({lag})", n_inputs=m,
+                         require_inputs=m > 0)
+    if y.shape[1] != n:
+        raise ValueError(f"y: expected {n} columns (outputs), received {y.shape[1]}")
+    if y.shape[0] != N + lag:
+        raise ValueError(
+            f"y: expected T = {N + lag} samples (the model has N = {N} time steps after "
+            f"{lag} initial samples), received T = {y.shape[0]}"
+        )
+    return y, u
+
+
+def simulation_inputs(
+    y0: Any, u: Any, noise: Any, *, N: int, n: int, m: int, lag: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Validate an AR/ARX simulation: initial samples, inputs and noise.
+
+    Returns y0 (lag, n), u (N + lag, m) and noise (N, n) (zeros when None).
+    ``y0`` may be 1-d when n = 1 and None when lag = 0; ``noise`` 1-d when n = 1.
+    """
+    T = N + lag
+    if y0 is None and lag == 0:
+        y0 = np.zeros((0, n))
+    else:
+        y0 = as_float_array(y0, "y0")
+        if y0.ndim == 1 and n == 1:
+            y0 = y0[:, None]
+        if y0.shape != (lag, n):
+            expected = f"({lag}, {n})" + (f" or ({lag},)" if n == 1 else "")
+            raise ValueError(
+                f"y0: expected the {lag} initial samples y[0:{lag}], shape {expected}, "
+                f"received shape {y0.shape}"
+            )
+    if u is None:
+        if m:
+            raise TypeError(f"u: expected inputs of shape ({T}, {m}), received None")
+        u = np.zeros((T, 0))
+    else:
+        u = as_time_series(u, "u", allow_1d=True)
+        if u.shape != (T, m):
+            raise ValueError(
+                f"u: expected shape ({T}, {m}) (T = {lag} initial + {N} simulated samples), "
+                f"received shape {u.shape}"
+            )
+    if noise is None:
+        noise = np.zeros((N, n))
+    else:
+        noise = as_float_array(noise, "noise")
+        if noise.ndim == 1 and n == 1:
+            noise = noise[:, None]
+        if noise.shape != (N, n):
+            expected = f"({N}, {n})" + (f" or ({N},)" if n == 1 else "")
+            raise ValueError(
+                f"noise: expected shape {expected} (one e[t] per simulated sample), received "
+                f"shape {noise.shape}"
+            )
+    return y0, u, noise

@@ -58,7 +58,7 @@ from typing import Any
 import numpy as np
 
 from . import _validate
-from .models import LTVModel
+from .models import RegressionModel
 
 MAD_TO_STD = 1.4826
 """Factor turning the median absolute deviation into a standard deviation (Gaussian)."""
@@ -74,7 +74,7 @@ def changepoint_offset(degree: int) -> int:
 
 
 def find_changepoints(
-    model_or_activation: LTVModel | Any,
+    model_or_activation: RegressionModel | Any,
     *,
     threshold: float = 0.25,
     noise_factor: float | None = 8.0,
@@ -92,7 +92,7 @@ def find_changepoints(
 
     Parameters
     ----------
-    model_or_activation : LTVModel or array_like, shape (N − d,)
+    model_or_activation : LTVModel (any fitted model) or array_like, shape (N − d,)
         A fitted model (its :meth:`~ltvmodels.LTVModel.activation` and the
         degree d of its difference operator are used) or the activation
         itself: nonnegative values a_t for t = 0 … N − d − 1.
@@ -199,7 +199,7 @@ def detection_level(
 
 def _activation_and_degree(value: Any, degree: Any) -> tuple[np.ndarray, int]:
     """The activation array and the degree d of its difference operator."""
-    if isinstance(value, LTVModel):
+    if isinstance(value, RegressionModel):
         own = 1 if value.coeffs is None else len(value.coeffs) - 1
         if degree is not None and _validate.integer(degree, "degree", 1) != own:
             raise ValueError(

@@ -1,16 +1,26 @@
-"""Front-ends: state-space data → regression problem → solver → LTVModel."""
+"""Front-ends: data → regression problem (y, φ) → solver → model.
+
+Every front-end only builds the regression y_t = Θ_t φ_t + e_t
+(:class:`~ltvmodels.problem.RegressionProblem`) and hands it to one core,
+:func:`_fit_problem`, which validates the options, checks identifiability,
+dispatches to the solver of the norm and wraps the result in a model built by
+the front-end's factory: :func:`fit` (state space, :class:`LTVModel`),
+:func:`fit_regression` (any regressors, :class:`RegressionModel`) and the AR/ARX
+front-ends of :mod:`ltvmodels.ar`.
+"""
 
 from __future__ import annotations
 
-from typing import Any
+from functools import partial
+from typing import Any, Callable
 
 import numpy as np
 
 from . import _validate, identifiability, priors as _priors
 from .changepoints import find_changepoints
-from .models import LTVModel, model_activation
+from .models import LTVModel, RegressionModel, model_activation
 from .piecewise import fit_piecewise
-from .problem import state_space_problem
+from .problem import RegressionProblem, state_space_problem
 from .solvers import admm, ipm
 from .solvers.squared import CovarianceBlocks, fit_squared
 
@@ -188,25 +198,156 @@ def fit(
     x, u = _validate.state_and_input(x, u)
     norm = _validate.norm_name(norm)
     coeffs = _validate.difference_coefficients(order, max_degree=x.shape[0])
+    n, m = x.shape[1], u.shape[1]
+    return _fit_problem(
+        state_space_problem(x, u, coeffs),
+        factory=partial(LTVModel, n_states=n, n_inputs=m),
+        regressor_names=_regressor_names(n, m),
+        data_name="x",
+        lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
+        compute_cov=compute_cov, max_iter=max_iter, tol=tol,
+    )
+
+
+def fit_regression(
+    y: Any,
+    phi: Any,
+    *,
+    lam: Any,
+    norm: str = "sq",
+    order: Any = 1,
+    prior: Any = None,
+    prior_mode: str = "exact",
+    noise_var: float | None = None,
+    compute_cov: bool = True,
+    max_iter: int = 10000,
+    tol: float = 1e-6,
+) -> RegressionModel:
+    """Identify a time-varying regression y_t = Θ_t φ_t + e_t (DESIGN §1).
+
+    The general problem behind every front-end: any model linear in its
+    parameters (paper, Discussion). With ``norm="sq"`` it is the exact minimizer of
+
+        Σ_t ‖y_t − Θ_t φ_t‖² + λ² Σ_t ‖(Dk)_t‖²,   k_t = Θ_t.ravel() (rows of Θ_t),
+
+    and with ``norm="group"`` / ``"l1"`` of Σ_t ‖y_t − Θ_t φ_t‖² + λ Σ_t ‖(Dk)_t‖
+    (2-norm, not squared / 1-norm), solved exactly as in :func:`fit`. The n
+    output rows share the regressor φ_t (Θ_t is n × p, K = n·p). :func:`fit`
+    is this with y_t = x_{t+1} and φ_t = [x_t; u_t]; for piecewise-constant
+    models with a known number of changes use
+    :func:`ltvmodels.segments.segment_regression` on the same (y, φ).
+
+    Parameters
+    ----------
+    y : array_like, shape (N, n) or (N,)
+        Outputs, time on axis 0 (lists and pandas objects are accepted).
+    phi : array_like, shape (N, p) or (N,)
+        Regressors, one row per output row.
+    lam, norm, order, prior, prior_mode, noise_var, compute_cov, max_iter, tol
+        As in :func:`fit`, with K = n·p parameters per time step (a ``Prior``
+        mean is (K,) or (N, K); an ``OutputPrior`` is a prior on Θ_t φ_t).
+
+    Returns
+    -------
+    RegressionModel
+        ``theta`` (N, n, p), ``k`` (N, K), ``predict(phi)`` → (N, n),
+        ``cov`` (N, p, p) shared by the rows or (N, K, K), ``noise_var``,
+        ``loglik`` and ``info`` as for :func:`fit`.
+
+    Raises
+    ------
+    ValueError, TypeError
+        Invalid input (the message names the argument), too few rows for the
+        number of regressors and the order.
+    SingularProblemError
+        The data do not identify the model (with the reason and remedies).
+
+    Examples
+    --------
+    >>> import numpy as np, ltvmodels as ltv
+    >>> rng = np.random.default_rng(0)
+    >>> phi = rng.standard_normal((200, 2))
+    >>> slope = np.linspace(1.0, 2.0, 200)
+    >>> y = slope * phi[:, 0] - 0.5 * phi[:, 1] + 0.01 * rng.standard_normal(200)
+    >>> model = ltv.fit_regression(y, phi, lam=100.0, order=2)
+    >>> model.theta.shape
+    (200, 1, 2)
+    >>> bool(np.abs(model.theta[:, 0, 0] - slope).max() < 0.05)
+    True
+    """
+    y, phi = _validate.regression_data(y, phi)
+    norm = _validate.norm_name(norm)
+    coeffs = _validate.difference_coefficients(order, max_degree=y.shape[0])
+    n, p = y.shape[1], phi.shape[1]
+    return _fit_problem(
+        RegressionProblem(y=y, phi=phi, coeffs=coeffs),
+        factory=partial(RegressionModel, n_outputs=n, n_regressors=p),
+        regressor_names=[f"phi{j}" for j in range(p)],
+        data_name="y",
+        lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
+        compute_cov=compute_cov, max_iter=max_iter, tol=tol,
+    )
+
+
+ModelFactory = Callable[..., RegressionModel]
+"""Builds the result from k (N, K) and the keyword arguments of RegressionModel."""
+
+
+def _fit_problem(
+    problem: RegressionProblem,
+    *,
+    factory: ModelFactory,
+    regressor_names: list[str],
+    data_name: str,
+    lam: Any,
+    norm: str,
+    prior: Any,
+    prior_mode: str,
+    noise_var: Any,
+    compute_cov: Any,
+    max_iter: Any,
+    tol: Any,
+    rows_note: str = "",
+) -> RegressionModel:
+    """The core shared by every front-end: a validated (y, φ) problem → model.
+
+    Validates the remaining options, checks the sample count and
+    identifiability (naming ``regressor_names`` in messages and ``data_name``
+    as the argument), solves with the solver of ``norm`` and builds the model
+    with ``factory(k, norm=..., coeffs=..., lam=..., ...)``. ``rows_note`` is
+    added to a too-few-samples message (e.g. how the rows relate to T).
+    """
+    norm = _validate.norm_name(norm)
     prior_mode = _validate.choice(prior_mode, "prior_mode", ("exact", "posthoc"))
     if noise_var is not None:
         noise_var = _validate.positive_scalar(noise_var, "noise_var")
     if not isinstance(compute_cov, bool):
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
-    n, m = x.shape[1], u.shape[1]
-    problem = state_space_problem(x, u, coeffs)
-    N, p, K = problem.N, problem.p, problem.K
+    n, p = problem.n, problem.p
+    N, K = problem.N, problem.K
     if norm != "sq":
-        return _fit_sparse_norm(problem, lam, norm, prior, n, m, max_iter=max_iter, tol=tol)
+        if prior is not None:
+            raise NotImplementedError(
+                f"prior: priors are available with norm='sq' only, not yet with norm={norm!r}"
+            )
+        max_iter = _validate.integer(max_iter, "max_iter", minimum=1)
+        tol = _validate.positive_scalar(tol, "tol")
+        weights = _validate.sparse_weights(lam, K)
+        _enough_samples(problem, data_name, rows_note)
+        identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
+        model, _ = _solve_sparse(
+            problem, lam, weights, norm, n, p - n, max_iter=max_iter, tol=tol, factory=factory
+        )
+        return model
     W = _validate.penalty_weight(lam, K)
-    _validate.enough_samples(N, p, problem.degree)
+    _enough_samples(problem, data_name, rows_note)
     terms = _priors.resolve(prior, N, n, p)
 
     const = np.isinf(np.diag(W)).reshape(n, p)
     identifiability.check(
         problem,
         has_prior=bool(terms),
-        regressor_names=_regressor_names(n, m),
+        regressor_names=regressor_names,
         const_mask=const.all(axis=0) if const.any() else None,
     )
 
@@ -240,28 +381,18 @@ def fit(
         loglik = float("nan")
         info["loglik_note"] = "no likelihood is defined for the posthoc correction"
     noise_cov = np.eye(n) * result.noise_var
-    return LTVModel(
-        k, n, m, norm=norm, coeffs=coeffs,
+    return factory(
+        k, norm=norm, coeffs=problem.coeffs,
         lam=float(lam) if np.ndim(lam) == 0 else np.array(lam, float),  # a copy: no aliasing
         cov=cov, noise_var=result.noise_var, noise_cov=noise_cov, loglik=loglik, info=info,
     )
 
 
-def _fit_sparse_norm(
-    problem, lam: Any, norm: str, prior: Any, n: int, m: int, *, max_iter: Any, tol: Any
-) -> LTVModel:
-    """norm="group" / "l1": validate, solve by ADMM, wrap as an LTVModel."""
-    if prior is not None:
-        raise NotImplementedError(
-            f"prior: priors are available with norm='sq' only, not yet with norm={norm!r}"
-        )
-    max_iter = _validate.integer(max_iter, "max_iter", minimum=1)
-    tol = _validate.positive_scalar(tol, "tol")
-    weights = _validate.sparse_weights(lam, problem.K)
-    _validate.enough_samples(problem.N, problem.p, problem.degree)
-    identifiability.check(problem, has_prior=False, regressor_names=_regressor_names(n, m))
-    model, _ = _solve_sparse(problem, lam, weights, norm, n, m, max_iter=max_iter, tol=tol)
-    return model
+def _enough_samples(problem: RegressionProblem, data_name: str, rows_note: str) -> None:
+    if data_name == "x":  # state space: rows are transitions, T = N + 1
+        _validate.enough_samples(problem.N, problem.p, problem.degree)
+    else:
+        _validate.enough_rows(problem.N, problem.p, problem.degree, data_name, rows_note)
 
 
 # Up to this many parameters per time step the interior-point method's dense
@@ -269,13 +400,20 @@ def _fit_sparse_norm(
 IPM_MAX_K = 20
 
 
-def _solve_sparse(problem, lam, weights, norm, n, m, *, max_iter, tol, warm_start=None):
-    """Solve on validated inputs; returns (LTVModel, ADMM result or None).
+def _solve_sparse(
+    problem, lam, weights, norm, n, m, *, max_iter, tol, warm_start=None, factory=None
+):
+    """Solve on validated inputs; returns (model, ADMM result or None).
 
     The interior-point method (:mod:`ltvmodels.solvers.ipm`) is used when every
-    weight is positive and K <= IPM_MAX_K, ADMM otherwise.
+    weight is positive and K <= IPM_MAX_K, ADMM otherwise. ``factory`` builds
+    the model (see :func:`_fit_problem`); without it an ``LTVModel`` with n
+    states and m inputs (n + m = p).
     """
     N, K = problem.N, problem.K
+    if factory is None:
+        factory = partial(LTVModel, n_states=n, n_inputs=m)
+    n = problem.n
     info: dict = {}
     theta_bar = admm.null_space_fit(problem)
     # The largest weight at which this weight pattern gives the LTI fit.
@@ -311,8 +449,8 @@ def _solve_sparse(problem, lam, weights, norm, n, m, *, max_iter, tol, warm_star
     noise_var = rss / (N * n)
     info["rss"] = rss
     info["lambda_max"] = lam_max
-    model = LTVModel(
-        k, n, m, norm=norm, coeffs=problem.coeffs,
+    model = factory(
+        k, norm=norm, coeffs=problem.coeffs,
         lam=float(lam) if np.ndim(lam) == 0 else np.array(lam, float),
         noise_var=noise_var, noise_cov=np.eye(n) * noise_var, info=info,
         changepoints=find_changepoints(model_activation(k, problem.coeffs), degree=problem.degree),

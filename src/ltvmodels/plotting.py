@@ -23,7 +23,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-__all__ = ["plot_coefficients", "plot_activation", "plot_eigenvalues"]
+__all__ = ["plot_coefficients", "plot_activation", "plot_eigenvalues", "plot_root_spectrogram"]
 
 ESTIMATE_COLOR = "C0"
 
@@ -232,4 +232,49 @@ def plot_eigenvalues(model: Any, ax: "Axes | None" = None) -> "Axes":
     ax.set_ylim(bottom=0, top=max(1.1, float(mag.max(initial=0.0)) * 1.05))
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="small", loc="best")
+    return ax
+
+
+def plot_root_spectrogram(model: Any, fs: float, *, ax: "Axes | None" = None) -> "Axes":
+    """Plot the root spectrogram of an AR/ARX model: pole frequencies over time.
+
+    Each complex-conjugate pair of poles of 1/A_t(z) is one dot per time step
+    at its frequency (:meth:`ltvmodels.ARXModel.root_spectrogram`), so the
+    resonances of the time-varying model appear as tracks, a parametric
+    counterpart of a spectrogram (draw it over
+    :func:`scipy.signal.spectrogram` for comparison).
+
+    Parameters
+    ----------
+    model : ARModel or ARXModel
+        Any object with ``root_spectrogram(fs)`` → (N, r) and
+        ``sample_index`` (N,).
+    fs : float
+        Sampling frequency (Hz); the time axis is ``sample_index / fs`` seconds.
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw into. Default: the single axes of a new Figure.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        The axes (``ax.figure`` is its figure); the y axis spans 0 … fs/2.
+    """
+    if not callable(getattr(model, "root_spectrogram", None)) or not hasattr(
+        model, "sample_index"
+    ):
+        raise TypeError(f"model: expected an AR/ARX model with root_spectrogram() and "
+                        f"sample_index, received {type(model).__name__}")
+    fs = _validate.positive_scalar(fs, "fs")
+    freq = np.asarray(model.root_spectrogram(fs), dtype=float)
+    time = np.asarray(model.sample_index, dtype=float) / fs
+    if ax is None:
+        ax = _new_axes((7.0, 3.2))
+    for i in range(freq.shape[1]):
+        ax.plot(time, freq[:, i], linestyle="none", marker=".", markersize=1.5,
+                color=ESTIMATE_COLOR, label="pole frequencies" if i == 0 else None)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("frequency (Hz)")
+    ax.set_title("Root spectrogram")
+    ax.set_ylim(0, fs / 2)
+    ax.grid(True, alpha=0.3)
     return ax

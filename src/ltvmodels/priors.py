@@ -31,7 +31,9 @@ class Prior:
     ----------
     mean : array_like, shape (N, K) or (K,), or LTVModel
         Prior mean μ_t; a (K,) vector applies to every time step; a fitted
-        :class:`~ltvmodels.LTVModel` contributes its coefficients ``k``.
+        :class:`~ltvmodels.LTVModel` (or any fitted model, e.g. from
+        :func:`ltvmodels.fit_regression` or :func:`ltvmodels.fit_ar`) contributes
+        its coefficients ``k``.
     cov : float or array_like, shape (K, K) or (N, K, K)
         Prior covariance Σ_t (a scalar means σ_0² I). Must be positive definite.
 
@@ -42,7 +44,7 @@ class Prior:
     """
 
     def __init__(self, mean: Any, cov: Any) -> None:
-        if hasattr(mean, "k") and hasattr(mean, "A"):
+        if hasattr(mean, "k") and hasattr(mean, "theta"):
             mean = mean.k
         self.mean = _validate.as_float_array(mean, "mean")
         if self.mean.ndim not in (1, 2):
