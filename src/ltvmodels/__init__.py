@@ -11,9 +11,10 @@ Quick use::
     model.A, model.B, model.cov, model.loglik
 """
 
-from . import plotting, systems
+from . import control, plotting, rl, systems
 from .ar import ARModel, ARXModel, ar_regressors, arx_regressors, fit_ar, fit_arx
 from .changepoints import find_changepoints
+from .control import ilqg
 from .errors import (
     ConvergenceWarning,
     IdentifiabilityWarning,
@@ -68,5 +69,8 @@ __all__ = [
     "PrecisionWarning",
     "systems",
     "plotting",
+    "control",
+    "rl",
+    "ilqg",
     "__version__",
 ]
