@@ -544,7 +544,11 @@ def learn(
     model) and d = max_t ‖x_t − x_t^prev‖ the realized change of the states:
     ρ < 0.1 halves ε; otherwise d > 1.5 ε (the model mispredicted the size of
     its step) shrinks ε to max(ε/4, ε²/d); otherwise ρ > 0.5 triples ε (at most
-    ``max_trust_region``).
+    ``max_trust_region``). The optimization starts from, and the trust region
+    is centred on, the rollout's states and the controller's noise-free output
+    at them (so that the exploration noise does not accumulate in the nominal
+    controls); ε is kept at least twice the distance the model predicts
+    between those controls' trajectory and the rollout.
 
     Parameters
     ----------
@@ -627,9 +631,18 @@ def learn(
         x_prev = x
         A, B = _fit_jacobians(kind, task, x, u, lam, prior_std, weak_prior_std)
         dyn = LinearDynamics.through(A, B, x, u)
+        # The controller's noise-free output at the visited states: the exploration noise
+        # must not accumulate in the nominal controls from one iteration to the next.
+        u_clean = np.clip(u_nom + np.einsum("tij,tj->ti", K, x[:-1] - x_nom[:-1]),
+                          *task.bounds)
+        # Under the model these controls reproduce the rollout only up to the effect of the
+        # noise; the radius never goes below twice that distance (else it cannot be met).
+        noise_gap = float(np.sqrt(np.max(np.sum(
+            (dyn.simulate(x[0], u_clean) - x) ** 2 * wx, axis=1))))
+        radius = max(radius, 2.0 * noise_gap)
         controller = ilqg(
-            dyn, task.cost, x[0], u, u_bounds=task.bounds, trust_region=radius,
-            reference=(x, u), trust_weights=task.trust_weights,
+            dyn, task.cost, x[0], u_clean, u_bounds=task.bounds, trust_region=radius,
+            reference=(x, u_clean), trust_weights=task.trust_weights,
         )
         predicted.append(controller.cost)
         radii.append(radius)
