@@ -106,7 +106,10 @@ def test_output_prior_equals_dense_map(system, mean_kind, cov_kind):
 
 def test_parameter_and_output_priors_together(system):
     x, u = system["x"], system["u"]
-    priors = [ltv.Prior(system["mu"], system["cov_m"]), ltv.OutputPrior(system["ybar"], system["S_t"])]
+    priors = [
+        ltv.Prior(system["mu"], system["cov_m"]),
+        ltv.OutputPrior(system["ybar"], system["S_t"]),
+    ]
     model = ltv.fit(x, u, lam=2.0, order=2, prior=priors, noise_var=SIGMA2)
     ref = DenseProblem(x, u, 2, 2.0, sigma2=SIGMA2, param_priors=[(system["mu"], system["cov_m"])],
                        output_priors=[(system["ybar"], system["S_t"])])
@@ -187,7 +190,9 @@ def test_posthoc_noise_var_is_the_prior_free_estimate(system):
     model = ltv.fit(x, u, lam=2.0, prior=ltv.Prior(system["mu"], system["cov_m"]),
                     prior_mode="posthoc")
     assert model.noise_var == pytest.approx(base.noise_var, rel=1e-12)
-    k_ref, P_ref = _posthoc_by_hand(np.array(base.k), base.cov_full(), system["mu"], system["cov_m"])
+    k_ref, P_ref = _posthoc_by_hand(
+        np.array(base.k), base.cov_full(), system["mu"], system["cov_m"]
+    )
     assert relerr(model.k, k_ref) < TOL
 
 

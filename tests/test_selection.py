@@ -88,3 +88,34 @@ def test_bad_input_is_rejected(kwargs, match):
     data = ltv.systems.jump_linear(T=60, change_at=30, seed=6)
     with pytest.raises(ValueError, match=match):
         select_lambda(data.x, data.u, **kwargs)
+
+
+def test_fit_lam_auto_records_the_choice():
+    data = ltv.systems.jump_linear(seed=0)
+    model = ltv.fit(data.x, data.u, lam="auto")
+    chosen = select_lambda(data.x, data.u, norm="sq", method="ml").lam
+    assert model.lam == pytest.approx(chosen)
+    assert model.info["lam_selection"]["method"] == "ml"
+    assert len(model.info["lam_selection"]["scores"]) == 30
+
+
+def test_fit_lam_auto_group_with_refinement_finds_the_switch():
+    data = ltv.systems.jump_linear(seed=0)
+    model = ltv.fit(data.x, data.u, lam="auto", norm="group", refine=True)
+    assert model.info["lam_selection"]["method"] == "lcurve"
+    assert len(model.changepoints) == 1 and abs(int(model.changepoints[0]) - 200) <= 3
+
+
+def test_lam_auto_for_the_regression_front_ends():
+    data = ltv.systems.jump_linear(seed=2)
+    ar = ltv.fit_ar(data.x[:, 0], na=2, lam="auto")
+    assert ar.info["lam_selection"]["method"] == "ml" and ar.lam > 0
+
+
+def test_lam_strings_other_than_auto_and_auto_with_a_prior_are_rejected():
+    data = ltv.systems.jump_linear(T=60, change_at=30, seed=6)
+    with pytest.raises(TypeError, match=r"^lam: expected a number, an array or 'auto'"):
+        ltv.fit(data.x, data.u, lam="best")
+    prior = ltv.Prior(np.zeros(6), 1.0)
+    with pytest.raises(ValueError, match=r"^lam: 'auto'"):
+        ltv.fit(data.x, data.u, lam="auto", prior=prior)

@@ -785,3 +785,12 @@ def simulation_inputs(
                 f"shape {noise.shape}"
             )
     return y0, u, noise
+
+
+def is_auto(value: Any, name: str) -> bool:
+    """True for the string "auto"; any other string is a TypeError naming the argument."""
+    if isinstance(value, str):
+        if value != "auto":
+            raise TypeError(f"{name}: expected a number, an array or 'auto', received {value!r}")
+        return True
+    return False

@@ -21,6 +21,7 @@ from .changepoints import find_changepoints
 from .models import LTVModel, RegressionModel, model_activation
 from .piecewise import fit_piecewise
 from .problem import RegressionProblem, state_space_problem
+from .selection import DEFAULT_METHOD, select_for_problem
 from .solvers import admm, ipm
 from .solvers.squared import CovarianceBlocks, fit_squared
 
@@ -126,11 +127,15 @@ def fit(
         States, time on axis 0 (lists and pandas DataFrames are accepted).
     u : array_like, shape (T, m) or (T,), optional
         Inputs.
-    lam : float, array_like (K,) or (K, K)
+    lam : float, array_like (K,) or (K, K), or "auto"
         Regularization. A scalar λ >= 0 gives λ² Σ‖(Dk)_t‖². A (K,) vector gives
         Σ_j λ_j² ‖(Dk_j)‖²: ``np.inf`` holds coefficient j constant in time and
         0 leaves it free. A (K, K) positive semidefinite matrix Λ gives
         Σ_t (Dk)_tᵀ Λ (Dk)_t (the paper's Discussion). Large λ → LTI model.
+        "auto" chooses a scalar λ by :func:`ltvmodels.select_lambda` with the
+        default criterion of the norm (``selection.DEFAULT_METHOD``: maximum
+        marginal likelihood for "sq", the L-curve corner for "group" and
+        "l1") and records the choice in ``info["lam_selection"]``.
     norm : {"sq", "group", "l1"}
         "sq": squared 2-norm (slowly varying / smooth). "group": the
         non-squared 2-norm λ Σ_t ‖(Dk)_t‖₂ (paper eqs. pwconstant, pwlinear):
@@ -323,6 +328,35 @@ def _fit_problem(
         noise_var = _validate.positive_scalar(noise_var, "noise_var")
     if not isinstance(compute_cov, bool):
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
+    selection = None
+    if _validate.is_auto(lam, "lam"):
+        if prior is not None:
+            raise ValueError(
+                "lam: 'auto' chooses λ from the data alone and does not take a prior into "
+                "account; choose λ with ltvmodels.select_lambda or pass a number"
+            )
+        _enough_samples(problem, data_name, rows_note)
+        identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
+        selection = select_for_problem(problem, norm, DEFAULT_METHOD[norm], None)
+        lam = selection.lam
+    model = _fit_with_lam(
+        problem, factory=factory, regressor_names=regressor_names, data_name=data_name,
+        lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
+        compute_cov=compute_cov, max_iter=max_iter, tol=tol, rows_note=rows_note,
+    )
+    if selection is not None:
+        model.info["lam_selection"] = {
+            "method": selection.method, "lam": selection.lam,
+            "lams": selection.lams.tolist(), "scores": selection.scores.tolist(),
+        }
+    return model
+
+
+def _fit_with_lam(
+    problem: RegressionProblem, *, factory, regressor_names, data_name, lam, norm, prior,
+    prior_mode, noise_var, compute_cov, max_iter, tol, rows_note,
+) -> RegressionModel:
+    """:func:`_fit_problem` for a given λ, on validated options."""
     n, p = problem.n, problem.p
     N, K = problem.N, problem.K
     if norm != "sq":
@@ -476,6 +510,8 @@ def _refine(x: Any, u: Any, first: LTVModel) -> LTVModel:
         "converged": first.info.get("converged"),
         "changepoints": [int(c) for c in changepoints],
     }
+    if "lam_selection" in first.info:
+        refined.info["lam_selection"] = first.info["lam_selection"]
     refined.info["first_step_k"] = np.array(first.k)
     return refined
 
