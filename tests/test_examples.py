@@ -22,3 +22,10 @@ def test_example_runs(name, tmp_path, capsys):
     assert out.stat().st_size > 10_000
     if name == "jump_linear":
         assert "detected change points [200], true [200]" in capsys.readouterr().out
+
+
+def test_robot_example_writes_both_figures(tmp_path, capsys):
+    assert load("robot_contact").main(["--out", str(tmp_path / "robot.png")]) == 0
+    for which in ("train", "validation"):
+        assert (tmp_path / f"robot_{which}.png").stat().st_size > 10_000
+    assert "detected change points" in capsys.readouterr().out
