@@ -119,3 +119,12 @@ def test_lam_strings_other_than_auto_and_auto_with_a_prior_are_rejected():
     prior = ltv.Prior(np.zeros(6), 1.0)
     with pytest.raises(ValueError, match=r"^lam: 'auto'"):
         ltv.fit(data.x, data.u, lam="auto", prior=prior)
+
+
+def test_regression_front_end_matches_fit_ar_auto():
+    data = ltv.systems.jump_linear(seed=2)
+    y, phi = ltv.ar_regressors(data.x[:, 0], na=2)
+    choice = ltv.select_lambda_regression(y, phi, method="ml")
+    assert ltv.fit_ar(data.x[:, 0], na=2, lam="auto").lam == pytest.approx(choice.lam)
+    with pytest.raises(ValueError, match=r"^phi:"):
+        ltv.select_lambda_regression(y, phi[:-1])

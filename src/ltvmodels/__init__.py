@@ -25,7 +25,7 @@ from .fit import fit, fit_lti, fit_path, fit_regression
 from .models import LTVModel, RegressionModel, load
 from .piecewise import fit_piecewise
 from .priors import OutputPrior, Prior
-from .selection import LambdaSelection, select_lambda
+from .selection import LambdaSelection, select_lambda, select_lambda_regression
 from .segments import fit_segments
 from .solvers.kalman import (
     KalmanFilterResult,
@@ -57,6 +57,7 @@ __all__ = [
     "Prior",
     "OutputPrior",
     "select_lambda",
+    "select_lambda_regression",
     "LambdaSelection",
     "kalman_filter",
     "kalman_smoother",

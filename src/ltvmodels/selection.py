@@ -42,7 +42,7 @@ from . import _validate
 from .errors import ConvergenceWarning, PrecisionWarning
 from .problem import RegressionProblem, apply_difference, state_space_problem
 
-__all__ = ["select_lambda", "LambdaSelection", "DEFAULT_METHOD"]
+__all__ = ["select_lambda", "select_lambda_regression", "LambdaSelection", "DEFAULT_METHOD"]
 
 # The criterion fit(..., lam="auto") uses for each norm.
 DEFAULT_METHOD = {"sq": "ml", "group": "lcurve", "l1": "lcurve", "l0": "bic"}
@@ -166,6 +166,41 @@ def select_lambda(
         return _select_changes(x, u, method, lams, max_changes)
     coeffs = _validate.difference_coefficients(order, max_degree=x.shape[0])
     problem = state_space_problem(x, u, coeffs)
+    _validate.enough_samples(problem.N, problem.p, problem.degree)
+    n_folds = _validate.integer(n_folds, "n_folds", minimum=2)
+    return select_for_problem(problem, norm, method, lams, n_folds=n_folds)
+
+
+def select_lambda_regression(
+    y: Any,
+    phi: Any,
+    *,
+    norm: str = "sq",
+    order: Any = 1,
+    method: str | None = None,
+    lams: Any = None,
+    n_folds: int = 5,
+) -> LambdaSelection:
+    """:func:`select_lambda` for a regression y_t = Θ_t φ_t + e_t (any front-end).
+
+    For AR/ARX models pass the pair from :func:`ltvmodels.ar_regressors` or
+    :func:`ltvmodels.arx_regressors`; the chosen λ is then the one
+    ``fit_ar(..., lam="auto")`` uses (with the default method).
+
+    Parameters
+    ----------
+    y : array_like, shape (N, n) or (N,)
+    phi : array_like, shape (N, p) or (N,)
+    norm : {"sq", "group", "l1"}
+    order, method, lams, n_folds
+        As in :func:`select_lambda`.
+    """
+    y, phi = _validate.regression_data(y, phi)
+    norm = _validate.choice(norm, "norm", ("sq", "group", "l1"))
+    method = _validate.choice(DEFAULT_METHOD[norm] if method is None else method, "method",
+                              METHODS[norm])
+    coeffs = _validate.difference_coefficients(order, max_degree=y.shape[0])
+    problem = RegressionProblem(y=y, phi=phi, coeffs=coeffs)
     _validate.enough_samples(problem.N, problem.p, problem.degree)
     n_folds = _validate.integer(n_folds, "n_folds", minimum=2)
     return select_for_problem(problem, norm, method, lams, n_folds=n_folds)
