@@ -85,7 +85,8 @@ def test_newton_direction_solves_the_linearized_kkt_system(norm, coeffs):
     newton = ipm._NewtonSystem(cp, s, z, r_z, r_k)
     newton.affine_direction()  # factors
     target = rng.normal(size=s.shape)
-    dk, dt, ds, dz = newton.direction(target)
+    dk, dt, ds, dz, step = newton.direction(target)
+    assert step == pytest.approx(min(cones.max_step(s, ds), cones.max_step(z, dz)))
     # G(Δt, Δk) = −(Δt, ΛDΔk);  Gᵀ(v₀, v₁) = (−v₀, −DᵀΛv₁).
     Dt = difference_matrix(N, np.array(coeffs)).toarray()
     Dk = (Dt @ dk) * weights

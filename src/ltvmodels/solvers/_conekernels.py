@@ -47,6 +47,29 @@ def add_weighted_difference_adjoint(v, coeffs, w, scale, out):  # pragma: no cov
                 out[r + q, j] += coeffs[q] * value
 
 
+@numba.njit(cache=True, inline="always")
+def _nt_cone(s, z, i, v, eta):  # pragma: no cover - compiled
+    """Nesterov–Todd scaling of cone i: fills v[i] and eta[i] (see :func:`nt_scaling`)."""
+    m = s.shape[1]
+    s_j = s[i, 0] * s[i, 0]
+    z_j = z[i, 0] * z[i, 0]
+    for a in range(1, m):
+        s_j -= s[i, a] * s[i, a]
+        z_j -= z[i, a] * z[i, a]
+    s_n = np.sqrt(s_j)
+    z_n = np.sqrt(z_j)
+    dot = 0.0
+    for a in range(m):
+        dot += s[i, a] * z[i, a]
+    gamma = np.sqrt(0.5 * (1.0 + dot / (s_n * z_n)))
+    w0 = (s[i, 0] / s_n + z[i, 0] / z_n) / (2.0 * gamma)
+    norm = 1.0 / np.sqrt(2.0 * (w0 + 1.0))
+    v[i, 0] = (w0 + 1.0) * norm
+    for a in range(1, m):
+        v[i, a] = (s[i, a] / s_n - z[i, a] / z_n) / (2.0 * gamma) * norm
+    eta[i] = np.sqrt(s_n / z_n)
+
+
 @numba.njit(cache=True)
 def nt_scaling(s, z, v, eta, lam):  # pragma: no cover - compiled
     """Nesterov–Todd scaling W = η(2vvᵀ − J) of every cone and λ = Wz.
@@ -55,25 +78,8 @@ def nt_scaling(s, z, v, eta, lam):  # pragma: no cover - compiled
     w̄ = (s̄ + Jz̄)/2γ satisfies η²(2w̄w̄ᵀ − J) z = s with η = (sᵀJs / zᵀJz)^¼;
     W is the square root of that matrix, v = (w̄ + e)/√(2(w̄₀ + 1)).
     """
-    n_cones, m = s.shape
-    for i in range(n_cones):
-        s_j = s[i, 0] * s[i, 0]
-        z_j = z[i, 0] * z[i, 0]
-        for a in range(1, m):
-            s_j -= s[i, a] * s[i, a]
-            z_j -= z[i, a] * z[i, a]
-        s_n = np.sqrt(s_j)
-        z_n = np.sqrt(z_j)
-        dot = 0.0
-        for a in range(m):
-            dot += s[i, a] * z[i, a]
-        gamma = np.sqrt(0.5 * (1.0 + dot / (s_n * z_n)))
-        w0 = (s[i, 0] / s_n + z[i, 0] / z_n) / (2.0 * gamma)
-        norm = 1.0 / np.sqrt(2.0 * (w0 + 1.0))
-        v[i, 0] = (w0 + 1.0) * norm
-        for a in range(1, m):
-            v[i, a] = (s[i, a] / s_n - z[i, a] / z_n) / (2.0 * gamma) * norm
-        eta[i] = np.sqrt(s_n / z_n)
+    for i in range(s.shape[0]):
+        _nt_cone(s, z, i, v, eta)
     apply_scaling(v, eta, z, 1.0, lam)
 
 
@@ -95,6 +101,22 @@ def apply_scaling(v, eta, x, power, out):  # pragma: no cover - compiled
             out[i, a] = factor * (2.0 * dot * sign * v[i, a] + x[i, a])
 
 
+@numba.njit(cache=True, inline="always")
+def _elimination_cone(v, eta, i, alpha, beta, s_coef):  # pragma: no cover - compiled
+    """α, β and s_coef of cone i (see :func:`elimination_terms`)."""
+    m = v.shape[1]
+    v0 = v[i, 0]
+    v1sq = 0.0
+    for a in range(1, m):
+        v1sq += v[i, a] * v[i, a]
+    inv_eta2 = 1.0 / (eta[i] * eta[i])
+    alpha[i] = inv_eta2 * ((2.0 * v0 * v0 - 1.0) ** 2 + 4.0 * v0 * v0 * v1sq)
+    b = -4.0 * inv_eta2 * v0 * (v0 * v0 + v1sq)
+    for a in range(1, m):
+        beta[i, a - 1] = b * v[i, a]
+    s_coef[i] = 8.0 * v0 * v0 / (1.0 + 8.0 * v0 * v0 * v1sq)
+
+
 @numba.njit(cache=True)
 def elimination_terms(v, eta, alpha, beta, s_coef):  # pragma: no cover - compiled
     """Blocks of W⁻² = [[α, βᵀ], [β, Γ]] used to eliminate t_c, and S_c = Γ − ββᵀ/α.
@@ -104,18 +126,41 @@ def elimination_terms(v, eta, alpha, beta, s_coef):  # pragma: no cover - compil
     with s_coef_c = 8v₀² / (1 + 8v₀²‖v₁‖²). The penalty blocks ΛSΛ of the
     Newton matrix are formed from it inside :func:`factor_newton`.
     """
-    n_cones, m = v.shape
-    for i in range(n_cones):
-        v0 = v[i, 0]
-        v1sq = 0.0
+    for i in range(v.shape[0]):
+        _elimination_cone(v, eta, i, alpha, beta, s_coef)
+
+
+@numba.njit(cache=True)
+def prepare_newton(
+    s, z, r_z, v, eta, lam, lam_sq, u_rz, alpha, beta, s_coef
+):  # pragma: no cover - compiled
+    """Everything per cone a Newton system needs, in one pass.
+
+    The NT scaling (v, η), λ = Wz, λ∘λ, u_rz = W⁻² r_z and the elimination
+    terms α, β, s_coef: :func:`nt_scaling`, :func:`jordan_product`,
+    :func:`apply_scaling` and :func:`elimination_terms` fused.
+    """
+    m = s.shape[1]
+    x = np.empty((1, m))
+    for i in range(s.shape[0]):
+        _nt_cone(s, z, i, v, eta)
+        for a in range(m):
+            x[0, a] = z[i, a]
+        _scale_one(v, eta, i, x, 1.0)
+        sq = 0.0
+        for a in range(m):
+            lam[i, a] = x[0, a]
+            sq += x[0, a] * x[0, a]
+        lam_sq[i, 0] = sq
         for a in range(1, m):
-            v1sq += v[i, a] * v[i, a]
-        inv_eta2 = 1.0 / (eta[i] * eta[i])
-        alpha[i] = inv_eta2 * ((2.0 * v0 * v0 - 1.0) ** 2 + 4.0 * v0 * v0 * v1sq)
-        b = -4.0 * inv_eta2 * v0 * (v0 * v0 + v1sq)
-        for a in range(1, m):
-            beta[i, a - 1] = b * v[i, a]
-        s_coef[i] = 8.0 * v0 * v0 / (1.0 + 8.0 * v0 * v0 * v1sq)
+            lam_sq[i, a] = 2.0 * x[0, 0] * x[0, a]
+        for a in range(m):
+            x[0, a] = r_z[i, a]
+        _scale_one(v, eta, i, x, -1.0)
+        _scale_one(v, eta, i, x, -1.0)
+        for a in range(m):
+            u_rz[i, a] = x[0, a]
+        _elimination_cone(v, eta, i, alpha, beta, s_coef)
 
 
 @numba.njit(cache=True, inline="always")
@@ -234,6 +279,22 @@ def jordan_product(x, y, out):  # pragma: no cover - compiled
         out[i, 0] = dot
 
 
+@numba.njit(cache=True, inline="always")
+def _cone_step(x, dx, i):  # pragma: no cover - compiled
+    """Largest α with x_i + α·dx_i in the cone (inf if unbounded); see :func:`max_step`."""
+    m = x.shape[1]
+    a = dx[i, 0] * dx[i, 0]
+    b = x[i, 0] * dx[i, 0]
+    c = x[i, 0] * x[i, 0]
+    for q in range(1, m):
+        a -= dx[i, q] * dx[i, q]
+        b -= x[i, q] * dx[i, q]
+        c -= x[i, q] * x[i, q]
+    if dx[i, 0] >= 0.0 and a >= 0.0:
+        return np.inf
+    return c / max(np.sqrt(max(b * b - a * c, 0.0)) - b, 1e-300)
+
+
 @numba.njit(cache=True)
 def max_step(x, dx):  # pragma: no cover - compiled
     """Largest α with x + α·dx in every cone (inf if unbounded), x in the interior.
@@ -242,21 +303,9 @@ def max_step(x, dx):  # pragma: no cover - compiled
     c = xᵀJx > 0; unless d is itself in the cone the boundary is its smallest
     positive root, c / (√(b² − ac) − b), written without cancellation.
     """
-    n_cones, m = x.shape
     best = np.inf
-    for i in range(n_cones):
-        a = dx[i, 0] * dx[i, 0]
-        b = x[i, 0] * dx[i, 0]
-        c = x[i, 0] * x[i, 0]
-        for q in range(1, m):
-            a -= dx[i, q] * dx[i, q]
-            b -= x[i, q] * dx[i, q]
-            c -= x[i, q] * x[i, q]
-        if dx[i, 0] >= 0.0 and a >= 0.0:
-            continue
-        root = c / max(np.sqrt(max(b * b - a * c, 0.0)) - b, 1e-300)
-        if root < best:
-            best = root
+    for i in range(x.shape[0]):
+        best = min(best, _cone_step(x, dx, i))
     return best
 
 
@@ -349,16 +398,19 @@ def direction_rhs(
 
 @numba.njit(cache=True)
 def direction_finish(
-    dk, work, r_z, z, alpha, beta, v, eta, s_coef, coeffs, w, dt, ds, dz
+    dk, work, s, r_z, z, alpha, beta, v, eta, s_coef, coeffs, w, dt, ds, dz
 ):  # pragma: no cover - compiled
     """Second half of a Newton direction, from the solution Δk of the banded system.
 
     With e = ΛDΔk: Δt = (f_t − βᵀe)/α, Δs = (Δt, e) − r_z and
     Δz = u − W⁻²(Δt, e) = (1 − z₀, work₁ − S e), using (W⁻²(Δt, e))₀ = f_t and
     (W⁻²(Δt, e))₁ = S e + β f_t/α, which avoid cancellation between large terms.
+    Returns the largest steps that keep s + αΔs and z + αΔz in the cones
+    (:func:`max_step`).
     """
     weighted_difference(dk, coeffs, w, ds)  # vector parts: e
     n_cones, m = ds.shape
+    step_s = step_z = np.inf
     for c in range(n_cones):
         acc = work[c, 0]
         dot = 0.0
@@ -373,6 +425,22 @@ def direction_finish(
         ds[c, 0] = dt[c] - r_z[c, 0]
         for a in range(1, m):
             ds[c, a] -= r_z[c, a]
+        step_s = min(step_s, _cone_step(s, ds, c))
+        step_z = min(step_z, _cone_step(z, dz, c))
+    return step_s, step_z
+
+
+@numba.njit(cache=True)
+def take_step(k, dk, t, dt, s, ds, z, dz, step):  # pragma: no cover - compiled
+    """(k, t, s, z) += step · (Δk, Δt, Δs, Δz), in place."""
+    for i in range(k.shape[0]):
+        for j in range(k.shape[1]):
+            k[i, j] += step * dk[i, j]
+    for c in range(s.shape[0]):
+        t[c] += step * dt[c]
+        for a in range(s.shape[1]):
+            s[c, a] += step * ds[c, a]
+            z[c, a] += step * dz[c, a]
 
 
 @numba.njit(cache=True)

@@ -156,13 +156,11 @@ class _NewtonSystem:
         self.v, self.eta, self.lam = np.empty_like(s), np.empty(n_cones), np.empty_like(s)
         self.alpha, self.beta = np.empty(n_cones), np.empty((n_cones, m - 1))
         self.s_coef = np.empty(n_cones)
-        cones.nt_scaling(s, z, self.v, self.eta, self.lam)
-        cones.elimination_terms(self.v, self.eta, self.alpha, self.beta, self.s_coef)
         self.lam_sq = np.empty_like(s)
-        cones.jordan_product(self.lam, self.lam, self.lam_sq)
         self.u_rz = np.empty_like(s)  # W⁻² r_z, shared by both directions
-        cones.apply_scaling(self.v, self.eta, r_z, -1.0, self.u_rz)
-        cones.apply_scaling(self.v, self.eta, self.u_rz, -1.0, self.u_rz)
+        cones.prepare_newton(s, z, r_z, self.v, self.eta, self.lam, self.lam_sq, self.u_rz,
+                             self.alpha, self.beta, self.s_coef)
+        self.s = s
 
     def affine_direction(self):
         """Factor the Newton matrix and solve for the predictor target −λ∘λ."""
@@ -171,7 +169,7 @@ class _NewtonSystem:
         return self._finish(self.cp.back_substitute(rhs), work)
 
     def direction(self, target: np.ndarray):
-        """(Δk, Δt, Δs, Δz) for the complementarity target (after :meth:`affine_direction`)."""
+        """(Δk, Δt, Δs, Δz, largest step) for the target (after :meth:`affine_direction`)."""
         work, rhs = self._rhs(target)
         return self._finish(self.cp.solve(rhs), work)
 
@@ -186,13 +184,14 @@ class _NewtonSystem:
         return work, rhs
 
     def _finish(self, dk: np.ndarray, work: np.ndarray):
+        """(Δk, Δt, Δs, Δz) and the largest steps keeping s and z in the cones."""
         cp = self.cp
         dt, ds, dz = np.empty(cp.n_cones), np.empty_like(work), np.empty_like(work)
-        cones.direction_finish(
-            dk, work, self.r_z, self.z, self.alpha, self.beta, self.v, self.eta, self.s_coef,
-            cp.coeffs, cp.w, dt, ds, dz,
+        steps = cones.direction_finish(
+            dk, work, self.s, self.r_z, self.z, self.alpha, self.beta, self.v, self.eta,
+            self.s_coef, cp.coeffs, cp.w, dt, ds, dz,
         )
-        return dk, dt, ds, dz
+        return dk, dt, ds, dz, min(steps)
 
 
 def fit_sparse_ipm(
@@ -257,7 +256,7 @@ def fit_sparse_ipm(
         # Predictor (affine) step, target −λ∘λ; then Mehrotra's corrector with the
         # target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a), σ = (1 − α_a)³.
         try:
-            _, _, ds_a, dz_a = newton.affine_direction()
+            _, _, ds_a, dz_a, step = newton.affine_direction()
         except SingularProblemError:
             if iterations == 0:
                 raise
@@ -267,19 +266,15 @@ def fit_sparse_ipm(
             stalled = True
             break
         iterations += 1
-        step = min(1.0, cones.max_step(s, ds_a), cones.max_step(z, dz_a))
-        sigma_mu = (1.0 - step) ** 3 * gap / n_cones
+        sigma_mu = (1.0 - min(1.0, step)) ** 3 * gap / n_cones
         target = np.empty_like(s)
         cones.corrector_target(newton.lam, newton.v, newton.eta, ds_a, dz_a, sigma_mu, target)
-        dk, dt, ds, dz = newton.direction(target)
-        step = min(1.0, STEP_FRACTION * min(cones.max_step(s, ds), cones.max_step(z, dz)))
+        dk, dt, ds, dz, step = newton.direction(target)
+        step = min(1.0, STEP_FRACTION * step)
         if step < MIN_STEP:
             stalled = True
             break
-        k += step * dk
-        t += step * dt
-        s += step * ds
-        z += step * dz
+        cones.take_step(k, dk, t, dt, s, ds, z, dz, step)
     if not converged:
         reason = ("stalled at the limit of working precision" if stalled
                   else f"did not converge in {max_iter} iterations")
