@@ -110,3 +110,42 @@ def test_path_sq_equals_fit():
         np.testing.assert_allclose(model.k, ltv.fit(x, u, lam=lam, order=2).k, rtol=1e-12)
     with pytest.raises(ValueError, match=r"^lams:"):
         ltv.fit_path(x, u, lams=[], norm="group")
+
+
+@pytest.mark.parametrize("norm", ["group", "l1"])
+@pytest.mark.parametrize("order,coeffs", [(1, [-1.0, 1.0]), (2, [1.0, -2.0, 1.0])])
+def test_constant_coefficients_match_clarabel(norm, order, coeffs):
+    """lam = inf holds a coefficient constant in time: a border in the Newton systems."""
+    x, u = data(9)
+    pb = state_space_problem(x, u, np.array(coeffs))
+    N, n, p = pb.N, pb.n, pb.p
+    const = np.array([1, 4])  # A[0, 1] and A[1, 1]: one in each row
+    pattern = np.ones(pb.K)
+    pattern[const] = np.inf
+    weights = 0.3 * lambda_max(pb, norm, pattern) * pattern
+    model = ltv.fit(x, u, lam=weights, norm=norm, order=order, tol=1e-9)
+    assert model.info["converged"] and model.info["solver"].startswith("interior point")
+    np.testing.assert_allclose(model.k[:, const], model.k[:1, const].repeat(N, 0), atol=1e-12)
+
+    theta = cp.Variable((N, n * p))
+    fitted = [cp.sum(cp.multiply(theta[:, i * p:(i + 1) * p], pb.phi), axis=1) for i in range(n)]
+    loss = sum(cp.sum_squares(pb.y[:, i] - fitted[i]) for i in range(n))
+    d = len(coeffs) - 1
+    Dk = sum(coeffs[j] * theta[j:N - d + j, :] for j in range(d + 1))
+    finite = np.where(np.isinf(weights), 0.0, weights)
+    Z = cp.multiply(Dk, np.tile(finite, (N - d, 1)))
+    reg = cp.sum(cp.norm(Z, 2, axis=1)) if norm == "group" else cp.sum(cp.abs(Z))
+    constraints = [theta[1:, j] == theta[:-1, j] for j in const]
+    problem = cp.Problem(cp.Minimize(loss + reg), constraints)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        problem.solve(solver=cp.CLARABEL, tol_gap_abs=1e-12, tol_gap_rel=1e-12, tol_feas=1e-12)
+    assert abs(model.info["objective"] - problem.value) <= 1e-6 * problem.value
+    assert np.abs(model.k - theta.value).max() <= 1e-3 * np.abs(theta.value).max()
+
+
+def test_all_coefficients_constant_is_the_lti_fit():
+    x, u = data(10)
+    lti = ltv.fit_lti(x, u)
+    model = ltv.fit(x, u, lam=np.full(6, np.inf), norm="group")
+    np.testing.assert_allclose(model.k, lti.k, rtol=1e-10, atol=1e-12)

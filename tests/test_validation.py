@@ -178,8 +178,10 @@ def test_sparse_norms_reject_what_they_do_not_support(data, norm):
         ltv.fit(x, u, lam=0.0, norm=norm)
     with pytest.raises(ValueError, match=r"^lam:.*norm='sq' only"):
         ltv.fit(x, u, lam=np.eye(K), norm=norm)
+    mixed = np.ones(K)
+    mixed[0], mixed[1] = np.inf, 0.0  # constants need every weight > 0
     with pytest.raises(NotImplementedError, match=r"^lam:.*inf"):
-        ltv.fit(x, u, lam=np.full(K, np.inf), norm=norm)
+        ltv.fit(x, u, lam=mixed, norm=norm)
     with pytest.raises(NotImplementedError, match=r"^prior:"):
         ltv.fit(x, u, lam=1.0, norm=norm, prior=ltv.Prior(np.zeros(K), 1.0))
     with pytest.raises(ValueError, match=r"^max_iter:"):

@@ -108,7 +108,7 @@ def norm_name(norm: Any) -> str:
 
 
 def sparse_weights(lam: Any, K: int) -> np.ndarray:
-    """λ for norm="group"/"l1": a scalar > 0 or a (K,) vector of finite weights >= 0.
+    """λ for norm="group"/"l1": a scalar > 0 or a (K,) vector of weights >= 0 (inf: constant).
 
     Returns the (K,) weight vector Λ of the penalty Σ_t R(Λ (Dk)_t).
     """
@@ -119,11 +119,6 @@ def sparse_weights(lam: Any, K: int) -> np.ndarray:
             f"(K,) vector with norm='group' or 'l1', received shape {np.shape(lam)}"
         )
     weights = np.sqrt(np.diag(W))
-    if np.isinf(weights).any():
-        raise NotImplementedError(
-            "lam: constant coefficients (lam = inf) are not supported yet with "
-            "norm='group' or 'l1'; use norm='sq' or a large finite weight"
-        )
     if not np.any(weights > 0):
         raise ValueError(
             "lam: expected lam > 0 with norm='group' or 'l1': with lam = 0 every time step "

@@ -142,9 +142,9 @@ def fit(
         few time steps where all coefficients change together (piecewise
         constant for order 1, piecewise linear for order 2). "l1":
         λ Σ_t ‖(Dk)_t‖₁ (eq. pwconstant_naive): sparse changes per coefficient.
-        The sparse norms take a scalar or (K,) vector λ > 0 (see ``tol`` for the
-        solvers); priors, covariances and the likelihood are available for "sq"
-        only.
+        The sparse norms take a scalar or (K,) vector λ > 0, where ``np.inf``
+        holds a coefficient constant in time (see ``tol`` for the solvers);
+        priors, covariances and the likelihood are available for "sq" only.
     order : int or sequence of float
         1: first difference (slowly varying, eq. slow); 2: second difference
         (smooth, eq. smooth); an integer d: d-th difference; or polynomial
@@ -450,9 +450,12 @@ def _solve_sparse(
     n = problem.n
     info: dict = {}
     theta_bar = admm.null_space_fit(problem)
-    # The largest weight at which this weight pattern gives the LTI fit.
-    lam_max = admm.lambda_max(problem, norm, weights / weights.max(), theta_bar)
-    if np.all(weights > 0) and weights.max() >= lam_max:
+    # The largest finite weight at which this weight pattern gives the LTI fit
+    # (weights of inf hold their coefficients constant at any λ).
+    finite = weights[np.isfinite(weights)]
+    scale = finite.max() if finite.size else np.inf
+    lam_max = admm.lambda_max(problem, norm, weights / scale, theta_bar) if finite.size else 0.0
+    if np.all(weights > 0) and scale >= lam_max:
         # Dk = 0 is optimal (λ_max's dual certificate): the null-space fit, exactly.
         theta, result = theta_bar, None
         info.update(
@@ -468,6 +471,12 @@ def _solve_sparse(
             primal_residual=ip.primal_residual, dual_residual=ip.dual_residual,
         )
     else:
+        if np.isinf(weights).any():
+            raise NotImplementedError(
+                "lam: constant coefficients (lam = inf) with norm='group' or 'l1' need every "
+                f"weight > 0 and at most {IPM_MAX_K} parameters per time step, received "
+                f"K = {K} and {int(np.sum(weights == 0))} zero weights"
+            )
         result = admm.fit_sparse(
             problem, weights, norm, max_iter=max_iter, tol=tol, warm_start=warm_start
         )

@@ -194,7 +194,7 @@ def _penalty_row(v, eta, s_coef, w, r, offset, out, b):  # pragma: no cover - co
 
 @numba.njit(cache=True, inline="always")
 def factor_newton(
-    phi, n_rep, v, eta, s_coef, w, coeffs, offset, Z, L, b
+    phi, n_rep, v, eta, s_coef, w, coeffs, offset, pinned, Z, L, b
 ):  # pragma: no cover - compiled
     """Factor the Newton matrix 2ΦᵀΦ + DᵀΛSΛD and forward-substitute Z, in one sweep.
 
@@ -203,6 +203,10 @@ def factor_newton(
     kept in a ring buffer of d + 1), restricted to the b coefficients from
     ``offset`` on (one output row for l1, all K for group). Z (N, b, r) is
     overwritten with L⁻¹Z; L (N, d+1, b, b) receives the factor.
+
+    Coefficients with ``pinned[i] != 0`` (constant in time, solved for
+    through a border by the caller) get an identity row and column instead:
+    they decouple from the banded system.
 
     Returns (smallest pivot² ratio, −1 if not positive definite; its time step).
     """
@@ -231,6 +235,11 @@ def factor_newton(
                     for j in range(b):
                         M[i, j] += weight * P[i, j]
             if lag > 0:
+                for i in range(b):
+                    if pinned[i] != 0.0:
+                        for j in range(b):
+                            M[i, j] = 0.0
+                            M[j, i] = 0.0
                 _offdiagonal_step(L, M, t, lag, d, b)
         Ltt = L[t, 0]
         for i in range(b):
@@ -241,6 +250,13 @@ def factor_newton(
             for i in range(p):
                 for j in range(i + 1):
                     Ltt[base + i, base + j] += 2.0 * phi[t, i] * phi[t, j]
+        for i in range(b):
+            if pinned[i] != 0.0:
+                for j in range(i):
+                    Ltt[i, j] = 0.0
+                for j in range(i + 1, b):
+                    Ltt[j, i] = 0.0
+                Ltt[i, i] = 1.0
         for i in range(b):
             ref[i] = Ltt[i, i]
         ratio = _diagonal_step(L, Z, t, d, b, ref)
@@ -253,17 +269,23 @@ def factor_newton(
 
 
 @numba.njit(cache=True)
-def factor_newton_any(phi, n_rep, v, eta, s_coef, w, coeffs, offset, Z, L):  # pragma: no cover
+def factor_newton_any(
+    phi, n_rep, v, eta, s_coef, w, coeffs, offset, pinned, Z, L
+):  # pragma: no cover - compiled
     """:func:`factor_newton` with the block size taken from ``L`` at run time."""
-    return factor_newton(phi, n_rep, v, eta, s_coef, w, coeffs, offset, Z, L, L.shape[2])
+    return factor_newton(
+        phi, n_rep, v, eta, s_coef, w, coeffs, offset, pinned, Z, L, L.shape[2]
+    )
 
 
 @numba.njit(cache=True)
 def factor_newton_fixed(
-    phi, n_rep, v, eta, s_coef, w, coeffs, offset, Z, L, b_tuple
+    phi, n_rep, v, eta, s_coef, w, coeffs, offset, pinned, Z, L, b_tuple
 ):  # pragma: no cover - compiled
     """:func:`factor_newton` with the block size ``len(b_tuple)`` as a compile-time constant."""
-    return factor_newton(phi, n_rep, v, eta, s_coef, w, coeffs, offset, Z, L, len(b_tuple))
+    return factor_newton(
+        phi, n_rep, v, eta, s_coef, w, coeffs, offset, pinned, Z, L, len(b_tuple)
+    )
 
 
 @numba.njit(cache=True)

@@ -21,6 +21,10 @@ block-banded with K × K blocks and block bandwidth d, like the squared-norm
 normal equations. One block Cholesky factorization per iteration serves both
 the predictor and the corrector.
 
+Coefficients with weight inf are constant in time: they are pinned out of
+the banded systems and solved for through a small border (see
+:class:`_RowSystem`).
+
 Notation: a cone vector v = (v₀, v₁) with v₀ scalar; J = diag(1, −I); the
 Jordan product u ∘ v = (uᵀv, u₀v₁ + v₀u₁) with identity e = (1, 0).
 """
@@ -31,6 +35,7 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import cho_factor, cho_solve
 
 from ..errors import ConvergenceWarning, SingularProblemError
 from ..problem import RegressionProblem
@@ -61,18 +66,106 @@ class InteriorPointResult:
     converged: bool
 
 
+class _RowSystem:
+    """One independent block-banded Newton system and its border of constant coefficients.
+
+    Covers the coefficients ``rows`` (all K for group, one output row for l1).
+    Coefficients held constant in time (λ = inf) are pinned to an identity in
+    the banded matrix H_b and solved for through a border: with G the data
+    coupling between the varying and the constant coefficients and C0 the
+    constants' own Gram matrix, the Newton step is
+
+        Δc = (C0 − GᵀH_b⁻¹G)⁻¹ (f_c − GᵀH_b⁻¹f),   Δk = H_b⁻¹(f − GΔc),
+
+    with f_c the right-hand side summed over time (k_tj = c_j for all t).
+    """
+
+    def __init__(self, cp: _ConicProblem, rows: slice, const: np.ndarray):
+        self.rows, self.offset = rows, rows.start
+        b = rows.stop - rows.start
+        self.pinned = const[rows].astype(float)
+        self.const = np.flatnonzero(const[rows])
+        self.L = np.empty((cp.N, cp.degree + 1, b, b))
+        self.fixed = (0,) * b if cp.N * b >= FIXED_KERNEL_MIN_SIZE and b <= 16 else None
+        if self.const.size:
+            p = cp.p
+            idx = self.offset + np.arange(b)
+            cidx = self.offset + self.const
+            same_row = (idx[:, None] // p == cidx[None, :] // p) & (self.pinned[:, None] == 0)
+            phi = cp.phi
+            self.G = 2.0 * phi[:, idx % p][:, :, None] * phi[:, cidx % p][:, None, :] * same_row
+            cc_row = cidx[:, None] // p == cidx[None, :] // p
+            self.C0 = 2.0 * (phi[:, cidx % p].T @ phi[:, cidx % p]) * cc_row
+
+    def factor_and_solve(self, cp: _ConicProblem, newton: _NewtonSystem, f: np.ndarray):
+        """Factor at ``newton``'s scaling and return the Newton step for f (N, b)."""
+        f, f_c = self._split(f)
+        Z = f[:, :, None] if not self.const.size else np.concatenate([f[:, :, None], self.G], 2)
+        Z = np.ascontiguousarray(Z)
+        args = (cp.phi, cp.n_rep, newton.v, newton.eta, newton.s_coef, cp.w, cp.coeffs,
+                self.offset, self.pinned, Z, self.L)
+        if self.fixed is not None:
+            worst, worst_t = cones.factor_newton_fixed(*args, self.fixed)
+        else:
+            worst, worst_t = cones.factor_newton_any(*args)
+        if worst < 0:
+            raise SingularProblemError(
+                f"the Newton system is singular near time step {worst_t}: the data do "
+                "not determine the model; more excitation or a larger lam helps"
+            )
+        no_cov = np.empty((0, Z.shape[1], Z.shape[1]))
+        if self.fixed is not None:
+            kernels.backward_fixed(self.L, Z, no_cov, self.fixed)
+        else:
+            kernels.backward(self.L, Z, no_cov, Z.shape[1])
+        if self.const.size:
+            self.HinvG = Z[:, :, 1:].copy()
+            schur = self.C0 - np.einsum("tbj,tbk->jk", self.G, self.HinvG)
+            self.schur = cho_factor(schur)
+        return self._border(Z[:, :, 0], f_c)
+
+    def solve(self, f: np.ndarray) -> np.ndarray:
+        """The Newton step for f (N, b) with the current factorization."""
+        f, f_c = self._split(f)
+        X = np.ascontiguousarray(f[:, :, None])
+        if self.fixed is not None:
+            kernels.solve_fixed(self.L, X, self.fixed)
+        else:
+            kernels.solve(self.L, X, X.shape[1])
+        return self._border(X[:, :, 0], f_c)
+
+    def _split(self, f: np.ndarray):
+        """f with the constants' entries removed (zeroed), and their sums over time."""
+        f = np.array(f)
+        f_c = f[:, self.const].sum(axis=0)
+        f[:, self.const] = 0.0
+        return f, f_c
+
+    def _border(self, y: np.ndarray, f_c: np.ndarray) -> np.ndarray:
+        if not self.const.size:
+            return y
+        dc = cho_solve(self.schur, f_c - np.einsum("tbj,tb->j", self.G, y))
+        dk = y - self.HinvG @ dc
+        dk[:, self.const] = dc
+        return dk
+
+
 class _ConicProblem:
-    """The data of the conic program and the factorization of its Newton matrix.
+    """The data of the conic program and its independent Newton systems.
 
     Cone vectors are (n_cones, g + 1) arrays as in :mod:`._conekernels`.
+    Coefficients with weight inf are constant in time: their cone entries get
+    weight 0 and their steps come from the systems' borders.
     """
 
     def __init__(self, problem: RegressionProblem, weights: np.ndarray, norm: str):
         self.N, self.n, self.p, self.K = problem.N, problem.n, problem.p, problem.K
+        self.degree = problem.degree
         self.y = np.ascontiguousarray(problem.y)
         self.phi = np.ascontiguousarray(problem.phi)
         self.coeffs = np.ascontiguousarray(problem.coeffs, dtype=float)
-        self.w = np.ascontiguousarray(weights, dtype=float)
+        self.const = np.isinf(weights)
+        self.w = np.ascontiguousarray(np.where(self.const, 0.0, weights), dtype=float)
         rows = self.N - problem.degree
         g = self.K if norm == "group" else 1  # cone size without t
         self.n_cones = rows * (self.K // g)
@@ -82,59 +175,31 @@ class _ConicProblem:
         # coefficients, so then the Newton matrix splits into n systems with
         # p × p blocks, one per row. The group cones couple all K coefficients.
         if norm == "l1":
-            self.systems = [slice(i * self.p, (i + 1) * self.p) for i in range(self.n)]
+            slices = [slice(i * self.p, (i + 1) * self.p) for i in range(self.n)]
             self.n_rep = 1
         else:
-            self.systems = [slice(0, self.K)]
+            slices = [slice(0, self.K)]
             self.n_rep = self.n
-        b = self.systems[0].stop - self.systems[0].start
-        self.b = b
-        self.fixed = (0,) * b if self.N * b >= FIXED_KERNEL_MIN_SIZE and b <= 16 else None
-        self.L = np.empty((len(self.systems), self.N, problem.degree + 1, b, b))
+        self.systems = [_RowSystem(self, rows, self.const) for rows in slices]
 
-    def factor(self, newton: _NewtonSystem, rhs: np.ndarray) -> None:
-        """Factor the Newton matrix 2ΦᵀΦ + DᵀΛSΛD at ``newton``'s scaling into ``self.L``.
-
-        The right-hand side ``rhs`` (N, K) is forward-substituted in the same
-        sweep; :meth:`back_substitute` then completes its solution.
-        """
-        for L, rows in zip(self.L, self.systems, strict=True):
-            Z = np.ascontiguousarray(rhs[:, rows])[:, :, None]
-            args = (self.phi, self.n_rep, newton.v, newton.eta, newton.s_coef, self.w,
-                    self.coeffs, rows.start, Z, L)
-            if self.fixed is not None:
-                worst, worst_t = cones.factor_newton_fixed(*args, self.fixed)
-            else:
-                worst, worst_t = cones.factor_newton_any(*args)
-            if worst < 0:
-                raise SingularProblemError(
-                    f"the Newton system is singular near time step {worst_t}: the data do "
-                    "not determine the model; more excitation or a larger lam helps"
-                )
-            rhs[:, rows] = Z[:, :, 0]
-
-    def back_substitute(self, rhs: np.ndarray) -> np.ndarray:
-        """Complete the solution of a right-hand side forward-substituted by :meth:`factor`."""
-        no_cov = np.empty((0, self.b, self.b))
-        for L, rows in zip(self.L, self.systems, strict=True):
-            X = np.ascontiguousarray(rhs[:, rows])[:, :, None]
-            if self.fixed is not None:
-                kernels.backward_fixed(L, X, no_cov, self.fixed)
-            else:
-                kernels.backward(L, X, no_cov, self.b)
-            rhs[:, rows] = X[:, :, 0]
+    def factor_and_solve(self, newton: _NewtonSystem, rhs: np.ndarray) -> np.ndarray:
+        """Factor the Newton matrix at ``newton``'s scaling; the step for rhs (N, K)."""
+        for system in self.systems:
+            rhs[:, system.rows] = system.factor_and_solve(self, newton, rhs[:, system.rows])
         return rhs
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
-        """Solve the factored Newton system for rhs (N, K), in place."""
-        for L, rows in zip(self.L, self.systems, strict=True):
-            X = np.ascontiguousarray(rhs[:, rows])[:, :, None]
-            if self.fixed is not None:
-                kernels.solve_fixed(L, X, self.fixed)
-            else:
-                kernels.solve(L, X, self.b)
-            rhs[:, rows] = X[:, :, 0]
+        """The Newton step for rhs (N, K) with the current factorization, in place."""
+        for system in self.systems:
+            rhs[:, system.rows] = system.solve(rhs[:, system.rows])
         return rhs
+
+    def dual_residual_norm(self, r_k: np.ndarray) -> float:
+        """‖r_k‖ with the entries of constant coefficients summed over time."""
+        if not self.const.any():
+            return float(np.linalg.norm(r_k))
+        varying = np.linalg.norm(r_k[:, ~self.const])
+        return float(np.hypot(varying, np.linalg.norm(r_k[:, self.const].sum(axis=0))))
 
 
 class _NewtonSystem:
@@ -165,8 +230,7 @@ class _NewtonSystem:
     def affine_direction(self):
         """Factor the Newton matrix and solve for the predictor target −λ∘λ."""
         work, rhs = self._rhs(-self.lam_sq)
-        self.cp.factor(self, rhs)  # the forward substitution rides along
-        return self._finish(self.cp.back_substitute(rhs), work)
+        return self._finish(self.cp.factor_and_solve(self, rhs), work)
 
     def direction(self, target: np.ndarray):
         """(Δk, Δt, Δs, Δz, largest step) for the target (after :meth:`affine_direction`)."""
@@ -209,7 +273,7 @@ def fit_sparse_ipm(
     ----------
     problem : RegressionProblem
     weights : ndarray, shape (K,)
-        λ_j > 0 per coefficient.
+        λ_j > 0 per coefficient; inf holds coefficient j constant in time.
     norm : {"group", "l1"}
     tol : float
         Stop when the duality gap relative to the objective and both
@@ -244,6 +308,8 @@ def fit_sparse_ipm(
         loss, reg, gap, rz_norm, s_norm, rk_norm, rt_max = cones.kkt_residuals(
             k, t, s, z, cp.y, cp.phi, cp.coeffs, cp.w, r_z, r_k
         )
+        if cp.const.any():
+            rk_norm = cp.dual_residual_norm(r_k)
         objective = loss + reg
         primal_res = rz_norm / (1.0 + s_norm)
         dual_res = max(rk_norm / scale_k, rt_max)
