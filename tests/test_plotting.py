@@ -111,3 +111,83 @@ def test_plot_eigenvalues(model):
     np.testing.assert_allclose(ax.lines[0].get_ydata(), expected[:, 0])
     with pytest.raises(TypeError, match="model"):
         plotting.plot_eigenvalues(object())
+
+
+def test_plot_activation_marks_changepoints(model):
+    found = ltv.find_changepoints(model)
+    ax = plotting.plot_activation(model, changepoints=[30, 60])
+    np.testing.assert_allclose(ax.lines[0].get_ydata(), model.activation())
+    # order 1: a change at c shows at activation index c − 1
+    assert [line.get_xdata()[0] for line in ax.lines[1:]] == [29, 59]
+    assert ax.get_legend() is not None and "30, 60" in ax.get_legend().get_title().get_text()
+    ax = plotting.plot_activation(model, changepoints=found[:0])
+    assert "none" in ax.get_legend().get_title().get_text()
+    with pytest.raises(ValueError, match="changepoints"):
+        plotting.plot_activation(model, changepoints=[1.5])
+
+
+def test_plot_poles_unit_circle(model):
+    ax = plotting.plot_poles(model)
+    assert isinstance(ax, Axes)
+    circle = ax.lines[0]
+    np.testing.assert_allclose(np.hypot(circle.get_xdata(), circle.get_ydata()), 1.0)
+    assert ax.collections[0].get_offsets().shape == (model.N * 2, 2)
+    assert len(ax.figure.axes) == 2  # with the colour bar for t
+    with pytest.raises(TypeError, match="model"):
+        plotting.plot_poles(object())
+
+
+def test_plot_simulation_and_prediction(model, data):
+    sim = model.simulate(data.x[0], data.u)
+    fig = plotting.plot_simulation(data.x, sim, names=["q", "v"])
+    assert isinstance(fig, Figure) and len(fig.axes) == 2
+    rms = np.sqrt(np.mean((sim[:, 1] - data.x[:, 1]) ** 2))
+    assert fig.axes[1].get_title() == f"v: RMS error {rms:.3g}"
+    pred = model.predict(data.x, data.u)
+    fig = plotting.plot_simulation(data.x, pred, start=1, label="one-step prediction")
+    data_line, pred_line = fig.axes[0].lines
+    np.testing.assert_array_equal(pred_line.get_xdata(), np.arange(1, data.T))
+    assert pred_line.get_label() == "one-step prediction"
+    fig = plotting.plot_simulation(data.x[:, 0], np.full(data.T, 1e300))  # diverging: no error
+    assert len(fig.axes) == 1
+    with pytest.raises(ValueError, match="simulation"):
+        plotting.plot_simulation(data.x, pred, start=2)
+    with pytest.raises(ValueError, match="simulation"):
+        plotting.plot_simulation(data.x, pred[:, :1])
+    with pytest.raises(ValueError, match="names"):
+        plotting.plot_simulation(data.x, sim, names=["only one"])
+
+
+def test_plot_lambda_selection(data):
+    selection = ltv.select_lambda(data.x, data.u, norm="sq", lams=[1.0, 10.0, 100.0])
+    ax = plotting.plot_lambda_selection(selection)
+    assert isinstance(ax, Axes) and "choosing lam" in ax.get_title()
+    with pytest.raises(TypeError, match="selection"):
+        plotting.plot_lambda_selection(3.0)
+
+
+def test_plot_spectrogram_under_root_spectrogram():
+    y, _ = ltv.ar.chirp(2**11, seed=0)
+    ax = plotting.plot_spectrogram(y, 16000.0)
+    assert isinstance(ax, Axes) and len(ax.collections) == 1
+    armodel = ltv.fit_ar(y, na=4, lam=300.0)
+    assert plotting.plot_root_spectrogram(armodel, 16000.0, ax=ax) is ax
+    assert ax.get_ylim()[1] == 8000.0
+    with pytest.raises(ValueError, match="y"):
+        plotting.plot_spectrogram(np.zeros((10, 2)), 1.0)
+    with pytest.raises(ValueError, match="fs"):
+        plotting.plot_spectrogram(y, -1.0)
+
+
+def test_plot_model_overview(model, data):
+    fig = plotting.plot_model(model, truth=data, changepoints=[60])
+    assert isinstance(fig, Figure) and len(fig.subfigs) == 2
+    assert len(fig.subfigs[0].axes) == 6 and len(fig.subfigs[1].axes) == 2
+    activation_ax, eig_ax = fig.subfigs[1].axes
+    assert activation_ax.get_title() == "Activation" and eig_ax.lines[-1].get_ydata()[0] == 1.0
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    assert buf.getvalue()[:8] == b"\x89PNG\r\n\x1a\n"
+    segmented = ltv.fit_segments(data.x, data.u, n_changes=1)
+    fig = plotting.plot_model(segmented)  # change points of the model itself
+    assert "60" in fig.subfigs[1].axes[0].get_legend().get_title().get_text()

@@ -22,7 +22,8 @@ j describes y[L + j] (``model.sample_index``).
   :func:`ltvmodels.fit_regression`;
 * :meth:`ARXModel.root_spectrogram` — frequencies of the poles of 1/A_t(z),
   A_t(z) = I − Σ_i A_{t,i} z^{−i}, over time: a parametric time–frequency
-  picture.
+  picture;
+* :func:`chirp` — the two-component test chirp of the reference implementation.
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ __all__ = [
     "arx_regressors",
     "fit_ar",
     "fit_arx",
+    "chirp",
 ]
 
 
@@ -633,3 +635,52 @@ class ARModel(ARXModel):
 
     def _repr_sizes(self) -> str:
         return f"n_outputs={self.n_outputs}, na={self.na}, constant={self.constant}"
+
+
+# -- test signal -----------------------------------------------------------------------
+
+
+def chirp(T: int = 2**14, fs: float = 16000.0, *, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """The two-component chirp of the reference implementation's root-spectrogram example.
+
+        y[j] = sin(2π f₁[j] t_j) + sin(2π f₂[j] t_j) + e[j],   t_j = j / fs,  e[j] ~ N(0, 0.01²),
+
+    with f₁ rising linearly from 2000 to 2500 Hz over the record (so the
+    instantaneous frequency d/dt (f₁(t) t) of the first component rises from
+    2000 to 3000 Hz) and f₂[j] = 5000 + 200 sin(2π j / T) Hz. With the
+    defaults (fs = 16 kHz, T = 2¹⁴) both components lie below fs/2.
+
+    Parameters
+    ----------
+    T : int, default 2**14
+        Number of samples, >= 2.
+    fs : float, default 16000.0
+        Sampling frequency (Hz).
+    seed : int, default 0
+        Seed of the measurement noise e (>= 0).
+
+    Returns
+    -------
+    y : ndarray, shape (T,)
+        The signal.
+    inst_freq : ndarray, shape (T,)
+        Instantaneous frequency of the first component (Hz),
+        2000 + 1000 j / (T − 1).
+
+    Examples
+    --------
+    >>> import ltvmodels as ltv
+    >>> y, inst = ltv.ar.chirp(2**12, seed=0)
+    >>> y.shape, float(inst[0]), float(inst[-1])
+    ((4096,), 2000.0, 3000.0)
+    """
+    T = _validate.integer(T, "T", minimum=2)
+    fs = _validate.positive_scalar(fs, "fs")
+    seed = _validate.integer(seed, "seed", minimum=0)
+    rng = np.random.default_rng(seed)
+    n = np.arange(T)
+    t = n / fs
+    f1 = np.linspace(2000.0, 2500.0, T)
+    f2 = 5000.0 + 200.0 * np.sin(2 * np.pi * n / T)
+    y = np.sin(2 * np.pi * f1 * t) + np.sin(2 * np.pi * f2 * t) + 0.01 * rng.standard_normal(T)
+    return y, 2000.0 + 1000.0 * n / (T - 1)
