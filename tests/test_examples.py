@@ -1,4 +1,4 @@
-"""The example scripts run headless and write their figures."""
+"""Every example script in examples/ runs headless (in a quick mode) and writes its figures."""
 
 import importlib.util
 from pathlib import Path
@@ -6,6 +6,24 @@ from pathlib import Path
 import pytest
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+SCRIPTS = sorted(path.stem for path in EXAMPLES.glob("*.py"))
+
+# Options that keep a slow example fast; an example with a --quick flag that is not
+# listed here runs with --quick.
+QUICK_ARGS = {
+    "rl_cartpole": ["--quick", "--runs", "1"],
+}
+# Text each example must print.
+EXPECTED_OUTPUT = {
+    "jump_linear": "detected change points [200], true [200]",
+    "robot_contact": "detected change points",
+    "chirp_spectrogram": "order 2: mean error",
+    "rl_cartpole": "Median cost over 1 runs",
+}
+# Figures beside --out for examples that write several.
+EXTRA_FIGURES = {
+    "robot_contact": ["robot_contact_train.png", "robot_contact_validation.png"],
+}
 
 
 def load(name):
@@ -15,17 +33,23 @@ def load(name):
     return module
 
 
-@pytest.mark.parametrize("name", ["jump_linear", "jump_linear_sq"])
-def test_example_runs(name, tmp_path, capsys):
+def quick_args(name):
+    if name in QUICK_ARGS:
+        return QUICK_ARGS[name]
+    return ["--quick"] if "--quick" in (EXAMPLES / f"{name}.py").read_text() else []
+
+
+def test_the_examples_are_found():
+    assert {"jump_linear", "robot_contact", "rl_cartpole", "chirp_spectrogram"} <= set(SCRIPTS)
+
+
+@pytest.mark.parametrize("name", SCRIPTS)
+def test_example_runs_headless(name, tmp_path, capsys):
     out = tmp_path / f"{name}.png"
-    assert load(name).main(["--out", str(out)]) == 0
-    assert out.stat().st_size > 10_000
-    if name == "jump_linear":
-        assert "detected change points [200], true [200]" in capsys.readouterr().out
-
-
-def test_robot_example_writes_both_figures(tmp_path, capsys):
-    assert load("robot_contact").main(["--out", str(tmp_path / "robot.png")]) == 0
-    for which in ("train", "validation"):
-        assert (tmp_path / f"robot_{which}.png").stat().st_size > 10_000
-    assert "detected change points" in capsys.readouterr().out
+    assert load(name).main(["--out", str(out), *quick_args(name)]) == 0
+    figures = EXTRA_FIGURES.get(name, [out.name])
+    for figure in figures:
+        assert (tmp_path / figure).stat().st_size > 10_000, figure
+    text = capsys.readouterr().out
+    if name in EXPECTED_OUTPUT:
+        assert EXPECTED_OUTPUT[name] in text
