@@ -128,3 +128,11 @@ def test_regression_front_end_matches_fit_ar_auto():
     assert ltv.fit_ar(data.x[:, 0], na=2, lam="auto").lam == pytest.approx(choice.lam)
     with pytest.raises(ValueError, match=r"^phi:"):
         ltv.select_lambda_regression(y, phi[:-1])
+
+
+def test_progress_is_reported_per_candidate():
+    data = ltv.systems.jump_linear(T=120, change_at=60, seed=7)
+    calls = []
+    select_lambda(data.x, data.u, lams=[1.0, 10.0, 100.0], method="lcurve",
+                  progress=lambda done, total: calls.append((done, total)))
+    assert calls == [(1, 3), (2, 3), (3, 3)]

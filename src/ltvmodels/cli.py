@@ -1181,13 +1181,20 @@ def _cmd_select_lambda(args: argparse.Namespace) -> Report:
         data_facts = {"state": state_names, "input": input_names}
         what = (f"states {', '.join(state_names)}; inputs "
                 f"{', '.join(input_names) or '(none)'}")
-    with _Progress("ltvmodels select-lambda: evaluating the candidates"), _user_errors():
+    with _Progress("ltvmodels select-lambda: evaluating the candidates") as bar, \
+            _user_errors():
+
+        def progress(done: int, total: int) -> None:
+            bar.total, bar.done = total, done
+
         if args.column is not None:
             selection = select_lambda_regression(y_out, phi, norm=args.norm, order=args.order,
-                                                 method=args.method)
+                                                 method=args.method, progress=progress)
+        elif args.norm == "l0":  # one dynamic program: no steps to count
+            selection = select_lambda(x, u, norm=args.norm, method=args.method)
         else:
             selection = select_lambda(x, u, norm=args.norm, order=args.order,
-                                      method=args.method)
+                                      method=args.method, progress=progress)
     is_l0 = selection.norm == "l0"
     report: dict[str, Any] = {
         "command": "select-lambda", "data": label, "T": T, **data_facts,

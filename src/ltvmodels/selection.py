@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -124,6 +124,7 @@ def select_lambda(
     lams: Any = None,
     n_folds: int = 5,
     max_changes: int = 10,
+    progress: Callable[[int, int], None] | None = None,
 ) -> LambdaSelection:
     """Choose λ for :func:`ltvmodels.fit` (state-space data) by a documented criterion.
 
@@ -153,6 +154,9 @@ def select_lambda(
         Folds of the blocked cross-validation (method="cv"), >= 2.
     max_changes : int
         For "l0" without ``lams``: candidates 0 … max_changes.
+    progress : callable, optional
+        Called as ``progress(done, total)`` after each candidate is scored
+        (e.g. to draw a progress bar).
 
     Returns
     -------
@@ -168,7 +172,7 @@ def select_lambda(
     problem = state_space_problem(x, u, coeffs)
     _validate.enough_samples(problem.N, problem.p, problem.degree)
     n_folds = _validate.integer(n_folds, "n_folds", minimum=2)
-    return select_for_problem(problem, norm, method, lams, n_folds=n_folds)
+    return select_for_problem(problem, norm, method, lams, n_folds=n_folds, progress=progress)
 
 
 def select_lambda_regression(
@@ -180,6 +184,7 @@ def select_lambda_regression(
     method: str | None = None,
     lams: Any = None,
     n_folds: int = 5,
+    progress: Callable[[int, int], None] | None = None,
 ) -> LambdaSelection:
     """:func:`select_lambda` for a regression y_t = Θ_t φ_t + e_t (any front-end).
 
@@ -192,7 +197,7 @@ def select_lambda_regression(
     y : array_like, shape (N, n) or (N,)
     phi : array_like, shape (N, p) or (N,)
     norm : {"sq", "group", "l1"}
-    order, method, lams, n_folds
+    order, method, lams, n_folds, progress
         As in :func:`select_lambda`.
     """
     y, phi = _validate.regression_data(y, phi)
@@ -203,18 +208,32 @@ def select_lambda_regression(
     problem = RegressionProblem(y=y, phi=phi, coeffs=coeffs)
     _validate.enough_samples(problem.N, problem.p, problem.degree)
     n_folds = _validate.integer(n_folds, "n_folds", minimum=2)
-    return select_for_problem(problem, norm, method, lams, n_folds=n_folds)
+    return select_for_problem(problem, norm, method, lams, n_folds=n_folds, progress=progress)
 
 
 def select_for_problem(
-    problem: RegressionProblem, norm: str, method: str, lams: Any, *, n_folds: int = 5
+    problem: RegressionProblem,
+    norm: str,
+    method: str,
+    lams: Any,
+    *,
+    n_folds: int = 5,
+    progress: Callable[[int, int], None] | None = None,
 ) -> LambdaSelection:
     """:func:`select_lambda` on a validated regression problem (any front-end)."""
     grid = _grid(problem, norm) if lams is None else _validate.positive_grid(lams, "lams")
+
+    def scored(values):
+        """Yield each candidate, reporting the ones done so far."""
+        for i, value in enumerate(values):
+            yield value
+            if progress is not None:
+                progress(i + 1, len(values))
+
     if method == "cv":
-        scores = np.array([_cv_error(problem, norm, lam, n_folds) for lam in grid])
+        scores = np.array([_cv_error(problem, norm, lam, n_folds) for lam in scored(grid)])
         return LambdaSelection(float(grid[np.argmin(scores)]), grid, scores, method, norm)
-    fits = [_fit(problem, norm, lam, compute_cov=method == "gcv") for lam in grid]
+    fits = [_fit(problem, norm, lam, compute_cov=method == "gcv") for lam in scored(grid)]
     residual = np.array([np.sqrt(f["rss"]) for f in fits])
     penalty = np.array([f["penalty_norm"] for f in fits])
     if method == "lcurve":
