@@ -163,16 +163,12 @@ def select_lambda(
     LambdaSelection
     """
     x, u = _validate.state_and_input(x, u)
-    norm = _validate.choice(norm, "norm", tuple(METHODS))
-    method = _validate.choice(DEFAULT_METHOD[norm] if method is None else method, "method",
-                              METHODS[norm])
+    norm, method = _norm_and_method(norm, method, tuple(METHODS))
     if norm == "l0":
         return _select_changes(x, u, method, lams, max_changes)
     coeffs = _validate.difference_coefficients(order, max_degree=x.shape[0])
-    problem = state_space_problem(x, u, coeffs)
-    _validate.enough_samples(problem.N, problem.p, problem.degree)
-    n_folds = _validate.integer(n_folds, "n_folds", minimum=2)
-    return select_for_problem(problem, norm, method, lams, n_folds=n_folds, progress=progress)
+    return _select_validated(state_space_problem(x, u, coeffs), norm, method, lams, n_folds,
+                             progress)
 
 
 def select_lambda_regression(
@@ -201,11 +197,22 @@ def select_lambda_regression(
         As in :func:`select_lambda`.
     """
     y, phi = _validate.regression_data(y, phi)
-    norm = _validate.choice(norm, "norm", ("sq", "group", "l1"))
+    norm, method = _norm_and_method(norm, method, ("sq", "group", "l1"))
+    coeffs = _validate.difference_coefficients(order, max_degree=y.shape[0])
+    return _select_validated(RegressionProblem(y=y, phi=phi, coeffs=coeffs), norm, method,
+                             lams, n_folds, progress)
+
+
+def _norm_and_method(norm: Any, method: Any, norms: tuple[str, ...]) -> tuple[str, str]:
+    """The validated norm and criterion (the norm's default when ``method`` is None)."""
+    norm = _validate.choice(norm, "norm", norms)
     method = _validate.choice(DEFAULT_METHOD[norm] if method is None else method, "method",
                               METHODS[norm])
-    coeffs = _validate.difference_coefficients(order, max_degree=y.shape[0])
-    problem = RegressionProblem(y=y, phi=phi, coeffs=coeffs)
+    return norm, method
+
+
+def _select_validated(problem, norm, method, lams, n_folds, progress) -> LambdaSelection:
+    """Check the sample count and ``n_folds``, then :func:`select_for_problem`."""
     _validate.enough_samples(problem.N, problem.p, problem.degree)
     n_folds = _validate.integer(n_folds, "n_folds", minimum=2)
     return select_for_problem(problem, norm, method, lams, n_folds=n_folds, progress=progress)

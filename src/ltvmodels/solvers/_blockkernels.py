@@ -303,50 +303,6 @@ def backward(L, X, cov, b):  # pragma: no cover - compiled
         cov[t] = window[t % w, t % w]
 
 
-@numba.njit(cache=True)
-def factor_forward_blocks(diag, off, Z, L):  # pragma: no cover - compiled
-    """Factor a block-banded SPD matrix given by its blocks; forward-substitute Z.
-
-    Parameters
-    ----------
-    diag : (N, b, b) diagonal blocks H_{t,t}
-    off : (d, N, b, b) off-diagonal blocks, off[l-1, s] = H_{s+l, s}
-    Z : (N, b, r) right-hand sides, overwritten with L⁻¹ rhs
-    L : (N, d+1, b, b) output factor
-
-    Returns
-    -------
-    worst_ratio, worst_t, logdet : as :func:`factor_forward`
-    """
-    N, b, _ = diag.shape
-    d = off.shape[0]
-    M = np.empty((b, b))
-    ref = np.empty(b)
-    worst = np.inf
-    worst_t = 0
-    logdet = 0.0
-    for t in range(N):
-        for lag in range(min(d, t), 0, -1):
-            blk = off[lag - 1, t - lag]
-            for i in range(b):
-                for j in range(b):
-                    M[i, j] = blk[i, j]
-            _offdiagonal_step(L, M, t, lag, d, b)
-        Ltt = L[t, 0]
-        for i in range(b):
-            for j in range(i + 1):
-                Ltt[i, j] = diag[t, i, j]
-            ref[i] = Ltt[i, i]
-        ratio = _diagonal_step(L, Z, t, d, b, ref)
-        if ratio < worst:
-            worst = ratio
-            worst_t = t
-        if ratio < 0:
-            return -1.0, t, 0.0
-        logdet += _log_det_block(L, t, b)
-    return worst, worst_t, logdet
-
-
 @numba.njit(cache=True, inline="always")
 def solve(L, X, b):  # pragma: no cover - compiled
     """Solve L Lᵀ X = rhs in place; X (N, b, r) holds rhs on entry."""

@@ -136,6 +136,8 @@ class _RowSystem:
 
     def _split(self, f: np.ndarray):
         """f with the constants' entries removed (zeroed), and their sums over time."""
+        if not self.const.size:
+            return f, None
         f = np.array(f)
         f_c = f[:, self.const].sum(axis=0)
         f[:, self.const] = 0.0
