@@ -168,8 +168,13 @@ def fit(
         block-banded (:mod:`ltvmodels.solvers.ipm`, 15–30 iterations): ``tol``
         bounds the duality gap relative to the objective
         (``info["duality_gap"]``) and the relative primal and dual residuals.
-        Otherwise ADMM (:mod:`ltvmodels.solvers.admm`): ``tol`` applies to the
-        relative primal and dual residuals.
+        If its Newton systems lose definiteness first (this happens near
+        degenerate optima, e.g. order 2 close to λ_max), an active-set polish
+        (:mod:`ltvmodels.solvers.polish`, orders 1 and 2) solves the problem
+        with the zero differences fixed and certifies the result the same
+        way; ``info["polished"]`` says so. Otherwise ADMM
+        (:mod:`ltvmodels.solvers.admm`): ``tol`` applies to the relative primal
+        and dual residuals.
     refine : bool
         Two-step refinement (paper Section III-G): find the change points of
         this fit (:func:`ltvmodels.find_changepoints`, default rules) and refit
@@ -469,6 +474,7 @@ def _solve_sparse(
             solver="interior point (block-banded Newton systems)", iterations=ip.iterations,
             converged=ip.converged, objective=ip.objective, duality_gap=ip.duality_gap,
             primal_residual=ip.primal_residual, dual_residual=ip.dual_residual,
+            polished=ip.polished,
         )
     else:
         if np.isinf(weights).any():

@@ -41,6 +41,7 @@ from ..errors import ConvergenceWarning, SingularProblemError
 from ..problem import RegressionProblem
 from . import _blockkernels as kernels
 from . import _conekernels as cones
+from .polish import polish
 
 # Fraction of the way to the cone boundary taken by a step (CVXOPT's STEP).
 STEP_FRACTION = 0.99
@@ -64,6 +65,7 @@ class InteriorPointResult:
     dual_residual: float  # relative norm of the stationarity residual
     iterations: int
     converged: bool
+    polished: bool = False  # the active-set polish (:mod:`.polish`) gave the result
 
 
 class _RowSystem:
@@ -343,6 +345,15 @@ def fit_sparse_ipm(
             stalled = True
             break
         cones.take_step(k, dk, t, dt, s, ds, z, dz, step)
+    polished = False
+    if not converged and problem.degree in (1, 2) and not cp.const.any():
+        # Near a degenerate optimum the Newton systems lose definiteness before
+        # the gap closes; the active-set polish often still certifies an optimum.
+        result = polish(problem, weights, norm, k, s, z, tol)
+        if result is not None:
+            k, objective, gap = result.k, result.objective, result.duality_gap
+            primal_res, dual_res = 0.0, result.dual_residual
+            converged = polished = True
     if not converged:
         reason = ("stalled at the limit of working precision" if stalled
                   else f"did not converge in {max_iter} iterations")
@@ -356,5 +367,5 @@ def fit_sparse_ipm(
     return InteriorPointResult(
         theta=k.reshape(N, problem.n, problem.p), objective=objective, duality_gap=gap,
         primal_residual=primal_res, dual_residual=dual_res, iterations=iterations,
-        converged=converged,
+        converged=converged, polished=polished,
     )
