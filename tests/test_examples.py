@@ -19,6 +19,11 @@ EXPECTED_OUTPUT = {
     "robot_contact": "detected change points",
     "chirp_spectrogram": "order 2: mean error",
     "rl_cartpole": "Median cost over 1 runs",
+    "gym_pendulum": "gymnasium's usual good return",
+}
+# Examples that need an optional dependency (skipped without it).
+REQUIRES = {
+    "gym_pendulum": "gymnasium",
 }
 # Figures beside --out for examples that write several.
 EXTRA_FIGURES = {
@@ -45,6 +50,8 @@ def test_the_examples_are_found():
 
 @pytest.mark.parametrize("name", SCRIPTS)
 def test_example_runs_headless(name, tmp_path, capsys):
+    if name in REQUIRES:
+        pytest.importorskip(REQUIRES[name])
     out = tmp_path / f"{name}.png"
     assert load(name).main(["--out", str(out), *quick_args(name)]) == 0
     figures = EXTRA_FIGURES.get(name, [out.name])

@@ -11,7 +11,7 @@ Quick use::
     model.A, model.B, model.cov, model.loglik
 """
 
-from . import control, plotting, rl, systems
+from . import control, gym_rl, plotting, rl, systems
 from .ar import ARModel, ARXModel, ar_regressors, arx_regressors, fit_ar, fit_arx
 from .changepoints import find_changepoints
 from .control import ilqg
@@ -72,6 +72,7 @@ __all__ = [
     "plotting",
     "control",
     "rl",
+    "gym_rl",
     "ilqg",
     "__version__",
 ]

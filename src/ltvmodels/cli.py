@@ -14,7 +14,7 @@ Subcommands::
                   [--plot FIG] [--json]
     ltvmodels predict MODEL.npz DATA [--state COLS] [--input COLS] [--out PRED.csv]
                   [--plot FIG] [--json]
-    ltvmodels demo {jump-linear,robot,chirp,rl} [--seed S] [--out PATH] ...
+    ltvmodels demo {jump-linear,robot,chirp,rl,pendulum} [--seed S] [--out PATH] ...
 
 DATA is a CSV file (comma, semicolon or tab separated, detected from the first
 line; a header row of column names is optional; lines starting with ``#`` are
@@ -64,6 +64,7 @@ __all__ = [
     "run_robot_demo",
     "run_chirp_demo",
     "run_rl_demo",
+    "run_pendulum_demo",
     "DataError",
     "OutputPathError",
     "JUMP_LINEAR_LAM",
@@ -88,6 +89,7 @@ DEFAULT_DEMO_OUT = {
     "robot": "ltvmodels-robot.png",
     "chirp": "ltvmodels-chirp.png",
     "rl": "ltvmodels-rl.png",
+    "pendulum": "ltvmodels-pendulum.png",
 }
 """Default image file of each demo (the robot demo writes ``<stem>_train`` and
 ``<stem>_validation`` next to it)."""
@@ -532,6 +534,72 @@ def run_rl_demo(
                                         for m in result.models),
     ]
     fig = plot_experiment(result)
+    if path is not None:
+        _save_figure(fig, path, fmt, dpi=120)
+        lines.append(f"wrote {path}")
+    print("\n".join(lines), file=stream)
+    return {"experiment": result, "figure": fig, "out": path}
+
+
+def run_pendulum_demo(
+    *,
+    seed: int = 0,
+    out: str | os.PathLike | None = DEFAULT_DEMO_OUT["pendulum"],
+    size: str = "default",
+    stream: TextIO | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> dict[str, Any]:
+    """Model-based reinforcement learning on gymnasium's Pendulum-v1 (needs gymnasium).
+
+    Runs :func:`ltvmodels.gym_rl.run_pendulum_experiment` (LTV and LTI models
+    learning to swing up the pendulum from ``env.reset`` rollouts), prints its
+    table and writes :func:`ltvmodels.gym_rl.plot_pendulum_experiment`.
+
+    Parameters
+    ----------
+    seed : int, default 0
+        First ``env.reset`` seed; the runs use seeds ``seed``, ``seed + 1``, ...
+    out : str or path-like or None, default ``"ltvmodels-pendulum.png"``
+        Image file to write (format from the suffix); None writes no file.
+    size : {"default", "quick", "full"}
+        "default": 2 initial states, 20 iterations (seconds); "quick": 1 initial
+        state, 20 iterations; "full": 20 initial states, 40 iterations (minutes).
+    stream : text stream, optional
+        Where the report goes (default ``sys.stdout``).
+    progress : callable, optional
+        Called with a line of text after each run.
+
+    Returns
+    -------
+    dict
+        ``experiment`` (:class:`~ltvmodels.gym_rl.PendulumExperiment`),
+        ``figure`` and ``out`` (the Path written, or None).
+
+    Raises
+    ------
+    OutputPathError
+        If ``out`` cannot be written (checked before the work).
+    ImportError
+        Without gymnasium (install ``ltvmodels[rl]``).
+    """
+    from .gym_rl import make_env, plot_pendulum_experiment, run_pendulum_experiment
+
+    stream = sys.stdout if stream is None else stream
+    path, fmt = _check_output_path(out) if out is not None else (None, None)
+    seed = _nonnegative_seed(seed)
+    if size not in ("default", "quick", "full"):
+        raise ValueError(f"size: expected 'default', 'quick' or 'full', received {size!r}")
+    make_env().close()  # gymnasium is there (else ImportError) before the work
+    runs, iterations = {"default": (2, 20), "quick": (1, 20), "full": (20, 40)}[size]
+    result = run_pendulum_experiment(seeds=range(seed, seed + runs), iterations=iterations,
+                                     progress=progress)
+    lines = [
+        "ltvmodels demo: model-based reinforcement learning on gymnasium's Pendulum-v1 "
+        f"(swing-up from env.reset/env.step rollouts), seeds {seed}-{seed + runs - 1} "
+        f"({result.elapsed:.1f} s)",
+        result.table(),
+    ]
+    fig = plot_pendulum_experiment(result)
     if path is not None:
         _save_figure(fig, path, fmt, dpi=120)
         lines.append(f"wrote {path}")
@@ -1373,10 +1441,10 @@ def _cmd_demo(args: argparse.Namespace) -> Report:
         for option, value in (("--norm", args.norm), ("--lam", args.lam)):
             if value is not None:
                 raise _CommandError(f"{option}: applies to the jump-linear demo only")
-    if args.quick and system not in ("chirp", "rl"):
-        raise _CommandError("--quick: applies to the chirp and rl demos only")
-    if args.full and system != "rl":
-        raise _CommandError("--full: applies to the rl demo only")
+    if args.quick and system not in ("chirp", "rl", "pendulum"):
+        raise _CommandError("--quick: applies to the chirp, rl and pendulum demos only")
+    if args.full and system not in ("rl", "pendulum"):
+        raise _CommandError("--full: applies to the rl and pendulum demos only")
     if args.quick and args.full:
         raise _CommandError("--quick, --full: expected one of them, received both")
     out = DEFAULT_DEMO_OUT[system] if args.out is None else args.out
@@ -1386,6 +1454,15 @@ def _cmd_demo(args: argparse.Namespace) -> Report:
         run_robot_demo(seed=args.seed, out=out)
     elif system == "chirp":
         run_chirp_demo(seed=args.seed, out=out, quick=args.quick)
+    elif system == "pendulum":
+        size = "full" if args.full else ("quick" if args.quick else "default")
+        runs = {"default": 2, "quick": 1, "full": 20}[size]
+        try:
+            with _Progress("ltvmodels demo pendulum: runs", total=runs) as bar:
+                run_pendulum_demo(seed=args.seed, out=out, size=size,
+                                  progress=lambda _line: bar.advance())
+        except ImportError as exc:
+            raise _CommandError(f"demo pendulum: {exc}") from None
     else:
         from .rl import QUICK_RUNS
 
@@ -1616,10 +1693,11 @@ def build_parser() -> argparse.ArgumentParser:
         "figures. jump-linear: the jump-linear system of the paper (Section VI, Fig. 1); "
         "robot: a two-link arm with friction and contact (Figs. 2-3); chirp: root "
         "spectrogram of a chirp by AR models; rl: model-based reinforcement learning on a "
-        "cart-pole (Section VIII, Fig. 4).",
+        "cart-pole (Section VIII, Fig. 4); pendulum: the same with LTV and LTI models on "
+        "gymnasium's Pendulum-v1 (needs gymnasium: pip install 'ltvmodels[rl]').",
     )
     demo.add_argument("system", choices=list(DEFAULT_DEMO_OUT),
-                      help="jump-linear, robot, chirp or rl")
+                      help="jump-linear, robot, chirp, rl or pendulum")
     demo.add_argument("--seed", type=_nonnegative_int, default=0,
                       help="seed of the simulation (default: 0)")
     demo.add_argument("--norm", choices=["group", "sq"], default=None,
@@ -1632,11 +1710,11 @@ def build_parser() -> argparse.ArgumentParser:
                       help="image file to write (default: ltvmodels-<system>.png; format from "
                       "the suffix); robot writes <stem>_train and <stem>_validation")
     demo.add_argument("--quick", action="store_true",
-                      help="chirp and rl only: a smaller problem (chirp: 2^12 samples; rl: 1 "
-                      "run of 4 iterations)")
+                      help="chirp, rl and pendulum only: a smaller problem (chirp: 2^12 "
+                      "samples; rl: 1 run of 4 iterations; pendulum: 1 initial state)")
     demo.add_argument("--full", action="store_true",
-                      help="rl only: the paper's 20 runs of 14 iterations (default: 3 runs of "
-                      "8)")
+                      help="rl: the paper's 20 runs of 14 iterations (default: 3 runs of 8); "
+                      "pendulum: 20 initial states of 40 iterations (default: 2 of 20)")
     return parser
 
 

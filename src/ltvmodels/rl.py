@@ -485,6 +485,36 @@ def _optional_positive(value: Any, name: str) -> float | None:
     return None if value is None else _validate.positive_scalar(value, name)
 
 
+def _affine_inputs(u: np.ndarray) -> np.ndarray:
+    """Inputs (N, m) with a constant column, padded to the data convention's N + 1 rows."""
+    N, m = u.shape
+    ua = np.zeros((N + 1, m + 1))
+    ua[:N, :m] = u
+    ua[:, m] = 1.0
+    return ua
+
+
+def _fit_affine(kind: str, x: np.ndarray, u: np.ndarray, lam: float,
+                priors: Sequence[Prior] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Jacobians A (N, n, n), B (N, n, m) of an affine model fitted along one trajectory.
+
+    ``kind`` "lti": :func:`ltvmodels.fit_lti`; otherwise :func:`ltvmodels.fit` with
+    ``norm="sq"``, ``order=2``, ``lam`` and ``priors`` (on k_t = vec([A_t B_t c_t]),
+    c_t the constant column). x has shape (N + 1, n) and u shape (N, m); the constant
+    column is dropped from the returned B.
+    """
+    m = u.shape[1]
+    ua = _affine_inputs(u)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdentifiabilityWarning)
+        if kind == "lti":
+            model = fit_lti(x, ua)
+        else:
+            model = fit(x, ua, lam=lam, norm="sq", order=2, prior=list(priors or ()) or None,
+                        compute_cov=False)
+    return model.A, model.B[:, :, :m]
+
+
 def _fit_jacobians(kind: str, task: CartPoleTask, x: np.ndarray, u: np.ndarray, lam: float,
                    prior_std: float, weak_prior_std: float | None
                    ) -> tuple[np.ndarray, np.ndarray]:
@@ -492,27 +522,38 @@ def _fit_jacobians(kind: str, task: CartPoleTask, x: np.ndarray, u: np.ndarray, 
     N = u.shape[0]
     if kind == "true":
         return task.system.linearize(x, u)
-    # Affine model: a constant input column; the data convention pads u to T = N + 1 rows.
-    ua = np.zeros((N + 1, 2))
-    ua[:N, 0] = u[:, 0]
-    ua[:, 1] = 1.0
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", IdentifiabilityWarning)
-        if kind == "lti":
-            model = fit_lti(x, ua)
-        else:
-            priors = []
-            if weak_prior_std is not None:  # the persistence model x_{t+1} = x_t
-                mean = np.hstack([np.eye(4), np.zeros((4, 2))]).ravel()
-                priors.append(Prior(mean, weak_prior_std**2))
-            if kind == "prior":  # the true model linearized along the rollout
-                A, B = task.system.linearize(x, u)
-                c = x[1:] - np.einsum("tij,tj->ti", A, x[:-1]) - B[:, :, 0] * u
-                mean = np.concatenate([A, B, c[:, :, None]], axis=2).reshape(N, -1)
-                priors = [Prior(mean, prior_std**2)]
-            model = fit(x, ua, lam=lam, norm="sq", order=2, prior=priors or None,
-                        compute_cov=False)
-    return model.A, model.B[:, :, :1]
+    priors = []
+    if kind == "ltv" and weak_prior_std is not None:  # the persistence model x_{t+1} = x_t
+        mean = np.hstack([np.eye(4), np.zeros((4, 2))]).ravel()
+        priors.append(Prior(mean, weak_prior_std**2))
+    if kind == "prior":  # the true model linearized along the rollout
+        A, B = task.system.linearize(x, u)
+        c = x[1:] - np.einsum("tij,tj->ti", A, x[:-1]) - B[:, :, 0] * u
+        mean = np.concatenate([A, B, c[:, :, None]], axis=2).reshape(N, -1)
+        priors = [Prior(mean, prior_std**2)]
+    return _fit_affine(kind, x, u, lam, priors)
+
+
+def _improvement_ratio(previous_cost: float, cost: float, predicted: float) -> float:
+    """ρ = (actual cost decrease) / (decrease the model predicted); 0 if none was predicted."""
+    promised = previous_cost - predicted
+    return (previous_cost - cost) / promised if promised > 0 else 0.0
+
+
+def _adapt_radius(radius: float, rho: float, *, max_radius: float, moved: float | None = None,
+                  min_radius: float = 0.0) -> float:
+    """The trust-region rule of :func:`learn` (see there): the next radius, at least ``min_radius``.
+
+    Growth stops at ``max_radius``; ``moved`` (the realized change of the states)
+    None skips the deviation test.
+    """
+    if rho < _SHRINK_BELOW:
+        radius *= 0.5
+    elif moved is not None and moved > _DEVIATION_FACTOR * radius:
+        radius *= max(0.25, radius / moved)
+    elif rho > _GROW_ABOVE:
+        radius = min(_GROWTH * radius, max_radius)
+    return max(radius, min_radius)
 
 
 def learn(
@@ -619,15 +660,9 @@ def learn(
         if i == iterations - 1:
             break
         if adapt_trust_region and x_prev is not None:
-            promised = costs[-2] - predicted[-1]
-            rho = (costs[-2] - costs[-1]) / promised if promised > 0 else 0.0
+            rho = _improvement_ratio(costs[-2], costs[-1], predicted[-1])
             moved = float(np.sqrt(np.max(np.sum((x - x_prev) ** 2 * wx, axis=1))))
-            if rho < _SHRINK_BELOW:
-                radius *= 0.5
-            elif moved > _DEVIATION_FACTOR * radius:
-                radius *= max(0.25, radius / moved)
-            elif rho > _GROW_ABOVE:
-                radius = min(_GROWTH * radius, max_radius)
+            radius = _adapt_radius(radius, rho, max_radius=max_radius, moved=moved)
         x_prev = x
         A, B = _fit_jacobians(kind, task, x, u, lam, prior_std, weak_prior_std)
         dyn = LinearDynamics.through(A, B, x, u)

@@ -3,7 +3,8 @@
 Close to the optimum, an interior-point iterate tells which differences
 e_c = (ΛDk)_c vanish (cones at their vertex, the set V) and which do not
 (the active set A), even when its Newton systems are too ill-conditioned to
-close the duality gap (degenerate optima, e.g. order 2 near λ_max). With that split fixed, the problem
+close the duality gap (degenerate optima, e.g. order 2 near λ_max). With that
+split fixed, the problem
 
     minimize ‖y − Φk‖² + Σ_{c∈A} ‖e_c‖   subject to  e_c = 0 for c ∈ V
 
