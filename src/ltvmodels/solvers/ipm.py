@@ -41,7 +41,7 @@ from ..errors import ConvergenceWarning, SingularProblemError
 from ..problem import RegressionProblem
 from . import _blockkernels as kernels
 from . import _conekernels as cones
-from .polish import polish
+from .polish import polish, stationarity_scale
 
 # Fraction of the way to the cone boundary taken by a step (CVXOPT's STEP).
 STEP_FRACTION = 0.99
@@ -305,7 +305,7 @@ def fit_sparse_ipm(
     s[:, 0] = np.sqrt(np.sum(s[:, 1:] ** 2, axis=1)) + delta
     t[:] = s[:, 0]
     z[:, 0] = 1.0
-    scale_k = 1.0 + 2.0 * float(np.linalg.norm(cp.y)) * float(np.linalg.norm(cp.phi))
+    scale_k = stationarity_scale(problem)
     converged = stalled = False
     iterations = 0
     while True:

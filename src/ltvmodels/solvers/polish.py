@@ -161,8 +161,13 @@ def _certificate(problem: RegressionProblem, weights: np.ndarray, k: np.ndarray,
     objective = float(np.sum(resid**2) + e_norm.sum())
     gap = max(float(e_norm.sum() - np.sum(u * e)), 0.0)
     stationarity = apply_difference_adjoint(u * weights, coeffs, N) + grad
-    scale_k = 1.0 + 2.0 * float(np.linalg.norm(problem.y)) * float(np.linalg.norm(problem.phi))
-    return objective, gap, float(np.linalg.norm(stationarity)) / scale_k, u_norm.ravel()
+    residual = float(np.linalg.norm(stationarity)) / stationarity_scale(problem)
+    return objective, gap, residual, u_norm.ravel()
+
+
+def stationarity_scale(problem: RegressionProblem) -> float:
+    """Scale of the stationarity residual 2Φᵀ(Φk − y) − DᵀΛu: 1 + 2‖y‖‖Φ‖."""
+    return 1.0 + 2.0 * float(np.linalg.norm(problem.y)) * float(np.linalg.norm(problem.phi))
 
 
 def polish(
