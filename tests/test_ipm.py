@@ -118,3 +118,32 @@ def test_compiled_block_size_kernels_agree(norm, monkeypatch):
     fixed = ipm.fit_sparse_ipm(pb, weights, norm)
     assert fixed.iterations == generic.iterations
     np.testing.assert_allclose(fixed.theta, generic.theta, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("norm", ["group", "l1"])
+@pytest.mark.parametrize("scale", [1.0, 1e3])
+def test_feasible_start_is_primal_and_dual_feasible(norm, scale):
+    """The quadratic-fit start has zero stationarity residual and z strictly inside the cones."""
+    data = ltv.systems.jump_linear(T=200, change_at=100, seed=7)
+    pb = state_space_problem(scale * data.x, scale * data.u, np.array([-1.0, 1.0]))
+    weights = np.random.default_rng(8).uniform(2.0, 20.0, pb.K) * scale
+    cp = ipm._ConicProblem(pb, weights, norm)
+    k, rho = ipm._feasible_start(pb, cp)
+    assert rho is not None
+    s = np.zeros(cp.cone_shape)
+    cones.weighted_difference(k, cp.coeffs, cp.w, s)
+    z = np.zeros(cp.cone_shape)
+    z[:, 0] = 1.0
+    z[:, 1:] = -rho * s[:, 1:]
+    dual_norms = np.linalg.norm(z[:, 1:], axis=1)
+    low, high = ipm.START_DUAL_RANGE
+    assert low <= dual_norms.max() < high  # inside the dual cones, not far inside
+    r_z, r_k = np.empty_like(s), np.empty_like(k)
+    s[:, 0] = np.linalg.norm(s[:, 1:], axis=1) + 1.0
+    cones.kkt_residuals(k, s[:, 0].copy(), s, z, cp.y, cp.phi, cp.coeffs, cp.w, r_z, r_k)
+    gradient_scale = np.abs(2.0 * pb.phi.T @ pb.y).max()
+    assert np.abs(r_k).max() < 1e-9 * gradient_scale  # 2Φᵀ(Φk − y) − DᵀΛz₁ = 0
+    start = ipm.fit_sparse_ipm(pb, weights, norm)
+    zero = ipm.fit_sparse_ipm(pb, weights, norm, k0=np.zeros_like(k))
+    assert start.converged and zero.converged
+    assert start.objective == pytest.approx(zero.objective, rel=1e-6)

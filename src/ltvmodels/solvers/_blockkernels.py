@@ -140,12 +140,11 @@ def _offdiagonal_step(L, M, t, lag, d, b):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, inline="always")
-def _diagonal_step(L, Z, t, d, b, ref):  # pragma: no cover - compiled
+def _diagonal_step(L, t, d, b, ref):  # pragma: no cover - compiled
     """Finish block row t: L[t, 0] holds H_tt (lower triangle), ref its diagonal.
 
-    Subtracts Σ_l L_{t,t−l} L_{t,t−l}ᵀ, factors the block, forward-substitutes
-    row t of Z. Returns the smallest pivot² / ref ratio, −1 if not positive
-    definite.
+    Subtracts Σ_l L_{t,t−l} L_{t,t−l}ᵀ and factors the block. Returns the
+    smallest pivot² / ref ratio, −1 if not positive definite.
     """
     Ltt = L[t, 0]
     for lag in range(1, min(d, t) + 1):
@@ -156,10 +155,7 @@ def _diagonal_step(L, Z, t, d, b, ref):  # pragma: no cover - compiled
                 for q in range(b):
                     acc += Ll[i, q] * Ll[j, q]
                 Ltt[i, j] -= acc
-    ratio = _cholesky_block(Ltt, ref, b)
-    if ratio >= 0:
-        _forward_step(L, Z, t, d, b)
-    return ratio
+    return _cholesky_block(Ltt, ref, b)
 
 
 @numba.njit(cache=True, inline="always")
@@ -220,12 +216,13 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, b):  # pragma:
             for j in range(i + 1):
                 Ltt[i, j] = _gram_entry(phi, n_rep, data_scale, extra, t, i, j) + beta * W[i, j]
             ref[i] = Ltt[i, i]
-        ratio = _diagonal_step(L, Z, t, d, b, ref)
+        ratio = _diagonal_step(L, t, d, b, ref)
         if ratio < worst:
             worst = ratio
             worst_t = t
         if ratio < 0:
             return -1.0, t, 0.0
+        _forward_step(L, Z, t, d, b)
         logdet += _log_det_block(L, t, b)
     return worst, worst_t, logdet
 

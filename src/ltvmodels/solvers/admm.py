@@ -89,15 +89,20 @@ class _KUpdate:
                 self.groups.append(([i], BlockFactor(system)))
         self.data_rhs = problem.phi[:, :, None] * problem.y[:, None, :]  # (N, p, n)
 
-    def __call__(self, z_minus_w: np.ndarray) -> np.ndarray:
+    def __call__(self, z_minus_w: np.ndarray | None) -> np.ndarray:
+        """Θ (N, n, p) minimizing ‖y − Φk‖² + (ρ/2)‖ΛDk − (z − w)‖² (z − w = 0 if None)."""
         pb = self.problem
         N, n, p = pb.N, pb.n, pb.p
-        pull = apply_difference_adjoint(z_minus_w * self.weights, pb.coeffs, N)
-        pull = (self.rho / 2.0) * pull.reshape(N, n, p).transpose(0, 2, 1)  # (N, p, n)
+        pull = None
+        if z_minus_w is not None:
+            pull = apply_difference_adjoint(z_minus_w * self.weights, pb.coeffs, N)
+            pull = (self.rho / 2.0) * pull.reshape(N, n, p).transpose(0, 2, 1)  # (N, p, n)
         theta = np.empty((N, n, p))
         for rows, factor in self.groups:
-            rhs = np.ascontiguousarray(self.data_rhs[:, :, rows] + pull[:, :, rows])
-            theta[:, rows, :] = factor.solve(rhs).transpose(0, 2, 1)
+            rhs = self.data_rhs[:, :, rows]
+            if pull is not None:
+                rhs = rhs + pull[:, :, rows]
+            theta[:, rows, :] = factor.solve(np.ascontiguousarray(rhs)).transpose(0, 2, 1)
         return theta
 
 
@@ -197,6 +202,11 @@ def fit_sparse(
         converged=converged, primal_residual=float(r_rel), dual_residual=float(s_rel),
         rho=float(rho), n_factorizations=n_fact, z=z, w=w,
     )
+
+
+def quadratic_fit(problem: RegressionProblem, weights: np.ndarray, rho: float) -> np.ndarray:
+    """argmin_k ‖y − Φk‖² + (ρ/2)‖ΛDk‖² (all weights finite); returns k (N, K)."""
+    return _KUpdate(problem, weights, rho)(None).reshape(problem.N, -1)
 
 
 def null_space_fit(problem: RegressionProblem) -> np.ndarray:
