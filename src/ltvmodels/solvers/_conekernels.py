@@ -61,17 +61,13 @@ def _nt_cone(s, z, i, v, eta):  # pragma: no cover - compiled
     dot = 0.0
     for a in range(m):
         dot += s[i, a] * z[i, a]
-    inv_s_n = 1.0 / s_n  # reciprocals: one division per cone, not one per entry
-    inv_z_n = 1.0 / z_n
-    gamma = np.sqrt(0.5 * (1.0 + dot * inv_s_n * inv_z_n))
-    inv_2gamma = 0.5 / gamma
-    w0 = (s[i, 0] * inv_s_n + z[i, 0] * inv_z_n) * inv_2gamma
+    gamma = np.sqrt(0.5 * (1.0 + dot / (s_n * z_n)))
+    w0 = (s[i, 0] / s_n + z[i, 0] / z_n) / (2.0 * gamma)
     norm = 1.0 / np.sqrt(2.0 * (w0 + 1.0))
     v[i, 0] = (w0 + 1.0) * norm
-    scale = inv_2gamma * norm
     for a in range(1, m):
-        v[i, a] = (s[i, a] * inv_s_n - z[i, a] * inv_z_n) * scale
-    eta[i] = np.sqrt(s_n * inv_z_n)
+        v[i, a] = (s[i, a] / s_n - z[i, a] / z_n) / (2.0 * gamma) * norm
+    eta[i] = np.sqrt(s_n / z_n)
 
 
 @numba.njit(cache=True)
