@@ -42,8 +42,11 @@ from ..problem import RegressionProblem, apply_difference, apply_difference_adjo
 MAX_NEWTON = 30
 # Halvings of the Newton step in the backtracking line search.
 MAX_HALVINGS = 40
-# Corrections of the split of the cones into vertex and active ones.
-MAX_SPLITS = 4
+# Corrections of the split of the cones into vertex and active ones. Each moves
+# only the cones that cross their vertex first (active -> vertex) or that are
+# most violated (vertex -> active), within this factor of the extreme one.
+MAX_SPLITS = 40
+SPLIT_TIES = 1.5
 
 
 @dataclass
@@ -181,10 +184,14 @@ def polish(
 ) -> PolishResult | None:
     """Solve the problem with the split of an interior-point iterate fixed; None if not optimal.
 
-    The split is corrected a few times: an active cone that the Newton step
-    drives through its vertex moves to V, and a vertex cone whose dual
-    exceeds 1 after the solve moves to A. Every split starts Newton from the
-    projection of the iterate's k, whose differences point the right way.
+    The split is corrected up to MAX_SPLITS times, one decision at a time:
+    the active cones that a Newton step drives through their vertex first
+    move to V, and the vertex cones whose dual exceeds 1 the most after the
+    solve move to A (near a degenerate optimum the iterate often marks a
+    cluster of neighbouring rows active where the optimum has one or two, and
+    moving all crossing cones at once overshoots). Every split starts Newton
+    from the projection of the iterate's k, whose differences point the right
+    way.
 
     Parameters
     ----------
@@ -227,6 +234,8 @@ def polish(
         violated = vertex & (u_norm > 1.0)
         if not violated.any():
             return None
+        # Only the most violated cones move: their moving changes all duals.
+        violated &= u_norm - 1.0 >= (u_norm[violated].max() - 1.0) / SPLIT_TIES
         vertex = vertex & ~violated
     return None
 
@@ -277,10 +286,15 @@ def _reduced_solve(problem, vertex, k, phi_op, diff_op, group):
             return None
         if decrease <= 1e-20 * max(current, 1e-300):  # the gap is O(√decrease)
             return (B @ theta).reshape(N, K), None, iteration
-        # A full step through a cone's vertex (ê reverses) means that cone belongs to V.
-        crossed = np.sum(unit * (E @ (theta + step)).reshape(-1, g), axis=1) <= 0.0
+        # A full step through a cone's vertex (its radial component reverses)
+        # means that the cone belongs to V. Only the first cones to cross move:
+        # the step changes once they do.
+        toward = -np.sum(unit * (E @ step).reshape(-1, g), axis=1)
+        crossed = toward >= e_norm
         if crossed.any() and iteration > 1:
-            return (B @ theta).reshape(N, K), active[crossed], iteration
+            at = e_norm[crossed] / toward[crossed]
+            first = active[crossed][at <= SPLIT_TIES * at.min()]
+            return (B @ theta).reshape(N, K), first, iteration
         alpha = 1.0
         for _ in range(MAX_HALVINGS):
             trial = objective(theta + alpha * step)
