@@ -227,7 +227,7 @@ def factor_newton(
     for t in range(N):
         if t < R:
             _penalty_row(v, eta, s_coef, w, t, offset, ring[t % (d + 1)], b)
-        for lag in range(min(d, t), -1, -1):
+        for lag in range(min(d, t), 0, -1):
             s = t - lag
             # Block (t, s) of DᵀΛSΛD = Σ_r c_{t−r} c_{s−r} (ΛSΛ)_r.
             for i in range(b):
@@ -239,17 +239,23 @@ def factor_newton(
                 for i in range(b):
                     for j in range(b):
                         M[i, j] += weight * P[i, j]
-            if lag > 0:
-                for i in range(b if any_pinned else 0):
-                    if pinned[i] != 0.0:
-                        for j in range(b):
-                            M[i, j] = 0.0
-                            M[j, i] = 0.0
-                _offdiagonal_step(L, M, t, lag, d, b)
+            for i in range(b if any_pinned else 0):
+                if pinned[i] != 0.0:
+                    for j in range(b):
+                        M[i, j] = 0.0
+                        M[j, i] = 0.0
+            _offdiagonal_step(L, M, t, lag, d, b)
+        # The diagonal block, lower triangle only, straight into L.
         Ltt = L[t, 0]
         for i in range(b):
             for j in range(i + 1):
-                Ltt[i, j] = M[i, j]
+                Ltt[i, j] = 0.0
+        for r in range(max(0, t - d), min(t, R - 1) + 1):
+            weight = coeffs[t - r] * coeffs[t - r]
+            P = ring[r % (d + 1)]
+            for i in range(b):
+                for j in range(i + 1):
+                    Ltt[i, j] += weight * P[i, j]
         for rep in range(n_rep):  # the data part, 2 I_r ⊗ φ_tφ_tᵀ
             base = rep * p
             for i in range(p):
