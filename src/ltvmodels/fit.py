@@ -165,7 +165,7 @@ def fit(
         For "group" and "l1" (unused for "sq"): the iteration limit and the
         relative tolerance. With K <= 20 parameters per time step the solver is
         a primal-dual interior-point method whose Newton systems are
-        block-banded (:mod:`ltvmodels.solvers.ipm`, 15–30 iterations): ``tol``
+        block-banded (:mod:`ltvmodels.solvers.ipm`, 10–30 iterations): ``tol``
         bounds the duality gap relative to the objective
         (``info["duality_gap"]``) and the relative primal and dual residuals.
         If its Newton systems lose definiteness first (this happens near

@@ -8,7 +8,7 @@ per row of D; l1: K cones of size 1 per row),
 
 and solved by the primal-dual path-following method with Nesterov–Todd
 scaling and Mehrotra's predictor–corrector steps (as in CVXOPT's ``coneqp``,
-Vandenberghe 2010), which needs 15–30 iterations almost independently of N.
+Vandenberghe 2010), which needs 10–30 iterations almost independently of N.
 
 Structure makes each iteration O(N): the scaling W_c of cone c is a
 hyperbolic Householder matrix η_c (2 w̄_c w̄_cᵀ − J), so after eliminating the
@@ -19,7 +19,8 @@ in k is
 
 block-banded with K × K blocks and block bandwidth d, like the squared-norm
 normal equations. One block Cholesky factorization per iteration serves both
-the predictor and the corrector.
+the predictor and the corrector. Order-1 problems start primal and dual
+feasible, from a quadratic fit (:func:`_feasible_start`).
 
 Coefficients with weight inf are constant in time: they are pinned out of
 the banded systems and solved for through a small border (see
