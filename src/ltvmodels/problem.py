@@ -36,6 +36,13 @@ class RegressionProblem:
     phi: np.ndarray
     coeffs: np.ndarray
 
+    def __post_init__(self) -> None:
+        # C order for every kernel: compiled kernels specialize on the memory
+        # layout, and a fit must not depend on how the caller's arrays were laid
+        # out (pandas frames arrive in Fortran order).
+        object.__setattr__(self, "y", np.ascontiguousarray(self.y, dtype=float))
+        object.__setattr__(self, "phi", np.ascontiguousarray(self.phi, dtype=float))
+
     @property
     def N(self) -> int:
         return self.y.shape[0]
