@@ -51,22 +51,26 @@ def _gram_entry(phi, n_rep, data_scale, extra, t, i, j):  # pragma: no cover - c
 def _cholesky_block(A, ref, b):  # pragma: no cover - compiled
     """Lower Cholesky of A in place; smallest pivot² / ref_a (−1 if not positive definite)."""
     worst = np.inf
+    # Right-looking elimination without square roots first: each pivot waits
+    # only for one division, not for a square root and a division.
     for j in range(b):
         s = A[j, j]
-        for q in range(j):
-            s -= A[j, q] * A[j, q]
         r = s / ref[j] if ref[j] > 0 else -1.0
         if r < worst:
             worst = r
         if s <= 0.0:
             return -1.0
-        inv = 1.0 / np.sqrt(s)
+        inv_s = 1.0 / s
+        for i in range(j + 1, b):
+            f = A[i, j] * inv_s
+            for k in range(j + 1, i + 1):
+                A[i, k] -= f * A[k, j]
+    # Then scale the columns: L_ij = A_ij / √A_jj, off the chain above.
+    for j in range(b):
+        inv = 1.0 / np.sqrt(A[j, j])
         A[j, j] = inv  # the reciprocal pivot (see the module docstring)
         for i in range(j + 1, b):
-            acc = A[i, j]
-            for q in range(j):
-                acc -= A[i, q] * A[j, q]
-            A[i, j] = acc * inv
+            A[i, j] *= inv
         for i in range(j):
             A[i, j] = 0.0
     return worst
