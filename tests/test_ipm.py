@@ -122,10 +122,11 @@ def test_compiled_block_size_kernels_agree(norm, monkeypatch):
 
 @pytest.mark.parametrize("norm", ["group", "l1"])
 @pytest.mark.parametrize("scale", [1.0, 1e3])
-def test_feasible_start_is_primal_and_dual_feasible(norm, scale):
+@pytest.mark.parametrize("coeffs", [[-1.0, 1.0], [1.0, -2.0, 1.0]])
+def test_feasible_start_is_primal_and_dual_feasible(norm, scale, coeffs):
     """The quadratic-fit start has zero stationarity residual and z strictly inside the cones."""
     data = ltv.systems.jump_linear(T=200, change_at=100, seed=7)
-    pb = state_space_problem(scale * data.x, scale * data.u, np.array([-1.0, 1.0]))
+    pb = state_space_problem(scale * data.x, scale * data.u, np.array(coeffs))
     weights = np.random.default_rng(8).uniform(2.0, 20.0, pb.K) * scale
     cp = ipm._ConicProblem(pb, weights, norm)
     k, rho = ipm._feasible_start(pb, cp)

@@ -19,8 +19,8 @@ in k is
 
 block-banded with K × K blocks and block bandwidth d, like the squared-norm
 normal equations. One block Cholesky factorization per iteration serves both
-the predictor and the corrector. Order-1 problems start primal and dual
-feasible, from a quadratic fit (:func:`_feasible_start`).
+the predictor and the corrector. Problems of order 1 and 2 start primal and
+dual feasible, from a quadratic fit (:func:`_feasible_start`).
 
 Coefficients with weight inf are constant in time: they are pinned out of
 the banded systems and solved for through a small border (see
@@ -277,9 +277,10 @@ def _feasible_start(problem: RegressionProblem, cp: _ConicProblem):
     vanishes, and z = (1, z₁) is in the dual cones when ρ‖(ΛDk)_c‖ < 1 for
     every cone. That largest norm a(ρ) grows with ρ; a few secant steps on
     log a against log ρ bring it into START_DUAL_RANGE. Starting feasible saves
-    the first iterations' work on the residuals: 451 instead of 531 iterations
-    for 36 order-1 jump-linear fits (T = 400, 2000, 10⁴; two seeds; both norms;
-    λ = 3, 17, 60), at one or two quadratic fits each.
+    the first iterations' work on the residuals: on 36 jump-linear fits
+    (T = 400, 2000, 10⁴; two seeds; both norms; λ = 3, 17, 60) 451 instead of
+    531 iterations for order 1 and 474 instead of 520 for order 2, at one or
+    two quadratic fits each.
     """
     from .admm import quadratic_fit
 
@@ -350,12 +351,9 @@ def fit_sparse_ipm(
     rho = None
     if k0 is not None:
         k = np.array(k0, dtype=float)
-    elif problem.degree == 1 and not cp.const.any():
+    elif problem.degree in (1, 2) and not cp.const.any():
         k, rho = _feasible_start(problem, cp)
-    else:
-        # From the feasible start, order-2 fits near λ_max stalled more often
-        # before the polish could certify them (9 against 3 of the 48 fits of
-        # benchmarks/bench_stalls.py), so higher orders start from k = 0.
+    else:  # measured for orders 1 and 2 only
         k = np.zeros((N, K))
     loss, reg, *_ = cones.kkt_residuals(k, t, s, z, cp.y, cp.phi, cp.coeffs, cp.w, r_z, r_k)
     # Start: s = (‖s₁‖ + δ, ΛDk) with t = s₀, so the cone constraints hold, and
