@@ -49,7 +49,10 @@ def _gram_entry(phi, n_rep, data_scale, extra, t, i, j):  # pragma: no cover - c
 
 @numba.njit(cache=True, inline="always")
 def _cholesky_block(A, ref, b):  # pragma: no cover - compiled
-    """Lower Cholesky of A in place; smallest pivot² / ref_a (−1 if not positive definite)."""
+    """Lower Cholesky of A in place (reciprocal pivots on the diagonal); smallest pivot² / ref_a.
+
+    Returns −1 if A is not positive definite.
+    """
     worst = np.inf
     # Right-looking elimination without square roots first: each pivot waits
     # only for one division, not for a square root and a division.
