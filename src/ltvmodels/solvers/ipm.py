@@ -287,8 +287,7 @@ def _feasible_start(problem: RegressionProblem, cp: _ConicProblem):
     # ρ has the units of 1/y² (ρΛDk is dimensionless and λ‖Dk‖ ~ ‖y‖²).
     rho = 1.0 / max(float(np.mean(cp.y**2)), 1e-300)
     z = np.empty(cp.cone_shape)
-    best = None
-    history = []
+    best = previous = None
     for _ in range(START_TRIES):
         try:
             k = quadratic_fit(problem, cp.w, rho)
@@ -302,13 +301,13 @@ def _feasible_start(problem: RegressionProblem, cp: _ConicProblem):
             best = (k, rho)
             if a >= START_DUAL_RANGE[0]:
                 break
-        history.append((np.log(rho), np.log(a)))
-        slope = 1.0
-        if len(history) >= 2:
-            (r0, a0), (r1, a1) = history[-2:]
-            if a1 != a0 and r1 != r0:
-                slope = min(max((a1 - a0) / (r1 - r0), 0.1), 10.0)
-        rho *= np.exp((np.log(START_DUAL_NORM) - np.log(a)) / slope)
+        current = (np.log(rho), np.log(a))
+        slope = 1.0  # of log a against log ρ: a secant once two points are known
+        if previous is not None and current[0] != previous[0] and current[1] != previous[1]:
+            slope = (current[1] - previous[1]) / (current[0] - previous[0])
+            slope = min(max(slope, 0.1), 10.0)
+        previous = current
+        rho *= np.exp((np.log(START_DUAL_NORM) - current[1]) / slope)
     if best is None:
         return np.zeros((cp.N, cp.K)), None
     return best
