@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
+from ltvmodels.ar import chirp
 from ltvmodels.segments import segment_regression
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -51,19 +52,6 @@ def _tv_ar2(T, seed, noise=0.05):
     for t in range(2, T):  # reference simulation loop, independent of the library
         y[t] = a1[t] * y[t - 1] + a2[t] * y[t - 2] + e[t]
     return y, np.column_stack([a1, a2]), e
-
-
-def _chirp(T, fs=16000.0, seed=0):
-    """Two components (as the reference implementation's test) and the first's inst. frequency."""
-    rng = np.random.default_rng(seed)
-    n = np.arange(T)
-    t = n / fs
-    f1 = np.linspace(2000.0, 2500.0, T)
-    f2 = 5000.0 + 200.0 * np.sin(2 * np.pi * n / T)
-    y = np.sin(2 * np.pi * f1 * t) + np.sin(2 * np.pi * f2 * t) + 0.01 * rng.standard_normal(T)
-    # d/dt (f1(t) t) with f1 linear in t: f1 + t f1' = 2000 + 1000 n / (T − 1)
-    inst = 2000.0 + 1000.0 * n / (T - 1)
-    return y, inst
 
 
 def _track_error(model, y_inst, fs):
@@ -282,7 +270,7 @@ def test_root_spectrogram_known_resonance():
 def test_chirp_root_spectrogram_tracks_instantaneous_frequency(order, bound):
     """Paper-level check: T = 2^14 at 16 kHz, AR(6), λ² = 1e5, mean error < 20 Hz."""
     fs = 16000.0
-    y, inst = _chirp(2**14, fs)
+    y, inst = chirp(2**14, fs)
     start = time.perf_counter()
     model = ltv.fit_ar(y, na=6, lam=np.sqrt(1e5), norm="sq", order=order)
     elapsed = time.perf_counter() - start
@@ -295,7 +283,7 @@ def test_chirp_root_spectrogram_tracks_instantaneous_frequency(order, bound):
 @pytest.mark.parametrize("norm", ["group", "l1"])
 def test_chirp_sparse_norms_run_through_the_same_solvers(norm):
     fs = 16000.0
-    y, inst = _chirp(2**11, fs)
+    y, inst = chirp(2**11, fs)
     model = ltv.fit_ar(y, na=6, lam=3.0, norm=norm, order=1, tol=1e-5)
     assert model.info["converged"] and model.norm == norm
     assert _track_error(model, inst, fs) < 20.0  # piecewise-constant tracks of a chirp

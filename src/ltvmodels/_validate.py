@@ -439,6 +439,17 @@ def optional_integer(value: Any, name: str, minimum: int) -> int | None:
     return None if value is None else integer(value, name, minimum)
 
 
+def dynamics_matrices(model: Any) -> np.ndarray:
+    """``model.A`` as a float array of shape (N, n, n), for any object that has one."""
+    if not hasattr(model, "A"):
+        raise TypeError(f"model: expected an object with attribute A (N, n, n) such as an "
+                        f"LTVModel, received {type(model).__name__}")
+    A = np.asarray(model.A, dtype=float)
+    if A.ndim != 3 or A.shape[1] != A.shape[2]:
+        raise ValueError(f"model.A: expected shape (N, n, n), received {A.shape}")
+    return A
+
+
 def activation_series(value: Any, name: str) -> np.ndarray:
     """Validate an activation a_t = ‖(Dk)_t‖: a 1-d array of finite numbers >= 0."""
     arr = as_float_array(value, name)

@@ -146,6 +146,20 @@ def _check_file_path(out: Any, option: str = "out") -> Path:
     return path
 
 
+def _optional_output_path(out: Any) -> tuple[Path | None, str | None]:
+    """:func:`_check_output_path` of ``out``, or (None, None) when no file is wanted."""
+    return _check_output_path(out) if out is not None else (None, None)
+
+
+def _report(lines: list[str], stream: TextIO, fig: Any, path: Path | None,
+            fmt: str | None, dpi: int = 120) -> None:
+    """Write ``fig`` to ``path`` (if any), then print the demo's report."""
+    if path is not None:
+        _save_figure(fig, path, fmt, dpi=dpi)
+        lines.append(f"wrote {path}")
+    print("\n".join(lines), file=stream)
+
+
 def _check_output_path(out: Any, option: str = "out") -> tuple[Path, str]:
     """Validate an image path before any work is done; return (path, format)."""
     path = _check_file_path(out, option)
@@ -225,7 +239,7 @@ def run_jump_linear_demo(
     from .fit import fit, fit_lti
 
     stream = sys.stdout if stream is None else stream
-    path, fmt = _check_output_path(out) if out is not None else (None, None)
+    path, fmt = _optional_output_path(out)
 
     data = systems.jump_linear(seed=seed)
     if norm == "group":
@@ -290,16 +304,8 @@ def run_jump_linear_demo(
         title = f"Jump-linear system: norm='sq', order=1, λ = {lam:g} (±2σ, truth dashed)"
     fig.suptitle(title)
     result["figure"] = fig
-    result["out"] = None
-    if path is not None:
-        try:
-            fig.savefig(path, format=fmt, dpi=110)
-        except OSError as exc:
-            reason = exc.strerror or exc
-            raise OutputPathError(f"out: cannot write {str(path)!r}: {reason}") from exc
-        result["out"] = path
-        lines.append(f"wrote {path}")
-    print("\n".join(lines), file=stream)
+    result["out"] = path
+    _report(lines, stream, fig, path, fmt, dpi=110)
     return result
 
 
@@ -436,7 +442,7 @@ def run_chirp_demo(
     from .ar import chirp, fit_ar
 
     stream = sys.stdout if stream is None else stream
-    path, fmt = _check_output_path(out) if out is not None else (None, None)
+    path, fmt = _optional_output_path(out)
     seed = _nonnegative_seed(seed)
     if not isinstance(quick, bool):
         raise TypeError(f"quick: expected True or False, received {quick!r}")
@@ -465,10 +471,7 @@ def run_chirp_demo(
         ax.set_title(f"AR(6), order {order}, λ² = 1e5: mean error {errors[order]:.1f} Hz")
         ax.legend(loc="upper left", fontsize="small", markerscale=6)
     axes[1].set_ylabel("")
-    if path is not None:
-        _save_figure(fig, path, fmt, dpi=120)
-        lines.append(f"wrote {path}")
-    print("\n".join(lines), file=stream)
+    _report(lines, stream, fig, path, fmt)
     return {"y": y, "models": models, "errors": errors, "times": times, "figure": fig,
             "out": path}
 
@@ -516,7 +519,7 @@ def run_rl_demo(
     from .rl import plot_experiment, run_experiment
 
     stream = sys.stdout if stream is None else stream
-    path, fmt = _check_output_path(out) if out is not None else (None, None)
+    path, fmt = _optional_output_path(out)
     seed = _nonnegative_seed(seed)
     if size not in ("default", "quick", "full"):
         raise ValueError(f"size: expected 'default', 'quick' or 'full', received {size!r}")
@@ -534,10 +537,7 @@ def run_rl_demo(
                                         for m in result.models),
     ]
     fig = plot_experiment(result)
-    if path is not None:
-        _save_figure(fig, path, fmt, dpi=120)
-        lines.append(f"wrote {path}")
-    print("\n".join(lines), file=stream)
+    _report(lines, stream, fig, path, fmt)
     return {"experiment": result, "figure": fig, "out": path}
 
 
@@ -585,7 +585,7 @@ def run_pendulum_demo(
     from .gym_rl import make_env, plot_pendulum_experiment, run_pendulum_experiment
 
     stream = sys.stdout if stream is None else stream
-    path, fmt = _check_output_path(out) if out is not None else (None, None)
+    path, fmt = _optional_output_path(out)
     seed = _nonnegative_seed(seed)
     if size not in ("default", "quick", "full"):
         raise ValueError(f"size: expected 'default', 'quick' or 'full', received {size!r}")
@@ -600,10 +600,7 @@ def run_pendulum_demo(
         result.table(),
     ]
     fig = plot_pendulum_experiment(result)
-    if path is not None:
-        _save_figure(fig, path, fmt, dpi=120)
-        lines.append(f"wrote {path}")
-    print("\n".join(lines), file=stream)
+    _report(lines, stream, fig, path, fmt)
     return {"experiment": result, "figure": fig, "out": path}
 
 

@@ -250,12 +250,7 @@ def plot_eigenvalues(model: Any, ax: "Axes | None" = None) -> "Axes":
     matplotlib.axes.Axes
         The axes (``ax.figure`` is its figure).
     """
-    if not hasattr(model, "A"):
-        raise TypeError(f"model: expected an object with attribute A (N, n, n) such as an "
-                        f"LTVModel, received {type(model).__name__}")
-    A = np.asarray(model.A, dtype=float)
-    if A.ndim != 3 or A.shape[1] != A.shape[2]:
-        raise ValueError(f"model.A: expected shape (N, n, n), received {A.shape}")
+    A = _validate.dynamics_matrices(model)
     mag = np.sort(np.abs(np.linalg.eigvals(A)), axis=1)[:, ::-1]  # (N, n), largest first
     if ax is None:
         ax = _new_axes((7.0, 2.8))
@@ -339,12 +334,7 @@ def plot_poles(model: Any, ax: "Axes | None" = None) -> "Axes":
         The axes; ``ax.lines[0]`` is the unit circle and ``ax.collections[0]``
         the eigenvalues (N·n points), equal aspect ratio.
     """
-    if not hasattr(model, "A"):
-        raise TypeError(f"model: expected an object with attribute A (N, n, n) such as an "
-                        f"LTVModel, received {type(model).__name__}")
-    A = np.asarray(model.A, dtype=float)
-    if A.ndim != 3 or A.shape[1] != A.shape[2]:
-        raise ValueError(f"model.A: expected shape (N, n, n), received {A.shape}")
+    A = _validate.dynamics_matrices(model)
     new = ax is None
     if ax is None:
         ax = _new_axes((4.6, 4.0))
