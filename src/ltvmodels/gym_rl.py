@@ -878,9 +878,9 @@ def plot_pendulum_experiment(result: PendulumExperiment, *, axes: Any = None) ->
     from matplotlib.ticker import MaxNLocator
 
     if axes is None:
-        from matplotlib.figure import Figure
+        from .plotting import _new_figure
 
-        fig = Figure(figsize=(7.0, 6.0), layout="constrained")
+        fig = _new_figure((7.0, 6.0))
         ax, ax2 = fig.subplots(2, 1, sharex=True, height_ratios=[2.2, 1.0])
     else:
         if not isinstance(axes, (tuple, list)) or len(axes) != 2:

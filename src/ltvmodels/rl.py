@@ -857,12 +857,10 @@ def plot_experiment(result: RLExperiment, *, ax: Any = None) -> "Figure":
         raise TypeError(f"result: expected an RLExperiment, received "
                         f"{_validate._describe(result)}")
     if ax is None:
-        from matplotlib.figure import Figure
+        from .plotting import _new_axes
 
-        fig = Figure(figsize=(7.0, 4.2), layout="constrained")
-        ax = fig.add_subplot()
-    else:
-        fig = ax.figure
+        ax = _new_axes((7.0, 4.2))
+    fig = ax.figure
     it = np.arange(1, result.iterations + 1)
     med, quart = result.median(), result.quartiles()
     for m in result.models:
