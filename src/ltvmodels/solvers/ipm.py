@@ -278,9 +278,9 @@ def _feasible_start(problem: RegressionProblem, cp: _ConicProblem):
     every cone. That largest norm a(ρ) grows with ρ; a few secant steps on
     log a against log ρ bring it into START_DUAL_RANGE. Starting feasible saves
     the first iterations' work on the residuals: on 36 jump-linear fits
-    (T = 400, 2000, 10⁴; two seeds; both norms; λ = 3, 17, 60) 451 instead of
-    531 iterations for order 1 and 474 instead of 520 for order 2, at one or
-    two quadratic fits each.
+    (``benchmarks/bench_ipm_start.py``) 451 instead of 531 iterations for
+    order 1 and 474 instead of 520 for order 2, at one or two quadratic fits
+    each.
     """
     from .admm import quadratic_fit
 
