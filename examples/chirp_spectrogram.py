@@ -12,7 +12,7 @@ model is fitted with ``norm="sq"``, λ² = 1e5, for difference orders 1 and 2
 spectrogram) are drawn over :func:`scipy.signal.spectrogram` with the
 instantaneous frequency of the first component dashed. Prints the mean
 distance between that frequency and the nearest pole track, and the fit times.
-Headless and seeded. The signal is :func:`ltvmodels.ar.chirp`; this is what
+Headless and seeded. The signal is :func:`ltvmodels.systems.chirp`; this is what
 ``ltvmodels demo chirp`` does.
 
 Usage::
@@ -25,7 +25,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ltvmodels.cli import OutputPathError, run_chirp_demo
+from ltvmodels.apps.demos import run_chirp_demo
+from ltvmodels.errors import OutputPathError
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -6,7 +6,7 @@ is only reset and stepped. Each learning iteration rolls out the current
 controller (one episode, small exploration noise), fits an LTV model
 (``norm="sq"``, ``order=2``) or an LTI model along the best rollout so far,
 and re-optimizes the controller under it with bounded, trust-region iLQG on a
-smooth surrogate of the pendulum's cost (see :mod:`ltvmodels.gym_rl`).
+smooth surrogate of the pendulum's cost (see :mod:`ltvmodels.apps.gym_rl`).
 Performance is gymnasium's own episode return. Prints the table (median
 return per iteration, seeds swung up, median iterations to swing-up, median
 final return, next to gymnasium's usual good return of about −150) and writes
@@ -31,7 +31,7 @@ import sys
 import time
 from pathlib import Path
 
-from ltvmodels.gym_rl import plot_pendulum_experiment, run_pendulum_experiment
+from ltvmodels.apps.gym_rl import plot_pendulum_experiment, run_pendulum_experiment
 
 
 def main(argv: list[str] | None = None) -> int:

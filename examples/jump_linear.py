@@ -18,7 +18,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ltvmodels.cli import OutputPathError, run_jump_linear_demo
+from ltvmodels.apps.demos import run_jump_linear_demo
+from ltvmodels.errors import OutputPathError
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -16,7 +16,9 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ltvmodels.cli import JUMP_LINEAR_LAM, OutputPathError, run_jump_linear_demo
+from ltvmodels.apps.defaults import JUMP_LINEAR_LAM
+from ltvmodels.apps.demos import run_jump_linear_demo
+from ltvmodels.errors import OutputPathError
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -26,7 +26,7 @@ import sys
 import time
 from pathlib import Path
 
-from ltvmodels.rl import plot_experiment, run_experiment
+from ltvmodels.apps.rl import plot_experiment, run_experiment
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,6 +1,6 @@
 """Paper Figs. 2–3: a two-link arm with Coulomb friction and a stiff wall.
 
-Simulates the arm of :mod:`ltvmodels.robot` (computed-torque control along a
+Simulates the arm of :mod:`ltvmodels.apps.robot` (computed-torque control along a
 straight line into a wall, h = 0.02 s, N = 200) twice with different torque
 noise, fits a piecewise-constant LTV model (group lasso, order 1) to the
 normalized training run, and writes two figures: the training run against
@@ -20,7 +20,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ltvmodels.robot import plot_robot_experiment, robot_experiment
+from ltvmodels.apps.robot import plot_robot_experiment, robot_experiment
 
 
 def main(argv: list[str] | None = None) -> int:

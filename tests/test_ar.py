@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
-from ltvmodels.ar import chirp
-from ltvmodels.segments import segment_regression
+from ltvmodels.systems import chirp
+from ltvmodels.estimators.segments import segment_regression
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -240,7 +240,7 @@ def test_root_spectrogram_against_numpy_roots():
     rng = np.random.default_rng(2)
     N, na, fs = 50, 6, 100.0
     a = 0.4 * rng.standard_normal((N, na))
-    model = ltv.ARModel(a, 1, na, False, norm="sq", coeffs=None, lam=1.0)
+    model = ltv.ARModel(a, 1, na, False, ltv.FitRecord(norm="sq", lam=1.0))
     freq = model.root_spectrogram(fs)
     assert freq.shape == (N, na // 2)
     for t in range(N):
@@ -259,7 +259,7 @@ def test_root_spectrogram_known_resonance():
     fs, f0, r = 8000.0, 1234.0, 0.97
     w = 2 * np.pi * f0 / fs
     k = np.tile([2 * r * np.cos(w), -(r**2)], (10, 1))
-    model = ltv.ARModel(k, 1, 2, False, norm="sq", coeffs=None, lam=1.0)
+    model = ltv.ARModel(k, 1, 2, False, ltv.FitRecord(norm="sq", lam=1.0))
     np.testing.assert_allclose(model.root_spectrogram(fs), f0, rtol=1e-12)
     np.testing.assert_allclose(np.abs(model.poles()), r, rtol=1e-12)
     with pytest.raises(ValueError, match="fs"):
@@ -342,7 +342,7 @@ def test_predict_and_simulate_against_explicit_loops():
 
 def test_ar_predict_and_simulate_scalar():
     y, a_true, e = _tv_ar2(300, seed=4)
-    model = ltv.ARModel(a_true[2:], 1, 2, False, norm="sq", coeffs=None, lam=1.0)
+    model = ltv.ARModel(a_true[2:], 1, 2, False, ltv.FitRecord(norm="sq", lam=1.0))
     sim = model.simulate(y[:2], noise=e[2:])
     assert sim.shape == (300,)
     np.testing.assert_allclose(sim, y, rtol=1e-10, atol=1e-12)

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
-from ltvmodels.changepoints import detection_level
-from ltvmodels.problem import apply_difference
+from ltvmodels.estimators.changepoints import detection_level
+from ltvmodels.core.problem import apply_difference
 
 
 def difference(order: int) -> np.ndarray:
@@ -128,14 +128,14 @@ def test_model_input_uses_the_models_degree():
     knots = [0, 70, N - 1]
     values = rng.standard_normal((3, n * p))
     k = np.stack([np.interp(np.arange(N), knots, values[:, j]) for j in range(n * p)], axis=1)
-    smooth = ltv.LTVModel(k, n, p - n, norm="sq", coeffs=[1.0, -2.0, 1.0], lam=1.0)
+    smooth = ltv.LTVModel(k, n, p - n, ltv.FitRecord(norm="sq", coeffs=[1.0, -2.0, 1.0], lam=1.0))
     assert ltv.find_changepoints(smooth).tolist() == [70]  # the kink, via d = 2
     assert ltv.find_changepoints(smooth, degree=2).tolist() == [70]
     with pytest.raises(ValueError, match=r"^degree: the model's difference operator has degree 2"):
         ltv.find_changepoints(smooth, degree=1)
     # Through the first difference the activation is a step (|slope| per segment),
     # flat up to rounding: the only peak is the start of the higher plateau.
-    slow = ltv.LTVModel(k, n, p - n, norm="sq", coeffs=[-1.0, 1.0], lam=1.0)
+    slow = ltv.LTVModel(k, n, p - n, ltv.FitRecord(norm="sq", coeffs=[-1.0, 1.0], lam=1.0))
     act = slow.activation()
     higher_first = act[:69].mean() > act[70:].mean()
     assert ltv.find_changepoints(slow).tolist() == ([1] if higher_first else [71])

@@ -8,7 +8,10 @@ import sys
 import pytest
 
 import ltvmodels
-from ltvmodels.cli import JUMP_LINEAR_LAM, OutputPathError, main, run_jump_linear_demo
+from ltvmodels.apps.defaults import JUMP_LINEAR_LAM
+from ltvmodels.apps.demos import run_jump_linear_demo
+from ltvmodels.cli import main
+from ltvmodels.errors import OutputPathError
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -130,7 +133,8 @@ import json  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ltvmodels import systems  # noqa: E402
-from ltvmodels.cli import _jsonable, _Progress  # noqa: E402
+from ltvmodels.cli.progress import Progress
+from ltvmodels.cli.report import jsonable  # noqa: E402
 
 
 def _read_csv(path):
@@ -245,7 +249,7 @@ def test_segments_ar_select_lambda(workdir, capsys):
 
 
 def test_ar_root_spectrogram_and_model_file(tmp_path, capsys):
-    y, _ = ltvmodels.ar.chirp(2**11, seed=0)
+    y, _ = ltvmodels.systems.chirp(2**11, seed=0)
     np.savetxt(tmp_path / "chirp.csv", y[:, None], header="y", comments="")
     code, out, err = _run(["ar", tmp_path / "chirp.csv", "--column", "y", "--na", "4",
                            "--fs", "16000", "--lam", "300", "--plot", tmp_path / "ar.png",
@@ -408,14 +412,14 @@ def test_progress_only_on_a_terminal():
     import time as _time
 
     tty = _Terminal()
-    with _Progress("working", total=4, stream=tty, delay=0.0, interval=0.01) as bar:
+    with Progress("working", total=4, stream=tty, delay=0.0, interval=0.01) as bar:
         bar.advance(2)
         _time.sleep(0.1)
     text = tty.getvalue()
     assert "working [############............] 2/4" in text
     assert text.endswith("\r")  # the line is erased at the end
     piped = io.StringIO()
-    with _Progress("working", stream=piped, delay=0.0, interval=0.01):
+    with Progress("working", stream=piped, delay=0.0, interval=0.01):
         _time.sleep(0.05)
     assert piped.getvalue() == ""
 
@@ -423,9 +427,9 @@ def test_progress_only_on_a_terminal():
 def test_jsonable_converts_numpy_and_non_finite():
     value = {"a": np.float64(np.nan), "b": np.array([1.0, np.inf]), "c": np.int64(3),
              "d": (np.bool_(True), None), 4: float("-inf")}
-    assert _jsonable(value) == {"a": None, "b": [1.0, None], "c": 3, "d": [True, None],
+    assert jsonable(value) == {"a": None, "b": [1.0, None], "c": 3, "d": [True, None],
                                 "4": None}
-    json.dumps(_jsonable(value), allow_nan=False)
+    json.dumps(jsonable(value), allow_nan=False)
 
 
 def test_help_lists_every_subcommand(capsys):

@@ -8,9 +8,9 @@ import pytest
 
 gym = pytest.importorskip("gymnasium")
 
-from ltvmodels import gym_rl  # noqa: E402
+from ltvmodels.apps import gym_rl  # noqa: E402
 from ltvmodels.control import LinearDynamics, QuadraticCost, ilqg  # noqa: E402
-from ltvmodels.gym_rl import (  # noqa: E402
+from ltvmodels.apps.gym_rl import (  # noqa: E402
     PendulumCost,
     learn_pendulum,
     pendulum_rollout,
@@ -200,7 +200,7 @@ def test_experiment_table_and_plot():
 
 
 def test_importing_ltvmodels_does_not_import_gymnasium():
-    code = "import sys, ltvmodels, ltvmodels.gym_rl; assert 'gymnasium' not in sys.modules"
+    code = "import sys, ltvmodels, ltvmodels.apps.gym_rl; assert 'gymnasium' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
 
 

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
-from ltvmodels.problem import difference_matrix, state_space_problem
-from ltvmodels.solvers import _conekernels as cones
-from ltvmodels.solvers import ipm
+from ltvmodels.core.problem import difference_matrix, state_space_problem
+from ltvmodels.core import conekernels as cones
+from ltvmodels.core import ipm
 
 
 def interior_points(rng, n_cones, g):

@@ -12,7 +12,7 @@ from scipy.stats import multivariate_normal
 
 import ltvmodels as ltv
 from ltvmodels.errors import SingularProblemError
-from ltvmodels.solvers.kalman import (
+from ltvmodels.estimators.kalman import (
     OnlineParameterFilter,
     kalman_filter,
     kalman_smoother,

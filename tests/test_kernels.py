@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
-from ltvmodels.solvers import banded
+from ltvmodels.core import banded
 
 
 @pytest.mark.parametrize("order", [1, 2])

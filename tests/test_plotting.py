@@ -167,7 +167,7 @@ def test_plot_lambda_selection(data):
 
 
 def test_plot_spectrogram_under_root_spectrogram():
-    y, _ = ltv.ar.chirp(2**11, seed=0)
+    y, _ = ltv.systems.chirp(2**11, seed=0)
     ax = plotting.plot_spectrogram(y, 16000.0)
     assert isinstance(ax, Axes) and len(ax.collections) == 1
     armodel = ltv.fit_ar(y, na=4, lam=300.0)

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
-from ltvmodels.problem import apply_difference, state_space_problem
-from ltvmodels.solvers import _conekernels as cones
-from ltvmodels.solvers import ipm, polish
-from ltvmodels.solvers.admm import lambda_max, null_space_fit
+from ltvmodels.core.problem import apply_difference, state_space_problem
+from ltvmodels.core import conekernels as cones
+from ltvmodels.core import ipm, polish
+from ltvmodels.core.sparse_common import lambda_max, null_space_fit
 
 COEFFS = {1: np.array([-1.0, 1.0]), 2: np.array([1.0, -2.0, 1.0])}
 

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ltvmodels import rl
+from ltvmodels.apps import rl
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

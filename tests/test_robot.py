@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from ltvmodels.robot import (
+from ltvmodels.apps.robot import (
     _forward,
     plot_robot_experiment,
     robot_experiment,

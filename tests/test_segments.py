@@ -17,7 +17,7 @@ import pytest
 
 import ltvmodels as ltv
 from ltvmodels.errors import SingularProblemError
-from ltvmodels.segments import noise_variance_estimate, segment_regression
+from ltvmodels.estimators.segments import noise_variance_estimate, segment_regression
 
 # -- references ---------------------------------------------------------------------------
 
@@ -104,7 +104,7 @@ def test_dynamic_program_equals_brute_force(seed, N, n, p, min_size, M):
 
 def test_one_change_shortcut_equals_full_dynamic_program():
     """M = 1 takes two O(N) passes; the general O(N²) program gives the same."""
-    from ltvmodels.solvers import segment as seg
+    from ltvmodels.core import segmentation as seg
 
     x, u = switching_system(17, 80, 2, 1, changes=(33,), noise=0.3)
     u[50:58] = 0.0  # an infeasible stretch

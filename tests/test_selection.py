@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
-from ltvmodels.problem import difference_matrix, state_space_problem
-from ltvmodels.selection import _fit, select_lambda
+from ltvmodels.core.problem import difference_matrix, state_space_problem
+from ltvmodels.estimators.selection import criterion_fit, select_lambda
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -28,7 +28,7 @@ def test_gcv_degrees_of_freedom_equal_the_dense_hat_trace():
         Phi[t * n:(t + 1) * n, t * K:(t + 1) * K] = np.kron(np.eye(n), pb.phi[t])
     D = np.kron(difference_matrix(N, pb.coeffs).toarray(), np.eye(K))
     hat = Phi @ np.linalg.solve(Phi.T @ Phi + lam**2 * D.T @ D, Phi.T)
-    assert _fit(pb, "sq", lam, compute_cov=True)["dof"] == pytest.approx(np.trace(hat), rel=1e-9)
+    assert criterion_fit(pb, "sq", lam, compute_cov=True)["dof"] == pytest.approx(np.trace(hat), rel=1e-9)
 
 
 @pytest.mark.parametrize("norm,power", [("sq", 1), ("group", 2), ("l1", 2)])

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
-from ltvmodels.problem import state_space_problem
-from ltvmodels.solvers.admm import lambda_max
+from ltvmodels.core.problem import state_space_problem
+from ltvmodels.core.sparse_common import lambda_max
 
 cp = pytest.importorskip("cvxpy")
 

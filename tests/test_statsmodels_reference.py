@@ -8,7 +8,7 @@ initialization, on the parameter random walk written as a state-space model:
 
 with time-varying design (n × K × N). For order 1, F = I and G = I (K states);
 for order 2 each output row gets the companion realization of
-:func:`ltvmodels.solvers.kalman.parameter_state_space`.
+:func:`ltvmodels.estimators.kalman.parameter_state_space`.
 
 Log-likelihood convention: statsmodels' diffuse log-likelihood is the limit of
 log p(y) + (q/2) log κ under a N(0, κ I) prior on the q = d·K diffuse states,
@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
-from ltvmodels.solvers.kalman import kalman_smoother, parameter_state_space
+from ltvmodels.estimators.kalman import kalman_smoother, parameter_state_space
 
 sm = pytest.importorskip("statsmodels.api")
 from statsmodels.tsa.statespace.mlemodel import MLEModel  # noqa: E402

@@ -9,70 +9,96 @@ Quick use::
     import ltvmodels as ltv
     model = ltv.fit(x, u, lam=10.0, norm="sq", order=1)
     model.A, model.B, model.cov, model.loglik
+
+The public names below load on first use (PEP 562): ``import ltvmodels`` is
+about as fast as importing numpy, and the compiled solvers, matplotlib and
+the optional extras load only when something needs them. ARCHITECTURE.md
+describes the layers behind these names.
 """
 
-from . import control, gym_rl, plotting, rl, systems
-from .ar import ARModel, ARXModel, ar_regressors, arx_regressors, fit_ar, fit_arx
-from .changepoints import find_changepoints
-from .control import ilqg
+from __future__ import annotations
+
+import importlib
+import warnings
+from typing import Any
+
 from .errors import (
     ConvergenceWarning,
     IdentifiabilityWarning,
+    OutputPathError,
     PrecisionWarning,
     SingularProblemError,
 )
-from .fit import fit, fit_lti, fit_path, fit_regression
-from .models import LTVModel, RegressionModel, load
-from .piecewise import fit_piecewise
-from .priors import OutputPrior, Prior
-from .selection import LambdaSelection, select_lambda, select_lambda_regression
-from .segments import fit_segments
-from .solvers.kalman import (
-    KalmanFilterResult,
-    KalmanSmootherResult,
-    OnlineParameterFilter,
-    kalman_filter,
-    kalman_smoother,
-)
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
+
+# Public name → the module (below this package) that defines it.
+_API = {
+    "fit": "estimators.fit",
+    "fit_lti": "estimators.fit",
+    "fit_path": "estimators.fit",
+    "lambda_max": "estimators.fit",
+    "fit_regression": "estimators.regression",
+    "fit_ar": "estimators.ar",
+    "fit_arx": "estimators.ar",
+    "ar_regressors": "estimators.ar",
+    "arx_regressors": "estimators.ar",
+    "fit_piecewise": "estimators.piecewise",
+    "fit_segments": "estimators.segments",
+    "segment_regression": "estimators.segments",
+    "noise_variance_estimate": "estimators.segments",
+    "find_changepoints": "estimators.changepoints",
+    "select_lambda": "estimators.selection",
+    "select_lambda_regression": "estimators.selection",
+    "Prior": "estimators.priors",
+    "OutputPrior": "estimators.priors",
+    "kalman_filter": "estimators.kalman",
+    "kalman_smoother": "estimators.kalman",
+    "OnlineParameterFilter": "estimators.kalman",
+    "LTVModel": "results.statespace",
+    "RegressionModel": "results.regression",
+    "ARModel": "results.arx",
+    "ARXModel": "results.arx",
+    "FitStatus": "results.record",
+    "FitRecord": "results.record",
+    "LambdaSelection": "results.selection",
+    "Segmentation": "results.segmentation",
+    "KalmanFilterResult": "results.kalman",
+    "KalmanSmootherResult": "results.kalman",
+    "load": "results.loading",
+    "ilqg": "control",
+}
+# Public modules, imported on first attribute access.
+_MODULES = ("systems", "plotting", "control")
+# Former names of modules that moved, with their new place (a DeprecationWarning on use).
+_MOVED = {"rl": "ltvmodels.apps.rl", "gym_rl": "ltvmodels.apps.gym_rl"}
 
 __all__ = [
-    "fit",
-    "fit_lti",
-    "fit_path",
-    "fit_piecewise",
-    "fit_segments",
-    "fit_regression",
-    "fit_ar",
-    "fit_arx",
-    "ar_regressors",
-    "arx_regressors",
-    "find_changepoints",
-    "LTVModel",
-    "RegressionModel",
-    "ARModel",
-    "ARXModel",
-    "load",
-    "Prior",
-    "OutputPrior",
-    "select_lambda",
-    "select_lambda_regression",
-    "LambdaSelection",
-    "kalman_filter",
-    "kalman_smoother",
-    "OnlineParameterFilter",
-    "KalmanFilterResult",
-    "KalmanSmootherResult",
+    *_API,
+    *_MODULES,
     "SingularProblemError",
     "IdentifiabilityWarning",
     "ConvergenceWarning",
     "PrecisionWarning",
-    "systems",
-    "plotting",
-    "control",
-    "rl",
-    "gym_rl",
-    "ilqg",
+    "OutputPathError",
     "__version__",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _API:
+        value = getattr(importlib.import_module(f".{_API[name]}", __name__), name)
+    elif name in _MODULES:
+        value = importlib.import_module(f".{name}", __name__)
+    elif name in _MOVED:
+        warnings.warn(f"ltvmodels.{name} moved to {_MOVED[name]}; import it from there",
+                      DeprecationWarning, stacklevel=2)
+        return importlib.import_module(_MOVED[name])
+    else:
+        raise AttributeError(f"module 'ltvmodels' has no attribute {name!r}")
+    globals()[name] = value  # later lookups find it directly
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -50,7 +50,8 @@ from typing import Any, Callable, Protocol, runtime_checkable
 import numba
 import numpy as np
 
-from . import _validate
+from .validation import arrays, options
+from .core.dense import cholesky, cholesky_solve
 from .errors import ConvergenceWarning
 
 __all__ = [
@@ -107,7 +108,7 @@ class Cost(Protocol):
 
 def _square_sequence(value: Any, name: str, N: int, d: int) -> np.ndarray:
     """A symmetric PSD weight, (d, d) or (N, d, d), as a (N, d, d) float64 array."""
-    arr = _validate.as_float_array(value, name)
+    arr = arrays.as_float_array(value, name)
     if arr.ndim == 0 and d == 1:
         arr = arr.reshape(1, 1)
     if arr.shape == (d, d):
@@ -130,7 +131,7 @@ def _target_sequence(value: Any, name: str, rows: int, d: int) -> np.ndarray:
     """A target, (d,) or (rows, d), as a (rows, d) float64 array (zeros when None)."""
     if value is None:
         return np.zeros((rows, d))
-    arr = _validate.as_float_array(value, name)
+    arr = arrays.as_float_array(value, name)
     if arr.ndim == 0 and d == 1:
         arr = arr.reshape(1)
     if arr.shape == (d,):
@@ -177,9 +178,9 @@ class QuadraticCost:
         x_goal: Any = None,
         u_goal: Any = None,
     ) -> None:
-        N = _validate.integer(horizon, "horizon", 1)
-        Qa = _validate.as_float_array(Q, "Q")
-        Ra = _validate.as_float_array(R, "R")
+        N = options.integer(horizon, "horizon", 1)
+        Qa = arrays.as_float_array(Q, "Q")
+        Ra = arrays.as_float_array(R, "R")
         if Qa.ndim < 2 or Qa.shape[-1] != Qa.shape[-2]:
             raise ValueError(f"Q: expected shape (n, n) or (N, n, n), received shape {Qa.shape}")
         n = Qa.shape[-1]
@@ -234,8 +235,8 @@ class LinearDynamics:
     """
 
     def __init__(self, A: Any, B: Any, c: Any = None) -> None:
-        A = _validate.as_float_array(A, "A")
-        B = _validate.as_float_array(B, "B")
+        A = arrays.as_float_array(A, "A")
+        B = arrays.as_float_array(B, "B")
         if A.ndim != 3 or A.shape[1] != A.shape[2]:
             raise ValueError(f"A: expected shape (N, n, n), received shape {A.shape}")
         N, n = A.shape[:2]
@@ -286,7 +287,7 @@ class LinearDynamics:
 
     def simulate(self, x0: Any, u: Any) -> np.ndarray:
         """States (N + 1, n) from x0 (n,) under controls u (N, m)."""
-        x0 = _validate.vector(x0, "x0", self.n)
+        x0 = arrays.vector(x0, "x0", self.n)
         u = _trajectory_controls(u, self.N, self.m, "u")
         zeros_k = np.zeros((self.N, self.m))
         zeros_K = np.zeros((self.N, self.m, self.n))
@@ -386,41 +387,6 @@ def _forward_linear(A, B, c, x0, x_nom, u_nom, k, K, alpha, lo, hi):  # pragma: 
 
 
 @numba.njit(cache=True)
-def _cholesky(H, idx, L):  # pragma: no cover
-    """Cholesky factor of H[idx][:, idx] into L[:d, :d]; False if not positive definite."""
-    d = idx.size
-    for a in range(d):
-        for b in range(a + 1):
-            s = H[idx[a], idx[b]]
-            for j in range(b):
-                s -= L[a, j] * L[b, j]
-            if a == b:
-                if not s > 0.0:
-                    return False
-                L[a, a] = math.sqrt(s)
-            else:
-                L[a, b] = s / L[b, b]
-    return True
-
-
-@numba.njit(cache=True)
-def _chol_solve(L, d, rhs):  # pragma: no cover
-    """Solve (L Lᵀ) y = rhs in place for the leading d×d factor; rhs (d,) or (d, r)."""
-    r = rhs.shape[1]
-    for col in range(r):
-        for a in range(d):
-            s = rhs[a, col]
-            for j in range(a):
-                s -= L[a, j] * rhs[j, col]
-            rhs[a, col] = s / L[a, a]
-        for a in range(d - 1, -1, -1):
-            s = rhs[a, col]
-            for j in range(a + 1, d):
-                s -= L[j, a] * rhs[j, col]
-            rhs[a, col] = s / L[a, a]
-
-
-@numba.njit(cache=True)
 def _box_qp(H, g, lower, upper, x0, L):  # pragma: no cover
     """min ½ xᵀHx + gᵀx s.t. lower <= x <= upper, by projected Newton (Tassa et al. 2014).
 
@@ -468,7 +434,7 @@ def _box_qp(H, g, lower, upper, x0, L):  # pragma: no cover
         if n_free == 0:
             break
         if changed:
-            if not _cholesky(H, free[:n_free], L):
+            if not cholesky(H, free[:n_free], 0.0, L):
                 return x, free, n_free, False
             factored = True
         gnorm = 0.0
@@ -485,7 +451,7 @@ def _box_qp(H, g, lower, upper, x0, L):  # pragma: no cover
                 if clamped[j]:
                     s += H[i, j] * x[j]
             rhs[a, 0] = s
-        _chol_solve(L, n_free, rhs)
+        cholesky_solve(L, n_free, rhs)
         search = np.zeros(m)
         for a in range(n_free):
             i = free[a]
@@ -527,7 +493,7 @@ def _box_qp(H, g, lower, upper, x0, L):  # pragma: no cover
         if not ((x[i] == lower[i] and grad[i] > 0.0) or (x[i] == upper[i] and grad[i] < 0.0)):
             free[n_free] = i
             n_free += 1
-    if n_free > 0 and not _cholesky(H, free[:n_free], L):
+    if n_free > 0 and not cholesky(H, free[:n_free], 0.0, L):
         return x, free, n_free, False
     return x, free, n_free, True
 
@@ -575,7 +541,7 @@ def _backward(A, B, lx, lu, lxx, luu, lux, u, lo, hi, mu, k_warm):  # pragma: no
             rhs = np.empty((n_free, n))
             for a in range(n_free):
                 rhs[a] = Qux[free[a]]
-            _chol_solve(L, n_free, rhs)
+            cholesky_solve(L, n_free, rhs)
             for a in range(n_free):
                 K[t, free[a]] = -rhs[a]
         Kt = K[t]
@@ -591,7 +557,7 @@ def _backward(A, B, lx, lu, lxx, luu, lux, u, lo, hi, mu, k_warm):  # pragma: no
 # -- input checks -------------------------------------------------------------------
 def _trajectory_controls(u: Any, N: int, m: int, name: str) -> np.ndarray:
     """Controls (N, m); a 1-d (N,) array for m = 1 and an extra last row are accepted."""
-    arr = _validate.as_float_array(u, name)
+    arr = arrays.as_float_array(u, name)
     if arr.ndim == 1 and m == 1:
         arr = arr[:, None]
     if arr.ndim != 2 or arr.shape[1] != m or arr.shape[0] not in (N, N + 1):
@@ -605,7 +571,7 @@ def _trajectory_controls(u: Any, N: int, m: int, name: str) -> np.ndarray:
 def _trajectory(x: Any, u: Any, N: int, n: int, m: int, xname: str, uname: str
                 ) -> tuple[np.ndarray, np.ndarray]:
     """A trajectory: states (N + 1, n) and controls (N, m)."""
-    xs = _validate.as_float_array(x, xname)
+    xs = arrays.as_float_array(x, xname)
     if xs.ndim == 1 and n == 1:
         xs = xs[:, None]
     if xs.shape != (N + 1, n):
@@ -624,7 +590,7 @@ def _control_bounds(bounds: Any, N: int, m: int) -> tuple[np.ndarray, np.ndarray
     if not isinstance(bounds, (tuple, list)) or len(bounds) != 2:
         raise TypeError(
             "u_bounds: expected a pair (lower, upper) of scalars, (m,) or (N, m) arrays, "
-            f"received {_validate._describe(bounds)}"
+            f"received {arrays.describe(bounds)}"
         )
     out = []
     for value, label in zip(bounds, ("lower", "upper"), strict=True):
@@ -657,7 +623,7 @@ def _trust_radius(value: Any) -> float | None:
     """The trust-region radius ε > 0, or None for no trust region."""
     if value is None:
         return None
-    return _validate.positive_scalar(value, "trust_region")
+    return options.positive_scalar(value, "trust_region")
 
 
 def _trust_weights(value: Any, n: int, m: int) -> tuple[np.ndarray, np.ndarray]:
@@ -667,10 +633,10 @@ def _trust_weights(value: Any, n: int, m: int) -> tuple[np.ndarray, np.ndarray]:
     if not isinstance(value, (tuple, list)) or len(value) != 2:
         raise TypeError(
             "trust_weights: expected a pair (w_x, w_u) of vectors of lengths "
-            f"({n}, {m}), received {_validate._describe(value)}"
+            f"({n}, {m}), received {arrays.describe(value)}"
         )
-    wx = _validate.vector(value[0], "trust_weights[0]", n)
-    wu = _validate.vector(value[1], "trust_weights[1]", m)
+    wx = arrays.vector(value[0], "trust_weights[0]", n)
+    wu = arrays.vector(value[1], "trust_weights[1]", m)
     for w, name in ((wx, "trust_weights[0]"), (wu, "trust_weights[1]")):
         if np.any(w < 0):
             raise ValueError(f"{name}: expected nonnegative weights, received {w.tolist()}")
@@ -689,12 +655,12 @@ def _dynamics(dynamics: Any, jacobian: Any, N: int | None, n: int, m: int | None
         if not callable(jacobian):
             raise TypeError(
                 "jacobian: expected a function jacobian(x, u, t) -> (A_t, B_t) when dynamics is "
-                f"a function, received {_validate._describe(jacobian)}"
+                f"a function, received {arrays.describe(jacobian)}"
             )
         return _FunctionDynamics(dynamics, jacobian, N, n, m)
     raise TypeError(
         "dynamics: expected an LTVModel, a LinearDynamics or a function f(x, u, t), received "
-        f"{_validate._describe(dynamics)}"
+        f"{arrays.describe(dynamics)}"
     )
 
 
@@ -703,7 +669,7 @@ def _cost(cost: Any) -> Any:
     if not isinstance(cost, Cost):
         raise TypeError(
             "cost: expected a QuadraticCost or an object with methods stage_costs(x, u) and "
-            f"quadratize(x, u), received {_validate._describe(cost)}"
+            f"quadratize(x, u), received {arrays.describe(cost)}"
         )
     return cost
 
@@ -779,10 +745,10 @@ class ILQGResult:
     def control(self, t: int, x: Any) -> np.ndarray:
         """Feedback control u_t = clip(ū_t + K_t (x − x̄_t), lower_t, upper_t), shape (m,)."""
         N, n = self.K.shape[0], self.K.shape[2]
-        t = _validate.integer(t, "t", 0)
+        t = options.integer(t, "t", 0)
         if t >= N:
             raise ValueError(f"t: expected an integer in [0, {N - 1}], received {t}")
-        xv = _validate.vector(x, "x", n)
+        xv = arrays.vector(x, "x", n)
         return np.clip(self.u[t] + self.K[t] @ (xv - self.x[t]), self.lower[t], self.upper[t])
 
     def __repr__(self) -> str:
@@ -1001,7 +967,7 @@ def ilqg(
     numpy.linalg.LinAlgError
         If the control Hessian cannot be made positive definite.
     """
-    x0a = _validate.as_float_array(x0, "x0")
+    x0a = arrays.as_float_array(x0, "x0")
     if x0a.ndim != 1 or x0a.size == 0:
         raise ValueError(f"x0: expected a 1-d state vector of shape (n,), received shape "
                          f"{x0a.shape}")
@@ -1015,7 +981,7 @@ def ilqg(
                              f"received length {n}")
         u0 = _trajectory_controls(u_init, N, m, "u_init")
     else:
-        ua = _validate.as_float_array(u_init, "u_init")
+        ua = arrays.as_float_array(u_init, "u_init")
         if ua.ndim == 1:
             ua = ua[:, None]
         if ua.ndim != 2 or ua.shape[0] < 1:
@@ -1032,8 +998,8 @@ def ilqg(
     lo, hi = _control_bounds(u_bounds, N, m)
     radius = _trust_radius(trust_region)
     wx, wu = _trust_weights(trust_weights, n, m)
-    max_iter = _validate.integer(max_iter, "max_iter", 1)
-    tol = _validate.positive_scalar(tol, "tol")
+    max_iter = options.integer(max_iter, "max_iter", 1)
+    tol = options.positive_scalar(tol, "tol")
     u0 = np.clip(u0, lo, hi)
 
     zeros_k = np.zeros((N, m))
@@ -1046,7 +1012,7 @@ def ilqg(
         if not isinstance(reference, (tuple, list)) or len(reference) != 2:
             raise TypeError(
                 "reference: expected a pair (x_ref (N + 1, n), u_ref (N, m)), received "
-                f"{_validate._describe(reference)}"
+                f"{arrays.describe(reference)}"
             )
         x_ref, u_ref = _trajectory(reference[0], reference[1], N, n, m, "reference[0]",
                                    "reference[1]")

@@ -1,7 +1,7 @@
 """Exceptions and warnings raised by ltvmodels.
 
 Bad user input raises plain :class:`ValueError` / :class:`TypeError` (see
-:mod:`ltvmodels._validate`); the classes here describe problems that only show
+:mod:`ltvmodels.validation`); the classes here describe problems that only show
 up once the data meet the model.
 """
 
@@ -41,3 +41,7 @@ class ConvergenceWarning(UserWarning):
 
     The returned model is the last iterate; ``model.info`` reports the residuals.
     """
+
+
+class OutputPathError(ValueError):
+    """An output file cannot be written (missing directory, unsupported format, ...)."""

@@ -18,12 +18,13 @@ from dataclasses import dataclass, field
 from numbers import Integral
 from typing import Any
 
-import numba
 import numpy as np
 
-from . import _validate
+from .core.simulation import simulate_affine
+from .results.base import LinearTimeVarying
+from .validation import options
 
-__all__ = ["SimulatedData", "jump_linear", "random_walk_system"]
+__all__ = ["SimulatedData", "jump_linear", "random_walk_system", "chirp"]
 
 JUMP_LINEAR_A1 = np.array([[0.95, 0.1], [0.0, 0.95]])
 """State matrix of the jump-linear system before the change (paper Section VI)."""
@@ -34,7 +35,7 @@ JUMP_LINEAR_B = np.array([[0.2], [1.0]])
 
 
 @dataclass(frozen=True)
-class SimulatedData:
+class SimulatedData(LinearTimeVarying):
     """Data simulated from a known LTV system, with the true coefficients.
 
     Attributes
@@ -78,26 +79,6 @@ class SimulatedData:
         return self.x.shape[0]
 
     @property
-    def N(self) -> int:
-        """Number of model steps (transitions), T − 1."""
-        return self.A.shape[0]
-
-    @property
-    def n(self) -> int:
-        """Number of states."""
-        return self.A.shape[1]
-
-    @property
-    def m(self) -> int:
-        """Number of inputs."""
-        return self.B.shape[2]
-
-    @property
-    def K(self) -> int:
-        """Number of parameters per time step, n·(n + m)."""
-        return self.n * (self.n + self.m)
-
-    @property
     def theta(self) -> np.ndarray:
         """(N, n, n + m) true coefficient matrices [A_t B_t] (a new array)."""
         return np.concatenate([self.A, self.B], axis=2)
@@ -124,37 +105,6 @@ def _int_arg(value: Any, name: str, minimum: int) -> int:
     return int(value)
 
 
-def _rng(seed: Any) -> np.random.Generator:
-    if isinstance(seed, np.random.Generator):
-        return seed
-    if seed is None or (isinstance(seed, Integral) and not isinstance(seed, bool) and seed >= 0):
-        return np.random.default_rng(seed)
-    raise TypeError(
-        f"seed: expected a non-negative integer, a numpy Generator or None, received {seed!r}"
-    )
-
-
-# -- simulation kernel -------------------------------------------------------------
-@numba.njit(cache=True)
-def _simulate_noisy(
-    A: np.ndarray, B: np.ndarray, u: np.ndarray, w: np.ndarray, x0: np.ndarray
-) -> np.ndarray:  # pragma: no cover - compiled
-    """x[t+1] = A[t] x[t] + B[t] u[t] + w[t], t = 0 … N−1; returns (N + 1, n)."""
-    N, n, _ = A.shape
-    m = B.shape[2]
-    x = np.empty((N + 1, n))
-    x[0] = x0
-    for t in range(N):
-        for i in range(n):
-            acc = w[t, i]
-            for j in range(n):
-                acc += A[t, i, j] * x[t, j]
-            for j in range(m):
-                acc += B[t, i, j] * u[t, j]
-            x[t + 1, i] = acc
-    return x
-
-
 def _finish(
     rng: np.random.Generator,
     A: np.ndarray,
@@ -170,8 +120,8 @@ def _finish(
     u = rng.standard_normal((T, m))
     w = rng.standard_normal((N, n))
     w *= noise_std
-    x_true = _simulate_noisy(
-        np.ascontiguousarray(A), np.ascontiguousarray(B), u, w, np.zeros(n)
+    x_true = simulate_affine(
+        np.ascontiguousarray(A), np.ascontiguousarray(B), w, np.zeros(n), u
     )
     if measurement_std > 0:
         e = rng.standard_normal((T, n))
@@ -246,12 +196,12 @@ def jump_linear(
     if change_at > T - 1:
         raise ValueError(f"change_at: expected an integer in [0, T - 1] = [0, {T - 1}], "
                          f"received {change_at}")
-    noise_std = _validate.nonnegative_scalar(noise_std, "noise_std")
+    noise_std = options.nonnegative_scalar(noise_std, "noise_std")
     measurement_std = (
         noise_std if measurement_std is None
-        else _validate.nonnegative_scalar(measurement_std, "measurement_std")
+        else options.nonnegative_scalar(measurement_std, "measurement_std")
     )
-    rng = _rng(seed)
+    rng = options.random_generator(seed)
     N = T - 1
     A = np.empty((N, 2, 2))
     A[:change_at] = JUMP_LINEAR_A1
@@ -335,14 +285,14 @@ def random_walk_system(
     T = _int_arg(T, "T", 2)
     n = _int_arg(n, "n", 1)
     m = _int_arg(m, "m", 0)
-    drift_std = _validate.nonnegative_scalar(drift_std, "drift_std")
-    noise_std = _validate.nonnegative_scalar(noise_std, "noise_std")
-    measurement_std = _validate.nonnegative_scalar(measurement_std, "measurement_std")
-    max_norm = _validate.positive_scalar(max_norm, "max_norm")
+    drift_std = options.nonnegative_scalar(drift_std, "drift_std")
+    noise_std = options.nonnegative_scalar(noise_std, "noise_std")
+    measurement_std = options.nonnegative_scalar(measurement_std, "measurement_std")
+    max_norm = options.positive_scalar(max_norm, "max_norm")
     if max_norm >= 1:
         raise ValueError(f"max_norm: expected a number in (0, 1) for a stable system, "
                          f"received {max_norm}")
-    rng = _rng(seed)
+    rng = options.random_generator(seed)
     N = T - 1
 
     G = rng.standard_normal((n, n))
@@ -362,3 +312,50 @@ def random_walk_system(
     A *= np.minimum(1.0, max_norm / np.maximum(fro, 1e-300))[:, None, None]
     return _finish(rng, A, B, noise_std, measurement_std, None,
                    name=f"random walk (n={n}, m={m}, drift_std={drift_std:g})")
+
+
+# -- test signals -------------------------------------------------------------------
+def chirp(T: int = 2**14, fs: float = 16000.0, *, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """The two-component chirp of the reference implementation's root-spectrogram example.
+
+        y[j] = sin(2π f₁[j] t_j) + sin(2π f₂[j] t_j) + e[j],   t_j = j / fs,  e[j] ~ N(0, 0.01²),
+
+    with f₁ rising linearly from 2000 to 2500 Hz over the record (so the
+    instantaneous frequency d/dt (f₁(t) t) of the first component rises from
+    2000 to 3000 Hz) and f₂[j] = 5000 + 200 sin(2π j / T) Hz. With the
+    defaults (fs = 16 kHz, T = 2¹⁴) both components lie below fs/2.
+
+    Parameters
+    ----------
+    T : int, default 2**14
+        Number of samples, >= 2.
+    fs : float, default 16000.0
+        Sampling frequency (Hz).
+    seed : int, default 0
+        Seed of the measurement noise e (>= 0).
+
+    Returns
+    -------
+    y : ndarray, shape (T,)
+        The signal.
+    inst_freq : ndarray, shape (T,)
+        Instantaneous frequency of the first component (Hz),
+        2000 + 1000 j / (T − 1).
+
+    Examples
+    --------
+    >>> import ltvmodels as ltv
+    >>> y, inst = ltv.systems.chirp(2**12, seed=0)
+    >>> y.shape, float(inst[0]), float(inst[-1])
+    ((4096,), 2000.0, 3000.0)
+    """
+    T = options.integer(T, "T", minimum=2)
+    fs = options.positive_scalar(fs, "fs")
+    seed = options.integer(seed, "seed", minimum=0)
+    rng = np.random.default_rng(seed)
+    n = np.arange(T)
+    t = n / fs
+    f1 = np.linspace(2000.0, 2500.0, T)
+    f2 = 5000.0 + 200.0 * np.sin(2 * np.pi * n / T)
+    y = np.sin(2 * np.pi * f1 * t) + np.sin(2 * np.pi * f2 * t) + 0.01 * rng.standard_normal(T)
+    return y, 2000.0 + 1000.0 * n / (T - 1)

@@ -1,0 +1,515 @@
+"""The subcommands: read the data, run the library, report, save models and figures.
+
+Each command function takes the parsed arguments and returns its report: a
+dict (printed as JSON with ``--json``) and the lines of the text summary;
+:data:`COMMANDS` maps the subcommand names to them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import warnings
+import zipfile
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from ..apps.defaults import DEFAULT_DEMO_OUT
+from ..apps.demos import (
+    run_chirp_demo,
+    run_jump_linear_demo,
+    run_pendulum_demo,
+    run_rl_demo,
+    run_robot_demo,
+)
+from ..apps.rl import QUICK_RUNS
+from ..estimators.ar import ar_regressors, fit_ar
+from ..estimators.changepoints import find_changepoints
+from ..estimators.fit import fit
+from ..estimators.segments import fit_segments
+from ..estimators.selection import DEFAULT_METHOD, select_lambda, select_lambda_regression
+from ..plotting import (
+    plot_lambda_selection,
+    plot_model,
+    plot_root_spectrogram,
+    plot_simulation,
+    plot_spectrogram,
+)
+from ..plotting.figure import image_file, output_file, save_figure
+from ..results.arx import ARModel, ARXModel
+from ..results.loading import load
+from ..results.statespace import LTVModel
+from ..errors import OutputPathError
+from .data import read_columns, write_csv
+from .messages import CommandError, DataError, one_line, user_errors
+from .progress import Progress
+from .report import fmt, info_subset, rms, rms_columns
+
+Report = tuple[dict[str, Any], list[str]]
+
+
+def _outputs(args: argparse.Namespace, *, image: str = "plot", file: str | None = "out"
+             ) -> tuple[Path | None, tuple[Path, str] | None]:
+    """Check ``--out`` (any file) and ``--plot`` (an image) before any work."""
+    out = getattr(args, file, None) if file else None
+    plot = getattr(args, image, None)
+    return (output_file(out, file) if out is not None else None,
+            image_file(plot, image) if plot is not None else None)
+
+
+def _state_space_data(args: argparse.Namespace) -> tuple[str, np.ndarray, np.ndarray | None,
+                                                         list[str], list[str]]:
+    """(label, x (T, n), u (T, m) or None, state names, input names) of DATA."""
+    T, label, cols = read_columns(args.data, state=args.state, input=args.input)
+    state_names, x = cols["state"]
+    input_names, u = cols["input"] if cols["input"] is not None else ([], None)
+    return label, x, u, state_names, input_names
+
+
+def _detected_changepoints(model: Any) -> tuple[np.ndarray, str]:
+    """Change points of a model and how they were found."""
+
+    if model.norm in ("piecewise", "l0", "lti"):
+        return np.asarray(model.changepoints, dtype=int), "segment boundaries of the model"
+    with user_errors("change points: "):
+        found = find_changepoints(model)
+    return found, "peaks of the activation ||(Dk)_t|| (ltvmodels.find_changepoints)"
+
+
+def _lam_facts(model: Any, requested: Any) -> dict[str, Any]:
+    """λ used (of the first step for a refined model) and how it was chosen."""
+
+    first = model.info.get("first_step")
+    lam = first["lam"] if isinstance(first, dict) and "lam" in first else model.lam
+    facts: dict[str, Any] = {"lam": lam if np.ndim(lam) == 0 else np.asarray(lam)}
+    if requested == "auto":
+        selection = model.info.get("lam_selection") or {}
+        norm = first["norm"] if isinstance(first, dict) else model.norm
+        facts["lam_method"] = selection.get("method", DEFAULT_METHOD.get(norm))
+    return facts
+
+
+def _state_space_report(command: str, label: str, model: Any, x: np.ndarray,
+                        u: np.ndarray | None, state_names: list[str],
+                        input_names: list[str]) -> tuple[dict[str, Any], list[str], Any]:
+    """The facts common to ``fit`` and ``segments``: RMS, change points, solver."""
+    with user_errors():
+        prediction = model.predict(x, u)
+        simulation = model.simulate(x[0], u)
+    pred_rms = rms_columns(prediction - x[1:])
+    sim_rms = rms_columns(simulation - x)
+    changepoints, rule = _detected_changepoints(model)
+    info = model.info
+    report: dict[str, Any] = {
+        "command": command, "data": label, "T": x.shape[0], "state": state_names,
+        "input": input_names, "model": type(model).__name__, "N": model.N,
+        "norm": model.norm, "order": None if model.coeffs is None else len(model.coeffs) - 1,
+        "rms": {"prediction": rms(prediction - x[1:]), "simulation": rms(simulation - x),
+                "prediction_per_state": pred_rms, "simulation_per_state": sim_rms},
+        "changepoints": changepoints, "changepoint_rule": rule,
+        "noise_var": model.noise_var, "loglik": model.loglik,
+        "solver": info.get("solver"), "converged": info.get("converged"),
+        "iterations": info.get("iterations"), "info": info_subset(info),
+    }
+    per = ", ".join(f"{n} {fmt(v)}" for n, v in zip(state_names, pred_rms, strict=True))
+    per_sim = ", ".join(f"{n} {fmt(v)}" for n, v in zip(state_names, sim_rms, strict=True))
+    status = ""
+    if info.get("converged") is not None:
+        status = ", converged" if info["converged"] else ", NOT converged (see the warnings)"
+    if info.get("iterations") is not None:
+        status += f", {info['iterations']} iterations"
+    lines = [
+        f"ltvmodels {command}: {label}, T = {x.shape[0]} samples; states "
+        f"{', '.join(state_names)}; inputs {', '.join(input_names) or '(none)'}",
+        model.summary(),
+        f"solver: {info.get('solver', '?')}{status}",
+        f"one-step prediction RMS: {fmt(report['rms']['prediction'])} ({per})",
+        f"open-loop simulation RMS: {fmt(report['rms']['simulation'])} ({per_sim}; from "
+        "the first state with the recorded inputs)",
+        f"change points: {[int(c) for c in changepoints]} ({rule})",
+    ]
+    return report, lines, changepoints
+
+
+def _save_model(model: Any, path: Path | None, report: dict, lines: list[str]) -> None:
+    if path is None:
+        return
+    try:
+        model.save(path)
+    except OSError as exc:
+        raise OutputPathError(f"out: cannot write {str(path)!r}: {exc.strerror or exc}") from exc
+    report.setdefault("files", {})["model"] = str(path)
+    lines.append(f"wrote {path}")
+
+
+def _save_plot(fig: Any, target: tuple[Path, str] | None, report: dict,
+               lines: list[str]) -> None:
+    if target is None:
+        return
+    save_figure(fig, target[0], target[1], option="plot")
+    report.setdefault("files", {})["plot"] = str(target[0])
+    lines.append(f"wrote {target[0]}")
+
+
+def _cmd_fit(args: argparse.Namespace) -> Report:
+
+    out, plot = _outputs(args)
+    label, x, u, state_names, input_names = _state_space_data(args)
+    what = "choosing lambda and fitting" if args.lam == "auto" else "fitting"
+    with Progress(f"ltvmodels fit: {what}"), user_errors():
+        model = fit(x, u, lam=args.lam, norm=args.norm, order=args.order, refine=args.refine,
+                    max_iter=args.max_iter, tol=args.tol)
+    model.info["data_columns"] = {"state": state_names, "input": input_names}
+    report, lines, changepoints = _state_space_report("fit", label, model, x, u, state_names,
+                                                      input_names)
+    facts = _lam_facts(model, args.lam)
+    report.update(facts, norm=args.norm, order=args.order, refine=args.refine)
+    how = (f"chosen by lam=auto, criterion {facts['lam_method']!r}" if args.lam == "auto"
+           else "given")
+    lines.insert(1, f"fit: norm={args.norm!r}, order={args.order}, lambda = "
+                    f"{fmt(float(facts['lam']))} ({how})"
+                 + (", then the two-step refinement" if args.refine else ""))
+    _save_model(model, out, report, lines)
+    if plot is not None:
+        fig = plot_model(model, changepoints=changepoints)
+        fig.suptitle(f"{label}: norm={args.norm!r}, order={args.order}, "
+                     f"λ = {float(facts['lam']):.4g}" + (", refined" if args.refine else ""))
+        _save_plot(fig, plot, report, lines)
+    return report, lines
+
+
+def _cmd_segments(args: argparse.Namespace) -> Report:
+
+    out, plot = _outputs(args)
+    label, x, u, state_names, input_names = _state_space_data(args)
+    how = (f"exactly optimal with at most {args.n_changes} changes (dynamic programming)"
+           if args.n_changes is not None else
+           f"penalty {args.penalty or 'bic'} per change (PELT)")
+    with Progress("ltvmodels segments: searching change points"), user_errors():
+        model = fit_segments(x, u, n_changes=args.n_changes, penalty=args.penalty,
+                             min_size=args.min_size)
+    model.info["data_columns"] = {"state": state_names, "input": input_names}
+    report, lines, changepoints = _state_space_report("segments", label, model, x, u,
+                                                      state_names, input_names)
+    info = model.info
+    report.update({k: info.get(k) for k in ("cost", "objective", "n_changes", "penalty",
+                                            "penalty_rule", "min_size")})
+    lines.insert(1, f"segments: {how}; min_size {info.get('min_size')}")
+    lines.append(f"residual sum of squares {fmt(info['cost'])}, objective "
+                 f"{fmt(info['objective'])}, {info['n_changes']} changes"
+                 + (f", penalty {fmt(info['penalty'])} per change"
+                    if info.get("penalty") is not None else ""))
+    _save_model(model, out, report, lines)
+    if plot is not None:
+        fig = plot_model(model, changepoints=changepoints)
+        fig.suptitle(f"{label}: piecewise-constant model, {info['n_changes']} changes at "
+                     f"{[int(c) for c in changepoints]}")
+        _save_plot(fig, plot, report, lines)
+    return report, lines
+
+
+def _cmd_ar(args: argparse.Namespace) -> Report:
+
+    out, plot = _outputs(args)
+    T, label, cols = read_columns(args.data, column=args.column)
+    names, y = cols["column"]
+    what = "choosing lambda and fitting" if args.lam == "auto" else "fitting"
+    with Progress(f"ltvmodels ar: {what}"), user_errors():
+        model = fit_ar(y[:, 0] if y.shape[1] == 1 else y, args.na, lam=args.lam,
+                       norm=args.norm, order=args.order, constant=args.constant,
+                       max_iter=args.max_iter, tol=args.tol)
+        prediction = model.predict(y[:, 0] if y.shape[1] == 1 else y)
+        freq = model.root_spectrogram(args.fs)
+    model.info["data_columns"] = {"output": names}
+    prediction = prediction.reshape(model.N, -1)
+    err = prediction - y[model.lag:]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN tracks (real poles)
+        tracks = np.nanmedian(freq, axis=0) if freq.size else np.zeros(0)
+    facts = _lam_facts(model, args.lam)
+    report: dict[str, Any] = {
+        "command": "ar", "data": label, "T": T, "column": names, "model": type(model).__name__,
+        "N": model.N, "na": args.na, "fs": args.fs, "norm": args.norm, "order": args.order,
+        **facts, "rms": {"prediction": rms(err), "prediction_per_output": rms_columns(err)},
+        "median_pole_frequencies": tracks, "noise_var": model.noise_var,
+        "loglik": model.loglik, "solver": model.info.get("solver"),
+        "converged": model.info.get("converged"), "info": info_subset(model.info),
+    }
+    how = (f"chosen by lam=auto, criterion {facts['lam_method']!r}" if args.lam == "auto"
+           else "given")
+    lines = [
+        f"ltvmodels ar: {label}, T = {T} samples of {', '.join(names)}, fs = {args.fs:g}",
+        f"fit: AR({args.na}), norm={args.norm!r}, order={args.order}, lambda = "
+        f"{fmt(float(facts['lam']))} ({how})",
+        model.summary(),
+        f"one-step prediction RMS: {fmt(report['rms']['prediction'])} (samples {model.lag} "
+        f"to {T - 1})",
+        "root spectrogram: median frequency of each pole-pair track: "
+        + (", ".join(fmt(float(f)) for f in tracks) if tracks.size else "(no complex poles)"),
+    ]
+    _save_model(model, out, report, lines)
+    if plot is not None:
+        ax = None
+        if y.shape[1] == 1 and T >= 8:
+            ax = plot_spectrogram(y[:, 0], args.fs)
+        ax = plot_root_spectrogram(model, args.fs, ax=ax)
+        ax.set_title(f"{label}: root spectrogram of AR({args.na}), norm={args.norm!r}, "
+                     f"order {args.order}, λ = {float(facts['lam']):.4g}")
+        ax.legend(loc="upper right", fontsize="small", markerscale=6)
+        _save_plot(ax.figure, plot, report, lines)
+    return report, lines
+
+
+def _cmd_select_lambda(args: argparse.Namespace) -> Report:
+
+    _, plot = _outputs(args, file=None)
+    if args.column is not None:
+        if args.state is not None or args.input is not None:
+            raise CommandError("--column: an AR model takes no --state or --input")
+        if args.na is None:
+            raise CommandError("--na: the AR order is required with --column")
+        T, label, cols = read_columns(args.data, column=args.column)
+        names, y = cols["column"]
+        with user_errors():
+            y_out, phi = ar_regressors(y[:, 0] if y.shape[1] == 1 else y, args.na)
+        data_facts = {"column": names, "na": args.na}
+        what = f"AR({args.na}) of {', '.join(names)}"
+    else:
+        if args.state is None:
+            raise CommandError("--state: expected the state columns (or --column and --na "
+                                "for an AR model)")
+        if args.na is not None:
+            raise CommandError("--na: applies with --column (an AR model) only")
+        label, x, u, state_names, input_names = _state_space_data(args)
+        T = x.shape[0]
+        data_facts = {"state": state_names, "input": input_names}
+        what = (f"states {', '.join(state_names)}; inputs "
+                f"{', '.join(input_names) or '(none)'}")
+    with Progress("ltvmodels select-lambda: evaluating the candidates") as bar, \
+            user_errors():
+
+        def progress(done: int, total: int) -> None:
+            bar.total, bar.done = total, done
+
+        if args.column is not None:
+            selection = select_lambda_regression(y_out, phi, norm=args.norm, order=args.order,
+                                                 method=args.method, progress=progress)
+        elif args.norm == "l0":  # one dynamic program: no steps to count
+            selection = select_lambda(x, u, norm=args.norm, method=args.method)
+        else:
+            selection = select_lambda(x, u, norm=args.norm, order=args.order,
+                                      method=args.method, progress=progress)
+    is_l0 = selection.norm == "l0"
+    report: dict[str, Any] = {
+        "command": "select-lambda", "data": label, "T": T, **data_facts,
+        "norm": selection.norm, "order": None if is_l0 else args.order,
+        "method": selection.method,
+        ("n_changes" if is_l0 else "lam"): int(selection.lam) if is_l0 else selection.lam,
+        "candidates": selection.lams.astype(int) if is_l0 else selection.lams,
+        "scores": selection.scores,
+        "maximize": selection.maximize,
+    }
+    best = "maximum" if selection.maximize else "minimum"
+    chosen = (f"number of changes {int(selection.lam)}" if is_l0
+              else f"lambda = {fmt(selection.lam)}")
+    lines = [
+        f"ltvmodels select-lambda: {label}, T = {T} samples; {what}",
+        f"norm={selection.norm!r}" + ("" if is_l0 else f", order={args.order}")
+        + f", criterion {selection.method!r} ({best} over {len(selection.lams)} candidates"
+        + ("" if is_l0 or selection.method in ("lcurve", "cv") else ", then refined") + ")",
+        f"chosen: {chosen}",
+        "",
+        f"{'number of changes' if is_l0 else 'lambda':>18}  {selection.method}",
+    ]
+    nearest = int(np.argmin(np.abs(selection.lams - selection.lam)))
+    for i, (lam, score) in enumerate(zip(selection.lams, selection.scores, strict=True)):
+        lines.append(f"{fmt(float(lam)):>18}  {fmt(float(score))}"
+                     + ("   <- chosen" if i == nearest and (is_l0 or selection.method in
+                                                              ("lcurve", "cv")) else ""))
+    if plot is not None:
+        _save_plot(plot_lambda_selection(selection).figure, plot, report, lines)
+    return report, lines
+
+
+def _load_model(path: str) -> Any:
+
+    p = Path(path)
+    if not p.exists():
+        raise DataError(f"{path}: no such file")
+    if p.is_dir():
+        raise DataError(f"{path}: is a directory, expected a model file (.npz)")
+    if not zipfile.is_zipfile(p):
+        raise DataError(f"{path}: not an ltvmodels model file (expected an .npz archive written "
+                        "by 'ltvmodels fit --out' or model.save)")
+    try:
+        return load(p)
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    except Exception as exc:  # a damaged archive, or not one of ours
+        text = one_line(exc)
+        if text.startswith("path: "):  # ltvmodels.load's own messages
+            text = text[len("path: "):]
+            text = text[len(str(p)) + 1:] if text.startswith(f"{p} ") else text
+            text = text.removeprefix("is ")
+            raise DataError(f"{path}: {text}") from None
+        raise DataError(f"{path}: not an ltvmodels model file ({type(exc).__name__}: "
+                        f"{text})") from None
+
+
+def _model_data(args: argparse.Namespace, model: Any) -> dict[str, Any]:
+    """Read the columns a loaded model needs from DATA and check their sizes."""
+
+    recorded = model.info.get("data_columns")
+    recorded = recorded if isinstance(recorded, dict) else {}
+    if isinstance(model, LTVModel):
+        kind, n, m, lag = "ltv", model.n_states, model.n_inputs, 1
+        out_key = "state"
+    elif isinstance(model, ARXModel):
+        kind = "ar" if isinstance(model, ARModel) else "arx"
+        n, m, lag = model.n_outputs, model.n_inputs, model.lag
+        out_key = "output"
+    else:
+        raise DataError(f"{args.model}: a {type(model).__name__} has no dynamics to "
+                        f"{args.command} (expected a model from fit, segments or ar)")
+    state = args.state if args.state is not None else _spec(recorded.get(out_key))
+    inputs = args.input if args.input is not None else _spec(recorded.get("input"))
+    if state is None:
+        raise DataError(f"--state: {args.model} does not record its data columns; give "
+                        f"--state (and --input) to choose them in the data")
+    if m and inputs is None:
+        raise DataError(f"--input: the model has {m} inputs; give --input to choose their "
+                        "columns in the data")
+    if not m and args.input is not None:
+        raise DataError(f"--input: the model has no inputs, received {args.input!r}")
+    T, label, cols = read_columns(args.data, state=state, input=inputs if m else None)
+    names, y = cols["state"]
+    if y.shape[1] != n:
+        what = "states" if kind == "ltv" else "outputs"
+        raise DataError(f"--state: the model has {n} {what}, received {y.shape[1]} columns "
+                        f"({', '.join(names)})")
+    u = None
+    input_names: list[str] = []
+    if m:
+        input_names, u = cols["input"]
+        if u.shape[1] != m:
+            raise DataError(f"--input: the model has {m} inputs, received {u.shape[1]} "
+                            f"columns ({', '.join(input_names)})")
+    expected = model.N + lag
+    if T != expected:
+        steps = (f"N = {model.N} transitions" if kind == "ltv"
+                 else f"N = {model.N} time steps after {lag} initial samples")
+        raise DataError(f"{label}: expected T = {expected} rows (the model has {steps}), "
+                        f"received {T}")
+    return {"kind": kind, "label": label, "T": T, "y": y, "u": u, "names": names,
+            "input_names": input_names, "lag": lag}
+
+
+def _spec(names: Any) -> str | None:
+    if not names:
+        return None
+    return ",".join(str(name) for name in names)
+
+
+def _cmd_simulate_or_predict(args: argparse.Namespace) -> Report:
+
+    out, plot = _outputs(args)
+    model = _load_model(args.model)
+    data = _model_data(args, model)
+    kind, y, u, lag = data["kind"], data["y"], data["u"], data["lag"]
+    simulate = args.command == "simulate"
+    with user_errors():
+        if kind == "ltv":
+            result = model.simulate(y[0], u) if simulate else model.predict(y, u)
+        else:
+            series = y[:, 0] if y.shape[1] == 1 else y
+            extra = () if kind == "ar" else (u,)
+            result = (model.simulate(series[:lag], *extra) if simulate
+                      else model.predict(series, *extra))
+    result = np.asarray(result, dtype=float).reshape(-1, y.shape[1])
+    start = 0 if simulate and kind == "ltv" else (1 if kind == "ltv" else lag)
+    if simulate and kind != "ltv":  # y[0:lag] are the given initial samples
+        result, start = result[lag:], lag
+    err = result - y[start:start + result.shape[0]]
+    noun = "open-loop simulation" if simulate else "one-step prediction"
+    total_rms = rms(err)
+    per = rms_columns(err)
+    report: dict[str, Any] = {
+        "command": args.command, "model_file": str(args.model), "model": type(model).__name__,
+        "data": data["label"], "T": data["T"], "columns": data["names"],
+        "input": data["input_names"], "start": start, "rows": result.shape[0],
+        "rms": total_rms, "rms_per_column": per,
+    }
+    with np.errstate(over="ignore", invalid="ignore"):
+        diverged = not np.all(np.isfinite(result))
+    lines = [
+        f"ltvmodels {args.command}: {args.model} on {data['label']} (T = {data['T']} samples; "
+        f"columns {', '.join(data['names'])}; inputs {', '.join(data['input_names']) or '(none)'})",
+        repr(model),
+        f"{noun} of samples {start} to {start + result.shape[0] - 1}"
+        + ((" from the recorded initial " + ("state" if kind == "ltv" else "samples")
+            + (" with the recorded inputs" if u is not None else "")) if simulate
+           else " from the recorded data"),
+        f"RMS error: {fmt(total_rms)} ("
+        + ", ".join(f"{n} {fmt(v)}" for n, v in zip(data["names"], per, strict=True)) + ")"
+        + ("; the simulation diverges (non-finite values)" if diverged else ""),
+    ]
+    if out is not None:
+        table = np.column_stack([np.arange(start, start + result.shape[0]), result])
+        write_csv(out, ["t", *data["names"]], table, "out")
+        report.setdefault("files", {})["out"] = str(out)
+        lines.append(f"wrote {out}")
+    if plot is not None:
+        fig = plot_simulation(y, result, start=start, names=data["names"], label=noun)
+        fig.suptitle(f"{args.model} on {data['label']}: {noun}")
+        _save_plot(fig, plot, report, lines)
+    return report, lines
+
+
+def _cmd_demo(args: argparse.Namespace) -> Report:
+    system = args.system
+    if system != "jump-linear":
+        for option, value in (("--norm", args.norm), ("--lam", args.lam)):
+            if value is not None:
+                raise CommandError(f"{option}: applies to the jump-linear demo only")
+    if args.quick and system not in ("chirp", "rl", "pendulum"):
+        raise CommandError("--quick: applies to the chirp, rl and pendulum demos only")
+    if args.full and system not in ("rl", "pendulum"):
+        raise CommandError("--full: applies to the rl and pendulum demos only")
+    if args.quick and args.full:
+        raise CommandError("--quick, --full: expected one of them, received both")
+    out = DEFAULT_DEMO_OUT[system] if args.out is None else args.out
+    if system == "jump-linear":
+        run_jump_linear_demo(seed=args.seed, norm=args.norm or "group", lam=args.lam, out=out)
+    elif system == "robot":
+        run_robot_demo(seed=args.seed, out=out)
+    elif system == "chirp":
+        run_chirp_demo(seed=args.seed, out=out, quick=args.quick)
+    elif system == "pendulum":
+        size = "full" if args.full else ("quick" if args.quick else "default")
+        runs = {"default": 2, "quick": 1, "full": 20}[size]
+        try:
+            with Progress("ltvmodels demo pendulum: runs", total=runs) as bar:
+                run_pendulum_demo(seed=args.seed, out=out, size=size,
+                                  progress=lambda _line: bar.advance())
+        except ImportError as exc:
+            raise CommandError(f"demo pendulum: {exc}") from None
+    else:
+        size = "full" if args.full else ("quick" if args.quick else "default")
+        runs = {"default": QUICK_RUNS, "quick": 1, "full": 20}[size]
+        with Progress("ltvmodels demo rl: Monte-Carlo runs", total=runs) as bar:
+            run_rl_demo(seed=args.seed, out=out, size=size,
+                        progress=lambda _line: bar.advance())
+    return {}, []
+
+
+COMMANDS: dict[str, Callable[[argparse.Namespace], Report]] = {
+    "fit": _cmd_fit,
+    "segments": _cmd_segments,
+    "ar": _cmd_ar,
+    "select-lambda": _cmd_select_lambda,
+    "simulate": _cmd_simulate_or_predict,
+    "predict": _cmd_simulate_or_predict,
+    "demo": _cmd_demo,
+}
+"""The subcommands by name: each returns (report dict, text lines)."""

@@ -1,0 +1,233 @@
+"""Data files of the command line: CSV (a file or standard input) and Parquet, by column.
+
+DATA is a CSV file (comma, semicolon or tab separated, detected from the first
+line; a header row of column names is optional; lines starting with ``#`` are
+comments), ``-`` for CSV on standard input, or a Parquet file (``.parquet``,
+``.pq``; needs pandas with pyarrow or fastparquet). Columns are chosen by name
+or 0-based index, comma-separated; only the chosen columns must be numeric.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from ..errors import OutputPathError
+from .messages import DataError, one_line
+
+
+PARQUET_SUFFIXES = (".parquet", ".pq")
+
+
+@dataclass
+class _Source:
+    """An opened data source: column names and a reader of selected columns."""
+
+    label: str
+    names: list[str]
+    read: Callable[[list[int]], np.ndarray]
+
+
+def _display(path: Any) -> str:
+    return "standard input" if str(path) == "-" else str(path)
+
+
+def _open_source(path: Any) -> _Source:
+    """Open DATA (CSV, '-' for CSV on stdin, or Parquet) and read its column names."""
+    label = _display(path)
+    if str(path) != "-":
+        p = Path(path)
+        if not p.exists():
+            raise DataError(f"{label}: no such file")
+        if p.is_dir():
+            raise DataError(f"{label}: is a directory, expected a data file")
+        if p.suffix.lower() in PARQUET_SUFFIXES:
+            return _open_parquet(p)
+        try:
+            with open(p, encoding="utf-8-sig", newline="") as fh:
+                text = fh.read()
+        except UnicodeDecodeError:
+            raise DataError(f"{label}: not a UTF-8 text (CSV) file") from None
+        except OSError as exc:
+            raise DataError(f"{label}: cannot read: {exc.strerror or exc}") from None
+    else:
+        text = sys.stdin.read()
+        if text.startswith("\ufeff"):
+            text = text[1:]
+    return _parse_csv(text, label)
+
+
+def _open_parquet(path: Path) -> _Source:
+    try:
+        import pandas as pd
+    except ImportError:
+        raise DataError(f"{path}: reading Parquet needs pandas with pyarrow or fastparquet "
+                        "(pip install pandas pyarrow), or convert the data to CSV") from None
+    try:
+        frame = pd.read_parquet(path)
+    except ImportError:
+        raise DataError(f"{path}: reading Parquet needs pyarrow or fastparquet (pip install "
+                        "pyarrow), or convert the data to CSV") from None
+    except Exception as exc:  # pyarrow raises its own error types on corrupt files
+        raise DataError(f"{path}: cannot read as Parquet: {one_line(exc)}") from None
+    names = [str(c) for c in frame.columns]
+
+    def read(indices: list[int]) -> np.ndarray:
+        out = np.empty((len(frame), len(indices)))
+        for j, i in enumerate(indices):
+            column = frame.iloc[:, i]
+            try:
+                out[:, j] = column.to_numpy(dtype=float)
+            except (TypeError, ValueError):
+                raise DataError(f"{path}: column {names[i]!r} is not numeric "
+                                f"(dtype {column.dtype})") from None
+            bad = ~np.isfinite(out[:, j])
+            if bad.any():
+                row = int(np.flatnonzero(bad)[0])
+                raise DataError(f"{path}: row {row}, column {names[i]!r}: value "
+                                f"{out[row, j]!r} is missing or not finite (missing data are "
+                                "not supported)")
+        return out
+
+    return _Source(str(path), names, read)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _parse_csv(text: str, label: str) -> _Source:
+    """Split CSV text into rows (lazily converted per column) and find the header."""
+    lines = text.splitlines()
+    numbered = [(i + 1, line) for i, line in enumerate(lines)
+                if line.strip() and not line.lstrip().startswith("#")]
+    if not numbered:
+        raise DataError(f"{label}: empty file (no header and no data rows)")
+    first = numbered[0][1]
+    counts = {d: first.count(d) for d in (",", ";", "\t")}
+    delimiter = max(counts, key=lambda d: counts[d]) if any(counts.values()) else ","
+    reader = csv.reader([line for _, line in numbered], delimiter=delimiter)
+    try:
+        rows = [[field.strip() for field in row] for row in reader]
+    except csv.Error as exc:
+        raise DataError(f"{label}: not a valid CSV file: {exc}") from None
+    header = rows[0]
+    has_header = not all(_is_number(field) for field in header)
+    if has_header:
+        names = header
+        data_rows, line_numbers = rows[1:], [n for n, _ in numbered[1:]]
+    else:
+        names = [str(i) for i in range(len(header))]
+        data_rows, line_numbers = rows, [n for n, _ in numbered]
+    if not data_rows:
+        raise DataError(f"{label}: no data rows after the header")
+    width = len(names)
+    for row, line in zip(data_rows, line_numbers, strict=True):
+        if len(row) != width:
+            raise DataError(f"{label}, line {line}: expected {width} fields (as the "
+                            f"{'header' if has_header else 'first row'}), received {len(row)}")
+
+    def read(indices: list[int]) -> np.ndarray:
+        out = np.empty((len(data_rows), len(indices)))
+        for j, i in enumerate(indices):
+            for r, row in enumerate(data_rows):
+                field = row[i]
+                try:
+                    value = float(field)
+                except ValueError:
+                    what = ("empty value (missing data are not supported)" if field == ""
+                            else f"{field!r} is not a number")
+                    raise DataError(f"{label}, line {line_numbers[r]}, column {names[i]!r}: "
+                                    f"{what}") from None
+                if not math.isfinite(value):
+                    raise DataError(f"{label}, line {line_numbers[r]}, column {names[i]!r}: "
+                                    f"{field!r} is not finite (missing data are not "
+                                    "supported)")
+                out[r, j] = value
+        return out
+
+    return _Source(label, names, read)
+
+
+def _resolve(source: _Source, spec: str, option: str) -> list[int]:
+    """Column indices of a comma-separated list of names or 0-based indices."""
+    tokens = [token.strip() for token in spec.split(",")]
+    if not spec.strip() or any(token == "" for token in tokens):
+        raise DataError(f"{option}: expected comma-separated column names or 0-based "
+                        f"indices, received {spec!r}")
+    indices = []
+    for token in tokens:
+        matches = [i for i, name in enumerate(source.names) if name == token]
+        if len(matches) > 1:
+            raise DataError(f"{option}: column name {token!r} appears {len(matches)} times in "
+                            f"{source.label}; select it by index")
+        if matches:
+            indices.append(matches[0])
+        elif token.isdigit() and int(token) < len(source.names):
+            indices.append(int(token))
+        else:
+            shown = ", ".join(source.names[:20]) + (", ..." if len(source.names) > 20 else "")
+            what = "index" if token.isdigit() else "column"
+            raise DataError(f"{option}: no {what} {token!r} in {source.label} (columns: "
+                            f"{shown})")
+    if len(set(indices)) != len(indices):
+        raise DataError(f"{option}: a column is selected twice in {spec!r}")
+    return indices
+
+
+def read_columns(path: Any, **selections: str | None) -> tuple[int, str, dict[str, Any]]:
+    """Read the selected numeric columns of DATA (see the module docstring).
+
+    ``selections`` maps an option name (``state="x1,x2"``) to comma-separated
+    column names or 0-based indices, or None. Returns (T, the file's label,
+    {option: (names, values (T, k)) or None}). A column may be in one
+    selection only; every user error is a :class:`DataError`.
+    """
+    source = _open_source(path)
+    resolved: dict[str, list[int] | None] = {}
+    seen: dict[int, str] = {}
+    for key, spec in selections.items():
+        if spec is None:
+            resolved[key] = None
+            continue
+        option = "--" + key.replace("_", "-")
+        indices = _resolve(source, spec, option)
+        for i in indices:
+            if i in seen:
+                raise DataError(f"{option}: column {source.names[i]!r} is also selected by "
+                                f"{seen[i]}")
+            seen[i] = option
+        resolved[key] = indices
+    columns: dict[str, Any] = {}
+    T = 0
+    for key, indices in resolved.items():
+        if indices is None:
+            columns[key] = None
+            continue
+        values = source.read(indices)
+        T = values.shape[0]
+        columns[key] = ([source.names[i] for i in indices], values)
+    return T, source.label, columns
+
+
+def write_csv(path: Path, names: list[str], columns: np.ndarray, option: str) -> None:
+    """Write a header and rows of numbers (12 significant digits) as CSV."""
+    try:
+        with open(path, "w", newline="", encoding="utf-8") as fh:
+            writer = csv.writer(fh)
+            writer.writerow(names)
+            for row in columns:
+                writer.writerow([f"{v:.12g}" for v in row])
+    except OSError as exc:
+        raise OutputPathError(f"{option}: cannot write {str(path)!r}: "
+                              f"{exc.strerror or exc}") from exc

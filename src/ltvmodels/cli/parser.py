@@ -1,0 +1,267 @@
+"""The ``ltvmodels`` argument parser: subcommands, options and their types.
+
+The command line uses :mod:`argparse` from the standard library: the
+subcommands need nothing it lacks, and an extra dependency (click, typer) for
+every user of the library is not justified. A small subclass makes its errors
+one line. Building the parser imports nothing heavy, so that ``ltvmodels
+--help`` answers at once.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import NoReturn
+
+import numpy as np
+
+from .. import __version__
+from ..apps.defaults import DEFAULT_DEMO_OUT, JUMP_LINEAR_LAM
+from .messages import UsageError
+
+
+class Parser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are one line (no usage dump) and are raised, not exited."""
+
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(f"{self.prog}: error: {message} (see '{self.prog} --help')")
+
+
+def _int_at_least(minimum: int):
+    """An argparse type: an integer >= ``minimum``."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected an integer >= {minimum}, received {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(
+                f"expected an integer >= {minimum}, received {value}")
+        return value
+    return parse
+
+
+_nonnegative_int = _int_at_least(0)
+_positive_int = _int_at_least(1)
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, received {text!r}") from None
+    if not np.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, received {text!r}")
+    return value
+
+
+def _lam_or_auto(text: str) -> float | str:
+    if text.strip().lower() == "auto":
+        return "auto"
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0 or 'auto', received "
+                                         f"{text!r}") from None
+    if not np.isfinite(value) or value < 0:
+        raise argparse.ArgumentTypeError(f"expected a finite number >= 0 or 'auto', received "
+                                         f"{text!r}")
+    return value
+
+
+def _penalty(text: str) -> float | str:
+    if text.strip().lower() in ("bic", "aic"):
+        return text.strip().lower()
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, 'bic' or 'aic', received "
+                                         f"{text!r}") from None
+    if not np.isfinite(value) or value < 0:
+        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, 'bic' or 'aic', "
+                                         f"received {text!r}")
+    return value
+
+
+_DATA_HELP = ("CSV file (header row optional; comma, semicolon or tab separated), '-' for CSV "
+              "on standard input, or Parquet (.parquet, .pq; needs pandas and pyarrow)")
+_COLS_HELP = "comma-separated column names or 0-based indices"
+
+
+def _add_state_options(p: argparse.ArgumentParser, *, required: bool = True) -> None:
+    p.add_argument("--state", required=required, metavar="COLS",
+                   help=f"state columns x ({_COLS_HELP})")
+    p.add_argument("--input", metavar="COLS", default=None,
+                   help=f"input columns u ({_COLS_HELP}); none for an autonomous system")
+
+
+def _add_sparse_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--max-iter", type=_positive_int, default=10000, metavar="N",
+                   help="iteration limit of the group/l1 solvers (default: 10000)")
+    p.add_argument("--tol", type=_positive_float, default=1e-6,
+                   help="relative tolerance of the group/l1 solvers (default: 1e-6)")
+
+
+def _add_outputs(p: argparse.ArgumentParser, *, out: str | None, plot: str) -> None:
+    if out is not None:
+        p.add_argument("--out", metavar="PATH", default=None, help=out)
+    p.add_argument("--plot", metavar="PATH", default=None,
+                   help=f"{plot} (image; format from the suffix, png without one)")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object instead of the text summary")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``ltvmodels`` command.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        Its ``error`` raises instead of exiting (see :func:`main`).
+    """
+    parser = Parser(
+        prog="ltvmodels",
+        description="Identification of linear time-varying (LTV) models "
+        "x[t+1] = A_t x[t] + B_t u[t] + v_t by convex optimization.",
+    )
+    parser.add_argument("--version", action="version", version=f"ltvmodels {__version__}")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    fit = commands.add_parser(
+        "fit", help="identify an LTV model from states and inputs in a data file",
+        description="Identify x[t+1] = A_t x[t] + B_t u[t] + v_t from a data file: print "
+        "the lambda used, one-step prediction and open-loop simulation RMS, change points "
+        "and solver status; optionally save the model and a figure.",
+    )
+    fit.add_argument("data", metavar="DATA", help=_DATA_HELP)
+    _add_state_options(fit)
+    fit.add_argument("--norm", choices=["sq", "group", "l1"], default="sq",
+                     help="sq: slowly varying or smooth (default); group: piecewise constant "
+                     "(order 1) or linear (order 2); l1: sparse changes per coefficient")
+    fit.add_argument("--order", type=_positive_int, default=1,
+                     help="order of the time difference penalized (default: 1)")
+    fit.add_argument("--lam", type=_lam_or_auto, default="auto", metavar="{VALUE,auto}",
+                     help="regularization lambda, or auto: chosen by the norm's default "
+                     "criterion (marginal likelihood for sq, L-curve for group/l1; default)")
+    fit.add_argument("--refine", action="store_true",
+                     help="two-step refinement: refit piecewise between the detected change "
+                     "points")
+    _add_sparse_options(fit)
+    _add_outputs(fit, out="model file to write (.npz; read it with ltvmodels.load or "
+                 "'ltvmodels simulate')",
+                 plot="figure: coefficients with ±2σ bands, activation with change points, "
+                 "eigenvalue magnitudes")
+
+    seg = commands.add_parser(
+        "segments", help="piecewise-constant model with exactly optimal change points",
+        description="Fit a piecewise-constant LTV model whose change points are globally "
+        "optimal: at most M changes (dynamic programming) or a penalty per change (PELT).",
+    )
+    seg.add_argument("data", metavar="DATA", help=_DATA_HELP)
+    _add_state_options(seg)
+    group = seg.add_mutually_exclusive_group()
+    group.add_argument("--n-changes", type=_nonnegative_int, default=None, metavar="M",
+                       help="at most M changes")
+    group.add_argument("--penalty", type=_penalty, default=None, metavar="{B,bic,aic}",
+                       help="cost B >= 0 per change (in units of the residual sum of "
+                       "squares), or the rule bic or aic (default: bic)")
+    seg.add_argument("--min-size", type=_positive_int, default=None, metavar="S",
+                     help="minimum segment length (default: n + m)")
+    _add_outputs(seg, out="model file to write (.npz)",
+                 plot="figure: coefficients, activation with change points, eigenvalues")
+
+    ar = commands.add_parser(
+        "ar", help="time-varying AR model of one column and its root spectrogram",
+        description="Fit a time-varying AR(na) model y[t] = sum_i a_{t,i} y[t-i] + e[t] to "
+        "a column and report its root spectrogram (pole frequencies over time).",
+    )
+    ar.add_argument("data", metavar="DATA", help=_DATA_HELP)
+    ar.add_argument("--column", required=True, metavar="COL",
+                    help="the signal's column (name or 0-based index; several for a "
+                    "vector AR model)")
+    ar.add_argument("--na", type=_positive_int, required=True, help="AR order")
+    ar.add_argument("--fs", type=_positive_float, default=1.0, metavar="HZ",
+                    help="sampling frequency (default: 1, frequencies in cycles per sample)")
+    ar.add_argument("--norm", choices=["sq", "group", "l1"], default="sq",
+                    help="penalty on the coefficient changes (default: sq)")
+    ar.add_argument("--order", type=_positive_int, default=1,
+                    help="order of the time difference penalized (default: 1)")
+    ar.add_argument("--lam", type=_lam_or_auto, default="auto", metavar="{VALUE,auto}",
+                    help="regularization lambda or auto (default: auto)")
+    ar.add_argument("--constant", action="store_true", help="include a time-varying offset")
+    _add_sparse_options(ar)
+    _add_outputs(ar, out="model file to write (.npz)",
+                 plot="figure: root spectrogram over the short-time Fourier spectrogram")
+
+    sel = commands.add_parser(
+        "select-lambda", help="choose lambda by a criterion and show its curve",
+        description="Evaluate a criterion on a grid of lambda values (or numbers of changes "
+        "for --norm l0) and report the choice; for state-space data (--state) or an AR "
+        "model of a column (--column, --na).",
+    )
+    sel.add_argument("data", metavar="DATA", help=_DATA_HELP)
+    sel.add_argument("--state", metavar="COLS", default=None,
+                     help=f"state columns x ({_COLS_HELP})")
+    sel.add_argument("--input", metavar="COLS", default=None, help="input columns u")
+    sel.add_argument("--column", metavar="COL", default=None,
+                     help="instead of --state: the column of an AR model (with --na)")
+    sel.add_argument("--na", type=_positive_int, default=None, help="AR order (with --column)")
+    sel.add_argument("--norm", choices=["sq", "group", "l1", "l0"], default="sq",
+                     help="penalty (default: sq); l0 chooses the number of changes of "
+                     "'ltvmodels segments'")
+    sel.add_argument("--order", type=_positive_int, default=1,
+                     help="order of the time difference penalized (default: 1)")
+    sel.add_argument("--method", default=None,
+                     help="criterion: sq: ml (default), gcv, lcurve, cv; group/l1: lcurve "
+                     "(default), cv; l0: bic (default), aic")
+    _add_outputs(sel, out=None, plot="figure of the criterion (or L-curve) with the choice")
+
+    for name, noun in (("simulate", "open-loop simulation"),
+                       ("predict", "one-step predictions")):
+        sub = commands.add_parser(
+            name, help=f"{noun} of a saved model on a data file",
+            description=f"Load a model file (from fit, segments or ar) and compute its {noun} "
+            "on a data file: "
+            + ("from the first state (AR: the first na samples) with the data's inputs."
+               if name == "simulate" else "of every sample from the measured data before it.")
+            + " Data columns default to those the model was fitted on.",
+        )
+        sub.add_argument("model", metavar="MODEL", help="model file (.npz)")
+        sub.add_argument("data", metavar="DATA", help=_DATA_HELP)
+        sub.add_argument("--state", "--column", dest="state", metavar="COLS", default=None,
+                         help="state columns (AR: output columns); default: those recorded "
+                         "in the model file")
+        sub.add_argument("--input", metavar="COLS", default=None,
+                         help="input columns; default: those recorded in the model file")
+        _add_outputs(sub, out=f"CSV file to write: t and the {noun}",
+                     plot=f"figure: {noun} against the data")
+
+    demo = commands.add_parser(
+        "demo", help="run an example of the paper on built-in data, report and plot",
+        description="Run an example on built-in data in seconds, print a report and write "
+        "figures. jump-linear: the jump-linear system of the paper (Section VI, Fig. 1); "
+        "robot: a two-link arm with friction and contact (Figs. 2-3); chirp: root "
+        "spectrogram of a chirp by AR models; rl: model-based reinforcement learning on a "
+        "cart-pole (Section VIII, Fig. 4); pendulum: the same with LTV and LTI models on "
+        "gymnasium's Pendulum-v1 (needs gymnasium: pip install 'ltvmodels[rl]').",
+    )
+    demo.add_argument("system", choices=list(DEFAULT_DEMO_OUT),
+                      help="jump-linear, robot, chirp, rl or pendulum")
+    demo.add_argument("--seed", type=_nonnegative_int, default=0,
+                      help="seed of the simulation (default: 0)")
+    demo.add_argument("--norm", choices=["group", "sq"], default=None,
+                      help="jump-linear only. group: piecewise-constant fit with two-step "
+                      "refinement, the paper's Fig. 1 (default); sq: slowly varying fit")
+    demo.add_argument("--lam", type=_positive_float, default=None,
+                      help="jump-linear only: regularization lambda (default: "
+                      f"0.1·lambda_max for group, {JUMP_LINEAR_LAM:g} for sq)")
+    demo.add_argument("--out", default=None, metavar="PATH",
+                      help="image file to write (default: ltvmodels-<system>.png; format from "
+                      "the suffix); robot writes <stem>_train and <stem>_validation")
+    demo.add_argument("--quick", action="store_true",
+                      help="chirp, rl and pendulum only: a smaller problem (chirp: 2^12 "
+                      "samples; rl: 1 run of 4 iterations; pendulum: 1 initial state)")
+    demo.add_argument("--full", action="store_true",
+                      help="rl: the paper's 20 runs of 14 iterations (default: 3 runs of 8); "
+                      "pendulum: 20 initial states of 40 iterations (default: 2 of 20)")
+    return parser

@@ -1,0 +1,53 @@
+"""Values of a command's report: RMS errors, numbers as text, and strict JSON."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+
+def rms(a: np.ndarray) -> float:
+    with np.errstate(over="ignore", invalid="ignore"):
+        return float(np.sqrt(np.mean(np.square(a))))
+
+
+def jsonable(value: Any) -> Any:
+    """Plain JSON types: numpy → Python, NaN/inf → None, tuples → lists, paths → str."""
+    if isinstance(value, dict):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return jsonable(value.tolist())
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if value is None or isinstance(value, (str, bool, int)):
+        return value
+    return str(value)
+
+
+def info_subset(info: dict) -> dict:
+    """The solver facts of ``model.info`` worth reporting (no large arrays)."""
+    out: dict[str, Any] = {}
+    for key, value in info.items():
+        if key in ("first_step_k", "data_columns"):
+            continue
+        if isinstance(value, np.ndarray) and value.size > 100:
+            continue
+        if key == "lam_selection" and isinstance(value, dict):
+            value = {k: value[k] for k in ("method", "lam") if k in value}
+        out[key] = value
+    return out
+
+
+def rms_columns(a: np.ndarray) -> list[float]:
+    with np.errstate(over="ignore", invalid="ignore"):
+        return [float(v) for v in np.sqrt(np.mean(np.square(a), axis=0))]
+
+
+def fmt(value: float) -> str:
+    return f"{value:.4g}" if math.isfinite(value) else str(value)

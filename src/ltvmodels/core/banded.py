@@ -1,0 +1,281 @@
+"""Block-banded symmetric positive definite systems: the linear algebra of norm="sq".
+
+The normal equations of the squared-difference problem for one group of
+unknowns θ_t ∈ R^b, t = 0 … N-1, are
+
+    H = blkdiag(G_0, …, G_{N-1}) + (DᵀD) ⊗ W,
+
+where G_t is the per-time Gram matrix (data, plus prior precision) and W the
+b × b penalty weight. H is block-banded with block bandwidth d (the degree of
+the difference operator), so its block Cholesky factor costs O(N d² b³) and
+every right-hand side O(N d b²). Marginal covariances (diagonal blocks of H⁻¹)
+come from the same factor by block selected inversion (Takahashi's
+recursion). The kernels are sequential loops over time and live, compiled, in
+:mod:`.blockkernels`.
+
+Coefficients held constant in time (weight ``inf``) enter as a small dense
+border: the varying part is solved banded and the constants via a Schur
+complement.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import cho_factor, cho_solve
+
+from ..errors import SingularProblemError
+from .problem import gram_bands
+from . import blockkernels as kernels
+
+# A pivot whose square is below this fraction of the matrix diagonal it came
+# from means the system is singular to working precision.
+RELATIVE_PIVOT_TOL = 1e-12
+
+# From this many unknowns (N·b) on, use kernels compiled for the block size as
+# a constant: ~1.5x faster, but each block size compiles once (~5 s, then
+# cached on disk), which only long series repay.
+FIXED_BLOCK_MIN_SIZE = 250_000
+# Beyond this block size unrolling bloats the compiled code more than it helps.
+FIXED_BLOCK_MAX_B = 16
+
+SINGULAR_ADVICE = (
+    "Remedies: more excitation in the inputs, a larger lam, a prior "
+    "(ltvmodels.Prior), or fewer regressors."
+)
+
+
+@dataclass
+class BlockSystem:
+    """H = blkdiag(G_t) + (DᵀD) ⊗ W with G_t = data_scale·(I_r ⊗ φ_tφ_tᵀ) + E_t.
+
+    Attributes
+    ----------
+    phi : ndarray, shape (N, p)
+        Regressors shared by the r = n_rep output rows in this system.
+    n_rep : int
+        1 when rows decouple (b = p), n for the coupled form (b = n·p).
+    data_scale : float
+        1 to include the data, 0 for the prior alone.
+    extra : ndarray, shape (0 | 1 | N, b, b)
+        Extra Gram blocks (prior precision); leading size 1 broadcasts.
+    W : ndarray, shape (b, b)
+        Penalty weight; an infinite diagonal entry holds that coefficient
+        constant in time.
+    coeffs : ndarray
+        Difference operator coefficients c_0 … c_d.
+    """
+
+    phi: np.ndarray
+    n_rep: int
+    data_scale: float
+    extra: np.ndarray
+    W: np.ndarray
+    coeffs: np.ndarray
+
+    @property
+    def N(self) -> int:
+        return self.phi.shape[0]
+
+    @property
+    def b(self) -> int:
+        return self.W.shape[0]
+
+    def bands(self) -> np.ndarray:
+        """(d+1, N) diagonals of DᵀD, zero-padded."""
+        d = len(self.coeffs) - 1
+        out = np.zeros((d + 1, self.N))
+        for lag, band in enumerate(gram_bands(self.N, self.coeffs)):
+            out[lag, : band.size] = band
+        return out
+
+    def gram(self) -> np.ndarray:
+        """The Gram blocks G_t as an (N, b, b) array."""
+        phi_gram = self.data_scale * phi_outer(self.phi)
+        G = np.zeros((self.N, self.b, self.b))
+        p = self.phi.shape[1]
+        for i in range(self.n_rep):
+            G[:, i * p : (i + 1) * p, i * p : (i + 1) * p] = phi_gram
+        if self.extra.shape[0]:
+            G += self.extra
+        return G
+
+
+def phi_outer(phi: np.ndarray) -> np.ndarray:
+    """(N, p, p) array of φ_t φ_tᵀ."""
+    return phi[:, :, None] * phi[:, None, :]
+
+
+@dataclass
+class BlockSolution:
+    """Solution of one block system.
+
+    Attributes
+    ----------
+    theta : ndarray, shape (N, b, r)
+        Solution for r right-hand sides.
+    cov : ndarray, shape (N, b, b) or None
+        Diagonal blocks of H⁻¹.
+    logdet : float
+        log det H.
+    """
+
+    theta: np.ndarray
+    cov: np.ndarray | None
+    logdet: float
+
+
+def _check_pivots(worst: float, worst_t: int, what: str) -> None:
+    if worst < 0:
+        raise SingularProblemError(
+            f"{what} are singular (not positive definite at time step {worst_t}): the "
+            f"data do not determine a unique solution. {SINGULAR_ADVICE}"
+        )
+    if worst < RELATIVE_PIVOT_TOL:
+        raise SingularProblemError(
+            f"{what} are singular to working precision near time step {worst_t} "
+            f"(relative pivot {worst:.1e}). {SINGULAR_ADVICE}"
+        )
+
+
+def _kernel_size(N: int, b: int) -> int | tuple:
+    """The block size as the kernels take it: an int, or a tuple of that length.
+
+    A tuple selects the kernels compiled for that block size as a constant.
+    """
+    if N * b >= FIXED_BLOCK_MIN_SIZE and b <= FIXED_BLOCK_MAX_B:
+        return (0,) * b
+    return b
+
+
+def _factor_forward(system: BlockSystem, rhs: np.ndarray, what: str):
+    """Factor H and forward-substitute ``rhs`` in place; returns (L, logdet, size)."""
+    N, b = system.N, system.b
+    d = len(system.coeffs) - 1
+    L = np.empty((N, d + 1, b, b))
+    size = _kernel_size(N, b)
+    factor_forward = kernels.factor_forward_fixed if isinstance(size, tuple) else \
+        kernels.factor_forward
+    worst, worst_t, logdet = factor_forward(
+        np.ascontiguousarray(system.phi), system.n_rep, float(system.data_scale),
+        np.ascontiguousarray(system.extra), np.ascontiguousarray(system.W),
+        system.bands(), rhs, L, size,
+    )
+    _check_pivots(worst, worst_t, what)
+    return L, logdet, size
+
+
+def _factor_solve(system: BlockSystem, rhs: np.ndarray, compute_cov: bool, what: str):
+    """Factor, solve and (optionally) selected-invert; returns (X, cov, logdet).
+
+    ``rhs`` (N, b, r) is overwritten with the solution X.
+    """
+    L, logdet, size = _factor_forward(system, rhs, what)
+    cov = np.empty((system.N if compute_cov else 0, system.b, system.b))
+    backward = kernels.backward_fixed if isinstance(size, tuple) else kernels.backward
+    backward(L, rhs, cov, size)
+    return rhs, (cov if compute_cov else None), logdet
+
+
+class BlockFactor:
+    """A factorization of H kept for many right-hand sides (e.g. ADMM iterations).
+
+    Constant coefficients (inf weights) are not supported here.
+    """
+
+    def __init__(self, system: BlockSystem, what: str = "the normal equations") -> None:
+        if np.isinf(np.diag(system.W)).any():
+            raise ValueError("BlockFactor does not handle constant (inf-weight) coefficients")
+        self.N, self.b = system.N, system.b
+        self.L, self.logdet, self._size = _factor_forward(
+            system, np.zeros((system.N, system.b, 0)), what
+        )
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """Solve H X = rhs; ``rhs`` (N, b, r), C-contiguous float, is overwritten and returned."""
+        if isinstance(self._size, tuple):
+            kernels.solve_fixed(self.L, rhs, self._size)
+        else:
+            kernels.solve(self.L, rhs, self._size)
+        return rhs
+
+
+def solve_block_banded(
+    system: BlockSystem, rhs: np.ndarray, *, compute_cov: bool, what: str = "the normal equations"
+) -> BlockSolution:
+    """Solve H θ = rhs for rhs of shape (N, b, r), with constants where diag(W) = inf.
+
+    ``rhs`` must be a C-contiguous float array owned by the caller: it is
+    overwritten (with the solution when no coefficient is constant).
+
+    Raises
+    ------
+    SingularProblemError
+        If H is singular to working precision.
+    """
+    const = np.isinf(np.diag(system.W))
+    if not const.any():
+        theta, cov, logdet = _factor_solve(system, rhs, compute_cov, what)
+        return BlockSolution(theta=theta, cov=cov, logdet=logdet)
+    return _solve_bordered(system, rhs, const, compute_cov=compute_cov, what=what)
+
+
+def _solve_bordered(system: BlockSystem, rhs, const, *, compute_cov, what) -> BlockSolution:
+    """Constant coefficients c shared by all t: the system [[A, E], [Eᵀ, G]].
+
+    A is the banded system of the varying coefficients, E_t = G_t[V, C] and
+    G = Σ_t G_t[C, C]. Eliminating the varying part leaves the Schur
+    complement S = G − Eᵀ A⁻¹ E of size |C|.
+    """
+    N, b, r = rhs.shape
+    V = np.flatnonzero(~const)
+    C = np.flatnonzero(const)
+    gram = system.gram()
+    E = gram[:, V][:, :, C]  # (N, |V|, |C|)
+    G = gram[:, C][:, :, C].sum(axis=0)
+    rhs_C = rhs[:, C, :].sum(axis=0)  # (|C|, r)
+    if V.size:
+        varying = BlockSystem(
+            phi=system.phi, n_rep=1, data_scale=0.0, extra=gram[:, V][:, :, V],
+            W=system.W[np.ix_(V, V)], coeffs=system.coeffs,
+        )
+        X, cov_A, logdet_A = _factor_solve(
+            varying, np.concatenate([rhs[:, V, :], E], axis=2), compute_cov, what
+        )
+        X_rhs, X_E = X[:, :, :r], X[:, :, r:]
+        schur = G - np.einsum("tvc,tvd->cd", E, X_E)
+        schur_rhs = rhs_C - np.einsum("tvc,tvr->cr", E, X_rhs)
+    else:  # every coefficient constant: plain least squares
+        cov_A, logdet_A = None, 0.0
+        X_rhs, X_E = np.zeros((N, 0, r)), np.zeros((N, 0, C.size))
+        schur, schur_rhs = G, rhs_C
+    try:
+        schur_factor = cho_factor(0.5 * (schur + schur.T), lower=True, check_finite=False)
+    except np.linalg.LinAlgError as exc:
+        raise SingularProblemError(
+            f"{what}: the coefficients held constant (lam = inf) are not identified by the "
+            f"data. {SINGULAR_ADVICE}"
+        ) from exc
+    ratio = np.diag(schur_factor[0]) ** 2 / np.maximum(np.diag(G), 1e-300)
+    if ratio.min() < RELATIVE_PIVOT_TOL:
+        raise SingularProblemError(
+            f"{what}: the coefficients held constant (lam = inf) are not identified by the "
+            f"data (singular to working precision). {SINGULAR_ADVICE}"
+        )
+    c = cho_solve(schur_factor, schur_rhs, check_finite=False)  # (|C|, r)
+    theta = np.empty((N, b, r))
+    theta[:, C, :] = c
+    theta[:, V, :] = X_rhs - np.einsum("tvc,cr->tvr", X_E, c)
+    logdet = logdet_A + 2.0 * float(np.sum(np.log(np.diag(schur_factor[0]))))
+    cov = None
+    if compute_cov:
+        S_inv = cho_solve(schur_factor, np.eye(C.size), check_finite=False)
+        cov = np.empty((N, b, b))
+        XS = np.einsum("tvc,cd->tvd", X_E, S_inv)
+        cov[:, C[:, None], C] = S_inv
+        cov[:, V[:, None], C] = -XS
+        cov[:, C[:, None], V] = -np.swapaxes(XS, 1, 2)
+        if V.size:
+            cov[:, V[:, None], V] = cov_A + np.einsum("tvc,twc->tvw", XS, X_E)
+    return BlockSolution(theta=theta, cov=cov, logdet=logdet)

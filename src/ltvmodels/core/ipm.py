@@ -1,0 +1,431 @@
+"""norm="group" and norm="l1" by a primal-dual interior-point method.
+
+The problem Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ(Dk)_t) is written as a conic
+quadratic program: with z = ΛDk split into cones c (group: one cone of size K
+per row of D; l1: K cones of size 1 per row),
+
+    minimize  ‖y − Φk‖² + Σ_c t_c   subject to  (t_c, z_c) ∈ Q  (‖z_c‖ <= t_c),
+
+and solved by the primal-dual path-following method with Nesterov–Todd
+scaling and Mehrotra's predictor–corrector steps (as in CVXOPT's ``coneqp``,
+Vandenberghe 2010), which needs 10–30 iterations almost independently of N.
+
+Structure makes each iteration O(N): the scaling W_c of cone c is a
+hyperbolic Householder matrix η_c (2 w̄_c w̄_cᵀ − J), so after eliminating the
+slacks and the epigraph variables t_c (one scalar per cone) the Newton system
+in k is
+
+    (2ΦᵀΦ + DᵀΛ S Λ D) Δk = r,   S_c = η_c⁻² (I − 8 w̄₀² w̄₁ w̄₁ᵀ / (1 + 8 w̄₀² ‖w̄₁‖²)),
+
+block-banded with K × K blocks and block bandwidth d, like the squared-norm
+normal equations. One block Cholesky factorization per iteration serves both
+the predictor and the corrector. Problems of order 1 and 2 start primal and
+dual feasible, from a quadratic fit (:func:`_feasible_start`).
+
+Coefficients with weight inf are constant in time: they are pinned out of
+the banded systems and solved for through a small border (see
+:class:`_RowSystem`).
+
+Notation: a cone vector v = (v₀, v₁) with v₀ scalar; J = diag(1, −I); the
+Jordan product u ∘ v = (uᵀv, u₀v₁ + v₀u₁) with identity e = (1, 0).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import cho_factor, cho_solve
+
+from ..errors import ConvergenceWarning, SingularProblemError
+from .problem import RegressionProblem
+from . import blockkernels as kernels
+from . import conekernels as cones
+from .polish import polish, stationarity_scale
+from .sparse_common import quadratic_fit
+
+# Fraction of the way to the cone boundary taken by a step (CVXOPT's STEP).
+STEP_FRACTION = 0.99
+# A step shorter than this makes no progress: the iterate is as good as it gets.
+MIN_STEP = 1e-10
+# The starting duality gap as a fraction of the starting objective (insensitive
+# within 0.01–10; 0.1 needed the fewest iterations on the paper's example).
+START_GAP_FRACTION = 0.1
+# The feasible start (:func:`_feasible_start`) aims at the largest dual cone
+# norm START_DUAL_NORM and accepts anything within START_DUAL_RANGE (on the
+# jump-linear benchmarks the iteration counts hardly depend on where in that
+# range it lands, so the range is wide to save quadratic fits).
+START_DUAL_NORM = 0.9
+START_DUAL_RANGE = (0.2, 0.95)
+START_TRIES = 6
+# Use the kernels compiled for a constant block size from this many unknowns on.
+FIXED_KERNEL_MIN_SIZE = 2_000
+
+
+@dataclass
+class InteriorPointResult:
+    """Result of :func:`fit_sparse_ipm`."""
+
+    theta: np.ndarray  # (N, n, p)
+    objective: float  # Σ‖y_t − Θ_tφ_t‖² + Σ_t R(Λ(Dk)_t) at theta
+    duality_gap: float  # sᵀz: primal minus dual objective of the conic program
+    primal_residual: float  # relative ‖s − (t, ΛDk)‖
+    dual_residual: float  # relative norm of the stationarity residual
+    iterations: int
+    converged: bool
+    polished: bool = False  # the active-set polish (:mod:`.polish`) gave the result
+    stalled: bool = False  # stopped before the tolerance: no progress at working precision
+
+
+class _RowSystem:
+    """One independent block-banded Newton system and its border of constant coefficients.
+
+    Covers the coefficients ``rows`` (all K for group, one output row for l1).
+    Coefficients held constant in time (λ = inf) are pinned to an identity in
+    the banded matrix H_b and solved for through a border: with G the data
+    coupling between the varying and the constant coefficients and C0 the
+    constants' own Gram matrix, the Newton step is
+
+        Δc = (C0 − GᵀH_b⁻¹G)⁻¹ (f_c − GᵀH_b⁻¹f),   Δk = H_b⁻¹(f − GΔc),
+
+    with f_c the right-hand side summed over time (k_tj = c_j for all t).
+    """
+
+    def __init__(self, cp: _ConicProblem, rows: slice, const: np.ndarray):
+        self.rows, self.offset = rows, rows.start
+        b = rows.stop - rows.start
+        self.pinned = const[rows].astype(float)
+        self.const = np.flatnonzero(const[rows])
+        self.L = np.empty((cp.N, cp.degree + 1, b, b))
+        self.fixed = (0,) * b if cp.N * b >= FIXED_KERNEL_MIN_SIZE and b <= 16 else None
+        if self.const.size:
+            p = cp.p
+            idx = self.offset + np.arange(b)
+            cidx = self.offset + self.const
+            same_row = (idx[:, None] // p == cidx[None, :] // p) & (self.pinned[:, None] == 0)
+            phi = cp.phi
+            self.G = 2.0 * phi[:, idx % p][:, :, None] * phi[:, cidx % p][:, None, :] * same_row
+            cc_row = cidx[:, None] // p == cidx[None, :] // p
+            self.C0 = 2.0 * (phi[:, cidx % p].T @ phi[:, cidx % p]) * cc_row
+
+    def factor_and_solve(self, cp: _ConicProblem, newton: _NewtonSystem, f: np.ndarray):
+        """Factor at ``newton``'s scaling and return the Newton step for f (N, b)."""
+        f, f_c = self._split(f)
+        Z = f[:, :, None] if not self.const.size else np.concatenate([f[:, :, None], self.G], 2)
+        Z = np.ascontiguousarray(Z)
+        args = (cp.phi, cp.n_rep, newton.v, newton.eta, newton.s_coef, cp.w, cp.coeffs,
+                self.offset, self.pinned, self.L)
+        if self.fixed is not None:
+            worst, worst_t = cones.factor_newton_fixed(*args, self.fixed)
+        else:
+            worst, worst_t = cones.factor_newton_any(*args)
+        if worst < 0:
+            raise SingularProblemError(
+                f"the Newton system is singular near time step {worst_t}: the data do "
+                "not determine the model; more excitation or a larger lam helps"
+            )
+        if self.fixed is not None:
+            kernels.solve_fixed(self.L, Z, self.fixed)
+        else:
+            kernels.solve(self.L, Z, Z.shape[1])
+        if self.const.size:
+            self.HinvG = Z[:, :, 1:].copy()
+            schur = self.C0 - np.einsum("tbj,tbk->jk", self.G, self.HinvG)
+            self.schur = cho_factor(schur)
+        return self._border(Z[:, :, 0], f_c)
+
+    def solve(self, f: np.ndarray) -> np.ndarray:
+        """The Newton step for f (N, b) with the current factorization."""
+        f, f_c = self._split(f)
+        X = np.ascontiguousarray(f[:, :, None])
+        if self.fixed is not None:
+            kernels.solve_fixed(self.L, X, self.fixed)
+        else:
+            kernels.solve(self.L, X, X.shape[1])
+        return self._border(X[:, :, 0], f_c)
+
+    def _split(self, f: np.ndarray):
+        """f with the constants' entries removed (zeroed), and their sums over time."""
+        if not self.const.size:
+            return f, None
+        f = np.array(f)
+        f_c = f[:, self.const].sum(axis=0)
+        f[:, self.const] = 0.0
+        return f, f_c
+
+    def _border(self, y: np.ndarray, f_c: np.ndarray) -> np.ndarray:
+        if not self.const.size:
+            return y
+        dc = cho_solve(self.schur, f_c - np.einsum("tbj,tb->j", self.G, y))
+        dk = y - self.HinvG @ dc
+        dk[:, self.const] = dc
+        return dk
+
+
+class _ConicProblem:
+    """The data of the conic program and its independent Newton systems.
+
+    Cone vectors are (n_cones, g + 1) arrays as in :mod:`.conekernels`.
+    Coefficients with weight inf are constant in time: their cone entries get
+    weight 0 and their steps come from the systems' borders.
+    """
+
+    def __init__(self, problem: RegressionProblem, weights: np.ndarray, norm: str):
+        self.N, self.n, self.p, self.K = problem.N, problem.n, problem.p, problem.K
+        self.degree = problem.degree
+        self.y = np.ascontiguousarray(problem.y)
+        self.phi = np.ascontiguousarray(problem.phi)
+        self.coeffs = np.ascontiguousarray(problem.coeffs, dtype=float)
+        self.const = np.isinf(weights)
+        self.w = np.ascontiguousarray(np.where(self.const, 0.0, weights), dtype=float)
+        rows = self.N - problem.degree
+        g = self.K if norm == "group" else 1  # cone size without t
+        self.n_cones = rows * (self.K // g)
+        self.cone_shape = (self.n_cones, g + 1)
+        # The data couple the coefficients of a time step only within an output
+        # row (ΦᵀΦ = blkdiag_t(I_n ⊗ φ_tφ_tᵀ)); the l1 cones are single
+        # coefficients, so then the Newton matrix splits into n systems with
+        # p × p blocks, one per row. The group cones couple all K coefficients.
+        if norm == "l1":
+            slices = [slice(i * self.p, (i + 1) * self.p) for i in range(self.n)]
+            self.n_rep = 1
+        else:
+            slices = [slice(0, self.K)]
+            self.n_rep = self.n
+        self.systems = [_RowSystem(self, rows, self.const) for rows in slices]
+
+    def factor_and_solve(self, newton: _NewtonSystem, rhs: np.ndarray) -> np.ndarray:
+        """Factor the Newton matrix at ``newton``'s scaling; the step for rhs (N, K)."""
+        for system in self.systems:
+            rhs[:, system.rows] = system.factor_and_solve(self, newton, rhs[:, system.rows])
+        return rhs
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """The Newton step for rhs (N, K) with the current factorization, in place."""
+        for system in self.systems:
+            rhs[:, system.rows] = system.solve(rhs[:, system.rows])
+        return rhs
+
+    def dual_residual_norm(self, r_k: np.ndarray) -> float:
+        """‖r_k‖ with the entries of constant coefficients summed over time."""
+        if not self.const.any():
+            return float(np.linalg.norm(r_k))
+        varying = np.linalg.norm(r_k[:, ~self.const])
+        return float(np.hypot(varying, np.linalg.norm(r_k[:, self.const].sum(axis=0))))
+
+
+class _NewtonSystem:
+    """The linearized KKT system at one iterate, factored once for several targets.
+
+    Newton's equations for the residuals r_x = (1 − z₀, r_k) (stationarity in t
+    and k) and r_z = s − (t, ΛDk) (the cone constraints), in scaled form, are
+
+        P Δx + GᵀΔz = −r_x,   GΔx + Δs = −r_z,   λ ∘ (WΔz + W⁻¹Δs) = target,
+
+    with G(t, k) = −(t, ΛDk). Eliminating Δs, then Δz = W⁻²(GΔx + r̂) with
+    r̂ = r_z + W(λ ⋄ target), then Δt per cone, leaves the banded system in Δk
+    (see :func:`.conekernels.direction_rhs` and :func:`.conekernels.direction_finish`).
+    """
+
+    def __init__(self, cp: _ConicProblem, s, z, r_z, r_k):
+        self.cp, self.z, self.r_z, self.r_k = cp, z, r_z, r_k
+        n_cones, m = s.shape
+        self.v, self.eta, self.lam = np.empty_like(s), np.empty(n_cones), np.empty_like(s)
+        self.alpha, self.beta = np.empty(n_cones), np.empty((n_cones, m - 1))
+        self.s_coef = np.empty(n_cones)
+        self.lam_sq = np.empty_like(s)
+        self.u_rz = np.empty_like(s)  # W⁻² r_z, shared by both directions
+        cones.prepare_newton(s, z, r_z, self.v, self.eta, self.lam, self.lam_sq, self.u_rz,
+                             self.alpha, self.beta, self.s_coef)
+        self.s = s
+
+    def affine_direction(self):
+        """Factor the Newton matrix and solve for the predictor target −λ∘λ."""
+        work, rhs = self._rhs(-self.lam_sq)
+        return self._finish(self.cp.factor_and_solve(self, rhs), work)
+
+    def direction(self, target: np.ndarray):
+        """(Δk, Δt, Δs, Δz, largest step) for the target (after :meth:`affine_direction`)."""
+        work, rhs = self._rhs(target)
+        return self._finish(self.cp.solve(rhs), work)
+
+    def _rhs(self, target: np.ndarray):
+        cp = self.cp
+        work = np.empty_like(target)
+        rhs = np.empty((cp.N, cp.K))
+        cones.direction_rhs(
+            target, self.lam, self.v, self.eta, self.u_rz, self.z, self.alpha, self.beta,
+            self.r_k, cp.coeffs, cp.w, work, rhs,
+        )
+        return work, rhs
+
+    def _finish(self, dk: np.ndarray, work: np.ndarray):
+        """(Δk, Δt, Δs, Δz) and the largest steps keeping s and z in the cones."""
+        cp = self.cp
+        dt, ds, dz = np.empty(cp.n_cones), np.empty_like(work), np.empty_like(work)
+        steps = cones.direction_finish(
+            dk, work, self.s, self.r_z, self.z, self.alpha, self.beta, self.v, self.eta,
+            self.s_coef, cp.coeffs, cp.w, dt, ds, dz,
+        )
+        return dk, dt, ds, dz, min(steps)
+
+
+def _feasible_start(problem: RegressionProblem, cp: _ConicProblem):
+    """A primal and dual feasible starting k and its ρ, or (zeros, None).
+
+    The quadratic fit k(ρ) = argmin ‖y − Φk‖² + (ρ/2)‖ΛDk‖² satisfies
+    2Φᵀ(Φk − y) + ρDᵀΛ²Dk = 0, so with z₁ = −ρΛDk every stationarity residual
+    vanishes, and z = (1, z₁) is in the dual cones when ρ‖(ΛDk)_c‖ < 1 for
+    every cone. That largest norm a(ρ) grows with ρ; a few secant steps on
+    log a against log ρ bring it into START_DUAL_RANGE. Starting feasible saves
+    the first iterations' work on the residuals: on 36 jump-linear fits
+    (``benchmarks/bench_ipm_start.py``) 451 instead of 531 iterations for
+    order 1 and 474 instead of 520 for order 2, at one or two quadratic fits
+    each.
+    """
+    # ρ has the units of 1/y² (ρΛDk is dimensionless and λ‖Dk‖ ~ ‖y‖²).
+    rho = 1.0 / max(float(np.mean(cp.y**2)), 1e-300)
+    z = np.empty(cp.cone_shape)
+    best = previous = None
+    for _ in range(START_TRIES):
+        try:
+            k = quadratic_fit(problem, cp.w, rho)
+        except SingularProblemError:
+            break
+        cones.weighted_difference(k, cp.coeffs, cp.w, z)
+        a = rho * float(np.sqrt(np.sum(z[:, 1:] ** 2, axis=1)).max())
+        if not np.isfinite(a) or a == 0.0:
+            break
+        if a < START_DUAL_RANGE[1]:
+            best = (k, rho)
+            if a >= START_DUAL_RANGE[0]:
+                break
+        current = (np.log(rho), np.log(a))
+        slope = 1.0  # of log a against log ρ: a secant once two points are known
+        if previous is not None and current[0] != previous[0] and current[1] != previous[1]:
+            slope = (current[1] - previous[1]) / (current[0] - previous[0])
+            slope = min(max(slope, 0.1), 10.0)
+        previous = current
+        rho *= np.exp((np.log(START_DUAL_NORM) - current[1]) / slope)
+    if best is None:
+        return np.zeros((cp.N, cp.K)), None
+    return best
+
+
+def fit_sparse_ipm(
+    problem: RegressionProblem,
+    weights: np.ndarray,
+    norm: str,
+    *,
+    tol: float = 1e-8,
+    max_iter: int = 100,
+    k0: np.ndarray | None = None,
+) -> InteriorPointResult:
+    """Minimize Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ(Dk)_t) by a primal-dual interior-point method.
+
+    Parameters
+    ----------
+    problem : RegressionProblem
+    weights : ndarray, shape (K,)
+        λ_j > 0 per coefficient; inf holds coefficient j constant in time.
+    norm : {"group", "l1"}
+    tol : float
+        Stop when the duality gap relative to the objective and both
+        residuals relative to the data scale are below ``tol``.
+    max_iter : int
+        Limit on the number of iterations.
+    k0 : ndarray, shape (N, K), optional
+        Starting coefficients (default: zeros).
+
+    Returns
+    -------
+    InteriorPointResult
+    """
+    cp = _ConicProblem(problem, weights, norm)
+    N, K, n_cones = cp.N, cp.K, cp.n_cones
+    t = np.zeros(n_cones)
+    s, z = np.zeros(cp.cone_shape), np.zeros(cp.cone_shape)
+    r_z, r_k = np.empty(cp.cone_shape), np.empty((N, K))
+    rho = None
+    if k0 is not None:
+        k = np.array(k0, dtype=float)
+    elif problem.degree in (1, 2) and not cp.const.any():
+        k, rho = _feasible_start(problem, cp)
+    else:  # measured for orders 1 and 2 only
+        k = np.zeros((N, K))
+    loss, reg, *_ = cones.kkt_residuals(k, t, s, z, cp.y, cp.phi, cp.coeffs, cp.w, r_z, r_k)
+    # Start: s = (‖s₁‖ + δ, ΛDk) with t = s₀, so the cone constraints hold, and
+    # z = (1, −ρΛDk), stationary for the quadratic fit k (see _feasible_start),
+    # or z = e, which makes the gap δ per cone, a fraction of the objective.
+    s[:, 1:] = -r_z[:, 1:]
+    delta = max(START_GAP_FRACTION * (loss + reg) / n_cones, 1e-12)
+    s[:, 0] = np.sqrt(np.sum(s[:, 1:] ** 2, axis=1)) + delta
+    t[:] = s[:, 0]
+    z[:, 0] = 1.0
+    if rho is not None:
+        z[:, 1:] = -rho * s[:, 1:]
+    scale_k = stationarity_scale(problem)
+    converged = stalled = False
+    iterations = 0
+    while True:
+        loss, reg, gap, rz_norm, s_norm, rk_norm, rt_max = cones.kkt_residuals(
+            k, t, s, z, cp.y, cp.phi, cp.coeffs, cp.w, r_z, r_k
+        )
+        if cp.const.any():
+            rk_norm = cp.dual_residual_norm(r_k)
+        objective = loss + reg
+        primal_res = rz_norm / (1.0 + s_norm)
+        dual_res = max(rk_norm / scale_k, rt_max)
+        if gap <= tol * max(objective, 1e-300) and primal_res <= tol and dual_res <= tol:
+            converged = True
+            break
+        if iterations == max_iter:
+            break
+        newton = _NewtonSystem(cp, s, z, r_z, r_k)
+        # Predictor (affine) step, target −λ∘λ; then Mehrotra's corrector with the
+        # target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a), σ = (1 − α_a)³.
+        try:
+            _, _, ds_a, dz_a, step = newton.affine_direction()
+        except SingularProblemError:
+            if iterations == 0:
+                raise
+            # Near the optimum the scaling of cones at their vertex grows without
+            # bound; when it costs positive definiteness at working precision,
+            # the current iterate is as accurate as this arithmetic allows.
+            stalled = True
+            break
+        iterations += 1
+        sigma_mu = (1.0 - min(1.0, step)) ** 3 * gap / n_cones
+        target = np.empty_like(s)
+        cones.corrector_target(newton.lam, newton.v, newton.eta, ds_a, dz_a, sigma_mu, target)
+        dk, dt, ds, dz, step = newton.direction(target)
+        step = min(1.0, STEP_FRACTION * step)
+        if step < MIN_STEP:
+            stalled = True
+            break
+        cones.take_step(k, dk, t, dt, s, ds, z, dz, step)
+    polished = False
+    if not converged and problem.degree in (1, 2) and not cp.const.any():
+        # Near a degenerate optimum the Newton systems lose definiteness before
+        # the gap closes; the active-set polish often still certifies an optimum.
+        result = polish(problem, weights, norm, k, s, z, tol)
+        if result is not None:
+            k, objective, gap = result.k, result.objective, result.duality_gap
+            primal_res, dual_res = 0.0, result.dual_residual
+            converged = polished = True
+    if not converged:
+        reason = ("stalled at the limit of working precision" if stalled
+                  else f"did not converge in {max_iter} iterations")
+        warnings.warn(
+            f"the interior-point method {reason} (relative gap "
+            f"{gap / max(objective, 1e-300):.1e}, relative residuals {primal_res:.1e} and "
+            f"{dual_res:.1e}; tolerance {tol:.0e}); increase max_iter or loosen tol",
+            ConvergenceWarning,
+            stacklevel=3,
+        )
+    return InteriorPointResult(
+        theta=k.reshape(N, problem.n, problem.p), objective=objective, duality_gap=gap,
+        primal_residual=primal_res, dual_residual=dual_res, iterations=iterations,
+        converged=converged, polished=polished, stalled=stalled and not converged,
+    )

@@ -1,0 +1,35 @@
+"""The lagged regression of (V)ARX models: which past samples φ_t holds.
+
+    y[t] = Σ_{i=1}^{na} A_{t,i} y[t−i] + Σ_{j=1}^{nb} B_{t,j} u[t−nk−j+1] + c_t + e[t]
+
+is the regression y_t = Θ_t φ_t + e_t with
+
+    φ_t = [y[t−1]; …; y[t−na]; u[t−nk]; …; u[t−nk−nb+1]; 1],
+
+starting at the first sample whose lags all exist, t = L = max(na, nk + nb − 1).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def lag_length(na: int, nb: int, nk: int) -> int:
+    """L: how far the regressors reach back (the first regression row is y[L])."""
+    return max(na, nk + nb - 1 if nb else 0)
+
+
+
+def lagged_regressors(
+    y: np.ndarray, u: np.ndarray, na: int, nb: int, nk: int, constant: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """(y[L:], φ) for validated y (T, n), u (T, m); φ has the column order of the module."""
+    T = y.shape[0]
+    L = lag_length(na, nb, nk)
+    N = T - L
+    cols = [y[L - i : T - i] for i in range(1, na + 1)]
+    cols += [u[L - nk - j : T - nk - j] for j in range(nb)]
+    if constant:
+        cols.append(np.ones((N, 1)))
+    phi = np.hstack(cols) if cols else np.zeros((N, 0))
+    return y[L:].copy(), np.ascontiguousarray(phi)

@@ -1,0 +1,158 @@
+"""The one problem every estimator solves: time-varying linear regression.
+
+    y_t = Θ_t φ_t + e_t,   t = 0 … N-1,   y_t ∈ R^n,  φ_t ∈ R^p,  Θ_t ∈ R^{n×p}
+
+with a penalty on the time differences (DΘ)_t = Σ_j c_j Θ_{t+j} of the
+coefficients, where c_0 … c_d are the coefficients of the difference
+polynomial P(z) (paper Proposition 1): c = (-1, 1) is the first difference,
+(1, -2, 1) the second. The parameter vector of the paper is
+k_t = vec([A_tᵀ B_tᵀ]) = Θ_t.ravel() (rows of Θ_t concatenated), K = n·p.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from .blockkernels import rowwise_matvec
+
+
+@dataclass(frozen=True)
+class RegressionProblem:
+    """Data of a time-varying regression.
+
+    Attributes
+    ----------
+    y : ndarray, shape (N, n)
+        Outputs (for a state-space model, x[1:]).
+    phi : ndarray, shape (N, p)
+        Regressors shared by all output rows (for a state-space model,
+        [x[:-1], u[:-1]]).
+    coeffs : ndarray, shape (d + 1,)
+        Difference-operator coefficients c_0 … c_d.
+    """
+
+    y: np.ndarray
+    phi: np.ndarray
+    coeffs: np.ndarray
+
+    def __post_init__(self) -> None:
+        # C order for every kernel: compiled kernels specialize on the memory
+        # layout, and a fit must not depend on how the caller's arrays were laid
+        # out (pandas frames arrive in Fortran order).
+        object.__setattr__(self, "y", np.ascontiguousarray(self.y, dtype=float))
+        object.__setattr__(self, "phi", np.ascontiguousarray(self.phi, dtype=float))
+
+    @property
+    def N(self) -> int:
+        return self.y.shape[0]
+
+    @property
+    def n(self) -> int:
+        return self.y.shape[1]
+
+    @property
+    def p(self) -> int:
+        return self.phi.shape[1]
+
+    @property
+    def K(self) -> int:
+        return self.n * self.p
+
+    @property
+    def degree(self) -> int:
+        return len(self.coeffs) - 1
+
+    def residuals(self, theta: np.ndarray) -> np.ndarray:
+        """y_t − Θ_t φ_t for Θ of shape (N, n, p); returns (N, n)."""
+        fitted = np.empty_like(self.y)
+        rowwise_matvec(np.ascontiguousarray(theta), self.phi, fitted)
+        return np.subtract(self.y, fitted, out=fitted)
+
+
+def state_space_problem(x: np.ndarray, u: np.ndarray, coeffs: np.ndarray) -> RegressionProblem:
+    """Regression form of x[t+1] = A_t x[t] + B_t u[t]: y = x[1:], φ = [x, u][:-1]."""
+    phi = np.hstack([x[:-1], u[:-1]])
+    return RegressionProblem(y=x[1:], phi=phi, coeffs=coeffs)
+
+
+def apply_difference(values: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
+    """(Dv)_t = Σ_j c_j v_{t+j} along axis 0; returns N − d rows."""
+    d = len(coeffs) - 1
+    N = values.shape[0]
+    out = coeffs[0] * values[: N - d]
+    for j in range(1, d + 1):
+        out = out + coeffs[j] * values[j : N - d + j]
+    return out
+
+
+def activation(k: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
+    """a_t = ‖(Dk)_t‖₂ for t = 0 … N − d − 1 (paper Section III-G); k is (N, K)."""
+    return np.linalg.norm(apply_difference(k, coeffs), axis=1)
+
+
+def apply_difference_adjoint(values: np.ndarray, coeffs: np.ndarray, N: int) -> np.ndarray:
+    """(Dᵀv)_s = Σ_j c_j v_{s−j} for v with N − d rows; returns N rows."""
+    d = len(coeffs) - 1
+    out = np.zeros((N,) + values.shape[1:])
+    for j in range(d + 1):
+        out[j : N - d + j] += coeffs[j] * values
+    return out
+
+
+def difference_matrix(N: int, coeffs: np.ndarray) -> sp.csr_matrix:
+    """Sparse (N − d) × N matrix D with (Dv)_t = Σ_j c_j v_{t+j}."""
+    d = len(coeffs) - 1
+    return sp.diags(list(coeffs), offsets=list(range(d + 1)), shape=(N - d, N), format="csr")
+
+
+def gram_bands(N: int, coeffs: np.ndarray) -> list[np.ndarray]:
+    """Lower diagonals of DᵀD: entry lag (length N − lag) holds (DᵀD)_{s+lag, s}.
+
+    Computed in O(N d²) without forming D: (DᵀD)_{s+lag,s} = Σ_t c_{s+lag−t} c_{s−t}
+    over the rows t of D that touch both columns.
+    """
+    d = len(coeffs) - 1
+    bands = [np.zeros(N - lag) for lag in range(d + 1)]
+    rows = N - d  # number of rows of D
+    for lag in range(d + 1):
+        for j in range(d + 1 - lag):
+            # row t of D contributes c_j c_{j+lag} to column s = t + j, row s + lag.
+            bands[lag][j : j + rows] += coeffs[j] * coeffs[j + lag]
+    return bands
+
+
+def null_space_basis(N: int, coeffs: np.ndarray) -> np.ndarray:
+    """Basis (N, d) of the sequences v with Dv = 0 (unpenalized trajectories).
+
+    Built from the roots r of the polynomial (sequences t^m r^t for a root of
+    multiplicity > m); time is scaled to [0, 1] and roots outside the unit circle
+    are referenced to the last sample so that nothing overflows. Complex roots
+    contribute their real and imaginary parts. Columns are orthonormalized.
+    """
+    d = len(coeffs) - 1
+    roots = np.roots(coeffs[::-1])  # P(z) = Σ c_j z^j
+    t = np.arange(N, dtype=float)
+    cols: list[np.ndarray] = []
+    used = np.zeros(len(roots), dtype=bool)
+    for i, r in enumerate(roots):
+        if used[i] or (np.iscomplex(r) and r.imag < 0):
+            used[i] = True
+            continue
+        same = np.isclose(roots, r, atol=1e-6)
+        multiplicity = int(same.sum())
+        used |= same
+        ref = 0.0 if abs(r) <= 1 else N - 1.0
+        if abs(r) < 1e-12:
+            continue  # a root at 0 contributes no persistent sequence
+        base = np.exp((t - ref) * np.log(complex(r)))
+        for m in range(multiplicity):
+            seq = base * (t / max(N - 1, 1)) ** m
+            cols.append(seq.real)
+            if abs(r.imag) > 1e-12:
+                cols.append(seq.imag)
+    basis = np.column_stack(cols)[:, :d] if cols else np.zeros((N, 0))
+    q, _ = np.linalg.qr(basis)
+    return q

@@ -1,0 +1,146 @@
+"""norm="group" and norm="l1": choose the solver for a problem and return a plain solution.
+
+    minimize_k  Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ (Dk)_t),   R = ‖·‖₂ (group) or ‖·‖₁ (l1).
+
+Three exact routes, tried in this order:
+
+1. λ ≥ λ_max (:func:`.sparse_common.lambda_max`): Dk = 0 is optimal, and the
+   null-space fit is the solution in closed form;
+2. every weight positive and K <= :data:`IPM_MAX_K`: the primal-dual
+   interior-point method (:mod:`.ipm`);
+3. otherwise ADMM (:mod:`.admm`), which also takes a warm start along a path.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .admm import SparseResult, fit_sparse
+from .ipm import fit_sparse_ipm
+from .problem import RegressionProblem
+from .sparse_common import lambda_max, null_space_fit
+
+# Up to this many parameters per time step the interior-point method's dense
+# K × K Newton blocks are cheap; beyond, ADMM's per-row p × p systems win.
+IPM_MAX_K = 20
+
+
+@dataclass
+class SparseSolution:
+    """The solution of a sparse-norm problem and how it was obtained.
+
+    Attributes
+    ----------
+    theta : ndarray, shape (N, n, p)
+        The minimizer Θ_t.
+    solver : str
+        Which route solved it (a human-readable name).
+    iterations : int
+        Iterations of the solver (0 in closed form).
+    converged : bool
+        The solver met its tolerance (or the solution is exact).
+    objective : float
+        Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ (Dk)_t) at ``theta``.
+    rss : float
+        Σ_t ‖y_t − Θ_t φ_t‖².
+    lambda_max : float
+        The largest finite weight at which this weight pattern gives Dk = 0.
+    details : dict
+        Solver-specific numbers: duality gap and residuals (interior point),
+        residuals, ρ and factorizations (ADMM).
+    closed_form : bool
+        λ ≥ λ_max: the null-space fit, exact without iterations.
+    polished : bool
+        The interior-point result was certified by the active-set polish.
+    stalled : bool
+        The interior-point method stopped short of its tolerance because it
+        could not make progress at working precision.
+    admm : SparseResult or None
+        ADMM's state, for a warm start along a λ path.
+    """
+
+    theta: np.ndarray
+    solver: str
+    iterations: int
+    converged: bool
+    objective: float
+    rss: float
+    lambda_max: float
+    details: dict = field(default_factory=dict)
+    closed_form: bool = False
+    polished: bool = False
+    stalled: bool = False
+    admm: SparseResult | None = None
+
+
+def solve_sparse(
+    problem: RegressionProblem,
+    weights: np.ndarray,
+    norm: str,
+    *,
+    max_iter: int,
+    tol: float,
+    warm_start: SparseResult | None = None,
+) -> SparseSolution:
+    """Minimize Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ (Dk)_t) on validated inputs.
+
+    Parameters
+    ----------
+    problem : RegressionProblem
+    weights : ndarray, shape (K,)
+        λ_j >= 0 per coefficient of k_t; ``inf`` holds coefficient j constant.
+    norm : {"group", "l1"}
+    max_iter : int
+        Iteration limit of the solver.
+    tol : float
+        Relative tolerance (duality gap and residuals; ADMM: residuals).
+    warm_start : SparseResult, optional
+        A previous ADMM state (used when ADMM is the solver).
+
+    Returns
+    -------
+    SparseSolution
+    """
+    K = problem.K
+    theta_bar = null_space_fit(problem)
+    # The largest finite weight at which this weight pattern gives the LTI fit
+    # (weights of inf hold their coefficients constant at any λ).
+    finite = weights[np.isfinite(weights)]
+    scale = finite.max() if finite.size else np.inf
+    lam_max = lambda_max(problem, norm, weights / scale, theta_bar) if finite.size else 0.0
+    if np.all(weights > 0) and scale >= lam_max:
+        # Dk = 0 is optimal (λ_max's dual certificate): the null-space fit, exactly.
+        rss = float(np.sum(problem.residuals(theta_bar) ** 2))
+        return SparseSolution(
+            theta=theta_bar, solver="closed form (lam >= lambda_max)", iterations=0,
+            converged=True, objective=rss, rss=rss, lambda_max=lam_max,
+            details={"duality_gap": 0.0}, closed_form=True,
+        )
+    if K <= IPM_MAX_K and np.all(weights > 0):
+        ip = fit_sparse_ipm(problem, weights, norm, tol=tol, max_iter=max_iter)
+        return SparseSolution(
+            theta=ip.theta, solver="interior point (block-banded Newton systems)",
+            iterations=ip.iterations, converged=ip.converged, objective=ip.objective,
+            rss=float(np.sum(problem.residuals(ip.theta) ** 2)), lambda_max=lam_max,
+            details={"duality_gap": ip.duality_gap, "primal_residual": ip.primal_residual,
+                     "dual_residual": ip.dual_residual, "polished": ip.polished},
+            polished=ip.polished, stalled=ip.stalled,
+        )
+    if np.isinf(weights).any():
+        raise NotImplementedError(
+            "lam: constant coefficients (lam = inf) with norm='group' or 'l1' need every "
+            f"weight > 0 and at most {IPM_MAX_K} parameters per time step, received "
+            f"K = {K} and {int(np.sum(weights == 0))} zero weights"
+        )
+    result = fit_sparse(problem, weights, norm, max_iter=max_iter, tol=tol, warm_start=warm_start)
+    return SparseSolution(
+        theta=result.theta, solver="ADMM (banded k-update)", iterations=result.iterations,
+        converged=result.converged, objective=result.objective,
+        rss=float(np.sum(problem.residuals(result.theta) ** 2)), lambda_max=lam_max,
+        details={"primal_residual": result.primal_residual,
+                 "dual_residual": result.dual_residual, "rho": result.rho,
+                 "n_factorizations": result.n_factorizations},
+        admm=result,
+    )

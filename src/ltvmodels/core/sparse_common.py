@@ -1,0 +1,123 @@
+"""What the sparse-norm solvers share: the penalized quadratic fit, the null-space fit and λ_max.
+
+For the problem Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ(Dk)_t) with R a group or l1
+norm (:mod:`.ipm`, :mod:`.admm`):
+
+* :class:`QuadraticUpdate` — argmin ‖y − Φk‖² + (ρ/2)‖ΛDk − v‖², ADMM's k-update
+  and (with v = 0) the interior-point method's feasible start;
+* :func:`null_space_fit` — the least-squares fit with Dk = 0, the solution at
+  λ ≥ λ_max;
+* :func:`lambda_max` — the smallest λ at which that fit is optimal.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.linalg import solveh_banded
+
+from .banded import BlockFactor, BlockSystem
+from .problem import RegressionProblem, apply_difference, apply_difference_adjoint, null_space_basis
+
+
+class QuadraticUpdate:
+    """argmin_k ‖y − Φk‖² + (ρ/2)‖ΛDk − v‖² for many v: one cached factorization per group of equal rows.
+
+    ADMM's k-update (with v = z − w) and the interior-point method's start
+    (with v = 0). The matrix is the squared-norm solver's with ρ/2·Λ² in place
+    of W, so output rows with equal weights share one block-banded factor.
+    """
+
+    def __init__(self, problem: RegressionProblem, weights: np.ndarray, rho: float):
+        n, p = problem.n, problem.p
+        self.problem, self.weights, self.rho = problem, weights, rho
+        W_rows = (weights.reshape(n, p) ** 2) * (rho / 2.0)
+        self.groups: list[tuple[np.ndarray, BlockFactor]] = []
+        for i in range(n):
+            for rows, _ in self.groups:
+                if np.array_equal(W_rows[rows[0]], W_rows[i]):
+                    rows.append(i)
+                    break
+            else:
+                system = BlockSystem(
+                    problem.phi, 1, 1.0, np.zeros((0, p, p)), np.diag(W_rows[i]), problem.coeffs
+                )
+                self.groups.append(([i], BlockFactor(system)))
+        self.data_rhs = problem.phi[:, :, None] * problem.y[:, None, :]  # (N, p, n)
+
+    def __call__(self, z_minus_w: np.ndarray | None) -> np.ndarray:
+        """Θ (N, n, p) minimizing ‖y − Φk‖² + (ρ/2)‖ΛDk − (z − w)‖² (z − w = 0 if None)."""
+        pb = self.problem
+        N, n, p = pb.N, pb.n, pb.p
+        pull = None
+        if z_minus_w is not None:
+            pull = apply_difference_adjoint(z_minus_w * self.weights, pb.coeffs, N)
+            pull = (self.rho / 2.0) * pull.reshape(N, n, p).transpose(0, 2, 1)  # (N, p, n)
+        theta = np.empty((N, n, p))
+        for rows, factor in self.groups:
+            rhs = self.data_rhs[:, :, rows]
+            if pull is not None:
+                rhs = rhs + pull[:, :, rows]
+            theta[:, rows, :] = factor.solve(np.ascontiguousarray(rhs)).transpose(0, 2, 1)
+        return theta
+
+
+def quadratic_fit(problem: RegressionProblem, weights: np.ndarray, rho: float) -> np.ndarray:
+    """argmin_k ‖y − Φk‖² + (ρ/2)‖ΛDk‖² (all weights finite); returns k (N, K)."""
+    return QuadraticUpdate(problem, weights, rho)(None).reshape(problem.N, -1)
+
+
+def null_space_fit(problem: RegressionProblem) -> np.ndarray:
+    """Least squares with Dk = 0 (the LTI fit for order 1); returns Θ̄ (N, n, p).
+
+    Every coefficient trajectory lies in null(D); the rows share the regressor.
+    """
+    N, p = problem.N, problem.p
+    U = null_space_basis(N, problem.coeffs)  # (N, d)
+    Z = (U[:, :, None] * problem.phi[:, None, :]).reshape(N, -1)  # (N, d·p)
+    coef, *_ = np.linalg.lstsq(Z, problem.y, rcond=None)  # (d·p, n)
+    theta = np.einsum("tl,lan->tna", U, coef.reshape(U.shape[1], p, problem.n))
+    return np.ascontiguousarray(theta)
+
+
+def lambda_max(
+    problem: RegressionProblem,
+    norm: str,
+    weights: np.ndarray | None = None,
+    theta_bar: np.ndarray | None = None,
+) -> float:
+    """Smallest λ (scaling ``weights``) for which the solution has Dk = 0.
+
+    At λ ≥ λ_max the minimizer is the least-squares fit within the null space
+    of D (the LTI model for order 1). Optimality of that k̄ requires a dual
+    vector ν with Dᵀν = −∇‖y − Φk̄‖² = −g and R*(ν/λ) finite, i.e.
+    ‖ν_t / w‖₂ ≤ λ (group) or |ν_tj / w_j| ≤ λ (l1). D has full row rank and g
+    is orthogonal to null(D) at k̄, so ν = −(DDᵀ)⁻¹ D g is the unique solution.
+
+    Parameters
+    ----------
+    problem : RegressionProblem
+    norm : {"group", "l1"}
+    weights : ndarray, shape (K,), optional
+        Relative weights (default ones); coefficients with weight 0 are free.
+    theta_bar : ndarray, shape (N, n, p), optional
+        :func:`null_space_fit` of the problem, if already computed.
+    """
+    N, n, p = problem.N, problem.n, problem.p
+    K = n * p
+    weights = np.ones(K) if weights is None else weights
+    theta = null_space_fit(problem) if theta_bar is None else theta_bar
+    resid = problem.residuals(np.ascontiguousarray(theta))  # (N, n)
+    g = (-2.0 * resid[:, :, None] * problem.phi[:, None, :]).reshape(N, K)
+    free = weights == 0  # unpenalized coefficients: their dual part is unconstrained
+    d = problem.degree
+    c = problem.coeffs
+    acf = np.array([np.dot(c[: d + 1 - lag], c[lag:]) for lag in range(d + 1)])
+    rows = N - d
+    ab = np.zeros((d + 1, rows))
+    for lag in range(d + 1):
+        ab[d - lag, lag:] = acf[lag]  # upper band storage of D Dᵀ
+    nu = -solveh_banded(ab, apply_difference(g, c), check_finite=False)  # (N − d, K)
+    scaled = nu[:, ~free] / weights[~free]
+    if norm == "group":
+        return float(np.linalg.norm(scaled, axis=1).max(initial=0.0))
+    return float(np.abs(scaled).max(initial=0.0))

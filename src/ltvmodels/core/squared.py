@@ -1,0 +1,460 @@
+"""norm="sq": the exact minimizer of the squared-difference problem, with priors.
+
+Objective (paper eqs. slow, smooth, generalkalman, prioropt), with σ² the
+noise variance:
+
+    J(k) = Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t (Dk)_tᵀ W (Dk)_t
+           + σ² Σ_t ‖μ_t − k_t‖²_{Σ_t⁻¹}  + σ² Σ_t ‖ȳ_t − Θ_t φ_t‖²_{S_t⁻¹}
+
+W = λ² I for a scalar λ. It is the negative log posterior (times σ²) of the
+Gaussian random walk k_{t+1} = k_t + w_t (paper eq. dynsys; for higher orders
+the polynomial model of Proposition 1) with measurement noise R2 = σ² I and
+parameter drift R1 = σ²/λ² I.
+
+When the penalty weight and the priors do not mix output rows, every row of
+Θ is a separate problem with the same regressor; rows whose systems coincide
+(the usual case: scalar λ) share one banded factorization.
+
+Log marginal likelihood (``loglik``). Without priors the penalty is an improper
+Gaussian prior on the trajectory whose unpenalized directions (the initial
+state of the random walk) get a flat prior, i.e. diffuse initialization:
+
+    log p(y) = −½ N_eff log(2πσ²) + ½ log Z − ½ log det H − ½ J(k̂)/σ²,
+
+with H = ΦᵀΦ + DᵀD ⊗ W, N_eff = N·n − #unpenalized directions and Z the
+normalizer of the penalty (see SquaredSolver.log_penalty_normalizer). This is
+the limit of a proper prior k_0 ~ N(0, κI) as κ → ∞ without its κ terms. With priors
+it is the proper log p(y | prior) = log N(y; Φ m, σ² I + Φ H_μ⁻¹ Φᵀ), where
+H_μ (= H without the data) and m = argmin of J without the data come from a
+second banded factorization:
+
+    log p(y | prior) = −½ N n log(2πσ²) − ½ log det H + ½ log det H_μ
+                       − ½ (J(k̂) − J_μ(m)) / σ².
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import PrecisionWarning, SingularProblemError
+from .covariance import CovarianceBlocks
+from .priorterms import PriorTerm
+from .problem import RegressionProblem, apply_difference
+from .blockkernels import rowwise_matvec
+from .banded import BlockSolution, BlockSystem, solve_block_banded
+
+LOG_2PI = float(np.log(2.0 * np.pi))
+# Warn when the penalty dominates the data by more than 1e10: results keep fewer
+# than about 6 correct digits.
+PRECISION_DIGITS_WARN = 10.0
+
+
+@dataclass
+class SquaredResult:
+    """Everything the squared-norm solver computes."""
+
+    theta: np.ndarray  # (N, n, p)
+    cov: CovarianceBlocks | None  # posterior covariance (σ² included)
+    noise_var: float
+    noise_var_estimated: bool
+    loglik: float
+    objective: float
+    rss: float
+    penalty: float
+    prior_cost: float
+    n_eff: float
+    n_factorizations: int
+    info: dict = field(default_factory=dict)
+
+
+def _is_row_separable(matrix: np.ndarray, n: int, p: int) -> bool:
+    """True if a (…, n·p, n·p) matrix has no entries coupling different rows of Θ."""
+    blocks = matrix.reshape(matrix.shape[:-2] + (n, p, n, p))
+    blocks = np.moveaxis(blocks, -3, -2)  # (…, row i, row j, p, p)
+    return not np.any(blocks[..., ~np.eye(n, dtype=bool), :, :])
+
+
+def _finite(W: np.ndarray) -> np.ndarray:
+    """W with the rows/columns of constant coefficients (inf) set to zero."""
+    const = np.isinf(np.diag(W))
+    W0 = W.copy()
+    W0[const, :] = 0.0
+    W0[:, const] = 0.0
+    return W0
+
+
+@dataclass
+class _Group:
+    """Output rows (None: all, coupled form) solved with one block system."""
+
+    rows: np.ndarray | None
+    system: BlockSystem
+    rhs: np.ndarray  # (N, b, r)
+
+
+class SquaredSolver:
+    """Assemble and solve the normal equations of one regression problem.
+
+    Parameters
+    ----------
+    problem : RegressionProblem
+    W : ndarray, shape (K, K)
+        Penalty weight (inf on the diagonal: constant coefficient).
+    priors : list of PriorTerm
+    """
+
+    def __init__(self, problem: RegressionProblem, W: np.ndarray, priors: list[PriorTerm]):
+        self.problem = problem
+        self.W = W
+        self.priors = priors
+        n, p = problem.n, problem.p
+        separable = _is_row_separable(np.where(np.isinf(W), 0.0, W), n, p)
+        for term in priors:
+            if term.on == "parameters":
+                separable &= _is_row_separable(term.precision, n, p)
+            else:
+                separable &= not np.any(term.precision * ~np.eye(n, dtype=bool))
+        self.separable = separable
+
+    # -- assembly -----------------------------------------------------------------
+    def _prior_parts(self, scale: float):
+        """Prior contributions in k-space: Gram (1 | N, K, K) and rhs (N, K), or Nones."""
+        pb = self.problem
+        N, n, p = pb.N, pb.n, pb.p
+        K = n * p
+        if not self.priors:
+            return None, None
+        time_varying = any(
+            t.precision.ndim == 3 or t.on == "output" for t in self.priors
+        )
+        gram = np.zeros((N if time_varying else 1, K, K))
+        rhs = np.zeros((N, K))
+        for term in self.priors:
+            if term.on == "parameters":
+                gram += term.precision
+                rhs += np.einsum("tij,tj->ti", term.precision_at(N), term.mean)
+            else:
+                # M_t = I_n ⊗ φ_tᵀ:  M_tᵀ P M_t = P ⊗ φφᵀ,  M_tᵀ P ȳ = (P ȳ) ⊗ φ.
+                P = term.precision_at(N)
+                gram += np.einsum("tij,ta,tb->tiajb", P, pb.phi, pb.phi).reshape(N, K, K)
+                rhs += np.einsum("tij,tj,ta->tia", P, term.mean, pb.phi).reshape(N, K)
+        return scale * gram, scale * rhs
+
+    def _groups(self, prior_scale: float, include_data: bool) -> list[_Group]:
+        pb = self.problem
+        N, n, p = pb.N, pb.n, pb.p
+        K = n * p
+        data_scale = 1.0 if include_data else 0.0
+        prior_gram, prior_rhs = self._prior_parts(prior_scale)
+        data_rhs = pb.phi[:, :, None] * pb.y[:, None, :]  # (N, p, n)
+        if not include_data:
+            data_rhs[:] = 0.0
+        if not self.separable:
+            rhs = np.swapaxes(data_rhs, 1, 2).reshape(N, K)
+            if prior_rhs is not None:
+                rhs = rhs + prior_rhs
+            extra = np.zeros((0, K, K)) if prior_gram is None else prior_gram
+            system = BlockSystem(pb.phi, n, data_scale, extra, self.W, pb.coeffs)
+            return [_Group(None, system, rhs[:, :, None])]
+        # Rows with the same weight and prior blocks share one factorization.
+        row_sets: list[list[int]] = []
+        keys: list[tuple[np.ndarray, np.ndarray]] = []
+        for i in range(n):
+            sl = slice(i * p, (i + 1) * p)
+            extra = np.zeros((0, p, p)) if prior_gram is None else prior_gram[:, sl, sl]
+            key = (self.W[sl, sl], extra)
+            for rows, (W_g, extra_g) in zip(row_sets, keys, strict=True):
+                if np.array_equal(W_g, key[0]) and np.array_equal(extra_g, key[1]):
+                    rows.append(i)
+                    break
+            else:
+                row_sets.append([i])
+                keys.append(key)
+        groups = []
+        for rows, (W_g, extra_g) in zip(row_sets, keys, strict=True):
+            rhs = data_rhs if len(rows) == n else data_rhs[:, :, rows]
+            if prior_rhs is not None:
+                rhs = rhs + prior_rhs.reshape(N, n, p)[:, rows, :].transpose(0, 2, 1)
+            system = BlockSystem(pb.phi, 1, data_scale, extra_g, W_g, pb.coeffs)
+            groups.append(_Group(np.array(rows), system, rhs))
+        return groups
+
+    # -- solving ------------------------------------------------------------------
+    def solve(self, prior_scale: float, *, include_data: bool = True, compute_cov: bool = False):
+        """Minimize J with the prior terms weighted by ``prior_scale`` (= σ²).
+
+        Returns (theta (N, n, p), CovarianceBlocks | None, logdet H, #factorizations).
+        """
+        pb = self.problem
+        N, n, p = pb.N, pb.n, pb.p
+        what = "the normal equations" if include_data else "the prior alone"
+        groups = self._groups(prior_scale, include_data)
+        theta = np.empty((N, n, p))
+        logdet = 0.0
+        covs = []
+        row_group = np.zeros(n, dtype=int)
+        for g, group in enumerate(groups):
+            sol: BlockSolution = solve_block_banded(
+                group.system, group.rhs, compute_cov=compute_cov, what=what
+            )
+            if group.rows is None:
+                theta[:] = sol.theta[:, :, 0].reshape(N, n, p)
+                logdet += sol.logdet
+            else:
+                theta[:, group.rows, :] = np.swapaxes(sol.theta, 1, 2)
+                logdet += sol.logdet * len(group.rows)
+                row_group[group.rows] = g
+            covs.append(sol.cov)
+        cov = None
+        if compute_cov:
+            if groups[0].rows is None:
+                cov = CovarianceBlocks(covs[0], None)
+            else:
+                blocks = covs[0][None] if len(covs) == 1 else np.stack(covs)
+                cov = CovarianceBlocks(blocks, row_group)
+        return theta, cov, logdet, len(groups)
+
+    def digits_lost(self) -> float:
+        """Estimated decimal digits the normal equations lose to a large penalty.
+
+        The penalty block of H has eigenvalues up to ‖W‖·(Σ_j |c_j|)² while the
+        data contribute about mean ‖φ_t‖²/p per coefficient; the unpenalized
+        directions are determined by the data alone, so Cholesky resolves them
+        with relative accuracy about eps times that ratio.
+        """
+        W0 = _finite(self.W)
+        penalty = float(np.abs(np.linalg.eigvalsh(W0)).max(initial=0.0)) * np.abs(
+            self.problem.coeffs
+        ).sum() ** 2
+        data = float(np.mean(self.problem.phi**2))
+        if penalty == 0.0 or data == 0.0:
+            return 0.0
+        return max(0.0, float(np.log10(penalty / data)))
+
+    # -- objective pieces -----------------------------------------------------------
+    def penalty(self, theta: np.ndarray) -> float:
+        N = self.problem.N
+        Dk = apply_difference(theta.reshape(N, -1), self.problem.coeffs)
+        W0 = _finite(self.W)
+        if not np.any(W0 - np.diag(np.diag(W0))):  # diagonal: Σ_j w_j ‖(Dk)_j‖²
+            return float(np.einsum("tk,tk->k", Dk, Dk) @ np.diag(W0))
+        return float(np.sum((Dk @ W0) * Dk))
+
+    def prior_cost(self, theta: np.ndarray) -> float:
+        """Σ_t ‖μ_t − M_t k_t‖²_{P_t} over all prior terms (not scaled by σ²)."""
+        pb = self.problem
+        N = pb.N
+        total = 0.0
+        for term in self.priors:
+            if term.on == "parameters":
+                r = term.mean - theta.reshape(N, -1)
+            else:
+                fitted = np.empty_like(term.mean)
+                rowwise_matvec(np.ascontiguousarray(theta), pb.phi, fitted)
+                r = term.mean - fitted
+            total += float(np.einsum("ti,tij,tj->", r, term.precision_at(N), r))
+        return total
+
+    def log_penalty_normalizer(self) -> tuple[float, float]:
+        """Log normalizer of the penalty as a prior, and the number of diffuse directions.
+
+        The penalty is the improper Gaussian prior of the random walk
+        Σ_j c_j k_{t+j} = w_t, w_t ~ N(0, W⁻¹), whose initial state k_0 … k_{d-1}
+        gets a flat prior (the diffuse Kalman filter's convention: the limit of
+        k_0 ~ N(0, κI) as κ → ∞ less its κ terms). The map from (initial state,
+        w) to the trajectory is triangular with determinant c_d^-(N-d) per
+        coefficient, so the normalizer is
+        log Z = rank(W)·2(N − d)·log|c_d| + (N − d)·log pdet(W).
+        Unpenalized directions (per row: d·|varying| + |constant| + the null
+        space of W) are diffuse.
+        """
+        pb = self.problem
+        N, n, p = pb.N, pb.n, pb.p
+        d = pb.degree
+        log_dd = 2.0 * (N - d) * float(np.log(abs(pb.coeffs[-1])))
+        blocks = [self.W[i * p : (i + 1) * p, i * p : (i + 1) * p] for i in range(n)] \
+            if self.separable else [self.W]
+        log_pdet = 0.0
+        diffuse = 0.0
+        for Wb in blocks:
+            varying = ~np.isinf(np.diag(Wb))
+            Wv = Wb[np.ix_(varying, varying)]
+            if not np.any(Wv - np.diag(np.diag(Wv))):
+                eig = np.diag(Wv)  # exact for the usual diagonal weights
+            else:
+                eig = np.linalg.eigvalsh(Wv)
+            tol = 10 * Wv.shape[0] * np.finfo(float).eps * max(eig.max(initial=0.0), 1e-300)
+            pos = eig[eig > tol]
+            rank = pos.size
+            log_pdet += rank * log_dd + (N - d) * float(np.sum(np.log(pos)))
+            diffuse += N * varying.sum() + (~varying).sum() - (N - d) * rank
+        return log_pdet, diffuse
+
+
+def _loglik_with_prior(
+    solver: SquaredSolver, noise_var: float, theta: np.ndarray, logdet: float
+) -> float:
+    """log p(y | prior) = log N(y; M m, σ²I + M H_μ⁻¹ Mᵀ), from two factorizations.
+
+    NaN when the prior alone does not determine every parameter (H_μ singular).
+    """
+    pb = solver.problem
+    j_y = (
+        float(np.sum(pb.residuals(theta) ** 2)) + solver.penalty(theta)
+        + noise_var * solver.prior_cost(theta)
+    )
+    try:
+        m, _, logdet_mu, _ = solver.solve(noise_var, include_data=False)
+    except SingularProblemError:
+        return float("nan")
+    j_mu = solver.penalty(m) + noise_var * solver.prior_cost(m)
+    return (
+        -0.5 * pb.N * pb.n * (LOG_2PI + np.log(noise_var))
+        - 0.5 * logdet
+        + 0.5 * logdet_mu
+        - 0.5 * (j_y - j_mu) / noise_var
+    )
+
+
+def _noise_var_guess(problem: RegressionProblem, W: np.ndarray, n_eff: float) -> float:
+    """A starting value for σ²: the prior-free ML estimate, else the LTI residual variance."""
+    try:
+        theta, _, _, _ = SquaredSolver(problem, W, []).solve(0.0)
+        if n_eff > 0:
+            return (float(np.sum(problem.residuals(theta) ** 2))
+                    + SquaredSolver(problem, W, []).penalty(theta)) / n_eff
+    except SingularProblemError:
+        pass
+    # Minimum-norm least squares works for rank-deficient regressors too.
+    coef, _, rank, _ = np.linalg.lstsq(problem.phi, problem.y, rcond=None)
+    resid = problem.y - problem.phi @ coef
+    dof = max(problem.N - rank, 1) * problem.n
+    return max(float(np.sum(resid**2)) / dof, 1e-300)
+
+
+def _ml_noise_var_with_prior(solver: SquaredSolver, guess: float) -> float | None:
+    """argmax over σ² of log p(y | prior, σ²) (empirical Bayes), or None if undefined."""
+    from scipy.optimize import minimize_scalar
+
+    def negative_loglik(log_var: float) -> float:
+        var = float(np.exp(log_var))
+        theta, _, logdet, _ = solver.solve(var)
+        value = _loglik_with_prior(solver, var, theta, logdet)
+        return np.inf if np.isnan(value) else -value
+
+    center = np.log(guess)
+    if not np.isfinite(negative_loglik(center)):
+        return None
+    res = minimize_scalar(
+        negative_loglik, bounds=(center - np.log(1e3), center + np.log(1e3)),
+        method="bounded", options={"xatol": 1e-4},
+    )
+    return float(np.exp(res.x))
+
+
+def fit_squared(
+    problem: RegressionProblem,
+    W: np.ndarray,
+    priors: list[PriorTerm],
+    *,
+    noise_var: float | None,
+    compute_cov: bool,
+) -> SquaredResult:
+    """Exact MAP estimate, posterior covariances and log marginal likelihood.
+
+    Parameters
+    ----------
+    problem : RegressionProblem
+    W : ndarray, shape (K, K)
+    priors : list of PriorTerm
+    noise_var : float or None
+        σ². None estimates it by maximum likelihood given λ. Without priors in
+        closed form, σ̂² = (RSS + penalty) / N_eff with N_eff = N·n − #diffuse
+        directions; with priors by a bounded scalar search maximizing
+        log p(y | prior, σ²) (falling back to the prior-free estimate when
+        the prior alone does not determine the parameters).
+    compute_cov : bool
+    """
+    solver = SquaredSolver(problem, W, priors)
+    N, n = problem.N, problem.n
+    log_pdet, diffuse = solver.log_penalty_normalizer()
+    n_eff = N * n - diffuse
+    info: dict = {"row_separable": bool(solver.separable)}
+    estimated = noise_var is None
+
+    if priors and noise_var is None:
+        guess = _noise_var_guess(problem, W, n_eff)
+        noise_var = _ml_noise_var_with_prior(solver, guess)
+        if noise_var is None:
+            noise_var = guess
+            info["noise_var_note"] = (
+                "log p(y | prior) is not defined, so noise_var is the prior-free estimate"
+            )
+
+    lost = solver.digits_lost()
+    try:
+        theta, cov, logdet, n_fact = solver.solve(
+            1.0 if noise_var is None else noise_var, compute_cov=compute_cov
+        )
+    except SingularProblemError as exc:
+        if lost > PRECISION_DIGITS_WARN:
+            raise SingularProblemError(
+                f"lam is too large for the scale of the data (the penalty exceeds the data "
+                f"term by about 1e{lost:.0f}), so the normal equations are singular to working "
+                "precision. For coefficients constant in time use lam=np.inf (an exact LTI "
+                "fit); otherwise use a smaller lam."
+            ) from exc
+        raise
+    if lost > PRECISION_DIGITS_WARN:
+        info["digits_lost"] = lost
+        warnings.warn(
+            f"lam is very large for the scale of the data: the normal equations lose about "
+            f"{lost:.0f} of 16 significant digits. For coefficients constant in time use "
+            "lam=np.inf (an exact LTI fit); otherwise use a smaller lam.",
+            PrecisionWarning,
+            stacklevel=3,
+        )
+    rss = float(np.sum(problem.residuals(theta) ** 2))
+    pen = solver.penalty(theta)
+    prior_cost = solver.prior_cost(theta)
+
+    if not priors:
+        if noise_var is None:
+            if n_eff <= 0:
+                raise SingularProblemError(
+                    "too few samples to estimate the noise variance: the unpenalized "
+                    "directions use up all observations; pass noise_var or use more data"
+                )
+            noise_var = (rss + pen) / n_eff
+        loglik = (
+            -0.5 * n_eff * (LOG_2PI + np.log(noise_var))
+            + 0.5 * log_pdet
+            - 0.5 * logdet
+            - 0.5 * (rss + pen) / noise_var
+        )
+    else:
+        loglik = _loglik_with_prior(solver, noise_var, theta, logdet)
+        if np.isnan(loglik):
+            info["loglik_note"] = (
+                "the prior alone does not determine every parameter, so log p(y | prior) "
+                "is not defined"
+            )
+
+    objective = rss + pen + noise_var * prior_cost
+    return SquaredResult(
+        theta=theta,
+        cov=None if cov is None else cov.scale_inplace(noise_var),
+        noise_var=float(noise_var),
+        noise_var_estimated=estimated,
+        loglik=float(loglik),
+        objective=float(objective),
+        rss=rss,
+        penalty=pen,
+        prior_cost=prior_cost,
+        n_eff=float(n_eff),
+        n_factorizations=n_fact,
+        info=info,
+    )

@@ -1,0 +1,305 @@
+"""Time-varying AR and ARX models: the front-ends and their regressors.
+
+An ARX model with time-varying coefficients (VARX for vector y)
+
+    y[t] = Σ_{i=1}^{na} A_{t,i} y[t−i] + Σ_{j=1}^{nb} B_{t,j} u[t−nk−j+1] + c_t + e[t],
+
+y[t] ∈ R^n, u[t] ∈ R^m, is the regression y_t = Θ_t φ_t + e_t (ARCHITECTURE.md) with
+
+    φ_t = [y[t−1]; …; y[t−na]; u[t−nk]; …; u[t−nk−nb+1]; 1],
+    Θ_t = [A_{t,1} … A_{t,na}  B_{t,1} … B_{t,nb}  c_t]      (n × p),
+
+p = n·na + m·nb (+ 1 with the constant term c_t). The rows of Θ_t share φ_t,
+so every norm ("sq", "group", "l1") is solved by the same solvers as
+:func:`ltvmodels.fit`; the regression starts at the first sample whose lags
+all exist, t = L = max(na, nk + nb − 1), and has N = T − L rows: model index
+j describes y[L + j] (``model.sample_index``).
+
+* :func:`fit_ar`, :func:`fit_arx` — identify the model (:class:`ARModel`,
+  :class:`ARXModel`);
+* :func:`ar_regressors`, :func:`arx_regressors` — the (y, φ) pair, e.g. for
+  :func:`ltvmodels.segment_regression` (exact L0 segmentation) or
+  :func:`ltvmodels.fit_regression`;
+* the models (:class:`~ltvmodels.ARXModel`, with ``root_spectrogram``: the
+  frequencies of the poles of 1/A_t(z), A_t(z) = I − Σ_i A_{t,i} z^{−i}, over
+  time) are in :mod:`ltvmodels.results.arx`.
+"""
+
+from __future__ import annotations
+
+from functools import partial
+from typing import Any
+
+import numpy as np
+
+from ..core.lags import lag_length, lagged_regressors
+from ..core.problem import RegressionProblem
+from ..results.arx import ARModel, ARXModel
+from ..validation import arrays, options
+from .regression import fit_problem
+
+__all__ = ["ar_regressors", "arx_regressors", "fit_ar", "fit_arx"]
+
+
+def _structure_text(na: int, nb: int, nk: int) -> str:
+    return f"na = {na}" if nb == 0 else f"na = {na}, nb = {nb}, nk = {nk}"
+
+
+def _names(n: int, m: int, na: int, nb: int, nk: int, constant: bool) -> list[str]:
+    """Regressor names for messages: y[t-1], y0[t-1], u[t-1], …, 1."""
+    ys = [""] if n == 1 else [str(i) for i in range(n)]
+    us = [""] if m == 1 else [str(i) for i in range(m)]
+    names = [f"y{i}[t-{lag}]" for lag in range(1, na + 1) for i in ys]
+    names += [f"u{i}[t-{nk + j}]" if nk + j else f"u{i}[t]" for j in range(nb) for i in us]
+    return names + (["1"] if constant else [])
+
+
+def arx_regressors(
+    y: Any, u: Any, na: int, nb: int, nk: int = 1, *, constant: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
+    """The regression (y_t, φ_t) of a (V)ARX model.
+
+    Parameters
+    ----------
+    y : array_like, shape (T, n) or (T,)
+        Outputs, time on axis 0.
+    u : array_like, shape (T, m) or (T,)
+        Inputs.
+    na : int >= 0
+        Number of output lags.
+    nb : int >= 1
+        Number of input lags.
+    nk : int >= 0
+        Input delay: the newest input in φ_t is u[t − nk].
+    constant : bool
+        Append a constant regressor 1 (a time-varying offset c_t).
+
+    Returns
+    -------
+    y_out : ndarray, shape (N, n)
+        y[L:], N = T − L, L = max(na, nk + nb − 1).
+    phi : ndarray, shape (N, p)
+        Rows φ_t = [y[t−1]; …; y[t−na]; u[t−nk]; …; u[t−nk−nb+1]; 1],
+        p = n·na + m·nb (+ 1).
+
+    Examples
+    --------
+    Exact L0 segmentation of an ARX model (paper eq:l0):
+
+    >>> import numpy as np, ltvmodels as ltv
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.standard_normal(300); y = np.zeros(300)
+    >>> for t in range(1, 300):
+    ...     a = 0.9 if t < 150 else 0.3
+    ...     y[t] = a * y[t - 1] + u[t - 1] + 0.01 * rng.standard_normal()
+    >>> y_out, phi = ltv.arx_regressors(y, u, na=1, nb=1)
+    >>> ltv.segment_regression(y_out, phi, n_changes=1).changepoints.tolist()
+    [149]
+    """
+    na, nb, nk = options.lag_orders(na, nb, nk, min_na=0, min_nb=1)
+    constant = options.flag(constant, "constant")
+    y, u = arrays.lagged_series(
+        y, u, lag_length(na, nb, nk), _structure_text(na, nb, nk), require_inputs=True
+    )
+    return lagged_regressors(y, u, na, nb, nk, constant)
+
+
+def ar_regressors(y: Any, na: int, *, constant: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """The regression (y_t, φ_t) of a (V)AR(na) model: y[na:] and [y[t−1]; …; y[t−na] (; 1)].
+
+    Parameters
+    ----------
+    y : array_like, shape (T, n) or (T,)
+        The series, time on axis 0.
+    na : int >= 1
+        Model order.
+    constant : bool
+        Append a constant regressor 1.
+
+    Returns
+    -------
+    y_out : ndarray, shape (T − na, n)
+    phi : ndarray, shape (T − na, n·na (+ 1))
+    """
+    na, _, _ = options.lag_orders(na, 0, 1, min_na=1, min_nb=0)
+    constant = options.flag(constant, "constant")
+    y, u = arrays.lagged_series(y, None, na, _structure_text(na, 0, 1))
+    return lagged_regressors(y, u, na, 0, 1, constant)
+
+
+# -- fitting ---------------------------------------------------------------------------
+
+
+def fit_arx(
+    y: Any,
+    u: Any,
+    na: int,
+    nb: int,
+    nk: int = 1,
+    *,
+    lam: Any,
+    norm: str = "sq",
+    order: Any = 1,
+    constant: bool = False,
+    prior: Any = None,
+    prior_mode: str = "exact",
+    noise_var: float | None = None,
+    compute_cov: bool = True,
+    max_iter: int = 10000,
+    tol: float = 1e-6,
+) -> ARXModel:
+    """Identify a time-varying (V)ARX model.
+
+    y[t] = Σ_{i=1}^{na} A_{t,i} y[t−i] + Σ_{j=1}^{nb} B_{t,j} u[t−nk−j+1] (+ c_t) + e[t]:
+    the regression of :func:`arx_regressors` solved by
+    :func:`ltvmodels.fit_regression`. With ``norm="sq"`` the exact minimizer of
+
+        Σ_{t=L}^{T−1} ‖y[t] − Θ_t φ_t‖² + λ² Σ_t ‖(Dk)_t‖²,   k_t = Θ_t.ravel(),
+
+    and with ``norm="group"`` / ``"l1"`` the penalty λ Σ_t ‖(Dk)_t‖₂ / ‖(Dk)_t‖₁
+    (piecewise constant or linear coefficients), as in :func:`ltvmodels.fit`.
+
+    Parameters
+    ----------
+    y : array_like, shape (T, n) or (T,)
+        Outputs, time on axis 0 (lists and pandas objects are accepted).
+    u : array_like, shape (T, m) or (T,)
+        Inputs.
+    na : int >= 0
+        Number of output lags (0: a time-varying FIR model).
+    nb : int >= 1
+        Number of input lags.
+    nk : int >= 0, default 1
+        Input delay (0: direct feedthrough of u[t]).
+    lam, norm, order, prior, prior_mode, noise_var, compute_cov, max_iter, tol
+        As in :func:`ltvmodels.fit`, with K = n·p parameters per time step,
+        p = n·na + m·nb (+ 1).
+    constant : bool, default False
+        Include a time-varying constant term c_t.
+
+    Returns
+    -------
+    ARXModel
+        N = T − L time steps, L = max(na, nk + nb − 1); ``a``, ``b``, ``c``,
+        ``predict``, ``simulate``, ``root_spectrogram``, and everything of a
+        :class:`~ltvmodels.RegressionModel` (``theta``, ``cov``, ``loglik``, ...).
+
+    Raises
+    ------
+    ValueError, TypeError
+        Invalid input: na < 0, nb < 1, nk < 0, a series not longer than the
+        lag structure, inputs of the wrong length, too few samples for the
+        number of parameters, and the errors of :func:`ltvmodels.fit`.
+    SingularProblemError
+        The data do not identify the model (e.g. an input that is not exciting).
+    """
+    na, nb, nk = options.lag_orders(na, nb, nk, min_na=0, min_nb=1)
+    constant = options.flag(constant, "constant")
+    L = lag_length(na, nb, nk)
+    y, u = arrays.lagged_series(y, u, L, _structure_text(na, nb, nk), require_inputs=True)
+    n, m = y.shape[1], u.shape[1]
+    factory = partial(ARXModel, n_outputs=n, n_inputs=m, na=na, nb=nb, nk=nk, constant=constant)
+    return _fit_lagged(y, u, na, nb, nk, constant, factory, lam=lam, norm=norm, order=order,
+                       prior=prior, prior_mode=prior_mode, noise_var=noise_var,
+                       compute_cov=compute_cov, max_iter=max_iter, tol=tol)
+
+
+def fit_ar(
+    y: Any,
+    na: int,
+    *,
+    lam: Any,
+    norm: str = "sq",
+    order: Any = 1,
+    constant: bool = False,
+    prior: Any = None,
+    prior_mode: str = "exact",
+    noise_var: float | None = None,
+    compute_cov: bool = True,
+    max_iter: int = 10000,
+    tol: float = 1e-6,
+) -> ARModel:
+    """Identify a time-varying (V)AR(na) model y[t] = Σ_{i=1}^{na} A_{t,i} y[t−i] (+ c_t) + e[t].
+
+    The regression of :func:`ar_regressors`, solved as in :func:`fit_arx`
+    (objective Σ_{t=na}^{T−1} ‖y[t] − Θ_t φ_t‖² + R(DΘ) with the penalty R of
+    ``norm``). For a scalar series :meth:`ARModel.root_spectrogram` gives the
+    resonance frequencies over time.
+
+    Parameters
+    ----------
+    y : array_like, shape (T, n) or (T,)
+        The series, time on axis 0.
+    na : int >= 1
+        Model order.
+    lam, norm, order, prior, prior_mode, noise_var, compute_cov, max_iter, tol
+        As in :func:`ltvmodels.fit`, with K = n·p, p = n·na (+ 1).
+    constant : bool, default False
+        Include a time-varying constant term c_t.
+
+    Returns
+    -------
+    ARModel
+        N = T − na time steps (model index j describes y[na + j]).
+
+    Raises
+    ------
+    ValueError, TypeError
+        na < 1, T <= na, too few samples for the number of parameters, and the
+        errors of :func:`ltvmodels.fit`.
+
+    Examples
+    --------
+    >>> import numpy as np, ltvmodels as ltv
+    >>> fs, T = 1000.0, 2000
+    >>> t = np.arange(T) / fs
+    >>> rng = np.random.default_rng(0)
+    >>> y = np.sin(2 * np.pi * 100 * t) + 0.01 * rng.standard_normal(T)
+    >>> model = ltv.fit_ar(y, na=2, lam=100.0)
+    >>> model.root_spectrogram(fs).shape
+    (1998, 1)
+    >>> bool(abs(np.median(model.root_spectrogram(fs)) - 100.0) < 1.0)
+    True
+    """
+    na, _, _ = options.lag_orders(na, 0, 1, min_na=1, min_nb=0)
+    constant = options.flag(constant, "constant")
+    y, u = arrays.lagged_series(y, None, na, _structure_text(na, 0, 1))
+    factory = partial(ARModel, n_outputs=y.shape[1], na=na, constant=constant)
+    return _fit_lagged(y, u, na, 0, 1, constant, factory, lam=lam, norm=norm, order=order,
+                       prior=prior, prior_mode=prior_mode, noise_var=noise_var,
+                       compute_cov=compute_cov, max_iter=max_iter, tol=tol)
+
+
+def _fit_lagged(
+    y: np.ndarray,
+    u: np.ndarray,
+    na: int,
+    nb: int,
+    nk: int,
+    constant: bool,
+    factory: Any,
+    *,
+    lam: Any,
+    norm: Any,
+    order: Any,
+    prior: Any,
+    prior_mode: Any,
+    noise_var: Any,
+    compute_cov: Any,
+    max_iter: Any,
+    tol: Any,
+) -> ARXModel:
+    """Build the regression of validated AR/ARX data and run the shared core."""
+    norm = options.norm_name(norm)
+    y_out, phi = lagged_regressors(y, u, na, nb, nk, constant)
+    coeffs = options.difference_coefficients(order, max_degree=y_out.shape[0])
+    L = lag_length(na, nb, nk)
+    return fit_problem(
+        RegressionProblem(y=y_out, phi=phi, coeffs=coeffs),
+        factory=factory,
+        regressor_names=_names(y.shape[1], u.shape[1], na, nb, nk, constant),
+        data_name="y",
+        rows_note=f" (T = {y.shape[0]} samples, the first {L} only as lags)",
+        lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
+        compute_cov=compute_cov, max_iter=max_iter, tol=tol,
+    )

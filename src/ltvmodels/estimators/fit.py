@@ -1,0 +1,366 @@
+"""State-space front-ends: x[t+1] = A_t x[t] + B_t u[t] + v_t from recorded states and inputs.
+
+:func:`fit` (any penalty, with the two-step refinement), :func:`fit_lti` (least
+squares), :func:`fit_path` (a regularization path) and :func:`lambda_max`. Each
+builds the regression y_t = x_{t+1}, φ_t = [x_t; u_t] and hands it to the shared
+core :func:`.regression.fit_problem`.
+"""
+
+from __future__ import annotations
+
+from functools import partial
+from typing import Any
+
+import numpy as np
+
+from ..core import identifiability
+from ..core.covariance import CovarianceBlocks
+from ..core.problem import state_space_problem
+from ..core.sparse import solve_sparse
+from ..core.sparse_common import lambda_max as problem_lambda_max
+from ..results.base import signal_names
+from ..results.record import FitRecord, FitStatus
+from ..results.statespace import LTVModel
+from ..validation import arrays, options
+from .changepoints import find_changepoints
+from .piecewise import fit_piecewise
+from .regression import fit_problem, sparse_model
+
+
+def _regressor_names(n: int, m: int) -> list[str]:
+    return signal_names("x", n) + signal_names("u", m)
+
+
+def fit_lti(x: Any, u: Any = None) -> LTVModel:
+    """Least-squares LTI model x[t+1] = A x[t] + B u[t] + v_t (paper eqs. lscost, ls).
+
+    Minimizes Σ_t ‖x_{t+1} − A x_t − B u_t‖². All output rows share the
+    regressor φ_t = [x_t; u_t], so this is one least-squares problem with n
+    right-hand sides.
+
+    Parameters
+    ----------
+    x : array_like, shape (T, n)
+        States, time on axis 0. Lists and pandas DataFrames are accepted.
+    u : array_like, shape (T, m) or (T,), optional
+        Inputs.
+
+    Returns
+    -------
+    LTVModel
+        Constant A, B repeated over the N = T − 1 time steps. ``noise_cov`` is
+        the unbiased residual covariance EᵀE / (N − p), ``cov`` the covariance
+        Σ_v ⊗ (ΦᵀΦ)⁻¹ of k, ``loglik`` the Gaussian log-likelihood at the ML
+        noise covariance.
+
+    Raises
+    ------
+    SingularProblemError
+        If the regressors are linearly dependent (no unique solution).
+    """
+    x, u = arrays.state_and_input(x, u)
+    n, m = x.shape[1], u.shape[1]
+    problem = state_space_problem(x, u, np.array([-1.0, 1.0]))
+    N, p = problem.N, problem.p
+    if N < p:
+        raise ValueError(
+            f"x: too few samples: {N} transitions cannot determine {p} regressors per "
+            f"output; need T >= {p + 1}"
+        )
+    identifiability.check(problem, has_prior=False, regressor_names=_regressor_names(n, m))
+    # QR-based least squares: solve, don't form (ΦᵀΦ)⁻¹ for the estimate.
+    q, r = np.linalg.qr(problem.phi)
+    theta = np.linalg.solve(r, q.T @ problem.y).T  # (n, p)
+    resid = problem.y - problem.phi @ theta.T
+    dof = N - p
+    noise_cov = resid.T @ resid / dof if dof > 0 else np.full((n, n), np.nan)
+    r_inv = np.linalg.solve(r, np.eye(p))
+    gram_inv = r_inv @ r_inv.T  # (ΦᵀΦ)⁻¹ = R⁻¹R⁻ᵀ
+    ml_cov = resid.T @ resid / N
+    sign, logdet = np.linalg.slogdet(ml_cov)
+    loglik = -0.5 * N * (n * np.log(2 * np.pi) + logdet + n) if sign > 0 else float("inf")
+    K = n * p
+    k = np.broadcast_to(theta.ravel(), (N, K)).copy()
+    cov = None
+    if dof > 0:
+        cov_k = np.kron(noise_cov, gram_inv)
+        cov = CovarianceBlocks(np.broadcast_to(cov_k, (N, K, K)), None)
+    rss = float(np.sum(resid**2))
+    info = {"solver": "least-squares (QR)", "rss": rss, "dof": int(dof)}
+    return LTVModel(k, n, m, FitRecord(
+        norm="lti", coeffs=None, lam=float("inf"), cov=cov,
+        noise_var=float(np.trace(noise_cov) / n) if dof > 0 else float("nan"),
+        noise_cov=noise_cov, loglik=float(loglik), info=info,
+        changepoints=np.zeros(0, dtype=int),
+        status=FitStatus("closed_form", info["solver"], 0, rss),
+    ))
+
+
+
+def fit(
+    x: Any,
+    u: Any = None,
+    *,
+    lam: Any,
+    norm: str = "sq",
+    order: Any = 1,
+    prior: Any = None,
+    prior_mode: str = "exact",
+    noise_var: float | None = None,
+    compute_cov: bool = True,
+    max_iter: int = 10000,
+    tol: float = 1e-6,
+    refine: bool = False,
+) -> LTVModel:
+    """Identify an LTV model x[t+1] = A_t x[t] + B_t u[t] + v_t.
+
+    With ``norm="sq"`` this is the exact minimizer of (paper eqs. slow, smooth,
+    generalkalman)
+
+        Σ_t ‖x_{t+1} − A_t x_t − B_t u_t‖² + λ² Σ_t ‖(Dk)_t‖²,
+
+    with k_t = vec([A_tᵀ B_tᵀ]) and (Dk)_t = Σ_j c_j k_{t+j} the difference
+    operator given by ``order``. It is also the posterior mode of the Gaussian
+    random walk (paper eq. dynsys) with measurement noise σ² I and parameter
+    drift σ²/λ² I, computed in O(N) by one banded Cholesky factorization shared
+    by all rows of [A_t B_t].
+
+    Parameters
+    ----------
+    x : array_like, shape (T, n)
+        States, time on axis 0 (lists and pandas DataFrames are accepted).
+    u : array_like, shape (T, m) or (T,), optional
+        Inputs.
+    lam : float, array_like (K,) or (K, K), or "auto"
+        Regularization. A scalar λ >= 0 gives λ² Σ‖(Dk)_t‖². A (K,) vector gives
+        Σ_j λ_j² ‖(Dk_j)‖²: ``np.inf`` holds coefficient j constant in time and
+        0 leaves it free. A (K, K) positive semidefinite matrix Λ gives
+        Σ_t (Dk)_tᵀ Λ (Dk)_t (the paper's Discussion). Large λ → LTI model.
+        "auto" chooses a scalar λ by :func:`ltvmodels.select_lambda` with the
+        default criterion of the norm (``selection.DEFAULT_METHOD``: maximum
+        marginal likelihood for "sq", the L-curve corner for "group" and
+        "l1") and records the choice in ``info["lam_selection"]``.
+    norm : {"sq", "group", "l1"}
+        "sq": squared 2-norm (slowly varying / smooth). "group": the
+        non-squared 2-norm λ Σ_t ‖(Dk)_t‖₂ (paper eqs. pwconstant, pwlinear):
+        few time steps where all coefficients change together (piecewise
+        constant for order 1, piecewise linear for order 2). "l1":
+        λ Σ_t ‖(Dk)_t‖₁ (eq. pwconstant_naive): sparse changes per coefficient.
+        The sparse norms take a scalar or (K,) vector λ > 0, where ``np.inf``
+        holds a coefficient constant in time (see ``tol`` for the solvers);
+        priors, covariances and the likelihood are available for "sq" only.
+    order : int or sequence of float
+        1: first difference (slowly varying, eq. slow); 2: second difference
+        (smooth, eq. smooth); an integer d: d-th difference; or polynomial
+        coefficients c_0 … c_d, summing to zero, for (Dk)_t = Σ_j c_j k_{t+j}
+        (Proposition 1), e.g. ``[-1, 3, -3, 1]``.
+    prior : Prior, OutputPrior, or a list of them, optional
+        Gaussian priors on k_t or on the one-step output (paper Section IV).
+    prior_mode : {"exact", "posthoc"}
+        "exact" solves eq. prioropt exactly (the prior as a second measurement
+        in the normal equations); "posthoc" applies the paper's correction
+        (eqs. postk–postcov) to the prior-free smoothed estimates.
+    noise_var : float, optional
+        Noise variance σ²; weighs priors against the data and scales the
+        covariances. Default: maximum-likelihood estimate given λ.
+    compute_cov : bool
+        Compute posterior covariances (selected inversion, O(N)); False skips them.
+    max_iter, tol : int, float
+        For "group" and "l1" (unused for "sq"): the iteration limit and the
+        relative tolerance. With K <= 20 parameters per time step the solver is
+        a primal-dual interior-point method whose Newton systems are
+        block-banded (:mod:`ltvmodels.core.ipm`, 10–30 iterations): ``tol``
+        bounds the duality gap relative to the objective
+        (``info["duality_gap"]``) and the relative primal and dual residuals.
+        If its Newton systems lose definiteness first (this happens near
+        degenerate optima, e.g. order 2 close to λ_max), an active-set polish
+        (:mod:`ltvmodels.core.polish`, orders 1 and 2) solves the problem
+        with the zero differences fixed and certifies the result the same
+        way; ``info["polished"]`` says so. Otherwise ADMM
+        (:mod:`ltvmodels.core.admm`): ``tol`` applies to the relative primal
+        and dual residuals.
+    refine : bool
+        Two-step refinement (paper Section III-G): find the change points of
+        this fit (:func:`ltvmodels.find_changepoints`, default rules) and refit
+        with coefficients constant (order 1) or linear and continuous (order 2)
+        between them (:func:`ltvmodels.fit_piecewise`), removing the penalty's
+        shrinkage of the changes. The refined model is returned;
+        ``info["first_step"]`` summarizes the first fit and
+        ``info["first_step_k"]`` holds its coefficients.
+
+    Returns
+    -------
+    LTVModel
+        With ``cov``, ``noise_var``, ``loglik`` (log marginal likelihood, see
+        :mod:`ltvmodels.core.squared`) and ``info``.
+
+    Raises
+    ------
+    ValueError, TypeError
+        Invalid input (the message names the argument).
+    SingularProblemError
+        The data do not identify the model (with the reason and remedies).
+    """
+    if not isinstance(refine, bool):
+        raise TypeError(f"refine: expected True or False, received {refine!r}")
+    if refine:
+        first = fit(
+            x, u, lam=lam, norm=norm, order=order, prior=prior, prior_mode=prior_mode,
+            noise_var=noise_var, compute_cov=False, max_iter=max_iter, tol=tol,
+        )
+        return _refine(x, u, first)
+    x, u = arrays.state_and_input(x, u)
+    norm = options.norm_name(norm)
+    coeffs = options.difference_coefficients(order, max_degree=x.shape[0])
+    n, m = x.shape[1], u.shape[1]
+    return fit_problem(
+        state_space_problem(x, u, coeffs),
+        factory=partial(LTVModel, n_states=n, n_inputs=m),
+        regressor_names=_regressor_names(n, m),
+        data_name="x",
+        lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
+        compute_cov=compute_cov, max_iter=max_iter, tol=tol,
+    )
+
+
+
+def _refine(x: Any, u: Any, first: LTVModel) -> LTVModel:
+    """Second step of the two-step refinement: refit between the change points."""
+    degree = len(first.coeffs) - 1
+    if degree not in (1, 2):
+        raise NotImplementedError(
+            f"refine: the refit is defined for order 1 and 2, received a difference "
+            f"operator of degree {degree}"
+        )
+    changepoints = first.changepoints if first.norm != "sq" else find_changepoints(first)
+    refined = fit_piecewise(x, u, changepoints, order=degree)
+    refined.info["first_step"] = {
+        "norm": first.norm,
+        "lam": first.lam if np.ndim(first.lam) == 0 else np.asarray(first.lam).tolist(),
+        "objective": first.info.get("objective"),
+        "iterations": first.info.get("iterations"),
+        "converged": first.info.get("converged"),
+        "changepoints": [int(c) for c in changepoints],
+    }
+    if "lam_selection" in first.info:
+        refined.info["lam_selection"] = first.info["lam_selection"]
+    refined.info["first_step_k"] = np.array(first.k)
+    return refined
+
+
+
+def fit_path(
+    x: Any,
+    u: Any = None,
+    *,
+    lams: Any,
+    norm: str = "sq",
+    order: Any = 1,
+    compute_cov: bool = True,
+    max_iter: int = 10000,
+    tol: float = 1e-6,
+) -> list[LTVModel]:
+    """Fit one model per scalar λ in ``lams`` (a regularization path).
+
+    Equivalent to ``[fit(x, u, lam=lam, norm=norm, order=order) for lam in lams]``,
+    but for the sparse norms the path is solved from the largest λ down; where
+    ADMM is the solver each run is warm-started from the previous solution (its
+    z, w and ρ).
+
+    Parameters
+    ----------
+    x, u, norm, order, compute_cov, max_iter, tol
+        As in :func:`fit`.
+    lams : sequence of float
+        Scalar λ values (> 0 for "group" and "l1").
+
+    Returns
+    -------
+    list of LTVModel
+        In the order of ``lams``; ``model.info["path_position"]`` is the index
+        in the order they were solved.
+    """
+    values = arrays.as_float_array(lams, "lams")
+    if values.ndim != 1 or values.size == 0:
+        raise ValueError(f"lams: expected a non-empty 1-d sequence of λ values, received "
+                         f"shape {values.shape}")
+    norm = options.norm_name(norm)
+    if norm == "sq":
+        return [fit(x, u, lam=float(lam), norm=norm, order=order, compute_cov=compute_cov)
+                for lam in values]
+    x, u = arrays.state_and_input(x, u)
+    coeffs = options.difference_coefficients(order, max_degree=x.shape[0])
+    max_iter = options.integer(max_iter, "max_iter", minimum=1)
+    tol = options.positive_scalar(tol, "tol")
+    n, m = x.shape[1], u.shape[1]
+    problem = state_space_problem(x, u, coeffs)
+    options.enough_samples(problem.N, problem.p, problem.degree)
+    identifiability.check(problem, has_prior=False, regressor_names=_regressor_names(n, m))
+    factory = partial(LTVModel, n_states=n, n_inputs=m)
+    models: list[LTVModel | None] = [None] * values.size
+    warm = None
+    for position, index in enumerate(np.argsort(-values, kind="stable")):
+        lam = float(values[index])
+        weights = options.sparse_weights(lam, problem.K)
+        solution = solve_sparse(problem, weights, norm, max_iter=max_iter, tol=tol,
+                                warm_start=warm)
+        warm = solution.admm
+        model = sparse_model(problem, lam, norm, solution, factory)
+        model.info["path_position"] = position
+        models[index] = model
+    return models
+
+
+def lambda_max(x: Any, u: Any = None, *, norm: str, order: Any = 1) -> float:
+    """The smallest λ at which ``fit(x, u, lam=λ, norm=norm, order=order)`` has Dk = 0.
+
+    For the sparse norms, λ ≥ λ_max gives the null-space fit (the LTI model
+    for ``order=1``, coefficients linear in time for ``order=2``) exactly; the
+    interesting range of λ is below it (the default grid of
+    :func:`ltvmodels.select_lambda` spans λ_max·[1e-3, 1]). λ_max follows from
+    the optimality conditions of the null-space fit k̄: the unique dual vector
+    ν with Dᵀν = −∇‖y − Φk̄‖² must satisfy ‖ν_t‖₂ ≤ λ (group) or
+    |ν_tj| ≤ λ (l1) for every t, so λ_max = max_t ‖ν_t‖₂ (group) or
+    max_tj |ν_tj| (l1). Costs one banded solve: no fit is run.
+
+    Parameters
+    ----------
+    x : array_like, shape (T, n)
+        States, time on axis 0 (lists and pandas DataFrames are accepted).
+    u : array_like, shape (T, m) or (T,), optional
+        Inputs.
+    norm : {"group", "l1"}
+        The sparse penalty (for ``norm="sq"`` every finite λ changes the
+        model, so there is no λ_max).
+    order : int or sequence of float
+        The difference operator, as in :func:`fit`.
+
+    Returns
+    -------
+    float
+        λ_max (the ``info["lambda_max"]`` of such a fit).
+
+    Raises
+    ------
+    ValueError, TypeError
+        Invalid input (the message names the argument).
+    SingularProblemError
+        The data do not identify the null-space fit.
+
+    Examples
+    --------
+    >>> import ltvmodels as ltv
+    >>> data = ltv.systems.jump_linear(seed=0)
+    >>> lmax = ltv.lambda_max(data.x, data.u, norm="group")
+    >>> model = ltv.fit(data.x, data.u, lam=lmax, norm="group")
+    >>> bool(model.status.status == "closed_form" and model.changepoints.size == 0)
+    True
+    """
+    x, u = arrays.state_and_input(x, u)
+    norm = options.choice(norm, "norm", ("group", "l1"))
+    coeffs = options.difference_coefficients(order, max_degree=x.shape[0])
+    n, m = x.shape[1], u.shape[1]
+    problem = state_space_problem(x, u, coeffs)
+    options.enough_samples(problem.N, problem.p, problem.degree)
+    identifiability.check(problem, has_prior=False, regressor_names=_regressor_names(n, m))
+    return problem_lambda_max(problem, norm)

@@ -1,0 +1,396 @@
+"""Piecewise refits given the change points: the second step of the two-step refinement.
+
+Paper Section III-G ("Two-step refinement"): once the change points (knots)
+c_1 < … < c_M are known, the penalty is dropped and equality constraints tie
+the coefficients together wherever no change was found. The result is an
+ordinary least-squares problem,
+
+    minimize  Σ_t ‖x_{t+1} − A_t x_t − B_t u_t‖²   subject to the structure below,
+
+whose estimates are not shrunk towards "no change" as those of the penalized
+first step are. With knots τ_0 = 0 < τ_1 = c_1 < … < τ_M = c_M and segments
+[c_j, c_{j+1}) of model indices (c_0 = 0, c_{M+1} = N):
+
+* ``order=1`` (piecewise constant, paper III-C): k_t is constant on each
+  segment, k_c ≠ k_{c−1} only at the change points. The problem splits into
+  M + 1 independent least-squares problems, one per segment, each with the n
+  output rows sharing the regressor φ_t = [x_t; u_t] (p = n + m unknowns per
+  row and segment).
+* ``order=2`` (piecewise linear and continuous, paper III-E): k_t is a linear
+  spline in t with knots τ_0 = 0, c_1 … c_M, τ_{M+1} = N − 1,
+
+      k_t = Σ_j h_j(t) γ_j,
+
+  with the hat functions h_j (1 at τ_j, 0 at the other knots, linear in
+  between), so the slope of k changes only at the change points and k is
+  continuous there. Row i of Θ_t = Σ_j h_j(t) Γ_j is fitted by the
+  regression y_{t,i} = z_tᵀ g_i with z_t = h(t) ⊗ φ_t: one system of
+  P = (M + 2)·p unknowns per row, shared by all rows. Its normal matrix ZᵀZ
+  is block tridiagonal and is accumulated per segment in O(N p²).
+"""
+
+from __future__ import annotations
+
+import itertools
+import warnings
+from typing import Any
+
+import numpy as np
+
+from ..core.covariance import CovarianceBlocks
+from ..core.identifiability import (
+    ILL_CONDITIONED_TOL,
+    SINGULAR_TOL,
+    describe_direction,
+    scaled_min_eig,
+)
+from ..errors import IdentifiabilityWarning, SingularProblemError
+from ..results.base import signal_names
+from ..results.record import FitRecord, FitStatus
+from ..results.statespace import LTVModel
+from ..validation import arrays, options
+
+__all__ = ["fit_piecewise"]
+
+_DIFFERENCE = {1: np.array([-1.0, 1.0]), 2: np.array([1.0, -2.0, 1.0])}
+
+
+def fit_piecewise(
+    x: Any,
+    u: Any = None,
+    changepoints: Any = None,
+    *,
+    order: int = 1,
+    compute_cov: bool = True,
+) -> LTVModel:
+    """Least-squares LTV model that is piecewise constant or linear between given change points.
+
+    Solves the equality-constrained second step of the paper's two-step
+    refinement (Section III-G) exactly; see :mod:`ltvmodels.estimators.piecewise` for the
+    parametrization. Typically the change points come from
+    :func:`ltvmodels.find_changepoints` applied to a first-step fit.
+
+    Parameters
+    ----------
+    x : array_like, shape (T, n)
+        States, time on axis 0 (lists and pandas DataFrames are accepted).
+    u : array_like, shape (T, m) or (T,), optional
+        Inputs.
+    changepoints : array_like of int, shape (M,)
+        Strictly increasing model indices; c means that a new segment starts
+        at model index c (for ``order=1``: k_c ≠ k_{c−1}; for ``order=2``: the
+        slope of k changes at c). Values in [1, N − 1] for ``order=1`` and
+        [1, N − 2] for ``order=2`` (N = T − 1). Empty: a single segment (the
+        LTI model for ``order=1``, coefficients linear in time for
+        ``order=2``). Unsorted or repeated values are an error, not silently
+        fixed.
+    order : {1, 2}
+        1: piecewise constant; 2: piecewise linear and continuous at the
+        change points. Higher orders raise NotImplementedError.
+    compute_cov : bool, default True
+        Compute the covariance of the estimates (O(n N p²) memory).
+
+    Returns
+    -------
+    LTVModel
+        ``norm="piecewise"``; ``coeffs`` the difference operator of the order
+        ([-1, 1] or [1, -2, 1]), so that ``activation()`` is nonzero only at
+        the change points; ``lam=inf`` (the constraints are the λ → ∞ limit of
+        a penalty on every difference but those at the change points);
+        ``changepoints`` as given. ``noise_cov`` is EᵀE / (N − P) with
+        residuals E (N, n) and P unknowns per row ((M + 1)·p for order 1,
+        (M + 2)·p for order 2), ``noise_var`` its trace / n, ``loglik`` the
+        Gaussian log-likelihood at the maximum-likelihood noise covariance
+        EᵀE / N (it grows with M: penalize it, e.g. by BIC, to compare change
+        point sets). ``cov`` holds the covariance of the least-squares
+        estimate of each row i of [A_t B_t], Σ_v[i, i] S_t with
+        S_t = (Φ_sᵀΦ_s)⁻¹ on segment s for order 1 and
+        S_t = H_t (ZᵀZ)⁻¹ H_tᵀ, H_t = h(t)ᵀ ⊗ I_p, for order 2, so
+        ``std()`` is exact; the covariances between rows, Σ_v[i, i'] S_t, are
+        not stored (``cov_full()`` shows them as 0). None when
+        ``compute_cov`` is False or N <= P. ``info`` has "solver",
+        "order", "segments" (a list of [start, stop)), "knots" (order 2),
+        "rss", "dof" and "n_params_per_row".
+
+    Raises
+    ------
+    ValueError, TypeError
+        Invalid input (the message names the argument), e.g. change points
+        out of range, unsorted or repeated, or a segment with fewer samples
+        than unknowns.
+    SingularProblemError
+        A segment (order 1) or knot (order 2) whose coefficients the data do
+        not determine; the message starts with "changepoints:" ("x:" when
+        there are none) and says which segment or knot, and which combination
+        of the regressors is not excited there.
+    NotImplementedError
+        ``order`` >= 3.
+
+    Examples
+    --------
+    >>> import ltvmodels as ltv
+    >>> data = ltv.systems.jump_linear(seed=0)
+    >>> model = ltv.fit_piecewise(data.x, data.u, [200])
+    >>> model.changepoints.tolist(), model.info["segments"]
+    ([200], [[0, 200], [200, 399]])
+    """
+    x, u = arrays.state_and_input(x, u)
+    order = options.piecewise_order(order)
+    if not isinstance(compute_cov, bool):
+        raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
+    n, m = x.shape[1], u.shape[1]
+    N, p = x.shape[0] - 1, n + m
+    note = "; order=2 needs a sample after the last knot" if order == 2 else ""
+    changepoints = arrays.changepoint_indices(changepoints, N, last=N - order, note=note)
+    phi = np.hstack([x[:-1], u[:-1]])
+    y = x[1:]
+    names = signal_names("x", n) + signal_names("u", m)
+    bounds = np.concatenate([[0], changepoints, [N]])
+    segments = [[int(a), int(b)] for a, b in itertools.pairwise(bounds)]
+
+    if order == 1:
+        theta, unit_cov = _fit_constant(phi, y, bounds, names)
+        n_params = (len(changepoints) + 1) * p
+        info_extra: dict[str, Any] = {}
+    else:
+        knots = np.concatenate([[0], changepoints, [N - 1]])
+        theta, unit_cov = _fit_linear(phi, y, knots, names)
+        n_params = (len(changepoints) + 2) * p
+        info_extra = {"knots": [int(t) for t in knots]}
+
+    resid = y - np.einsum("tij,tj->ti", theta, phi)
+    rss_matrix = resid.T @ resid
+    dof = N - n_params
+    noise_cov = rss_matrix / dof if dof > 0 else np.full((n, n), np.nan)
+    sign, logdet = np.linalg.slogdet(rss_matrix / N)
+    loglik = -0.5 * N * (n * np.log(2 * np.pi) + logdet + n) if sign > 0 else float("inf")
+    cov = None
+    if compute_cov and dof > 0:
+        # Row i of Θ_t: Σ_v[i, i] S_t (one group per row, O(n N p²) memory). The
+        # cross-row blocks Σ_v[i, i'] S_t are not stored: CovarianceBlocks has
+        # no Kronecker form, and the full (N, K, K) array is n times larger.
+        variances = np.diag(noise_cov)[:, None, None, None]
+        cov = CovarianceBlocks(variances * unit_cov[None], np.arange(n))
+    info = {
+        "solver": "piecewise least squares",
+        "order": order,
+        "segments": segments,
+        **info_extra,
+        "rss": float(np.trace(rss_matrix)),
+        "dof": int(dof),
+        "n_params_per_row": int(n_params),
+    }
+    return LTVModel(theta.reshape(N, n * p), n, m, FitRecord(
+        norm="piecewise", coeffs=_DIFFERENCE[order].copy(), lam=float("inf"), cov=cov,
+        noise_var=float(np.trace(noise_cov) / n) if dof > 0 else float("nan"),
+        noise_cov=noise_cov, loglik=float(loglik), info=info, changepoints=changepoints,
+        status=FitStatus("closed_form", info["solver"], 0, info["rss"]),
+    ))
+
+
+# -- order 1: piecewise constant --------------------------------------------------------
+
+
+def _fit_constant(
+    phi: np.ndarray, y: np.ndarray, bounds: np.ndarray, names: list[str]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per-segment least squares.
+
+    Parameters
+    ----------
+    phi : ndarray, shape (N, p)
+    y : ndarray, shape (N, n)
+    bounds : ndarray of int, shape (M + 2,)
+        Segment boundaries 0 = b_0 < … < b_{M+1} = N; segment s is [b_s, b_{s+1}).
+    names : list of str
+        Regressor names for error messages.
+
+    Returns
+    -------
+    theta : ndarray, shape (N, n, p)
+        [A_t B_t], constant on each segment.
+    unit_cov : ndarray, shape (N, p, p)
+        (Φ_sᵀΦ_s)⁻¹ of the segment containing t.
+    """
+    N, p = phi.shape
+    n = y.shape[1]
+    theta = np.empty((N, n, p))
+    unit_cov = np.empty((N, p, p))
+    single = len(bounds) == 2
+    for s, (start, stop) in enumerate(itertools.pairwise(bounds)):
+        where = _segment_text(s, start, stop, single)
+        phi_s = phi[start:stop]
+        if stop - start < p:
+            raise ValueError(
+                f"{where} has {stop - start} transition(s), fewer than the p = {p} regressors "
+                f"of each output row, so its [A B] is not determined; "
+                f"{_remedy(single, 'segment', p)}"
+            )
+        gram = phi_s.T @ phi_s
+        min_eig, direction = scaled_min_eig(gram)
+        if min_eig <= SINGULAR_TOL:
+            raise SingularProblemError(
+                f"{where}: the regressors are linearly dependent on this segment (the "
+                f"combination {describe_direction(direction, names)} is numerically zero), "
+                f"so its [A B] is not identifiable; {_remedy(single, 'segment', p)}"
+            )
+        _warn_if_ill_conditioned(min_eig, where, stacklevel=3)
+        q, r = np.linalg.qr(phi_s)
+        theta_s = np.linalg.solve(r, q.T @ y[start:stop]).T  # (n, p): n right-hand sides
+        r_inv = np.linalg.solve(r, np.eye(p))
+        theta[start:stop] = theta_s
+        unit_cov[start:stop] = r_inv @ r_inv.T  # (Φ_sᵀΦ_s)⁻¹ = R⁻¹R⁻ᵀ
+    return theta, unit_cov
+
+
+# -- order 2: piecewise linear, continuous ----------------------------------------------
+
+
+def hat_weights(knots: np.ndarray, N: int) -> tuple[np.ndarray, np.ndarray]:
+    """Linear-spline (hat function) weights of each time step.
+
+    Parameters
+    ----------
+    knots : ndarray of int, shape (J,), J >= 2
+        Strictly increasing knots τ_0 = 0 < … < τ_{J−1} = N − 1.
+    N : int
+        Number of time steps.
+
+    Returns
+    -------
+    left : ndarray of int, shape (N,)
+        Index j of the knot interval [τ_j, τ_{j+1}] containing t (the last
+        interval includes its right end).
+    w : ndarray, shape (N,)
+        h_{j+1}(t) = (t − τ_j) / (τ_{j+1} − τ_j); h_j(t) = 1 − w, every other
+        hat function is 0 at t.
+    """
+    t = np.arange(N)
+    left = np.searchsorted(knots[1:-1], t, side="right")
+    w = (t - knots[left]) / (knots[left + 1] - knots[left])
+    return left, w
+
+
+def _fit_linear(
+    phi: np.ndarray, y: np.ndarray, knots: np.ndarray, names: list[str]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Least squares over linear splines with the given knots.
+
+    Parameters
+    ----------
+    phi : ndarray, shape (N, p)
+    y : ndarray, shape (N, n)
+    knots : ndarray of int, shape (J,)
+        τ_0 = 0 < τ_1 < … < τ_{J−1} = N − 1 (J = M + 2).
+    names : list of str
+        Regressor names for error messages.
+
+    Returns
+    -------
+    theta : ndarray, shape (N, n, p)
+        [A_t B_t] = Σ_j h_j(t) Γ_j.
+    unit_cov : ndarray, shape (N, p, p)
+        H_t (ZᵀZ)⁻¹ H_tᵀ, the covariance of a row of Θ_t per unit noise variance.
+    """
+    N, p = phi.shape
+    J = len(knots)
+    single = J == 2
+    if N < J * p:
+        raise ValueError(
+            f"{'x' if single else 'changepoints'}: {N} transitions cannot determine the "
+            f"{J * p} unknowns per output row of a linear spline with {J} knots "
+            f"({J - 2} change points, p = {p} regressors); "
+            f"{_remedy(single, 'knot', p)}"
+        )
+    left, w = hat_weights(knots, N)
+    z_left = (1.0 - w)[:, None] * phi  # regressors of γ_j, j = left[t]
+    z_right = w[:, None] * phi  # regressors of γ_{j+1}
+    # Normal equations ZᵀZ g = Zᵀy, block tridiagonal with J blocks of size p,
+    # accumulated interval by interval.
+    gram = np.zeros((J, p, J, p))
+    rhs = np.zeros((J, p, y.shape[1]))
+    for j in range(J - 1):
+        sl = slice(knots[j], knots[j + 1] if j < J - 2 else N)
+        zl, zr, ys = z_left[sl], z_right[sl], y[sl]
+        gram[j, :, j, :] += zl.T @ zl
+        gram[j, :, j + 1, :] += zl.T @ zr
+        gram[j + 1, :, j, :] += zr.T @ zl
+        gram[j + 1, :, j + 1, :] += zr.T @ zr
+        rhs[j] += zl.T @ ys
+        rhs[j + 1] += zr.T @ ys
+    gram = gram.reshape(J * p, J * p)
+    gram_inv = _inverse_or_raise(gram, knots, p, names, single)
+    gamma = (gram_inv @ rhs.reshape(J * p, -1)).reshape(J, p, -1)  # Γ_jᵀ stacked
+    theta = ((1.0 - w)[:, None, None] * gamma[left] + w[:, None, None] * gamma[left + 1])
+    theta = theta.transpose(0, 2, 1)  # (N, n, p)
+    blocks = gram_inv.reshape(J, p, J, p)
+    b_ll = blocks[left, :, left, :]
+    b_lr = blocks[left, :, left + 1, :]
+    b_rl = blocks[left + 1, :, left, :]
+    b_rr = blocks[left + 1, :, left + 1, :]
+    a, b = (1.0 - w)[:, None, None], w[:, None, None]
+    unit_cov = a * a * b_ll + a * b * (b_lr + b_rl) + b * b * b_rr
+    return np.ascontiguousarray(theta), unit_cov
+
+
+def _inverse_or_raise(
+    gram: np.ndarray, knots: np.ndarray, p: int, names: list[str], single: bool
+) -> np.ndarray:
+    """(ZᵀZ)⁻¹, or SingularProblemError naming the least determined knot.
+
+    Identifiability is judged on ZᵀZ scaled to unit diagonal (as in
+    :mod:`ltvmodels.core.identifiability`); its eigendecomposition also gives the
+    inverse.
+    """
+    min_eig, direction = scaled_min_eig(gram)
+    if min_eig <= SINGULAR_TOL:
+        J = len(knots)
+        per_knot = direction.reshape(J, p)
+        j = int(np.argmax(np.linalg.norm(per_knot, axis=1)))
+        lo, hi = int(knots[max(j - 1, 0)]), int(knots[min(j + 1, J - 1)])
+        raise SingularProblemError(
+            f"{'x' if single else 'changepoints'}: the coefficients at the knot t = "
+            f"{knots[j]} (its hat function covers model indices [{lo}, {hi}]) are not "
+            f"determined by the data: the combination "
+            f"{describe_direction(per_knot[j], names)} of the regressors is not excited "
+            f"there; {_remedy(single, 'knot', p)}"
+        )
+    _warn_if_ill_conditioned(min_eig, "x" if single else "changepoints", stacklevel=4)
+    scale = 1.0 / np.sqrt(np.diag(gram))
+    eig, vec = np.linalg.eigh(gram * scale[:, None] * scale[None, :])
+    inv = ((vec / eig) @ vec.T) * scale[:, None] * scale[None, :]
+    return 0.5 * (inv + inv.T)
+
+
+# -- shared helpers ------------------------------------------------------------------------
+
+
+def _warn_if_ill_conditioned(min_eig: float, where: str, *, stacklevel: int) -> None:
+    """IdentifiabilityWarning when the scaled normal matrix is nearly singular.
+
+    ``stacklevel`` counts the frames from the caller of this function up to the
+    user's call of :func:`fit_piecewise` (1: the caller itself).
+    """
+    if min_eig < ILL_CONDITIONED_TOL:
+        warnings.warn(
+            f"{where}: the least-squares problem is ill-conditioned (smallest scaled "
+            f"eigenvalue {min_eig:.1e}); the estimates are unreliable. More excitation or "
+            "fewer change points helps.",
+            IdentifiabilityWarning,
+            stacklevel=stacklevel + 1,
+        )
+
+
+def _segment_text(s: int, start: int, stop: int, single: bool) -> str:
+    if single:
+        return f"x: the data (model indices [{start}, {stop}))"
+    return f"changepoints: segment {s} = [{start}, {stop})"
+
+
+def _remedy(single: bool, part: str, p: int) -> str:
+    if single:
+        return "more data or more excitation is needed"
+    return (
+        f"remove or move change points so that every {part} has well-excited data "
+        f"(several times p = {p} samples)"
+    )

@@ -1,0 +1,285 @@
+"""The shared core of every front-end: a regression problem (y, φ) → solver → model.
+
+Every front-end only builds the regression y_t = Θ_t φ_t + e_t
+(:class:`~ltvmodels.core.problem.RegressionProblem`) and hands it to
+:func:`fit_problem`, which validates the options, checks identifiability,
+dispatches to the solver of the norm and wraps the result in a model built by
+the front-end's factory: :func:`ltvmodels.fit` (state space,
+:class:`~ltvmodels.LTVModel`), :func:`fit_regression` (any regressors,
+:class:`~ltvmodels.RegressionModel`) and :func:`ltvmodels.fit_ar` /
+:func:`ltvmodels.fit_arx` (:class:`~ltvmodels.ARXModel`).
+"""
+
+from __future__ import annotations
+
+from functools import partial
+from typing import Any, Callable
+
+import numpy as np
+
+from ..core import identifiability
+from ..core.covariance import CovarianceBlocks
+from ..core.priorterms import posthoc_correction
+from ..core.problem import RegressionProblem, activation
+from ..core.sparse import SparseSolution, solve_sparse
+from ..core.squared import fit_squared
+from ..results.base import signal_names
+from ..results.record import FitRecord, FitStatus, iterative_status
+from ..results.regression import RegressionModel
+from ..validation import arrays, options
+from .changepoints import find_changepoints
+from .priors import resolve as resolve_priors
+from .selection import DEFAULT_METHOD, select_for_problem
+
+ModelFactory = Callable[..., RegressionModel]
+"""Builds the result: ``factory(k, fit=FitRecord(...))`` with k of shape (N, K)."""
+
+
+def fit_regression(
+    y: Any,
+    phi: Any,
+    *,
+    lam: Any,
+    norm: str = "sq",
+    order: Any = 1,
+    prior: Any = None,
+    prior_mode: str = "exact",
+    noise_var: float | None = None,
+    compute_cov: bool = True,
+    max_iter: int = 10000,
+    tol: float = 1e-6,
+) -> RegressionModel:
+    """Identify a time-varying regression y_t = Θ_t φ_t + e_t.
+
+    The general problem behind every front-end: any model linear in its
+    parameters (paper, Discussion). With ``norm="sq"`` it is the exact minimizer of
+
+        Σ_t ‖y_t − Θ_t φ_t‖² + λ² Σ_t ‖(Dk)_t‖²,   k_t = Θ_t.ravel() (rows of Θ_t),
+
+    and with ``norm="group"`` / ``"l1"`` of Σ_t ‖y_t − Θ_t φ_t‖² + λ Σ_t ‖(Dk)_t‖
+    (2-norm, not squared / 1-norm), solved exactly as in :func:`fit`. The n
+    output rows share the regressor φ_t (Θ_t is n × p, K = n·p). :func:`fit`
+    is this with y_t = x_{t+1} and φ_t = [x_t; u_t]; for piecewise-constant
+    models with a known number of changes use
+    :func:`ltvmodels.segment_regression` on the same (y, φ).
+
+    Parameters
+    ----------
+    y : array_like, shape (N, n) or (N,)
+        Outputs, time on axis 0 (lists and pandas objects are accepted).
+    phi : array_like, shape (N, p) or (N,)
+        Regressors, one row per output row.
+    lam, norm, order, prior, prior_mode, noise_var, compute_cov, max_iter, tol
+        As in :func:`fit`, with K = n·p parameters per time step (a ``Prior``
+        mean is (K,) or (N, K); an ``OutputPrior`` is a prior on Θ_t φ_t).
+
+    Returns
+    -------
+    RegressionModel
+        ``theta`` (N, n, p), ``k`` (N, K), ``predict(phi)`` → (N, n),
+        ``cov`` (N, p, p) shared by the rows or (N, K, K), ``noise_var``,
+        ``loglik`` and ``info`` as for :func:`fit`.
+
+    Raises
+    ------
+    ValueError, TypeError
+        Invalid input (the message names the argument), too few rows for the
+        number of regressors and the order.
+    SingularProblemError
+        The data do not identify the model (with the reason and remedies).
+
+    Examples
+    --------
+    >>> import numpy as np, ltvmodels as ltv
+    >>> rng = np.random.default_rng(0)
+    >>> phi = rng.standard_normal((200, 2))
+    >>> slope = np.linspace(1.0, 2.0, 200)
+    >>> y = slope * phi[:, 0] - 0.5 * phi[:, 1] + 0.01 * rng.standard_normal(200)
+    >>> model = ltv.fit_regression(y, phi, lam=100.0, order=2)
+    >>> model.theta.shape
+    (200, 1, 2)
+    >>> bool(np.abs(model.theta[:, 0, 0] - slope).max() < 0.05)
+    True
+    """
+    y, phi = arrays.regression_data(y, phi)
+    norm = options.norm_name(norm)
+    coeffs = options.difference_coefficients(order, max_degree=y.shape[0])
+    n, p = y.shape[1], phi.shape[1]
+    return fit_problem(
+        RegressionProblem(y=y, phi=phi, coeffs=coeffs),
+        factory=partial(RegressionModel, n_outputs=n, n_regressors=p),
+        regressor_names=signal_names("phi", p),
+        data_name="y",
+        lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
+        compute_cov=compute_cov, max_iter=max_iter, tol=tol,
+    )
+
+
+ModelFactory = Callable[..., RegressionModel]
+
+
+def fit_problem(
+    problem: RegressionProblem,
+    *,
+    factory: ModelFactory,
+    regressor_names: list[str],
+    data_name: str,
+    lam: Any,
+    norm: str,
+    prior: Any,
+    prior_mode: str,
+    noise_var: Any,
+    compute_cov: Any,
+    max_iter: Any,
+    tol: Any,
+    rows_note: str = "",
+) -> RegressionModel:
+    """The core shared by every front-end: a validated (y, φ) problem → model.
+
+    Validates the remaining options, checks the sample count and
+    identifiability (naming ``regressor_names`` in messages and ``data_name``
+    as the argument), solves with the solver of ``norm`` and builds the model
+    with ``factory(k, fit=FitRecord(...))``. ``rows_note`` is
+    added to a too-few-samples message (e.g. how the rows relate to T).
+    """
+    norm = options.norm_name(norm)
+    prior_mode = options.choice(prior_mode, "prior_mode", ("exact", "posthoc"))
+    if noise_var is not None:
+        noise_var = options.positive_scalar(noise_var, "noise_var")
+    if not isinstance(compute_cov, bool):
+        raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
+    selection = None
+    if options.is_auto(lam, "lam"):
+        if prior is not None:
+            raise ValueError(
+                "lam: 'auto' chooses λ from the data alone and does not take a prior into "
+                "account; choose λ with ltvmodels.select_lambda or pass a number"
+            )
+        _enough_samples(problem, data_name, rows_note)
+        identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
+        selection = select_for_problem(problem, norm, DEFAULT_METHOD[norm], None)
+        lam = selection.lam
+    model = _fit_with_lam(
+        problem, factory=factory, regressor_names=regressor_names, data_name=data_name,
+        lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
+        compute_cov=compute_cov, max_iter=max_iter, tol=tol, rows_note=rows_note,
+    )
+    if selection is not None:
+        model.info["lam_selection"] = {
+            "method": selection.method, "lam": selection.lam,
+            "lams": selection.lams.tolist(), "scores": selection.scores.tolist(),
+        }
+    return model
+
+
+def _fit_with_lam(
+    problem: RegressionProblem, *, factory, regressor_names, data_name, lam, norm, prior,
+    prior_mode, noise_var, compute_cov, max_iter, tol, rows_note,
+) -> RegressionModel:
+    """:func:`fit_problem` for a given λ, on validated options."""
+    n, p = problem.n, problem.p
+    N, K = problem.N, problem.K
+    if norm != "sq":
+        if prior is not None:
+            raise NotImplementedError(
+                f"prior: priors are available with norm='sq' only, not yet with norm={norm!r}"
+            )
+        max_iter = options.integer(max_iter, "max_iter", minimum=1)
+        tol = options.positive_scalar(tol, "tol")
+        weights = options.sparse_weights(lam, K)
+        _enough_samples(problem, data_name, rows_note)
+        identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
+        solution = solve_sparse(problem, weights, norm, max_iter=max_iter, tol=tol)
+        return sparse_model(problem, lam, norm, solution, factory)
+    W = options.penalty_weight(lam, K)
+    _enough_samples(problem, data_name, rows_note)
+    terms = resolve_priors(prior, N, n, p)
+
+    const = np.isinf(np.diag(W)).reshape(n, p)
+    identifiability.check(
+        problem,
+        has_prior=bool(terms),
+        regressor_names=regressor_names,
+        const_mask=const.all(axis=0) if const.any() else None,
+    )
+
+    exact_terms = terms if prior_mode == "exact" else []
+    result = fit_squared(
+        problem, W, exact_terms, noise_var=noise_var,
+        compute_cov=compute_cov or (prior_mode == "posthoc" and bool(terms)),
+    )
+    k = result.theta.reshape(N, K)
+    cov = result.cov
+    info = {
+        "solver": "block-banded Cholesky (exact)",
+        "iterations": 1,  # one direct solve
+        "converged": True,
+        "objective": result.objective,
+        "rss": result.rss,
+        "penalty": result.penalty,
+        "prior_cost": result.prior_cost,
+        "n_factorizations": result.n_factorizations,
+        "noise_var_estimated": result.noise_var_estimated,
+        "n_eff": result.n_eff,
+        "prior_mode": prior_mode if terms else "none",
+        **result.info,
+    }
+    loglik = result.loglik
+    if terms and prior_mode == "posthoc":
+        blocks = np.array(cov.full(n, p))
+        for term in terms:
+            k, blocks = posthoc_correction(k, blocks, term, problem.phi)
+        cov = CovarianceBlocks(blocks, None) if compute_cov else None
+        loglik = float("nan")
+        info["loglik_note"] = "no likelihood is defined for the posthoc correction"
+    noise_cov = np.eye(n) * result.noise_var
+    status = FitStatus("closed_form", info["solver"], 1, result.objective,
+                       {"n_factorizations": result.n_factorizations})
+    return factory(k, fit=FitRecord(
+        norm=norm, coeffs=problem.coeffs, lam=_lam_copy(lam), cov=cov,
+        noise_var=result.noise_var, noise_cov=noise_cov, loglik=loglik, info=info, status=status,
+    ))
+
+
+def _enough_samples(problem: RegressionProblem, data_name: str, rows_note: str) -> None:
+    if data_name == "x":  # state space: rows are transitions, T = N + 1
+        options.enough_samples(problem.N, problem.p, problem.degree)
+    else:
+        options.enough_rows(problem.N, problem.p, problem.degree, data_name, rows_note)
+
+
+
+def sparse_model(
+    problem: RegressionProblem, lam: Any, norm: str, solution: SparseSolution,
+    factory: ModelFactory,
+) -> RegressionModel:
+    """The model of a sparse-norm solution: noise from the residuals, change points detected.
+
+    ``noise_var`` is the residual mean square RSS / (N·n); ``changepoints``
+    are :func:`~ltvmodels.find_changepoints` of the activation with the
+    default rules.
+    """
+    N, n, K = problem.N, problem.n, problem.K
+    k = solution.theta.reshape(N, K)
+    info = {
+        "solver": solution.solver, "iterations": solution.iterations,
+        "converged": solution.converged, "objective": solution.objective, **solution.details,
+        "rss": solution.rss, "lambda_max": solution.lambda_max,
+    }
+    status = FitStatus(
+        "closed_form" if solution.closed_form else iterative_status(
+            solution.converged, polished=solution.polished, stalled=solution.stalled),
+        solution.solver, solution.iterations, solution.objective,
+        {**solution.details, "lambda_max": solution.lambda_max},
+    )
+    noise_var = solution.rss / (N * n)
+    changepoints = find_changepoints(activation(k, problem.coeffs), degree=problem.degree)
+    return factory(k, fit=FitRecord(
+        norm=norm, coeffs=problem.coeffs, lam=_lam_copy(lam), noise_var=noise_var,
+        noise_cov=np.eye(n) * noise_var, info=info, changepoints=changepoints, status=status,
+    ))
+
+
+def _lam_copy(lam: Any) -> Any:
+    """λ as the model keeps it: a float, or a new array (never the caller's)."""
+    return float(lam) if np.ndim(lam) == 0 else np.array(lam, float)

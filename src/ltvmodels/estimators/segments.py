@@ -1,0 +1,369 @@
+"""Exact piecewise-constant segmentation with a known number of changes or a penalty.
+
+Paper Section III-D (eq:l0): with at most M time indices where the model
+changes,
+
+    minimize_Θ  Σ_t ‖y_t − Θ_t φ_t‖²   subject to   Σ_t 1{Θ_{t+1} ≠ Θ_t} <= M,
+
+and the penalized form Σ_t ‖y_t − Θ_t φ_t‖² + β · #{t : Θ_{t+1} ≠ Θ_t}. Each
+segment between two changes is one LTI model fitted by least squares, so both
+problems are searches over change-point placements, solved exactly by
+dynamic programming (fixed M) and PELT (penalty). The searches are in
+:mod:`ltvmodels.core.segmentation`.
+
+* :func:`fit_segments` — state-space front-end, returns an :class:`LTVModel`;
+* :func:`segment_regression` — the same on any regression (y, φ) (AR, ARX or
+  user-built regressors), returns a :class:`~ltvmodels.Segmentation`.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import Any
+
+import numpy as np
+
+from ..core import segmentation as search
+from ..errors import SingularProblemError
+from ..results.record import FitStatus
+from ..results.segmentation import Segmentation
+from ..results.statespace import LTVModel
+from ..validation import arrays, options
+from .piecewise import fit_piecewise
+
+__all__ = ["fit_segments", "segment_regression", "noise_variance_estimate"]
+
+
+def segment_regression(
+    y: Any,
+    phi: Any,
+    *,
+    n_changes: int | None = None,
+    penalty: float | str | None = None,
+    min_size: int | None = None,
+) -> Segmentation:
+    """Optimal piecewise-constant segmentation of a regression y_t = Θ_t φ_t + e_t.
+
+    The lower-level entry of :func:`fit_segments` for any regression (AR/ARX
+    or user-built regressors). With ``n_changes=M`` it solves
+
+        minimize  Σ_{t=0}^{N−1} ‖y_t − Θ_t φ_t‖²  subject to at most M indices c with Θ_c ≠ Θ_{c−1}
+
+    by dynamic programming; with ``penalty=β`` it minimizes
+    Σ_t ‖y_t − Θ_t φ_t‖² + β · (number of changes) by PELT. Both are exact
+    (global optima); see :func:`fit_segments` for the details.
+
+    Parameters
+    ----------
+    y : array_like, shape (N, n) or (N,)
+        Outputs.
+    phi : array_like, shape (N, p) or (N,)
+        Regressors, shared by all output rows.
+    n_changes : int, optional
+        M >= 0, the largest number of changes.
+    penalty : float or {"bic", "aic"}, optional
+        β >= 0 per change, or a rule (see :func:`fit_segments`). Default "bic"
+        when neither ``n_changes`` nor ``penalty`` is given.
+    min_size : int, optional
+        Minimum number of rows per segment, >= p. Default p.
+
+    Returns
+    -------
+    Segmentation
+
+    Raises
+    ------
+    ValueError, TypeError
+        Invalid input, n_changes < 0 or too large for N and min_size, β < 0,
+        both n_changes and penalty given.
+    SingularProblemError
+        The regressors are linearly dependent over the whole data set, so no
+        segment is identifiable.
+    """
+    y, phi = arrays.regression_data(y, phi)
+    return _segment(y, phi, n_changes, penalty, min_size, data_name="y")
+
+
+def fit_segments(
+    x: Any,
+    u: Any = None,
+    *,
+    n_changes: int | None = None,
+    penalty: float | str | None = None,
+    min_size: int | None = None,
+    compute_cov: bool = True,
+) -> LTVModel:
+    """Piecewise-constant LTV model with exactly optimal change points (paper eq:l0).
+
+    With ``n_changes=M`` it finds the global optimum of
+
+        minimize  Σ_{t=0}^{N−1} ‖x_{t+1} − A_t x_t − B_t u_t‖²
+        subject to  #{t : k_t ≠ k_{t−1}} <= M,
+
+    by Bellman's dynamic programming over segmentations (segment
+    neighbourhood); with ``penalty=β`` the global optimum of the penalized
+    problem Σ_t ‖x_{t+1} − A_t x_t − B_t u_t‖² + β · #changes by PELT
+    (pruned dynamic programming, also exact). Each segment between two
+    changes is one LTI model [A B] fitted by least squares (the n output rows
+    share the regressor φ_t = [x_t; u_t], p = n + m).
+
+    Cost of the search: the residual sum of squares of every candidate
+    segment [a, b) is computed by a sequential QR update (one Givens row
+    update per start, O(p (p + n)), shared by the n output rows; no normal
+    equations and no differences of large prefix sums, so no cancellation).
+    The dynamic program evaluates all N(N+1)/2 segments once, whatever M
+    (for M = 1 one forward and one backward pass suffice: O(N)), and gives
+    the optimal cost for every number of changes 0 … M; PELT
+    evaluates only unpruned starts, near-linear when changes are frequent and
+    up to quadratic when they are rare.
+
+    Parameters
+    ----------
+    x : array_like, shape (T, n)
+        States, time on axis 0 (lists and pandas DataFrames are accepted).
+    u : array_like, shape (T, m) or (T,), optional
+        Inputs.
+    n_changes : int, optional
+        M >= 0: at most M changes (the optimum uses exactly M unless fewer are
+        strictly better, which only min_size or infeasible segments can
+        cause). Needs (M + 1) · min_size <= N = T − 1.
+    penalty : float or {"bic", "aic"}, optional
+        β >= 0, the cost of one change in the units of the residual sum of
+        squares. The rules scale with a noise variance estimate σ̂² per output
+        (:func:`noise_variance_estimate`: median over short windows of the
+        least-squares residual variance, so that the changes do not inflate
+        it):
+
+        * "bic" (the default when neither n_changes nor penalty is given):
+          β = K · log(N) · σ̂², K = n·p the parameters of one more segment —
+          the Bayesian information criterion RSS/σ² + (#parameters) · log N
+          multiplied by σ² to be in the units of the cost;
+        * "aic": β = 2 · K · σ̂².
+    min_size : int, optional
+        Minimum number of transitions per segment. Default p = n + m, the
+        smallest size for which a segment's least squares is well posed;
+        a segment of exactly p samples fits perfectly (zero cost), so with
+        noisy data a larger min_size (say 2p to 5p) avoids short segments
+        that only absorb outliers. Segments whose regressors are numerically
+        linearly dependent (smallest eigenvalue of their Gram matrix, with
+        each regressor scaled to unit RMS over the whole data, at most
+        1e-10 · N) are excluded as well.
+    compute_cov : bool, default True
+        Compute the covariances of the per-segment estimates.
+
+    Returns
+    -------
+    LTVModel
+        The least-squares model of each segment (built by
+        :func:`ltvmodels.fit_piecewise` at the optimal change points, so
+        ``cov``, ``noise_cov`` and ``loglik`` are as documented there),
+        ``norm="l0"``, ``changepoints`` the optimal change points (index c
+        means k_c ≠ k_{c−1}). ``info`` has, in addition to the keys of
+        :func:`fit_piecewise`:
+
+        * "cost": the optimal residual sum of squares;
+        * "objective": cost, plus β · n_changes with a penalty;
+        * "n_changes": the number of changes of the optimum;
+        * "costs_by_n_changes" (with n_changes=M): ndarray (M + 1,), the
+          optimal cost with exactly m changes, m = 0 … M (inf if infeasible);
+        * "penalty": β (None with n_changes), "penalty_rule": "bic", "aic" or
+          None, "noise_var_estimate": σ̂² of the rule (None otherwise);
+        * "solver": "dynamic programming" or "PELT"; "min_size".
+
+    Raises
+    ------
+    ValueError, TypeError
+        Invalid input (the message names the argument): n_changes < 0 or
+        more than the data can hold with min_size, β < 0, an unknown penalty
+        rule, min_size < p, both n_changes and penalty given, too few samples.
+    SingularProblemError
+        The regressors are linearly dependent over the whole data set.
+
+    Examples
+    --------
+    >>> import ltvmodels as ltv
+    >>> data = ltv.systems.jump_linear(seed=0)
+    >>> model = ltv.fit_segments(data.x, data.u, n_changes=1)
+    >>> model.changepoints.tolist()
+    [200]
+    >>> model.info["costs_by_n_changes"].shape
+    (2,)
+    """
+    x, u = arrays.state_and_input(x, u)
+    if not isinstance(compute_cov, bool):
+        raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
+    y = x[1:]
+    phi = np.hstack([x[:-1], u[:-1]])
+    result = _segment(y, phi, n_changes, penalty, min_size, data_name="x")
+    model = fit_piecewise(x, u, result.changepoints, order=1, compute_cov=compute_cov)
+    model.norm = "l0"
+    model.status = FitStatus("optimal", result.solver, 0, result.objective)
+    model.info.update(
+        {
+            "solver": result.solver,
+            "cost": result.cost,
+            "objective": result.objective,
+            "n_changes": result.n_changes,
+            "penalty": result.penalty,
+            "penalty_rule": result.penalty_rule,
+            "noise_var_estimate": result.noise_var,
+            "min_size": result.min_size,
+        }
+    )
+    if result.costs_by_n_changes is not None:
+        model.info["costs_by_n_changes"] = result.costs_by_n_changes
+    return model
+
+
+def noise_variance_estimate(y: Any, phi: Any, min_size: int | None = None) -> float:
+    """Robust estimate of the noise variance σ² per output for the penalty rules.
+
+    The rows are cut into consecutive windows of w = max(4p, 20, min_size)
+    rows (the last window takes the remainder; one window if N < 2w); each
+    window is fitted by least squares and gives s² = RSS / (n (w − p)). The
+    estimate is the median of s² over the windows whose regressors have full
+    rank, divided by the median of χ²_ν / ν (ν = n (w − p), Wilson–Hilferty
+    (1 − 2/(9ν))³) so that it is unbiased for Gaussian noise. Windows that
+    straddle a change are few and do not move the median, unlike the LTI
+    residual variance, which the changes inflate. Floored at 1e-12 times the
+    mean square of y.
+
+    Parameters
+    ----------
+    y : array_like, shape (N, n) or (N,)
+        Outputs.
+    phi : array_like, shape (N, p) or (N,)
+        Regressors.
+    min_size : int, optional
+        Minimum segment size; windows are at least this long.
+
+    Returns
+    -------
+    float
+        σ̂², in the units of y².
+    """
+    y, phi = arrays.regression_data(y, phi)
+    min_size = options.optional_integer(min_size, "min_size", 1)
+    return _noise_variance(y, phi, min_size)
+
+
+def _noise_variance(y: np.ndarray, phi: np.ndarray, min_size: int | None) -> float:
+    """:func:`noise_variance_estimate` on validated arrays."""
+    N, p = phi.shape
+    n = y.shape[1]
+    w = max(4 * p, 20, min_size or 0)
+    if N < 2 * w:
+        bounds = [0, N]
+    else:  # windows of w rows, the last one takes the remainder (w <= length < 2w)
+        bounds = [i * w for i in range(N // w)] + [N]
+    ratios, dofs = [], []
+    for a, b in itertools.pairwise(bounds):
+        if b - a <= p:
+            continue
+        coef, _, rank, _ = np.linalg.lstsq(phi[a:b], y[a:b], rcond=None)
+        if rank < p:
+            continue
+        resid = y[a:b] - phi[a:b] @ coef
+        dof = n * (b - a - p)
+        ratios.append(float(np.sum(resid**2)) / dof)
+        dofs.append(dof)
+    if not ratios:
+        raise ValueError(
+            "penalty: a penalty rule needs a noise variance estimate, but no window of the data "
+            f"has more samples than the p = {p} regressors and full rank; give a number instead"
+        )
+    nu = float(np.median(dofs))
+    sigma2 = float(np.median(ratios)) / (1.0 - 2.0 / (9.0 * nu)) ** 3
+    return max(sigma2, 1e-12 * float(np.mean(y**2)))
+
+
+# -- shared driver -----------------------------------------------------------------------
+
+
+def _segment(
+    y: np.ndarray,
+    phi: np.ndarray,
+    n_changes: Any,
+    penalty: Any,
+    min_size: Any,
+    *,
+    data_name: str,
+) -> Segmentation:
+    """Validate the options and run the dynamic program or PELT on validated (y, φ)."""
+    N, p = phi.shape
+    n = y.shape[1]
+    options.segment_mode(n_changes, penalty)
+    min_size = options.segment_min_size(min_size, p)
+    options.segmentable_length(N, min_size, data_name)
+    if n_changes is not None:
+        M = options.n_changes_count(n_changes, N, min_size)
+        beta_spec: float | str | None = None
+    else:
+        M = -1
+        beta_spec = options.segment_penalty("bic" if penalty is None else penalty)
+
+    scaled = search.scale_data(y, phi)
+    a_max = search.feasible_starts(scaled.data, p, min_size, search.FEASIBILITY_TOL * N)
+    if a_max[N] < 0:
+        raise SingularProblemError(
+            f"{data_name}: the regressors are linearly dependent over the whole data set (or "
+            "numerically so), so no segment has a unique least-squares model; more excitation "
+            "or fewer regressors is needed"
+        )
+    unit = scaled.y_scale**2
+
+    if M >= 0:
+        if M == 1:  # O(N): one forward and one backward pass
+            best, starts = search.one_change(scaled.data, p, a_max)
+        else:
+            best, starts = search.dynamic_program(scaled.data, p, M, min_size, a_max)
+        costs = best * unit
+        finite = np.isfinite(costs)
+        lowest = costs[finite].min()
+        # the largest m within roundoff of the best (exactly M in the usual case)
+        tol = 1e-12 * lowest + 1e-14 * float(np.sum(y**2))
+        m_opt = int(np.flatnonzero(finite & (costs <= lowest + tol)).max())
+        changepoints = search.backtrack_layers(starts, m_opt)
+        cost = float(costs[m_opt])
+        result = dict(
+            cost=cost, objective=cost, costs_by_n_changes=costs, penalty=None,
+            penalty_rule=None, noise_var=None, solver="dynamic programming",
+            work=2 * N if M == 1 else N * (N + 1) // 2,
+        )
+    else:
+        if isinstance(beta_spec, str):
+            sigma2 = _noise_variance(y, phi, min_size)
+            K = n * p
+            beta = K * np.log(N) * sigma2 if beta_spec == "bic" else 2.0 * K * sigma2
+            rule: str | None = beta_spec
+        else:
+            beta, sigma2, rule = float(beta_spec), None, None
+        margin = search.PRUNE_MARGIN * float(np.sum(scaled.data[:, p:] ** 2))
+        last, _, work = search.pelt(scaled.data, p, beta / unit, min_size, a_max, margin)
+        changepoints = search.backtrack_last(last)
+        # the cost itself, not objective − β·M (which cancels when β dominates)
+        cost = _residual_sum_of_squares(y, phi, changepoints)
+        objective = cost + beta * len(changepoints)
+        result = dict(
+            cost=cost, objective=objective, costs_by_n_changes=None, penalty=float(beta),
+            penalty_rule=rule, noise_var=sigma2, solver="PELT", work=int(work),
+        )
+    bounds = np.concatenate([[0], changepoints, [N]])
+    return Segmentation(
+        changepoints=changepoints,
+        segments=[[int(a), int(b)] for a, b in itertools.pairwise(bounds)],
+        n_changes=len(changepoints),
+        min_size=min_size,
+        **result,
+    )
+
+
+def _residual_sum_of_squares(y: np.ndarray, phi: np.ndarray, changepoints: np.ndarray) -> float:
+    """Σ over the segments of the least-squares residual sum of squares (QR per segment)."""
+    bounds = np.concatenate([[0], changepoints, [y.shape[0]]])
+    total = 0.0
+    for a, b in itertools.pairwise(bounds):
+        q, _ = np.linalg.qr(phi[a:b])
+        resid = y[a:b] - q @ (q.T @ y[a:b])
+        total += float(np.sum(resid**2))
+    return total

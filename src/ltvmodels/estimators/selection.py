@@ -1,0 +1,343 @@
+"""Choosing the regularization λ (and the number of changes for the L0 problem).
+
+Every criterion scores a fit per candidate λ on one grid and keeps the best:
+
+* ``"lcurve"`` (all norms; the paper's choice, Section VI, after Hansen 1994):
+  the curve (log ‖y − Φk‖, log R(Dk)) traced by λ, with R the penalty's norm
+  (‖Dk‖₂ for "sq", Σ_t‖(Dk)_t‖₂ for "group", Σ_t‖(Dk)_t‖₁ for "l1"); the
+  corner is the point of maximum curvature, found on a cubic spline through
+  the grid points as functions of log λ.
+* ``"gcv"`` (norm="sq"): generalized cross-validation
+  N·n·RSS / (N·n − dof)², with the exact effective degrees of freedom
+  dof = tr(Φ H⁻¹ Φᵀ) = Σ_t Σ_i φ_tᵀ (H⁻¹)_{t,i} φ_t from the diagonal blocks of
+  H⁻¹ that the squared-norm solver computes by selected inversion (no dense
+  hat matrix), then refined by a bounded scalar search around the best
+  grid point.
+* ``"ml"`` (norm="sq"): the log marginal likelihood of the Gaussian random
+  walk (noise variance at its maximum-likelihood value for each λ) —
+  empirical Bayes; maximized on the grid, then by a bounded scalar search.
+* ``"cv"`` (all norms): blocked cross-validation on time. The N steps are cut
+  into 5·``n_folds`` contiguous blocks; fold f holds out blocks f, f + n_folds,
+  …; the model is fitted without the held-out equations (their rows of y and
+  φ set to zero, so the penalty bridges the gaps) and scored by the mean
+  squared one-step prediction error on them.
+
+For ``norm="l0"`` (:func:`ltvmodels.fit_segments`) the candidates are numbers
+of changes M, all optimal costs come from one dynamic program, and the
+criterion is ``"bic"`` or ``"aic"`` for Gaussian noise of unknown variance:
+N·n·log(RSS_M / (N·n)) + c·((M + 1)·K + M), c = log(N·n) or 2.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any, Callable
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.optimize import minimize_scalar
+
+from ..core.problem import RegressionProblem, apply_difference, state_space_problem
+from ..core.sparse import solve_sparse
+from ..core.sparse_common import lambda_max
+from ..core.squared import fit_squared
+from ..errors import ConvergenceWarning, PrecisionWarning
+from ..results.selection import LambdaSelection
+from ..validation import arrays, options
+from .segments import fit_segments
+
+__all__ = ["select_lambda", "select_lambda_regression", "DEFAULT_METHOD"]
+
+# The criterion fit(..., lam="auto") uses for each norm.
+DEFAULT_METHOD = {"sq": "ml", "group": "lcurve", "l1": "lcurve", "l0": "bic"}
+METHODS = {
+    "sq": ("ml", "gcv", "lcurve", "cv"),
+    "group": ("lcurve", "cv"),
+    "l1": ("lcurve", "cv"),
+    "l0": ("bic", "aic"),
+}
+GRID_SIZE = 30
+
+
+def select_lambda(
+    x: Any,
+    u: Any = None,
+    *,
+    norm: str = "sq",
+    order: Any = 1,
+    method: str | None = None,
+    lams: Any = None,
+    n_folds: int = 5,
+    max_changes: int = 10,
+    progress: Callable[[int, int], None] | None = None,
+) -> LambdaSelection:
+    """Choose λ for :func:`ltvmodels.fit` (state-space data) by a documented criterion.
+
+    See the module docstring for the criteria. The default grid has 30
+    log-spaced values: for "group"/"l1", λ_max·[1e-3, 1] (λ_max, the smallest
+    λ giving the LTI model, from the optimality conditions); for "sq",
+    s·[0.1, 2·N^d] with s the root-mean-square norm of the regressors φ_t and
+    d the degree of the difference operator (λ/s is then roughly the length,
+    in samples, over which the coefficients are averaged, to the power d).
+    Both grids scale with the data, so the choice is equivariant to rescaling
+    x and u.
+
+    Parameters
+    ----------
+    x : array_like, shape (T, n)
+    u : array_like, shape (T, m) or (T,), optional
+    norm : {"sq", "group", "l1", "l0"}
+        "l0" chooses the number of changes of :func:`ltvmodels.fit_segments`.
+    order : int or sequence of float
+        As in :func:`ltvmodels.fit` (ignored for "l0").
+    method : str, optional
+        "sq": "ml" (default), "gcv", "lcurve", "cv"; "group"/"l1": "lcurve"
+        (default), "cv"; "l0": "bic" (default), "aic".
+    lams : array_like, optional
+        Candidate λ values (> 0), or for "l0" candidate numbers of changes.
+    n_folds : int
+        Folds of the blocked cross-validation (method="cv"), >= 2.
+    max_changes : int
+        For "l0" without ``lams``: candidates 0 … max_changes.
+    progress : callable, optional
+        Called as ``progress(done, total)`` after each candidate is scored
+        (e.g. to draw a progress bar).
+
+    Returns
+    -------
+    LambdaSelection
+    """
+    x, u = arrays.state_and_input(x, u)
+    norm, method = _norm_and_method(norm, method, tuple(METHODS))
+    if norm == "l0":
+        return _select_changes(x, u, method, lams, max_changes)
+    coeffs = options.difference_coefficients(order, max_degree=x.shape[0])
+    return _select_validated(state_space_problem(x, u, coeffs), norm, method, lams, n_folds,
+                             progress)
+
+
+def select_lambda_regression(
+    y: Any,
+    phi: Any,
+    *,
+    norm: str = "sq",
+    order: Any = 1,
+    method: str | None = None,
+    lams: Any = None,
+    n_folds: int = 5,
+    progress: Callable[[int, int], None] | None = None,
+) -> LambdaSelection:
+    """:func:`select_lambda` for a regression y_t = Θ_t φ_t + e_t (any front-end).
+
+    For AR/ARX models pass the pair from :func:`ltvmodels.ar_regressors` or
+    :func:`ltvmodels.arx_regressors`; the chosen λ is then the one
+    ``fit_ar(..., lam="auto")`` uses (with the default method).
+
+    Parameters
+    ----------
+    y : array_like, shape (N, n) or (N,)
+    phi : array_like, shape (N, p) or (N,)
+    norm : {"sq", "group", "l1"}
+    order, method, lams, n_folds, progress
+        As in :func:`select_lambda`.
+    """
+    y, phi = arrays.regression_data(y, phi)
+    norm, method = _norm_and_method(norm, method, ("sq", "group", "l1"))
+    coeffs = options.difference_coefficients(order, max_degree=y.shape[0])
+    return _select_validated(RegressionProblem(y=y, phi=phi, coeffs=coeffs), norm, method,
+                             lams, n_folds, progress)
+
+
+def _norm_and_method(norm: Any, method: Any, norms: tuple[str, ...]) -> tuple[str, str]:
+    """The validated norm and criterion (the norm's default when ``method`` is None)."""
+    norm = options.choice(norm, "norm", norms)
+    method = options.choice(DEFAULT_METHOD[norm] if method is None else method, "method",
+                              METHODS[norm])
+    return norm, method
+
+
+def _select_validated(problem, norm, method, lams, n_folds, progress) -> LambdaSelection:
+    """Check the sample count and ``n_folds``, then :func:`select_for_problem`."""
+    options.enough_samples(problem.N, problem.p, problem.degree)
+    n_folds = options.integer(n_folds, "n_folds", minimum=2)
+    return select_for_problem(problem, norm, method, lams, n_folds=n_folds, progress=progress)
+
+
+def select_for_problem(
+    problem: RegressionProblem,
+    norm: str,
+    method: str,
+    lams: Any,
+    *,
+    n_folds: int = 5,
+    progress: Callable[[int, int], None] | None = None,
+) -> LambdaSelection:
+    """:func:`select_lambda` on a validated regression problem (any front-end)."""
+    grid = _grid(problem, norm) if lams is None else arrays.positive_grid(lams, "lams")
+
+    def scored(values):
+        """Yield each candidate, reporting the ones done so far."""
+        for i, value in enumerate(values):
+            yield value
+            if progress is not None:
+                progress(i + 1, len(values))
+
+    if method == "cv":
+        scores = np.array([_cv_error(problem, norm, lam, n_folds) for lam in scored(grid)])
+        return LambdaSelection(float(grid[np.argmin(scores)]), grid, scores, method, norm)
+    fits = [criterion_fit(problem, norm, lam, compute_cov=method == "gcv")
+            for lam in scored(grid)]
+    residual = np.array([np.sqrt(f["rss"]) for f in fits])
+    penalty = np.array([f["penalty_norm"] for f in fits])
+    if method == "lcurve":
+        curvature = _lcurve_curvature(grid, residual, penalty)
+        best = int(np.argmax(curvature))
+        return LambdaSelection(float(grid[best]), grid, curvature, method, norm, residual, penalty)
+    if method == "ml":
+        scores = np.array([f["loglik"] for f in fits])
+        lam = _refine(grid, scores, lambda lam: -criterion_fit(problem, norm, lam)["loglik"],
+                      maximize=True)
+        return LambdaSelection(lam, grid, scores, method, norm, residual, penalty)
+    # gcv
+    dof = np.array([f["dof"] for f in fits])
+    scores = np.array([_gcv(problem, f["rss"], f["dof"]) for f in fits])
+    lam = _refine(grid, scores, lambda lam: _gcv_at(problem, lam), maximize=False)
+    return LambdaSelection(lam, grid, scores, method, norm, residual, penalty, dof)
+
+
+# -- fits and criteria --------------------------------------------------------------------
+
+
+def criterion_fit(
+    problem: RegressionProblem, norm: str, lam: float, *, compute_cov: bool = False
+) -> dict:
+    """One fit for the criteria at a scalar λ, without building a model.
+
+    Returns a dict with "theta" (N, n, p), "rss", "penalty_norm" (R(Dk), see
+    the module docstring) and, for norm="sq", "loglik" and (with
+    ``compute_cov``) "dof", the effective degrees of freedom tr(Φ H⁻¹ Φᵀ).
+    """
+    K = problem.K
+    if norm == "sq":
+        with warnings.catch_warnings():
+            # The largest grid values (averaging over the whole record) may lose
+            # digits; they are scored all the same and are rarely the choice.
+            warnings.simplefilter("ignore", PrecisionWarning)
+            result = fit_squared(problem, np.eye(K) * lam**2, [], noise_var=None,
+                                 compute_cov=compute_cov)
+        out = {"theta": result.theta, "rss": result.rss, "loglik": result.loglik,
+               "penalty_norm": float(np.sqrt(result.penalty)) / lam}
+        if compute_cov:
+            out["dof"] = _effective_dof(problem, result)
+        return out
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        solution = solve_sparse(problem, np.full(K, lam), norm, max_iter=200, tol=1e-6)
+    k = solution.theta.reshape(problem.N, K)
+    Dk = apply_difference(k, problem.coeffs)
+    reg = np.linalg.norm(Dk, axis=1).sum() if norm == "group" else np.abs(Dk).sum()
+    return {"theta": solution.theta, "rss": solution.rss, "penalty_norm": float(reg)}
+
+
+def _effective_dof(problem: RegressionProblem, result: Any) -> float:
+    """tr(Φ H⁻¹ Φᵀ) from the diagonal blocks of H⁻¹ (σ² divided out of the covariances)."""
+    n, p = problem.n, problem.p
+    cov = result.cov
+    phi = problem.phi
+    if cov.row_group is not None:  # rows independent: blocks (G, N, p, p)
+        per_group = np.einsum("ta,gtab,tb->g", phi, cov.blocks, phi)
+        total = float(per_group[cov.row_group].sum())
+    else:
+        full = cov.blocks.reshape(problem.N, n, p, n, p)
+        total = float(np.einsum("ta,tiaib,tb->", phi, full, phi))
+    return total / result.noise_var
+
+
+def _gcv(problem: RegressionProblem, rss: float, dof: float) -> float:
+    size = problem.N * problem.n
+    return size * rss / max(size - dof, 1e-12) ** 2
+
+
+def _gcv_at(problem: RegressionProblem, lam: float) -> float:
+    f = criterion_fit(problem, "sq", lam, compute_cov=True)
+    return _gcv(problem, f["rss"], f["dof"])
+
+
+def _refine(grid: np.ndarray, scores: np.ndarray, objective, *, maximize: bool) -> float:
+    """Bounded scalar search on log λ between the neighbours of the best grid point."""
+    best = int(np.argmax(scores) if maximize else np.argmin(scores))
+    if best in (0, len(grid) - 1):  # at the edge of the grid: keep the grid point
+        return float(grid[best])
+    lo, hi = np.log(grid[best - 1]), np.log(grid[best + 1])
+    res = minimize_scalar(lambda v: objective(float(np.exp(v))), bounds=(lo, hi),
+                          method="bounded", options={"xatol": 1e-3})
+    value_best = -scores[best] if maximize else scores[best]
+    return float(np.exp(res.x)) if res.fun <= value_best else float(grid[best])
+
+
+def _lcurve_curvature(grid: np.ndarray, residual: np.ndarray, penalty: np.ndarray) -> np.ndarray:
+    """Signed curvature of (log residual, log penalty) as functions of log λ at the grid.
+
+    Positive where the curve bends like the corner of an L (Hansen's sign
+    convention); computed from a cubic spline through the grid points.
+    """
+    t = np.log(grid)
+    tiny = np.finfo(float).tiny
+    rho = CubicSpline(t, np.log(np.maximum(residual, tiny)))
+    eta = CubicSpline(t, np.log(np.maximum(penalty, tiny)))
+    r1, r2, e1, e2 = rho(t, 1), rho(t, 2), eta(t, 1), eta(t, 2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        kappa = (r1 * e2 - r2 * e1) / (r1**2 + e1**2) ** 1.5
+    kappa[~np.isfinite(kappa)] = -np.inf  # flat stretches (e.g. the LTI end) have no corner
+    return kappa
+
+
+def _cv_error(problem: RegressionProblem, norm: str, lam: float, n_folds: int) -> float:
+    """Mean squared one-step prediction error on held-out blocks (blocked CV on time)."""
+    N = problem.N
+    n_blocks = min(5 * n_folds, N // 2)
+    block = np.minimum(np.arange(N) * n_blocks // N, n_blocks - 1)
+    fold = block % n_folds
+    errors = 0.0
+    for f in range(n_folds):
+        held = fold == f
+        y, phi = problem.y.copy(), problem.phi.copy()
+        y[held] = 0.0
+        phi[held] = 0.0
+        train = RegressionProblem(y=y, phi=phi, coeffs=problem.coeffs)
+        theta = criterion_fit(train, norm, lam)["theta"]
+        pred = np.einsum("tij,tj->ti", theta[held], problem.phi[held])
+        errors += float(np.sum((problem.y[held] - pred) ** 2))
+    return errors / (N * problem.n)
+
+
+def _grid(problem: RegressionProblem, norm: str) -> np.ndarray:
+    """The default candidates (see :func:`select_lambda`)."""
+    if norm == "sq":
+        scale = float(np.sqrt(np.mean(np.sum(problem.phi**2, axis=1))))
+        d = problem.degree
+        return scale * np.logspace(-1.0, np.log10(2.0 * problem.N**d), GRID_SIZE)
+    lam_max = lambda_max(problem, norm)
+    return lam_max * np.logspace(-3.0, 0.0, GRID_SIZE)
+
+
+def _select_changes(x: np.ndarray, u: np.ndarray, method: str, lams: Any,
+                    max_changes: Any) -> LambdaSelection:
+    """Number of changes for fit_segments by BIC/AIC over one dynamic program."""
+    if lams is None:
+        max_changes = options.integer(max_changes, "max_changes", minimum=0)
+        candidates = np.arange(max_changes + 1)
+    else:
+        candidates = arrays.count_grid(lams, "lams")
+    N, n, p = x.shape[0] - 1, x.shape[1], x.shape[1] + u.shape[1]
+    M_max = min(int(candidates.max()), N // p - 1)
+    costs = fit_segments(x, u, n_changes=M_max, compute_cov=False).info["costs_by_n_changes"]
+    candidates = candidates[candidates <= M_max]
+    size = N * n
+    c = np.log(size) if method == "bic" else 2.0
+    with np.errstate(divide="ignore"):
+        scores = np.array([size * np.log(costs[M] / size) + c * ((M + 1) * n * p + M)
+                           for M in candidates])
+    best = int(candidates[np.argmin(scores)])
+    return LambdaSelection(float(best), candidates.astype(float), scores, method, "l0",
+                           residual_norms=np.sqrt(costs[candidates]))

@@ -1,0 +1,35 @@
+"""Matplotlib figures of identified LTV models.
+
+matplotlib is imported inside the functions, so importing this package does
+not load it. New figures are created as :class:`matplotlib.figure.Figure`
+objects directly (not through :mod:`matplotlib.pyplot`), so nothing here
+needs a display or a GUI backend: save them with ``fig.savefig(path)``; in
+Jupyter a returned figure displays itself. To draw into a pyplot figure or
+axes, pass it as ``fig`` / ``ax``.
+
+The functions receive what they draw as data: any model object with the
+attributes they use (:class:`ltvmodels.LTVModel` has them all), arrays, or a
+:class:`~ltvmodels.LambdaSelection`. They never fit anything.
+"""
+
+from .coefficients import (
+    plot_activation,
+    plot_coefficients,
+    plot_eigenvalues,
+    plot_model,
+    plot_poles,
+)
+from .selection import plot_lambda_selection
+from .signals import plot_root_spectrogram, plot_simulation, plot_spectrogram
+
+__all__ = [
+    "plot_coefficients",
+    "plot_activation",
+    "plot_eigenvalues",
+    "plot_poles",
+    "plot_root_spectrogram",
+    "plot_spectrogram",
+    "plot_simulation",
+    "plot_lambda_selection",
+    "plot_model",
+]

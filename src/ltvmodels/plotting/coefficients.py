@@ -1,0 +1,327 @@
+"""Figures of a state-space model's coefficients: values, activation, eigenvalues, overview."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..validation import arrays
+from .figure import ESTIMATE_COLOR, new_axes, new_figure
+
+if TYPE_CHECKING:  # pragma: no cover
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+MODELS_WITH_CHANGEPOINTS = ("group", "l1", "piecewise", "l0", "lti")
+"""Norms of the models whose ``changepoints`` were found by the fit itself."""
+
+def _coefficient_names(n: int, m: int) -> list[list[str]]:
+    return [[f"A[{i},{j}]" for j in range(n)] + [f"B[{i},{j}]" for j in range(m)]
+            for i in range(n)]
+
+
+def _model_theta(model: Any) -> np.ndarray:
+    """(N, n, n + m) coefficients [A_t B_t] of ``model``."""
+    for attr in ("A", "B"):
+        if not hasattr(model, attr):
+            raise TypeError(
+                f"model: expected an object with attributes A (N, n, n) and B (N, n, m) "
+                f"such as an LTVModel, received {type(model).__name__} without {attr!r}"
+            )
+    A = np.asarray(model.A, dtype=float)
+    B = np.asarray(model.B, dtype=float)
+    if A.ndim != 3 or A.shape[1] != A.shape[2]:
+        raise ValueError(f"model.A: expected shape (N, n, n), received {A.shape}")
+    if B.ndim != 3 or B.shape[:2] != A.shape[:2]:
+        raise ValueError(f"model.B: expected shape {A.shape[:2] + ('m',)}, received {B.shape}")
+    return np.concatenate([A, B], axis=2)
+
+
+def _truth_theta(truth: Any, N: int, n: int, p: int) -> np.ndarray:
+    """Coerce ``truth`` to (N, n, p) coefficients (a new array)."""
+    K = n * p
+    if hasattr(truth, "A") and hasattr(truth, "B"):
+        A = np.asarray(truth.A, dtype=float)
+        B = np.asarray(truth.B, dtype=float)
+        if A.shape != (N, n, n) or B.shape != (N, n, p - n):
+            raise ValueError(
+                f"truth: expected A of shape {(N, n, n)} and B of shape {(N, n, p - n)} "
+                f"(as the model), received A {A.shape} and B {B.shape}"
+            )
+        return np.concatenate([A, B], axis=2)
+    arr = arrays.as_float_array(truth, "truth")
+    if arr.shape == (N, K):
+        return arr.reshape(N, n, p)
+    if arr.shape == (N, n, p):
+        return arr
+    if arr.shape == (K,):
+        return np.broadcast_to(arr.reshape(n, p), (N, n, p)).copy()
+    raise ValueError(
+        f"truth: expected an object with .A and .B, or an array of shape ({N}, {K}) "
+        f"(true k_t per step), ({N}, {n}, {p}) or ({K},) (constant), received shape {arr.shape}"
+    )
+
+
+def plot_coefficients(model: Any, truth: Any = None, *, bands: bool = True,
+                      fig: "Figure | None" = None) -> "Figure":
+    """Plot every coefficient of [A_t B_t] over time, one subplot each.
+
+    Parameters
+    ----------
+    model : LTVModel
+        Identified model (any object with ``A`` (N, n, n), ``B`` (N, n, m) and
+        optionally ``std()`` → (N, K) works).
+    truth : object with ``.A``/``.B``, or array_like, optional
+        True coefficients, drawn as dashed black lines: e.g. a
+        :class:`ltvmodels.systems.SimulatedData` or another model (``A``
+        (N, n, n), ``B`` (N, n, m)), an (N, K) array of parameter vectors
+        k_t = ``np.hstack([A_t, B_t]).ravel()``, an (N, n, n + m) array, or a
+        (K,) vector for constant coefficients.
+    bands : bool, default True
+        Shade ±2 posterior standard deviations (``model.std()``) around the
+        estimates, when the model has covariances (``norm="sq"`` fits with
+        ``compute_cov=True``); otherwise no bands are drawn.
+    fig : matplotlib.figure.Figure, optional
+        Figure to draw into; it is cleared first. Default: a new
+        :class:`~matplotlib.figure.Figure` (no pyplot, no display needed).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        With n × (n + m) axes in row-major order, titled ``"A[i,j]"`` /
+        ``"B[i,j]"``; the x axis is the model index t = 0 … N − 1.
+
+    Raises
+    ------
+    TypeError, ValueError
+        If ``model`` lacks ``A``/``B`` or ``truth`` has the wrong shape.
+    """
+    if not isinstance(bands, bool):
+        raise TypeError(f"bands: expected True or False, received {bands!r}")
+    theta = _model_theta(model)
+    N, n, p = theta.shape
+    m = p - n
+    truth_theta = None if truth is None else _truth_theta(truth, N, n, p)
+    std = None
+    if bands and callable(getattr(model, "std", None)):
+        std = model.std()
+        if std is not None:
+            std = np.asarray(std, dtype=float)
+            if std.shape != (N, n * p):
+                raise ValueError(f"model.std(): expected shape {(N, n * p)}, received {std.shape}")
+    if fig is None:
+        fig = new_figure((min(2.6 * p + 0.6, 18.0), min(1.9 * n + 0.5, 14.0)))
+    else:
+        fig.clear()
+    axes = fig.subplots(n, p, sharex=True, squeeze=False)
+    t = np.arange(N)
+    names = _coefficient_names(n, m)
+    for i in range(n):
+        for j in range(p):
+            ax = axes[i, j]
+            est = theta[:, i, j]
+            if std is not None:
+                s = std[:, i * p + j]
+                ax.fill_between(t, est - 2 * s, est + 2 * s, color=ESTIMATE_COLOR, alpha=0.25,
+                                linewidth=0, label="±2σ")
+            ax.plot(t, est, color=ESTIMATE_COLOR, linewidth=1.2, label="estimate")
+            if truth_theta is not None:
+                ax.plot(t, truth_theta[:, i, j], color="black", linestyle="--", linewidth=1.2,
+                        label="truth")
+            ax.set_title(names[i][j])
+            ax.grid(True, alpha=0.3)
+            if i == n - 1:
+                ax.set_xlabel("t")
+    axes[0, 0].legend(fontsize="small", loc="best")
+    return fig
+
+
+def plot_activation(model: Any, ax: "Axes | None" = None, *,
+                    changepoints: Any = None) -> "Axes":
+    """Plot the activation ‖(Dk)_t‖ of the model over time.
+
+    Large values mark where the coefficients change (paper Section III); with
+    a sparse norm they are the change points.
+
+    Parameters
+    ----------
+    model : LTVModel
+        Any object with ``activation()`` → (N − d,) (d the order of the
+        difference operator).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw into. Default: the single axes of a new Figure.
+    changepoints : array_like of int, optional
+        Change points c to mark (e.g. :func:`ltvmodels.find_changepoints` of
+        the model, or ``model.changepoints``), drawn as dashed red vertical
+        lines at activation index t = c − ⌈d/2⌉, where a change between
+        k_{c−1} and k_c shows (d the degree of the model's difference
+        operator, 1 when it has none); an empty sequence draws a legend entry
+        only.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        The axes (``ax.figure`` is its figure). Point t shows ‖(Dk)_t‖, where
+        (Dk)_t = Σ_j c_j k_{t+j} involves k_t … k_{t+d}; for order 1 a jump
+        between k_{c−1} and k_c shows at t = c − 1. ``ax.lines[0]`` is the
+        activation, the change-point lines follow it.
+    """
+    if not callable(getattr(model, "activation", None)):
+        raise TypeError(f"model: expected an object with an activation() method such as an "
+                        f"LTVModel, received {type(model).__name__}")
+    marks = None
+    if changepoints is not None:
+        marks = arrays.as_float_array(changepoints, "changepoints").ravel()
+        if np.any(marks != np.round(marks)):
+            raise ValueError(f"changepoints: expected integers, received {marks.tolist()}")
+    act = np.asarray(model.activation(), dtype=float)
+    if ax is None:
+        ax = new_axes((7.0, 2.8))
+    ax.plot(np.arange(act.shape[0]), act, color=ESTIMATE_COLOR, linewidth=1.2,
+            label=r"$\|(Dk)_t\|$")
+    if marks is not None:
+        coeffs = getattr(model, "coeffs", None)
+        degree = 1 if coeffs is None else max(len(np.atleast_1d(coeffs)) - 1, 1)
+        shift = (degree + 1) // 2
+        for i, c in enumerate(marks.astype(int)):
+            ax.axvline(c - shift, color="C3", linestyle="--", linewidth=1.0,
+                       label="change points" if i == 0 else None)
+        found = ", ".join(str(int(c)) for c in marks) if marks.size else "none"
+        if not marks.size:
+            ax.plot([], [], color="C3", linestyle="--", linewidth=1.0, label="change points")
+        ax.legend(fontsize="small", loc="upper right", title=f"detected: {found}",
+                  title_fontsize="small")
+    ax.set_xlabel("t")
+    ax.set_ylabel(r"$\|(Dk)_t\|$")
+    ax.set_title("Activation")
+    ax.set_ylim(bottom=0)
+    ax.grid(True, alpha=0.3)
+    return ax
+
+
+def plot_eigenvalues(model: Any, ax: "Axes | None" = None) -> "Axes":
+    """Plot the magnitudes of the eigenvalues of A_t over time.
+
+    Curve i is the i-th largest |λ(A_t)| at each t; the dotted line marks the
+    frozen-time stability limit |λ| = 1.
+
+    Parameters
+    ----------
+    model : LTVModel
+        Any object with ``A`` (N, n, n).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw into. Default: the single axes of a new Figure.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        The axes (``ax.figure`` is its figure).
+    """
+    A = arrays.dynamics_matrices(model)
+    mag = np.sort(np.abs(np.linalg.eigvals(A)), axis=1)[:, ::-1]  # (N, n), largest first
+    if ax is None:
+        ax = new_axes((7.0, 2.8))
+    t = np.arange(A.shape[0])
+    for i in range(mag.shape[1]):
+        ax.plot(t, mag[:, i], linewidth=1.2, label=rf"$|\lambda_{{{i + 1}}}(A_t)|$")
+    ax.axhline(1.0, color="black", linestyle=":", linewidth=1.0, label=r"$|\lambda| = 1$")
+    ax.set_xlabel("t")
+    ax.set_ylabel(r"$|\lambda(A_t)|$")
+    ax.set_title("Eigenvalue magnitudes of $A_t$")
+    ax.set_ylim(bottom=0, top=max(1.1, float(mag.max(initial=0.0)) * 1.05))
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize="small", loc="best")
+    return ax
+
+
+
+def plot_poles(model: Any, ax: "Axes | None" = None) -> "Axes":
+    """Plot the eigenvalues of A_t in the complex plane with the unit circle.
+
+    Every eigenvalue of every A_t is one dot, coloured by t, so a time-varying
+    model shows its eigenvalues moving; outside the unit circle A_t is
+    unstable at frozen time. :func:`plot_eigenvalues` shows the magnitudes
+    over time instead.
+
+    Parameters
+    ----------
+    model : LTVModel
+        Any object with ``A`` (N, n, n).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw into. Default: the single axes of a new Figure (with a
+        colour bar for t).
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        The axes; ``ax.lines[0]`` is the unit circle and ``ax.collections[0]``
+        the eigenvalues (N·n points), equal aspect ratio.
+    """
+    A = arrays.dynamics_matrices(model)
+    new = ax is None
+    if ax is None:
+        ax = new_axes((4.6, 4.0))
+    eig = np.linalg.eigvals(A)  # (N, n)
+    N, n = eig.shape
+    phase = np.linspace(0.0, 2 * np.pi, 361)
+    ax.plot(np.cos(phase), np.sin(phase), color="black", linestyle=":", linewidth=1.0,
+            label="unit circle")
+    times = np.repeat(np.arange(N), n)
+    points = ax.scatter(eig.real.ravel(), eig.imag.ravel(), c=times, cmap="viridis", s=6,
+                        label=r"$\lambda(A_t)$")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("Re λ")
+    ax.set_ylabel("Im λ")
+    ax.set_title("Eigenvalues of $A_t$")
+    ax.grid(True, alpha=0.3)
+    if new:
+        ax.figure.colorbar(points, ax=ax, label="t")
+    return ax
+
+
+def plot_model(model: Any, truth: Any = None, *, changepoints: Any = None,
+               fig: "Figure | None" = None) -> "Figure":
+    """Overview of a state-space model: coefficients, activation, eigenvalue magnitudes.
+
+    The top part is :func:`plot_coefficients` (±2σ bands where the model has
+    covariances, the truth dashed if given); below it
+    :func:`plot_activation` with the change points marked and
+    :func:`plot_eigenvalues` with the line |λ| = 1.
+
+    Parameters
+    ----------
+    model : LTVModel
+    truth : optional
+        As in :func:`plot_coefficients`.
+    changepoints : array_like of int, optional
+        Change points to mark on the activation. Default: the change points
+        the model found itself (``model.changepoints`` for the sparse norms
+        "group" and "l1", and for models piecewise constant by construction:
+        "piecewise", "l0", "lti"); none for a squared-norm fit, whose
+        activation has no sparse peaks: pass
+        ``changepoints=ltvmodels.find_changepoints(model)`` to mark the
+        detected ones.
+    fig : matplotlib.figure.Figure, optional
+        Figure to draw into; it is cleared first. Default: a new Figure.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        ``fig.subfigs[0]`` holds the coefficient axes, ``fig.subfigs[1]`` the
+        activation and eigenvalue axes.
+    """
+    theta = _model_theta(model)
+    _, n, p = theta.shape
+    if changepoints is None and getattr(model, "norm", None) in MODELS_WITH_CHANGEPOINTS:
+        changepoints = np.asarray(model.changepoints)
+    if fig is None:
+        fig = new_figure((min(2.6 * p + 0.6, 18.0), min(1.9 * n + 0.5, 14.0) + 2.8))
+    else:
+        fig.clear()
+    top, bottom = fig.subfigures(2, 1, height_ratios=[min(1.9 * n + 0.5, 14.0), 2.8])
+    plot_coefficients(model, truth=truth, fig=top)
+    ax_act, ax_eig = bottom.subplots(1, 2)
+    plot_activation(model, ax=ax_act, changepoints=changepoints)
+    plot_eigenvalues(model, ax=ax_eig)
+    return fig

@@ -1,0 +1,199 @@
+"""Figures of signals: a simulation or prediction against data, spectrograms."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..validation import arrays, options
+from .figure import ESTIMATE_COLOR, new_axes, new_figure
+
+if TYPE_CHECKING:  # pragma: no cover
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+
+def plot_simulation(data: Any, simulation: Any, *, start: int = 0, names: Any = None,
+                    label: str = "simulation", fig: "Figure | None" = None) -> "Figure":
+    """Plot a simulation or prediction against the recorded data, one subplot per signal.
+
+    Parameters
+    ----------
+    data : array_like, shape (T, n) or (T,)
+        Recorded signals (e.g. the states x), drawn solid.
+    simulation : array_like, shape (S, n) or (S,)
+        Simulated or predicted signals, drawn dashed; row j belongs to time
+        ``start + j`` of ``data`` (``model.simulate(x[0], u)``: start 0;
+        ``model.predict(x, u)``, predictions of x[1:]: start 1; AR models:
+        ``model.lag``).
+    start : int, default 0
+        Time index of the first row of ``simulation``, with
+        ``start + S <= T``.
+    names : sequence of str, optional
+        Titles of the n subplots (default "x[0]", "x[1]", …).
+    label : str, default "simulation"
+        Legend label of the dashed curves (e.g. "one-step prediction").
+    fig : matplotlib.figure.Figure, optional
+        Figure to draw into; it is cleared first. Default: a new Figure.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        With n axes stacked vertically (shared time axis); each title gives
+        the RMS error of the simulation against the data over its rows.
+
+    Raises
+    ------
+    TypeError, ValueError
+        Shapes that do not match (the message names the argument).
+    """
+    x = arrays.as_float_array(data, "data")
+    sim = arrays.as_float_array(simulation, "simulation")
+    x = x[:, None] if x.ndim == 1 else x
+    sim = sim[:, None] if sim.ndim == 1 else sim
+    if x.ndim != 2 or x.shape[0] == 0:
+        raise ValueError(f"data: expected shape (T, n) or (T,), received {x.shape}")
+    T, n = x.shape
+    start = options.integer(start, "start", minimum=0)
+    if sim.ndim != 2 or sim.shape[1] != n:
+        raise ValueError(f"simulation: expected shape (S, {n}) (one column per column of "
+                         f"data), received {sim.shape}")
+    S = sim.shape[0]
+    if start + S > T:
+        raise ValueError(f"simulation: rows start .. start + S = {start} .. {start + S} do not "
+                         f"fit in the T = {T} rows of data")
+    if names is None:
+        names = [f"x[{i}]" for i in range(n)]
+    else:
+        if isinstance(names, str):
+            raise TypeError(f"names: expected a sequence of {n} strings, received {names!r}")
+        names = [str(name) for name in names]
+        if len(names) != n:
+            raise ValueError(f"names: expected {n} names, received {len(names)}")
+    if not isinstance(label, str):
+        raise TypeError(f"label: expected a string, received {label!r}")
+    if fig is None:
+        fig = new_figure((8.0, min(1.9 * n + 0.6, 14.0)))
+    else:
+        fig.clear()
+    axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
+    t_data = np.arange(T)
+    t_sim = start + np.arange(S)
+    with np.errstate(over="ignore", invalid="ignore"):
+        err = sim - x[start:start + S]
+        rms = np.sqrt(np.mean(err**2, axis=0)) if S else np.full(n, np.nan)
+    for i, ax in enumerate(axes):
+        ax.plot(t_data, x[:, i], color="black", linewidth=1.0, label="data")
+        ax.plot(t_sim, sim[:, i], color=ESTIMATE_COLOR, linestyle="--", linewidth=1.2,
+                label=label)
+        ax.set_title(f"{names[i]}: RMS error {rms[i]:.3g}", fontsize="medium")
+        ax.grid(True, alpha=0.3)
+        finite = np.concatenate([x[:, i], sim[:, i][np.isfinite(sim[:, i])]])
+        span = float(np.ptp(x[:, i])) or 1.0
+        # keep a diverging simulation from flattening the data
+        low = max(float(finite.min()), x[:, i].min() - 2 * span)
+        high = min(float(finite.max()), x[:, i].max() + 2 * span)
+        pad = 0.05 * ((high - low) or 1.0)
+        ax.set_ylim(low - pad, high + pad)
+    axes[-1].set_xlabel("t")
+    axes[0].legend(fontsize="small", loc="best")
+    return fig
+
+
+
+def plot_root_spectrogram(model: Any, fs: float, *, ax: "Axes | None" = None) -> "Axes":
+    """Plot the root spectrogram of an AR/ARX model: pole frequencies over time.
+
+    Each complex-conjugate pair of poles of 1/A_t(z) is one dot per time step
+    at its frequency (:meth:`ltvmodels.ARXModel.root_spectrogram`), so the
+    resonances of the time-varying model appear as tracks, a parametric
+    counterpart of a spectrogram (draw it over
+    :func:`scipy.signal.spectrogram` for comparison).
+
+    Parameters
+    ----------
+    model : ARModel or ARXModel
+        Any object with ``root_spectrogram(fs)`` → (N, r) and
+        ``sample_index`` (N,).
+    fs : float
+        Sampling frequency (Hz); the time axis is ``sample_index / fs`` seconds.
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw into. Default: the single axes of a new Figure.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        The axes (``ax.figure`` is its figure); the y axis spans 0 … fs/2.
+    """
+    if not callable(getattr(model, "root_spectrogram", None)) or not hasattr(
+        model, "sample_index"
+    ):
+        raise TypeError(f"model: expected an AR/ARX model with root_spectrogram() and "
+                        f"sample_index, received {type(model).__name__}")
+    fs = options.positive_scalar(fs, "fs")
+    freq = np.asarray(model.root_spectrogram(fs), dtype=float)
+    time = np.asarray(model.sample_index, dtype=float) / fs
+    if ax is None:
+        ax = new_axes((7.0, 3.2))
+    for i in range(freq.shape[1]):
+        ax.plot(time, freq[:, i], linestyle="none", marker=".", markersize=1.5,
+                color=ESTIMATE_COLOR, label="pole frequencies" if i == 0 else None)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("frequency (Hz)")
+    ax.set_title("Root spectrogram")
+    ax.set_ylim(0, fs / 2)
+    ax.grid(True, alpha=0.3)
+    return ax
+
+
+
+def plot_spectrogram(y: Any, fs: float, *, ax: "Axes | None" = None, nperseg: int = 256,
+                     dynamic_range: float = 80.0) -> "Axes":
+    """Draw the short-time Fourier spectrogram of a scalar signal in grey.
+
+    The non-parametric counterpart of :func:`plot_root_spectrogram`; draw the
+    root spectrogram over it (same ``ax``) to compare them. Uses
+    :func:`scipy.signal.spectrogram` with 75 % overlapping Hann windows.
+
+    Parameters
+    ----------
+    y : array_like, shape (T,) or (T, 1)
+        The signal.
+    fs : float
+        Sampling frequency (Hz).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw into. Default: the single axes of a new Figure.
+    nperseg : int, default 256
+        Window length (samples), >= 8; shortened to T for short signals.
+    dynamic_range : float, default 80.0
+        Power range shown (dB below the maximum), > 0.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        With the spectrogram as ``ax.collections[0]`` (a QuadMesh); the axes
+        are time (s) and frequency (Hz).
+    """
+    from scipy.signal import spectrogram
+
+    arr = arrays.as_float_array(y, "y")
+    if arr.ndim == 2 and arr.shape[1] == 1:
+        arr = arr[:, 0]
+    if arr.ndim != 1 or arr.shape[0] < 8:
+        raise ValueError(f"y: expected a 1-d signal of at least 8 samples, received shape "
+                         f"{arr.shape}")
+    fs = options.positive_scalar(fs, "fs")
+    nperseg = min(options.integer(nperseg, "nperseg", minimum=8), arr.shape[0])
+    dynamic_range = options.positive_scalar(dynamic_range, "dynamic_range")
+    freq, time, power = spectrogram(arr, fs=fs, nperseg=nperseg, noverlap=(3 * nperseg) // 4)
+    power_db = 10 * np.log10(power + 1e-300)
+    top = float(power_db.max())
+    if ax is None:
+        ax = new_axes((7.0, 3.2))
+    ax.pcolormesh(time, freq, power_db, cmap="Greys", shading="auto",
+                  vmin=top - dynamic_range, vmax=top)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("frequency (Hz)")
+    ax.set_title("Spectrogram")
+    return ax

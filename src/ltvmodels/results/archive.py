@@ -1,0 +1,150 @@
+"""The model file: a NumPy ``.npz`` archive of the coefficients, the fit record and the sizes.
+
+Members: ``k``, ``noise_cov``, ``lam``, optionally ``coeffs``,
+``cov_blocks``/``cov_row_group`` (the compact covariance), ``changepoints``,
+array-valued ``info`` entries as ``info__<key>``, and ``meta``: one JSON text
+with the format version, the model class, its sizes (``model.structure()``),
+``norm``, ``noise_var``, ``loglik``, the JSON part of ``info`` and (from version
+2) the fit status. Files are read with ``allow_pickle=False``: loading a model
+never executes code from the file.
+
+Version history: 1 (ltvmodels 0.1), 2 (adds the fit status). Version 1 files
+are read too; their status is reconstructed from ``info``.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..core.covariance import CovarianceBlocks
+from .record import FitRecord, FitStatus, iterative_status
+
+FORMAT_VERSION = 2
+READABLE_VERSIONS = (1, 2)
+
+# How version-1 files name the solvers that need no iterations, or search exactly.
+_CLOSED_FORM_SOLVERS = ("block-banded Cholesky (exact)", "least-squares (QR)",
+                        "piecewise least squares", "closed form (lam >= lambda_max)")
+_SEARCH_SOLVERS = ("dynamic programming", "PELT")
+_DETAIL_KEYS = ("duality_gap", "primal_residual", "dual_residual", "polished", "rho",
+                "n_factorizations", "lambda_max")
+
+
+@dataclass
+class ModelFile:
+    """The contents of a model file, ready to rebuild the model."""
+
+    model_type: str
+    k: np.ndarray
+    structure: dict
+    fit: FitRecord
+
+
+def write(model: Any, path: str | Path) -> None:
+    """Write ``model`` (any model of :mod:`ltvmodels.results`) to ``path``."""
+    fit = model.record
+    arrays: dict[str, np.ndarray] = {"k": np.asarray(model.k), "noise_cov": fit.noise_cov}
+    if fit.coeffs is not None:
+        arrays["coeffs"] = fit.coeffs
+    arrays["lam"] = np.asarray(fit.lam, dtype=float)
+    if fit.cov is not None:
+        arrays["cov_blocks"] = fit.cov.blocks
+        if fit.cov.row_group is not None:
+            arrays["cov_row_group"] = fit.cov.row_group
+    if fit.changepoints is not None:
+        arrays["changepoints"] = fit.changepoints
+    info_json, info_arrays = _split_info(fit.info)
+    arrays.update({f"info__{key}": value for key, value in info_arrays.items()})
+    meta = {
+        "format_version": FORMAT_VERSION,
+        "model_type": type(model).__name__,
+        **model.structure(),
+        "norm": fit.norm,
+        "noise_var": fit.noise_var,
+        "loglik": fit.loglik,
+        "info": info_json,
+        "status": None if fit.status is None else fit.status.to_dict(),
+    }
+    arrays["meta"] = np.array(json.dumps(meta))
+    with open(path, "wb") as fh:
+        np.savez(fh, **arrays)
+
+
+def read(path: str | Path) -> ModelFile:
+    """Read a model file of any readable version (see the module docstring)."""
+    with np.load(path, allow_pickle=False) as data:
+        files = set(data.files)
+        if "meta" not in files or "k" not in files:
+            raise ValueError(f"path: {path} is not an ltvmodels model file (no 'meta'/'k' entries)")
+        meta = json.loads(str(data["meta"]))
+        version = meta.get("format_version")
+        if version not in READABLE_VERSIONS:
+            raise ValueError(
+                f"path: unsupported model file version {version} (this ltvmodels reads "
+                f"versions {', '.join(map(str, READABLE_VERSIONS))})"
+            )
+        cov = None
+        if "cov_blocks" in files:
+            row_group = data["cov_row_group"] if "cov_row_group" in files else None
+            cov = CovarianceBlocks(data["cov_blocks"], row_group)
+        info = dict(meta["info"])
+        info.update({key[len("info__"):]: data[key] for key in files if key.startswith("info__")})
+        if version == 1:
+            status = _status_from_info(info)
+        else:
+            status = None if meta["status"] is None else FitStatus.from_dict(meta["status"])
+        lam = data["lam"]
+        fit = FitRecord(
+            norm=meta["norm"],
+            coeffs=data["coeffs"] if "coeffs" in files else None,
+            lam=float(lam) if lam.ndim == 0 else lam,
+            cov=cov,
+            noise_var=meta["noise_var"],
+            noise_cov=data["noise_cov"],
+            loglik=meta["loglik"],
+            info=info,
+            changepoints=data["changepoints"] if "changepoints" in files else None,
+            status=status,
+        )
+        # Files written before model types were recorded hold state-space models.
+        return ModelFile(meta.get("model_type", "LTVModel"), data["k"], meta, fit)
+
+
+def _split_info(info: dict) -> tuple[dict, dict]:
+    """Separate arrays (saved as npz members) from JSON-serializable values."""
+    plain, arrays = {}, {}
+    for key, value in info.items():
+        if isinstance(value, np.ndarray):
+            arrays[key] = value
+        elif isinstance(value, np.generic):
+            plain[key] = value.item()
+        else:
+            plain[key] = value
+    json.dumps(plain)  # fail early (TypeError) on values that cannot be stored
+    return plain, arrays
+
+
+def _status_from_info(info: dict) -> FitStatus | None:
+    """The fit status of a version-1 file, from the solver facts in its ``info``.
+
+    Version 1 did not record whether an interior-point fit that missed its
+    tolerance stalled or ran out of iterations; such fits read as ``max_iter``.
+    """
+    solver = info.get("solver")
+    if not isinstance(solver, str):
+        return None
+    if solver in _CLOSED_FORM_SOLVERS:
+        status = "closed_form"
+    elif solver in _SEARCH_SOLVERS:
+        status = "optimal"
+    else:
+        status = iterative_status(bool(info.get("converged", False)),
+                                  polished=bool(info.get("polished", False)))
+    objective = info.get("objective", info.get("rss", float("nan")))
+    details = {key: info[key] for key in _DETAIL_KEYS if key in info}
+    return FitStatus(status, solver, int(info.get("iterations", 0)), float(objective), details)

@@ -1,0 +1,282 @@
+"""AR and ARX results: time-varying (V)AR(X) models, their poles and root spectrogram.
+
+    y[t] = Σ_{i=1}^{na} A_{t,i} y[t−i] + Σ_{j=1}^{nb} B_{t,j} u[t−nk−j+1] + c_t + e[t]
+
+(:mod:`ltvmodels.core.lags` for the regression behind it; fitted by
+:func:`ltvmodels.fit_ar` and :func:`ltvmodels.fit_arx`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numba
+import numpy as np
+
+from ..core.lags import lag_length, lagged_regressors
+from ..validation import arrays, options
+from .record import FitRecord
+from .regression import RegressionModel
+
+
+@numba.njit(cache=True)
+def _simulate_arx(theta, y, u, noise, na, nb, nk, lag, constant):  # pragma: no cover
+    """y[lag + t] = Θ_t φ_t + noise[t] for t = 0 … N − 1, in place on y (T, n)."""
+    N, n, _ = theta.shape
+    m = u.shape[1]
+    for t in range(N):
+        s = lag + t
+        for i in range(n):
+            acc = noise[t, i]
+            col = 0
+            for i_lag in range(1, na + 1):
+                for j in range(n):
+                    acc += theta[t, i, col] * y[s - i_lag, j]
+                    col += 1
+            for j_lag in range(nb):
+                for j in range(m):
+                    acc += theta[t, i, col] * u[s - nk - j_lag, j]
+                    col += 1
+            if constant:
+                acc += theta[t, i, col]
+            y[s, i] = acc
+    return y
+
+
+class ARXModel(RegressionModel):
+    """An identified time-varying (V)ARX model (see :func:`ltvmodels.fit_arx`).
+
+    Model index j = 0 … N − 1 describes y[L + j] (``sample_index``),
+    L = max(na, nk + nb − 1). For a scalar output (n = 1) the coefficient
+    arrays and predictions drop the output axis.
+
+    Attributes
+    ----------
+    na, nb, nk : int
+        Orders and input delay.
+    constant : bool
+        Whether the model has a constant term c_t.
+    n_inputs : int
+        m, the number of inputs.
+    theta : ndarray, shape (N, n, p)
+        [A_{t,1} … A_{t,na}  B_{t,1} … B_{t,nb}  c_t].
+
+    All attributes of :class:`~ltvmodels.RegressionModel` (``k``, ``cov``,
+    ``noise_var``, ``loglik``, ``info``, ``save``, ...) are available.
+    """
+
+    def __init__(
+        self, k: np.ndarray, n_outputs: int, n_inputs: int, na: int, nb: int, nk: int,
+        constant: bool, fit: FitRecord | None = None,
+    ) -> None:
+        self.n_inputs = int(n_inputs)
+        self.na, self.nb, self.nk = int(na), int(nb), int(nk)
+        self.constant = bool(constant)
+        p = int(n_outputs) * self.na + self.n_inputs * self.nb + int(self.constant)
+        super().__init__(k, n_outputs, p, fit)
+
+    # -- structure --------------------------------------------------------------------
+    @property
+    def lag(self) -> int:
+        """L = max(na, nk + nb − 1): the number of initial samples used only as lags."""
+        return lag_length(self.na, self.nb, self.nk)
+
+    @property
+    def sample_index(self) -> np.ndarray:
+        """(N,) the sample t of y[t] that model index j describes: t = L + j."""
+        return np.arange(self.lag, self.lag + self.N)
+
+    def _squeeze(self, arr: np.ndarray) -> np.ndarray:
+        return arr[:, 0] if self.n_outputs == 1 else arr
+
+    @property
+    def a(self) -> np.ndarray:
+        """Output-lag coefficients [A_{t,1} … A_{t,na}]: (N, n, n·na), or (N, na) for n = 1.
+
+        ``a[t, i, (l − 1)·n + j]`` multiplies y_j[t − l] in output i.
+        """
+        return self._squeeze(self.theta[:, :, : self.n_outputs * self.na])
+
+    @property
+    def b(self) -> np.ndarray:
+        """Input-lag coefficients [B_{t,1} … B_{t,nb}]: (N, n, m·nb), or (N, m·nb) for n = 1.
+
+        ``b[t, i, l·m + j]`` multiplies u_j[t − nk − l] in output i, l = 0 … nb − 1.
+        """
+        start = self.n_outputs * self.na
+        return self._squeeze(self.theta[:, :, start : start + self.n_inputs * self.nb])
+
+    @property
+    def c(self) -> np.ndarray | None:
+        """Constant term c_t: (N, n), or (N,) for n = 1; None without a constant."""
+        if not self.constant:
+            return None
+        return self._squeeze(self.theta[:, :, -1])
+
+    # -- poles ------------------------------------------------------------------------
+    def poles(self) -> np.ndarray:
+        """Poles of 1/A_t(z), A_t(z) = I − Σ_i A_{t,i} z^{−i}, over time.
+
+        The eigenvalues of the (n·na × n·na) companion matrix of each A_t
+        (the roots of z^na − Σ_i a_{t,i} z^{na−i} for scalar y), computed for
+        all t in one batched eigenvalue call.
+
+        Returns
+        -------
+        ndarray of complex, shape (N, n·na)
+            Sorted by angle in (−π, π] at each t.
+        """
+        n, na, N = self.n_outputs, self.na, self.N
+        D = n * na
+        if D == 0:
+            return np.zeros((N, 0), dtype=complex)
+        companion = np.zeros((N, D, D))
+        companion[:, :n, :] = self.theta[:, :, :D]
+        companion[:, n:, : D - n] = np.eye(D - n)
+        poles = np.linalg.eigvals(companion)
+        return np.take_along_axis(poles, np.argsort(np.angle(poles), axis=1), axis=1)
+
+    def root_spectrogram(self, fs: float) -> np.ndarray:
+        """Frequencies of the poles of 1/A_t(z) over time (a parametric spectrogram).
+
+        One frequency per complex-conjugate pair of poles, f = angle(z)·fs/(2π)
+        for the pole z with Im z > 0, sorted increasing at each t. Real poles
+        (at 0 or fs/2) are not resonances and give no frequency: slots left
+        over when poles are real are NaN (at the end of the row). Poles close
+        to the unit circle are sharp spectral peaks; see :meth:`poles` for the
+        radii.
+
+        Parameters
+        ----------
+        fs : float
+            Sampling frequency; the result is in its units (Hz for fs in Hz).
+
+        Returns
+        -------
+        ndarray, shape (N, (n·na) // 2)
+            Row j belongs to sample ``sample_index[j]`` (time sample_index[j] / fs).
+        """
+        fs = options.positive_scalar(fs, "fs")
+        poles = self.poles()
+        freq = np.where(poles.imag > 0, np.angle(poles) * (fs / (2 * np.pi)), np.nan)
+        return np.sort(freq, axis=1)[:, : poles.shape[1] // 2]  # NaNs sort last
+
+    # -- use --------------------------------------------------------------------------
+    def predict(self, y: Any, u: Any = None) -> np.ndarray:
+        """One-step predictions ŷ[t] = Θ_t φ_t from measured data, t = L … T − 1.
+
+        Parameters
+        ----------
+        y : array_like, shape (T, n) or (T,), T = N + L
+            Measured outputs (as fitted, or new data of the same length).
+        u : array_like, shape (T, m) or (T,); None for an AR model.
+
+        Returns
+        -------
+        ndarray, shape (N, n), or (N,) for n = 1
+            Predictions of y[L:].
+        """
+        y, u = arrays.model_series(y, u, N=self.N, n=self.n_outputs, m=self.n_inputs,
+                                      lag=self.lag)
+        _, phi = lagged_regressors(y, u, self.na, self.nb, self.nk, self.constant)
+        return self._squeeze(np.einsum("tij,tj->ti", self.theta, phi))
+
+    def simulate(self, y0: Any, u: Any = None, noise: Any = None) -> np.ndarray:
+        """Simulate the model from initial samples: y[t] = Θ_t φ_t + noise[t − L].
+
+        Parameters
+        ----------
+        y0 : array_like, shape (L, n) or (L,) for n = 1
+            The initial samples y[0:L] (None when L = 0).
+        u : array_like, shape (T, m) or (T,), T = N + L; None for an AR model.
+        noise : array_like, shape (N, n) or (N,) for n = 1, optional
+            e[t] added at t = L … T − 1 (e.g. seeded white noise to simulate the
+            stochastic process); default zero (the noise-free response).
+
+        Returns
+        -------
+        ndarray, shape (T, n), or (T,) for n = 1
+            y[0:L] = y0, then the simulated samples.
+        """
+        y0, u, noise = arrays.simulation_inputs(
+            y0, u, noise, N=self.N, n=self.n_outputs, m=self.n_inputs, lag=self.lag
+        )
+        y = np.zeros((self.N + self.lag, self.n_outputs))
+        y[: self.lag] = y0
+        _simulate_arx(np.ascontiguousarray(self.theta), y, u, noise, self.na, self.nb, self.nk,
+                      self.lag, self.constant)
+        return y[:, 0] if self.n_outputs == 1 else y
+
+    def plot(self, fs: float, ax: Any = None):
+        """Plot the root spectrogram; see :func:`ltvmodels.plotting.plot_root_spectrogram`."""
+        from ..plotting import plot_root_spectrogram
+
+        return plot_root_spectrogram(self, fs, ax=ax)
+
+    # -- persistence and display ------------------------------------------------------
+    def structure(self) -> dict:
+        return {"n_outputs": self.n_outputs, "n_inputs": self.n_inputs, "na": self.na,
+                "nb": self.nb, "nk": self.nk, "constant": self.constant}
+
+    @classmethod
+    def from_structure(cls, k: np.ndarray, structure: dict, fit: FitRecord) -> ARXModel:
+        s = structure
+        return cls(k, s["n_outputs"], s["n_inputs"], s["na"], s["nb"], s["nk"], s["constant"],
+                   fit)
+
+    def _repr_sizes(self) -> str:
+        return (f"n_outputs={self.n_outputs}, n_inputs={self.n_inputs}, na={self.na}, "
+                f"nb={self.nb}, nk={self.nk}, constant={self.constant}")
+
+
+class ARModel(ARXModel):
+    """An identified time-varying (V)AR model: an :class:`ARXModel` without inputs.
+
+    ``predict(y)``, ``simulate(y0, noise=None)`` and ``root_spectrogram(fs)``
+    → (N, (n·na) // 2) are those of :class:`ARXModel`; ``b`` is empty.
+    """
+
+    def __init__(
+        self, k: np.ndarray, n_outputs: int, na: int, constant: bool,
+        fit: FitRecord | None = None,
+    ) -> None:
+        super().__init__(k, n_outputs, 0, na, 0, 1, constant, fit)
+
+    def predict(self, y: Any) -> np.ndarray:
+        """One-step predictions ŷ[t] = Σ_i A_{t,i} y[t−i] (+ c_t), t = na … T − 1.
+
+        Parameters
+        ----------
+        y : array_like, shape (T, n) or (T,), T = N + na
+
+        Returns
+        -------
+        ndarray, shape (N, n), or (N,) for n = 1
+        """
+        return super().predict(y, None)
+
+    def simulate(self, y0: Any, noise: Any = None) -> np.ndarray:
+        """Simulate y[t] = Σ_i A_{t,i} y[t−i] (+ c_t) + noise[t − na] from y[0:na] = y0.
+
+        Parameters
+        ----------
+        y0 : array_like, shape (na, n) or (na,) for n = 1
+        noise : array_like, shape (N, n) or (N,) for n = 1, optional
+            Default zero (the free response).
+
+        Returns
+        -------
+        ndarray, shape (N + na, n), or (N + na,) for n = 1
+        """
+        return super().simulate(y0, None, noise)
+
+    def structure(self) -> dict:
+        return {"n_outputs": self.n_outputs, "na": self.na, "constant": self.constant}
+
+    @classmethod
+    def from_structure(cls, k: np.ndarray, structure: dict, fit: FitRecord) -> ARModel:
+        s = structure
+        return cls(k, s["n_outputs"], s["na"], s["constant"], fit)
+
+    def _repr_sizes(self) -> str:
+        return f"n_outputs={self.n_outputs}, na={self.na}, constant={self.constant}"

@@ -1,0 +1,63 @@
+"""One base for everything that has time-varying [A_t B_t]: sizes and names.
+
+Identified models (:class:`~ltvmodels.LTVModel`), the Kalman results, simulated
+systems (:class:`~ltvmodels.systems.SimulatedData`) and the dynamics of
+:mod:`ltvmodels.control` all describe
+
+    x[t+1] = A_t x[t] + B_t u[t] (+ …),   t = 0 … N − 1,
+
+and derive their sizes from ``A`` (N, n, n) and ``B`` (N, n, m). (The stacked
+coefficients [A_t B_t] are stored by some and derived by others, so each class
+provides them in its own way.)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class LinearTimeVarying:
+    """Sizes and signal names of x[t+1] = A_t x[t] + B_t u[t].
+
+    A mixin: a subclass provides ``A`` of shape (N, n, n) and ``B`` of shape
+    (N, n, m), as attributes or properties; everything here is derived from
+    them.
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+
+    @property
+    def N(self) -> int:
+        """Number of time steps (transitions)."""
+        return self.A.shape[0]
+
+    @property
+    def n(self) -> int:
+        """Number of states."""
+        return self.A.shape[1]
+
+    @property
+    def m(self) -> int:
+        """Number of inputs."""
+        return self.B.shape[2]
+
+    @property
+    def K(self) -> int:
+        """Number of parameters per time step, n·(n + m)."""
+        return self.n * (self.n + self.m)
+
+    @property
+    def state_names(self) -> list[str]:
+        """Names of the states, ``["x0", "x1", …]``."""
+        return signal_names("x", self.n)
+
+    @property
+    def input_names(self) -> list[str]:
+        """Names of the inputs, ``["u0", "u1", …]``."""
+        return signal_names("u", self.m)
+
+
+def signal_names(prefix: str, count: int) -> list[str]:
+    """Default names of ``count`` signals: ``prefix`` followed by 0, 1, …"""
+    return [f"{prefix}{i}" for i in range(count)]

@@ -1,0 +1,116 @@
+"""Results of the Kalman filter and smoother of the parameter random walk.
+
+Produced by :func:`ltvmodels.kalman_filter` and :func:`ltvmodels.kalman_smoother`
+(the recursions are in :mod:`ltvmodels.core.kalman`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.covariance import CovarianceBlocks
+from .base import LinearTimeVarying
+
+
+class _ParameterAccess(LinearTimeVarying):
+    """A_t, B_t and the full covariance from ``k`` (N, K), ``cov`` (N, p, p), ``n_states``."""
+
+    k: np.ndarray
+    cov: np.ndarray
+    n_states: int
+
+    @property
+    def A(self) -> np.ndarray:
+        """(N, n, n) state matrices A_t."""
+        n = self.n_states
+        return self.k.reshape(self.k.shape[0], n, -1)[:, :, :n]
+
+    @property
+    def B(self) -> np.ndarray:
+        """(N, n, m) input matrices B_t."""
+        n = self.n_states
+        return self.k.reshape(self.k.shape[0], n, -1)[:, :, n:]
+
+    def cov_full(self) -> np.ndarray:
+        """(N, K, K) covariance of k_t, I_n ⊗ cov[t]."""
+        n = self.n_states
+        shared = CovarianceBlocks(self.cov[None], np.zeros(n, dtype=int))
+        return shared.full(n, self.cov.shape[1])
+
+
+@dataclass(frozen=True)
+class KalmanFilterResult(_ParameterAccess):
+    """Filtered parameter estimates k_{t|t} = E[k_t | y_0 … y_t].
+
+    Attributes
+    ----------
+    k : ndarray, shape (N, K)
+        Filtered means, k_t = Θ_t.ravel() (rows of [A_t B_t] concatenated).
+        NaN at the time steps where the diffuse filter has not yet identified the
+        state (k_t, …, k_{t−d+1}), i.e. before ``first_identified``.
+    cov : ndarray, shape (N, p, p)
+        Filtered covariance of one row θ_{t,i} of Θ_t (σ² included); all rows share
+        it and are independent, so Cov(k_t | y_0 … y_t) = I_n ⊗ cov[t]. NaN where
+        ``k`` is.
+    loglik : float
+        Log-likelihood of all N observations (prediction-error decomposition);
+        NaN if the state is never identified.
+    first_identified : int
+        First time step with finite estimates (0 with a proper prior); N if none.
+    noise_var : float
+        σ² used.
+    lam : float
+        λ used.
+    coeffs : ndarray, shape (d + 1,)
+        Difference-operator coefficients c_0 … c_d.
+    n_states : int
+        n, the number of output rows.
+
+    Properties ``A`` (N, n, n) and ``B`` (N, n, m) give [A_t B_t] from ``k``;
+    ``cov_full()`` the (N, K, K) covariance.
+    """
+
+    k: np.ndarray
+    cov: np.ndarray
+    loglik: float
+    first_identified: int
+    noise_var: float
+    lam: float
+    coeffs: np.ndarray
+    n_states: int
+
+
+@dataclass(frozen=True)
+class KalmanSmootherResult(_ParameterAccess):
+    """Smoothed parameter estimates k_{t|N} = E[k_t | y_0 … y_{N−1}].
+
+    With the default diffuse initialization these equal the minimizer of
+    Σ_t ‖y_t − Θ_t φ_t‖² + λ² Σ_t ‖(Dk)_t‖² (:func:`ltvmodels.fit`).
+
+    Attributes
+    ----------
+    k : ndarray, shape (N, K)
+        Smoothed means.
+    cov : ndarray, shape (N, p, p)
+        Smoothed covariance of one row θ_{t,i} (σ² included), shared by all rows:
+        Cov(k_t | y) = I_n ⊗ cov[t].
+    loglik : float
+        Log-likelihood (see the module notes on the diffuse convention).
+    filtered : KalmanFilterResult
+        The forward pass.
+
+    Properties ``A`` (N, n, n) and ``B`` (N, n, m) give [A_t B_t] from ``k``;
+    ``cov_full()`` the (N, K, K) covariance.
+    """
+
+    k: np.ndarray
+    cov: np.ndarray
+    loglik: float
+    filtered: KalmanFilterResult
+
+    @property
+    def n_states(self) -> int:
+        """n, the number of output rows."""
+        return self.filtered.n_states

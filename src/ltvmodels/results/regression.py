@@ -1,0 +1,253 @@
+"""The general result: an identified time-varying regression y_t = Θ_t φ_t + e_t.
+
+:class:`RegressionModel` is the result of :func:`ltvmodels.fit_regression` and
+the base class of the state-space model (:mod:`.statespace`) and the AR/ARX
+models (:mod:`.arx`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..core.problem import activation
+from ..validation import arrays
+from . import archive
+from .record import FitRecord
+
+
+class RegressionModel:
+    """An identified time-varying regression y_t = Θ_t φ_t + e_t.
+
+    The general result of :func:`ltvmodels.fit_regression`, and the base class
+    of :class:`~ltvmodels.LTVModel` (φ_t = [x_t; u_t]) and the AR/ARX models
+    (:class:`~ltvmodels.ARXModel`). Model index t = 0 … N − 1 is row t of the
+    regression.
+    The parameter vector is ``k[t] = theta[t].ravel()`` (rows of Θ_t
+    concatenated).
+
+    Attributes
+    ----------
+    k : ndarray, shape (N, K)
+        Parameter vectors, K = n·p.
+    theta : ndarray, shape (N, n, p)
+        Coefficient matrices Θ_t.
+    cov : ndarray or None
+        Posterior covariance of k_t: shape (N, p, p) when the output rows are
+        independent with a shared covariance (then Cov(k_t) = I_n ⊗ cov[t]),
+        otherwise (N, K, K). None if not computed. :meth:`cov_full` always
+        returns (N, K, K); :meth:`std` (N, K).
+    noise_var : float
+        Noise variance σ² of the isotropic model (estimated or given).
+    noise_cov : ndarray, shape (n, n)
+        Noise covariance estimate.
+    loglik : float
+        Log (marginal) likelihood of the data under the model's probabilistic
+        interpretation (see :func:`ltvmodels.fit`).
+    info : dict
+        Solver details: objective, solver name, factorizations, and so on.
+    status : FitStatus or None
+        How the coefficients were computed and whether that met its tolerance
+        (None for coefficients given to the constructor).
+
+    Parameters
+    ----------
+    k : array_like, shape (N, K)
+        Parameter vectors k_t = Θ_t.ravel(), K = n·p.
+    n_outputs, n_regressors : int
+        n and p.
+    fit : FitRecord, optional
+        What the estimator computed besides k (penalty, λ, covariances,
+        noise, likelihood, status, ``info``); default: nothing (given
+        coefficients).
+    """
+
+    def __init__(
+        self, k: np.ndarray, n_outputs: int, n_regressors: int, fit: FitRecord | None = None
+    ) -> None:
+        self._k = np.array(k, dtype=float)
+        self._n_outputs = int(n_outputs)
+        self._n_regressors = int(n_regressors)
+        if self._k.ndim != 2 or self._k.shape[1] != self._n_outputs * self._n_regressors:
+            raise ValueError(
+                f"k: expected shape (N, {self._n_outputs * self._n_regressors}) for "
+                f"{self._n_outputs} outputs and {self._n_regressors} regressors, received "
+                f"{self._k.shape}"
+            )
+        fit = FitRecord() if fit is None else fit
+        self.norm = fit.norm
+        self.coeffs = None if fit.coeffs is None else np.asarray(fit.coeffs, dtype=float)
+        self.lam = fit.lam
+        self._cov = fit.cov
+        self.noise_var = float(fit.noise_var)
+        n = self._n_outputs
+        self.noise_cov = np.full((n, n), np.nan) if fit.noise_cov is None else fit.noise_cov
+        self.loglik = float(fit.loglik)
+        self.info = dict(fit.info)
+        self._changepoints = fit.changepoints
+        self.status = fit.status
+
+    @property
+    def record(self) -> FitRecord:
+        """What the fit computed besides k, as one :class:`FitRecord` (for copies and files)."""
+        return FitRecord(
+            norm=self.norm, coeffs=self.coeffs, lam=self.lam, cov=self._cov,
+            noise_var=self.noise_var, noise_cov=self.noise_cov, loglik=self.loglik,
+            info=self.info, changepoints=self._changepoints, status=self.status,
+        )
+
+    # -- shapes -------------------------------------------------------------------
+    @property
+    def N(self) -> int:
+        """Number of model time steps (regression rows)."""
+        return self._k.shape[0]
+
+    @property
+    def K(self) -> int:
+        return self._k.shape[1]
+
+    @property
+    def n_outputs(self) -> int:
+        """n, the number of outputs (rows of Θ_t)."""
+        return self._n_outputs
+
+    @property
+    def n_regressors(self) -> int:
+        """p, the number of regressors (columns of Θ_t)."""
+        return self._n_regressors
+
+    @property
+    def k(self) -> np.ndarray:
+        """(N, K) parameter vectors (read-only view)."""
+        view = self._k.view()
+        view.flags.writeable = False
+        return view
+
+    @property
+    def theta(self) -> np.ndarray:
+        """(N, n, p) coefficient matrices Θ_t (read-only view)."""
+        return self.k.reshape(self.N, self.n_outputs, self.n_regressors)
+
+    @property
+    def order(self) -> np.ndarray | None:
+        """Difference-operator coefficients c_0 … c_d of the penalty."""
+        return self.coeffs
+
+    # -- uncertainty --------------------------------------------------------------
+    @property
+    def cov(self) -> np.ndarray | None:
+        """Posterior covariance of k_t: (N, p, p) if shared by rows, else (N, K, K)."""
+        if self._cov is None:
+            return None
+        c = self._cov
+        if c.row_group is not None and c.blocks.shape[0] == 1:
+            return c.blocks[0]
+        return self.cov_full()
+
+    @property
+    def cov_shared_by_rows(self) -> bool:
+        """True when :attr:`cov` is the compact (N, p, p) form."""
+        c = self._cov
+        return c is not None and c.row_group is not None and c.blocks.shape[0] == 1
+
+    def cov_full(self) -> np.ndarray | None:
+        """Posterior covariance of k_t as an (N, K, K) array (O(N K²) memory)."""
+        if self._cov is None:
+            return None
+        return self._cov.full(self.n_outputs, self.n_regressors)
+
+    def std(self) -> np.ndarray | None:
+        """(N, K) posterior standard deviations of the entries of k_t."""
+        c = self._cov
+        if c is None:
+            return None
+        if c.row_group is None:
+            var = np.diagonal(c.blocks, axis1=1, axis2=2)
+        else:
+            per_group = np.diagonal(c.blocks, axis1=2, axis2=3)  # (G, N, p)
+            var = np.concatenate([per_group[g] for g in c.row_group], axis=1)
+        return np.sqrt(np.maximum(var, 0.0))
+
+    # -- use ----------------------------------------------------------------------
+    def predict(self, phi: Any) -> np.ndarray:
+        """Predictions ŷ_t = Θ_t φ_t of the regression.
+
+        Parameters
+        ----------
+        phi : array_like, shape (N, p), or (N,) when p = 1
+            Regressors, one row per model time step.
+
+        Returns
+        -------
+        ndarray, shape (N, n)
+        """
+        phi = arrays.regressor_rows(phi, self.N, self.n_regressors)
+        return np.einsum("tij,tj->ti", self.theta, phi)
+
+    def activation(self) -> np.ndarray:
+        """‖(Dk)_t‖₂ for t = 0 … N − d − 1: how much the model changes (paper III-G).
+
+        Uses the model's difference operator (first difference for LTI models).
+        """
+        coeffs = self.coeffs if self.coeffs is not None else np.array([-1.0, 1.0])
+        return activation(self._k, coeffs)
+
+    @property
+    def changepoints(self) -> np.ndarray:
+        """Indices c with k_c ≠ k_{c−1} (relative change above 1e-8 of the scale of k)."""
+        if self._changepoints is not None:
+            return self._changepoints
+        step = np.linalg.norm(np.diff(self._k, axis=0), axis=1)
+        scale = max(float(np.abs(self._k).max(initial=0.0)), 1e-300)
+        return np.flatnonzero(step > 1e-8 * scale) + 1
+
+    # -- persistence --------------------------------------------------------------
+    def structure(self) -> dict:
+        """The sizes that, with k, rebuild the model (JSON-serializable; see :meth:`save`)."""
+        return {"n_outputs": self.n_outputs, "n_regressors": self.n_regressors}
+
+    @classmethod
+    def from_structure(cls, k: np.ndarray, structure: dict, fit: FitRecord) -> RegressionModel:
+        """The model with coefficients k, the sizes of :meth:`structure` and ``fit``."""
+        return cls(k, structure["n_outputs"], structure["n_regressors"], fit)
+
+    def save(self, path: str | Path) -> None:
+        """Save to a NumPy ``.npz`` archive (lossless; :func:`ltvmodels.load` reads it)."""
+        archive.write(self, path)
+
+    # -- display ------------------------------------------------------------------
+    def _repr_sizes(self) -> str:
+        return f"n_outputs={self.n_outputs}, n_regressors={self.n_regressors}"
+
+    def __repr__(self) -> str:
+        lam = self.lam
+        lam_text = f"{float(lam):g}" if np.ndim(lam) == 0 else f"array{np.shape(lam)}"
+        order = "-" if self.coeffs is None else _order_text(self.coeffs)
+        return (
+            f"{type(self).__name__}(N={self.N}, {self._repr_sizes()}, "
+            f"norm={self.norm!r}, order={order}, lam={lam_text}, "
+            f"noise_var={self.noise_var:.4g}, loglik={self.loglik:.6g})"
+        )
+
+    def summary(self) -> str:
+        """Human-readable multi-line summary."""
+        lines = [repr(self)]
+        keys = ("solver", "objective", "n_factorizations", "noise_var_estimated", "prior_mode")
+        for key in keys:
+            if key in self.info:
+                lines.append(f"  {key}: {self.info[key]}")
+        act = self.activation()
+        if act.size:
+            lines.append(f"  activation ‖Dk‖: max {act.max():.3g} at t={int(act.argmax())}, "
+                         f"median {np.median(act):.3g}")
+        return "\n".join(lines)
+
+
+def _order_text(coeffs: np.ndarray) -> str:
+    d = len(coeffs) - 1
+    standard = np.array([1.0])
+    for _ in range(d):
+        standard = np.convolve(standard, [-1.0, 1.0])
+    return str(d) if np.array_equal(coeffs, standard) else str(coeffs.tolist())

@@ -1,0 +1,52 @@
+"""The result of a λ selection (:func:`ltvmodels.select_lambda`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+
+@dataclass
+class LambdaSelection:
+    """The chosen λ and the data behind the choice.
+
+    Attributes
+    ----------
+    lam : float
+        The chosen λ (for norm="l0": the chosen number of changes).
+    lams : ndarray, shape (G,)
+        The candidates, increasing.
+    scores : ndarray, shape (G,)
+        The criterion per candidate; the choice maximizes it for "ml" and
+        "lcurve" (log-likelihood, curvature) and minimizes it otherwise.
+    method, norm : str
+    residual_norms, penalty_norms : ndarray, shape (G,)
+        ‖y − Φk‖ and R(Dk) per candidate (the L-curve), where computed.
+    dof : ndarray, shape (G,) or None
+        Effective degrees of freedom per candidate ("gcv").
+    """
+
+    lam: float
+    lams: np.ndarray
+    scores: np.ndarray
+    method: str
+    norm: str
+    residual_norms: np.ndarray | None = None
+    penalty_norms: np.ndarray | None = None
+    dof: np.ndarray | None = None
+
+    @property
+    def maximize(self) -> bool:
+        return self.method in ("ml", "lcurve")
+
+    def plot(self, ax: Any = None):
+        """Plot the criterion against λ (or the L-curve), the choice marked.
+
+        See :func:`ltvmodels.plotting.plot_lambda_selection`; returns the
+        matplotlib Axes (a new figure if ``ax`` is None).
+        """
+        from ..plotting import plot_lambda_selection
+
+        return plot_lambda_selection(self, ax=ax)

@@ -1,1 +1,0 @@
-"""Numerical solvers behind :func:`ltvmodels.fit` (not public API)."""

@@ -1,0 +1,432 @@
+"""Coercion and shape checks of array inputs: data, covariances, change points.
+
+Each check raises :class:`ValueError` or :class:`TypeError` with a message that
+names the argument, what was expected and what was received. Arrays are always
+copied into fresh float64 arrays, so user data are never mutated and never
+aliased by a returned model. Scalar options and counts are checked in
+:mod:`ltvmodels.validation.options`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+
+def describe(value: Any) -> str:
+    """Short description of a received value for error messages."""
+    if isinstance(value, np.ndarray):
+        return f"array of shape {value.shape} and dtype {value.dtype}"
+    if hasattr(value, "shape") and hasattr(value, "dtype"):
+        return f"{type(value).__name__} of shape {tuple(value.shape)}"
+    text = repr(value)
+    if len(text) > 60:
+        text = text[:57] + "..."
+    return f"{text} ({type(value).__name__})"
+
+
+def as_float_array(value: Any, name: str) -> np.ndarray:
+    """Convert lists, numpy arrays and pandas objects to a new float64 array.
+
+    Raises TypeError for values that are not numeric and ValueError for
+    NaN or infinite entries.
+    """
+    if value is None:
+        raise TypeError(f"{name}: expected an array of numbers, received None")
+    if hasattr(value, "to_numpy"):  # pandas DataFrame / Series
+        value = value.to_numpy()
+    expected = f"{name}: expected an array of real numbers, received {describe(value)}"
+    if isinstance(value, (str, bytes)):
+        raise TypeError(expected)
+    try:
+        raw = np.asarray(value)
+    except ValueError as exc:  # ragged nested sequences
+        raise TypeError(expected) from exc
+    if np.iscomplexobj(raw):  # checked before the cast, which would only warn
+        raise TypeError(f"{name}: expected real numbers, received complex values")
+    if raw.dtype.kind in "USV":  # text (even "1.5") or raw bytes are not numbers
+        raise TypeError(expected)
+    try:
+        arr = np.array(raw, dtype=np.float64, copy=True)
+    except (TypeError, ValueError) as exc:  # objects that are not numbers
+        raise TypeError(expected) from exc
+    if not np.all(np.isfinite(arr)):
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        raise ValueError(
+            f"{name}: expected finite values, received NaN or inf "
+            f"(first at index {tuple(int(i) for i in bad)})"
+        )
+    return arr
+
+
+def as_time_series(value: Any, name: str, *, allow_1d: bool = True) -> np.ndarray:
+    """Return a (T, d) float64 copy of a time series with time on axis 0.
+
+    A 1-d input of length T becomes (T, 1) when ``allow_1d``.
+    """
+    arr = as_float_array(value, name)
+    if arr.ndim == 1 and allow_1d:
+        arr = arr[:, None]
+    if arr.ndim != 2:
+        raise ValueError(
+            f"{name}: expected a 2-d array of shape (T, d) with time on axis 0, "
+            f"received {arr.ndim}-d array of shape {arr.shape}"
+        )
+    if arr.shape[1] == 0:
+        raise ValueError(f"{name}: expected at least one column, received shape {arr.shape}")
+    return arr
+
+
+def state_and_input(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Validate states ``x`` (T, n) and inputs ``u`` (T, m) | (T,) | None.
+
+    Returns float64 copies; ``u`` is (T, 0) when None.
+    """
+    x = as_time_series(x, "x", allow_1d=True)
+    T = x.shape[0]
+    if T < 2:
+        raise ValueError(f"x: expected at least 2 time steps, received T={T}")
+    if u is None:
+        u = np.zeros((T, 0))
+    else:
+        u = as_time_series(u, "u", allow_1d=True)
+        if u.shape[0] != T:
+            raise ValueError(
+                f"u: expected {T} rows (one per time step, as x), received {u.shape[0]}"
+            )
+    return x, u
+
+
+def regression_data(y: Any, phi: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Validate a regression y_t = Θ φ_t: y (N, n) or (N,), φ (N, p) or (N,).
+
+    Returns float64 copies of shapes (N, n) and (N, p).
+    """
+    y = as_time_series(y, "y", allow_1d=True)
+    phi = as_time_series(phi, "phi", allow_1d=True)
+    if phi.shape[0] != y.shape[0]:
+        raise ValueError(
+            f"phi: expected {y.shape[0]} rows (one regressor vector per row of y), "
+            f"received {phi.shape[0]}"
+        )
+    return y, phi
+
+
+def regressor_rows(value: Any, N: int, p: int, name: str = "phi") -> np.ndarray:
+    """Regressors for a fitted regression: (N, p), or (N,) when p = 1; returns a copy."""
+    arr = as_time_series(value, name, allow_1d=(p == 1))
+    if arr.shape != (N, p):
+        raise ValueError(
+            f"{name}: expected shape ({N}, {p}) (one row of {p} regressors per model time "
+            f"step), received shape {arr.shape}"
+        )
+    return arr
+
+
+def vector(value: Any, name: str, size: int) -> np.ndarray:
+    """Validate a finite 1-d vector of the given length; returns a float64 copy."""
+    arr = as_float_array(value, name)
+    if arr.ndim == 0 and size == 1:
+        arr = arr.reshape(1)
+    if arr.shape != (size,):
+        raise ValueError(f"{name}: expected a vector of length {size}, received shape {arr.shape}")
+    return arr
+
+
+def covariance(value: Any, name: str, N: int, d: int) -> np.ndarray:
+    """Validate a covariance given as scalar, (d, d) or (N, d, d).
+
+    Returns an array of shape (), (d, d) or (N, d, d). Matrices must be
+    symmetric positive definite (checked by a Cholesky factorization).
+    """
+    arr = as_float_array(value, name)
+    if arr.ndim == 0:
+        if arr <= 0:
+            raise ValueError(f"{name}: expected a variance > 0, received {float(arr)}")
+        return arr
+    if arr.shape not in ((d, d), (N, d, d)):
+        raise ValueError(
+            f"{name}: expected a scalar, a ({d}, {d}) matrix or an ({N}, {d}, {d}) array, "
+            f"received shape {arr.shape}"
+        )
+    if not np.allclose(arr, np.swapaxes(arr, -1, -2), rtol=1e-8, atol=1e-12 * np.abs(arr).max()):
+        raise ValueError(f"{name}: expected symmetric covariance matrices")
+    try:
+        np.linalg.cholesky(arr)
+    except np.linalg.LinAlgError:
+        raise ValueError(f"{name}: expected positive definite covariance matrices") from None
+    return arr
+
+
+def mean_sequence(value: Any, name: str, N: int, d: int) -> np.ndarray:
+    """Validate a mean given as (d,) or (N, d); returns (N, d)."""
+    arr = as_float_array(value, name)
+    if arr.shape == (d,):
+        return np.broadcast_to(arr, (N, d)).copy()
+    if arr.shape != (N, d):
+        raise ValueError(f"{name}: expected shape ({d},) or ({N}, {d}), received {arr.shape}")
+    return arr
+
+
+def initial_state_prior(
+    init_mean: Any, init_cov: Any, degree: int, n: int, p: int
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Validate a Gaussian prior on the initial state of the parameter random walk.
+
+    The state of the realization of a degree-d difference operator is
+    s_0 = (k_0, k_{-1}, …, k_{-d+1}); per output row i it is
+    (θ_{0,i}, θ_{-1,i}, …) of size D = d·p, rows independent a priori with a
+    shared covariance.
+
+    Parameters
+    ----------
+    init_mean : array_like, shape (d, K), (K,) when d = 1, or None
+        Row j is the mean of k_{-j}. None means zero (only with ``init_cov``).
+    init_cov : float or array_like, shape (D, D), or None
+        Covariance of one row's state; a scalar v means v·I. None (with
+        ``init_mean`` None) selects the exact diffuse initialization.
+
+    Returns
+    -------
+    None for the diffuse initialization, else (mean (D, n), cov (D, D)) with
+    column i the mean of row i's state.
+    """
+    D, K = degree * p, n * p
+    if init_cov is None:
+        if init_mean is not None:
+            raise ValueError(
+                "init_cov: expected a covariance to go with init_mean (a scalar or a "
+                f"({D}, {D}) matrix), received None"
+            )
+        return None
+    cov = as_float_array(init_cov, "init_cov")
+    if cov.ndim == 0:
+        if cov <= 0:
+            raise ValueError(f"init_cov: expected a variance > 0, received {float(cov)}")
+        cov = float(cov) * np.eye(D)
+    elif cov.shape != (D, D):
+        raise ValueError(
+            f"init_cov: expected a scalar or a ({D}, {D}) matrix (the covariance of one "
+            f"output row's state: {degree} block(s) of {p} regressors), received shape "
+            f"{cov.shape}"
+        )
+    if not np.allclose(cov, cov.T, rtol=1e-8, atol=1e-12 * np.abs(cov).max()):
+        raise ValueError("init_cov: expected a symmetric covariance matrix")
+    try:
+        np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:
+        raise ValueError("init_cov: expected a positive definite covariance matrix") from None
+    cov = 0.5 * (cov + cov.T)
+    if init_mean is None:
+        return np.zeros((D, n)), cov
+    mean = as_float_array(init_mean, "init_mean")
+    if degree == 1 and mean.shape == (K,):
+        mean = mean[None, :]
+    if mean.shape != (degree, K):
+        expected = f"({K},) or (1, {K})" if degree == 1 else f"({degree}, {K})"
+        raise ValueError(
+            f"init_mean: expected shape {expected} (row j: mean of k_(-j)), received "
+            f"shape {mean.shape}"
+        )
+    # (d, n, p) → (d, p, n) → (D, n): column i stacks θ_{0,i}, θ_{-1,i}, …
+    return np.ascontiguousarray(mean.reshape(degree, n, p).transpose(0, 2, 1).reshape(D, n)), cov
+
+
+def lagged_series(
+    y: Any, u: Any, lag: int, structure: str, *, n_inputs: int | None = None,
+    require_inputs: bool = False,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Validate AR/ARX data: y (T, n) or (T,), u (T, m) or (T,) or None; T > lag.
+
+    ``u`` may be None unless ``require_inputs``; ``n_inputs`` (if given) is the
+    required number of columns of ``u``. ``structure`` names the orders (e.g.
+    "na = 2, nb = 1, nk = 1") in the too-short message. Returns float64
+    copies, u of shape (T, 0) when None.
+    """
+    y = as_time_series(y, "y", allow_1d=True)
+    T = y.shape[0]
+    if u is None:
+        if require_inputs:
+            expected = f"({T}, {n_inputs})" if n_inputs else f"({T}, m) or ({T},)"
+            raise TypeError(f"u: expected inputs of shape {expected}, received None")
+        u = np.zeros((T, 0))
+    else:
+        u = as_time_series(u, "u", allow_1d=True)
+        if u.shape[0] != T:
+            raise ValueError(
+                f"u: expected {T} rows (one per sample of y), received {u.shape[0]}"
+            )
+        if n_inputs is not None and u.shape[1] != n_inputs:
+            raise ValueError(f"u: expected {n_inputs} columns, received {u.shape[1]}")
+    if T <= lag:
+        raise ValueError(
+            f"y: the series is shorter than the lag structure: {structure} reaches back "
+            f"{lag} samples, so y needs more than {lag} samples, received T = {T}"
+        )
+    return y, u
+
+
+def model_series(
+    y: Any, u: Any, *, N: int, n: int, m: int, lag: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Data for a fitted AR/ARX model: y (N + lag, n), u (N + lag, m) (None if m = 0)."""
+    y, u = lagged_series(y, u, lag, f"the model's lags ({lag})", n_inputs=m,
+                         require_inputs=m > 0)
+    if y.shape[1] != n:
+        raise ValueError(f"y: expected {n} columns (outputs), received {y.shape[1]}")
+    if y.shape[0] != N + lag:
+        raise ValueError(
+            f"y: expected T = {N + lag} samples (the model has N = {N} time steps after "
+            f"{lag} initial samples), received T = {y.shape[0]}"
+        )
+    return y, u
+
+
+def simulation_inputs(
+    y0: Any, u: Any, noise: Any, *, N: int, n: int, m: int, lag: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Validate an AR/ARX simulation: initial samples, inputs and noise.
+
+    Returns y0 (lag, n), u (N + lag, m) and noise (N, n) (zeros when None).
+    ``y0`` may be 1-d when n = 1 and None when lag = 0; ``noise`` 1-d when n = 1.
+    """
+    T = N + lag
+    if y0 is None and lag == 0:
+        y0 = np.zeros((0, n))
+    else:
+        y0 = as_float_array(y0, "y0")
+        if y0.ndim == 1 and n == 1:
+            y0 = y0[:, None]
+        if y0.shape != (lag, n):
+            expected = f"({lag}, {n})" + (f" or ({lag},)" if n == 1 else "")
+            raise ValueError(
+                f"y0: expected the {lag} initial samples y[0:{lag}], shape {expected}, "
+                f"received shape {y0.shape}"
+            )
+    if u is None:
+        if m:
+            raise TypeError(f"u: expected inputs of shape ({T}, {m}), received None")
+        u = np.zeros((T, 0))
+    else:
+        u = as_time_series(u, "u", allow_1d=True)
+        if u.shape != (T, m):
+            raise ValueError(
+                f"u: expected shape ({T}, {m}) (T = {lag} initial + {N} simulated samples), "
+                f"received shape {u.shape}"
+            )
+    if noise is None:
+        noise = np.zeros((N, n))
+    else:
+        noise = as_float_array(noise, "noise")
+        if noise.ndim == 1 and n == 1:
+            noise = noise[:, None]
+        if noise.shape != (N, n):
+            expected = f"({N}, {n})" + (f" or ({N},)" if n == 1 else "")
+            raise ValueError(
+                f"noise: expected shape {expected} (one e[t] per simulated sample), received "
+                f"shape {noise.shape}"
+            )
+    return y0, u, noise
+
+
+def dynamics_matrices(model: Any) -> np.ndarray:
+    """``model.A`` as a float array of shape (N, n, n), for any object that has one."""
+    if not hasattr(model, "A"):
+        raise TypeError(f"model: expected an object with attribute A (N, n, n) such as an "
+                        f"LTVModel, received {type(model).__name__}")
+    A = np.asarray(model.A, dtype=float)
+    if A.ndim != 3 or A.shape[1] != A.shape[2]:
+        raise ValueError(f"model.A: expected shape (N, n, n), received {A.shape}")
+    return A
+
+
+def activation_series(value: Any, name: str) -> np.ndarray:
+    """Validate an activation a_t = ‖(Dk)_t‖: a 1-d array of finite numbers >= 0."""
+    arr = as_float_array(value, name)
+    if arr.ndim != 1:
+        raise ValueError(
+            f"{name}: expected an LTVModel or a 1-d activation array a_t = ‖(Dk)_t‖ "
+            f"(for (Dk)_t of shape (L, K) use np.linalg.norm(Dk, axis=1)), received "
+            f"{arr.ndim}-d array of shape {arr.shape}"
+        )
+    if arr.size and arr.min() < 0:
+        raise ValueError(
+            f"{name}: expected nonnegative activations (norms), received min {arr.min():g} "
+            f"at index {int(arr.argmin())}"
+        )
+    return arr
+
+
+def changepoint_indices(
+    value: Any, N: int, *, last: int, note: str = "", name: str = "changepoints"
+) -> np.ndarray:
+    """Validate change points: integers in [1, ``last``], strictly increasing.
+
+    A scalar is one change point; an empty sequence none. Unsorted or
+    repeated values are an error (never silently sorted or deduplicated).
+    Integral floats (200.0) are accepted; booleans are not. ``note`` is added
+    to the range message (e.g. why ``last`` is N − 2).
+
+    Returns
+    -------
+    ndarray of int64, shape (M,)
+        A new array.
+    """
+    if value is None:
+        raise TypeError(
+            f"{name}: expected a sequence of integer change points (e.g. from "
+            "ltvmodels.find_changepoints; [] for none), received None"
+        )
+    arr = as_float_array(value, name)
+    if np.asarray(value.to_numpy() if hasattr(value, "to_numpy") else value).dtype == bool:
+        raise TypeError(f"{name}: expected integers, received booleans ({describe(value)})")
+    if arr.ndim == 0:
+        arr = arr.reshape(1)
+    if arr.ndim != 1:
+        raise ValueError(f"{name}: expected a 1-d sequence of integers, received shape {arr.shape}")
+    if np.any(arr != np.round(arr)):
+        bad = arr[arr != np.round(arr)][0]
+        raise ValueError(f"{name}: expected integers, received {bad:g}")
+    outside = (arr < 1) | (arr > last)
+    if outside.any():
+        raise ValueError(
+            f"{name}: expected model indices in [1, {last}] (a change point c starts a new "
+            f"segment at model index c; N = {N} model steps{note}), received "
+            f"{_integer_text(arr[outside][0])}"
+        )
+    out = arr.astype(np.int64)
+    steps = np.diff(out)
+    if np.any(steps <= 0):
+        i = int(np.flatnonzero(steps <= 0)[0]) + 1
+        raise ValueError(
+            f"{name}: expected strictly increasing indices without repeats, received "
+            f"{int(out[i])} after {int(out[i - 1])} (position {i}); sort and deduplicate them"
+        )
+    return out
+
+
+def _integer_text(value: float) -> str:
+    """An integral float as an integer, or in exponent notation when huge."""
+    return str(int(value)) if abs(value) < 1e15 else f"{value:g}"
+
+
+def positive_grid(value: Any, name: str) -> np.ndarray:
+    """A non-empty 1-d array of finite values > 0, sorted increasing (a λ grid)."""
+    arr = as_float_array(value, name)
+    if arr.ndim != 1 or arr.size == 0:
+        raise ValueError(f"{name}: expected a non-empty 1-d sequence, received shape {arr.shape}")
+    if np.any(arr <= 0):
+        raise ValueError(f"{name}: expected values > 0, received a minimum of {arr.min():g}")
+    return np.unique(arr)
+
+
+def count_grid(value: Any, name: str) -> np.ndarray:
+    """A non-empty 1-d array of whole numbers >= 0, sorted increasing (numbers of changes)."""
+    arr = as_float_array(value, name)
+    if arr.ndim != 1 or arr.size == 0:
+        raise ValueError(f"{name}: expected a non-empty 1-d sequence, received shape {arr.shape}")
+    if np.any(arr < 0) or np.any(arr != np.round(arr)):
+        bad = arr[(arr < 0) | (arr != np.round(arr))][0]
+        raise ValueError(f"{name}: expected whole numbers >= 0, received {bad:g}")
+    return np.unique(arr.astype(np.int64))

@@ -1,0 +1,386 @@
+"""Checks of options: scalars, choices, counts, λ, the difference operator, seeds.
+
+Each check raises :class:`ValueError` or :class:`TypeError` with a message that
+names the argument, what was expected and what was received. Array inputs are
+checked in :mod:`ltvmodels.validation.arrays`.
+"""
+
+from __future__ import annotations
+
+from numbers import Integral, Real
+from typing import Any, Sequence
+
+import numpy as np
+
+from .arrays import as_float_array, describe
+
+
+NORMS = ("sq", "group", "l1")
+
+
+PENALTY_RULES = ("bic", "aic")
+
+
+def choice(value: Any, name: str, options: Sequence[str]) -> str:
+    """Validate that ``value`` is one of the string ``options``."""
+    if not isinstance(value, str) or value not in options:
+        raise ValueError(f"{name}: expected one of {tuple(options)}, received {describe(value)}")
+    return value
+
+
+def flag(value: Any, name: str) -> bool:
+    """Validate True or False (no other truthy values)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name}: expected True or False, received {describe(value)}")
+    return bool(value)
+
+
+def is_auto(value: Any, name: str) -> bool:
+    """True for the string "auto"; any other string is a TypeError naming the argument."""
+    if isinstance(value, str):
+        if value != "auto":
+            raise TypeError(f"{name}: expected a number, an array or 'auto', received {value!r}")
+        return True
+    return False
+
+
+def integer(value: Any, name: str, minimum: int) -> int:
+    """Validate an integer >= ``minimum`` (bools are rejected)."""
+    if isinstance(value, bool) or not isinstance(value, Integral) or value < minimum:
+        raise ValueError(f"{name}: expected an integer >= {minimum}, received {describe(value)}")
+    return int(value)
+
+
+def optional_integer(value: Any, name: str, minimum: int) -> int | None:
+    """Validate None or an integer >= ``minimum``."""
+    return None if value is None else integer(value, name, minimum)
+
+
+def nonnegative_scalar(value: Any, name: str, *, allow_inf: bool = False) -> float:
+    """Validate a real scalar >= 0 (0-d numpy arrays are accepted)."""
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        value = value.item()
+    if isinstance(value, bool) or not isinstance(value, (Real, np.floating, np.integer)):
+        raise TypeError(f"{name}: expected a real number >= 0, received {describe(value)}")
+    v = float(value)
+    if np.isnan(v) or v < 0 or (np.isinf(v) and not allow_inf):
+        raise ValueError(f"{name}: expected a finite real number >= 0, received {v}")
+    return v
+
+
+def positive_scalar(value: Any, name: str) -> float:
+    """Validate a finite real scalar > 0."""
+    try:
+        v = nonnegative_scalar(value, name)
+    except ValueError:  # NaN, negative or infinite: say "> 0", not ">= 0"
+        raise ValueError(
+            f"{name}: expected a finite real number > 0, received {float(value)}"
+        ) from None
+    if v == 0:
+        raise ValueError(f"{name}: expected a real number > 0, received 0")
+    return v
+
+
+def optional_nonnegative(value: Any, name: str) -> float | None:
+    """Validate None or a finite real number >= 0."""
+    return None if value is None else nonnegative_scalar(value, name)
+
+
+def fraction(value: Any, name: str) -> float:
+    """Validate a real number in [0, 1]."""
+    v = nonnegative_scalar(value, name)
+    if v > 1:
+        raise ValueError(f"{name}: expected a number in [0, 1], received {v}")
+    return v
+
+
+def norm_name(norm: Any) -> str:
+    """Validate the regularization norm name."""
+    if not isinstance(norm, str) or norm not in NORMS:
+        raise ValueError(f"norm: expected one of {NORMS}, received {describe(norm)}")
+    return norm
+
+
+def penalty_weight(lam: Any, K: int) -> np.ndarray:
+    """Turn ``lam`` into the K x K penalty weight matrix W of sum_t (Dk)_t' W (Dk)_t.
+
+    * scalar λ >= 0:   W = λ² I;
+    * vector (K,):     W = diag(λ_j²); ``inf`` marks a coefficient constant in
+      time, 0 a coefficient free to change arbitrarily;
+    * matrix (K, K):   W = Λ, symmetric positive semidefinite (used as is, so
+      λ² I is equivalent to the scalar λ).
+
+    Infinite diagonal entries of the returned matrix mark constant coefficients.
+    """
+    if lam is None or isinstance(lam, (str, bool)):
+        raise TypeError(
+            "lam: expected a number >= 0, a (K,) vector or a (K, K) matrix "
+            f"(K={K}), received {describe(lam)}"
+        )
+    if np.ndim(lam) == 0:
+        value = nonnegative_scalar(lam, "lam", allow_inf=True)
+        return np.diag(np.full(K, value**2))  # no 0·inf off the diagonal
+    try:
+        arr = np.array(lam.to_numpy() if hasattr(lam, "to_numpy") else lam, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(
+            "lam: expected a number >= 0, a (K,) vector or a (K, K) matrix of real numbers "
+            f"(K={K}), received {describe(lam)}"
+        ) from exc
+    if np.isnan(arr).any():
+        raise ValueError("lam: expected numbers, received NaN")
+    if arr.ndim == 1:
+        if arr.shape != (K,):
+            raise ValueError(
+                f"lam: expected a vector of length K={K} (one weight per parameter), "
+                f"received shape {arr.shape}"
+            )
+        if (arr < 0).any():
+            raise ValueError(f"lam: expected entries >= 0, received min {arr.min()}")
+        return np.diag(arr**2)
+    if arr.ndim == 2:
+        if arr.shape != (K, K):
+            raise ValueError(f"lam: expected a ({K}, {K}) matrix, received shape {arr.shape}")
+        if not np.all(np.isfinite(arr)):
+            raise ValueError("lam: a weight matrix must be finite (use a vector with inf "
+                             "entries to hold coefficients constant)")
+        if not np.allclose(arr, arr.T, rtol=1e-10, atol=1e-12 * np.abs(arr).max()):
+            raise ValueError(
+                "lam: expected a symmetric weight matrix, received a non-symmetric one"
+            )
+        eig_min = np.linalg.eigvalsh(arr).min()
+        if eig_min < -1e-10 * max(np.abs(arr).max(), 1e-300):
+            raise ValueError(
+                f"lam: expected a positive semidefinite weight matrix, received one with "
+                f"eigenvalue {eig_min:g}"
+            )
+        return 0.5 * (arr + arr.T)
+    raise ValueError(
+        f"lam: expected a scalar, a (K,) vector or a (K, K) matrix (K={K}), "
+        f"received shape {arr.shape}"
+    )
+
+
+def sparse_weights(lam: Any, K: int) -> np.ndarray:
+    """λ for norm="group"/"l1": a scalar > 0 or a (K,) vector of weights >= 0 (inf: constant).
+
+    Returns the (K,) weight vector Λ of the penalty Σ_t R(Λ (Dk)_t).
+    """
+    W = penalty_weight(lam, K)  # shape and sign checks shared with norm="sq"
+    if np.ndim(lam) == 2:
+        raise ValueError(
+            "lam: a (K, K) weight matrix applies to norm='sq' only; use a scalar or a "
+            f"(K,) vector with norm='group' or 'l1', received shape {np.shape(lam)}"
+        )
+    weights = np.sqrt(np.diag(W))
+    if not np.any(weights > 0):
+        raise ValueError(
+            "lam: expected lam > 0 with norm='group' or 'l1': with lam = 0 every time step "
+            "has its own unregularized model and the problem is ill-posed (paper Section V)"
+        )
+    return weights
+
+
+def scalar_lam(lam: Any) -> float:
+    """Validate a scalar regularization weight 0 < λ < inf for the Kalman form.
+
+    The Kalman filter realizes the isotropic penalty λ² Σ_t ‖(Dk)_t‖² only;
+    vector and matrix weights are handled by :func:`ltvmodels.fit`.
+    """
+    if np.ndim(lam) != 0 or isinstance(lam, (str, bytes)):
+        raise TypeError(
+            "lam: the Kalman filter/smoother supports a scalar λ > 0 only (use "
+            f"ltvmodels.fit for vector or matrix weights), received {describe(lam)}"
+        )
+    return positive_scalar(lam.item() if hasattr(lam, "item") else lam, "lam")
+
+
+def difference_coefficients(order: Any, max_degree: int | None = None) -> np.ndarray:
+    """Return the coefficients (c_0, ..., c_d) of the difference operator.
+
+    ``order`` is an integer d >= 1, giving the d-th difference
+    (Dk)_t = sum_j (-1)^(d-j) binom(d, j) k_{t+j}, or a sequence of polynomial
+    coefficients c_0..c_d with (Dk)_t = sum_j c_j k_{t+j}; the coefficients must
+    sum to zero (paper Proposition 1) and c_d must be nonzero. ``max_degree``
+    (the largest degree the data can support, if given) rejects a huge integer
+    order before its coefficients are built.
+    """
+    if isinstance(order, bool):
+        raise TypeError(f"order: expected an integer >= 1 or a sequence of coefficients, "
+                        f"received {describe(order)}")
+    if isinstance(order, Integral):
+        d = int(order)
+        if d < 1:
+            raise ValueError(f"order: expected an integer >= 1, received {d}")
+        if max_degree is not None and d > max_degree:
+            raise ValueError(
+                f"order: expected a degree of at most {max_degree} (a difference of degree "
+                f"d needs more than d + 1 samples), received {d}"
+            )
+        coeffs = np.array([1.0])
+        for _ in range(d):
+            coeffs = np.convolve(coeffs, [-1.0, 1.0])
+        return coeffs
+    if isinstance(order, Real):
+        raise TypeError(f"order: expected an integer >= 1 or a sequence of coefficients, "
+                        f"received {describe(order)}")
+    coeffs = as_float_array(order, "order")
+    if coeffs.ndim != 1 or coeffs.size < 2:
+        raise ValueError(
+            "order: expected an integer >= 1 or a 1-d sequence of at least 2 polynomial "
+            f"coefficients, received shape {coeffs.shape}"
+        )
+    if coeffs[-1] == 0 or coeffs[0] == 0:
+        raise ValueError(
+            "order: the first and last polynomial coefficients must be nonzero "
+            f"(trim them to lower the degree), received {coeffs.tolist()}"
+        )
+    scale = np.abs(coeffs).sum()
+    if abs(coeffs.sum()) > 1e-10 * scale:
+        raise ValueError(
+            "order: polynomial coefficients must sum to zero so that constant "
+            f"coefficients are not penalized (P(1) = 0), received {coeffs.tolist()} "
+            f"with sum {coeffs.sum():g}"
+        )
+    return coeffs
+
+
+def piecewise_order(order: Any) -> int:
+    """Validate the order of a piecewise refit: 1 (constant) or 2 (linear, continuous)."""
+    expected = "1 (piecewise constant) or 2 (piecewise linear, continuous)"
+    if isinstance(order, bool) or not isinstance(order, Integral):
+        raise TypeError(f"order: expected {expected}, received {describe(order)}")
+    if order < 1:
+        raise ValueError(f"order: expected {expected}, received {int(order)}")
+    if order > 2:
+        raise NotImplementedError(
+            f"order={int(order)}: piecewise polynomials of degree >= 2 are not implemented; "
+            f"use order=1 or order=2"
+        )
+    return int(order)
+
+
+def lag_orders(na: Any, nb: Any, nk: Any, *, min_na: int, min_nb: int) -> tuple[int, int, int]:
+    """Validate the AR/ARX orders: integers na >= ``min_na``, nb >= ``min_nb``, nk >= 0."""
+    na = integer(na, "na", minimum=min_na)
+    nb = integer(nb, "nb", minimum=min_nb)
+    nk = integer(nk, "nk", minimum=0)
+    return na, nb, nk
+
+
+def enough_samples(N: int, n_params_per_row: int, n_diff: int) -> None:
+    """Require enough time steps to identify the parameters at all.
+
+    With a difference operator of degree d the penalty leaves a d-dimensional
+    family of trajectories per parameter unpenalized, so at least
+    d * p regression equations per output row are needed.
+    """
+    needed = max(n_params_per_row * n_diff, n_diff + 1)
+    if N < needed:
+        raise ValueError(
+            f"x: too few samples: {N} transitions (T={N + 1}) cannot identify "
+            f"{n_params_per_row} regressors per output with a difference operator of "
+            f"degree {n_diff}; need at least {needed} transitions (T >= {needed + 1})"
+        )
+
+
+def enough_rows(N: int, n_params_per_row: int, n_diff: int, name: str, note: str = "") -> None:
+    """Require enough regression rows to identify p regressors per output row.
+
+    As :func:`enough_samples` for a regression with N rows (``name`` is the
+    data argument; ``note`` says how the rows relate to the series, e.g. for AR).
+    """
+    needed = max(n_params_per_row * n_diff, n_diff + 1)
+    if N < needed:
+        raise ValueError(
+            f"{name}: too few samples: {N} regression rows{note} cannot identify "
+            f"{n_params_per_row} regressors per output with a difference operator of "
+            f"degree {n_diff}; need at least {needed} rows"
+        )
+
+
+def segment_min_size(value: Any, p: int) -> int:
+    """Minimum segment length: None (→ p) or an integer >= p.
+
+    A segment with fewer samples than the p regressors of each output row has
+    no unique least-squares fit.
+    """
+    if value is None:
+        return p
+    if isinstance(value, bool) or not isinstance(value, Integral):
+        raise TypeError(
+            f"min_size: expected None or an integer >= p = {p}, received {describe(value)}"
+        )
+    if value < p:
+        raise ValueError(
+            f"min_size: expected an integer >= p = {p} (a segment needs at least as many "
+            f"samples as regressors for its least squares to be well posed), received "
+            f"{int(value)}"
+        )
+    return int(value)
+
+
+def segmentable_length(N: int, min_size: int, data_name: str) -> None:
+    """Require at least one segment of ``min_size`` samples."""
+    if N < min_size:
+        extra = " (T = N + 1)" if data_name == "x" else ""
+        raise ValueError(
+            f"{data_name}: too few samples: {N} regression rows{extra} cannot hold a single "
+            f"segment of min_size = {min_size} samples"
+        )
+
+
+def n_changes_count(value: Any, N: int, min_size: int) -> int:
+    """Number of changes M: an integer >= 0 with (M + 1) · min_size <= N."""
+    if isinstance(value, bool) or not isinstance(value, Integral):
+        raise TypeError(
+            f"n_changes: expected an integer >= 0, received {describe(value)}"
+        )
+    if value < 0:
+        raise ValueError(f"n_changes: expected an integer >= 0, received {int(value)}")
+    M = int(value)
+    if (M + 1) * min_size > N:
+        raise ValueError(
+            f"n_changes: {M} changes make {M + 1} segments of at least min_size = {min_size} "
+            f"samples, i.e. at least {(M + 1) * min_size} regression rows, but the data have "
+            f"N = {N}; use n_changes <= {N // min_size - 1} or a smaller min_size"
+        )
+    return M
+
+
+def segment_penalty(value: Any) -> float | str:
+    """Penalty per change: a finite real number >= 0, or one of the rules 'bic', 'aic'."""
+    if isinstance(value, str):
+        if value not in PENALTY_RULES:
+            raise ValueError(
+                f"penalty: expected a number >= 0 or one of {PENALTY_RULES}, received "
+                f"{describe(value)}"
+            )
+        return value
+    if isinstance(value, bool) or np.ndim(value) != 0:
+        raise TypeError(
+            f"penalty: expected a number >= 0 or one of {PENALTY_RULES}, received "
+            f"{describe(value)}"
+        )
+    return nonnegative_scalar(value.item() if hasattr(value, "item") else value, "penalty")
+
+
+def segment_mode(n_changes: Any, penalty: Any) -> None:
+    """n_changes and penalty are alternatives: at most one may be given."""
+    if n_changes is not None and penalty is not None:
+        raise TypeError(
+            "n_changes, penalty: expected one of them (n_changes=M for exactly M changes, "
+            f"penalty=β for a cost of β per change), received both (n_changes={n_changes!r}, "
+            f"penalty={penalty!r})"
+        )
+
+
+def random_generator(seed: Any) -> np.random.Generator:
+    """A numpy Generator from a seed: an integer >= 0, a Generator (used as is) or None."""
+    if isinstance(seed, np.random.Generator):
+        return seed
+    if seed is None or (isinstance(seed, Integral) and not isinstance(seed, bool) and seed >= 0):
+        return np.random.default_rng(seed)
+    raise TypeError(
+        f"seed: expected a non-negative integer, a numpy Generator or None, received {seed!r}"
+    )
