@@ -103,7 +103,7 @@ def test_riccati_gains_are_the_lqr_gains_of_ilqg():
     dyn = LinearDynamics(A, B)
     cost = QuadraticCost(np.diag([1.0, 0.3]), np.array([[0.1]]), N)
     plan = ilqg(dyn, cost, np.array([1.0, -0.5]), np.zeros((N, 1)))
-    K = gym_rl._riccati_gains(A, B, cost.quadratize(plan.x, plan.u))
+    K = gym_rl.riccati_gains(A, B, cost.quadratize(plan.x, plan.u))
     np.testing.assert_allclose(K, plan.K, rtol=1e-8, atol=1e-10)
 
 

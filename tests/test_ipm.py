@@ -75,14 +75,14 @@ def test_newton_direction_solves_the_linearized_kkt_system(norm, coeffs):
     pb = state_space_problem(data.x, data.u, np.array(coeffs))
     rng = np.random.default_rng(5)
     weights = rng.uniform(0.5, 2.0, pb.K)
-    cp = ipm._ConicProblem(pb, weights, norm)
+    cp = ipm.ConicProblem(pb, weights, norm)
     n_cones, m = cp.cone_shape
     N, K = cp.N, cp.K
     k, t = rng.normal(size=(N, K)), rng.uniform(1, 2, n_cones)
     s, z = interior_points(rng, n_cones, m - 1), interior_points(rng, n_cones, m - 1)
     r_z, r_k = np.empty_like(s), np.empty((N, K))
     cones.kkt_residuals(k, t, s, z, cp.y, cp.phi, cp.coeffs, cp.w, r_z, r_k)
-    newton = ipm._NewtonSystem(cp, s, z, r_z, r_k)
+    newton = ipm.NewtonSystem(cp, s, z, r_z, r_k)
     newton.affine_direction()  # factors
     target = rng.normal(size=s.shape)
     dk, dt, ds, dz, step = newton.direction(target)
@@ -128,8 +128,8 @@ def test_feasible_start_is_primal_and_dual_feasible(norm, scale, coeffs):
     data = ltv.systems.jump_linear(T=200, change_at=100, seed=7)
     pb = state_space_problem(scale * data.x, scale * data.u, np.array(coeffs))
     weights = np.random.default_rng(8).uniform(2.0, 20.0, pb.K) * scale
-    cp = ipm._ConicProblem(pb, weights, norm)
-    k, rho = ipm._feasible_start(pb, cp)
+    cp = ipm.ConicProblem(pb, weights, norm)
+    k, rho = ipm.feasible_start(pb, cp)
     assert rho is not None
     s = np.zeros(cp.cone_shape)
     cones.weighted_difference(k, cp.coeffs, cp.w, s)

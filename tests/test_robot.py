@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from ltvmodels.apps.robot import (
-    _forward,
+    hand_position,
     plot_robot_experiment,
     robot_experiment,
     two_link_robot,
@@ -27,7 +27,7 @@ def test_simulation_respects_the_wall_and_has_the_paper_events():
     on_wall = np.flatnonzero(run.in_contact)
     assert on_wall.size and np.all(np.diff(on_wall) == 1)  # stays in contact once made
     np.testing.assert_allclose(
-        [_forward(q)[1] for q in run.x[on_wall, :2]], run.wall_height, atol=1e-9
+        [hand_position(q)[1] for q in run.x[on_wall, :2]], run.wall_height, atol=1e-9
     )
     assert 50 <= run.sign_change_index <= 100  # paper: sign change in 50–100
     assert 100 <= run.contact_index <= 150  # paper: contact in 100–150

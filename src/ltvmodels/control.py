@@ -50,9 +50,10 @@ from typing import Any, Callable, Protocol, runtime_checkable
 import numba
 import numpy as np
 
-from .validation import arrays, options
 from .core.dense import cholesky, cholesky_solve
 from .errors import ConvergenceWarning
+from .results.base import LinearTimeVarying
+from .validation import arrays, options
 
 __all__ = [
     "ilqg",
@@ -223,7 +224,7 @@ class QuadraticCost:
 
 
 # -- dynamics -------------------------------------------------------------------------
-class LinearDynamics:
+class LinearDynamics(LinearTimeVarying):
     """Affine time-varying dynamics x_{t+1} = A_t x_t + B_t u_t + c_t.
 
     Parameters
@@ -269,21 +270,6 @@ class LinearDynamics:
         dyn.c = xs[1:] - np.einsum("tij,tj->ti", dyn.A, xs[:-1]) - np.einsum(
             "tij,tj->ti", dyn.B, us)
         return dyn
-
-    @property
-    def N(self) -> int:
-        """Number of time steps."""
-        return self.A.shape[0]
-
-    @property
-    def n(self) -> int:
-        """State dimension."""
-        return self.A.shape[1]
-
-    @property
-    def m(self) -> int:
-        """Control dimension."""
-        return self.B.shape[2]
 
     def simulate(self, x0: Any, u: Any) -> np.ndarray:
         """States (N + 1, n) from x0 (n,) under controls u (N, m)."""

@@ -446,7 +446,7 @@ def _model_name(model: Any) -> str:
     return options.choice(model, "model", PENDULUM_MODELS)
 
 
-def _riccati_gains(A: np.ndarray, B: np.ndarray, e: CostExpansion) -> np.ndarray:
+def riccati_gains(A: np.ndarray, B: np.ndarray, e: CostExpansion) -> np.ndarray:
     """LQR gains K_t (N, m, n) of the quadratic expansion ``e`` along linear dynamics (A, B).
 
     The Riccati recursion without control bounds (the gains of the closed loop
@@ -617,7 +617,7 @@ def learn_pendulum(
                 plan = ilqg(dyn, cost, xi[0], ui[:H], u_bounds=(-limit, limit),
                             trust_region=radius, reference=(xi[:H + 1], ui[:H]),
                             trust_weights=weights)
-                gains = (_riccati_gains(dyn.A, dyn.B, cost.quadratize(plan.x, plan.u))
+                gains = (riccati_gains(dyn.A, dyn.B, cost.quadratize(plan.x, plan.u))
                          if feedback == "riccati" else plan.K)
                 if not (np.isfinite(plan.cost) and np.all(np.isfinite(gains))):
                     plan = None

@@ -101,7 +101,8 @@ def _bias(q: np.ndarray, qd: np.ndarray) -> np.ndarray:
     return coriolis + COULOMB * np.tanh(qd / FRICTION_WIDTH) + VISCOUS * qd
 
 
-def _forward(q: np.ndarray) -> np.ndarray:
+def hand_position(q: np.ndarray) -> np.ndarray:
+    """Position (horizontal, vertical) of the arm's tip at joint angles q (2,)."""
     return LINK * np.array([np.cos(q[0]) + np.cos(q[0] + q[1]),
                             np.sin(q[0]) + np.sin(q[0] + q[1])])
 
@@ -202,7 +203,7 @@ def two_link_robot(
         if k == T - 1:
             break
         q, qd, contact = _step(q, qd, torque, h, contact, wall_height)
-    pos = np.array([_forward(xk[:2]) for xk in x])
+    pos = np.array([hand_position(xk[:2]) for xk in x])
     first = np.flatnonzero(in_contact)
     moving = np.flatnonzero(np.abs(x[:, 3]) > 1e-3)  # ignore the start from rest
     flips = moving[1:][np.diff(np.sign(x[moving, 3])) != 0]
@@ -236,7 +237,7 @@ def _step(q, qd, torque, h, contact, wall_height):
                 return np.concatenate([s[2:], acc])
 
             def event(_t, s):  # the end effector reaches the wall
-                return _forward(s[:2])[1] - wall_height
+                return hand_position(s[:2])[1] - wall_height
         event.terminal, event.direction = True, 1.0
         sol = solve_ivp(rhs, (t0, h), state, method="LSODA", events=event, rtol=1e-7,
                         atol=1e-9)
@@ -252,7 +253,7 @@ def _step(q, qd, torque, h, contact, wall_height):
 
 def _project_onto_wall(state: np.ndarray, wall_height: float) -> np.ndarray:
     """Put the end effector on the wall and remove its velocity normal to it."""
-    p = _forward(state[:2])
+    p = hand_position(state[:2])
     q = _inverse(np.array([p[0], wall_height]))
     J = _jacobian(q)
     pd = J @ state[2:]

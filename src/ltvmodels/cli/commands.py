@@ -24,11 +24,16 @@ from ..apps.demos import (
     run_robot_demo,
 )
 from ..apps.rl import QUICK_RUNS
+from ..errors import OutputPathError
 from ..estimators.ar import ar_regressors, fit_ar
 from ..estimators.changepoints import find_changepoints
 from ..estimators.fit import fit
 from ..estimators.segments import fit_segments
-from ..estimators.selection import DEFAULT_METHOD, select_lambda, select_lambda_regression
+from ..estimators.selection import (
+    DEFAULT_METHOD,
+    select_lambda,
+    select_lambda_regression,
+)
 from ..plotting import (
     plot_lambda_selection,
     plot_model,
@@ -40,7 +45,6 @@ from ..plotting.figure import image_file, output_file, save_figure
 from ..results.arx import ARModel, ARXModel
 from ..results.loading import load
 from ..results.statespace import LTVModel
-from ..errors import OutputPathError
 from .data import read_columns, write_csv
 from .messages import CommandError, DataError, one_line, user_errors
 from .progress import Progress

@@ -21,7 +21,6 @@ import numpy as np
 from ..errors import OutputPathError
 from .messages import DataError, one_line
 
-
 PARQUET_SUFFIXES = (".parquet", ".pq")
 
 

@@ -26,8 +26,8 @@ import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
 from ..errors import SingularProblemError
-from .problem import gram_bands
 from . import blockkernels as kernels
+from .problem import gram_bands
 
 # A pivot whose square is below this fraction of the matrix diagonal it came
 # from means the system is singular to working precision.

@@ -20,7 +20,7 @@ in k is
 block-banded with K × K blocks and block bandwidth d, like the squared-norm
 normal equations. One block Cholesky factorization per iteration serves both
 the predictor and the corrector. Problems of order 1 and 2 start primal and
-dual feasible, from a quadratic fit (:func:`_feasible_start`).
+dual feasible, from a quadratic fit (:func:`feasible_start`).
 
 Coefficients with weight inf are constant in time: they are pinned out of
 the banded systems and solved for through a small border (see
@@ -39,10 +39,10 @@ import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
 from ..errors import ConvergenceWarning, SingularProblemError
-from .problem import RegressionProblem
 from . import blockkernels as kernels
 from . import conekernels as cones
 from .polish import polish, stationarity_scale
+from .problem import RegressionProblem
 from .sparse_common import quadratic_fit
 
 # Fraction of the way to the cone boundary taken by a step (CVXOPT's STEP).
@@ -52,7 +52,7 @@ MIN_STEP = 1e-10
 # The starting duality gap as a fraction of the starting objective (insensitive
 # within 0.01–10; 0.1 needed the fewest iterations on the paper's example).
 START_GAP_FRACTION = 0.1
-# The feasible start (:func:`_feasible_start`) aims at the largest dual cone
+# The feasible start (:func:`feasible_start`) aims at the largest dual cone
 # norm START_DUAL_NORM and accepts anything within START_DUAL_RANGE (on the
 # jump-linear benchmarks the iteration counts hardly depend on where in that
 # range it lands, so the range is wide to save quadratic fits).
@@ -92,7 +92,7 @@ class _RowSystem:
     with f_c the right-hand side summed over time (k_tj = c_j for all t).
     """
 
-    def __init__(self, cp: _ConicProblem, rows: slice, const: np.ndarray):
+    def __init__(self, cp: ConicProblem, rows: slice, const: np.ndarray):
         self.rows, self.offset = rows, rows.start
         b = rows.stop - rows.start
         self.pinned = const[rows].astype(float)
@@ -109,7 +109,7 @@ class _RowSystem:
             cc_row = cidx[:, None] // p == cidx[None, :] // p
             self.C0 = 2.0 * (phi[:, cidx % p].T @ phi[:, cidx % p]) * cc_row
 
-    def factor_and_solve(self, cp: _ConicProblem, newton: _NewtonSystem, f: np.ndarray):
+    def factor_and_solve(self, cp: ConicProblem, newton: NewtonSystem, f: np.ndarray):
         """Factor at ``newton``'s scaling and return the Newton step for f (N, b)."""
         f, f_c = self._split(f)
         Z = f[:, :, None] if not self.const.size else np.concatenate([f[:, :, None], self.G], 2)
@@ -163,7 +163,7 @@ class _RowSystem:
         return dk
 
 
-class _ConicProblem:
+class ConicProblem:
     """The data of the conic program and its independent Newton systems.
 
     Cone vectors are (n_cones, g + 1) arrays as in :mod:`.conekernels`.
@@ -195,7 +195,7 @@ class _ConicProblem:
             self.n_rep = self.n
         self.systems = [_RowSystem(self, rows, self.const) for rows in slices]
 
-    def factor_and_solve(self, newton: _NewtonSystem, rhs: np.ndarray) -> np.ndarray:
+    def factor_and_solve(self, newton: NewtonSystem, rhs: np.ndarray) -> np.ndarray:
         """Factor the Newton matrix at ``newton``'s scaling; the step for rhs (N, K)."""
         for system in self.systems:
             rhs[:, system.rows] = system.factor_and_solve(self, newton, rhs[:, system.rows])
@@ -215,7 +215,7 @@ class _ConicProblem:
         return float(np.hypot(varying, np.linalg.norm(r_k[:, self.const].sum(axis=0))))
 
 
-class _NewtonSystem:
+class NewtonSystem:
     """The linearized KKT system at one iterate, factored once for several targets.
 
     Newton's equations for the residuals r_x = (1 − z₀, r_k) (stationarity in t
@@ -228,7 +228,7 @@ class _NewtonSystem:
     (see :func:`.conekernels.direction_rhs` and :func:`.conekernels.direction_finish`).
     """
 
-    def __init__(self, cp: _ConicProblem, s, z, r_z, r_k):
+    def __init__(self, cp: ConicProblem, s, z, r_z, r_k):
         self.cp, self.z, self.r_z, self.r_k = cp, z, r_z, r_k
         n_cones, m = s.shape
         self.v, self.eta, self.lam = np.empty_like(s), np.empty(n_cones), np.empty_like(s)
@@ -271,7 +271,7 @@ class _NewtonSystem:
         return dk, dt, ds, dz, min(steps)
 
 
-def _feasible_start(problem: RegressionProblem, cp: _ConicProblem):
+def feasible_start(problem: RegressionProblem, cp: ConicProblem):
     """A primal and dual feasible starting k and its ρ, or (zeros, None).
 
     The quadratic fit k(ρ) = argmin ‖y − Φk‖² + (ρ/2)‖ΛDk‖² satisfies
@@ -342,7 +342,7 @@ def fit_sparse_ipm(
     -------
     InteriorPointResult
     """
-    cp = _ConicProblem(problem, weights, norm)
+    cp = ConicProblem(problem, weights, norm)
     N, K, n_cones = cp.N, cp.K, cp.n_cones
     t = np.zeros(n_cones)
     s, z = np.zeros(cp.cone_shape), np.zeros(cp.cone_shape)
@@ -351,12 +351,12 @@ def fit_sparse_ipm(
     if k0 is not None:
         k = np.array(k0, dtype=float)
     elif problem.degree in (1, 2) and not cp.const.any():
-        k, rho = _feasible_start(problem, cp)
+        k, rho = feasible_start(problem, cp)
     else:  # measured for orders 1 and 2 only
         k = np.zeros((N, K))
     loss, reg, *_ = cones.kkt_residuals(k, t, s, z, cp.y, cp.phi, cp.coeffs, cp.w, r_z, r_k)
     # Start: s = (‖s₁‖ + δ, ΛDk) with t = s₀, so the cone constraints hold, and
-    # z = (1, −ρΛDk), stationary for the quadratic fit k (see _feasible_start),
+    # z = (1, −ρΛDk), stationary for the quadratic fit k (see feasible_start),
     # or z = e, which makes the gap δ per cone, a fraction of the objective.
     s[:, 1:] = -r_z[:, 1:]
     delta = max(START_GAP_FRACTION * (loss + reg) / n_cones, 1e-12)
@@ -382,7 +382,7 @@ def fit_sparse_ipm(
             break
         if iterations == max_iter:
             break
-        newton = _NewtonSystem(cp, s, z, r_z, r_k)
+        newton = NewtonSystem(cp, s, z, r_z, r_k)
         # Predictor (affine) step, target −λ∘λ; then Mehrotra's corrector with the
         # target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a), σ = (1 − α_a)³.
         try:

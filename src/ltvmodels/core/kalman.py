@@ -70,7 +70,6 @@ import numpy as np
 
 from .dense import cholesky_solve
 
-
 LOG_2PI = float(np.log(2.0 * np.pi))
 
 #: Smallest eigenvalue of the information matrix, scaled to unit diagonal, at

@@ -143,7 +143,7 @@ def _operators(problem: RegressionProblem, weights: np.ndarray):
     return phi_op, diff_op
 
 
-def _certificate(problem: RegressionProblem, weights: np.ndarray, k: np.ndarray, group: bool):
+def certificate(problem: RegressionProblem, weights: np.ndarray, k: np.ndarray, group: bool):
     """Objective, duality gap, relative dual residual and ‖u_c‖ per cone of k (full problem)."""
     N, K = problem.N, problem.K
     coeffs = np.asarray(problem.coeffs, float)
@@ -227,7 +227,7 @@ def polish(
             vertex = vertex.copy()
             vertex[collapsed] = True
             continue
-        obj, gap, dual_res, u_norm = _certificate(problem, weights, k_split, group)
+        obj, gap, dual_res, u_norm = certificate(problem, weights, k_split, group)
         if gap <= tol * obj and dual_res <= tol:
             return PolishResult(k=k_split, objective=obj, duality_gap=gap, dual_residual=dual_res,
                                 newton_iterations=newton_total)

@@ -16,7 +16,12 @@ import numpy as np
 from scipy.linalg import solveh_banded
 
 from .banded import BlockFactor, BlockSystem
-from .problem import RegressionProblem, apply_difference, apply_difference_adjoint, null_space_basis
+from .problem import (
+    RegressionProblem,
+    apply_difference,
+    apply_difference_adjoint,
+    null_space_basis,
+)
 
 
 class QuadraticUpdate:

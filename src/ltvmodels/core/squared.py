@@ -40,11 +40,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import PrecisionWarning, SingularProblemError
+from .banded import BlockSolution, BlockSystem, solve_block_banded
+from .blockkernels import rowwise_matvec
 from .covariance import CovarianceBlocks
 from .priorterms import PriorTerm
 from .problem import RegressionProblem, apply_difference
-from .blockkernels import rowwise_matvec
-from .banded import BlockSolution, BlockSystem, solve_block_banded
 
 LOG_2PI = float(np.log(2.0 * np.pi))
 # Warn when the penalty dominates the data by more than 1e10: results keep fewer

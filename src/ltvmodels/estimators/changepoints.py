@@ -57,8 +57,8 @@ from typing import Any
 
 import numpy as np
 
-from ..validation import arrays, options
 from ..results.regression import RegressionModel
+from ..validation import arrays, options
 
 MAD_TO_STD = 1.4826
 """Factor turning the median absolute deviation into a standard deviation (Gaussian)."""

@@ -14,7 +14,6 @@ import numpy as np
 
 from .arrays import as_float_array, describe
 
-
 NORMS = ("sq", "group", "l1")
 
 
