@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 import ltvmodels as ltv
-from ltvmodels.problem import state_space_problem
-from ltvmodels.solvers import ipm
+from ltvmodels.core.problem import state_space_problem
+from ltvmodels.core import ipm
 
 
 def main() -> None:

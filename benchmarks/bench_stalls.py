@@ -24,7 +24,7 @@ def main() -> None:
         for seed in range(8):
             data = ltv.systems.jump_linear(T=T, change_at=T // 2, seed=seed)
             for norm in ("group", "l1"):
-                lam_max = ltv.fit(data.x, data.u, lam=1.0, norm=norm, order=2).info["lambda_max"]
+                lam_max = ltv.lambda_max(data.x, data.u, norm=norm, order=2)
                 for fraction in (0.3, 0.5, 0.7, 0.9):
                     start = time.perf_counter()
                     with warnings.catch_warnings(record=True) as caught:

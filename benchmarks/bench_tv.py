@@ -20,7 +20,7 @@ import warnings
 import numpy as np
 
 import ltvmodels as ltv
-from ltvmodels.problem import state_space_problem
+from ltvmodels.core.problem import state_space_problem
 
 LAM = 17.0
 

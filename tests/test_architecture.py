@@ -263,11 +263,3 @@ def test_help_does_not_load_the_solvers():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()
     assert out == "[]"
-
-
-@pytest.mark.parametrize("name", sorted(__import__(PACKAGE).__all__))
-def test_every_public_name_resolves(name):
-    import ltvmodels
-
-    assert getattr(ltvmodels, name) is not None
-    assert name in dir(ltvmodels)

@@ -83,9 +83,8 @@ def run_jump_linear_demo(
         The penalty.
     lam : float, optional
         Regularization λ. Default: for "group" 0.1·λ_max, where λ_max is the
-        smallest λ giving the LTI model (``info["lambda_max"]``; automatic
-        selection by the L-curve is planned); for "sq"
-        :data:`JUMP_LINEAR_LAM` (30).
+        smallest λ giving the LTI model (:func:`ltvmodels.lambda_max`); for
+        "sq" :data:`~ltvmodels.apps.defaults.JUMP_LINEAR_LAM` (30).
     out : str or path-like or None, default ``"ltvmodels-jump-linear.png"``
         Image file to write (format from the suffix; png without one);
         None writes no file.

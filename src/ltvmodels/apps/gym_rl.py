@@ -1,6 +1,6 @@
 """Model-based reinforcement learning on gymnasium's ``Pendulum-v1`` with LTV vs LTI models.
 
-The loop of :mod:`ltvmodels.rl` on a simulator nobody here wrote: the
+The loop of :mod:`ltvmodels.apps.rl` on a simulator nobody here wrote: the
 pendulum of `gymnasium <https://gymnasium.farama.org>`_ (torque bounded to ±2,
 dt = 0.05 s, episodes of 200 steps, reward −(θ_norm² + 0.1 θ̇² + 0.001 u²)) is
 only reset and stepped (``env.reset(seed=s)``, ``env.step``); its equations
@@ -24,7 +24,7 @@ Each learning iteration (:func:`learn_pendulum`):
 2. compares the rollout with the incumbent (the best rollout so far) on the
    surrogate cost (:class:`PendulumCost`) over the planning horizon H: a
    worse rollout is rejected and the incumbent kept; the trust-region radius
-   adapts by :func:`ltvmodels.rl.learn`'s rule (ρ = actual / predicted
+   adapts by :func:`ltvmodels.apps.rl.learn`'s rule (ρ = actual / predicted
    decrease of the surrogate, and the realized change of the states over the
    H planned steps), kept at least ``min_trust_region``;
 3. fits a dynamics model along the incumbent — LTV: :func:`ltvmodels.fit`
@@ -119,7 +119,7 @@ def _gymnasium() -> Any:
         import gymnasium
     except ImportError as exc:  # pragma: no cover - exercised without gymnasium only
         raise ImportError(
-            "ltvmodels.gym_rl needs gymnasium >= 1.0: install ltvmodels[rl] "
+            "ltvmodels.apps.gym_rl needs gymnasium >= 1.0: install ltvmodels[rl] "
             "(pip install 'ltvmodels[rl]')"
         ) from exc
     return gymnasium
@@ -518,7 +518,7 @@ def learn_pendulum(
     reject_worse : bool
         Keep the incumbent when a rollout's surrogate cost is higher (True),
         or always continue from the latest rollout (False, as
-        :func:`ltvmodels.rl.learn`).
+        :func:`ltvmodels.apps.rl.learn`).
     feedback : {"riccati", "ilqg"}
         Feedback gains of the controller: the model's LQR gains without torque
         bounds ("riccati"), or box-DDP's gains from :func:`ltvmodels.control.ilqg`

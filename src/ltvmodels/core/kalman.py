@@ -74,7 +74,7 @@ LOG_2PI = float(np.log(2.0 * np.pi))
 
 #: Smallest eigenvalue of the information matrix, scaled to unit diagonal, at
 #: which the diffuse filter regards the state as identified (the tolerance of
-#: :mod:`ltvmodels.identifiability`).
+#: :mod:`ltvmodels.core.identifiability`).
 IDENTIFIED_TOL = 1e-10
 
 

@@ -30,7 +30,7 @@ A segment is feasible when it has at least ``min_size`` samples and the Gram
 matrix G(a, b) = Σ φ̃_t φ̃_tᵀ of the regressors, scaled to unit RMS per column
 over the whole data, has smallest eigenvalue above τ = 1e-10 · N (its
 correlation-scaled version then has smallest eigenvalue above 1e-10, the
-identifiability threshold of :mod:`ltvmodels.identifiability`). Adding rows
+identifiability threshold of :mod:`ltvmodels.core.identifiability`). Adding rows
 only increases G, so feasibility is monotone: [a, b) feasible implies every
 segment containing it is feasible. For each end b the feasible starts are
 therefore 0 … a_max(b) with a_max nondecreasing, found by a two-pointer sweep

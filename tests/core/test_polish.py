@@ -83,7 +83,7 @@ def test_stalled_order2_fit_is_certified_by_the_polish():
     # says that the interior-point method did not converge by itself.
     cp = pytest.importorskip("cvxpy")
     d = ltv.systems.jump_linear(T=2000, change_at=1000, seed=1)
-    lam = 0.5 * ltv.fit(d.x, d.u, lam=1.0, norm="group", order=2).info["lambda_max"]
+    lam = 0.5 * ltv.lambda_max(d.x, d.u, norm="group", order=2)
     with warnings.catch_warnings():
         warnings.simplefilter("error", ltv.ConvergenceWarning)
         model = ltv.fit(d.x, d.u, lam=lam, norm="group", order=2, tol=1e-9)

@@ -8,7 +8,7 @@ import pytest
 
 from ltvmodels.apps import rl
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 def test_jacobian_matches_finite_differences():

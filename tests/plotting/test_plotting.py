@@ -191,3 +191,18 @@ def test_plot_model_overview(model, data):
     segmented = ltv.fit_segments(data.x, data.u, n_changes=1)
     fig = plotting.plot_model(segmented)  # change points of the model itself
     assert "60" in fig.subfigs[1].axes[0].get_legend().get_title().get_text()
+
+
+def test_plot_model_marks_the_change_points_the_fit_found(data):
+    """Plotting never detects change points itself: it draws those of the model, or given ones."""
+    group = ltv.fit(data.x, data.u, lam=5.0, norm="group")
+    assert group.changepoints.size
+    fig = plotting.plot_model(group)
+    legend = fig.subfigs[1].axes[0].get_legend().get_title().get_text()
+    assert legend == "detected: " + ", ".join(str(int(c)) for c in group.changepoints)
+    smooth = ltv.fit(data.x, data.u, lam=10.0)  # norm="sq": no change points of its own
+    activation_ax = plotting.plot_model(smooth).subfigs[1].axes[0]
+    assert activation_ax.get_legend() is None and len(activation_ax.lines) == 1
+    found = ltv.find_changepoints(smooth)
+    activation_ax = plotting.plot_model(smooth, changepoints=found).subfigs[1].axes[0]
+    assert len(activation_ax.lines) == 1 + len(found)

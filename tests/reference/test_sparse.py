@@ -93,7 +93,7 @@ def test_not_converging_warns():
 @pytest.mark.parametrize("norm", ["group", "l1"])
 def test_path_equals_independent_fits(norm):
     x, u = data(7)
-    lam_max = ltv.fit(x, u, lam=1.0, norm=norm).info["lambda_max"]
+    lam_max = ltv.lambda_max(x, u, norm=norm)
     lams = lam_max * np.array([0.05, 0.5, 0.2])  # unsorted on purpose
     path = ltv.fit_path(x, u, lams=lams, norm=norm, tol=1e-9, max_iter=100_000)
     assert [m.lam for m in path] == list(lams)

@@ -18,7 +18,7 @@ import ltvmodels as ltv
 from ltvmodels.systems import chirp
 from ltvmodels.estimators.segments import segment_regression
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 # -- helpers -------------------------------------------------------------------------------

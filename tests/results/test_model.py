@@ -57,6 +57,7 @@ def _assert_same(a, b):
     for key in a.info:
         np.testing.assert_array_equal(a.info[key], b.info[key], err_msg=key)
     np.testing.assert_array_equal(a.activation(), b.activation())
+    assert a.status == b.status
     assert repr(a) == repr(b)
     assert a.summary() == b.summary()
 

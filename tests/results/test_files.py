@@ -1,0 +1,87 @@
+"""Model files: the current format keeps the fit status; files of ltvmodels 0.1 still load.
+
+The files in ``data/`` were written by ltvmodels 0.1 (format version 1) from
+``systems.jump_linear(T=100, change_at=50, seed=0)`` with the calls in
+:data:`FITS`. Loading one must give the model that the same call gives now,
+with the fit status reconstructed from its ``info``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import ltvmodels as ltv
+
+DATA_DIR = Path(__file__).resolve().parent / "data"
+D = ltv.systems.jump_linear(T=100, change_at=50, seed=0)
+X, U = D.x, D.u
+PHI = np.hstack([X[:-1], U[:-1]])
+
+FITS = {
+    "ltv_sq": lambda: ltv.fit(X, U, lam=10.0),
+    "ltv_group": lambda: ltv.fit(X, U, lam=5.0, norm="group"),
+    "ltv_refined": lambda: ltv.fit(X, U, lam=5.0, norm="group", refine=True),
+    "ltv_lti": lambda: ltv.fit_lti(X, U),
+    "ltv_segments": lambda: ltv.fit_segments(X, U, n_changes=1),
+    "regression": lambda: ltv.fit_regression(X[1:], PHI, lam=10.0),
+    "ar": lambda: ltv.fit_ar(X[:, 0], na=2, lam=10.0, constant=True),
+    "arx": lambda: ltv.fit_arx(X[:, 0], U, na=2, nb=1, lam=10.0),
+}
+
+
+def version_of(path: Path) -> int:
+    with np.load(path, allow_pickle=False) as data:
+        return json.loads(str(data["meta"]))["format_version"]
+
+
+@pytest.mark.parametrize("name", list(FITS))
+def test_files_of_version_0_1_load_as_the_same_model(name):
+    path = DATA_DIR / f"v0.1_{name}.npz"
+    assert version_of(path) == 1
+    old, new = ltv.load(path), FITS[name]()
+    assert type(old) is type(new) and old.structure() == new.structure()
+    np.testing.assert_allclose(old.k, new.k, rtol=1e-10, atol=1e-12)
+    assert old.norm == new.norm
+    assert old.loglik == pytest.approx(new.loglik, rel=1e-10, nan_ok=True)
+    if new.cov is not None:
+        np.testing.assert_allclose(old.cov, new.cov, rtol=1e-8, atol=1e-14)
+    np.testing.assert_array_equal(old.changepoints, new.changepoints)
+    assert set(old.info) == set(new.info)
+    # The status of a 0.1 file is reconstructed from its info: that of the same fit now.
+    assert old.status.status == new.status.status
+    assert old.status.solver == new.status.solver
+    assert old.status.iterations == new.status.iterations
+    assert old.status.objective == pytest.approx(new.status.objective, rel=1e-10)
+    assert set(old.status.details) == set(new.status.details)
+
+
+def test_current_files_are_version_2_and_keep_the_status(tmp_path):
+    model = ltv.fit(X, U, lam=5.0, norm="group")
+    path = tmp_path / "m.npz"
+    model.save(path)
+    assert version_of(path) == 2
+    loaded = ltv.load(path)
+    assert loaded.status == model.status
+    # a model without a status (given coefficients) round-trips too
+    given = ltv.LTVModel(D.k, 2, 1)
+    given.save(path)
+    again = ltv.load(path)
+    assert again.status is None and again.norm is None
+    np.testing.assert_array_equal(again.k, D.k)
+
+
+def test_unreadable_versions_are_rejected(tmp_path):
+    path = tmp_path / "future.npz"
+    ltv.fit_lti(X, U).save(path)
+    with np.load(path, allow_pickle=False) as data:
+        arrays = {key: data[key] for key in data.files}
+    meta = json.loads(str(arrays["meta"]))
+    meta["format_version"] = 99
+    arrays["meta"] = np.array(json.dumps(meta))
+    np.savez(path, **arrays)
+    with pytest.raises(ValueError, match="unsupported model file version 99"):
+        ltv.load(path)
