@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
-from ltvmodels.core.problem import difference_matrix, state_space_problem
+from dense_reference import difference_matrix
+from ltvmodels.core.problem import state_space_problem
 from ltvmodels.core import conekernels as cones
 from ltvmodels.core import ipm
 
@@ -88,7 +89,7 @@ def test_newton_direction_solves_the_linearized_kkt_system(norm, coeffs):
     dk, dt, ds, dz, step = newton.direction(target)
     assert step == pytest.approx(min(cones.max_step(s, ds), cones.max_step(z, dz)))
     # G(Δt, Δk) = −(Δt, ΛDΔk);  Gᵀ(v₀, v₁) = (−v₀, −DᵀΛv₁).
-    Dt = difference_matrix(N, np.array(coeffs)).toarray()
+    Dt = difference_matrix(N, np.array(coeffs))
     Dk = (Dt @ dk) * weights
     G_dx = -np.concatenate([dt[:, None], Dk.reshape(n_cones, m - 1)], axis=1)
     np.testing.assert_allclose(G_dx + ds, -r_z, atol=1e-8)  # GΔx + Δs = −r_z

@@ -14,7 +14,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
 from .blockkernels import rowwise_matvec
 
@@ -100,12 +99,6 @@ def apply_difference_adjoint(values: np.ndarray, coeffs: np.ndarray, N: int) -> 
     for j in range(d + 1):
         out[j : N - d + j] += coeffs[j] * values
     return out
-
-
-def difference_matrix(N: int, coeffs: np.ndarray) -> sp.csr_matrix:
-    """Sparse (N − d) × N matrix D with (Dv)_t = Σ_j c_j v_{t+j}."""
-    d = len(coeffs) - 1
-    return sp.diags(list(coeffs), offsets=list(range(d + 1)), shape=(N - d, N), format="csr")
 
 
 def gram_bands(N: int, coeffs: np.ndarray) -> list[np.ndarray]:
