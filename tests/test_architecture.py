@@ -232,7 +232,7 @@ def test_no_private_names_outside_the_package(folder):
     assert not wrong, "\n".join(wrong)
 
 
-def test_the_checks_catch_violations(tmp_path):
+def test_the_checks_catch_violations():
     """The parser sees function-level, relative and private imports (a check that can fail)."""
     code = ("def f():\n    from ..estimators.fit import _refine\n    from .. import plotting\n"
             "    return plotting._private\n")

@@ -36,6 +36,7 @@ __all__ = [
     "DEFAULT_DEMO_OUT",
 ]
 
+
 def _rms(a: np.ndarray) -> float:
     with np.errstate(over="ignore", invalid="ignore"):
         return float(np.sqrt(np.mean(np.square(a))))

@@ -32,7 +32,7 @@ def _affine_inputs(u: np.ndarray) -> np.ndarray:
 
 
 def fit_affine(kind: str, x: np.ndarray, u: np.ndarray, lam: float,
-                priors: Sequence[Prior] | None = None) -> tuple[np.ndarray, np.ndarray]:
+               priors: Sequence[Prior] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Jacobians A (N, n, n), B (N, n, m) of an affine model fitted along one trajectory.
 
     ``kind`` "lti": :func:`ltvmodels.fit_lti`; otherwise :func:`ltvmodels.fit` with

@@ -59,7 +59,7 @@ def user_errors(context: str = "") -> Iterator[None]:
 
 @contextlib.contextmanager
 def collect_warnings() -> Iterator[list[str]]:
-    """Record warnings as one-line texts (printed by :func:`ltvmodels.cli.main`, listed in --json)."""
+    """Record warnings as one-line texts (printed by ``ltvmodels.cli.main``, listed in --json)."""
     caught: list[str] = []
     with warnings.catch_warnings(record=True) as records:
         warnings.simplefilter("always")

@@ -349,4 +349,3 @@ def backward_fixed(L, X, cov, b_tuple):  # pragma: no cover - compiled
 def solve_fixed(L, X, b_tuple):  # pragma: no cover - compiled
     """:func:`solve` with the block size ``len(b_tuple)`` as a constant."""
     solve(L, X, len(b_tuple))
-

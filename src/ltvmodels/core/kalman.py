@@ -402,5 +402,3 @@ def loglik_offset(coeffs: np.ndarray, n: int, p: int, diffuse: bool) -> float:
         return 0.0
     d = len(coeffs) - 1
     return -(d - 1) * n * p * float(np.log(abs(coeffs[-1] / coeffs[0])))
-
-

@@ -19,7 +19,6 @@ def lag_length(na: int, nb: int, nk: int) -> int:
     return max(na, nk + nb - 1 if nb else 0)
 
 
-
 def lagged_regressors(
     y: np.ndarray, u: np.ndarray, na: int, nb: int, nk: int, constant: bool
 ) -> tuple[np.ndarray, np.ndarray]:

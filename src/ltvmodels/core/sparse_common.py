@@ -25,7 +25,7 @@ from .problem import (
 
 
 class QuadraticUpdate:
-    """argmin_k ‖y − Φk‖² + (ρ/2)‖ΛDk − v‖² for many v: one cached factorization per group of equal rows.
+    """argmin_k ‖y − Φk‖² + (ρ/2)‖ΛDk − v‖² for many v, factored once per group of equal rows.
 
     ADMM's k-update (with v = z − w) and the interior-point method's start
     (with v = 0). The matrix is the squared-norm solver's with ρ/2·Λ² in place

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..core import identifiability
 from ..core.covariance import CovarianceBlocks
-from ..core.problem import state_space_problem
+from ..core.problem import RegressionProblem, state_space_problem
 from ..core.sparse import solve_sparse
 from ..core.sparse_common import lambda_max as problem_lambda_max
 from ..results.base import signal_names
@@ -94,7 +94,6 @@ def fit_lti(x: Any, u: Any = None) -> LTVModel:
         changepoints=np.zeros(0, dtype=int),
         status=FitStatus("closed_form", info["solver"], 0, rss),
     ))
-
 
 
 def fit(
@@ -223,7 +222,6 @@ def fit(
     )
 
 
-
 def _refine(x: Any, u: Any, first: LTVModel) -> LTVModel:
     """Second step of the two-step refinement: refit between the change points."""
     degree = len(first.coeffs) - 1
@@ -246,7 +244,6 @@ def _refine(x: Any, u: Any, first: LTVModel) -> LTVModel:
         refined.info["lam_selection"] = first.info["lam_selection"]
     refined.info["first_step_k"] = np.array(first.k)
     return refined
-
 
 
 def fit_path(
@@ -288,15 +285,10 @@ def fit_path(
     if norm == "sq":
         return [fit(x, u, lam=float(lam), norm=norm, order=order, compute_cov=compute_cov)
                 for lam in values]
-    x, u = arrays.state_and_input(x, u)
-    coeffs = options.difference_coefficients(order, max_degree=x.shape[0])
+    problem = _identifiable_problem(x, u, order)
     max_iter = options.integer(max_iter, "max_iter", minimum=1)
     tol = options.positive_scalar(tol, "tol")
-    n, m = x.shape[1], u.shape[1]
-    problem = state_space_problem(x, u, coeffs)
-    options.enough_samples(problem.N, problem.p, problem.degree)
-    identifiability.check(problem, has_prior=False, regressor_names=_regressor_names(n, m))
-    factory = partial(LTVModel, n_states=n, n_inputs=m)
+    factory = partial(LTVModel, n_states=problem.n, n_inputs=problem.p - problem.n)
     models: list[LTVModel | None] = [None] * values.size
     warm = None
     for position, index in enumerate(np.argsort(-values, kind="stable")):
@@ -356,11 +348,16 @@ def lambda_max(x: Any, u: Any = None, *, norm: str, order: Any = 1) -> float:
     >>> bool(model.status.status == "closed_form" and model.changepoints.size == 0)
     True
     """
-    x, u = arrays.state_and_input(x, u)
     norm = options.choice(norm, "norm", ("group", "l1"))
+    return problem_lambda_max(_identifiable_problem(x, u, order), norm)
+
+
+def _identifiable_problem(x: Any, u: Any, order: Any) -> RegressionProblem:
+    """The regression of validated state-space data, checked for samples and identifiability."""
+    x, u = arrays.state_and_input(x, u)
     coeffs = options.difference_coefficients(order, max_degree=x.shape[0])
-    n, m = x.shape[1], u.shape[1]
     problem = state_space_problem(x, u, coeffs)
     options.enough_samples(problem.N, problem.p, problem.degree)
-    identifiability.check(problem, has_prior=False, regressor_names=_regressor_names(n, m))
-    return problem_lambda_max(problem, norm)
+    identifiability.check(problem, has_prior=False,
+                          regressor_names=_regressor_names(x.shape[1], u.shape[1]))
+    return problem

@@ -96,8 +96,9 @@ def _run_filter(s: _Setup):
     diffuse = s.prior is None
     m0, P0 = (np.zeros((D, s.n)), np.eye(D)) if diffuse else s.prior
     return filter_kernel(
-        s.phi, s.y, model.F, model.F_inv, model.q, model.R, log_abs_det_transition(model.coeffs, s.p),
-        diffuse, np.ascontiguousarray(m0), np.ascontiguousarray(P0), IDENTIFIED_TOL,
+        s.phi, s.y, model.F, model.F_inv, model.q, model.R,
+        log_abs_det_transition(model.coeffs, s.p), diffuse, np.ascontiguousarray(m0),
+        np.ascontiguousarray(P0), IDENTIFIED_TOL,
     )
 
 

@@ -248,7 +248,6 @@ def _enough_samples(problem: RegressionProblem, data_name: str, rows_note: str) 
         options.enough_rows(problem.N, problem.p, problem.degree, data_name, rows_note)
 
 
-
 def sparse_model(
     problem: RegressionProblem, lam: Any, norm: str, solution: SparseSolution,
     factory: ModelFactory,

@@ -16,6 +16,7 @@ if TYPE_CHECKING:  # pragma: no cover
 MODELS_WITH_CHANGEPOINTS = ("group", "l1", "piecewise", "l0", "lti")
 """Norms of the models whose ``changepoints`` were found by the fit itself."""
 
+
 def _coefficient_names(n: int, m: int) -> list[list[str]]:
     return [[f"A[{i},{j}]" for j in range(n)] + [f"B[{i},{j}]" for j in range(m)]
             for i in range(n)]
@@ -233,7 +234,6 @@ def plot_eigenvalues(model: Any, ax: "Axes | None" = None) -> "Axes":
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="small", loc="best")
     return ax
-
 
 
 def plot_poles(model: Any, ax: "Axes | None" = None) -> "Axes":

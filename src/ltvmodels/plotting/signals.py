@@ -101,7 +101,6 @@ def plot_simulation(data: Any, simulation: Any, *, start: int = 0, names: Any = 
     return fig
 
 
-
 def plot_root_spectrogram(model: Any, fs: float, *, ax: "Axes | None" = None) -> "Axes":
     """Plot the root spectrogram of an AR/ARX model: pole frequencies over time.
 
@@ -145,7 +144,6 @@ def plot_root_spectrogram(model: Any, fs: float, *, ax: "Axes | None" = None) ->
     ax.set_ylim(0, fs / 2)
     ax.grid(True, alpha=0.3)
     return ax
-
 
 
 def plot_spectrogram(y: Any, fs: float, *, ax: "Axes | None" = None, nperseg: int = 256,
