@@ -26,7 +26,7 @@ from ..core.kalman import (
     smoother_kernel,
     step,
 )
-from ..core.problem import state_space_problem
+from ..core.problem import RegressionProblem, state_space_problem
 from ..errors import SingularProblemError
 from ..results.kalman import KalmanFilterResult, KalmanSmootherResult
 from ..validation import arrays, options
@@ -62,19 +62,12 @@ def parameter_state_space(
 
 @dataclass
 class _Setup:
-    phi: np.ndarray
-    y: np.ndarray
+    """Validated data and options of one filter or smoother run."""
+
+    problem: RegressionProblem  # y_t = x[t+1], φ_t = [x_t; u_t] (C-contiguous)
     model: ParameterStateSpace
     lam: float
     prior: tuple[np.ndarray, np.ndarray] | None
-
-    @property
-    def n(self) -> int:
-        return self.y.shape[1]
-
-    @property
-    def p(self) -> int:
-        return self.phi.shape[1]
 
 
 def _setup(x, u, lam, order, noise_var, init_mean, init_cov) -> _Setup:
@@ -84,26 +77,25 @@ def _setup(x, u, lam, order, noise_var, init_mean, init_cov) -> _Setup:
     noise_var = options.positive_scalar(noise_var, "noise_var")
     problem = state_space_problem(x, u, coeffs)
     prior = arrays.initial_state_prior(init_mean, init_cov, problem.degree, problem.n, problem.p)
-    return _Setup(
-        phi=np.ascontiguousarray(problem.phi), y=np.ascontiguousarray(problem.y),
-        model=realize(coeffs, problem.p, lam, noise_var), lam=lam, prior=prior,
-    )
+    return _Setup(problem=problem, model=realize(coeffs, problem.p, lam, noise_var), lam=lam,
+                  prior=prior)
 
 
 def _run_filter(s: _Setup):
     model = s.model
     D = model.F.shape[0]
     diffuse = s.prior is None
-    m0, P0 = (np.zeros((D, s.n)), np.eye(D)) if diffuse else s.prior
+    pb = s.problem
+    m0, P0 = (np.zeros((D, pb.n)), np.eye(D)) if diffuse else s.prior
     return filter_kernel(
-        s.phi, s.y, model.F, model.F_inv, model.q, model.R,
-        log_abs_det_transition(model.coeffs, s.p), diffuse, np.ascontiguousarray(m0),
+        pb.phi, pb.y, model.F, model.F_inv, model.q, model.R,
+        log_abs_det_transition(model.coeffs, pb.p), diffuse, np.ascontiguousarray(m0),
         np.ascontiguousarray(P0), IDENTIFIED_TOL,
     )
 
 
 def _filter_result(s: _Setup, vecs, mats, in_info, ell) -> KalmanFilterResult:
-    N, p, n = s.y.shape[0], s.p, s.n
+    N, p, n = s.problem.N, s.problem.p, s.problem.n
     k = vecs[:, :p, :].transpose(0, 2, 1).reshape(N, n * p).copy()
     cov = mats[:, :p, :p].copy()
     k[in_info] = np.nan
@@ -210,18 +202,19 @@ def kalman_smoother(
     """
     s = _setup(x, u, lam, order, noise_var, init_mean, init_cov)
     if s.prior is None:
-        options.enough_samples(s.y.shape[0], s.p, s.model.degree)
+        options.enough_samples(s.problem.N, s.problem.p, s.model.degree)
     vecs, mats, in_info, ell = _run_filter(s)
     filtered = _filter_result(s, vecs, mats, in_info, ell)
     if in_info[-1]:
         raise SingularProblemError(
             "the data do not identify the parameters: with a flat (diffuse) prior on the "
-            f"initial state, the information matrix is still singular after all {s.y.shape[0]} "
+            f"initial state, the information matrix is still singular after all {s.problem.N} "
             "time steps. Remedies: more excitation in the inputs, a larger lam, a proper "
             "prior (init_mean, init_cov), or fewer regressors."
         )
-    means, covs = smoother_kernel(vecs, mats, in_info, s.model.F, s.model.F_inv, s.p, s.model.q)
-    N, p, n = s.y.shape[0], s.p, s.n
+    means, covs = smoother_kernel(vecs, mats, in_info, s.model.F, s.model.F_inv, s.problem.p,
+                                   s.model.q)
+    N, p, n = s.problem.N, s.problem.p, s.problem.n
     k = means.transpose(0, 2, 1).reshape(N, n * p)
     return KalmanSmootherResult(k=k, cov=covs, loglik=filtered.loglik, filtered=filtered)
 
