@@ -1,7 +1,8 @@
-"""Seeded example systems and simulators (the paper's examples).
+"""Seeded example systems and test signals (the paper's examples).
 
-Every function here returns a :class:`SimulatedData`: the recorded states and
-inputs together with the true coefficients, in the conventions of
+The systems (:func:`jump_linear`, :func:`random_walk_system`) return a
+:class:`SimulatedData`: the recorded states and inputs together with the true
+coefficients, in the conventions of
 :func:`ltvmodels.fit` — time on axis 0, N = T − 1 model steps, and model index
 t maps (x[t], u[t]) to x[t+1]::
 
@@ -9,7 +10,8 @@ t maps (x[t], u[t]) to x[t+1]::
     x[t]        = x_true[t] + e[t],                        e[t] ~ N(0, measurement_std² I)
 
 All randomness comes from one :func:`numpy.random.default_rng` generator
-created from ``seed``, so equal arguments give identical data.
+created from ``seed``, so equal arguments give identical data. :func:`chirp` is
+the test signal of the root spectrogram (a time-varying AR model's poles).
 """
 
 from __future__ import annotations
