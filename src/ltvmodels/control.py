@@ -51,6 +51,7 @@ import numba
 import numpy as np
 
 from .core.dense import cholesky, cholesky_solve
+from .core.simulation import simulate_affine
 from .errors import ConvergenceWarning
 from .results.base import LinearTimeVarying
 from .validation import arrays, options
@@ -275,13 +276,7 @@ class LinearDynamics(LinearTimeVarying):
         """States (N + 1, n) from x0 (n,) under controls u (N, m)."""
         x0 = arrays.vector(x0, "x0", self.n)
         u = _trajectory_controls(u, self.N, self.m, "u")
-        zeros_k = np.zeros((self.N, self.m))
-        zeros_K = np.zeros((self.N, self.m, self.n))
-        inf = np.full((self.N, self.m), np.inf)
-        x_nom = np.zeros((self.N + 1, self.n))
-        x, _ = _forward_linear(self.A, self.B, self.c, x0, x_nom, u, zeros_k, zeros_K, 0.0,
-                               -inf, inf)
-        return x
+        return simulate_affine(self.A, self.B, self.c, x0, u)
 
     def __repr__(self) -> str:
         return f"LinearDynamics(N={self.N}, n={self.n}, m={self.m})"
