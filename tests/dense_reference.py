@@ -280,39 +280,49 @@ class DenseProblem:
         adding z·log κ, which is what makes the κ → ∞ limit exact.
         """
         pen, _ = self._penalized_set()
-        W_P = self.W[np.ix_(pen, pen)] / noise_var
+        scale = np.sqrt(self._noise_scales(noise_var)[1][: self.K][pen])
+        W_P = self.W[np.ix_(pen, pen)] / scale[:, None] / scale[None, :]
         sign, ld_W = np.linalg.slogdet(W_P) if pen.any() else (1.0, 0.0)
         assert sign > 0, "the reference needs W positive definite on the penalized set"
         N, d = self.N, self.d
         return float(2 * (N - d) * pen.sum() * np.log(abs(self.coeffs[-1])) + (N - d) * ld_W)
 
-    def loglik_kappa(self, kappa: float, noise_var: float) -> float:
+    def loglik_kappa(self, kappa: float, noise_var) -> float:
         """log p(y) for the proper prior: the penalty as a Gaussian random walk with
         drift precision W/σ² and the diffuse unknowns ~ N(0, κ), plus the flat-prior
         normalization (z/2)·log(2πκ), z = number of diffuse unknowns. ``kappa=np.inf``
         gives the exact limit (the diffuse likelihood).
 
+        ``noise_var`` is σ², or one σ_i² per output (n,): output i then has noise
+        σ_i² and its row of the coefficients drift precision W_ii/σ_i² (W must
+        not couple the rows).
+
         Computed in information form (no κ-sized covariances):
-        log N(y; 0, σ²I + Φ Q⁻¹ Φᵀ) = −½[Nn log 2πσ² + log det(Q + ΦᵀΦ/σ²) − log det Q
-                                         + yᵀy/σ² − bᵀ(Q + ΦᵀΦ/σ²)⁻¹ b],  b = Φᵀy/σ²,
+        log N(y; 0, S + Φ Q⁻¹ Φᵀ) = −½[log det 2πS + log det(Q + ΦᵀS⁻¹Φ) − log det Q
+                                      + yᵀS⁻¹y − bᵀ(Q + ΦᵀS⁻¹Φ)⁻¹ b],  b = ΦᵀS⁻¹y,
         with log det Q from :meth:`logdet_prior_precision`.
         """
-        s2 = noise_var
+        s_y, s_k = self._noise_scales(noise_var)
         mask = self.diffuse_mask()
         PhiT = self.Phi @ self.T
         inv_kappa = 0.0 if np.isinf(kappa) else 1.0 / kappa
-        Hr = self.T.T @ self.Q @ self.T / s2 + np.diag(mask * inv_kappa) + PhiT.T @ PhiT / s2
-        b = PhiT.T @ self.y / s2
+        Q_s = self.Q / np.sqrt(s_k)[:, None] / np.sqrt(s_k)[None, :]
+        Hr = self.T.T @ Q_s @ self.T + np.diag(mask * inv_kappa) + PhiT.T @ (PhiT / s_y[:, None])
+        b = PhiT.T @ (self.y / s_y)
         sign, ld_H = np.linalg.slogdet(Hr)
         assert sign > 0
         z = int(mask.sum())
-        ld_Q_plus = self.logdet_prior_precision(kappa, s2)  # log det Q_κ + z log κ
-        Ny = self.y.size
+        ld_Q_plus = self.logdet_prior_precision(kappa, noise_var)  # log det Q_κ + z log κ
         return float(
-            -0.5 * (Ny * np.log(2 * np.pi * s2) + ld_H + self.y @ self.y / s2
+            -0.5 * (np.sum(np.log(2 * np.pi * s_y)) + ld_H + self.y @ (self.y / s_y)
                     - b @ np.linalg.solve(Hr, b))
             + 0.5 * ld_Q_plus + 0.5 * z * np.log(2 * np.pi)
         )
+
+    def _noise_scales(self, noise_var):
+        """Per entry of y (t-major) and per entry of k (t-major): the noise variance."""
+        var = np.broadcast_to(np.asarray(noise_var, dtype=float), (self.n,))
+        return np.tile(var, self.N), np.tile(np.repeat(var, self.p), self.N)
 
     def loglik_kappa_covariance_form(self, kappa: float, noise_var: float) -> float:
         """The same proper-prior likelihood via scipy's multivariate normal (for
@@ -340,3 +350,13 @@ def relerr(a, b) -> float:
 def random_spd(rng, d: int, scale: float = 1.0, jitter: float = 0.1) -> np.ndarray:
     G = rng.standard_normal((d, d))
     return scale * (G @ G.T / d + jitter * np.eye(d))
+
+
+def cov_scale(model) -> np.ndarray:
+    """Row scaling of a model's covariance: σ_i² for the parameters of output row i.
+
+    A fitted model's covariance is σ_i² times the rows' blocks of H⁻¹ (one
+    noise variance per output); multiplying H⁻¹ (unit noise) entrywise by this
+    (K, 1) column gives it where H⁻¹ does not couple the rows.
+    """
+    return np.repeat(np.asarray(model.noise_var), model.n_regressors)[:, None]

@@ -97,8 +97,8 @@ def test_newton_direction_solves_the_linearized_kkt_system(norm, coeffs):
     np.testing.assert_allclose(dz[:, 0], 1.0 - z[:, 0], atol=1e-10)
     adj = Dt.T @ (dz[:, 1:].reshape(-1, K) * weights)
     theta = dk.reshape(N, pb.n, pb.p)
-    data_term = 2.0 * (np.einsum("tij,tj->ti", theta, pb.phi)[:, :, None]
-                       * pb.phi[:, None, :]).reshape(N, K)
+    data_term = 2.0 * (np.einsum("tij,tj->ti", theta, pb.phi[:, 0])[:, :, None]
+                       * pb.phi[:, 0, None, :]).reshape(N, K)
     np.testing.assert_allclose(data_term - adj, -r_k, atol=1e-7 * np.abs(r_k).max())
     # λ ∘ (WΔz + W⁻¹Δs) = target.
     W, W_inv = cone_matrices(newton.v, newton.eta, 1.0), cone_matrices(newton.v, newton.eta, -1.0)
@@ -143,7 +143,7 @@ def test_feasible_start_is_primal_and_dual_feasible(norm, scale, coeffs):
     r_z, r_k = np.empty_like(s), np.empty_like(k)
     s[:, 0] = np.linalg.norm(s[:, 1:], axis=1) + 1.0
     cones.kkt_residuals(k, s[:, 0].copy(), s, z, cp.y, cp.phi, cp.coeffs, cp.w, r_z, r_k)
-    gradient_scale = np.abs(2.0 * pb.phi.T @ pb.y).max()
+    gradient_scale = np.abs(2.0 * pb.phi[:, 0].T @ pb.y[:, 0]).max()
     assert np.abs(r_k).max() < 1e-9 * gradient_scale  # 2Φᵀ(Φk − y) − DᵀΛz₁ = 0
     start = ipm.fit_sparse_ipm(pb, weights, norm)
     zero = ipm.fit_sparse_ipm(pb, weights, norm, k0=np.zeros_like(k))

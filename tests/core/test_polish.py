@@ -91,9 +91,9 @@ def test_stalled_order2_fit_is_certified_by_the_polish():
     assert model.info["duality_gap"] <= 1e-9 * model.info["objective"]
     pb = state_space_problem(d.x, d.u, COEFFS[2])
     theta = cp.Variable((pb.N, pb.K))
-    fitted = [cp.sum(cp.multiply(theta[:, i * pb.p:(i + 1) * pb.p], pb.phi), axis=1)
+    fitted = [cp.sum(cp.multiply(theta[:, i * pb.p:(i + 1) * pb.p], pb.phi[:, 0]), axis=1)
               for i in range(pb.n)]
-    loss = sum(cp.sum_squares(pb.y[:, i] - fitted[i]) for i in range(pb.n))
+    loss = sum(cp.sum_squares(pb.y[:, 0, i] - fitted[i]) for i in range(pb.n))
     reg = cp.sum(cp.norm(theta[:-2] - 2 * theta[1:-1] + theta[2:], 2, axis=1))
     reference = cp.Problem(cp.Minimize(loss + lam * reg))
     reference.solve(solver=cp.CLARABEL)

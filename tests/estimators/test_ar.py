@@ -105,7 +105,9 @@ def test_fit_regression_matches_dense_reference(n, p, order):
     model = ltv.fit_regression(y[:, 0] if n == 1 else y, phi, lam=1.7, order=order)
     np.testing.assert_allclose(model.theta, _dense_regression(y, phi, 1.7, coeffs),
                                rtol=1e-8, atol=1e-10)
-    assert model.cov.shape == (N, p, p) and model.std().shape == (N, n * p)
+    # one noise variance per output: the rows share a (N, p, p) covariance only when n = 1
+    assert model.cov.shape == ((N, p, p) if n == 1 else (N, n * p, n * p))
+    assert model.std().shape == (N, n * p)
     with pytest.raises(AttributeError):
         model.A  # noqa: B018 - a general regression has no state-space split
 
@@ -439,8 +441,8 @@ def test_ar_arx_errors():
         ltv.fit_arx(y, None, 1, 1, lam=1.0)
     with pytest.raises(TypeError, match="constant: expected True or False"):
         ltv.fit_ar(y, 2, lam=1.0, constant=1)
-    with pytest.raises(ValueError, match="y: expected finite values"):
-        ltv.fit_ar(np.r_[y[:-1], np.nan], 2, lam=1.0)
+    with pytest.raises(ValueError, match="y: expected finite values or NaN"):
+        ltv.fit_ar(np.r_[y[:-1], np.inf], 2, lam=1.0)
     model = ltv.fit_arx(y, u, 2, 1, lam=1.0)
     with pytest.raises(ValueError, match="y: expected T = 50 samples"):
         model.predict(y[:-1], u[:-1])

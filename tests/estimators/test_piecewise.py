@@ -87,7 +87,7 @@ def test_order1_noise_covariance_and_posterior_covariance():
     k, noise_cov, cov = constrained_reference(x, u, [25], order=1)
     np.testing.assert_allclose(model.k, k, atol=1e-10)
     np.testing.assert_allclose(model.noise_cov, noise_cov, rtol=1e-10)
-    assert model.noise_var == pytest.approx(np.trace(noise_cov) / 2, rel=1e-12)
+    np.testing.assert_allclose(model.noise_var, np.diag(noise_cov), rtol=1e-12)
     assert_row_covariances(model, cov)
     # Per segment, row i: Σ_v[i, i] (Φ_sᵀΦ_s)⁻¹.
     phi = np.hstack([x[:-1], u[:-1]])
@@ -129,7 +129,7 @@ def test_order1_recovers_noise_free_piecewise_constant_data_exactly():
     x, u = simulate_exact(theta, 12)
     model = ltv.fit_piecewise(x, u, cps)
     np.testing.assert_allclose(model.theta, theta, atol=1e-10)
-    assert model.noise_var < 1e-20
+    assert np.all(model.noise_var < 1e-20)
 
 
 # -- order 2 ------------------------------------------------------------------------------
@@ -251,7 +251,7 @@ BAD = [
     ("short-segment", [20, 21], 1, ValueError, CP + r"segment 1 = \[20, 21\) has 1 transition"),
     ("short-first", [2], 1, ValueError, CP + r"segment 0 = \[0, 2\) has 2 transition"),
     ("knot-unidentified", [2], 2, SingularProblemError, CP + r"the coefficients at the knot t = 0"),
-    ("too-many-knots", list(range(2, 48, 3)), 2, ValueError, CP + r"49 transitions cannot"),
+    ("too-many-knots", list(range(2, 48, 3)), 2, ValueError, CP + r"49 transitions \(with data\) cannot"),
 ]
 
 
@@ -284,8 +284,8 @@ def test_bad_data_and_flags():
     x, u = random_data(41, 40, 2, 1)
     with pytest.raises(ValueError, match=r"^u: expected 40 rows"):
         ltv.fit_piecewise(x, u[:-1], [20])
-    with pytest.raises(ValueError, match=r"^x: expected finite"):
-        ltv.fit_piecewise(np.where(np.arange(40)[:, None] == 3, np.nan, x), u, [20])
+    with pytest.raises(ValueError, match=r"^x: expected finite values or NaN"):
+        ltv.fit_piecewise(np.where(np.arange(40)[:, None] == 3, np.inf, x), u, [20])
     with pytest.raises(TypeError, match=r"^compute_cov:"):
         ltv.fit_piecewise(x, u, [20], compute_cov=1)
     with pytest.raises(ValueError, match=r"^x: the data .* has 2 transition"):

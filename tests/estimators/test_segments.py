@@ -391,8 +391,8 @@ def test_bad_input_data():
     with pytest.raises(ValueError, match="u: expected 30 rows"):
         ltv.fit_segments(x, u[:-1], n_changes=1)
     bad = x.copy()
-    bad[3, 0] = np.nan
-    with pytest.raises(ValueError, match="x: expected finite values"):
+    bad[3, 0] = -np.inf
+    with pytest.raises(ValueError, match="x: expected finite values or NaN"):
         ltv.fit_segments(bad, u, n_changes=1)
     with pytest.raises(SingularProblemError, match="x: the regressors are linearly dependent"):
         ltv.fit_segments(x, np.zeros(30), n_changes=1)

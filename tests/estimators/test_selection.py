@@ -26,7 +26,7 @@ def test_gcv_degrees_of_freedom_equal_the_dense_hat_trace():
     lam = 2.5
     Phi = np.zeros((N * n, N * K))
     for t in range(N):
-        Phi[t * n:(t + 1) * n, t * K:(t + 1) * K] = np.kron(np.eye(n), pb.phi[t])
+        Phi[t * n:(t + 1) * n, t * K:(t + 1) * K] = np.kron(np.eye(n), pb.phi[t, 0])
     D = np.kron(difference_matrix(N, pb.coeffs), np.eye(K))
     hat = Phi @ np.linalg.solve(Phi.T @ Phi + lam**2 * D.T @ D, Phi.T)
     assert criterion_fit(pb, "sq", lam, compute_cov=True)["dof"] == pytest.approx(np.trace(hat), rel=1e-9)

@@ -42,14 +42,15 @@ INDEF = np.diag([1.0, 1, 1, 1, 1, -1])
 
 # (id, kwargs overriding x/u/lam, exception, regex the message must match)
 BAD_FIT_INPUTS = [
-    ("x-nan", dict(x=lambda x, u: _with_nan(x)), ValueError, r"^x: expected finite"),
+    ("x-neginf", dict(x=lambda x, u: _with_nan(x, -np.inf)), ValueError, r"^x: expected finite"),
     ("x-inf", dict(x=lambda x, u: _with_nan(x, np.inf)), ValueError, r"^x: expected finite"),
-    ("u-nan", dict(u=lambda x, u: _with_nan(u)), ValueError, r"^u: expected finite"),
+    ("u-inf", dict(u=lambda x, u: _with_nan(u, np.inf)), ValueError, r"^u: expected finite"),
     ("u-neginf", dict(u=lambda x, u: _with_nan(u, -np.inf)), ValueError, r"^u: expected finite"),
     ("u-short", dict(u=lambda x, u: u[:-1]), ValueError, r"^u: expected 30 rows"),
     ("u-long", dict(u=lambda x, u: np.vstack([u, u[:1]])), ValueError, r"^u: expected 30 rows"),
-    ("x-3d", dict(x=lambda x, u: x[None]), ValueError, r"^x: expected a 2-d array"),
-    ("u-3d", dict(u=lambda x, u: u[None]), ValueError, r"^u: expected a 2-d array"),
+    ("x-4d", dict(x=lambda x, u: x[None, None]), ValueError, r"^x: expected shape \(T, d\)"),
+    ("u-4d", dict(u=lambda x, u: u[None, None]), ValueError, r"^u: expected shape \(T, d\)"),
+    ("u-batch-of-2", dict(u=lambda x, u: np.stack([u, u])), ValueError, r"^u: expected \d+ rows"),
     ("x-str", dict(x=lambda x, u: "abc"), TypeError, r"^x:"),
     ("x-numeric-strings", dict(x=lambda x, u: x.astype(str)), TypeError, r"^x:"),
     ("u-numeric-strings", dict(u=lambda x, u: [str(v) for v in u[:, 0]]), TypeError, r"^u:"),
@@ -114,7 +115,8 @@ BAD_FIT_INPUTS = [
     ("noise-var-nan", dict(noise_var=np.nan), ValueError, r"^noise_var:"),
     ("noise-var-inf", dict(noise_var=np.inf), ValueError, r"^noise_var:"),
     ("noise-var-str", dict(noise_var="1"), TypeError, r"^noise_var:"),
-    ("noise-var-list", dict(noise_var=[1.0]), TypeError, r"^noise_var:"),
+    ("noise-var-3", dict(noise_var=[1.0, 2.0, 3.0]), ValueError, r"^noise_var: expected a "),
+    ("noise-var-negative", dict(noise_var=[1.0, -2.0]), ValueError, r"^noise_var: expected a "),
     ("noise-var-bool", dict(noise_var=True), TypeError, r"^noise_var:"),
     ("compute-cov-int", dict(compute_cov=1), TypeError, r"^compute_cov:"),
     ("compute-cov-str", dict(compute_cov="yes"), TypeError, r"^compute_cov:"),
@@ -244,10 +246,10 @@ def test_bad_prior_construction(make, exc, pattern):
 @pytest.mark.parametrize(
     "xf, uf, pattern",
     [
-        (lambda x: _with_nan(x), lambda u: u, r"^x: expected finite"),
+        (lambda x: _with_nan(x, np.inf), lambda u: u, r"^x: expected finite"),
         (lambda x: x, lambda u: u[:-2], r"^u: expected 30 rows"),
         (lambda x: x[:3], lambda u: u[:3], r"^x: too few samples"),
-        (lambda x: x[None], lambda u: u, r"^x: expected a 2-d"),
+        (lambda x: x[None, None], lambda u: u, r"^x: expected shape \(T, d\)"),
     ],
 )
 def test_bad_fit_lti_input(data, xf, uf, pattern):

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
-from dense_reference import DenseProblem, diag_blocks, random_data, relerr
+from dense_reference import DenseProblem, cov_scale, diag_blocks, random_data, relerr
 
 ORDERS = [1, 2, [-1, 3, -3, 1]]
 ORDER_IDS = ["order1", "order2", "poly3"]
@@ -44,7 +44,7 @@ def test_fit_equals_dense_closed_form(order, m, kind):
     assert model.k.shape == (N, K)
     assert relerr(model.k, k) < TOL
     # Posterior covariances: σ² × diagonal blocks of the dense inverse.
-    assert relerr(model.cov_full(), model.noise_var * diag_blocks(H_inv, N, K)) < TOL
+    assert relerr(model.cov_full(), cov_scale(model) * diag_blocks(H_inv, N, K)) < TOL
     # The layout k_t = hstack([A_t, B_t]).ravel().
     theta = k.reshape(N, n, n + m)
     np.testing.assert_allclose(model.A, theta[:, :, :n], rtol=0, atol=TOL * np.abs(k).max())
@@ -54,13 +54,17 @@ def test_fit_equals_dense_closed_form(order, m, kind):
 
 
 def test_scalar_lam_covariance_is_compact_and_shared_by_rows():
+    """With one noise variance for all outputs the rows share one (N, p, p) covariance."""
     x, u = random_data(3, 30, 3, 1)
-    model = ltv.fit(x, u, lam=2.0)
+    model = ltv.fit(x, u, lam=2.0, noise_var=0.3)
     N, n, p = 29, 3, 4
     assert model.cov.shape == (N, p, p)
+    # estimated per output, the rows' covariances differ by their σ_i²
+    own = ltv.fit(x, u, lam=2.0)
+    assert own.cov.shape == (N, n * p, n * p) and len(set(own.noise_var)) == n
     ref = DenseProblem(x, u, 1, 2.0)
     _, H_inv = ref.solve()
-    full = model.noise_var * diag_blocks(H_inv, N, n * p)
+    full = cov_scale(model) * diag_blocks(H_inv, N, n * p)
     for i in range(n):  # every output row has the same p × p block, rows independent
         sl = slice(i * p, (i + 1) * p)
         assert relerr(model.cov, full[:, sl, sl]) < TOL
@@ -76,7 +80,7 @@ def test_given_noise_var_scales_covariance_only():
     ref = DenseProblem(x, u, 1, 1.5)
     k, H_inv = ref.solve()
     assert relerr(a.k, k) < TOL and relerr(b.k, k) < TOL
-    assert a.noise_var == 0.25 and b.noise_var == 4.0
+    assert np.all(a.noise_var == 0.25) and np.all(b.noise_var == 4.0)
     assert relerr(a.cov_full(), 0.25 * diag_blocks(H_inv, 29, 6)) < TOL
     assert relerr(b.cov_full(), 4.0 * diag_blocks(H_inv, 29, 6)) < TOL
 
@@ -108,7 +112,7 @@ def test_constant_coefficients_equal_shared_unknown_reference(order, const_idx):
     k, H_inv = ref.solve()
     assert relerr(model.k, k) < TOL
     assert np.ptp(model.k[:, const_idx], axis=0).max() == 0.0  # exactly constant
-    assert relerr(model.cov_full(), model.noise_var * diag_blocks(H_inv, T - 1, K)) < TOL
+    assert relerr(model.cov_full(), cov_scale(model) * diag_blocks(H_inv, T - 1, K)) < TOL
 
 
 def test_constant_input_column_with_inputs():
@@ -123,7 +127,7 @@ def test_constant_input_column_with_inputs():
     k, H_inv = ref.solve()
     assert relerr(model.k, k) < TOL
     assert np.ptp(model.B, axis=0).max() == 0.0
-    assert relerr(model.cov_full(), model.noise_var * diag_blocks(H_inv, T - 1, K)) < TOL
+    assert relerr(model.cov_full(), cov_scale(model) * diag_blocks(H_inv, T - 1, K)) < TOL
 
 
 def test_free_coefficient_interpolates_exactly():
@@ -152,7 +156,7 @@ def test_other_polynomials_equal_dense_reference():
         model = ltv.fit(x, u, lam=1.7, order=coeffs)
         k, H_inv = DenseProblem(x, u, coeffs, 1.7).solve()
         assert relerr(model.k, k) < TOL, coeffs
-        assert relerr(model.cov_full(), model.noise_var * diag_blocks(H_inv, 29, 6)) < TOL
+        assert relerr(model.cov_full(), cov_scale(model) * diag_blocks(H_inv, 29, 6)) < TOL
 
 
 def test_scalar_lam_equals_isotropic_matrix_and_vector():
@@ -175,9 +179,9 @@ def test_vector_lam_rows_sharing_a_factorization(pattern):
     x, u = random_data(14, T, n, m)
     v = np.array([1.0, 2.0, 0.5, 3.0])
     lam = np.tile(v, n) if pattern == "all-rows-equal" else np.r_[v, v, 2 * v]
-    model = ltv.fit(x, u, lam=lam)
+    model = ltv.fit(x, u, lam=lam, noise_var=0.5)
     k, H_inv = DenseProblem(x, u, 1, lam).solve()
-    full = model.noise_var * diag_blocks(H_inv, T - 1, n * (n + m))
+    full = cov_scale(model) * diag_blocks(H_inv, T - 1, n * (n + m))
     assert relerr(model.k, k) < TOL
     assert relerr(model.cov_full(), full) < TOL
     assert relerr(model.std(), np.sqrt(np.diagonal(full, axis1=1, axis2=2))) < TOL

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.optimize import minimize_scalar
+from scipy.optimize import minimize, minimize_scalar
 
 import ltvmodels as ltv
 from dense_reference import DenseProblem, random_data, random_spd, simulate_ltv
@@ -94,17 +94,24 @@ def test_noise_var_none_is_the_ml_estimate(order, kind):
     assert at.loglik == pytest.approx(model.loglik, rel=1e-12)
     for f in (0.8, 0.95, 1.05, 1.2):
         assert ltv.fit(x, u, lam=lam, order=order, noise_var=f * s2).loglik < model.loglik
-    # independent: maximize the dense diffuse likelihood over σ²
+    # independent: maximize the dense diffuse likelihood over σ² — one per
+    # output where the penalty does not couple the rows, else one shared
     ref = DenseProblem(x, u, order, lam)
-    res = minimize_scalar(lambda v: -ref.loglik_kappa(np.inf, np.exp(v)),
-                          bounds=(np.log(s2) - 3, np.log(s2) + 3), method="bounded",
-                          options={"xatol": 1e-10})
+    if kind == "matrix" and np.any(np.abs(np.asarray(lam)) * ~np.eye(len(lam), dtype=bool)):
+        assert s2[0] == s2[1]
+        res = minimize(lambda v: -ref.loglik_kappa(np.inf, np.exp(v[0])),
+                       np.log(s2[:1]) + 0.3, method="Nelder-Mead",
+                       options={"xatol": 1e-10, "fatol": 1e-13})
+    else:
+        assert s2[0] != s2[1]
+        res = minimize(lambda v: -ref.loglik_kappa(np.inf, np.exp(v)), np.log(s2) + 0.3,
+                       method="Nelder-Mead", options={"xatol": 1e-10, "fatol": 1e-13})
     # The likelihood is flat at its maximum (a relative change δ in σ² costs
-    # ~N·δ²/2), so the optimizer's argmax is only good to ~1e-6 relative:
+    # ~N·δ²/2), so the optimizer's argmax is only good to ~1e-5 relative:
     # compare the likelihood values, which are good to ~1e-11.
-    assert np.exp(res.x) == pytest.approx(s2, rel=1e-5)
+    np.testing.assert_allclose(np.exp(res.x), s2[: res.x.size], rtol=1e-4)
     assert ref.loglik_kappa(np.inf, s2) >= -res.fun - 1e-9
-    assert model.loglik == pytest.approx(-res.fun, abs=1e-8)
+    assert model.loglik == pytest.approx(-res.fun, abs=1e-7)
 
 
 # -- with priors: a proper Gaussian ---------------------------------------------------------------
@@ -147,7 +154,8 @@ def test_noise_var_none_with_prior_is_the_ml_estimate(prior_system):
     s = prior_system
     prior = ltv.Prior(s["mu"], s["S"])
     model = ltv.fit(s["x"], s["u"], lam=2.0, prior=prior)
-    s2 = model.noise_var
+    assert model.noise_var[0] == model.noise_var[1]  # with priors: one σ² for all outputs
+    s2 = float(model.noise_var[0])
     for f in (0.8, 1.2):
         assert ltv.fit(s["x"], s["u"], lam=2.0, prior=prior, noise_var=f * s2).loglik < model.loglik
 

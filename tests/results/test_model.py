@@ -101,7 +101,7 @@ def test_shapes(name):
     for t in (0, N - 1):
         np.testing.assert_array_equal(np.hstack([model.A[t], model.B[t]]).ravel(), model.k[t])
     assert model.noise_cov.shape == (n, n)
-    assert np.isscalar(model.noise_var) or np.ndim(model.noise_var) == 0
+    assert model.noise_var.shape == (model.n_outputs,)
     if model.cov is not None:
         assert model.cov.shape in ((N, p, p), (N, K, K))
         assert model.cov.shape == ((N, p, p) if model.cov_shared_by_rows else (N, K, K))

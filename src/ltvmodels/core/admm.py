@@ -106,7 +106,7 @@ def fit_sparse(
     N, n, p = problem.N, problem.n, problem.p
     K = n * p
     d = problem.degree
-    scale = float(np.mean(problem.phi**2))
+    scale = float(np.mean(np.sum(problem.phi**2, axis=1)))  # mean Gram diagonal
     wmax = float(weights.max()) if weights.size else 0.0
     if warm_start is not None:
         z, w, rho = warm_start.z.copy(), warm_start.w.copy(), warm_start.rho

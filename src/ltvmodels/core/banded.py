@@ -52,8 +52,9 @@ class BlockSystem:
 
     Attributes
     ----------
-    phi : ndarray, shape (N, p)
-        Regressors shared by the r = n_rep output rows in this system.
+    phi : ndarray, shape (N, q, p)
+        Regressors shared by the r = n_rep output rows in this system (q rows
+        per time step, whose Gram matrices add up).
     n_rep : int
         1 when rows decouple (b = p), n for the coupled form (b = n·p).
     data_scale : float
@@ -94,7 +95,7 @@ class BlockSystem:
         """The Gram blocks G_t as an (N, b, b) array."""
         phi_gram = self.data_scale * phi_outer(self.phi)
         G = np.zeros((self.N, self.b, self.b))
-        p = self.phi.shape[1]
+        p = self.phi.shape[2]
         for i in range(self.n_rep):
             G[:, i * p : (i + 1) * p, i * p : (i + 1) * p] = phi_gram
         if self.extra.shape[0]:
@@ -103,8 +104,8 @@ class BlockSystem:
 
 
 def phi_outer(phi: np.ndarray) -> np.ndarray:
-    """(N, p, p) array of φ_t φ_tᵀ."""
-    return phi[:, :, None] * phi[:, None, :]
+    """(N, p, p) array of Σ_j φ_tj φ_tjᵀ for φ of shape (N, q, p)."""
+    return np.einsum("tja,tjb->tab", phi, phi)
 
 
 @dataclass

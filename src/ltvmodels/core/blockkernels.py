@@ -39,11 +39,14 @@ import numpy as np
 
 @numba.njit(cache=True, inline="always")
 def _gram_entry(phi, n_rep, data_scale, extra, t, i, j):  # pragma: no cover - compiled
-    """Entry (i, j) of G_t."""
-    p = phi.shape[1]
+    """Entry (i, j) of G_t; φ is (N, q, p): the q rows of step t add up."""
+    p = phi.shape[2]
     value = extra[t if extra.shape[0] > 1 else 0, i, j] if extra.shape[0] > 0 else 0.0
     if data_scale != 0.0 and i // p == j // p:
-        value += data_scale * phi[t, i % p] * phi[t, j % p]
+        acc = 0.0
+        for r in range(phi.shape[1]):
+            acc += phi[t, r, i % p] * phi[t, r, j % p]
+        value += data_scale * acc
     return value
 
 
@@ -185,7 +188,7 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, b):  # pragma:
 
     Parameters
     ----------
-    phi : (N, p);  n_rep : int;  data_scale : float
+    phi : (N, q, p);  n_rep : int;  data_scale : float
     extra : (0 | 1 | N, b, b) extra Gram blocks (prior precision)
     W : (b, b);  bands : (d+1, N), bands[lag, s] = (DᵀD)_{s+lag, s}
     Z : (N, b, r) right-hand sides (r may be 0), overwritten with L⁻¹ rhs
@@ -321,14 +324,15 @@ def solve(L, X, b):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def rowwise_matvec(theta, phi, out):  # pragma: no cover - compiled
-    """out[t] = Θ_t φ_t for Θ (N, n, p), φ (N, p), out (N, n)."""
+    """out[t, r] = Θ_t φ_tr for Θ (N, n, p), φ (N, q, p), out (N, q, n)."""
     N, n, p = theta.shape
     for t in range(N):
-        for i in range(n):
-            acc = 0.0
-            for j in range(p):
-                acc += theta[t, i, j] * phi[t, j]
-            out[t, i] = acc
+        for r in range(phi.shape[1]):
+            for i in range(n):
+                acc = 0.0
+                for j in range(p):
+                    acc += theta[t, i, j] * phi[t, r, j]
+                out[t, r, i] = acc
 
 
 @numba.njit(cache=True)

@@ -212,8 +212,7 @@ def factor_newton(
 
     Returns (smallest pivot² ratio, −1 if not positive definite; its time step).
     """
-    N = phi.shape[0]
-    p = phi.shape[1]
+    N, n_rows, p = phi.shape
     d = coeffs.shape[0] - 1
     R = N - d
     ring = np.empty((d + 1, b, b))
@@ -256,11 +255,14 @@ def factor_newton(
             for i in range(b):
                 for j in range(i + 1):
                     Ltt[i, j] += weight * P[i, j]
-        for rep in range(n_rep):  # the data part, 2 I_r ⊗ φ_tφ_tᵀ
+        for rep in range(n_rep):  # the data part, 2 I_r ⊗ Σ_q φ_tqφ_tqᵀ
             base = rep * p
             for i in range(p):
                 for j in range(i + 1):
-                    Ltt[base + i, base + j] += 2.0 * phi[t, i] * phi[t, j]
+                    acc = 0.0
+                    for row in range(n_rows):
+                        acc += phi[t, row, i] * phi[t, row, j]
+                    Ltt[base + i, base + j] += 2.0 * acc
         for i in range(b if any_pinned else 0):
             if pinned[i] != 0.0:
                 for j in range(i):
@@ -358,19 +360,22 @@ def kkt_residuals(k, t, s, z, y, phi, coeffs, w, r_z, r_k):  # pragma: no cover 
     rz_norm, s_norm, rk_norm, rt_max : float
         ‖r_z‖, ‖s‖, ‖r_k‖ and max |1 − z₀|.
     """
-    N, n = y.shape
-    p = phi.shape[1]
+    N, n_rows, n = y.shape
+    p = phi.shape[2]
     K = n * p
     g = s.shape[1] - 1
     loss = 0.0
     for tt in range(N):
-        for i in range(n):
-            e = y[tt, i]
-            for a in range(p):
-                e -= k[tt, i * p + a] * phi[tt, a]
-            loss += e * e
-            for a in range(p):
-                r_k[tt, i * p + a] = -2.0 * e * phi[tt, a]
+        for a in range(K):
+            r_k[tt, a] = 0.0
+        for row in range(n_rows):
+            for i in range(n):
+                e = y[tt, row, i]
+                for a in range(p):
+                    e -= k[tt, i * p + a] * phi[tt, row, a]
+                loss += e * e
+                for a in range(p):
+                    r_k[tt, i * p + a] -= 2.0 * e * phi[tt, row, a]
     add_weighted_difference_adjoint(z, coeffs, w, -1.0, r_k)
     weighted_difference(k, coeffs, w, r_z)  # vector parts: ΛDk
     reg = gap = rz_sq = s_sq = 0.0

@@ -59,8 +59,8 @@ def diagnose(problem: RegressionProblem, const_mask: np.ndarray | None = None) -
     ``const_mask`` (p,) marks regressors whose coefficients are held constant in
     every row; their unpenalized trajectories are constants only.
     """
-    phi = problem.phi
-    N, p = phi.shape
+    N, p = problem.N, problem.p
+    phi = problem.phi.reshape(N * problem.q, p)  # rows (t, j)
     lti_eig, lti_dir = scaled_min_eig(phi.T @ phi)
     if problem.degree == 1:  # null space: constants, the LTI condition itself
         return Diagnosis(lti_min_eig=lti_eig, null_space_min_eig=lti_eig, direction=lti_dir)
@@ -69,8 +69,9 @@ def diagnose(problem: RegressionProblem, const_mask: np.ndarray | None = None) -
         const_mask = np.zeros(p, dtype=bool)
     # Columns b_l(t)·φ_{t,j} for varying j and every null-space sequence l,
     # and φ_{t,j} alone for constant j.
-    varying = basis[:, :, None] * phi[:, None, ~const_mask]  # (N, d, #varying)
-    Z = np.concatenate([varying.reshape(N, -1), phi[:, const_mask]], axis=1)
+    basis = np.repeat(basis, problem.q, axis=0)  # one row per (t, j)
+    varying = basis[:, :, None] * phi[:, None, ~const_mask]  # (N·q, d, #varying)
+    Z = np.concatenate([varying.reshape(N * problem.q, -1), phi[:, const_mask]], axis=1)
     ns_eig, _ = scaled_min_eig(Z.T @ Z)
     return Diagnosis(lti_min_eig=lti_eig, null_space_min_eig=ns_eig, direction=lti_dir)
 

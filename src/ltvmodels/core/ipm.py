@@ -104,10 +104,10 @@ class _RowSystem:
             idx = self.offset + np.arange(b)
             cidx = self.offset + self.const
             same_row = (idx[:, None] // p == cidx[None, :] // p) & (self.pinned[:, None] == 0)
-            phi = cp.phi
-            self.G = 2.0 * phi[:, idx % p][:, :, None] * phi[:, cidx % p][:, None, :] * same_row
+            gram = np.einsum("tja,tjb->tab", cp.phi, cp.phi)
+            self.G = 2.0 * gram[:, idx % p][:, :, cidx % p] * same_row
             cc_row = cidx[:, None] // p == cidx[None, :] // p
-            self.C0 = 2.0 * (phi[:, cidx % p].T @ phi[:, cidx % p]) * cc_row
+            self.C0 = 2.0 * gram[:, cidx % p][:, :, cidx % p].sum(axis=0) * cc_row
 
     def factor_and_solve(self, cp: ConicProblem, newton: NewtonSystem, f: np.ndarray):
         """Factor at ``newton``'s scaling and return the Newton step for f (N, b)."""

@@ -281,37 +281,43 @@ def _cov_update(P, m, ell, phi_t, y_t, r):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def step(mat, vec, ell, info, predict, phi_t, y_t, F, FT, F_inv, F_invT, q, r,
+def step(mat, vec, ell, info, predict, phi_t, y_t, obs_t, F, FT, F_inv, F_invT, q, r,
           log_abs_det_F, tol):  # pragma: no cover - compiled
-    """One time step: predict from t−1 (unless ``predict`` is False), then update with y_t.
+    """One time step: predict from t−1 (unless ``predict`` is False), then update.
 
+    The measurements of step t are the rows j of φ_t (q, p), y_t (q, n) with
+    ``obs_t[j]`` True (one per trajectory; none for a missing sample).
     Returns the new (mat, vec, info); ``ell`` is updated in place.
     """
-    p = phi_t.shape[0]
+    p = phi_t.shape[1]
     if info:
         if predict:
             mat, vec = _info_predict(mat, vec, ell, F_inv, F_invT, p, q, log_abs_det_F)
-        _info_update(mat, vec, ell, phi_t, y_t, r)
+        for j in range(phi_t.shape[0]):
+            if obs_t[j]:
+                _info_update(mat, vec, ell, phi_t[j], y_t[j], r)
         if _info_identified(mat, tol):
             P, m = _info_to_moments(mat, vec, ell)
             return P, m, False
         return mat, vec, True
     if predict:
         mat, vec = _cov_predict(mat, vec, F, FT, p, q)
-    _cov_update(mat, vec, ell, phi_t, y_t, r)
+    for j in range(phi_t.shape[0]):
+        if obs_t[j]:
+            _cov_update(mat, vec, ell, phi_t[j], y_t[j], r)
     return mat, vec, False
 
 
 @numba.njit(cache=True)
-def filter_kernel(phi, y, F, F_inv, q, r, log_abs_det_F, diffuse, m0, P0,
+def filter_kernel(phi, y, observed, F, F_inv, q, r, log_abs_det_F, diffuse, m0, P0,
                    tol):  # pragma: no cover - compiled
-    """Run the filter over all time steps.
+    """Run the filter over all time steps: φ (N, q, p), y (N, q, n), observed (N, q).
 
     Returns (vecs (N, D, n), mats (N, D, D), in_info (N,), ell (n,)): per step the
     filtered (m, P), or (η, Ω) while the state is not identified (in_info True).
     """
-    N, p = phi.shape
-    n = y.shape[1]
+    N = phi.shape[0]
+    n = y.shape[2]
     D = F.shape[0]
     FT = np.ascontiguousarray(F.T)
     F_invT = np.ascontiguousarray(F_inv.T)
@@ -327,8 +333,8 @@ def filter_kernel(phi, y, F, F_inv, q, r, log_abs_det_F, diffuse, m0, P0,
         vec = m0.copy()
     info = diffuse
     for t in range(N):
-        mat, vec, info = step(mat, vec, ell, info, t > 0, phi[t], y[t], F, FT, F_inv, F_invT,
-                               q, r, log_abs_det_F, tol)
+        mat, vec, info = step(mat, vec, ell, info, t > 0, phi[t], y[t], observed[t], F, FT,
+                              F_inv, F_invT, q, r, log_abs_det_F, tol)
         vecs[t] = vec
         mats[t] = mat
         in_info[t] = info

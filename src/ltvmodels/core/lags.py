@@ -22,13 +22,18 @@ def lag_length(na: int, nb: int, nk: int) -> int:
 def lagged_regressors(
     y: np.ndarray, u: np.ndarray, na: int, nb: int, nk: int, constant: bool
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(y[L:], φ) for validated y (T, n), u (T, m); φ has the column order of the module."""
-    T = y.shape[0]
+    """(y[L:], φ) for validated y (…, T, n), u (…, T, m); φ has the column order of the module.
+
+    Time is the second-to-last axis, so R trajectories (R, T, ·) give (R, N, ·).
+    A NaN in y or u makes NaN every row of φ that holds it as a lag.
+    """
+    T = y.shape[-2]
     L = lag_length(na, nb, nk)
     N = T - L
-    cols = [y[L - i : T - i] for i in range(1, na + 1)]
-    cols += [u[L - nk - j : T - nk - j] for j in range(nb)]
+    lead = y.shape[:-2]
+    cols = [y[..., L - i : T - i, :] for i in range(1, na + 1)]
+    cols += [u[..., L - nk - j : T - nk - j, :] for j in range(nb)]
     if constant:
-        cols.append(np.ones((N, 1)))
-    phi = np.hstack(cols) if cols else np.zeros((N, 0))
-    return y[L:].copy(), np.ascontiguousarray(phi)
+        cols.append(np.ones(lead + (N, 1)))
+    phi = np.concatenate(cols, axis=-1) if cols else np.zeros(lead + (N, 0))
+    return y[..., L:, :].copy(), np.ascontiguousarray(phi)

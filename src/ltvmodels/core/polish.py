@@ -124,14 +124,16 @@ def _block_diagonal(blocks: np.ndarray) -> sp.csr_matrix:
 
 
 def _operators(problem: RegressionProblem, weights: np.ndarray):
-    """Sparse Φ (N·n × N·K) and ΛD (R·K × N·K) acting on vec(k), row-major (t, j)."""
-    N, n, p, K = problem.N, problem.n, problem.p, problem.K
+    """Sparse Φ (N·q·n × N·K) and ΛD (R·K × N·K) acting on vec(k), row-major (t, j)."""
+    N, q, n, p, K = problem.N, problem.q, problem.n, problem.p, problem.K
     coeffs = np.asarray(problem.coeffs, float)
     d = len(coeffs) - 1
-    t, i, a = np.meshgrid(np.arange(N), np.arange(n), np.arange(p), indexing="ij")
+    t, row, i, a = np.meshgrid(np.arange(N), np.arange(q), np.arange(n), np.arange(p),
+                               indexing="ij")
     phi_op = sp.csr_matrix(
-        (problem.phi[t, a].ravel(), ((t * n + i).ravel(), (t * K + i * p + a).ravel())),
-        shape=(N * n, N * K),
+        (problem.phi[t, row, a].ravel(),
+         (((t * q + row) * n + i).ravel(), (t * K + i * p + a).ravel())),
+        shape=(N * q * n, N * K),
     )
     R = N - d
     r, q, j = np.meshgrid(np.arange(R), np.arange(d + 1), np.arange(K), indexing="ij")
@@ -152,7 +154,7 @@ def certificate(problem: RegressionProblem, weights: np.ndarray, k: np.ndarray, 
     R = N - (len(coeffs) - 1)
     theta = k.reshape(N, problem.n, problem.p)
     resid = problem.residuals(theta)
-    grad = (-2.0 * resid[:, :, None] * problem.phi[:, None, :]).reshape(N, K)
+    grad = -2.0 * np.einsum("tji,tja->tia", resid, problem.phi).reshape(N, K)
     # DᵀΛu = −grad: the rows t < R are the recurrence Σ_q c_q (Λu)_{t−q} = −grad_t.
     lam_u = lfilter([1.0], coeffs, -grad[:R], axis=0)
     u = lam_u / weights

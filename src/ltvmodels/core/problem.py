@@ -20,41 +20,66 @@ from .blockkernels import rowwise_matvec
 
 @dataclass(frozen=True)
 class RegressionProblem:
-    """Data of a time-varying regression.
+    """Data of a time-varying regression with q rows per time step.
+
+    The data term is Σ_t Σ_j ‖y_tj − Θ_t φ_tj‖²: row j of step t is one
+    trajectory's sample (q = R time-aligned trajectories share Θ_t), already
+    multiplied by the square root of its weight. A missing or zero-weight row
+    is stored as zeros, so it adds nothing to any sum, and is marked False in
+    ``observed`` (which only the counts — likelihood, degrees of freedom —
+    read).
 
     Attributes
     ----------
-    y : ndarray, shape (N, n)
-        Outputs (for a state-space model, x[1:]).
-    phi : ndarray, shape (N, p)
+    y : ndarray, shape (N, q, n)
+        Outputs (for a state-space model, x[1:]). (N, n) is accepted (q = 1).
+    phi : ndarray, shape (N, q, p)
         Regressors shared by all output rows (for a state-space model,
-        [x[:-1], u[:-1]]).
+        [x[:-1], u[:-1]]). (N, p) is accepted (q = 1).
     coeffs : ndarray, shape (d + 1,)
         Difference-operator coefficients c_0 … c_d.
+    observed : ndarray of bool, shape (N, q), optional
+        Which rows hold data (default: all).
     """
 
     y: np.ndarray
     phi: np.ndarray
     coeffs: np.ndarray
+    observed: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         # C order for every kernel: compiled kernels specialize on the memory
         # layout, and a fit must not depend on how the caller's arrays were laid
         # out (pandas frames arrive in Fortran order).
-        object.__setattr__(self, "y", np.ascontiguousarray(self.y, dtype=float))
-        object.__setattr__(self, "phi", np.ascontiguousarray(self.phi, dtype=float))
+        y = np.asarray(self.y, dtype=float)
+        phi = np.asarray(self.phi, dtype=float)
+        if y.ndim == 2:
+            y, phi = y[:, None, :], phi[:, None, :]
+        observed = (np.ones(y.shape[:2], dtype=bool) if self.observed is None
+                    else np.asarray(self.observed, dtype=bool))
+        if not observed.all():  # an unobserved row must not add to any sum
+            y = np.where(observed[:, :, None], y, 0.0)
+            phi = np.where(observed[:, :, None], phi, 0.0)
+        object.__setattr__(self, "y", np.ascontiguousarray(y))
+        object.__setattr__(self, "phi", np.ascontiguousarray(phi))
+        object.__setattr__(self, "observed", observed)
 
     @property
     def N(self) -> int:
         return self.y.shape[0]
 
     @property
-    def n(self) -> int:
+    def q(self) -> int:
+        """Rows per time step (trajectories)."""
         return self.y.shape[1]
 
     @property
+    def n(self) -> int:
+        return self.y.shape[2]
+
+    @property
     def p(self) -> int:
-        return self.phi.shape[1]
+        return self.phi.shape[2]
 
     @property
     def K(self) -> int:
@@ -64,17 +89,81 @@ class RegressionProblem:
     def degree(self) -> int:
         return len(self.coeffs) - 1
 
+    @property
+    def n_observed(self) -> int:
+        """Number of observed rows (each with n outputs)."""
+        return int(self.observed.sum())
+
+    @property
+    def complete(self) -> bool:
+        """One trajectory, every row observed: the paper's problem."""
+        return self.q == 1 and bool(self.observed.all())
+
     def residuals(self, theta: np.ndarray) -> np.ndarray:
-        """y_t − Θ_t φ_t for Θ of shape (N, n, p); returns (N, n)."""
+        """y_tj − Θ_t φ_tj for Θ of shape (N, n, p); returns (N, q, n), 0 where unobserved."""
         fitted = np.empty_like(self.y)
         rowwise_matvec(np.ascontiguousarray(theta), self.phi, fitted)
         return np.subtract(self.y, fitted, out=fitted)
 
+    def output_rss(self, theta: np.ndarray) -> np.ndarray:
+        """Residual sum of squares per output, shape (n,)."""
+        resid = self.residuals(theta)
+        return np.einsum("tji,tji->i", resid, resid)
 
-def state_space_problem(x: np.ndarray, u: np.ndarray, coeffs: np.ndarray) -> RegressionProblem:
-    """Regression form of x[t+1] = A_t x[t] + B_t u[t]: y = x[1:], φ = [x, u][:-1]."""
-    phi = np.hstack([x[:-1], u[:-1]])
-    return RegressionProblem(y=x[1:], phi=phi, coeffs=coeffs)
+    def gram(self) -> np.ndarray:
+        """Σ_j φ_tj φ_tjᵀ per step, shape (N, p, p)."""
+        return np.einsum("tja,tjb->tab", self.phi, self.phi)
+
+    def cross(self) -> np.ndarray:
+        """Σ_j φ_tj y_tjᵀ per step, shape (N, p, n)."""
+        if self.q == 1:
+            return self.phi[:, 0, :, None] * self.y[:, 0, None, :]
+        return np.einsum("tja,tji->tai", self.phi, self.y)
+
+    def gradient(self, theta: np.ndarray) -> np.ndarray:
+        """∇_k Σ‖y − Θφ‖² = −2 Σ_j r_tj φ_tjᵀ, shape (N, K)."""
+        resid = self.residuals(theta)
+        return -2.0 * np.einsum("tji,tja->tia", resid, self.phi).reshape(self.N, self.K)
+
+    def stacked_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """The observed rows stacked over time: φ (M, p) and y (M, n)."""
+        mask = self.observed
+        return self.phi[mask], self.y[mask]
+
+
+def weighted_problem(
+    y: np.ndarray, phi: np.ndarray, coeffs: np.ndarray, weights: np.ndarray | None = None
+) -> RegressionProblem:
+    """The problem of R trajectories: y (R, N, n), φ (R, N, p), NaN = missing.
+
+    A row enters the data term only if all of y_t and φ_t are finite (and its
+    weight is > 0); it is scaled by √w so its squared residual counts w times.
+    """
+    observed = np.all(np.isfinite(y), axis=2) & np.all(np.isfinite(phi), axis=2)
+    if weights is not None:
+        observed &= weights > 0
+        scale = np.sqrt(np.where(observed, weights, 0.0))[:, :, None]
+        y, phi = y * scale, phi * scale
+    return RegressionProblem(
+        y=np.swapaxes(y, 0, 1), phi=np.swapaxes(phi, 0, 1), coeffs=coeffs,
+        observed=observed.T,
+    )
+
+
+def state_space_problem(
+    x: np.ndarray, u: np.ndarray, coeffs: np.ndarray, *,
+    weights: np.ndarray | None = None, constant: bool = False,
+) -> RegressionProblem:
+    """Regression form of x[t+1] = A_t x[t] + B_t u[t] (+ c_t): y = x[1:], φ = [x, u, 1][:-1].
+
+    x (T, n) or (R, T, n), u likewise; weights (R, T − 1) or None.
+    """
+    if x.ndim == 2:
+        x, u = x[None], u[None]
+    parts = [x[:, :-1], u[:, :-1]]
+    if constant:
+        parts.append(np.ones(x.shape[:2] + (1,))[:, :-1])
+    return weighted_problem(x[:, 1:], np.concatenate(parts, axis=2), coeffs, weights)
 
 
 def apply_difference(values: np.ndarray, coeffs: np.ndarray) -> np.ndarray:

@@ -69,9 +69,10 @@ class ScaledData:
 
     Attributes
     ----------
-    data : ndarray, shape (N, p + n)
-        Rows [φ̃_tᵀ ỹ_tᵀ], C-contiguous: φ columns divided by their RMS, y by
-        the RMS of all its entries (one scalar, so the cost is only rescaled).
+    data : ndarray, shape (N, q, p + n)
+        Rows [φ̃_tjᵀ ỹ_tjᵀ] (q per time step: trajectories; missing rows are
+        zero), C-contiguous: φ columns divided by their RMS, y by the RMS of
+        all its entries (one scalar, so the cost is only rescaled).
     p : int
         Number of regressors.
     y_scale : float
@@ -84,19 +85,23 @@ class ScaledData:
     y_scale: float
 
 
-def scale_data(y: np.ndarray, phi: np.ndarray) -> ScaledData:
+def scale_data(y: np.ndarray, phi: np.ndarray, n_observed: int | None = None) -> ScaledData:
     """Scale φ per column and y by one scalar (see :class:`ScaledData`).
 
-    Columns of φ that are identically zero are left as they are (every
-    segment is then infeasible).
+    y (N, q, n) and φ (N, q, p) (2-d: q = 1); the root mean squares are over
+    the ``n_observed`` observed rows (default all). Columns of φ that are
+    identically zero are left as they are (every segment is then infeasible).
     """
-    col = np.sqrt(np.mean(phi**2, axis=0))
+    if y.ndim == 2:
+        y, phi = y[:, None], phi[:, None]
+    rows = y.shape[0] * y.shape[1] if n_observed is None else max(n_observed, 1)
+    col = np.sqrt(np.sum(phi**2, axis=(0, 1)) / rows)
     col[col == 0] = 1.0
-    y_scale = float(np.sqrt(np.mean(y**2)))
+    y_scale = float(np.sqrt(np.sum(y**2) / (rows * y.shape[2])))
     if y_scale == 0 or not np.isfinite(y_scale):
         y_scale = 1.0
-    data = np.ascontiguousarray(np.hstack([phi / col, y / y_scale]))
-    return ScaledData(data=data, p=phi.shape[1], y_scale=y_scale)
+    data = np.ascontiguousarray(np.concatenate([phi / col, y / y_scale], axis=2))
+    return ScaledData(data=data, p=phi.shape[2], y_scale=y_scale)
 
 
 @numba.njit(cache=True)
@@ -127,12 +132,23 @@ def _add_row(W, v, p, q):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
+def _add_step(W, v, data, t, p, q):  # pragma: no cover - compiled
+    """Rotate the rows of time step t (data[t], one per trajectory) into W; the RSS increase."""
+    inc = 0.0
+    for r in range(data.shape[1]):
+        for j in range(q):
+            v[j] = data[t, r, j]
+        inc += _add_row(W, v, p, q)
+    return inc
+
+
+@numba.njit(cache=True)
 def feasible_starts(data, p, min_size, tau):  # pragma: no cover - compiled
     """a_max[b]: the largest start a with [a, b) feasible, −1 when there is none.
 
     Parameters
     ----------
-    data : ndarray, shape (N, p + n)
+    data : ndarray, shape (N, q, p + n)
         Scaled rows [φ̃ ỹ].
     p, min_size : int
     tau : float
@@ -152,11 +168,13 @@ def feasible_starts(data, p, min_size, tau):  # pragma: no cover - compiled
         if b > 0:
             for i in range(p):
                 for j in range(p):
-                    G[i, j] += data[b - 1, i] * data[b - 1, j]
+                    for r in range(data.shape[1]):
+                        G[i, j] += data[b - 1, r, i] * data[b - 1, r, j]
         while b - lo >= min_size and cholesky(G, index, tau, L):
             for i in range(p):
                 for j in range(p):
-                    G[i, j] -= data[lo, i] * data[lo, j]
+                    for r in range(data.shape[1]):
+                        G[i, j] -= data[lo, r, i] * data[lo, r, j]
             lo += 1
         a_max[b] = lo - 1
     return a_max
@@ -178,15 +196,13 @@ def first_feasible_ends(a_max):  # pragma: no cover - compiled
 @numba.njit(cache=True)
 def segment_costs_ending_at(data, p, b, lowest, costs, W, v):  # pragma: no cover - compiled
     """costs[a] = C(a, b) for a = b−1 down to ``lowest`` (one sequential-QR pass)."""
-    q = data.shape[1]
+    q = data.shape[2]
     for i in range(p):
         for j in range(q):
             W[i, j] = 0.0
     rss = 0.0
     for a in range(b - 1, lowest - 1, -1):
-        for j in range(q):
-            v[j] = data[a, j]
-        rss += _add_row(W, v, p, q)
+        rss += _add_step(W, v, data, a, p, q)
         costs[a] = rss
 
 
@@ -196,7 +212,7 @@ def dynamic_program(data, p, n_changes, min_size, a_max):  # pragma: no cover - 
 
     Parameters
     ----------
-    data : ndarray, shape (N, p + n)
+    data : ndarray, shape (N, q, p + n)
     p, n_changes, min_size : int
     a_max : ndarray of int64, shape (N + 1,)
         From :func:`feasible_starts`.
@@ -211,7 +227,7 @@ def dynamic_program(data, p, n_changes, min_size, a_max):  # pragma: no cover - 
         segmentation of [0, b) with m changes (−1 if none).
     """
     N = data.shape[0]
-    q = data.shape[1]
+    q = data.shape[2]
     M = n_changes
     F = np.full((M + 1, N + 1), np.inf)
     starts = np.full((M + 1, N + 1), -1, dtype=np.int64)
@@ -250,16 +266,14 @@ def one_change(data, p, a_max):  # pragma: no cover - compiled
     with both segments feasible. Returns the same as :func:`dynamic_program`.
     """
     N = data.shape[0]
-    q = data.shape[1]
+    q = data.shape[2]
     W = np.zeros((p, q))
     v = np.empty(q)
     head = np.empty(N + 1)  # head[b] = C(0, b)
     head[0] = 0.0
     rss = 0.0
     for b in range(1, N + 1):
-        for j in range(q):
-            v[j] = data[b - 1, j]
-        rss += _add_row(W, v, p, q)
+        rss += _add_step(W, v, data, b - 1, p, q)
         head[b] = rss
     tail = np.empty(N + 1)  # tail[a] = C(a, N)
     segment_costs_ending_at(data, p, N, 0, tail, W, v)
@@ -291,7 +305,7 @@ def pelt(data, p, beta, min_size, a_max, margin):  # pragma: no cover - compiled
         Rows rotated in (the work done).
     """
     N = data.shape[0]
-    q = data.shape[1]
+    q = data.shape[2]
     first_end = first_feasible_ends(a_max)
     F = np.full(N + 1, np.inf)
     F[0] = -beta
@@ -325,9 +339,7 @@ def pelt(data, p, beta, min_size, a_max, margin):  # pragma: no cover - compiled
             i = nvalid - 1
             lowest = cand[0]
             for a in range(b - 1, lowest - 1, -1):
-                for j in range(q):
-                    v[j] = data[a, j]
-                rss += _add_row(W, v, p, q)
+                rss += _add_step(W, v, data, a, p, q)
                 if a == cand[i]:
                     cval[i] = rss
                     i -= 1

@@ -47,7 +47,7 @@ class QuadraticUpdate:
                     problem.phi, 1, 1.0, np.zeros((0, p, p)), np.diag(W_rows[i]), problem.coeffs
                 )
                 self.groups.append(([i], BlockFactor(system)))
-        self.data_rhs = problem.phi[:, :, None] * problem.y[:, None, :]  # (N, p, n)
+        self.data_rhs = problem.cross()  # (N, p, n)
 
     def __call__(self, z_minus_w: np.ndarray | None) -> np.ndarray:
         """Θ (N, n, p) minimizing ‖y − Φk‖² + (ρ/2)‖ΛDk − (z − w)‖² (z − w = 0 if None)."""
@@ -78,8 +78,8 @@ def null_space_fit(problem: RegressionProblem) -> np.ndarray:
     """
     N, p = problem.N, problem.p
     U = null_space_basis(N, problem.coeffs)  # (N, d)
-    Z = (U[:, :, None] * problem.phi[:, None, :]).reshape(N, -1)  # (N, d·p)
-    coef, *_ = np.linalg.lstsq(Z, problem.y, rcond=None)  # (d·p, n)
+    Z = (U[:, None, :, None] * problem.phi[:, :, None, :]).reshape(N * problem.q, -1)
+    coef, *_ = np.linalg.lstsq(Z, problem.y.reshape(-1, problem.n), rcond=None)  # (d·p, n)
     theta = np.einsum("tl,lan->tna", U, coef.reshape(U.shape[1], p, problem.n))
     return np.ascontiguousarray(theta)
 
@@ -111,8 +111,7 @@ def lambda_max(
     K = n * p
     weights = np.ones(K) if weights is None else weights
     theta = null_space_fit(problem) if theta_bar is None else theta_bar
-    resid = problem.residuals(np.ascontiguousarray(theta))  # (N, n)
-    g = (-2.0 * resid[:, :, None] * problem.phi[:, None, :]).reshape(N, K)
+    g = problem.gradient(theta)
     free = weights == 0  # unpenalized coefficients: their dual part is unconstrained
     d = problem.degree
     c = problem.coeffs

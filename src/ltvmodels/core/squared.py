@@ -58,7 +58,7 @@ class SquaredResult:
 
     theta: np.ndarray  # (N, n, p)
     cov: CovarianceBlocks | None  # posterior covariance (σ² included)
-    noise_var: float
+    noise_var: np.ndarray  # (n,)
     noise_var_estimated: bool
     loglik: float
     objective: float
@@ -139,8 +139,9 @@ class SquaredSolver:
             else:
                 # M_t = I_n ⊗ φ_tᵀ:  M_tᵀ P M_t = P ⊗ φφᵀ,  M_tᵀ P ȳ = (P ȳ) ⊗ φ.
                 P = term.precision_at(N)
-                gram += np.einsum("tij,ta,tb->tiajb", P, pb.phi, pb.phi).reshape(N, K, K)
-                rhs += np.einsum("tij,tj,ta->tia", P, term.mean, pb.phi).reshape(N, K)
+                phi = pb.phi[:, 0]  # output priors need one complete trajectory
+                gram += np.einsum("tij,ta,tb->tiajb", P, phi, phi).reshape(N, K, K)
+                rhs += np.einsum("tij,tj,ta->tia", P, term.mean, phi).reshape(N, K)
         return scale * gram, scale * rhs
 
     def _groups(self, prior_scale: float, include_data: bool) -> list[_Group]:
@@ -149,7 +150,7 @@ class SquaredSolver:
         K = n * p
         data_scale = 1.0 if include_data else 0.0
         prior_gram, prior_rhs = self._prior_parts(prior_scale)
-        data_rhs = pb.phi[:, :, None] * pb.y[:, None, :]  # (N, p, n)
+        data_rhs = pb.cross()  # (N, p, n)
         if not include_data:
             data_rhs[:] = 0.0
         if not self.separable:
@@ -186,7 +187,9 @@ class SquaredSolver:
     def solve(self, prior_scale: float, *, include_data: bool = True, compute_cov: bool = False):
         """Minimize J with the prior terms weighted by ``prior_scale`` (= σ²).
 
-        Returns (theta (N, n, p), CovarianceBlocks | None, logdet H, #factorizations).
+        Returns (theta (N, n, p), CovarianceBlocks | None, logdet H, #factorizations,
+        row_logdet): ``row_logdet`` (n,) splits log det H by output row when the rows
+        decouple, else it is None.
         """
         pb = self.problem
         N, n, p = pb.N, pb.n, pb.p
@@ -194,6 +197,7 @@ class SquaredSolver:
         groups = self._groups(prior_scale, include_data)
         theta = np.empty((N, n, p))
         logdet = 0.0
+        row_logdet = np.zeros(n)
         covs = []
         row_group = np.zeros(n, dtype=int)
         for g, group in enumerate(groups):
@@ -206,6 +210,7 @@ class SquaredSolver:
             else:
                 theta[:, group.rows, :] = np.swapaxes(sol.theta, 1, 2)
                 logdet += sol.logdet * len(group.rows)
+                row_logdet[group.rows] = sol.logdet
                 row_group[group.rows] = g
             covs.append(sol.cov)
         cov = None
@@ -215,7 +220,8 @@ class SquaredSolver:
             else:
                 blocks = covs[0][None] if len(covs) == 1 else np.stack(covs)
                 cov = CovarianceBlocks(blocks, row_group)
-        return theta, cov, logdet, len(groups)
+        separable = groups[0].rows is not None
+        return theta, cov, logdet, len(groups), row_logdet if separable else None
 
     def digits_lost(self) -> float:
         """Estimated decimal digits the normal equations lose to a large penalty.
@@ -229,7 +235,7 @@ class SquaredSolver:
         penalty = float(np.abs(np.linalg.eigvalsh(W0)).max(initial=0.0)) * np.abs(
             self.problem.coeffs
         ).sum() ** 2
-        data = float(np.mean(self.problem.phi**2))
+        data = float(np.mean(np.sum(self.problem.phi**2, axis=1)))  # mean Gram diagonal
         if penalty == 0.0 or data == 0.0:
             return 0.0
         return max(0.0, float(np.log10(penalty / data)))
@@ -243,6 +249,18 @@ class SquaredSolver:
             return float(np.einsum("tk,tk->k", Dk, Dk) @ np.diag(W0))
         return float(np.sum((Dk @ W0) * Dk))
 
+    def row_penalty(self, theta: np.ndarray) -> np.ndarray:
+        """The penalty of each output row, shape (n,) (rows decoupled)."""
+        pb = self.problem
+        n, p = pb.n, pb.p
+        Dk = apply_difference(theta.reshape(pb.N, -1), pb.coeffs)
+        W0 = _finite(self.W)
+        if not np.any(W0 - np.diag(np.diag(W0))):  # diagonal: Σ_j w_j ‖(Dk)_j‖² per row
+            return (np.einsum("tk,tk->k", Dk, Dk) * np.diag(W0)).reshape(n, p).sum(axis=1)
+        blocks = W0.reshape(n, p, n, p)[np.arange(n), :, np.arange(n), :]  # (n, p, p)
+        Dk = Dk.reshape(-1, n, p)
+        return np.einsum("tia,iab,tib->i", Dk, blocks, Dk)
+
     def prior_cost(self, theta: np.ndarray) -> float:
         """Σ_t ‖μ_t − M_t k_t‖²_{P_t} over all prior terms (not scaled by σ²)."""
         pb = self.problem
@@ -252,13 +270,13 @@ class SquaredSolver:
             if term.on == "parameters":
                 r = term.mean - theta.reshape(N, -1)
             else:
-                fitted = np.empty_like(term.mean)
-                rowwise_matvec(np.ascontiguousarray(theta), pb.phi, fitted)
-                r = term.mean - fitted
+                fitted = np.empty((N, 1, pb.n))
+                rowwise_matvec(np.ascontiguousarray(theta), pb.phi[:, :1], fitted)
+                r = term.mean - fitted[:, 0]
             total += float(np.einsum("ti,tij,tj->", r, term.precision_at(N), r))
         return total
 
-    def log_penalty_normalizer(self) -> tuple[float, float]:
+    def log_penalty_normalizer(self) -> tuple[np.ndarray, np.ndarray]:
         """Log normalizer of the penalty as a prior, and the number of diffuse directions.
 
         The penalty is the improper Gaussian prior of the random walk
@@ -270,6 +288,9 @@ class SquaredSolver:
         log Z = rank(W)·2(N − d)·log|c_d| + (N − d)·log pdet(W).
         Unpenalized directions (per row: d·|varying| + |constant| + the null
         space of W) are diffuse.
+
+        Returns both per output row, shape (n,), when the rows decouple, else
+        shape (1,).
         """
         pb = self.problem
         N, n, p = pb.N, pb.n, pb.p
@@ -277,9 +298,9 @@ class SquaredSolver:
         log_dd = 2.0 * (N - d) * float(np.log(abs(pb.coeffs[-1])))
         blocks = [self.W[i * p : (i + 1) * p, i * p : (i + 1) * p] for i in range(n)] \
             if self.separable else [self.W]
-        log_pdet = 0.0
-        diffuse = 0.0
-        for Wb in blocks:
+        log_pdet = np.zeros(len(blocks))
+        diffuse = np.zeros(len(blocks))
+        for row, Wb in enumerate(blocks):
             varying = ~np.isinf(np.diag(Wb))
             Wv = Wb[np.ix_(varying, varying)]
             if not np.any(Wv - np.diag(np.diag(Wv))):
@@ -289,8 +310,8 @@ class SquaredSolver:
             tol = 10 * Wv.shape[0] * np.finfo(float).eps * max(eig.max(initial=0.0), 1e-300)
             pos = eig[eig > tol]
             rank = pos.size
-            log_pdet += rank * log_dd + (N - d) * float(np.sum(np.log(pos)))
-            diffuse += N * varying.sum() + (~varying).sum() - (N - d) * rank
+            log_pdet[row] = rank * log_dd + (N - d) * float(np.sum(np.log(pos)))
+            diffuse[row] = N * varying.sum() + (~varying).sum() - (N - d) * rank
         return log_pdet, diffuse
 
 
@@ -303,16 +324,16 @@ def _loglik_with_prior(
     """
     pb = solver.problem
     j_y = (
-        float(np.sum(pb.residuals(theta) ** 2)) + solver.penalty(theta)
+        float(pb.output_rss(theta).sum()) + solver.penalty(theta)
         + noise_var * solver.prior_cost(theta)
     )
     try:
-        m, _, logdet_mu, _ = solver.solve(noise_var, include_data=False)
+        m, _, logdet_mu, *_ = solver.solve(noise_var, include_data=False)
     except SingularProblemError:
         return float("nan")
     j_mu = solver.penalty(m) + noise_var * solver.prior_cost(m)
     return (
-        -0.5 * pb.N * pb.n * (LOG_2PI + np.log(noise_var))
+        -0.5 * pb.n_observed * pb.n * (LOG_2PI + np.log(noise_var))
         - 0.5 * logdet
         + 0.5 * logdet_mu
         - 0.5 * (j_y - j_mu) / noise_var
@@ -322,16 +343,17 @@ def _loglik_with_prior(
 def _noise_var_guess(problem: RegressionProblem, W: np.ndarray, n_eff: float) -> float:
     """A starting value for σ²: the prior-free ML estimate, else the LTI residual variance."""
     try:
-        theta, _, _, _ = SquaredSolver(problem, W, []).solve(0.0)
+        theta, *_ = SquaredSolver(problem, W, []).solve(0.0)
         if n_eff > 0:
-            return (float(np.sum(problem.residuals(theta) ** 2))
+            return (float(problem.output_rss(theta).sum())
                     + SquaredSolver(problem, W, []).penalty(theta)) / n_eff
     except SingularProblemError:
         pass
     # Minimum-norm least squares works for rank-deficient regressors too.
-    coef, _, rank, _ = np.linalg.lstsq(problem.phi, problem.y, rcond=None)
-    resid = problem.y - problem.phi @ coef
-    dof = max(problem.N - rank, 1) * problem.n
+    phi, y = problem.stacked_rows()
+    coef, _, rank, _ = np.linalg.lstsq(phi, y, rcond=None)
+    resid = y - phi @ coef
+    dof = max(y.shape[0] - rank, 1) * problem.n
     return max(float(np.sum(resid**2)) / dof, 1e-300)
 
 
@@ -341,7 +363,7 @@ def _ml_noise_var_with_prior(solver: SquaredSolver, guess: float) -> float | Non
 
     def negative_loglik(log_var: float) -> float:
         var = float(np.exp(log_var))
-        theta, _, logdet, _ = solver.solve(var)
+        theta, _, logdet, *_ = solver.solve(var)
         value = _loglik_with_prior(solver, var, theta, logdet)
         return np.inf if np.isnan(value) else -value
 
@@ -360,7 +382,7 @@ def fit_squared(
     W: np.ndarray,
     priors: list[PriorTerm],
     *,
-    noise_var: float | None,
+    noise_var: np.ndarray | float | None,
     compute_cov: bool,
 ) -> SquaredResult:
     """Exact MAP estimate, posterior covariances and log marginal likelihood.
@@ -370,34 +392,48 @@ def fit_squared(
     problem : RegressionProblem
     W : ndarray, shape (K, K)
     priors : list of PriorTerm
-    noise_var : float or None
-        σ². None estimates it by maximum likelihood given λ. Without priors in
-        closed form, σ̂² = (RSS + penalty) / N_eff with N_eff = N·n − #diffuse
-        directions; with priors by a bounded scalar search maximizing
-        log p(y | prior, σ²) (falling back to the prior-free estimate when
-        the prior alone does not determine the parameters).
+    noise_var : float, ndarray of shape (n,), or None
+        σ², shared or one per output. None estimates it by maximum likelihood
+        given λ. Without priors in closed form: when the penalty and the data
+        decouple the output rows, per output i (the model with noise σ_i² and
+        parameter drift σ_i²/λ² in row i, whose estimate does not depend on
+        σ_i), σ̂_i² = (RSS_i + penalty_i) / N_eff,i with N_eff,i = (observed
+        rows) − #diffuse directions of row i; otherwise one σ² shared by all
+        outputs. With priors one σ² shared by all outputs, by a bounded scalar
+        search maximizing log p(y | prior, σ²) (falling back to the prior-free
+        estimate when the prior alone does not determine the parameters).
     compute_cov : bool
     """
     solver = SquaredSolver(problem, W, priors)
-    N, n = problem.N, problem.n
-    log_pdet, diffuse = solver.log_penalty_normalizer()
-    n_eff = N * n - diffuse
+    n = problem.n
+    n_obs = problem.n_observed
+    row_log_pdet, row_diffuse = solver.log_penalty_normalizer()
+    n_eff = n_obs * n - float(row_diffuse.sum())
     info: dict = {"row_separable": bool(solver.separable)}
     estimated = noise_var is None
+    per_output = solver.separable and not priors
+    given = None if noise_var is None else np.broadcast_to(
+        np.asarray(noise_var, dtype=float), (n,))
+    if given is not None and not per_output and np.any(given != given[0]):
+        raise ValueError(
+            "noise_var: one variance per output needs a penalty and priors that do not "
+            "couple the output rows (a scalar lam, no priors); pass a scalar noise_var"
+        )
 
+    scalar_var = None if given is None else float(given[0])
     if priors and noise_var is None:
         guess = _noise_var_guess(problem, W, n_eff)
-        noise_var = _ml_noise_var_with_prior(solver, guess)
-        if noise_var is None:
-            noise_var = guess
+        scalar_var = _ml_noise_var_with_prior(solver, guess)
+        if scalar_var is None:
+            scalar_var = guess
             info["noise_var_note"] = (
                 "log p(y | prior) is not defined, so noise_var is the prior-free estimate"
             )
 
     lost = solver.digits_lost()
     try:
-        theta, cov, logdet, n_fact = solver.solve(
-            1.0 if noise_var is None else noise_var, compute_cov=compute_cov
+        theta, cov, logdet, n_fact, row_logdet = solver.solve(
+            1.0 if scalar_var is None else scalar_var, compute_cov=compute_cov
         )
     except SingularProblemError as exc:
         if lost > PRECISION_DIGITS_WARN:
@@ -417,37 +453,61 @@ def fit_squared(
             PrecisionWarning,
             stacklevel=3,
         )
-    rss = float(np.sum(problem.residuals(theta) ** 2))
+    row_rss = problem.output_rss(theta)
+    rss = float(row_rss.sum())
     pen = solver.penalty(theta)
     prior_cost = solver.prior_cost(theta)
 
-    if not priors:
-        if noise_var is None:
+    if per_output:
+        row_cost = row_rss + solver.row_penalty(theta)  # RSS_i + penalty_i
+        row_n_eff = n_obs - row_diffuse
+        if given is None:
+            if np.any(row_n_eff <= 0):
+                raise SingularProblemError(
+                    f"too few samples to estimate the noise variance: {n_obs} observed rows "
+                    f"and {int(row_diffuse.max())} unpenalized directions per output; pass "
+                    "noise_var or use more data"
+                )
+            variances = row_cost / row_n_eff
+        else:
+            variances = given.copy()
+        variances = np.maximum(variances, np.finfo(float).tiny)
+        loglik = float(np.sum(
+            -0.5 * row_n_eff * (LOG_2PI + np.log(variances))
+            + 0.5 * row_log_pdet
+            - 0.5 * row_logdet
+            - 0.5 * row_cost / variances
+        ))
+    elif not priors:
+        if scalar_var is None:
             if n_eff <= 0:
                 raise SingularProblemError(
                     "too few samples to estimate the noise variance: the unpenalized "
                     "directions use up all observations; pass noise_var or use more data"
                 )
-            noise_var = (rss + pen) / n_eff
+            scalar_var = (rss + pen) / n_eff
+        variances = np.full(n, scalar_var)
         loglik = (
-            -0.5 * n_eff * (LOG_2PI + np.log(noise_var))
-            + 0.5 * log_pdet
+            -0.5 * n_eff * (LOG_2PI + np.log(scalar_var))
+            + 0.5 * float(row_log_pdet.sum())
             - 0.5 * logdet
-            - 0.5 * (rss + pen) / noise_var
+            - 0.5 * (rss + pen) / scalar_var
         )
     else:
-        loglik = _loglik_with_prior(solver, noise_var, theta, logdet)
+        variances = np.full(n, scalar_var)
+        loglik = _loglik_with_prior(solver, scalar_var, theta, logdet)
         if np.isnan(loglik):
             info["loglik_note"] = (
                 "the prior alone does not determine every parameter, so log p(y | prior) "
                 "is not defined"
             )
 
-    objective = rss + pen + noise_var * prior_cost
+    prior_weight = 0.0 if scalar_var is None else scalar_var
+    objective = rss + pen + prior_weight * prior_cost
     return SquaredResult(
         theta=theta,
-        cov=None if cov is None else cov.scale_inplace(noise_var),
-        noise_var=float(noise_var),
+        cov=None if cov is None else cov.scale_rows(variances),
+        noise_var=variances,
         noise_var_estimated=estimated,
         loglik=float(loglik),
         objective=float(objective),

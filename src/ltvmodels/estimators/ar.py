@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from ..core.lags import lag_length, lagged_regressors
-from ..core.problem import RegressionProblem
+from ..core.problem import weighted_problem
 from ..results.arx import ARModel, ARXModel
 from ..validation import arrays, options
 from .regression import fit_problem
@@ -147,6 +147,7 @@ def fit_arx(
     compute_cov: bool = True,
     max_iter: int = 10000,
     tol: float = 1e-6,
+    weights: Any = None,
 ) -> ARXModel:
     """Identify a time-varying (V)ARX model.
 
@@ -161,9 +162,11 @@ def fit_arx(
 
     Parameters
     ----------
-    y : array_like, shape (T, n) or (T,)
-        Outputs, time on axis 0 (lists and pandas objects are accepted).
-    u : array_like, shape (T, m) or (T,)
+    y : array_like, shape (T, n), (T,) or (R, T, n)
+        Outputs, time on axis 0 (lists and pandas objects are accepted); R
+        time-aligned experiments share the model; NaN marks a missing sample
+        (a row enters the data term only if y[t] and all its lags are observed).
+    u : array_like, shape (T, m), (T,) or (R, T, m)
         Inputs.
     na : int >= 0
         Number of output lags (0: a time-varying FIR model).
@@ -174,6 +177,8 @@ def fit_arx(
     lam, norm, order, prior, prior_mode, noise_var, compute_cov, max_iter, tol
         As in :func:`ltvmodels.fit`, with K = n·p parameters per time step,
         p = n·na + m·nb (+ 1).
+    weights : array_like, shape (T − L,) or (R, T − L), optional
+        Weights >= 0 of the regression rows (model time steps).
     constant : bool, default False
         Include a time-varying constant term c_t.
 
@@ -196,12 +201,12 @@ def fit_arx(
     na, nb, nk = options.lag_orders(na, nb, nk, min_na=0, min_nb=1)
     constant = options.flag(constant, "constant")
     L = lag_length(na, nb, nk)
-    y, u = arrays.lagged_series(y, u, L, _structure_text(na, nb, nk), require_inputs=True)
-    n, m = y.shape[1], u.shape[1]
+    y, u = arrays.lagged_recordings(y, u, L, _structure_text(na, nb, nk), require_inputs=True)
+    n, m = y.shape[2], u.shape[2]
     factory = partial(ARXModel, n_outputs=n, n_inputs=m, na=na, nb=nb, nk=nk, constant=constant)
     return _fit_lagged(y, u, na, nb, nk, constant, factory, lam=lam, norm=norm, order=order,
                        prior=prior, prior_mode=prior_mode, noise_var=noise_var,
-                       compute_cov=compute_cov, max_iter=max_iter, tol=tol)
+                       compute_cov=compute_cov, max_iter=max_iter, tol=tol, weights=weights)
 
 
 def fit_ar(
@@ -218,6 +223,7 @@ def fit_ar(
     compute_cov: bool = True,
     max_iter: int = 10000,
     tol: float = 1e-6,
+    weights: Any = None,
 ) -> ARModel:
     """Identify a time-varying (V)AR(na) model y[t] = Σ_{i=1}^{na} A_{t,i} y[t−i] (+ c_t) + e[t].
 
@@ -228,12 +234,16 @@ def fit_ar(
 
     Parameters
     ----------
-    y : array_like, shape (T, n) or (T,)
-        The series, time on axis 0.
+    y : array_like, shape (T, n), (T,) or (R, T, n)
+        The series, time on axis 0; R time-aligned series share the model.
+        NaN marks a missing sample: a row enters the data term only if y[t]
+        and all its lags are observed.
     na : int >= 1
         Model order.
     lam, norm, order, prior, prior_mode, noise_var, compute_cov, max_iter, tol
         As in :func:`ltvmodels.fit`, with K = n·p, p = n·na (+ 1).
+    weights : array_like, shape (T − na,) or (R, T − na), optional
+        Weights >= 0 of the regression rows (model time steps).
     constant : bool, default False
         Include a time-varying constant term c_t.
 
@@ -263,11 +273,11 @@ def fit_ar(
     """
     na, _, _ = options.lag_orders(na, 0, 1, min_na=1, min_nb=0)
     constant = options.flag(constant, "constant")
-    y, u = arrays.lagged_series(y, None, na, _structure_text(na, 0, 1))
-    factory = partial(ARModel, n_outputs=y.shape[1], na=na, constant=constant)
+    y, u = arrays.lagged_recordings(y, None, na, _structure_text(na, 0, 1))
+    factory = partial(ARModel, n_outputs=y.shape[2], na=na, constant=constant)
     return _fit_lagged(y, u, na, 0, 1, constant, factory, lam=lam, norm=norm, order=order,
                        prior=prior, prior_mode=prior_mode, noise_var=noise_var,
-                       compute_cov=compute_cov, max_iter=max_iter, tol=tol)
+                       compute_cov=compute_cov, max_iter=max_iter, tol=tol, weights=weights)
 
 
 def _fit_lagged(
@@ -288,18 +298,27 @@ def _fit_lagged(
     compute_cov: Any,
     max_iter: Any,
     tol: Any,
+    weights: Any,
 ) -> ARXModel:
-    """Build the regression of validated AR/ARX data and run the shared core."""
+    """Build the regression of validated AR/ARX data (R, T, ·) and run the shared core.
+
+    A row enters the data term only if y[t] and all its lags are observed.
+    """
     norm = options.norm_name(norm)
     y_out, phi = lagged_regressors(y, u, na, nb, nk, constant)
-    coeffs = options.difference_coefficients(order, max_degree=y_out.shape[0])
+    R, N = y_out.shape[:2]
+    coeffs = options.difference_coefficients(order, max_degree=N)
+    w = arrays.row_weights(weights, R, N)
     L = lag_length(na, nb, nk)
-    return fit_problem(
-        RegressionProblem(y=y_out, phi=phi, coeffs=coeffs),
+    model = fit_problem(
+        weighted_problem(y_out, phi, coeffs, w),
         factory=factory,
-        regressor_names=_names(y.shape[1], u.shape[1], na, nb, nk, constant),
+        regressor_names=_names(y.shape[2], u.shape[2], na, nb, nk, constant),
         data_name="y",
-        rows_note=f" (T = {y.shape[0]} samples, the first {L} only as lags)",
+        rows_note=f" (T = {y.shape[1]} samples, the first {L} only as lags)",
         lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
         compute_cov=compute_cov, max_iter=max_iter, tol=tol,
     )
+    model.info["n_missing"] = R * N - int(np.sum(np.all(np.isfinite(phi), axis=2)
+                                                & np.all(np.isfinite(y_out), axis=2)))
+    return model

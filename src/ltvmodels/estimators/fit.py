@@ -15,41 +15,42 @@ import numpy as np
 
 from ..core import identifiability
 from ..core.covariance import CovarianceBlocks
-from ..core.problem import RegressionProblem, state_space_problem
 from ..core.sparse import solve_sparse
 from ..core.sparse_common import lambda_max as problem_lambda_max
-from ..results.base import signal_names
 from ..results.record import FitRecord, FitStatus
 from ..results.statespace import LTVModel
 from ..validation import arrays, options
 from .changepoints import find_changepoints
 from .piecewise import fit_piecewise
+from .recordings import StateSpaceData, state_space_data
 from .regression import fit_problem, sparse_model
 
 
-def _regressor_names(n: int, m: int) -> list[str]:
-    return signal_names("x", n) + signal_names("u", m)
+def fit_lti(x: Any, u: Any = None, *, weights: Any = None, constant: bool = False) -> LTVModel:
+    """Least-squares LTI model x[t+1] = A x[t] + B u[t] (+ c) + v_t (paper eqs. lscost, ls).
 
-
-def fit_lti(x: Any, u: Any = None) -> LTVModel:
-    """Least-squares LTI model x[t+1] = A x[t] + B u[t] + v_t (paper eqs. lscost, ls).
-
-    Minimizes Σ_t ‖x_{t+1} − A x_t − B u_t‖². All output rows share the
-    regressor φ_t = [x_t; u_t], so this is one least-squares problem with n
-    right-hand sides.
+    Minimizes Σ_r Σ_t w_rt ‖x^r_{t+1} − A x^r_t − B u^r_t (− c)‖² over the observed
+    transitions. All output rows share the regressor φ_t = [x_t; u_t (; 1)],
+    so this is one least-squares problem with n right-hand sides.
 
     Parameters
     ----------
-    x : array_like, shape (T, n)
-        States, time on axis 0. Lists and pandas DataFrames are accepted.
-    u : array_like, shape (T, m) or (T,), optional
+    x : array_like, shape (T, n), (R, T, n) or a list of R (T, n) arrays
+        States, time on axis 0 (lists and pandas DataFrames are accepted);
+        R time-aligned trajectories share the model; NaN marks a missing sample.
+    u : array_like, shape (T, m), (T,) or (R, T, m), optional
         Inputs.
+    weights : array_like, shape (T − 1,) or (R, T − 1), optional
+        Weights >= 0 of the transitions (inverse relative noise variances).
+    constant : bool
+        Fit an intercept c.
 
     Returns
     -------
     LTVModel
-        Constant A, B repeated over the N = T − 1 time steps. ``noise_cov`` is
-        the unbiased residual covariance EᵀE / (N − p), ``cov`` the covariance
+        Constant A, B (c) repeated over the N = T − 1 time steps. ``noise_cov`` is
+        the unbiased residual covariance EᵀE / (M − p) over the M observed
+        transitions, ``noise_var`` its diagonal, ``cov`` the covariance
         Σ_v ⊗ (ΦᵀΦ)⁻¹ of k, ``loglik`` the Gaussian log-likelihood at the ML
         noise covariance.
 
@@ -58,27 +59,25 @@ def fit_lti(x: Any, u: Any = None) -> LTVModel:
     SingularProblemError
         If the regressors are linearly dependent (no unique solution).
     """
-    x, u = arrays.state_and_input(x, u)
-    n, m = x.shape[1], u.shape[1]
-    problem = state_space_problem(x, u, np.array([-1.0, 1.0]))
+    data = state_space_data(x, u, order=1, weights=weights, constant=constant)
+    problem = data.problem
+    n, m = data.n, data.m
     N, p = problem.N, problem.p
-    if N < p:
-        raise ValueError(
-            f"x: too few samples: {N} transitions cannot determine {p} regressors per "
-            f"output; need T >= {p + 1}"
-        )
-    identifiability.check(problem, has_prior=False, regressor_names=_regressor_names(n, m))
+    M = problem.n_observed
+    options.enough_samples(N, p, 1, observed=M, n_rows=N * problem.q)
+    identifiability.check(problem, has_prior=False, regressor_names=data.regressor_names)
+    phi, y = problem.stacked_rows()
     # QR-based least squares: solve, don't form (ΦᵀΦ)⁻¹ for the estimate.
-    q, r = np.linalg.qr(problem.phi)
-    theta = np.linalg.solve(r, q.T @ problem.y).T  # (n, p)
-    resid = problem.y - problem.phi @ theta.T
-    dof = N - p
+    q, r = np.linalg.qr(phi)
+    theta = np.linalg.solve(r, q.T @ y).T  # (n, p)
+    resid = y - phi @ theta.T
+    dof = M - p
     noise_cov = resid.T @ resid / dof if dof > 0 else np.full((n, n), np.nan)
     r_inv = np.linalg.solve(r, np.eye(p))
     gram_inv = r_inv @ r_inv.T  # (ΦᵀΦ)⁻¹ = R⁻¹R⁻ᵀ
-    ml_cov = resid.T @ resid / N
+    ml_cov = resid.T @ resid / M
     sign, logdet = np.linalg.slogdet(ml_cov)
-    loglik = -0.5 * N * (n * np.log(2 * np.pi) + logdet + n) if sign > 0 else float("inf")
+    loglik = -0.5 * M * (n * np.log(2 * np.pi) + logdet + n) if sign > 0 else float("inf")
     K = n * p
     k = np.broadcast_to(theta.ravel(), (N, K)).copy()
     cov = None
@@ -86,14 +85,15 @@ def fit_lti(x: Any, u: Any = None) -> LTVModel:
         cov_k = np.kron(noise_cov, gram_inv)
         cov = CovarianceBlocks(np.broadcast_to(cov_k, (N, K, K)), None)
     rss = float(np.sum(resid**2))
-    info = {"solver": "least-squares (QR)", "rss": rss, "dof": int(dof)}
+    info = {"solver": "least-squares (QR)", "rss": rss, "dof": int(dof),
+            "n_missing": data.n_missing}
     return LTVModel(k, n, m, FitRecord(
         norm="lti", coeffs=None, lam=float("inf"), cov=cov,
-        noise_var=float(np.trace(noise_cov) / n) if dof > 0 else float("nan"),
+        noise_var=np.diag(noise_cov).copy(),
         noise_cov=noise_cov, loglik=float(loglik), info=info,
         changepoints=np.zeros(0, dtype=int),
         status=FitStatus("closed_form", info["solver"], 0, rss),
-    ))
+    ), constant=data.constant)
 
 
 def fit(
@@ -110,26 +110,36 @@ def fit(
     max_iter: int = 10000,
     tol: float = 1e-6,
     refine: bool = False,
+    weights: Any = None,
+    constant: bool = False,
 ) -> LTVModel:
-    """Identify an LTV model x[t+1] = A_t x[t] + B_t u[t] + v_t.
+    """Identify an LTV model x[t+1] = A_t x[t] + B_t u[t] (+ c_t) + v_t.
 
     With ``norm="sq"`` this is the exact minimizer of (paper eqs. slow, smooth,
     generalkalman)
 
-        Σ_t ‖x_{t+1} − A_t x_t − B_t u_t‖² + λ² Σ_t ‖(Dk)_t‖²,
+        Σ_r Σ_t w_rt ‖x^r_{t+1} − A_t x^r_t − B_t u^r_t‖² + λ² Σ_t ‖(Dk)_t‖²,
 
     with k_t = vec([A_tᵀ B_tᵀ]) and (Dk)_t = Σ_j c_j k_{t+j} the difference
-    operator given by ``order``. It is also the posterior mode of the Gaussian
-    random walk (paper eq. dynsys) with measurement noise σ² I and parameter
-    drift σ²/λ² I, computed in O(N) by one banded Cholesky factorization shared
-    by all rows of [A_t B_t].
+    operator given by ``order``. The data term runs over the R trajectories
+    and the observed transitions (w_rt = 1 unless ``weights`` are given). It
+    is also the posterior mode of the Gaussian random walk (paper eq. dynsys)
+    with measurement noise σ_i² in state equation i and parameter drift
+    σ_i²/λ² in its row, computed in O(N) by one banded Cholesky factorization
+    shared by all rows of [A_t B_t].
 
     Parameters
     ----------
-    x : array_like, shape (T, n)
+    x : array_like, shape (T, n), (R, T, n) or a list of R (T, n) arrays
         States, time on axis 0 (lists and pandas DataFrames are accepted).
-    u : array_like, shape (T, m) or (T,), optional
-        Inputs.
+        R time-aligned trajectories (repeated experiments, rollouts) share
+        A_t, B_t. NaN marks a missing sample: a transition enters the data
+        term only if x[t], u[t] and x[t+1] are observed; the coefficients of
+        the steps in a gap are still estimated (the penalty carries them
+        across) and their covariances grow there. Records joined with a NaN
+        row between them are fitted as independent experiments in sequence.
+    u : array_like, shape (T, m), (T,) or (R, T, m), optional
+        Inputs (NaN = missing).
     lam : float, array_like (K,) or (K, K), or "auto"
         Regularization. A scalar λ >= 0 gives λ² Σ‖(Dk)_t‖². A (K,) vector gives
         Σ_j λ_j² ‖(Dk_j)‖²: ``np.inf`` holds coefficient j constant in time and
@@ -159,9 +169,12 @@ def fit(
         "exact" solves eq. prioropt exactly (the prior as a second measurement
         in the normal equations); "posthoc" applies the paper's correction
         (eqs. postk–postcov) to the prior-free smoothed estimates.
-    noise_var : float, optional
-        Noise variance σ²; weighs priors against the data and scales the
-        covariances. Default: maximum-likelihood estimate given λ.
+    noise_var : float or array_like of shape (n,), optional
+        Noise variance, shared or one per state equation; weighs priors
+        against the data and scales the covariances. Default:
+        maximum-likelihood estimate given λ, one per state equation
+        (``model.noise_var`` has shape (n,)); with priors or a (K, K) λ one
+        variance shared by all equations.
     compute_cov : bool
         Compute posterior covariances (selected inversion, O(N)); False skips them.
     max_iter, tol : int, float
@@ -186,6 +199,13 @@ def fit(
         shrinkage of the changes. The refined model is returned;
         ``info["first_step"]`` summarizes the first fit and
         ``info["first_step_k"]`` holds its coefficients.
+    weights : array_like, shape (T − 1,) or (R, T − 1), optional
+        Weights >= 0 of the transitions' squared residuals (inverse relative
+        noise variances; 0 drops a transition).
+    constant : bool
+        Fit an intercept: x[t+1] = A_t x[t] + B_t u[t] + c_t, with
+        ``model.c`` (N, n) and k_t = rows of [A_t B_t c_t]. ``predict`` and
+        ``simulate`` include it.
 
     Returns
     -------
@@ -206,23 +226,24 @@ def fit(
         first = fit(
             x, u, lam=lam, norm=norm, order=order, prior=prior, prior_mode=prior_mode,
             noise_var=noise_var, compute_cov=False, max_iter=max_iter, tol=tol,
+            weights=weights, constant=constant,
         )
-        return _refine(x, u, first)
-    x, u = arrays.state_and_input(x, u)
+        return _refine(x, u, first, weights)
+    data = state_space_data(x, u, order=order, weights=weights, constant=constant)
     norm = options.norm_name(norm)
-    coeffs = options.difference_coefficients(order, max_degree=x.shape[0])
-    n, m = x.shape[1], u.shape[1]
-    return fit_problem(
-        state_space_problem(x, u, coeffs),
-        factory=partial(LTVModel, n_states=n, n_inputs=m),
-        regressor_names=_regressor_names(n, m),
+    model = fit_problem(
+        data.problem,
+        factory=partial(LTVModel, n_states=data.n, n_inputs=data.m, constant=data.constant),
+        regressor_names=data.regressor_names,
         data_name="x",
         lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
         compute_cov=compute_cov, max_iter=max_iter, tol=tol,
     )
+    model.info["n_missing"] = data.n_missing
+    return model
 
 
-def _refine(x: Any, u: Any, first: LTVModel) -> LTVModel:
+def _refine(x: Any, u: Any, first: LTVModel, weights: Any) -> LTVModel:
     """Second step of the two-step refinement: refit between the change points."""
     degree = len(first.coeffs) - 1
     if degree not in (1, 2):
@@ -231,7 +252,8 @@ def _refine(x: Any, u: Any, first: LTVModel) -> LTVModel:
             f"operator of degree {degree}"
         )
     changepoints = first.changepoints if first.norm != "sq" else find_changepoints(first)
-    refined = fit_piecewise(x, u, changepoints, order=degree)
+    refined = fit_piecewise(x, u, changepoints, order=degree, weights=weights,
+                            constant=first.constant)
     refined.info["first_step"] = {
         "norm": first.norm,
         "lam": first.lam if np.ndim(first.lam) == 0 else np.asarray(first.lam).tolist(),
@@ -256,6 +278,8 @@ def fit_path(
     compute_cov: bool = True,
     max_iter: int = 10000,
     tol: float = 1e-6,
+    weights: Any = None,
+    constant: bool = False,
 ) -> list[LTVModel]:
     """Fit one model per scalar λ in ``lams`` (a regularization path).
 
@@ -266,7 +290,7 @@ def fit_path(
 
     Parameters
     ----------
-    x, u, norm, order, compute_cov, max_iter, tol
+    x, u, norm, order, compute_cov, max_iter, tol, weights, constant
         As in :func:`fit`.
     lams : sequence of float
         Scalar λ values (> 0 for "group" and "l1").
@@ -283,12 +307,14 @@ def fit_path(
                          f"shape {values.shape}")
     norm = options.norm_name(norm)
     if norm == "sq":
-        return [fit(x, u, lam=float(lam), norm=norm, order=order, compute_cov=compute_cov)
+        return [fit(x, u, lam=float(lam), norm=norm, order=order, compute_cov=compute_cov,
+                    weights=weights, constant=constant)
                 for lam in values]
-    problem = _identifiable_problem(x, u, order)
+    data = _identifiable_data(x, u, order, weights, constant)
+    problem = data.problem
     max_iter = options.integer(max_iter, "max_iter", minimum=1)
     tol = options.positive_scalar(tol, "tol")
-    factory = partial(LTVModel, n_states=problem.n, n_inputs=problem.p - problem.n)
+    factory = partial(LTVModel, n_states=data.n, n_inputs=data.m, constant=data.constant)
     models: list[LTVModel | None] = [None] * values.size
     warm = None
     for position, index in enumerate(np.argsort(-values, kind="stable")):
@@ -303,7 +329,10 @@ def fit_path(
     return models
 
 
-def lambda_max(x: Any, u: Any = None, *, norm: str, order: Any = 1) -> float:
+def lambda_max(
+    x: Any, u: Any = None, *, norm: str, order: Any = 1, weights: Any = None,
+    constant: bool = False,
+) -> float:
     """The smallest λ at which ``fit(x, u, lam=λ, norm=norm, order=order)`` has Dk = 0.
 
     For the sparse norms, λ ≥ λ_max gives the null-space fit (the LTI model
@@ -324,8 +353,8 @@ def lambda_max(x: Any, u: Any = None, *, norm: str, order: Any = 1) -> float:
     norm : {"group", "l1"}
         The sparse penalty (for ``norm="sq"`` every finite λ changes the
         model, so there is no λ_max).
-    order : int or sequence of float
-        The difference operator, as in :func:`fit`.
+    order, weights, constant
+        As in :func:`fit`.
 
     Returns
     -------
@@ -349,15 +378,16 @@ def lambda_max(x: Any, u: Any = None, *, norm: str, order: Any = 1) -> float:
     True
     """
     norm = options.choice(norm, "norm", ("group", "l1"))
-    return problem_lambda_max(_identifiable_problem(x, u, order), norm)
+    return problem_lambda_max(_identifiable_data(x, u, order, weights, constant).problem, norm)
 
 
-def _identifiable_problem(x: Any, u: Any, order: Any) -> RegressionProblem:
-    """The regression of validated state-space data, checked for samples and identifiability."""
-    x, u = arrays.state_and_input(x, u)
-    coeffs = options.difference_coefficients(order, max_degree=x.shape[0])
-    problem = state_space_problem(x, u, coeffs)
-    options.enough_samples(problem.N, problem.p, problem.degree)
-    identifiability.check(problem, has_prior=False,
-                          regressor_names=_regressor_names(x.shape[1], u.shape[1]))
-    return problem
+def _identifiable_data(
+    x: Any, u: Any, order: Any, weights: Any, constant: Any
+) -> StateSpaceData:
+    """Validated state-space data, checked for samples and identifiability."""
+    data = state_space_data(x, u, order=order, weights=weights, constant=constant)
+    problem = data.problem
+    options.enough_samples(problem.N, problem.p, problem.degree,
+                           observed=problem.n_observed, n_rows=problem.N * problem.q)
+    identifiability.check(problem, has_prior=False, regressor_names=data.regressor_names)
+    return data

@@ -26,10 +26,11 @@ from ..core.kalman import (
     smoother_kernel,
     step,
 )
-from ..core.problem import RegressionProblem, state_space_problem
+from ..core.problem import RegressionProblem
 from ..errors import SingularProblemError
 from ..results.kalman import KalmanFilterResult, KalmanSmootherResult
 from ..validation import arrays, options
+from .recordings import state_space_data
 
 
 def parameter_state_space(
@@ -71,13 +72,12 @@ class _Setup:
 
 
 def _setup(x, u, lam, order, noise_var, init_mean, init_cov) -> _Setup:
-    x, u = arrays.state_and_input(x, u)
-    coeffs = options.difference_coefficients(order)
     lam = options.scalar_lam(lam)
     noise_var = options.positive_scalar(noise_var, "noise_var")
-    problem = state_space_problem(x, u, coeffs)
+    problem = state_space_data(x, u, order=order).problem
     prior = arrays.initial_state_prior(init_mean, init_cov, problem.degree, problem.n, problem.p)
-    return _Setup(problem=problem, model=realize(coeffs, problem.p, lam, noise_var), lam=lam,
+    return _Setup(problem=problem, model=realize(problem.coeffs, problem.p, lam, noise_var),
+                  lam=lam,
                   prior=prior)
 
 
@@ -88,7 +88,7 @@ def _run_filter(s: _Setup):
     pb = s.problem
     m0, P0 = (np.zeros((D, pb.n)), np.eye(D)) if diffuse else s.prior
     return filter_kernel(
-        pb.phi, pb.y, model.F, model.F_inv, model.q, model.R,
+        pb.phi, pb.y, pb.observed, model.F, model.F_inv, model.q, model.R,
         log_abs_det_transition(model.coeffs, pb.p), diffuse, np.ascontiguousarray(m0),
         np.ascontiguousarray(P0), IDENTIFIED_TOL,
     )
@@ -336,6 +336,8 @@ class OnlineParameterFilter:
         x_t : array_like, shape (n,)
         u_t : array_like, shape (m,), or None when m = 0
         x_next : array_like, shape (n,)
+            A NaN anywhere marks the transition missing: the estimate is only
+            predicted forward one step.
 
         Returns
         -------
@@ -343,14 +345,18 @@ class OnlineParameterFilter:
             The filtered estimate k_{t|t} (NaN until identified).
         """
         n, m = self.n_states, self.n_inputs
-        x_t = arrays.vector(x_t, "x_t", n)
-        x_next = arrays.vector(x_next, "x_next", n)
-        u_t = np.zeros(0) if u_t is None and m == 0 else arrays.vector(u_t, "u_t", m)
+        x_t = arrays.vector(x_t, "x_t", n, missing=True)
+        x_next = arrays.vector(x_next, "x_next", n, missing=True)
+        u_t = (np.zeros(0) if u_t is None and m == 0
+               else arrays.vector(u_t, "u_t", m, missing=True))
         phi = np.concatenate([x_t, u_t])
+        observed = np.array([np.all(np.isfinite(phi)) and np.all(np.isfinite(x_next))])
+        if not observed[0]:  # a missing sample: predict only
+            phi, x_next = np.zeros_like(phi), np.zeros_like(x_next)
         model = self.model
         self._mat, self._vec, self._info = step(
-            self._mat, self._vec, self._ell, self._info, self._t > 0, phi, x_next,
-            model.F, self._FT, model.F_inv, self._F_invT, model.q, model.R,
+            self._mat, self._vec, self._ell, self._info, self._t > 0, phi[None], x_next[None],
+            observed, model.F, self._FT, model.F_inv, self._F_invT, model.q, model.R,
             self._log_abs_det_F, IDENTIFIED_TOL,
         )
         self._t += 1

@@ -45,10 +45,10 @@ from ..core.identifiability import (
     scaled_min_eig,
 )
 from ..errors import IdentifiabilityWarning, SingularProblemError
-from ..results.base import signal_names
 from ..results.record import FitRecord, FitStatus
 from ..results.statespace import LTVModel
 from ..validation import arrays, options
+from .recordings import state_space_data
 
 __all__ = ["fit_piecewise"]
 
@@ -62,6 +62,8 @@ def fit_piecewise(
     *,
     order: int = 1,
     compute_cov: bool = True,
+    weights: Any = None,
+    constant: bool = False,
 ) -> LTVModel:
     """Least-squares LTV model that is piecewise constant or linear between given change points.
 
@@ -89,6 +91,9 @@ def fit_piecewise(
         change points. Higher orders raise NotImplementedError.
     compute_cov : bool, default True
         Compute the covariance of the estimates (O(n N p²) memory).
+    weights, constant
+        As in :func:`ltvmodels.fit`; x and u may also hold R trajectories and
+        NaN for missing samples, as there.
 
     Returns
     -------
@@ -134,36 +139,37 @@ def fit_piecewise(
     >>> model.changepoints.tolist(), model.info["segments"]
     ([200], [[0, 200], [200, 399]])
     """
-    x, u = arrays.state_and_input(x, u)
+    data = state_space_data(x, u, weights=weights, constant=constant)
     order = options.piecewise_order(order)
     if not isinstance(compute_cov, bool):
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
-    n, m = x.shape[1], u.shape[1]
-    N, p = x.shape[0] - 1, n + m
+    n, m = data.n, data.m
+    problem = data.problem
+    N, p = problem.N, problem.p
     note = "; order=2 needs a sample after the last knot" if order == 2 else ""
     changepoints = arrays.changepoint_indices(changepoints, N, last=N - order, note=note)
-    phi = np.hstack([x[:-1], u[:-1]])
-    y = x[1:]
-    names = signal_names("x", n) + signal_names("u", m)
+    phi, y = problem.phi, problem.y  # (N, R, p), (N, R, n); unobserved rows are 0
+    names = data.regressor_names
     bounds = np.concatenate([[0], changepoints, [N]])
     segments = [[int(a), int(b)] for a, b in itertools.pairwise(bounds)]
 
     if order == 1:
-        theta, unit_cov = _fit_constant(phi, y, bounds, names)
+        theta, unit_cov = _fit_constant(phi, y, problem.observed, bounds, names)
         n_params = (len(changepoints) + 1) * p
         info_extra: dict[str, Any] = {}
     else:
         knots = np.concatenate([[0], changepoints, [N - 1]])
-        theta, unit_cov = _fit_linear(phi, y, knots, names)
+        theta, unit_cov = _fit_linear(phi, y, problem.n_observed, knots, names)
         n_params = (len(changepoints) + 2) * p
         info_extra = {"knots": [int(t) for t in knots]}
 
-    resid = y - np.einsum("tij,tj->ti", theta, phi)
+    resid = problem.residuals(theta).reshape(-1, n)
     rss_matrix = resid.T @ resid
-    dof = N - n_params
+    M = problem.n_observed
+    dof = M - n_params
     noise_cov = rss_matrix / dof if dof > 0 else np.full((n, n), np.nan)
-    sign, logdet = np.linalg.slogdet(rss_matrix / N)
-    loglik = -0.5 * N * (n * np.log(2 * np.pi) + logdet + n) if sign > 0 else float("inf")
+    sign, logdet = np.linalg.slogdet(rss_matrix / M)
+    loglik = -0.5 * M * (n * np.log(2 * np.pi) + logdet + n) if sign > 0 else float("inf")
     cov = None
     if compute_cov and dof > 0:
         # Row i of Θ_t: Σ_v[i, i] S_t (one group per row, O(n N p²) memory). The
@@ -179,27 +185,29 @@ def fit_piecewise(
         "rss": float(np.trace(rss_matrix)),
         "dof": int(dof),
         "n_params_per_row": int(n_params),
+        "n_missing": data.n_missing,
     }
     return LTVModel(theta.reshape(N, n * p), n, m, FitRecord(
         norm="piecewise", coeffs=_DIFFERENCE[order].copy(), lam=float("inf"), cov=cov,
-        noise_var=float(np.trace(noise_cov) / n) if dof > 0 else float("nan"),
+        noise_var=np.diag(noise_cov).copy(),
         noise_cov=noise_cov, loglik=float(loglik), info=info, changepoints=changepoints,
         status=FitStatus("closed_form", info["solver"], 0, info["rss"]),
-    ))
+    ), constant=data.constant)
 
 
 # -- order 1: piecewise constant --------------------------------------------------------
 
 
 def _fit_constant(
-    phi: np.ndarray, y: np.ndarray, bounds: np.ndarray, names: list[str]
+    phi: np.ndarray, y: np.ndarray, observed: np.ndarray, bounds: np.ndarray, names: list[str]
 ) -> tuple[np.ndarray, np.ndarray]:
     """Per-segment least squares.
 
     Parameters
     ----------
-    phi : ndarray, shape (N, p)
-    y : ndarray, shape (N, n)
+    phi : ndarray, shape (N, R, p)
+    y : ndarray, shape (N, R, n)
+    observed : ndarray of bool, shape (N, R)
     bounds : ndarray of int, shape (M + 2,)
         Segment boundaries 0 = b_0 < … < b_{M+1} = N; segment s is [b_s, b_{s+1}).
     names : list of str
@@ -212,17 +220,18 @@ def _fit_constant(
     unit_cov : ndarray, shape (N, p, p)
         (Φ_sᵀΦ_s)⁻¹ of the segment containing t.
     """
-    N, p = phi.shape
-    n = y.shape[1]
+    N, _, p = phi.shape
+    n = y.shape[2]
     theta = np.empty((N, n, p))
     unit_cov = np.empty((N, p, p))
     single = len(bounds) == 2
     for s, (start, stop) in enumerate(itertools.pairwise(bounds)):
         where = _segment_text(s, start, stop, single)
-        phi_s = phi[start:stop]
-        if stop - start < p:
+        phi_s = phi[start:stop].reshape(-1, p)
+        count = int(observed[start:stop].sum())
+        if count < p:
             raise ValueError(
-                f"{where} has {stop - start} transition(s), fewer than the p = {p} regressors "
+                f"{where} has {count} transition(s) with data, fewer than the p = {p} regressors "
                 f"of each output row, so its [A B] is not determined; "
                 f"{_remedy(single, 'segment', p)}"
             )
@@ -236,7 +245,7 @@ def _fit_constant(
             )
         _warn_if_ill_conditioned(min_eig, where, stacklevel=3)
         q, r = np.linalg.qr(phi_s)
-        theta_s = np.linalg.solve(r, q.T @ y[start:stop]).T  # (n, p): n right-hand sides
+        theta_s = np.linalg.solve(r, q.T @ y[start:stop].reshape(-1, n)).T  # (n, p)
         r_inv = np.linalg.solve(r, np.eye(p))
         theta[start:stop] = theta_s
         unit_cov[start:stop] = r_inv @ r_inv.T  # (Φ_sᵀΦ_s)⁻¹ = R⁻¹R⁻ᵀ
@@ -272,14 +281,16 @@ def hat_weights(knots: np.ndarray, N: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _fit_linear(
-    phi: np.ndarray, y: np.ndarray, knots: np.ndarray, names: list[str]
+    phi: np.ndarray, y: np.ndarray, n_observed: int, knots: np.ndarray, names: list[str]
 ) -> tuple[np.ndarray, np.ndarray]:
     """Least squares over linear splines with the given knots.
 
     Parameters
     ----------
-    phi : ndarray, shape (N, p)
-    y : ndarray, shape (N, n)
+    phi : ndarray, shape (N, R, p)
+    y : ndarray, shape (N, R, n)
+    n_observed : int
+        Observed rows (the others are zero).
     knots : ndarray of int, shape (J,)
         τ_0 = 0 < τ_1 < … < τ_{J−1} = N − 1 (J = M + 2).
     names : list of str
@@ -292,26 +303,29 @@ def _fit_linear(
     unit_cov : ndarray, shape (N, p, p)
         H_t (ZᵀZ)⁻¹ H_tᵀ, the covariance of a row of Θ_t per unit noise variance.
     """
-    N, p = phi.shape
+    N, _, p = phi.shape
+    n = y.shape[2]
     J = len(knots)
     single = J == 2
-    if N < J * p:
+    if n_observed < J * p:
         raise ValueError(
-            f"{'x' if single else 'changepoints'}: {N} transitions cannot determine the "
+            f"{'x' if single else 'changepoints'}: {n_observed} transitions (with data) cannot "
+            f"determine the "
             f"{J * p} unknowns per output row of a linear spline with {J} knots "
             f"({J - 2} change points, p = {p} regressors); "
             f"{_remedy(single, 'knot', p)}"
         )
     left, w = hat_weights(knots, N)
-    z_left = (1.0 - w)[:, None] * phi  # regressors of γ_j, j = left[t]
-    z_right = w[:, None] * phi  # regressors of γ_{j+1}
+    z_left = (1.0 - w)[:, None, None] * phi  # regressors of γ_j, j = left[t]
+    z_right = w[:, None, None] * phi  # regressors of γ_{j+1}
     # Normal equations ZᵀZ g = Zᵀy, block tridiagonal with J blocks of size p,
     # accumulated interval by interval.
     gram = np.zeros((J, p, J, p))
-    rhs = np.zeros((J, p, y.shape[1]))
+    rhs = np.zeros((J, p, n))
     for j in range(J - 1):
         sl = slice(knots[j], knots[j + 1] if j < J - 2 else N)
-        zl, zr, ys = z_left[sl], z_right[sl], y[sl]
+        zl, zr = z_left[sl].reshape(-1, p), z_right[sl].reshape(-1, p)
+        ys = y[sl].reshape(-1, n)
         gram[j, :, j, :] += zl.T @ zl
         gram[j, :, j + 1, :] += zl.T @ zr
         gram[j + 1, :, j, :] += zr.T @ zl

@@ -26,9 +26,10 @@ from ..core.squared import fit_squared
 from ..results.base import signal_names
 from ..results.record import FitRecord, FitStatus, iterative_status
 from ..results.regression import RegressionModel
-from ..validation import arrays, options
+from ..validation import options
 from .changepoints import find_changepoints
 from .priors import resolve as resolve_priors
+from .recordings import regression_problem
 from .selection import DEFAULT_METHOD, select_for_problem
 
 ModelFactory = Callable[..., RegressionModel]
@@ -48,6 +49,7 @@ def fit_regression(
     compute_cov: bool = True,
     max_iter: int = 10000,
     tol: float = 1e-6,
+    weights: Any = None,
 ) -> RegressionModel:
     """Identify a time-varying regression y_t = Θ_t φ_t + e_t.
 
@@ -65,11 +67,13 @@ def fit_regression(
 
     Parameters
     ----------
-    y : array_like, shape (N, n) or (N,)
-        Outputs, time on axis 0 (lists and pandas objects are accepted).
-    phi : array_like, shape (N, p) or (N,)
+    y : array_like, shape (N, n), (N,) or (R, N, n)
+        Outputs, time on axis 0 (lists and pandas objects are accepted); R
+        time-aligned series share Θ_t. NaN marks a missing sample: a row
+        enters the data term only if y_t and φ_t are observed.
+    phi : array_like, shape (N, p), (N,) or (R, N, p)
         Regressors, one row per output row.
-    lam, norm, order, prior, prior_mode, noise_var, compute_cov, max_iter, tol
+    lam, norm, order, prior, prior_mode, noise_var, compute_cov, max_iter, tol, weights
         As in :func:`fit`, with K = n·p parameters per time step (a ``Prior``
         mean is (K,) or (N, K); an ``OutputPrior`` is a prior on Θ_t φ_t).
 
@@ -101,12 +105,11 @@ def fit_regression(
     >>> bool(np.abs(model.theta[:, 0, 0] - slope).max() < 0.05)
     True
     """
-    y, phi = arrays.regression_data(y, phi)
+    problem = regression_problem(y, phi, order=order, weights=weights)
     norm = options.norm_name(norm)
-    coeffs = options.difference_coefficients(order, max_degree=y.shape[0])
-    n, p = y.shape[1], phi.shape[1]
+    n, p = problem.n, problem.p
     return fit_problem(
-        RegressionProblem(y=y, phi=phi, coeffs=coeffs),
+        problem,
         factory=partial(RegressionModel, n_outputs=n, n_regressors=p),
         regressor_names=signal_names("phi", p),
         data_name="y",
@@ -144,8 +147,7 @@ def fit_problem(
     """
     norm = options.norm_name(norm)
     prior_mode = options.choice(prior_mode, "prior_mode", ("exact", "posthoc"))
-    if noise_var is not None:
-        noise_var = options.positive_scalar(noise_var, "noise_var")
+    noise_var = options.noise_variance(noise_var, problem.n)
     if not isinstance(compute_cov, bool):
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
     selection = None
@@ -194,6 +196,11 @@ def _fit_with_lam(
     W = options.penalty_weight(lam, K)
     _enough_samples(problem, data_name, rows_note)
     terms = resolve_priors(prior, N, n, p)
+    if not problem.complete and any(term.on == "output" for term in terms):
+        raise NotImplementedError(
+            "prior: an OutputPrior needs one complete trajectory (no missing samples, "
+            "weights or batches); use a Prior on the coefficients instead"
+        )
 
     const = np.isinf(np.diag(W)).reshape(n, p)
     identifiability.check(
@@ -228,11 +235,11 @@ def _fit_with_lam(
     if terms and prior_mode == "posthoc":
         blocks = np.array(cov.full(n, p))
         for term in terms:
-            k, blocks = posthoc_correction(k, blocks, term, problem.phi)
+            k, blocks = posthoc_correction(k, blocks, term, problem.phi[:, 0])
         cov = CovarianceBlocks(blocks, None) if compute_cov else None
         loglik = float("nan")
         info["loglik_note"] = "no likelihood is defined for the posthoc correction"
-    noise_cov = np.eye(n) * result.noise_var
+    noise_cov = np.diag(result.noise_var)
     status = FitStatus("closed_form", info["solver"], 1, result.objective,
                        {"n_factorizations": result.n_factorizations})
     return factory(k, fit=FitRecord(
@@ -242,10 +249,12 @@ def _fit_with_lam(
 
 
 def _enough_samples(problem: RegressionProblem, data_name: str, rows_note: str) -> None:
+    counts = {"observed": problem.n_observed, "n_rows": problem.N * problem.q}
     if data_name == "x":  # state space: rows are transitions, T = N + 1
-        options.enough_samples(problem.N, problem.p, problem.degree)
+        options.enough_samples(problem.N, problem.p, problem.degree, **counts)
     else:
-        options.enough_rows(problem.N, problem.p, problem.degree, data_name, rows_note)
+        options.enough_rows(problem.N, problem.p, problem.degree, data_name, rows_note,
+                            **counts)
 
 
 def sparse_model(
@@ -254,11 +263,12 @@ def sparse_model(
 ) -> RegressionModel:
     """The model of a sparse-norm solution: noise from the residuals, change points detected.
 
-    ``noise_var`` is the residual mean square RSS / (N·n); ``changepoints``
+    ``noise_var`` is the residual mean square of each output, RSS_i / (observed
+    rows); ``changepoints``
     are :func:`~ltvmodels.find_changepoints` of the activation with the
     default rules.
     """
-    N, n, K = problem.N, problem.n, problem.K
+    N, K = problem.N, problem.K
     k = solution.theta.reshape(N, K)
     info = {
         "solver": solution.solver, "iterations": solution.iterations,
@@ -271,11 +281,11 @@ def sparse_model(
         solution.solver, solution.iterations, solution.objective,
         {**solution.details, "lambda_max": solution.lambda_max},
     )
-    noise_var = solution.rss / (N * n)
+    noise_var = problem.output_rss(solution.theta) / max(problem.n_observed, 1)
     changepoints = find_changepoints(activation(k, problem.coeffs), degree=problem.degree)
     return factory(k, fit=FitRecord(
         norm=norm, coeffs=problem.coeffs, lam=_lam_copy(lam), noise_var=noise_var,
-        noise_cov=np.eye(n) * noise_var, info=info, changepoints=changepoints, status=status,
+        noise_cov=np.diag(noise_var), info=info, changepoints=changepoints, status=status,
     ))
 
 

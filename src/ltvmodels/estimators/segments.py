@@ -24,12 +24,14 @@ from typing import Any
 import numpy as np
 
 from ..core import segmentation as search
+from ..core.problem import RegressionProblem
 from ..errors import SingularProblemError
 from ..results.record import FitStatus
 from ..results.segmentation import Segmentation
 from ..results.statespace import LTVModel
-from ..validation import arrays, options
+from ..validation import options
 from .piecewise import fit_piecewise
+from .recordings import regression_problem, state_space_data
 
 __all__ = ["fit_segments", "segment_regression", "noise_variance_estimate"]
 
@@ -41,6 +43,7 @@ def segment_regression(
     n_changes: int | None = None,
     penalty: float | str | None = None,
     min_size: int | None = None,
+    weights: Any = None,
 ) -> Segmentation:
     """Optimal piecewise-constant segmentation of a regression y_t = Θ_t φ_t + e_t.
 
@@ -66,6 +69,9 @@ def segment_regression(
         when neither ``n_changes`` nor ``penalty`` is given.
     min_size : int, optional
         Minimum number of rows per segment, >= p. Default p.
+    weights : array_like, shape (N,) or (R, N), optional
+        Weights >= 0 of the rows (y and phi may hold R series, (R, N, ·), and
+        NaN for missing rows, as in :func:`ltvmodels.fit_regression`).
 
     Returns
     -------
@@ -80,8 +86,8 @@ def segment_regression(
         The regressors are linearly dependent over the whole data set, so no
         segment is identifiable.
     """
-    y, phi = arrays.regression_data(y, phi)
-    return _segment(y, phi, n_changes, penalty, min_size, data_name="y")
+    return _segment(regression_problem(y, phi, weights=weights), n_changes, penalty, min_size,
+                    data_name="y")
 
 
 def fit_segments(
@@ -92,6 +98,8 @@ def fit_segments(
     penalty: float | str | None = None,
     min_size: int | None = None,
     compute_cov: bool = True,
+    weights: Any = None,
+    constant: bool = False,
 ) -> LTVModel:
     """Piecewise-constant LTV model with exactly optimal change points (paper eq:l0).
 
@@ -150,6 +158,9 @@ def fit_segments(
         1e-10 · N) are excluded as well.
     compute_cov : bool, default True
         Compute the covariances of the per-segment estimates.
+    weights, constant
+        As in :func:`ltvmodels.fit`; x and u may also hold R trajectories
+        (each segment's cost sums over them) and NaN for missing samples.
 
     Returns
     -------
@@ -189,13 +200,13 @@ def fit_segments(
     >>> model.info["costs_by_n_changes"].shape
     (2,)
     """
-    x, u = arrays.state_and_input(x, u)
+    data = state_space_data(x, u, weights=weights, constant=constant)
     if not isinstance(compute_cov, bool):
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
-    y = x[1:]
-    phi = np.hstack([x[:-1], u[:-1]])
-    result = _segment(y, phi, n_changes, penalty, min_size, data_name="x")
-    model = fit_piecewise(x, u, result.changepoints, order=1, compute_cov=compute_cov)
+    result = _segment(data.problem, n_changes, penalty, min_size, data_name="x")
+    model = fit_piecewise(data.x, data.inputs, result.changepoints, order=1,
+                          compute_cov=compute_cov, weights=data.weights,
+                          constant=data.constant)
     model.norm = "l0"
     model.status = FitStatus("optimal", result.solver, 0, result.objective)
     model.info.update(
@@ -242,15 +253,15 @@ def noise_variance_estimate(y: Any, phi: Any, min_size: int | None = None) -> fl
     float
         σ̂², in the units of y².
     """
-    y, phi = arrays.regression_data(y, phi)
+    problem = regression_problem(y, phi)
     min_size = options.optional_integer(min_size, "min_size", 1)
-    return _noise_variance(y, phi, min_size)
+    return _noise_variance(problem, min_size)
 
 
-def _noise_variance(y: np.ndarray, phi: np.ndarray, min_size: int | None) -> float:
-    """:func:`noise_variance_estimate` on validated arrays."""
-    N, p = phi.shape
-    n = y.shape[1]
+def _noise_variance(problem: RegressionProblem, min_size: int | None) -> float:
+    """:func:`noise_variance_estimate` on a validated problem (windows of time steps)."""
+    N, n, p = problem.N, problem.n, problem.p
+    y, phi, observed = problem.y, problem.phi, problem.observed
     w = max(4 * p, 20, min_size or 0)
     if N < 2 * w:
         bounds = [0, N]
@@ -258,13 +269,15 @@ def _noise_variance(y: np.ndarray, phi: np.ndarray, min_size: int | None) -> flo
         bounds = [i * w for i in range(N // w)] + [N]
     ratios, dofs = [], []
     for a, b in itertools.pairwise(bounds):
-        if b - a <= p:
+        rows = int(observed[a:b].sum())
+        if rows <= p:
             continue
-        coef, _, rank, _ = np.linalg.lstsq(phi[a:b], y[a:b], rcond=None)
+        phi_w, y_w = phi[a:b].reshape(-1, p), y[a:b].reshape(-1, n)
+        coef, _, rank, _ = np.linalg.lstsq(phi_w, y_w, rcond=None)
         if rank < p:
             continue
-        resid = y[a:b] - phi[a:b] @ coef
-        dof = n * (b - a - p)
+        resid = y_w - phi_w @ coef
+        dof = n * (rows - p)
         ratios.append(float(np.sum(resid**2)) / dof)
         dofs.append(dof)
     if not ratios:
@@ -274,24 +287,23 @@ def _noise_variance(y: np.ndarray, phi: np.ndarray, min_size: int | None) -> flo
         )
     nu = float(np.median(dofs))
     sigma2 = float(np.median(ratios)) / (1.0 - 2.0 / (9.0 * nu)) ** 3
-    return max(sigma2, 1e-12 * float(np.mean(y**2)))
+    return max(sigma2, 1e-12 * float(np.sum(y**2)) / max(problem.n_observed * n, 1))
 
 
 # -- shared driver -----------------------------------------------------------------------
 
 
 def _segment(
-    y: np.ndarray,
-    phi: np.ndarray,
+    problem: RegressionProblem,
     n_changes: Any,
     penalty: Any,
     min_size: Any,
     *,
     data_name: str,
 ) -> Segmentation:
-    """Validate the options and run the dynamic program or PELT on validated (y, φ)."""
-    N, p = phi.shape
-    n = y.shape[1]
+    """Validate the options and run the dynamic program or PELT on a validated problem."""
+    N, n, p = problem.N, problem.n, problem.p
+    y, phi = problem.y, problem.phi
     options.segment_mode(n_changes, penalty)
     min_size = options.segment_min_size(min_size, p)
     options.segmentable_length(N, min_size, data_name)
@@ -302,7 +314,12 @@ def _segment(
         M = -1
         beta_spec = options.segment_penalty("bic" if penalty is None else penalty)
 
-    scaled = search.scale_data(y, phi)
+    if problem.n_observed < p:
+        raise ValueError(
+            f"{data_name}: too few observed samples: {problem.n_observed} complete rows "
+            f"cannot determine the p = {p} regressors of one segment"
+        )
+    scaled = search.scale_data(y, phi, problem.n_observed)
     a_max = search.feasible_starts(scaled.data, p, min_size, search.FEASIBILITY_TOL * N)
     if a_max[N] < 0:
         raise SingularProblemError(
@@ -332,13 +349,13 @@ def _segment(
         )
     else:
         if isinstance(beta_spec, str):
-            sigma2 = _noise_variance(y, phi, min_size)
+            sigma2 = _noise_variance(problem, min_size)
             K = n * p
             beta = K * np.log(N) * sigma2 if beta_spec == "bic" else 2.0 * K * sigma2
             rule: str | None = beta_spec
         else:
             beta, sigma2, rule = float(beta_spec), None, None
-        margin = search.PRUNE_MARGIN * float(np.sum(scaled.data[:, p:] ** 2))
+        margin = search.PRUNE_MARGIN * float(np.sum(scaled.data[..., p:] ** 2))
         last, _, work = search.pelt(scaled.data, p, beta / unit, min_size, a_max, margin)
         changepoints = search.backtrack_last(last)
         # the cost itself, not objective − β·M (which cancels when β dominates)
@@ -363,7 +380,8 @@ def _residual_sum_of_squares(y: np.ndarray, phi: np.ndarray, changepoints: np.nd
     bounds = np.concatenate([[0], changepoints, [y.shape[0]]])
     total = 0.0
     for a, b in itertools.pairwise(bounds):
-        q, _ = np.linalg.qr(phi[a:b])
-        resid = y[a:b] - q @ (q.T @ y[a:b])
+        phi_s, y_s = phi[a:b].reshape(-1, phi.shape[2]), y[a:b].reshape(-1, y.shape[2])
+        q, _ = np.linalg.qr(phi_s)
+        resid = y_s - q @ (q.T @ y_s)
         total += float(np.sum(resid**2))
     return total

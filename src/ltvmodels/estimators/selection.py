@@ -37,13 +37,14 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.optimize import minimize_scalar
 
-from ..core.problem import RegressionProblem, apply_difference, state_space_problem
+from ..core.problem import RegressionProblem, apply_difference
 from ..core.sparse import solve_sparse
 from ..core.sparse_common import lambda_max
 from ..core.squared import fit_squared
 from ..errors import ConvergenceWarning, PrecisionWarning
 from ..results.selection import LambdaSelection
 from ..validation import arrays, options
+from .recordings import StateSpaceData, regression_problem, state_space_data
 from .segments import fit_segments
 
 __all__ = ["select_lambda", "select_lambda_regression", "DEFAULT_METHOD"]
@@ -70,6 +71,8 @@ def select_lambda(
     n_folds: int = 5,
     max_changes: int = 10,
     progress: Callable[[int, int], None] | None = None,
+    weights: Any = None,
+    constant: bool = False,
 ) -> LambdaSelection:
     """Choose λ for :func:`ltvmodels.fit` (state-space data) by a documented criterion.
 
@@ -84,8 +87,9 @@ def select_lambda(
 
     Parameters
     ----------
-    x : array_like, shape (T, n)
-    u : array_like, shape (T, m) or (T,), optional
+    x : array_like, shape (T, n) or (R, T, n)
+        States (R trajectories, NaN = missing), as in :func:`ltvmodels.fit`.
+    u : array_like, shape (T, m), (T,) or (R, T, m), optional
     norm : {"sq", "group", "l1", "l0"}
         "l0" chooses the number of changes of :func:`ltvmodels.fit_segments`.
     order : int or sequence of float
@@ -96,24 +100,26 @@ def select_lambda(
     lams : array_like, optional
         Candidate λ values (> 0), or for "l0" candidate numbers of changes.
     n_folds : int
-        Folds of the blocked cross-validation (method="cv"), >= 2.
+        Folds of the blocked cross-validation (method="cv"), >= 2. The folds
+        are blocks of time steps, shared by the trajectories.
     max_changes : int
         For "l0" without ``lams``: candidates 0 … max_changes.
     progress : callable, optional
         Called as ``progress(done, total)`` after each candidate is scored
         (e.g. to draw a progress bar).
+    weights, constant
+        As in :func:`ltvmodels.fit`.
 
     Returns
     -------
     LambdaSelection
     """
-    x, u = arrays.state_and_input(x, u)
     norm, method = _norm_and_method(norm, method, tuple(METHODS))
+    data = state_space_data(x, u, order=1 if norm == "l0" else order, weights=weights,
+                            constant=constant)
     if norm == "l0":
-        return _select_changes(x, u, method, lams, max_changes)
-    coeffs = options.difference_coefficients(order, max_degree=x.shape[0])
-    return _select_validated(state_space_problem(x, u, coeffs), norm, method, lams, n_folds,
-                             progress)
+        return _select_changes(data, method, lams, max_changes)
+    return _select_validated(data.problem, norm, method, lams, n_folds, progress)
 
 
 def select_lambda_regression(
@@ -126,6 +132,7 @@ def select_lambda_regression(
     lams: Any = None,
     n_folds: int = 5,
     progress: Callable[[int, int], None] | None = None,
+    weights: Any = None,
 ) -> LambdaSelection:
     """:func:`select_lambda` for a regression y_t = Θ_t φ_t + e_t (any front-end).
 
@@ -135,17 +142,16 @@ def select_lambda_regression(
 
     Parameters
     ----------
-    y : array_like, shape (N, n) or (N,)
-    phi : array_like, shape (N, p) or (N,)
+    y : array_like, shape (N, n), (N,) or (R, N, n)
+    phi : array_like, shape (N, p), (N,) or (R, N, p)
     norm : {"sq", "group", "l1"}
-    order, method, lams, n_folds, progress
-        As in :func:`select_lambda`.
+    order, method, lams, n_folds, progress, weights
+        As in :func:`select_lambda` (NaN = missing, as in
+        :func:`ltvmodels.fit_regression`).
     """
-    y, phi = arrays.regression_data(y, phi)
     norm, method = _norm_and_method(norm, method, ("sq", "group", "l1"))
-    coeffs = options.difference_coefficients(order, max_degree=y.shape[0])
-    return _select_validated(RegressionProblem(y=y, phi=phi, coeffs=coeffs), norm, method,
-                             lams, n_folds, progress)
+    problem = regression_problem(y, phi, order=order, weights=weights)
+    return _select_validated(problem, norm, method, lams, n_folds, progress)
 
 
 def _norm_and_method(norm: Any, method: Any, norms: tuple[str, ...]) -> tuple[str, str]:
@@ -158,7 +164,8 @@ def _norm_and_method(norm: Any, method: Any, norms: tuple[str, ...]) -> tuple[st
 
 def _select_validated(problem, norm, method, lams, n_folds, progress) -> LambdaSelection:
     """Check the sample count and ``n_folds``, then :func:`select_for_problem`."""
-    options.enough_samples(problem.N, problem.p, problem.degree)
+    options.enough_samples(problem.N, problem.p, problem.degree,
+                           observed=problem.n_observed, n_rows=problem.N * problem.q)
     n_folds = options.integer(n_folds, "n_folds", minimum=2)
     return select_for_problem(problem, norm, method, lams, n_folds=n_folds, progress=progress)
 
@@ -244,17 +251,15 @@ def _effective_dof(problem: RegressionProblem, result: Any) -> float:
     n, p = problem.n, problem.p
     cov = result.cov
     phi = problem.phi
-    if cov.row_group is not None:  # rows independent: blocks (G, N, p, p)
-        per_group = np.einsum("ta,gtab,tb->g", phi, cov.blocks, phi)
-        total = float(per_group[cov.row_group].sum())
-    else:
-        full = cov.blocks.reshape(problem.N, n, p, n, p)
-        total = float(np.einsum("ta,tiaib,tb->", phi, full, phi))
-    return total / result.noise_var
+    if cov.row_group is not None:  # rows independent: blocks (G, N, p, p), row i has σ_i²
+        per_group = np.einsum("tja,gtab,tjb->g", phi, cov.blocks, phi)
+        return float(np.sum(per_group[cov.row_group] * cov.scales(n) / result.noise_var))
+    full = cov.blocks.reshape(problem.N, n, p, n, p)
+    return float(np.einsum("tja,tiaib,tjb->", phi, full, phi)) / float(result.noise_var[0])
 
 
 def _gcv(problem: RegressionProblem, rss: float, dof: float) -> float:
-    size = problem.N * problem.n
+    size = problem.n_observed * problem.n
     return size * rss / max(size - dof, 1e-12) ** 2
 
 
@@ -301,27 +306,26 @@ def _cv_error(problem: RegressionProblem, norm: str, lam: float, n_folds: int) -
     errors = 0.0
     for f in range(n_folds):
         held = fold == f
-        y, phi = problem.y.copy(), problem.phi.copy()
-        y[held] = 0.0
-        phi[held] = 0.0
-        train = RegressionProblem(y=y, phi=phi, coeffs=problem.coeffs)
+        train = RegressionProblem(y=problem.y, phi=problem.phi, coeffs=problem.coeffs,
+                                  observed=problem.observed & ~held[:, None])
         theta = criterion_fit(train, norm, lam)["theta"]
-        pred = np.einsum("tij,tj->ti", theta[held], problem.phi[held])
-        errors += float(np.sum((problem.y[held] - pred) ** 2))
-    return errors / (N * problem.n)
+        pred = np.einsum("tij,tqj->tqi", theta[held], problem.phi[held])
+        errors += float(np.sum((problem.y[held] - pred) ** 2))  # unobserved rows are 0
+    return errors / (problem.n_observed * problem.n)
 
 
 def _grid(problem: RegressionProblem, norm: str) -> np.ndarray:
     """The default candidates (see :func:`select_lambda`)."""
     if norm == "sq":
-        scale = float(np.sqrt(np.mean(np.sum(problem.phi**2, axis=1))))
+        # root-mean-square ‖φ‖ of the observed rows
+        scale = float(np.sqrt(np.sum(problem.phi**2) / max(problem.n_observed, 1)))
         d = problem.degree
         return scale * np.logspace(-1.0, np.log10(2.0 * problem.N**d), GRID_SIZE)
     lam_max = lambda_max(problem, norm)
     return lam_max * np.logspace(-3.0, 0.0, GRID_SIZE)
 
 
-def _select_changes(x: np.ndarray, u: np.ndarray, method: str, lams: Any,
+def _select_changes(data: StateSpaceData, method: str, lams: Any,
                     max_changes: Any) -> LambdaSelection:
     """Number of changes for fit_segments by BIC/AIC over one dynamic program."""
     if lams is None:
@@ -329,11 +333,13 @@ def _select_changes(x: np.ndarray, u: np.ndarray, method: str, lams: Any,
         candidates = np.arange(max_changes + 1)
     else:
         candidates = arrays.count_grid(lams, "lams")
-    N, n, p = x.shape[0] - 1, x.shape[1], x.shape[1] + u.shape[1]
+    N, n, p = data.problem.N, data.n, data.problem.p
     M_max = min(int(candidates.max()), N // p - 1)
-    costs = fit_segments(x, u, n_changes=M_max, compute_cov=False).info["costs_by_n_changes"]
+    costs = fit_segments(data.x, data.inputs, n_changes=M_max, compute_cov=False,
+                         weights=data.weights, constant=data.constant
+                         ).info["costs_by_n_changes"]
     candidates = candidates[candidates <= M_max]
-    size = N * n
+    size = data.problem.n_observed * n
     c = np.log(size) if method == "bic" else 2.0
     with np.errstate(divide="ignore"):
         scores = np.array([size * np.log(costs[M] / size) + c * ((M + 1) * n * p + M)

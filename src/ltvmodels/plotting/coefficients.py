@@ -109,6 +109,9 @@ def plot_coefficients(model: Any, truth: Any = None, *, bands: bool = True,
         std = model.std()
         if std is not None:
             std = np.asarray(std, dtype=float)
+            if getattr(model, "constant", False) and std.shape == (N, n * (p + 1)):
+                # a model with intercepts c_t: the panels show [A_t B_t] only
+                std = std.reshape(N, n, p + 1)[:, :, :p].reshape(N, n * p)
             if std.shape != (N, n * p):
                 raise ValueError(f"model.std(): expected shape {(N, n * p)}, received {std.shape}")
     if fig is None:

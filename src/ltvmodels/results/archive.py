@@ -56,6 +56,8 @@ def write(model: Any, path: str | Path) -> None:
         arrays["cov_blocks"] = fit.cov.blocks
         if fit.cov.row_group is not None:
             arrays["cov_row_group"] = fit.cov.row_group
+        if fit.cov.row_scale is not None:
+            arrays["cov_row_scale"] = fit.cov.row_scale
     if fit.changepoints is not None:
         arrays["changepoints"] = fit.changepoints
     info_json, info_arrays = _split_info(fit.info)
@@ -65,7 +67,7 @@ def write(model: Any, path: str | Path) -> None:
         "model_type": type(model).__name__,
         **model.structure(),
         "norm": fit.norm,
-        "noise_var": fit.noise_var,
+        "noise_var": np.asarray(fit.noise_var, dtype=float).tolist(),
         "loglik": fit.loglik,
         "info": info_json,
         "status": None if fit.status is None else fit.status.to_dict(),
@@ -91,7 +93,8 @@ def read(path: str | Path) -> ModelFile:
         cov = None
         if "cov_blocks" in files:
             row_group = data["cov_row_group"] if "cov_row_group" in files else None
-            cov = CovarianceBlocks(data["cov_blocks"], row_group)
+            row_scale = data["cov_row_scale"] if "cov_row_scale" in files else None
+            cov = CovarianceBlocks(data["cov_blocks"], row_group, row_scale)
         info = dict(meta["info"])
         info.update({key[len("info__"):]: data[key] for key in files if key.startswith("info__")})
         if version == 1:

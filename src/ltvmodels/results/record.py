@@ -133,8 +133,8 @@ class FitRecord:
         λ (a scalar, a (K,) vector or a (K, K) matrix).
     cov : CovarianceBlocks or None
         Posterior covariance of k_t in compact form.
-    noise_var : float
-        Noise variance σ².
+    noise_var : float or ndarray, shape (n,)
+        Noise variance σ², shared or one per output.
     noise_cov : ndarray, shape (n, n), or None
         Noise covariance (None: NaN).
     loglik : float
@@ -151,7 +151,7 @@ class FitRecord:
     coeffs: Any = None
     lam: Any = float("nan")
     cov: CovarianceBlocks | None = None
-    noise_var: float = float("nan")
+    noise_var: Any = float("nan")
     noise_cov: np.ndarray | None = None
     loglik: float = float("nan")
     info: dict = field(default_factory=dict)

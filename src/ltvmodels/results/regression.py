@@ -39,8 +39,9 @@ class RegressionModel:
         independent with a shared covariance (then Cov(k_t) = I_n ⊗ cov[t]),
         otherwise (N, K, K). None if not computed. :meth:`cov_full` always
         returns (N, K, K); :meth:`std` (N, K).
-    noise_var : float
-        Noise variance σ² of the isotropic model (estimated or given).
+    noise_var : ndarray, shape (n,)
+        Noise variance σ_i² of each output (estimated or given; equal entries
+        where the estimator assumes one variance for all outputs).
     noise_cov : ndarray, shape (n, n)
         Noise covariance estimate.
     loglik : float
@@ -81,8 +82,8 @@ class RegressionModel:
         self.coeffs = None if fit.coeffs is None else np.asarray(fit.coeffs, dtype=float)
         self.lam = fit.lam
         self._cov = fit.cov
-        self.noise_var = float(fit.noise_var)
         n = self._n_outputs
+        self.noise_var = np.broadcast_to(np.asarray(fit.noise_var, dtype=float), (n,)).copy()
         self.noise_cov = np.full((n, n), np.nan) if fit.noise_cov is None else fit.noise_cov
         self.loglik = float(fit.loglik)
         self.info = dict(fit.info)
@@ -142,15 +143,15 @@ class RegressionModel:
         if self._cov is None:
             return None
         c = self._cov
-        if c.row_group is not None and c.blocks.shape[0] == 1:
-            return c.blocks[0]
+        if c.shared:
+            return c.blocks[0] if c.row_scale is None else c.blocks[0] * c.row_scale[0]
         return self.cov_full()
 
     @property
     def cov_shared_by_rows(self) -> bool:
         """True when :attr:`cov` is the compact (N, p, p) form."""
         c = self._cov
-        return c is not None and c.row_group is not None and c.blocks.shape[0] == 1
+        return c is not None and c.shared
 
     def cov_full(self) -> np.ndarray | None:
         """Posterior covariance of k_t as an (N, K, K) array (O(N K²) memory)."""
@@ -167,7 +168,9 @@ class RegressionModel:
             var = np.diagonal(c.blocks, axis1=1, axis2=2)
         else:
             per_group = np.diagonal(c.blocks, axis1=2, axis2=3)  # (G, N, p)
-            var = np.concatenate([per_group[g] for g in c.row_group], axis=1)
+            scales = c.scales(self.n_outputs)
+            var = np.concatenate([scales[i] * per_group[g] for i, g in enumerate(c.row_group)],
+                                 axis=1)
         return np.sqrt(np.maximum(var, 0.0))
 
     # -- use ----------------------------------------------------------------------
@@ -228,7 +231,7 @@ class RegressionModel:
         return (
             f"{type(self).__name__}(N={self.N}, {self._repr_sizes()}, "
             f"norm={self.norm!r}, order={order}, lam={lam_text}, "
-            f"noise_var={self.noise_var:.4g}, loglik={self.loglik:.6g})"
+            f"noise_var={_values_text(self.noise_var)}, loglik={self.loglik:.6g})"
         )
 
     def summary(self) -> str:
@@ -243,6 +246,13 @@ class RegressionModel:
             lines.append(f"  activation ‖Dk‖: max {act.max():.3g} at t={int(act.argmax())}, "
                          f"median {np.median(act):.3g}")
         return "\n".join(lines)
+
+
+def _values_text(values: np.ndarray) -> str:
+    """One number when all are equal, else the list (at 4 significant digits)."""
+    if values.size and np.all(values == values[0]):
+        return f"{values[0]:.4g}"
+    return "[" + ", ".join(f"{v:.4g}" for v in values) + "]"
 
 
 def _order_text(coeffs: np.ndarray) -> str:

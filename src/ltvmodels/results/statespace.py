@@ -17,22 +17,33 @@ class LTVModel(RegressionModel, LinearTimeVarying):
     """An identified linear time-varying model.
 
     Model index t maps (x[t], u[t]) to x[t+1], t = 0 … N-1 (N = T − 1 for T
-    samples of data). The parameter vector is ``k[t] = np.hstack([A[t], B[t]]).ravel()``.
-    It is the :class:`RegressionModel` with y_t = x_{t+1} and φ_t = [x_t; u_t].
+    samples of data):
+
+        x[t+1] = A_t x[t] + B_t u[t] + c_t + v_t,
+
+    with c_t = 0 unless the model was fitted with ``constant=True``. The
+    parameter vector is ``k[t] = np.hstack([A[t], B[t]]).ravel()``, or
+    ``np.hstack([A[t], B[t], c[t][:, None]]).ravel()`` with an intercept. It
+    is the :class:`RegressionModel` with y_t = x_{t+1} and φ_t = [x_t; u_t]
+    (; 1).
 
     Attributes
     ----------
     k : ndarray, shape (N, K)
-        Parameter vectors, K = n·(n + m).
+        Parameter vectors, K = n·(n + m) (n·(n + m + 1) with an intercept).
     A : ndarray, shape (N, n, n)
     B : ndarray, shape (N, n, m)
+    c : ndarray, shape (N, n)
+        The intercepts c_t (zeros for a model without one).
+    constant : bool
+        Whether the model has an intercept c_t.
     cov : ndarray or None
-        Posterior covariance of k_t: shape (N, p, p) with p = n + m when the
-        output rows are independent with a shared covariance (then
+        Posterior covariance of k_t: shape (N, p, p) with p = n + m (+ 1) when
+        the output rows are independent with a shared covariance (then
         Cov(k_t) = I_n ⊗ cov[t]), otherwise (N, K, K). None if not computed.
         :meth:`cov_full` always returns (N, K, K); :meth:`std` (N, K).
-    noise_var : float
-        Noise variance σ² of the isotropic model (estimated or given).
+    noise_var : ndarray, shape (n,)
+        Noise variance σ_i² of each state equation (estimated or given).
     noise_cov : ndarray, shape (n, n)
         Noise covariance estimate.
     loglik : float
@@ -46,20 +57,25 @@ class LTVModel(RegressionModel, LinearTimeVarying):
     Parameters
     ----------
     k : array_like, shape (N, K)
-        Parameter vectors k_t = ``np.hstack([A_t, B_t]).ravel()``.
+        Parameter vectors k_t = ``np.hstack([A_t, B_t]).ravel()`` (with c_t as
+        a last column when ``constant``).
     n_states, n_inputs : int
         n and m.
     fit : FitRecord, optional
         What the estimator computed besides k; default: nothing (given
         coefficients, e.g. ``LTVModel(k, 2, 1).simulate(x0, u)``).
+    constant : bool
+        Whether k holds an intercept c_t.
     """
 
     def __init__(
-        self, k: np.ndarray, n_states: int, n_inputs: int, fit: FitRecord | None = None
+        self, k: np.ndarray, n_states: int, n_inputs: int, fit: FitRecord | None = None,
+        constant: bool = False,
     ) -> None:
-        super().__init__(k, n_states, int(n_states) + int(n_inputs), fit)
+        super().__init__(k, n_states, int(n_states) + int(n_inputs) + bool(constant), fit)
         self.n_states = int(n_states)
         self.n_inputs = int(n_inputs)
+        self.constant = bool(constant)
 
     # -- shapes -------------------------------------------------------------------
     @property
@@ -70,86 +86,116 @@ class LTVModel(RegressionModel, LinearTimeVarying):
     @property
     def B(self) -> np.ndarray:
         """(N, n, m) input matrices."""
-        return self.theta[:, :, self.n_states :]
+        return self.theta[:, :, self.n_states : self.n_states + self.n_inputs]
+
+    @property
+    def c(self) -> np.ndarray:
+        """(N, n) intercepts c_t (zeros without an intercept)."""
+        if not self.constant:
+            return np.zeros((self.N, self.n_states))
+        return self.theta[:, :, -1]
 
     # -- use ----------------------------------------------------------------------
-    def _check_length(self, T: int, name: str) -> None:
-        if T != self.N + 1:
-            raise ValueError(
-                f"{name}: expected T = {self.N + 1} time steps (the model has N = {self.N} "
-                f"transitions), received {T}"
-            )
-
     def predict(self, x: Any, u: Any = None) -> np.ndarray:
-        """One-step predictions x̂[t+1] = A_t x[t] + B_t u[t].
+        """One-step predictions x̂[t+1] = A_t x[t] + B_t u[t] + c_t.
 
         Parameters
         ----------
-        x : array_like, shape (T, n), T = N + 1
-        u : array_like, shape (T, m) or (T,), or None when m = 0
+        x : array_like, shape (T, n) or (R, T, n), T = N + 1
+            States (R trajectories); NaN gives NaN predictions.
+        u : array_like, shape (T, m), (T,) or (R, T, m), or None when m = 0
 
         Returns
         -------
-        ndarray, shape (T − 1, n)
+        ndarray, shape (T − 1, n), or (R, T − 1, n) for R trajectories
             Predictions of x[1:].
         """
+        batch = arrays.is_batch(x)
         x, u = self._data(x, u)
-        self._check_length(x.shape[0], "x")
-        phi = np.hstack([x[:-1], u[:-1]])
-        return np.einsum("tij,tj->ti", self.theta, phi)
+        if x.shape[1] != self.N + 1:
+            raise ValueError(
+                f"x: expected T = {self.N + 1} time steps (the model has N = {self.N} "
+                f"transitions), received {x.shape[1]}"
+            )
+        parts = [x[:, :-1], u[:, :-1]]
+        if self.constant:
+            parts.append(np.ones(x.shape[:2] + (1,))[:, :-1])
+        out = np.einsum("tij,rtj->rti", self.theta, np.concatenate(parts, axis=2))
+        return out if batch else out[0]
 
     def simulate(self, x0: Any, u: Any = None) -> np.ndarray:
-        """Open-loop simulation from x0.
+        """Open-loop simulation from x0: x[t+1] = A_t x[t] + B_t u[t] + c_t.
 
         Parameters
         ----------
-        x0 : array_like, shape (n,)
+        x0 : array_like, shape (n,) or (R, n)
+            Initial state(s); R initial states simulate R trajectories.
         u : array_like, shape (T, m), (T,) or (N, m) — T = N + 1 (the last
-            input is unused) — or None when the model has no inputs.
+            input is unused) — or (R, T, m) / (R, N, m) for R trajectories, or
+            None when the model has no inputs. A single input sequence is
+            shared by all R initial states.
 
         Returns
         -------
-        ndarray, shape (T, n)
+        ndarray, shape (T, n), or (R, T, n) for (R, n) initial states
         """
-        x0 = arrays.as_float_array(x0, "x0").ravel()
-        if x0.shape != (self.n_states,):
-            raise ValueError(f"x0: expected shape ({self.n_states},), received {x0.shape}")
+        x0 = arrays.as_float_array(x0, "x0")
+        batch = x0.ndim == 2
+        x0 = x0.reshape(-1, x0.shape[-1]) if batch else x0.ravel()[None]
+        if x0.shape[1] != self.n_states:
+            raise ValueError(
+                f"x0: expected shape ({self.n_states},) or (R, {self.n_states}), received "
+                f"{x0.shape if batch else x0.shape[1:]}"
+            )
+        R = x0.shape[0]
         if u is None:
             if self.n_inputs:
                 raise ValueError(f"u: the model has {self.n_inputs} inputs, received None")
-            u = np.zeros((self.N, 0))
+            u = np.zeros((1, self.N, 0))
         else:
-            u = arrays.as_time_series(u, "u")
-            if u.shape[1] != self.n_inputs:
-                raise ValueError(f"u: expected {self.n_inputs} columns, received {u.shape[1]}")
-            if u.shape[0] not in (self.N, self.N + 1):
+            u = arrays.trajectories(u, "u")
+            if np.isnan(u).any():
+                raise ValueError("u: expected finite inputs for a simulation, received NaN")
+            if u.shape[2] != self.n_inputs:
+                raise ValueError(f"u: expected {self.n_inputs} columns, received {u.shape[2]}")
+            if u.shape[1] not in (self.N, self.N + 1):
                 raise ValueError(
-                    f"u: expected {self.N + 1} (or {self.N}) rows, received {u.shape[0]}"
+                    f"u: expected {self.N + 1} (or {self.N}) rows, received {u.shape[1]}"
                 )
-        return simulate_affine(
-            np.ascontiguousarray(self.A), np.ascontiguousarray(self.B),
-            np.zeros((self.N, self.n_states)), x0, np.ascontiguousarray(u[: self.N]),
-        )
+            if u.shape[0] not in (1, R):
+                raise ValueError(
+                    f"u: expected one input sequence or {R} (one per initial state), "
+                    f"received {u.shape[0]}"
+                )
+        A, B = np.ascontiguousarray(self.A), np.ascontiguousarray(self.B)
+        c = np.ascontiguousarray(self.c)
+        out = np.stack([
+            simulate_affine(A, B, c, x0[r], np.ascontiguousarray(u[r % u.shape[0], : self.N]))
+            for r in range(R)
+        ])
+        return out if batch else out[0]
 
     def _data(self, x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
-        x, u = arrays.state_and_input(x, u)
-        if x.shape[1] != self.n_states:
-            raise ValueError(f"x: expected {self.n_states} columns, received {x.shape[1]}")
-        if u.shape[1] != self.n_inputs:
-            raise ValueError(f"u: expected {self.n_inputs} columns, received {u.shape[1]}")
+        x, u = arrays.recordings(x, u)
+        if x.shape[2] != self.n_states:
+            raise ValueError(f"x: expected {self.n_states} columns, received {x.shape[2]}")
+        if u.shape[2] != self.n_inputs:
+            raise ValueError(f"u: expected {self.n_inputs} columns, received {u.shape[2]}")
         return x, u
 
     # -- persistence --------------------------------------------------------------
     def structure(self) -> dict:
-        return {"n_states": self.n_states, "n_inputs": self.n_inputs}
+        return {"n_states": self.n_states, "n_inputs": self.n_inputs, "constant": self.constant}
 
     @classmethod
     def from_structure(cls, k: np.ndarray, structure: dict, fit: FitRecord) -> LTVModel:
-        return cls(k, structure["n_states"], structure["n_inputs"], fit)
+        return cls(k, structure["n_states"], structure["n_inputs"], fit,
+                   constant=structure.get("constant", False))
 
     # -- display ------------------------------------------------------------------
     def _repr_sizes(self) -> str:
-        return f"n_states={self.n_states}, n_inputs={self.n_inputs}"
+        extra = ", constant=True" if self.constant else ""
+        return f"n_states={self.n_states}, n_inputs={self.n_inputs}{extra}"
 
     def plot(self, truth: Any = None, *, bands: bool = True, fig: Any = None):
         """Plot the coefficients of [A_t B_t] over time.

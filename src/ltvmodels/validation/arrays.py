@@ -26,16 +26,19 @@ def describe(value: Any) -> str:
     return f"{text} ({type(value).__name__})"
 
 
-def as_float_array(value: Any, name: str) -> np.ndarray:
+def as_float_array(value: Any, name: str, *, missing: bool = False) -> np.ndarray:
     """Convert lists, numpy arrays and pandas objects to a new float64 array.
 
     Raises TypeError for values that are not numeric and ValueError for
-    NaN or infinite entries.
+    infinite entries, and for NaN unless ``missing`` (then NaN marks a missing
+    sample, and the masked entries of a numpy masked array become NaN).
     """
     if value is None:
         raise TypeError(f"{name}: expected an array of numbers, received None")
     if hasattr(value, "to_numpy"):  # pandas DataFrame / Series
         value = value.to_numpy()
+    if missing and isinstance(value, np.ma.MaskedArray):
+        value = value.astype(float).filled(np.nan)
     expected = f"{name}: expected an array of real numbers, received {describe(value)}"
     if isinstance(value, (str, bytes)):
         raise TypeError(expected)
@@ -51,11 +54,16 @@ def as_float_array(value: Any, name: str) -> np.ndarray:
         arr = np.array(raw, dtype=np.float64, copy=True)
     except (TypeError, ValueError) as exc:  # objects that are not numbers
         raise TypeError(expected) from exc
-    if not np.all(np.isfinite(arr)):
-        bad = np.argwhere(~np.isfinite(arr))[0]
+    bad_values = np.isinf(arr) if missing else ~np.isfinite(arr)
+    if np.any(bad_values):
+        bad = tuple(int(i) for i in np.argwhere(bad_values)[0])
+        if missing:
+            raise ValueError(
+                f"{name}: expected finite values or NaN (missing), received inf (first at "
+                f"index {bad}); mark a missing sample with NaN"
+            )
         raise ValueError(
-            f"{name}: expected finite values, received NaN or inf "
-            f"(first at index {tuple(int(i) for i in bad)})"
+            f"{name}: expected finite values, received NaN or inf (first at index {bad})"
         )
     return arr
 
@@ -76,6 +84,134 @@ def as_time_series(value: Any, name: str, *, allow_1d: bool = True) -> np.ndarra
     if arr.shape[1] == 0:
         raise ValueError(f"{name}: expected at least one column, received shape {arr.shape}")
     return arr
+
+
+def trajectories(value: Any, name: str) -> np.ndarray:
+    """Return an (R, T, d) float64 copy of R time-aligned trajectories; NaN = missing.
+
+    Accepted: (T,) and (T, d) (one trajectory), (R, T, d), or a list of R
+    equal-length arrays or DataFrames of shape (T, d) or (T,).
+    """
+    if isinstance(value, (list, tuple)) and value and all(
+        hasattr(item, "shape") for item in value
+    ):
+        parts = [_one_trajectory(item, f"{name}[{r}]") for r, item in enumerate(value)]
+        shapes = {part.shape for part in parts}
+        if len(shapes) > 1:
+            listed = ", ".join(str(part.shape) for part in parts[:4])
+            raise ValueError(
+                f"{name}: expected trajectories of equal length and width, received shapes "
+                f"{listed}{', ...' if len(parts) > 4 else ''}; pad the shorter ones with "
+                "NaN rows (missing samples) to a common length"
+            )
+        return np.stack(parts)
+    try:
+        arr = as_float_array(value, name, missing=True)
+    except TypeError as exc:
+        if isinstance(value, (list, tuple)):
+            raise TypeError(
+                f"{exc}; trajectories of unequal length must be padded with NaN rows "
+                "(missing samples) to a common length"
+            ) from None
+        raise
+    if arr.ndim in (1, 2):
+        return _one_trajectory(arr, name)[None]
+    if arr.ndim != 3:
+        raise ValueError(
+            f"{name}: expected shape (T, d) with time on axis 0, or (R, T, d) for R "
+            f"trajectories, received {arr.ndim}-d array of shape {arr.shape}"
+        )
+    if arr.shape[2] == 0:
+        raise ValueError(f"{name}: expected at least one column, received shape {arr.shape}")
+    return arr
+
+
+def is_batch(value: Any) -> bool:
+    """Whether a value is given as several trajectories: 3-d, or a list of arrays."""
+    if isinstance(value, (list, tuple)) and value and all(hasattr(v, "shape") for v in value):
+        return True
+    return np.ndim(value) == 3
+
+
+def _one_trajectory(value: Any, name: str) -> np.ndarray:
+    arr = as_float_array(value, name, missing=True)
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    if arr.ndim != 2:
+        raise ValueError(
+            f"{name}: expected a 2-d array of shape (T, d) with time on axis 0, "
+            f"received {arr.ndim}-d array of shape {arr.shape}"
+        )
+    if arr.shape[1] == 0:
+        raise ValueError(f"{name}: expected at least one column, received shape {arr.shape}")
+    return arr
+
+
+def recordings(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Validate recorded states ``x`` and inputs ``u`` of R time-aligned trajectories.
+
+    ``x``: (T, n), (T,), (R, T, n) or a list of R (T, n) arrays; ``u`` the same
+    with m columns, or None. NaN marks a missing sample. Time must be on the
+    axis of length T: a single trajectory with fewer rows than columns is
+    rejected before anything is allocated (it is almost always transposed).
+
+    Returns float64 copies x (R, T, n) and u (R, T, m) (m = 0 when None).
+    """
+    x = trajectories(x, "x")
+    R, T, n = x.shape
+    if T < n:
+        shape = x.shape[1:] if R == 1 else x.shape
+        raise ValueError(
+            f"x: expected time on axis 0 (shape (T, n) with T > n, or (R, T, n)), received "
+            f"shape {shape}: {T} time steps of {n} states. If time runs along the other "
+            "axis, pass x.T"
+        )
+    if T < 2:
+        raise ValueError(f"x: expected at least 2 time steps, received T={T}")
+    empty = np.all(np.isnan(x), axis=(0, 1))
+    if empty.any():
+        raise ValueError(
+            f"x: state {int(np.flatnonzero(empty)[0])} has no observed samples (all NaN); "
+            "drop it or supply its data"
+        )
+    if u is None:
+        return x, np.zeros((R, T, 0))
+    u = trajectories(u, "u")
+    if u.shape[:2] != (R, T):
+        expected = "" if R == 1 else f" in each of the {R} trajectories, shape ({R}, {T}, m)"
+        received = u.shape[1:] if u.shape[0] == 1 else u.shape
+        raise ValueError(
+            f"u: expected {T} rows (one input per state sample, as x){expected}, "
+            f"received shape {received}"
+        )
+    empty = np.all(np.isnan(u), axis=(0, 1))
+    if empty.any():
+        raise ValueError(
+            f"u: input {int(np.flatnonzero(empty)[0])} has no observed samples (all NaN); "
+            "drop it or supply its data"
+        )
+    return x, u
+
+
+def row_weights(weights: Any, R: int, N: int, name: str = "weights") -> np.ndarray | None:
+    """Validate weights of N regression rows per trajectory: (N,) or (R, N), finite, >= 0.
+
+    Returns an (R, N) float64 array, or None when ``weights`` is None.
+    """
+    if weights is None:
+        return None
+    w = as_float_array(weights, name)
+    if w.shape == (N,):
+        w = np.broadcast_to(w, (R, N)).copy()
+    if w.shape != (R, N):
+        expected = f"({N},)" + (f" or ({R}, {N})" if R > 1 else "")
+        raise ValueError(
+            f"{name}: expected shape {expected} (one weight per transition), received "
+            f"shape {w.shape}"
+        )
+    if np.any(w < 0):
+        raise ValueError(f"{name}: expected weights >= 0, received a minimum of {w.min():g}")
+    return w
 
 
 def state_and_input(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -124,9 +260,9 @@ def regressor_rows(value: Any, N: int, p: int, name: str = "phi") -> np.ndarray:
     return arr
 
 
-def vector(value: Any, name: str, size: int) -> np.ndarray:
-    """Validate a finite 1-d vector of the given length; returns a float64 copy."""
-    arr = as_float_array(value, name)
+def vector(value: Any, name: str, size: int, *, missing: bool = False) -> np.ndarray:
+    """Validate a finite (or, with ``missing``, NaN-marked) 1-d vector of the given length."""
+    arr = as_float_array(value, name, missing=missing)
     if arr.ndim == 0 and size == 1:
         arr = arr.reshape(1)
     if arr.shape != (size,):
@@ -259,6 +395,36 @@ def lagged_series(
             )
         if n_inputs is not None and u.shape[1] != n_inputs:
             raise ValueError(f"u: expected {n_inputs} columns, received {u.shape[1]}")
+    if T <= lag:
+        raise ValueError(
+            f"y: the series is shorter than the lag structure: {structure} reaches back "
+            f"{lag} samples, so y needs more than {lag} samples, received T = {T}"
+        )
+    return y, u
+
+
+def lagged_recordings(
+    y: Any, u: Any, lag: int, structure: str, *, require_inputs: bool = False,
+) -> tuple[np.ndarray, np.ndarray]:
+    """As :func:`lagged_series` for R trajectories with NaN = missing.
+
+    ``y`` (T, n), (T,) or (R, T, n); ``u`` likewise or None. Returns float64
+    copies y (R, T, n) and u (R, T, m) (m = 0 when None).
+    """
+    y = trajectories(y, "y")
+    R, T, _ = y.shape
+    if u is None:
+        if require_inputs:
+            raise TypeError(f"u: expected inputs of shape ({T}, m) or ({T},), received None")
+        u = np.zeros((R, T, 0))
+    else:
+        u = trajectories(u, "u")
+        if u.shape[:2] != (R, T):
+            raise ValueError(
+                f"u: expected {T} rows (one per sample of y)"
+                + (f" for each of the {R} series" if R > 1 else "")
+                + f", received shape {u.shape[1:] if u.shape[0] == 1 else u.shape}"
+            )
     if T <= lag:
         raise ValueError(
             f"y: the series is shorter than the lag structure: {structure} reaches back "

@@ -80,6 +80,22 @@ def positive_scalar(value: Any, name: str) -> float:
     return v
 
 
+def noise_variance(value: Any, n: int) -> float | np.ndarray | None:
+    """Validate None, a variance > 0 shared by n outputs, or an (n,) vector of them."""
+    if value is None:
+        return None
+    if np.ndim(value) == 0 or (n != 1 and np.size(value) == 1):
+        return positive_scalar(value if np.ndim(value) == 0 else np.ravel(value)[0],
+                               "noise_var")
+    arr = np.asarray(value, dtype=float) if not isinstance(value, str) else None
+    if arr is None or arr.shape != (n,) or not np.all(np.isfinite(arr)) or np.any(arr <= 0):
+        raise ValueError(
+            f"noise_var: expected a variance > 0 or one per output (shape ({n},)), received "
+            f"{value!r}"
+        )
+    return arr.copy()
+
+
 def optional_nonnegative(value: Any, name: str) -> float | None:
     """Validate None or a finite real number >= 0."""
     return None if value is None else nonnegative_scalar(value, name)
@@ -267,34 +283,52 @@ def lag_orders(na: Any, nb: Any, nk: Any, *, min_na: int, min_nb: int) -> tuple[
     return na, nb, nk
 
 
-def enough_samples(N: int, n_params_per_row: int, n_diff: int) -> None:
-    """Require enough time steps to identify the parameters at all.
+def enough_samples(
+    N: int, n_params_per_row: int, n_diff: int, observed: int | None = None,
+    n_rows: int | None = None,
+) -> None:
+    """Require enough time steps and observed transitions to identify the parameters.
 
     With a difference operator of degree d the penalty leaves a d-dimensional
-    family of trajectories per parameter unpenalized, so at least
-    d * p regression equations per output row are needed.
+    family of trajectories per parameter unpenalized, so at least d·p observed
+    regression equations per output row are needed, and N > d time steps.
+    ``observed`` of ``n_rows`` transitions (all trajectories) are complete
+    (default: all N).
     """
-    needed = max(n_params_per_row * n_diff, n_diff + 1)
-    if N < needed:
-        raise ValueError(
-            f"x: too few samples: {N} transitions (T={N + 1}) cannot identify "
-            f"{n_params_per_row} regressors per output with a difference operator of "
-            f"degree {n_diff}; need at least {needed} transitions (T >= {needed + 1})"
-        )
+    _enough(N, n_params_per_row, n_diff, observed, n_rows, "x", "transitions",
+            f" (T={N + 1})", "T >= {}", 1)
 
 
-def enough_rows(N: int, n_params_per_row: int, n_diff: int, name: str, note: str = "") -> None:
+def enough_rows(
+    N: int, n_params_per_row: int, n_diff: int, name: str, note: str = "",
+    observed: int | None = None, n_rows: int | None = None,
+) -> None:
     """Require enough regression rows to identify p regressors per output row.
 
     As :func:`enough_samples` for a regression with N rows (``name`` is the
     data argument; ``note`` says how the rows relate to the series, e.g. for AR).
     """
-    needed = max(n_params_per_row * n_diff, n_diff + 1)
-    if N < needed:
+    _enough(N, n_params_per_row, n_diff, observed, n_rows, name, "regression rows", note,
+            "", 0)
+
+
+def _enough(N, p, d, observed, n_rows, name, rows, note, total_hint, offset) -> None:
+    needed = max(p * d, d + 1)
+    observed = N if observed is None else observed
+    n_rows = N if n_rows is None else n_rows
+    hint = f" ({total_hint.format(needed + offset)})" if total_hint else ""
+    if N < d + 1 or (observed == n_rows and observed < needed):
         raise ValueError(
-            f"{name}: too few samples: {N} regression rows{note} cannot identify "
-            f"{n_params_per_row} regressors per output with a difference operator of "
-            f"degree {n_diff}; need at least {needed} rows"
+            f"{name}: too few samples: {N} {rows}{note} cannot identify {p} regressors per "
+            f"output with a difference operator of degree {d}; need at least {needed} "
+            f"{rows}{hint}"
+        )
+    if observed < needed:
+        raise ValueError(
+            f"{name}: too few observed samples: {observed} of {n_rows} {rows} are complete "
+            f"(the others have a missing value), and {p} regressors per output with a "
+            f"difference operator of degree {d} need at least {needed}; supply more data "
+            "or fill the gaps"
         )
 
 

@@ -1,0 +1,121 @@
+"""Recorded data → the regression problem every state-space estimator solves.
+
+One place turns what users record — one or several time-aligned trajectories
+(R, T, n), NaN for missing samples, weights per transition, an optional
+intercept — into a :class:`~ltvmodels.core.problem.RegressionProblem`:
+
+    x^r[t+1] = A_t x^r[t] + B_t u^r[t] (+ c_t) + v^r_t,   r = 1 … R,
+
+with Θ_t = [A_t B_t (c_t)] shared by the trajectories. A transition enters
+the data term only if x[t], u[t] and x[t+1] are all observed; its squared
+residual counts ``weights[r, t]`` times. The coefficients of steps without
+data are still estimated: the penalty carries them across the gap.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..core.problem import RegressionProblem, state_space_problem, weighted_problem
+from ..results.base import signal_names
+from ..validation import arrays, options
+
+
+@dataclass(frozen=True)
+class StateSpaceData:
+    """A validated recording and its regression problem.
+
+    Attributes
+    ----------
+    problem : RegressionProblem
+        y_t = x[t+1], φ_t = [x[t]; u[t] (; 1)], q = R rows per step.
+    x, u : ndarray, shapes (R, T, n) and (R, T, m)
+        The validated data (NaN = missing).
+    weights : ndarray, shape (R, T − 1), or None
+    constant : bool
+    """
+
+    problem: RegressionProblem
+    x: np.ndarray
+    u: np.ndarray
+    weights: np.ndarray | None
+    constant: bool
+
+    @property
+    def n(self) -> int:
+        return self.x.shape[2]
+
+    @property
+    def m(self) -> int:
+        return self.u.shape[2]
+
+    @property
+    def inputs(self) -> np.ndarray | None:
+        """u, or None for an autonomous system (m = 0), to pass on to another estimator."""
+        return self.u if self.m else None
+
+    @property
+    def regressor_names(self) -> list[str]:
+        """Names of the columns of φ_t: x0 …, u0 …, and "1" for the intercept."""
+        return regressor_names(self.n, self.m, self.constant)
+
+    @property
+    def n_missing(self) -> int:
+        """Transitions (of all trajectories) left out of the data term."""
+        return self.problem.N * self.problem.q - self.problem.n_observed
+
+
+def regressor_names(n: int, m: int, constant: bool) -> list[str]:
+    return signal_names("x", n) + signal_names("u", m) + (["1"] if constant else [])
+
+
+def state_space_data(
+    x: Any, u: Any, *, order: Any = 1, weights: Any = None, constant: Any = False
+) -> StateSpaceData:
+    """Validate a recording and build its regression problem (see the module docstring).
+
+    Parameters
+    ----------
+    x : array_like, shape (T, n), (T,), (R, T, n), or a list of R (T, n) arrays
+        States; NaN marks a missing sample.
+    u : array_like, same layouts with m columns, or None
+        Inputs.
+    order : int or sequence of float
+        The difference operator (see :func:`ltvmodels.fit`).
+    weights : array_like, shape (T − 1,) or (R, T − 1), optional
+        Weights >= 0 of the transitions' squared residuals.
+    constant : bool
+        Add an intercept c_t to every state equation.
+    """
+    x, u = arrays.recordings(x, u)
+    R, T, _ = x.shape
+    coeffs = options.difference_coefficients(order, max_degree=T)
+    w = arrays.row_weights(weights, R, T - 1)
+    constant = options.flag(constant, "constant")
+    problem = state_space_problem(x, u, coeffs, weights=w, constant=constant)
+    return StateSpaceData(problem, x, u, w, constant)
+
+
+def regression_problem(y: Any, phi: Any, *, order: Any = 1, weights: Any = None
+                       ) -> RegressionProblem:
+    """Validate regression data and build its problem: y_t = Θ_t φ_t + e_t.
+
+    ``y`` (N, n), (N,) or (R, N, n) and ``phi`` (N, p), (N,) or (R, N, p), NaN =
+    missing (a row enters the data term only if y_t and φ_t are observed);
+    ``weights`` (N,) or (R, N).
+    """
+    y = arrays.trajectories(y, "y")
+    phi = arrays.trajectories(phi, "phi")
+    if phi.shape[:2] != y.shape[:2]:
+        expected = y.shape[1] if y.shape[0] == 1 else y.shape[:2]
+        received = phi.shape[1] if phi.shape[0] == 1 else phi.shape[:2]
+        raise ValueError(
+            f"phi: expected {expected} rows (one regressor vector per row of y), "
+            f"received {received}"
+        )
+    coeffs = options.difference_coefficients(order, max_degree=y.shape[1])
+    w = arrays.row_weights(weights, y.shape[0], y.shape[1])
+    return weighted_problem(y, phi, coeffs, w)
