@@ -324,7 +324,17 @@ def test_warnings_are_one_line_each(workdir, capsys):
         (["fit", "{data}", "--state", "x1", "--plot", "{tmp}/no/f.png"], "--plot: cannot write"),
         (["fit", "{data}", "--state", "x1", "--plot", "{tmp}/f.nosuch"], "--plot: unsupported"),
         (["fit", "{data}", "--state", "x1", "--out", "{tmp}/no/m.npz"], "--out: cannot write"),
-        (["fit", "{bad}", "--state", "a,b"], "bad.csv, line 3, column 'b': empty value"),
+        (["fit", "{bad}", "--state", "a,b"],
+         "bad.csv, line 3, column 'b': 'x' is not a number; expected a number, or an empty "
+         "cell, NA, N/A, NaN or null for a missing value"),
+        (["fit", "{inf}", "--state", "b"], "inf.csv, line 3, column 'b': 'inf' is not finite"),
+        (["fit", "{inf}", "--state", "a"], "inf.csv, line 4, column 'a': '-Infinity' is not "
+         "finite; expected a finite number, or an empty cell"),
+        (["simulate", "{model}", "{gap}"], "--input: " "{gap}: input u is missing at sample 5; "
+         "an open-loop simulation needs every input"),
+        (["simulate", "{model}", "{gap0}"], "--state: " "{gap0}: the initial state must be "
+         "observed, received a missing value of x2 at sample 0"),
+        (["fit", "{data}", "--state", "x1", "--constant", "yes"], "unrecognized arguments: yes"),
         (["fit", "{ragged}", "--state", "a"], "ragged.csv, line 3: expected 2 fields"),
         (["fit", "{data}", "--state", "time,x1", "--lam", "0", "--order", "3"], "singular"),
         (["fit", "{tmp}/d.parquet", "--state", "a"], "d.parquet"),
@@ -347,7 +357,14 @@ def test_warnings_are_one_line_each(workdir, capsys):
 )
 def test_data_commands_user_errors_exit_2(argv, needle, workdir, tmp_path, capsys):
     root, data = workdir
-    (tmp_path / "bad.csv").write_text("a,b\n1,2\n3,\n5,6\n")
+    (tmp_path / "bad.csv").write_text("a,b\n1,2\n3,x\n5,6\n")
+    (tmp_path / "inf.csv").write_text("a,b\n1,2\n3,inf\n-Infinity,6\n")
+    rows = [f"{a:.10g},{b:.10g},{c:.10g}" for a, b, c in np.hstack([data.x, data.u])]
+    gap, gap0 = rows.copy(), rows.copy()
+    gap[5] = gap[5].rsplit(",", 1)[0] + ",NA"  # u[5]
+    gap0[0] = gap0[0].split(",")[0] + ",," + gap0[0].rsplit(",", 1)[1]  # x2[0]
+    (tmp_path / "gap.csv").write_text("x1,x2,u\n" + "\n".join(gap) + "\n")
+    (tmp_path / "gap0.csv").write_text("x1,x2,u\n" + "\n".join(gap0) + "\n")
     (tmp_path / "ragged.csv").write_text("a,b\n1,2\n3\n")
     (tmp_path / "d.parquet").write_bytes(b"not parquet")
     (tmp_path / "short.csv").write_text("x1,x2,u\n" + "1,2,3\n" * 50)
@@ -358,9 +375,11 @@ def test_data_commands_user_errors_exit_2(argv, needle, workdir, tmp_path, capsy
         fitted.save(model)
     subs = {"{tmp}": str(tmp_path), "{data}": str(root / "data.csv"), "{model}": str(model),
             "{bad}": str(tmp_path / "bad.csv"), "{ragged}": str(tmp_path / "ragged.csv"),
-            "{short}": str(tmp_path / "short.csv")}
+            "{short}": str(tmp_path / "short.csv"), "{inf}": str(tmp_path / "inf.csv"),
+            "{gap}": str(tmp_path / "gap.csv"), "{gap0}": str(tmp_path / "gap0.csv")}
     for key, value in subs.items():
         argv = [a.replace(key, value) for a in argv]
+        needle = needle.replace(key, value)
     code, out, err = _run(argv, capsys)
     assert code == 2, (out, err)
     assert out == ""
@@ -440,3 +459,270 @@ def test_help_lists_every_subcommand(capsys):
     assert main(["demo", "--help"]) == 0
     out = capsys.readouterr().out
     assert all(s in out for s in ("jump-linear", "robot", "chirp", "rl"))
+
+
+# -- missing values, --constant, autonomous systems ------------------------------------
+MISSING_CELLS = {(10, 0): "", (50, 2): "NA", (120, 1): "NaN", (150, 0): "n/a", (170, 1): "nan",
+                 (30, 2): "null"}
+"""(row, column) of x1, x2, u → the text of a missing cell in missing.csv."""
+
+
+@pytest.fixture(scope="module")
+def missing_csv(workdir):
+    """workdir's data with six missing cells written six ways, and the same array with NaN."""
+    root, data = workdir
+    values = np.hstack([data.x, data.u])
+    cells = [[f"{v:.10g}" for v in row] for row in values]
+    for (t, j), text in MISSING_CELLS.items():
+        cells[t][j] = text
+        values[t, j] = np.nan
+    with open(root / "missing.csv", "w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(["x1", "x2", "u"])
+        writer.writerows(cells)
+    return root / "missing.csv", values[:, :2], values[:, 2:]
+
+
+def _complete_transitions(x, u):
+    ok = np.all(np.isfinite(x[:-1]), axis=1) & np.all(np.isfinite(x[1:]), axis=1)
+    return ok if u is None else ok & np.all(np.isfinite(u[:-1]), axis=1)
+
+
+def test_fit_with_missing_values_matches_the_api(missing_csv, tmp_path, capsys):
+    path, x, u = missing_csv
+    n_missing = int(np.sum(~_complete_transitions(x, u)))
+    assert n_missing == 10  # x1: 2 + 2 transitions, x2: 2 + 2, u: 1 + 1
+    code, out, err = _run(["fit", path, "--state", "x1,x2", "--input", "u", "--lam", "10",
+                           "--out", tmp_path / "m.npz"], capsys)
+    assert code == 0, err
+    assert (f"missing: {n_missing} of 199 transitions left out (missing values: x1 2, x2 2, "
+            "u 2; a transition enters the fit only if x[t], u[t] and x[t+1] are observed)"
+            ) in out
+    assert "one-step prediction RMS: " in out and "observed samples only" in out
+    assert "open-loop simulation: not computed (input u is missing at sample 30" in out
+    saved = ltvmodels.load(tmp_path / "m.npz")
+    api = ltvmodels.fit(x, u, lam=10.0)
+    assert api.info["n_missing"] == n_missing
+    assert np.all(np.isfinite(saved.k)) and np.allclose(saved.k, api.k)
+
+    code, out, err = _run(["fit", path, "--state", "x1,x2", "--input", "u", "--lam", "10",
+                           "--json"], capsys)
+    report = json.loads(out)
+    assert code == 0 and report["n_missing"] == n_missing
+    assert report["missing_values"] == {"x1": 2, "x2": 2, "u": 2}
+    pred = api.predict(x, u)  # NaN where x[t] or u[t] is missing
+    valid = np.isfinite(pred) & np.isfinite(x[1:])  # every observed target value
+    assert np.count_nonzero(~valid) == 2 * 6 + 4  # 6 rows not computed, 4 targets missing
+    expected = np.sqrt(np.mean((pred - x[1:])[valid] ** 2))
+    assert report["rms"]["prediction"] == pytest.approx(expected)
+    assert report["rms"]["simulation"] is None and "input u" in report["rms"][
+        "simulation_skipped"]
+
+
+def test_segments_ar_select_lambda_with_missing_values(missing_csv, capsys):
+    path, x, u = missing_csv
+    code, out, err = _run(["segments", path, "--state", "x1,x2", "--input", "u",
+                           "--n-changes", "1", "--json"], capsys)
+    assert code == 0, err
+    report = json.loads(out)
+    api = ltvmodels.fit_segments(x, u, n_changes=1)
+    assert report["n_missing"] == api.info["n_missing"] == 10
+    assert report["changepoints"] == [int(c) for c in api.changepoints] == [100]
+
+    # AR: a step enters only if y[t] and its 2 lags are observed: x1 missing at 10 and 150
+    code, out, err = _run(["ar", path, "--column", "x1", "--na", "2", "--lam", "10"], capsys)
+    assert code == 0, err
+    assert "missing: 6 of 198 time steps left out (missing values: x1 2;" in out
+    code, out, err = _run(["ar", path, "--column", "x1", "--na", "2", "--constant",
+                           "--json"], capsys)
+    ar = json.loads(out)
+    assert code == 0 and ar["n_missing"] == 6 and ar["constant"] is True
+    assert ar["lam"] == pytest.approx(ltvmodels.fit_ar(x[:, 0], 2, lam="auto",
+                                                       constant=True).lam)
+    assert ar["lam"] != pytest.approx(ltvmodels.fit_ar(x[:, 0], 2, lam="auto").lam)
+    # select-lambda leaves out the same AR rows: the same choice as ar --lam auto
+    code, out, err = _run(["select-lambda", path, "--column", "x1", "--na", "2", "--constant",
+                           "--json"], capsys)
+    assert code == 0, err
+    sel = json.loads(out)
+    assert sel["n_missing"] == 6 and sel["lam"] == pytest.approx(ar["lam"])
+    code, out, err = _run(["select-lambda", path, "--state", "x1,x2", "--input", "u",
+                           "--json"], capsys)
+    assert code == 0, err
+    sel = json.loads(out)
+    assert sel["n_missing"] == 10
+    assert sel["lam"] == pytest.approx(ltvmodels.select_lambda(x, u).lam)
+
+
+def test_predict_with_missing_values(missing_csv, workdir, tmp_path, capsys):
+    path, x, u = missing_csv
+    _, data = workdir
+    model = ltvmodels.fit(data.x, data.u, lam=10.0)
+    model.info["data_columns"] = {"state": ["x1", "x2"], "input": ["u"]}
+    model.save(tmp_path / "m.npz")
+    code, out, err = _run(["predict", tmp_path / "m.npz", path, "--out", tmp_path / "p.csv"],
+                          capsys)
+    assert code == 0, err
+    # x[t] or u[t] missing at t = 10, 30, 50, 120, 150, 170
+    assert "6 not computed (they need a missing sample)" in out
+    _, table = _read_csv(tmp_path / "p.csv")
+    expected = model.predict(x, u)
+    assert np.array_equal(np.isnan(table[:, 1:]), np.isnan(expected))
+    assert set(np.flatnonzero(np.isnan(table[:, 1]))) == {10, 30, 50, 120, 150, 170}
+    np.testing.assert_allclose(table[:, 1:], expected, rtol=1e-9, atol=1e-9, equal_nan=True)
+
+
+def test_headerless_csv_with_a_missing_first_cell(tmp_path, monkeypatch, capsys):
+    """A first row with an empty cell or NA is data, not a header."""
+    data = systems.jump_linear(T=60, change_at=30, seed=1)
+    values = np.hstack([data.x, data.u])
+    rows = [",".join(f"{v:.10g}" for v in row) for row in values]
+    rows[0] = "NA," + rows[0].split(",", 1)[1]
+    rows[1] = "," + rows[1].split(",", 1)[1]
+    monkeypatch.setattr(sys, "stdin", io.StringIO("\n".join(rows) + "\n"))
+    code, out, err = _run(["fit", "-", "--state", "0,1", "--input", "2", "--lam", "10",
+                           "--json"], capsys)
+    assert code == 0, err
+    report = json.loads(out)
+    assert report["T"] == 60 and report["missing_values"] == {"0": 2, "1": 0, "2": 0}
+    assert report["n_missing"] == 2  # transitions 0 → 1 and 1 → 2
+
+
+def test_constant_on_fit_segments_select_lambda(workdir, tmp_path, capsys):
+    root, data = workdir
+    common = [root / "data.csv", "--state", "x1,x2", "--input", "u", "--constant"]
+    code, out, err = _run(["fit", *common, "--lam", "10", "--out", tmp_path / "f.npz"], capsys)
+    assert code == 0, err
+    assert "with a constant term c_t" in out and "constant=True" in out
+    saved = ltvmodels.load(tmp_path / "f.npz")
+    api = ltvmodels.fit(data.x, data.u, lam=10.0, constant=True)
+    assert saved.constant and saved.k.shape == (199, 2 * (2 + 1 + 1))
+    assert np.allclose(saved.k, api.k) and np.allclose(saved.c, api.c)
+
+    code, out, err = _run(["segments", *common, "--n-changes", "1", "--out",
+                           tmp_path / "s.npz", "--json"], capsys)
+    assert code == 0, err
+    assert json.loads(out)["constant"] is True
+    saved = ltvmodels.load(tmp_path / "s.npz")
+    api = ltvmodels.fit_segments(data.x, data.u, n_changes=1, constant=True)
+    assert saved.constant and np.allclose(saved.k, api.k)
+    assert saved.info["min_size"] == 4  # n + m + 1
+
+    code, out, err = _run(["select-lambda", *common, "--json"], capsys)
+    assert code == 0, err
+    report = json.loads(out)
+    with_c = ltvmodels.select_lambda(data.x, data.u, constant=True)
+    without = ltvmodels.select_lambda(data.x, data.u)
+    assert report["constant"] is True
+    assert np.allclose(report["scores"], with_c.scores)
+    assert not np.allclose(report["scores"], without.scores)
+
+
+def test_predict_and_simulate_include_the_constant(workdir, tmp_path, capsys):
+    root, data = workdir
+    code, _, err = _run(["fit", root / "data.csv", "--state", "x1,x2", "--input", "u",
+                         "--lam", "10", "--constant", "--out", tmp_path / "c.npz"], capsys)
+    assert code == 0, err
+    model = ltvmodels.load(tmp_path / "c.npz")
+    assert np.any(model.c != 0)
+    for command, expected in (("predict", model.predict(data.x, data.u)),
+                              ("simulate", model.simulate(data.x[0], data.u))):
+        code, out, err = _run([command, tmp_path / "c.npz", root / "data.csv", "--out",
+                               tmp_path / f"{command}.csv"], capsys)
+        assert code == 0 and "constant=True" in out, err
+        _, table = _read_csv(tmp_path / f"{command}.csv")
+        np.testing.assert_allclose(table[:, 1:], expected, rtol=1e-9, atol=1e-9)
+
+
+@pytest.fixture(scope="module")
+def autonomous(workdir):
+    """The states of workdir's data alone: an autonomous system (no --input)."""
+    root, data = workdir
+    np.savetxt(root / "auto.csv", data.x, delimiter=",", header="x1,x2", comments="")
+    return root / "auto.csv", np.loadtxt(root / "auto.csv", delimiter=",", skiprows=1)
+
+
+@pytest.mark.parametrize("command", ["fit", "segments", "select-lambda", "select-lambda l0"])
+def test_commands_without_input(command, autonomous, tmp_path, capsys):
+    path, x = autonomous
+    name, *norm = command.split()
+    extra = {"fit": ["--lam", "10", "--out", tmp_path / "m.npz"],
+             "segments": ["--n-changes", "1", "--out", tmp_path / "m.npz"],
+             "select-lambda": ["--norm", *norm] if norm else []}[name]
+    code, out, err = _run([name, path, "--state", "x1,x2", *extra, "--json"], capsys)
+    assert code == 0, err
+    report = json.loads(out)
+    assert report["input"] == [] and report["T"] == 200
+    if name == "fit":
+        api = ltvmodels.fit(x, None, lam=10.0)
+    elif name == "segments":
+        api = ltvmodels.fit_segments(x, None, n_changes=1)
+    else:
+        api = ltvmodels.select_lambda(x, None, norm=norm[0] if norm else "sq")
+        assert report["n_changes" if norm else "lam"] == pytest.approx(api.lam)
+        return
+    model = ltvmodels.load(tmp_path / "m.npz")
+    assert model.n_inputs == 0 and np.allclose(model.k, api.k)
+    assert report["noise_var"] == pytest.approx(list(api.noise_var))
+    assert report["rms"]["simulation"] is not None
+
+
+@pytest.mark.parametrize("command", ["predict", "simulate"])
+def test_predict_simulate_without_input(command, autonomous, tmp_path, capsys):
+    path, x = autonomous
+    model = ltvmodels.fit(x, None, lam=10.0, constant=True)
+    model.info["data_columns"] = {"state": ["x1", "x2"], "input": []}
+    model.save(tmp_path / "m.npz")
+    code, out, err = _run([command, tmp_path / "m.npz", path, "--out", tmp_path / "r.csv"],
+                          capsys)
+    assert code == 0, err
+    assert "inputs (none)" in out
+    _, table = _read_csv(tmp_path / "r.csv")
+    expected = model.predict(x) if command == "predict" else model.simulate(x[0])
+    np.testing.assert_allclose(table[:, 1:], expected, rtol=1e-9, atol=1e-9)
+    # an autonomous model refuses inputs
+    code, _, err = _run([command, tmp_path / "m.npz", path, "--input", "x2"], capsys)
+    assert code == 2 and "--input: the model has no inputs" in err
+
+
+def test_noise_variance_per_state_in_reports(workdir, capsys):
+    root, data = workdir
+    code, out, err = _run(["fit", root / "data.csv", "--state", "x1,x2", "--input", "u",
+                           "--lam", "10"], capsys)
+    assert code == 0, err
+    api = ltvmodels.fit(data.x, data.u, lam=10.0)
+    assert api.noise_var.shape == (2,)
+    v1, v2 = (f"{v:.4g}" for v in api.noise_var)
+    assert f"noise variance: x1 {v1}, x2 {v2}" in out
+    code, out, _ = _run(["fit", root / "data.csv", "--state", "x1,x2", "--input", "u",
+                         "--lam", "10", "--json"], capsys)
+    assert json.loads(out)["noise_var"] == pytest.approx(list(api.noise_var))
+    code, out, _ = _run(["ar", root / "data.csv", "--column", "x1", "--na", "2", "--lam", "10",
+                         "--json"], capsys)
+    report = json.loads(out)
+    assert report["noise_var"] == pytest.approx(
+        list(ltvmodels.fit_ar(data.x[:, 0], 2, lam=10.0).noise_var))
+    assert len(report["noise_var"]) == 1
+
+
+def test_parquet_missing_values_and_inf(workdir, tmp_path, monkeypatch, capsys):
+    pd = pytest.importorskip("pandas")
+    _, data = workdir
+    x1 = data.x[:, 0].copy()
+    x1[[7, 8]] = np.nan
+    frames = {
+        "ok": pd.DataFrame({"x1": x1, "x2": data.x[:, 1],
+                            "u": pd.array([1] * 20 + [None] + [0] * 179, dtype="Int64")}),
+        "inf": pd.DataFrame({"x1": np.where(np.arange(data.T) == 3, np.inf, x1)}),
+    }
+    monkeypatch.setattr(pd, "read_parquet", lambda path: frames[path.stem])
+    for name in frames:
+        (tmp_path / f"{name}.parquet").touch()
+    code, out, err = _run(["fit", tmp_path / "ok.parquet", "--state", "x1,x2", "--input", "u",
+                           "--lam", "30", "--json"], capsys)
+    assert code == 0, err
+    report = json.loads(out)
+    assert report["missing_values"] == {"x1": 2, "x2": 0, "u": 1}
+    assert report["n_missing"] == 4  # transitions 6, 7, 8 (x1) and 20 (u)
+    code, out, err = _run(["fit", tmp_path / "inf.parquet", "--state", "x1"], capsys)
+    assert code == 2 and "row 3, column 'x1': value inf is not finite" in err

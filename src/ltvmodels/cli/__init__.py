@@ -3,13 +3,15 @@
 Subcommands::
 
     ltvmodels fit DATA --state COLS [--input COLS] [--norm {sq,group,l1}] [--order N]
-                  [--lam {VALUE,auto}] [--refine] [--out MODEL.npz] [--plot FIG] [--json]
+                  [--lam {VALUE,auto}] [--refine] [--constant] [--out MODEL.npz] [--plot FIG]
+                  [--json]
     ltvmodels segments DATA --state COLS [--input COLS] [--n-changes M | --penalty B]
-                  [--min-size S] [--out MODEL.npz] [--plot FIG] [--json]
+                  [--min-size S] [--constant] [--out MODEL.npz] [--plot FIG] [--json]
     ltvmodels ar DATA --column C --na N [--fs HZ] [--norm ...] [--order N] [--lam {VALUE,auto}]
-                  [--out MODEL.npz] [--plot FIG] [--json]
+                  [--constant] [--out MODEL.npz] [--plot FIG] [--json]
     ltvmodels select-lambda DATA (--state COLS [--input COLS] | --column C --na N)
-                  [--norm {sq,group,l1,l0}] [--order N] [--method M] [--plot FIG] [--json]
+                  [--norm {sq,group,l1,l0}] [--order N] [--method M] [--constant] [--plot FIG]
+                  [--json]
     ltvmodels simulate MODEL.npz DATA [--state COLS] [--input COLS] [--out SIM.csv]
                   [--plot FIG] [--json]
     ltvmodels predict MODEL.npz DATA [--state COLS] [--input COLS] [--out PRED.csv]
@@ -21,9 +23,13 @@ line; a header row of column names is optional; lines starting with ``#`` are
 comments), ``-`` for CSV on standard input, or a Parquet file (``.parquet``,
 ``.pq``; needs pandas with pyarrow or fastparquet). Columns are chosen by name
 or 0-based index, comma-separated (``--state x1,x2``, ``--input 3``); only the
-chosen columns must be numeric. A model written by ``fit``, ``segments`` or
-``ar`` records its data columns, so ``simulate`` and ``predict`` find them in
-new data without ``--state``/``--input``.
+chosen columns must be numeric. An empty cell, ``NA``, ``N/A``, ``NaN`` or
+``null`` (any case; Parquet: a null or NaN) is a missing value, which the fits
+leave out: a transition enters only if x[t], u[t] and x[t+1] are observed (AR:
+y[t] and its lags); the reports say how many were left out. Infinities are
+errors. Without ``--input`` the system is autonomous. A model written by
+``fit``, ``segments`` or ``ar`` records its data columns, so ``simulate`` and
+``predict`` find them in new data without ``--state``/``--input``.
 
 Modules: :mod:`.parser` (the options), :mod:`.data` (data files),
 :mod:`.commands` (the subcommands), :mod:`.messages` (one-line user errors),

@@ -8,10 +8,11 @@ dict (printed as JSON with ``--json``) and the lines of the text summary;
 from __future__ import annotations
 
 import argparse
+import contextlib
 import warnings
 import zipfile
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 import numpy as np
 
@@ -48,7 +49,7 @@ from ..results.statespace import LTVModel
 from .data import read_columns, write_csv
 from .messages import CommandError, DataError, one_line, user_errors
 from .progress import Progress
-from .report import fmt, info_subset, rms, rms_columns
+from .report import fmt, info_subset, per_name, rms, rms_columns
 
 Report = tuple[dict[str, Any], list[str]]
 
@@ -94,43 +95,157 @@ def _lam_facts(model: Any, requested: Any) -> dict[str, Any]:
     return facts
 
 
+def _missing_values(names: list[str], *columns: np.ndarray | None) -> dict[str, int]:
+    """The number of missing values (NaN) of each selected data column, by name."""
+    arrays = [c for c in columns if c is not None and c.size]
+    counts = np.concatenate([np.sum(np.isnan(c), axis=0) for c in arrays]) if arrays else []
+    return {name: int(c) for name, c in zip(names, counts, strict=True)}
+
+
+def _observed_rows(x: np.ndarray, u: np.ndarray | None) -> np.ndarray:
+    """(T,) whether x[t] and u[t] are observed (no NaN)."""
+    ok = np.all(np.isfinite(x), axis=1)
+    return ok if u is None else ok & np.all(np.isfinite(u), axis=1)
+
+
+def _missing_transitions(x: np.ndarray, u: np.ndarray | None) -> int:
+    """Transitions t → t+1 left out of a fit: x[t], u[t] or x[t+1] not observed."""
+    ok = _observed_rows(x, u)[:-1] & np.all(np.isfinite(x[1:]), axis=1)
+    return int(ok.size - np.count_nonzero(ok))
+
+
+def _lags_observed(model: Any, y: np.ndarray, u: np.ndarray | None) -> np.ndarray:
+    """(N,) whether the lags of step j of an AR/ARX model (sample lag + j) are observed."""
+    t = model.lag + np.arange(model.N)
+
+    def observed(series: np.ndarray | None, first: int, stop: int) -> np.ndarray:
+        """Whether rows t + first, ..., t + stop - 1 of ``series`` are all observed."""
+        if series is None or stop <= first:
+            return np.ones(t.size, dtype=bool)
+        count = np.concatenate([[0], np.cumsum(~np.all(np.isfinite(series), axis=1))])
+        return count[t + stop] - count[t + first] == 0
+
+    ok = observed(y, -model.na, 0)
+    if not isinstance(model, ARModel):
+        ok &= observed(u, 1 - model.nk - model.nb, 1 - model.nk)
+    return ok
+
+
+def _predict(model: Any, y: np.ndarray, u: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """One-step predictions (N, n) and (N,) whether each one could be computed.
+
+    A prediction needs its regressors observed (LTV: x[t] and u[t]; AR/ARX:
+    the lags); the others are NaN. An AR/ARX model's predict takes finite data
+    only: missing samples are filled with 0 for it, and the predictions that
+    use them are set to NaN.
+    """
+    if isinstance(model, LTVModel):
+        ok = _observed_rows(y, u)[:-1]
+        with user_errors():
+            prediction = np.array(model.predict(y, u), dtype=float).reshape(model.N, -1)
+    else:
+        ok = _lags_observed(model, y, u)
+        filled = np.where(np.isfinite(y), y, 0.0)
+        series = filled[:, 0] if filled.shape[1] == 1 else filled
+        with user_errors():
+            if isinstance(model, ARModel):
+                prediction = model.predict(series)
+            else:
+                prediction = model.predict(series, np.where(np.isfinite(u), u, 0.0))
+        prediction = np.array(prediction, dtype=float).reshape(model.N, -1)
+    prediction[~ok] = np.nan
+    return prediction, ok
+
+
+def _first_missing(values: np.ndarray | None, names: list[str]) -> tuple[int, str] | None:
+    """(sample, column name) of the first missing value, or None."""
+    if values is None:
+        return None
+    bad = np.argwhere(np.isnan(values))
+    return None if not bad.size else (int(bad[0, 0]), names[int(bad[0, 1])])
+
+
+def _missing_text(n_missing: int, N: int, counts: dict[str, int], noun: str, rule: str
+                  ) -> str:
+    """``missing: 5 of 199 transitions left out (missing values: x1 2, u 3; rule)``."""
+    values = ", ".join(f"{name} {c}" for name, c in counts.items() if c)
+    return (f"missing: {n_missing} of {N} {noun} left out (missing values: {values}; "
+            f"{rule})")
+
+
+def _noise_text(model: Any, names: list[str]) -> str:
+    return f"noise variance: {per_name(names, model.noise_var)} (estimated from the residuals)"
+
+
 def _state_space_report(command: str, label: str, model: Any, x: np.ndarray,
                         u: np.ndarray | None, state_names: list[str],
                         input_names: list[str]) -> tuple[dict[str, Any], list[str], Any]:
-    """The facts common to ``fit`` and ``segments``: RMS, change points, solver."""
-    with user_errors():
-        prediction = model.predict(x, u)
-        simulation = model.simulate(x[0], u)
-    pred_rms = rms_columns(prediction - x[1:])
-    sim_rms = rms_columns(simulation - x)
+    """The facts common to ``fit`` and ``segments``: RMS, missing data, change points, solver."""
+    counts = _missing_values(state_names + input_names, x, u)
+    any_missing = any(counts.values())
+    prediction, ok = _predict(model, x, u)
+    valid = ok[:, None] & np.isfinite(x[1:])
+    pred_rms = rms_columns(prediction - x[1:], valid)
+    u_sim = None if u is None else u[:model.N]  # u[T-1] drives no transition
+    blocked_u = _first_missing(u_sim, input_names)
+    blocked_x = _first_missing(x[:1], state_names)
+    if blocked_u is not None:
+        skipped = (f"input {blocked_u[1]} is missing at sample {blocked_u[0]}; a simulation "
+                   "needs every input")
+    elif blocked_x is not None:
+        skipped = f"the initial state is missing ({blocked_x[1]} at sample 0)"
+    else:
+        skipped = None
+    if skipped is None:
+        with user_errors():
+            simulation = model.simulate(x[0], u_sim)
+        sim_valid = np.isfinite(x)
+        sim_rms: list[float] | None = rms_columns(simulation - x, sim_valid)
+        sim_total: float | None = rms(simulation - x, sim_valid)
+    else:
+        sim_rms = sim_total = None
     changepoints, rule = _detected_changepoints(model)
     info = model.info
+    n_missing = info.get("n_missing")
+    n_missing = _missing_transitions(x, u) if n_missing is None else int(n_missing)
     report: dict[str, Any] = {
         "command": command, "data": label, "T": x.shape[0], "state": state_names,
         "input": input_names, "model": type(model).__name__, "N": model.N,
         "norm": model.norm, "order": None if model.coeffs is None else len(model.coeffs) - 1,
-        "rms": {"prediction": rms(prediction - x[1:]), "simulation": rms(simulation - x),
+        "constant": bool(model.constant), "n_missing": n_missing, "missing_values": counts,
+        "rms": {"prediction": rms(prediction - x[1:], valid), "simulation": sim_total,
                 "prediction_per_state": pred_rms, "simulation_per_state": sim_rms},
         "changepoints": changepoints, "changepoint_rule": rule,
-        "noise_var": model.noise_var, "loglik": model.loglik,
+        "noise_var": np.atleast_1d(model.noise_var), "loglik": model.loglik,
         "solver": info.get("solver"), "converged": info.get("converged"),
         "iterations": info.get("iterations"), "info": info_subset(info),
     }
-    per = ", ".join(f"{n} {fmt(v)}" for n, v in zip(state_names, pred_rms, strict=True))
-    per_sim = ", ".join(f"{n} {fmt(v)}" for n, v in zip(state_names, sim_rms, strict=True))
+    if skipped is not None:
+        report["rms"]["simulation_skipped"] = skipped
     status = ""
     if info.get("converged") is not None:
         status = ", converged" if info["converged"] else ", NOT converged (see the warnings)"
     if info.get("iterations") is not None:
         status += f", {info['iterations']} iterations"
+    observed_only = "; observed samples only" if any_missing else ""
     lines = [
         f"ltvmodels {command}: {label}, T = {x.shape[0]} samples; states "
         f"{', '.join(state_names)}; inputs {', '.join(input_names) or '(none)'}",
         model.summary(),
         f"solver: {info.get('solver', '?')}{status}",
-        f"one-step prediction RMS: {fmt(report['rms']['prediction'])} ({per})",
-        f"open-loop simulation RMS: {fmt(report['rms']['simulation'])} ({per_sim}; from "
-        "the first state with the recorded inputs)",
+    ]
+    if any_missing:
+        entry = "x[t], u[t] and x[t+1] are" if u is not None else "x[t] and x[t+1] are"
+        lines.append(_missing_text(n_missing, model.N, counts, "transitions",
+                                   f"a transition enters the fit only if {entry} observed"))
+    lines += [
+        _noise_text(model, state_names),
+        f"one-step prediction RMS: {fmt(report['rms']['prediction'])} "
+        f"({per_name(state_names, pred_rms)}{observed_only})",
+        (f"open-loop simulation RMS: {fmt(sim_total)} ({per_name(state_names, sim_rms)}; "
+         "from the first state" + (" with the recorded inputs" if u is not None else "")
+         + f"{observed_only})") if sim_total is not None else
+        f"open-loop simulation: not computed ({skipped})",
         f"change points: {[int(c) for c in changepoints]} ({rule})",
     ]
     return report, lines, changepoints
@@ -147,9 +262,23 @@ def _save_model(model: Any, path: Path | None, report: dict, lines: list[str]) -
     lines.append(f"wrote {path}")
 
 
+@contextlib.contextmanager
+def _figure_errors(limit: str | None = None) -> Iterator[None]:
+    """Turn a failure to draw the ``--plot`` figure into a one-line error.
+
+    ``limit``: what the figure is known not to support, when it applies (the
+    likely cause), e.g. "a model with a constant term c_t".
+    """
+    try:
+        yield
+    except (ValueError, TypeError) as exc:
+        hint = f" (the figures do not support {limit} yet); leave out --plot" if limit else ""
+        raise CommandError(f"--plot: cannot draw the figure: {one_line(exc)}{hint}") from None
+
+
 def _save_plot(fig: Any, target: tuple[Path, str] | None, report: dict,
                lines: list[str]) -> None:
-    if target is None:
+    if target is None or fig is None:
         return
     save_figure(fig, target[0], target[1], option="plot")
     report.setdefault("files", {})["plot"] = str(target[0])
@@ -163,7 +292,7 @@ def _cmd_fit(args: argparse.Namespace) -> Report:
     what = "choosing lambda and fitting" if args.lam == "auto" else "fitting"
     with Progress(f"ltvmodels fit: {what}"), user_errors():
         model = fit(x, u, lam=args.lam, norm=args.norm, order=args.order, refine=args.refine,
-                    max_iter=args.max_iter, tol=args.tol)
+                    max_iter=args.max_iter, tol=args.tol, constant=args.constant)
     model.info["data_columns"] = {"state": state_names, "input": input_names}
     report, lines, changepoints = _state_space_report("fit", label, model, x, u, state_names,
                                                       input_names)
@@ -173,13 +302,16 @@ def _cmd_fit(args: argparse.Namespace) -> Report:
            else "given")
     lines.insert(1, f"fit: norm={args.norm!r}, order={args.order}, lambda = "
                     f"{fmt(float(facts['lam']))} ({how})"
+                 + (", with a constant term c_t" if args.constant else "")
                  + (", then the two-step refinement" if args.refine else ""))
-    _save_model(model, out, report, lines)
-    if plot is not None:
-        fig = plot_model(model, changepoints=changepoints)
+    fig = None
+    if plot is not None:  # drawn before anything is written: it may fail
+        with _figure_errors("a model with a constant term c_t" if model.constant else None):
+            fig = plot_model(model, changepoints=changepoints)
         fig.suptitle(f"{label}: norm={args.norm!r}, order={args.order}, "
                      f"λ = {float(facts['lam']):.4g}" + (", refined" if args.refine else ""))
-        _save_plot(fig, plot, report, lines)
+    _save_model(model, out, report, lines)
+    _save_plot(fig, plot, report, lines)
     return report, lines
 
 
@@ -192,24 +324,27 @@ def _cmd_segments(args: argparse.Namespace) -> Report:
            f"penalty {args.penalty or 'bic'} per change (PELT)")
     with Progress("ltvmodels segments: searching change points"), user_errors():
         model = fit_segments(x, u, n_changes=args.n_changes, penalty=args.penalty,
-                             min_size=args.min_size)
+                             min_size=args.min_size, constant=args.constant)
     model.info["data_columns"] = {"state": state_names, "input": input_names}
     report, lines, changepoints = _state_space_report("segments", label, model, x, u,
                                                       state_names, input_names)
     info = model.info
     report.update({k: info.get(k) for k in ("cost", "objective", "n_changes", "penalty",
                                             "penalty_rule", "min_size")})
-    lines.insert(1, f"segments: {how}; min_size {info.get('min_size')}")
+    lines.insert(1, f"segments: {how}; min_size {info.get('min_size')}"
+                 + ("; with a constant term c_t per segment" if args.constant else ""))
     lines.append(f"residual sum of squares {fmt(info['cost'])}, objective "
                  f"{fmt(info['objective'])}, {info['n_changes']} changes"
                  + (f", penalty {fmt(info['penalty'])} per change"
                     if info.get("penalty") is not None else ""))
-    _save_model(model, out, report, lines)
-    if plot is not None:
-        fig = plot_model(model, changepoints=changepoints)
+    fig = None
+    if plot is not None:  # drawn before anything is written: it may fail
+        with _figure_errors("a model with a constant term c_t" if model.constant else None):
+            fig = plot_model(model, changepoints=changepoints)
         fig.suptitle(f"{label}: piecewise-constant model, {info['n_changes']} changes at "
                      f"{[int(c) for c in changepoints]}")
-        _save_plot(fig, plot, report, lines)
+    _save_model(model, out, report, lines)
+    _save_plot(fig, plot, report, lines)
     return report, lines
 
 
@@ -223,11 +358,16 @@ def _cmd_ar(args: argparse.Namespace) -> Report:
         model = fit_ar(y[:, 0] if y.shape[1] == 1 else y, args.na, lam=args.lam,
                        norm=args.norm, order=args.order, constant=args.constant,
                        max_iter=args.max_iter, tol=args.tol)
-        prediction = model.predict(y[:, 0] if y.shape[1] == 1 else y)
         freq = model.root_spectrogram(args.fs)
     model.info["data_columns"] = {"output": names}
-    prediction = prediction.reshape(model.N, -1)
+    prediction, ok = _predict(model, y, None)
     err = prediction - y[model.lag:]
+    valid = ok[:, None] & np.isfinite(y[model.lag:])
+    counts = _missing_values(names, y)
+    any_missing = any(counts.values())
+    n_missing = model.info.get("n_missing")
+    n_missing = int(np.count_nonzero(~np.all(valid, axis=1))) if n_missing is None \
+        else int(n_missing)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN tracks (real poles)
         tracks = np.nanmedian(freq, axis=0) if freq.size else np.zeros(0)
@@ -235,8 +375,10 @@ def _cmd_ar(args: argparse.Namespace) -> Report:
     report: dict[str, Any] = {
         "command": "ar", "data": label, "T": T, "column": names, "model": type(model).__name__,
         "N": model.N, "na": args.na, "fs": args.fs, "norm": args.norm, "order": args.order,
-        **facts, "rms": {"prediction": rms(err), "prediction_per_output": rms_columns(err)},
-        "median_pole_frequencies": tracks, "noise_var": model.noise_var,
+        "constant": bool(model.constant), **facts, "n_missing": n_missing,
+        "missing_values": counts,
+        "rms": {"prediction": rms(err, valid), "prediction_per_output": rms_columns(err, valid)},
+        "median_pole_frequencies": tracks, "noise_var": np.atleast_1d(model.noise_var),
         "loglik": model.loglik, "solver": model.info.get("solver"),
         "converged": model.info.get("converged"), "info": info_subset(model.info),
     }
@@ -245,23 +387,36 @@ def _cmd_ar(args: argparse.Namespace) -> Report:
     lines = [
         f"ltvmodels ar: {label}, T = {T} samples of {', '.join(names)}, fs = {args.fs:g}",
         f"fit: AR({args.na}), norm={args.norm!r}, order={args.order}, lambda = "
-        f"{fmt(float(facts['lam']))} ({how})",
+        f"{fmt(float(facts['lam']))} ({how})"
+        + (", with a time-varying offset c_t" if args.constant else ""),
         model.summary(),
+    ]
+    if any_missing:
+        lines.append(_missing_text(n_missing, model.N, counts, "time steps",
+                                   f"a step enters the fit only if y[t] and its {args.na} "
+                                   "lags are observed"))
+    lines += [
+        _noise_text(model, names),
         f"one-step prediction RMS: {fmt(report['rms']['prediction'])} (samples {model.lag} "
-        f"to {T - 1})",
+        f"to {T - 1}" + ("; observed samples only" if any_missing else "") + ")",
         "root spectrogram: median frequency of each pole-pair track: "
         + (", ".join(fmt(float(f)) for f in tracks) if tracks.size else "(no complex poles)"),
     ]
-    _save_model(model, out, report, lines)
-    if plot is not None:
-        ax = None
-        if y.shape[1] == 1 and T >= 8:
-            ax = plot_spectrogram(y[:, 0], args.fs)
-        ax = plot_root_spectrogram(model, args.fs, ax=ax)
+    fig = None
+    if plot is not None:  # drawn before anything is written: it may fail
+        stft = y.shape[1] == 1 and T >= 8
+        with _figure_errors():
+            ax = None
+            if stft and not any_missing:  # no short-time Fourier spectrum of missing samples
+                ax = plot_spectrogram(y[:, 0], args.fs)
+            ax = plot_root_spectrogram(model, args.fs, ax=ax)
         ax.set_title(f"{label}: root spectrogram of AR({args.na}), norm={args.norm!r}, "
-                     f"order {args.order}, λ = {float(facts['lam']):.4g}")
+                     f"order {args.order}, λ = {float(facts['lam']):.4g}"
+                     + (" (no spectrogram: missing samples)" if stft and any_missing else ""))
         ax.legend(loc="upper right", fontsize="small", markerscale=6)
-        _save_plot(ax.figure, plot, report, lines)
+        fig = ax.figure
+    _save_model(model, out, report, lines)
+    _save_plot(fig, plot, report, lines)
     return report, lines
 
 
@@ -275,8 +430,21 @@ def _cmd_select_lambda(args: argparse.Namespace) -> Report:
             raise CommandError("--na: the AR order is required with --column")
         T, label, cols = read_columns(args.data, column=args.column)
         names, y = cols["column"]
+        # ar_regressors takes finite data: fill missing samples, then leave out (NaN) the
+        # rows whose target or lags are missing, as fit_ar does
+        filled = np.where(np.isfinite(y), y, 0.0)
         with user_errors():
-            y_out, phi = ar_regressors(y[:, 0] if y.shape[1] == 1 else y, args.na)
+            y_out, phi = ar_regressors(filled[:, 0] if y.shape[1] == 1 else filled, args.na,
+                                       constant=args.constant)
+        y_out, phi = np.array(y_out, dtype=float), np.array(phi, dtype=float)
+        count = np.concatenate([[0], np.cumsum(~np.all(np.isfinite(y), axis=1))])
+        t = args.na + np.arange(y_out.shape[0])
+        left_out = count[t + 1] - count[t - args.na] > 0
+        y_out[left_out], phi[left_out] = np.nan, np.nan
+        n_missing, N, counts = int(np.count_nonzero(left_out)), y_out.shape[0], \
+            _missing_values(names, y)
+        missing_rule = ("time steps", f"a step enters only if y[t] and its {args.na} lags are "
+                        "observed")
         data_facts = {"column": names, "na": args.na}
         what = f"AR({args.na}) of {', '.join(names)}"
     else:
@@ -287,6 +455,10 @@ def _cmd_select_lambda(args: argparse.Namespace) -> Report:
             raise CommandError("--na: applies with --column (an AR model) only")
         label, x, u, state_names, input_names = _state_space_data(args)
         T = x.shape[0]
+        n_missing, N, counts = _missing_transitions(x, u), T - 1, \
+            _missing_values(state_names + input_names, x, u)
+        entry = "x[t], u[t] and x[t+1] are" if u is not None else "x[t] and x[t+1] are"
+        missing_rule = ("transitions", f"a transition enters only if {entry} observed")
         data_facts = {"state": state_names, "input": input_names}
         what = (f"states {', '.join(state_names)}; inputs "
                 f"{', '.join(input_names) or '(none)'}")
@@ -300,14 +472,17 @@ def _cmd_select_lambda(args: argparse.Namespace) -> Report:
             selection = select_lambda_regression(y_out, phi, norm=args.norm, order=args.order,
                                                  method=args.method, progress=progress)
         elif args.norm == "l0":  # one dynamic program: no steps to count
-            selection = select_lambda(x, u, norm=args.norm, method=args.method)
+            selection = select_lambda(x, u, norm=args.norm, method=args.method,
+                                      constant=args.constant)
         else:
             selection = select_lambda(x, u, norm=args.norm, order=args.order,
-                                      method=args.method, progress=progress)
+                                      method=args.method, progress=progress,
+                                      constant=args.constant)
     is_l0 = selection.norm == "l0"
     report: dict[str, Any] = {
         "command": "select-lambda", "data": label, "T": T, **data_facts,
         "norm": selection.norm, "order": None if is_l0 else args.order,
+        "constant": args.constant, "n_missing": n_missing, "missing_values": counts,
         "method": selection.method,
         ("n_changes" if is_l0 else "lam"): int(selection.lam) if is_l0 else selection.lam,
         "candidates": selection.lams.astype(int) if is_l0 else selection.lams,
@@ -320,8 +495,13 @@ def _cmd_select_lambda(args: argparse.Namespace) -> Report:
     lines = [
         f"ltvmodels select-lambda: {label}, T = {T} samples; {what}",
         f"norm={selection.norm!r}" + ("" if is_l0 else f", order={args.order}")
+        + (", with a constant term c_t" if args.constant else "")
         + f", criterion {selection.method!r} ({best} over {len(selection.lams)} candidates"
         + ("" if is_l0 or selection.method in ("lcurve", "cv") else ", then refined") + ")",
+    ]
+    if any(counts.values()):
+        lines.append(_missing_text(n_missing, N, counts, *missing_rule))
+    lines += [
         f"chosen: {chosen}",
         "",
         f"{'number of changes' if is_l0 else 'lambda':>18}  {selection.method}",
@@ -415,6 +595,27 @@ def _spec(names: Any) -> str | None:
     return ",".join(str(name) for name in names)
 
 
+def _check_simulation_data(data: dict[str, Any], model: Any) -> None:
+    """An open-loop simulation needs the initial state (samples) and every input."""
+    ltv = data["kind"] == "ltv"
+    u = data["u"]
+    if u is not None and ltv:
+        u = u[:model.N]  # u[T-1] drives no transition
+    missing = _first_missing(u, data["input_names"])
+    if missing is not None:
+        raise DataError(f"--input: {data['label']}: input {missing[1]} is missing at sample "
+                        f"{missing[0]}; an open-loop simulation needs every input (fill it "
+                        "in, or use 'ltvmodels predict', which leaves out the predictions "
+                        "that need a missing sample)")
+    missing = _first_missing(data["y"][:data["lag"]], data["names"])
+    if missing is not None:
+        what = "initial state" if ltv else f"initial samples (the first {data['lag']})"
+        raise DataError(f"{'--state' if ltv else '--column'}: {data['label']}: the {what} "
+                        f"must be observed, received a missing value of {missing[1]} at "
+                        f"sample {missing[0]}; the simulation starts from "
+                        f"{'it' if ltv else 'them'} (fill it in)")
+
+
 def _cmd_simulate_or_predict(args: argparse.Namespace) -> Report:
 
     out, plot = _outputs(args)
@@ -422,30 +623,39 @@ def _cmd_simulate_or_predict(args: argparse.Namespace) -> Report:
     data = _model_data(args, model)
     kind, y, u, lag = data["kind"], data["y"], data["u"], data["lag"]
     simulate = args.command == "simulate"
-    with user_errors():
-        if kind == "ltv":
-            result = model.simulate(y[0], u) if simulate else model.predict(y, u)
-        else:
-            series = y[:, 0] if y.shape[1] == 1 else y
-            extra = () if kind == "ar" else (u,)
-            result = (model.simulate(series[:lag], *extra) if simulate
-                      else model.predict(series, *extra))
-    result = np.asarray(result, dtype=float).reshape(-1, y.shape[1])
-    start = 0 if simulate and kind == "ltv" else (1 if kind == "ltv" else lag)
-    if simulate and kind != "ltv":  # y[0:lag] are the given initial samples
-        result, start = result[lag:], lag
-    err = result - y[start:start + result.shape[0]]
+    if simulate:
+        _check_simulation_data(data, model)
+        with user_errors():
+            if kind == "ltv":
+                result = model.simulate(y[0], None if u is None else u[:model.N])
+            else:
+                series = y[:, 0] if y.shape[1] == 1 else y
+                extra = () if kind == "ar" else (u,)
+                result = model.simulate(series[:lag], *extra)
+        result = np.asarray(result, dtype=float).reshape(-1, y.shape[1])
+        start = 0 if kind == "ltv" else lag
+        if kind != "ltv":  # y[0:lag] are the given initial samples
+            result = result[lag:]
+        computed = np.ones(result.shape[0], dtype=bool)
+    else:  # NaN where a regressor is missing
+        result, computed = _predict(model, y, u)
+        start = 1 if kind == "ltv" else lag
+    target = y[start:start + result.shape[0]]
+    err = result - target
+    valid = computed[:, None] & np.isfinite(target)
     noun = "open-loop simulation" if simulate else "one-step prediction"
-    total_rms = rms(err)
-    per = rms_columns(err)
+    total_rms = rms(err, valid)
+    per = rms_columns(err, valid)
+    left_out = int(valid.size - np.count_nonzero(valid))
     report: dict[str, Any] = {
         "command": args.command, "model_file": str(args.model), "model": type(model).__name__,
         "data": data["label"], "T": data["T"], "columns": data["names"],
         "input": data["input_names"], "start": start, "rows": result.shape[0],
-        "rms": total_rms, "rms_per_column": per,
+        "rms": total_rms, "rms_per_column": per, "n_left_out": left_out,
+        "n_not_computed": int(np.count_nonzero(~computed)),
     }
     with np.errstate(over="ignore", invalid="ignore"):
-        diverged = not np.all(np.isfinite(result))
+        diverged = simulate and not np.all(np.isfinite(result))
     lines = [
         f"ltvmodels {args.command}: {args.model} on {data['label']} (T = {data['T']} samples; "
         f"columns {', '.join(data['names'])}; inputs {', '.join(data['input_names']) or '(none)'})",
@@ -453,20 +663,26 @@ def _cmd_simulate_or_predict(args: argparse.Namespace) -> Report:
         f"{noun} of samples {start} to {start + result.shape[0] - 1}"
         + ((" from the recorded initial " + ("state" if kind == "ltv" else "samples")
             + (" with the recorded inputs" if u is not None else "")) if simulate
-           else " from the recorded data"),
-        f"RMS error: {fmt(total_rms)} ("
-        + ", ".join(f"{n} {fmt(v)}" for n, v in zip(data["names"], per, strict=True)) + ")"
+           else " from the recorded data")
+        + (f"; {report['n_not_computed']} not computed (they need a missing sample)"
+           if report["n_not_computed"] else ""),
+        f"RMS error: {fmt(total_rms)} ({per_name(data['names'], per)})"
+        + (f"; {left_out} of {valid.size} values left out (missing data)" if left_out else "")
         + ("; the simulation diverges (non-finite values)" if diverged else ""),
     ]
+    fig = None
+    if plot is not None:  # drawn before anything is written: it may fail
+        limit = ("missing values" if np.isnan(y).any() or report["n_not_computed"] else
+                 "a diverging simulation" if diverged else None)
+        with _figure_errors(limit):
+            fig = plot_simulation(y, result, start=start, names=data["names"], label=noun)
+        fig.suptitle(f"{args.model} on {data['label']}: {noun}")
     if out is not None:
         table = np.column_stack([np.arange(start, start + result.shape[0]), result])
         write_csv(out, ["t", *data["names"]], table, "out")
         report.setdefault("files", {})["out"] = str(out)
         lines.append(f"wrote {out}")
-    if plot is not None:
-        fig = plot_simulation(y, result, start=start, names=data["names"], label=noun)
-        fig.suptitle(f"{args.model} on {data['label']}: {noun}")
-        _save_plot(fig, plot, report, lines)
+    _save_plot(fig, plot, report, lines)
     return report, lines
 
 

@@ -5,6 +5,9 @@ line; a header row of column names is optional; lines starting with ``#`` are
 comments), ``-`` for CSV on standard input, or a Parquet file (``.parquet``,
 ``.pq``; needs pandas with pyarrow or fastparquet). Columns are chosen by name
 or 0-based index, comma-separated; only the chosen columns must be numeric.
+An empty cell, ``NA``, ``N/A``, ``NaN`` or ``null`` (any case) is a missing value
+and reads as NaN (Parquet: a null or NaN); the estimators leave out the
+transitions it touches. Infinities are errors.
 """
 
 from __future__ import annotations
@@ -22,6 +25,9 @@ from ..errors import OutputPathError
 from .messages import DataError, one_line
 
 PARQUET_SUFFIXES = (".parquet", ".pq")
+MISSING_TOKENS = ("", "na", "n/a", "nan", "null")
+"""CSV fields (compared in lower case, after stripping) that mark a missing value."""
+MISSING_HELP = "an empty cell, NA, N/A, NaN or null"
 
 
 @dataclass
@@ -81,23 +87,31 @@ def _open_parquet(path: Path) -> _Source:
         out = np.empty((len(frame), len(indices)))
         for j, i in enumerate(indices):
             column = frame.iloc[:, i]
-            try:
-                out[:, j] = column.to_numpy(dtype=float)
+            try:  # nulls (None, pd.NA, NaT) are missing values: NaN
+                out[:, j] = column.to_numpy(dtype=float, na_value=np.nan)
             except (TypeError, ValueError):
                 raise DataError(f"{path}: column {names[i]!r} is not numeric "
                                 f"(dtype {column.dtype})") from None
-            bad = ~np.isfinite(out[:, j])
+            bad = np.isinf(out[:, j])
             if bad.any():
                 row = int(np.flatnonzero(bad)[0])
                 raise DataError(f"{path}: row {row}, column {names[i]!r}: value "
-                                f"{out[row, j]!r} is missing or not finite (missing data are "
-                                "not supported)")
+                                f"{float(out[row, j])} is not finite; expected a finite number, "
+                                "or a null or NaN for a missing value")
         return out
 
     return _Source(str(path), names, read)
 
 
+def _is_missing(text: str) -> bool:
+    """Whether a (stripped) CSV field marks a missing value."""
+    return text.lower() in MISSING_TOKENS
+
+
 def _is_number(text: str) -> bool:
+    """Whether a CSV field is a number or a missing value (a data field, not a name)."""
+    if _is_missing(text):
+        return True
     try:
         float(text)
     except ValueError:
@@ -141,18 +155,20 @@ def _parse_csv(text: str, label: str) -> _Source:
         for j, i in enumerate(indices):
             for r, row in enumerate(data_rows):
                 field = row[i]
+                if _is_missing(field):
+                    out[r, j] = math.nan
+                    continue
                 try:
                     value = float(field)
                 except ValueError:
-                    what = ("empty value (missing data are not supported)" if field == ""
-                            else f"{field!r} is not a number")
                     raise DataError(f"{label}, line {line_numbers[r]}, column {names[i]!r}: "
-                                    f"{what}") from None
-                if not math.isfinite(value):
+                                    f"{field!r} is not a number; expected a number, or "
+                                    f"{MISSING_HELP} for a missing value") from None
+                if math.isinf(value):
                     raise DataError(f"{label}, line {line_numbers[r]}, column {names[i]!r}: "
-                                    f"{field!r} is not finite (missing data are not "
-                                    "supported)")
-                out[r, j] = value
+                                    f"{field!r} is not finite; expected a finite number, or "
+                                    f"{MISSING_HELP} for a missing value")
+                out[r, j] = value  # float() also reads 'nan', '-nan': missing
         return out
 
     return _Source(label, names, read)

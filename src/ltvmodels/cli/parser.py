@@ -84,7 +84,8 @@ def _penalty(text: str) -> float | str:
 
 
 _DATA_HELP = ("CSV file (header row optional; comma, semicolon or tab separated), '-' for CSV "
-              "on standard input, or Parquet (.parquet, .pq; needs pandas and pyarrow)")
+              "on standard input, or Parquet (.parquet, .pq; needs pandas and pyarrow); an "
+              "empty cell, NA, N/A, NaN or null is a missing value")
 _COLS_HELP = "comma-separated column names or 0-based indices"
 
 
@@ -93,6 +94,11 @@ def _add_state_options(p: argparse.ArgumentParser, *, required: bool = True) -> 
                    help=f"state columns x ({_COLS_HELP})")
     p.add_argument("--input", metavar="COLS", default=None,
                    help=f"input columns u ({_COLS_HELP}); none for an autonomous system")
+
+
+def _add_constant_option(p: argparse.ArgumentParser, what: str) -> None:
+    p.add_argument("--constant", action="store_true",
+                   help=f"include {what} (an intercept; default: none)")
 
 
 def _add_sparse_options(p: argparse.ArgumentParser) -> None:
@@ -129,9 +135,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     fit = commands.add_parser(
         "fit", help="identify an LTV model from states and inputs in a data file",
-        description="Identify x[t+1] = A_t x[t] + B_t u[t] + v_t from a data file: print "
-        "the lambda used, one-step prediction and open-loop simulation RMS, change points "
-        "and solver status; optionally save the model and a figure.",
+        description="Identify x[t+1] = A_t x[t] + B_t u[t] (+ c_t) + v_t from a data file: "
+        "print the lambda used, one-step prediction and open-loop simulation RMS, change "
+        "points and solver status; optionally save the model and a figure. Missing values "
+        "in the data leave out the transitions they touch.",
     )
     fit.add_argument("data", metavar="DATA", help=_DATA_HELP)
     _add_state_options(fit)
@@ -146,6 +153,8 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--refine", action="store_true",
                      help="two-step refinement: refit piecewise between the detected change "
                      "points")
+    _add_constant_option(fit, "a time-varying constant term c_t in x[t+1] = A_t x[t] + "
+                         "B_t u[t] + c_t")
     _add_sparse_options(fit)
     _add_outputs(fit, out="model file to write (.npz; read it with ltvmodels.load or "
                  "'ltvmodels simulate')",
@@ -166,7 +175,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="cost B >= 0 per change (in units of the residual sum of "
                        "squares), or the rule bic or aic (default: bic)")
     seg.add_argument("--min-size", type=_positive_int, default=None, metavar="S",
-                     help="minimum segment length (default: n + m)")
+                     help="minimum segment length (default: n + m, or n + m + 1 with "
+                     "--constant)")
+    _add_constant_option(seg, "a constant term c_t per segment")
     _add_outputs(seg, out="model file to write (.npz)",
                  plot="figure: coefficients, activation with change points, eigenvalues")
 
@@ -188,7 +199,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="order of the time difference penalized (default: 1)")
     ar.add_argument("--lam", type=_lam_or_auto, default="auto", metavar="{VALUE,auto}",
                     help="regularization lambda or auto (default: auto)")
-    ar.add_argument("--constant", action="store_true", help="include a time-varying offset")
+    _add_constant_option(ar, "a time-varying offset c_t")
     _add_sparse_options(ar)
     _add_outputs(ar, out="model file to write (.npz)",
                  plot="figure: root spectrogram over the short-time Fourier spectrogram")
@@ -214,6 +225,8 @@ def build_parser() -> argparse.ArgumentParser:
     sel.add_argument("--method", default=None,
                      help="criterion: sq: ml (default), gcv, lcurve, cv; group/l1: lcurve "
                      "(default), cv; l0: bic (default), aic")
+    _add_constant_option(sel, "a constant term c_t in the models compared (as fit, segments "
+                         "or ar with --constant)")
     _add_outputs(sel, out=None, plot="figure of the criterion (or L-curve) with the choice")
 
     for name, noun in (("simulate", "open-loop simulation"),

@@ -8,7 +8,16 @@ from typing import Any
 import numpy as np
 
 
-def rms(a: np.ndarray) -> float:
+def rms(a: np.ndarray, valid: np.ndarray | None = None) -> float:
+    """RMS of ``a``, over the entries where ``valid`` (same shape) is True if given.
+
+    NaN when no entry is valid; a NaN or inf of a valid entry (a diverging
+    simulation) is kept, so that it shows.
+    """
+    if valid is not None:
+        a = np.asarray(a)[valid]
+    if np.size(a) == 0:
+        return math.nan
     with np.errstate(over="ignore", invalid="ignore"):
         return float(np.sqrt(np.mean(np.square(a))))
 
@@ -44,9 +53,18 @@ def info_subset(info: dict) -> dict:
     return out
 
 
-def rms_columns(a: np.ndarray) -> list[float]:
-    with np.errstate(over="ignore", invalid="ignore"):
-        return [float(v) for v in np.sqrt(np.mean(np.square(a), axis=0))]
+def rms_columns(a: np.ndarray, valid: np.ndarray | None = None) -> list[float]:
+    """RMS of each column of ``a`` (T, k), over its ``valid`` entries if given."""
+    a = np.asarray(a)
+    return [rms(a[:, j], None if valid is None else valid[:, j]) for j in range(a.shape[1])]
+
+
+def per_name(names: list[str], values: Any) -> str:
+    """``"x1 0.1, x2 0.2"``: a value per named column (one value: shared by all)."""
+    values = np.atleast_1d(np.asarray(values, dtype=float))
+    if values.size == 1 and len(names) != 1:
+        return fmt(float(values[0]))
+    return ", ".join(f"{n} {fmt(float(v))}" for n, v in zip(names, values, strict=True))
 
 
 def fmt(value: float) -> str:
