@@ -142,14 +142,16 @@ class DenseProblem:
 
     ``param_priors``: list of (mean (N, K) | (K,), cov scalar | (K, K) | (N, K, K));
     ``output_priors``: list of (mean (N, n) | (n,), cov scalar | (n, n) | (N, n, n)).
-    ``sigma2`` weighs the priors (the noise variance).
+    ``sigma2`` weighs the priors (the noise variance): a scalar, or one σ_i²
+    per output (n,), which weighs the prior terms of row i (the priors and W
+    must not couple the rows then).
     """
 
     x: np.ndarray
     u: np.ndarray | None
     order: object
     lam: object
-    sigma2: float = 1.0
+    sigma2: object = 1.0
     param_priors: list = field(default_factory=list)
     output_priors: list = field(default_factory=list)
 
@@ -187,14 +189,15 @@ class DenseProblem:
         # Prior Hessian and right-hand side (in k, scaled by σ²).
         Hp = np.zeros((N * K, N * K))
         bp = np.zeros(N * K)
+        s_y, s_k = self._noise_scales(self.sigma2)
         for mean, cov in self.param_priors:
             P = block_diag_stack(np.linalg.inv(as_blocks(cov, N, K)))
-            Hp += self.sigma2 * P
-            bp += self.sigma2 * P @ as_means(mean, N, K).ravel()
+            Hp += s_k[:, None] * P
+            bp += s_k * (P @ as_means(mean, N, K).ravel())
         for mean, cov in self.output_priors:
             P = block_diag_stack(np.linalg.inv(as_blocks(cov, N, self.n)))
-            Hp += self.sigma2 * self.Phi.T @ P @ self.Phi
-            bp += self.sigma2 * self.Phi.T @ P @ as_means(mean, N, self.n).ravel()
+            Hp += self.Phi.T @ (s_y[:, None] * P) @ self.Phi
+            bp += self.Phi.T @ (s_y * (P @ as_means(mean, N, self.n).ravel()))
         self.Hp, self.bp = Hp, bp
 
     # -- estimates --------------------------------------------------------------------
@@ -226,24 +229,25 @@ class DenseProblem:
     def _prior_const(self) -> float:
         c = 0.0
         N, K, n = self.N, self.K, self.n
+        s_y, s_k = self._noise_scales(self.sigma2)
         for mean, cov in self.param_priors:
             mu = as_means(mean, N, K).ravel()
-            c += self.sigma2 * mu @ block_diag_stack(np.linalg.inv(as_blocks(cov, N, K))) @ mu
+            c += mu @ (s_k * (block_diag_stack(np.linalg.inv(as_blocks(cov, N, K))) @ mu))
         for mean, cov in self.output_priors:
             yb = as_means(mean, N, n).ravel()
-            c += self.sigma2 * yb @ block_diag_stack(np.linalg.inv(as_blocks(cov, N, n))) @ yb
+            c += yb @ (s_y * (block_diag_stack(np.linalg.inv(as_blocks(cov, N, n))) @ yb))
         return c
 
     # -- likelihoods -----------------------------------------------------------------
     def loglik_with_prior(self) -> float:
-        """log N(y; Φ̃ m, σ²I + Φ̃ H_μ⁻¹ Φ̃ᵀ) with H_μ = (D̃ᵀW̃D̃ + σ² priors)/σ²."""
+        """log N(y; Φ̃ m, S + Φ̃ H_μ⁻¹ Φ̃ᵀ) with H_μ = (D̃ᵀW̃D̃ + σ² priors)/σ² (per row σ_i²)."""
         from scipy.stats import multivariate_normal
 
-        s2 = self.sigma2
+        s_y, s_k = self._noise_scales(self.sigma2)
         PhiT = self.Phi @ self.T
-        H_mu = self.T.T @ (self.Q + self.Hp) @ self.T / s2
-        m = np.linalg.solve(H_mu, self.T.T @ self.bp / s2)
-        C = s2 * np.eye(self.y.size) + PhiT @ np.linalg.solve(H_mu, PhiT.T)
+        H_mu = self.T.T @ ((self.Q + self.Hp) / s_k[:, None]) @ self.T
+        m = np.linalg.solve(H_mu, self.T.T @ (self.bp / s_k))
+        C = np.diag(s_y) + PhiT @ np.linalg.solve(H_mu, PhiT.T)
         return float(multivariate_normal(PhiT @ m, C).logpdf(self.y))
 
     def diffuse_mask(self) -> np.ndarray:

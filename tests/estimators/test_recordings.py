@@ -345,3 +345,31 @@ def test_ar_with_missing_samples_and_several_series():
     single = ltv.fit_ar(y[1], 2, lam=1e4)
     reg = ltv.fit_regression(y_out, phi, lam=1e4)
     np.testing.assert_allclose(single.k, reg.k, rtol=1e-10)
+
+
+def test_ar_predictions_and_regressors_mark_missing_lags():
+    rng = np.random.default_rng(18)
+    y = np.cumsum(rng.standard_normal(60)) * 0.1
+    model = ltv.fit_ar(y, 2, lam=100.0)
+    gap = y.copy()
+    gap[30] = np.nan
+    pred = model.predict(gap)
+    # ŷ[t] needs y[t−1], y[t−2]: model indices 29 and 30 (t = 31, 32) are NaN, no others
+    assert np.flatnonzero(np.isnan(pred)).tolist() == [29, 30]
+    np.testing.assert_allclose(np.delete(pred, [29, 30]), np.delete(model.predict(y), [29, 30]))
+    y_out, phi = ltv.ar_regressors(gap, 2)
+    bad = ~(np.isfinite(y_out).all(axis=1) & np.isfinite(phi).all(axis=1))
+    assert np.flatnonzero(bad).tolist() == [28, 29, 30]
+    reg = ltv.fit_regression(y_out, phi, lam=100.0)
+    np.testing.assert_allclose(reg.k, ltv.fit_ar(gap, 2, lam=100.0).k, rtol=1e-10)
+
+
+def test_simulation_ignores_the_unused_last_input():
+    x, u = batch(19, R=1)
+    model = ltv.fit(x[0], u[0], lam=3.0)
+    last_missing = u[0].copy()
+    last_missing[-1] = np.nan
+    np.testing.assert_array_equal(model.simulate(x[0, 0], last_missing),
+                                  model.simulate(x[0, 0], u[0]))
+    with pytest.raises(ValueError, match="u: expected finite inputs"):
+        model.simulate(x[0, 0], np.where(np.arange(40)[:, None] == 5, np.nan, u[0]))

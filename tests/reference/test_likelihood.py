@@ -167,3 +167,32 @@ def test_noise_var_none_with_prior_is_the_ml_estimate(prior_system):
                           options={"xatol": 1e-9})
     assert np.exp(res.x) == pytest.approx(s2, rel=1e-4)
     assert model.loglik == pytest.approx(-res.fun, abs=1e-6)
+
+
+@pytest.mark.parametrize("kind", ["parameter", "output"])
+def test_per_output_noise_with_priors_that_do_not_couple_rows(prior_system, kind):
+    """Priors per output row: each row its own σ_i², the ML estimate of the dense Gaussian."""
+    s = prior_system
+    if kind == "parameter":
+        prior, dense = ltv.Prior(s["mu"], 0.05), dict(param_priors=[(s["mu"], 0.05)])
+    else:
+        cov = np.diag([0.02, 0.05])
+        prior, dense = ltv.OutputPrior(s["ybar"], cov), dict(output_priors=[(s["ybar"], cov)])
+    model = ltv.fit(s["x"], s["u"], lam=2.0, prior=prior)
+    s2 = model.noise_var
+    assert s2[0] != s2[1]
+    ref = DenseProblem(s["x"], s["u"], 1, 2.0, sigma2=s2, **dense)
+    k, _ = ref.solve()
+    np.testing.assert_allclose(model.k, k, rtol=1e-8, atol=1e-10)
+    assert model.loglik == pytest.approx(ref.loglik_with_prior(), rel=1e-9)
+    # a given vector gives the same fit; and the estimate maximizes the dense likelihood
+    given = ltv.fit(s["x"], s["u"], lam=2.0, prior=prior, noise_var=s2)
+    assert given.loglik == pytest.approx(model.loglik, rel=1e-12)
+
+    def neg(v):
+        return -DenseProblem(s["x"], s["u"], 1, 2.0, sigma2=np.exp(v), **dense).loglik_with_prior()
+
+    res = minimize(neg, np.log(s2) + 0.2, method="Nelder-Mead",
+                   options={"xatol": 1e-9, "fatol": 1e-12})
+    np.testing.assert_allclose(np.exp(res.x), s2, rtol=1e-3)
+    assert model.loglik >= -res.fun - 1e-7

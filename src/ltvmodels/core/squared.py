@@ -11,9 +11,18 @@ Gaussian random walk k_{t+1} = k_t + w_t (paper eq. dynsys; for higher orders
 the polynomial model of Proposition 1) with measurement noise R2 = σ² I and
 parameter drift R1 = σ²/λ² I.
 
+The data term sums over the rows of each time step (trajectories, each row
+scaled by √weight; missing rows are zero, see
+:class:`~ltvmodels.core.problem.RegressionProblem`), so only the Gram blocks
+Σ_j φ_tj φ_tjᵀ enter H, and N below counts observed rows.
+
 When the penalty weight and the priors do not mix output rows, every row of
 Θ is a separate problem with the same regressor; rows whose systems coincide
-(the usual case: scalar λ) share one banded factorization.
+(the usual case: scalar λ) share one banded factorization. Then each row i
+has its own noise variance σ_i² (measurement noise σ_i², drift σ_i²/λ² and
+prior terms weighted by σ_i²): the estimate without priors does not depend on
+it, and the likelihood below is the sum of the rows' likelihoods, each with
+its σ_i² (profiled out per row when estimated). Otherwise one σ² is shared.
 
 Log marginal likelihood (``loglik``). Without priors the penalty is an improper
 Gaussian prior on the trajectory whose unpenalized directions (the initial
@@ -120,8 +129,12 @@ class SquaredSolver:
         self.separable = separable
 
     # -- assembly -----------------------------------------------------------------
-    def _prior_parts(self, scale: float):
-        """Prior contributions in k-space: Gram (1 | N, K, K) and rhs (N, K), or Nones."""
+    def _prior_parts(self, scale: float | np.ndarray):
+        """Prior contributions in k-space: Gram (1 | N, K, K) and rhs (N, K), or Nones.
+
+        ``scale`` is σ², or σ_i² per output row (n,) when the rows decouple: row
+        i's prior terms are weighted by its own noise variance.
+        """
         pb = self.problem
         N, n, p = pb.N, pb.n, pb.p
         K = n * p
@@ -142,9 +155,12 @@ class SquaredSolver:
                 phi = pb.phi[:, 0]  # output priors need one complete trajectory
                 gram += np.einsum("tij,ta,tb->tiajb", P, phi, phi).reshape(N, K, K)
                 rhs += np.einsum("tij,tj,ta->tia", P, term.mean, phi).reshape(N, K)
+        if np.ndim(scale):  # per row: the Gram is block diagonal by rows, scale its rows
+            row_scale = np.repeat(scale, p)
+            return gram * row_scale[:, None], rhs * row_scale
         return scale * gram, scale * rhs
 
-    def _groups(self, prior_scale: float, include_data: bool) -> list[_Group]:
+    def _groups(self, prior_scale: float | np.ndarray, include_data: bool) -> list[_Group]:
         pb = self.problem
         N, n, p = pb.N, pb.n, pb.p
         K = n * p
@@ -184,8 +200,9 @@ class SquaredSolver:
         return groups
 
     # -- solving ------------------------------------------------------------------
-    def solve(self, prior_scale: float, *, include_data: bool = True, compute_cov: bool = False):
-        """Minimize J with the prior terms weighted by ``prior_scale`` (= σ²).
+    def solve(self, prior_scale: float | np.ndarray, *, include_data: bool = True,
+              compute_cov: bool = False):
+        """Minimize J with the prior terms weighted by ``prior_scale`` (σ², or σ_i² per row).
 
         Returns (theta (N, n, p), CovarianceBlocks | None, logdet H, #factorizations,
         row_logdet): ``row_logdet`` (n,) splits log det H by output row when the rows
@@ -263,17 +280,22 @@ class SquaredSolver:
 
     def prior_cost(self, theta: np.ndarray) -> float:
         """Σ_t ‖μ_t − M_t k_t‖²_{P_t} over all prior terms (not scaled by σ²)."""
+        return float(self.row_prior_cost(theta).sum())
+
+    def row_prior_cost(self, theta: np.ndarray) -> np.ndarray:
+        """:meth:`prior_cost` split by output row, shape (n,) (exact when the rows decouple)."""
         pb = self.problem
-        N = pb.N
-        total = 0.0
+        N, n = pb.N, pb.n
+        total = np.zeros(n)
         for term in self.priors:
             if term.on == "parameters":
                 r = term.mean - theta.reshape(N, -1)
             else:
-                fitted = np.empty((N, 1, pb.n))
+                fitted = np.empty((N, 1, n))
                 rowwise_matvec(np.ascontiguousarray(theta), pb.phi[:, :1], fitted)
                 r = term.mean - fitted[:, 0]
-            total += float(np.einsum("ti,tij,tj->", r, term.precision_at(N), r))
+            per_entry = np.einsum("ti,tij,tj->i", r, term.precision_at(N), r)
+            total += per_entry.reshape(n, -1).sum(axis=1)
         return total
 
     def log_penalty_normalizer(self) -> tuple[np.ndarray, np.ndarray]:
@@ -316,27 +338,40 @@ class SquaredSolver:
 
 
 def _loglik_with_prior(
-    solver: SquaredSolver, noise_var: float, theta: np.ndarray, logdet: float
-) -> float:
-    """log p(y | prior) = log N(y; M m, σ²I + M H_μ⁻¹ Mᵀ), from two factorizations.
+    solver: SquaredSolver, variances: np.ndarray, theta: np.ndarray, logdets: np.ndarray
+) -> np.ndarray:
+    """log p(y | prior) = log N(y; M m, S + M H_μ⁻¹ Mᵀ), from two factorizations.
 
-    NaN when the prior alone does not determine every parameter (H_μ singular).
+    When the rows decouple, per output row i (noise σ_i² = ``variances[i]``,
+    ``logdets`` the rows' log det H): an array (n,) whose sum is the
+    likelihood. Otherwise one shared σ² (``logdets`` = [log det H]): an array
+    (1,). NaN when the prior alone does not determine every parameter
+    (H_μ singular).
     """
     pb = solver.problem
-    j_y = (
-        float(pb.output_rss(theta).sum()) + solver.penalty(theta)
-        + noise_var * solver.prior_cost(theta)
-    )
+    rows = solver.separable
+    scale = variances if rows else variances[:1]
+    prior_scale = variances if rows else float(variances[0])
     try:
-        m, _, logdet_mu, *_ = solver.solve(noise_var, include_data=False)
+        m, _, logdet_mu, _, row_logdet_mu = solver.solve(prior_scale, include_data=False)
     except SingularProblemError:
-        return float("nan")
-    j_mu = solver.penalty(m) + noise_var * solver.prior_cost(m)
+        return np.full(scale.shape, np.nan)
+    if rows:
+        j_y = (pb.output_rss(theta) + solver.row_penalty(theta)
+               + scale * solver.row_prior_cost(theta))
+        j_mu = solver.row_penalty(m) + scale * solver.row_prior_cost(m)
+        logdet_mu = row_logdet_mu
+        size = pb.n_observed
+    else:
+        j_y = (pb.output_rss(theta).sum() + solver.penalty(theta)
+               + scale * solver.prior_cost(theta))
+        j_mu = solver.penalty(m) + scale * solver.prior_cost(m)
+        size = pb.n_observed * pb.n
     return (
-        -0.5 * pb.n_observed * pb.n * (LOG_2PI + np.log(noise_var))
-        - 0.5 * logdet
+        -0.5 * size * (LOG_2PI + np.log(scale))
+        - 0.5 * logdets
         + 0.5 * logdet_mu
-        - 0.5 * (j_y - j_mu) / noise_var
+        - 0.5 * (j_y - j_mu) / scale
     )
 
 
@@ -357,24 +392,56 @@ def _noise_var_guess(problem: RegressionProblem, W: np.ndarray, n_eff: float) ->
     return max(float(np.sum(resid**2)) / dof, 1e-300)
 
 
-def _ml_noise_var_with_prior(solver: SquaredSolver, guess: float) -> float | None:
-    """argmax over σ² of log p(y | prior, σ²) (empirical Bayes), or None if undefined."""
+def _ml_noise_var_with_prior(solver: SquaredSolver, guess: float) -> np.ndarray | None:
+    """argmax of log p(y | prior, σ²) (empirical Bayes): σ_i² per output row when the rows
+    decouple, else one σ²; returns (n,) variances, or None if the likelihood is undefined.
+
+    Searched within a factor 1e3 of ``guess``: by Brent's method for one σ², by
+    golden sections on all rows at once when each row's likelihood depends on
+    its own σ_i² only (one factorization per step serves every row).
+    """
     from scipy.optimize import minimize_scalar
 
-    def negative_loglik(log_var: float) -> float:
-        var = float(np.exp(log_var))
-        theta, _, logdet, *_ = solver.solve(var)
-        value = _loglik_with_prior(solver, var, theta, logdet)
-        return np.inf if np.isnan(value) else -value
+    n = solver.problem.n
 
-    center = np.log(guess)
-    if not np.isfinite(negative_loglik(center)):
+    def loglik(log_var: np.ndarray) -> np.ndarray:
+        var = np.broadcast_to(np.exp(log_var), (n,))
+        theta, _, logdet, _, row_logdet = solver.solve(
+            var if solver.separable else float(var[0]))
+        logdets = row_logdet if solver.separable else np.array([logdet])
+        value = _loglik_with_prior(solver, var, theta, logdets)
+        return np.where(np.isnan(value), -np.inf, value)
+
+    size = n if solver.separable else 1
+    center = np.full(size, np.log(guess))
+    if not np.all(np.isfinite(loglik(center))):
         return None
-    res = minimize_scalar(
-        negative_loglik, bounds=(center - np.log(1e3), center + np.log(1e3)),
-        method="bounded", options={"xatol": 1e-4},
-    )
-    return float(np.exp(res.x))
+    lo, hi = center - np.log(1e3), center + np.log(1e3)
+    if size == 1:
+        res = minimize_scalar(lambda v: -float(loglik(np.array([v]))[0]), bounds=(lo[0], hi[0]),
+                              method="bounded", options={"xatol": 1e-4})
+        return np.full(n, float(np.exp(res.x)))
+    return np.exp(_golden_section_max(loglik, lo, hi, tol=1e-5))
+
+
+def _golden_section_max(f, lo: np.ndarray, hi: np.ndarray, tol: float) -> np.ndarray:
+    """Maximize a separable f(x) = (f_1(x_1), …, f_n(x_n)) coordinatewise on [lo, hi].
+
+    Each step evaluates f once at a point whose coordinate i is the new golden
+    point of interval i, so all n searches share every evaluation.
+    """
+    g = (np.sqrt(5.0) - 1.0) / 2.0
+    a, b = lo.copy(), hi.copy()
+    c, d = b - g * (b - a), a + g * (b - a)
+    fc, fd = f(c), f(d)
+    while np.max(b - a) > tol:
+        left = fc >= fd  # the maximum lies in [a, d]
+        a, b = np.where(left, a, c), np.where(left, d, b)
+        new = np.where(left, b - g * (b - a), a + g * (b - a))
+        f_new = f(new)
+        c, d, fc, fd = (np.where(left, new, d), np.where(left, c, new),
+                        np.where(left, f_new, fd), np.where(left, fc, f_new))
+    return np.where(fc >= fd, c, d)
 
 
 def fit_squared(
@@ -399,9 +466,10 @@ def fit_squared(
         parameter drift σ_i²/λ² in row i, whose estimate does not depend on
         σ_i), σ̂_i² = (RSS_i + penalty_i) / N_eff,i with N_eff,i = (observed
         rows) − #diffuse directions of row i; otherwise one σ² shared by all
-        outputs. With priors one σ² shared by all outputs, by a bounded scalar
-        search maximizing log p(y | prior, σ²) (falling back to the prior-free
-        estimate when the prior alone does not determine the parameters).
+        outputs. With priors (row i's prior terms weighted by σ_i²) by a
+        bounded search maximizing log p(y | prior, σ²) — per row at once when
+        the rows decouple — falling back to the prior-free estimate when the
+        prior alone does not determine the parameters.
     compute_cov : bool
     """
     solver = SquaredSolver(problem, W, priors)
@@ -411,29 +479,31 @@ def fit_squared(
     n_eff = n_obs * n - float(row_diffuse.sum())
     info: dict = {"row_separable": bool(solver.separable)}
     estimated = noise_var is None
-    per_output = solver.separable and not priors
-    given = None if noise_var is None else np.broadcast_to(
-        np.asarray(noise_var, dtype=float), (n,))
-    if given is not None and not per_output and np.any(given != given[0]):
+    per_row = solver.separable  # each output row its own problem and σ_i²
+    variances = None if noise_var is None else np.broadcast_to(
+        np.asarray(noise_var, dtype=float), (n,)).copy()
+    if variances is not None and not per_row and np.any(variances != variances[0]):
         raise ValueError(
             "noise_var: one variance per output needs a penalty and priors that do not "
-            "couple the output rows (a scalar lam, no priors); pass a scalar noise_var"
+            "couple the output rows; pass a scalar noise_var"
         )
-
-    scalar_var = None if given is None else float(given[0])
-    if priors and noise_var is None:
+    if priors and variances is None:
         guess = _noise_var_guess(problem, W, n_eff)
-        scalar_var = _ml_noise_var_with_prior(solver, guess)
-        if scalar_var is None:
-            scalar_var = guess
+        variances = _ml_noise_var_with_prior(solver, guess)
+        if variances is None:
+            variances = np.full(n, guess)
             info["noise_var_note"] = (
                 "log p(y | prior) is not defined, so noise_var is the prior-free estimate"
             )
+    if variances is None:
+        prior_scale: float | np.ndarray = 1.0  # no priors: the scale is unused
+    else:
+        prior_scale = variances if per_row else float(variances[0])
 
     lost = solver.digits_lost()
     try:
         theta, cov, logdet, n_fact, row_logdet = solver.solve(
-            1.0 if scalar_var is None else scalar_var, compute_cov=compute_cov
+            prior_scale, compute_cov=compute_cov
         )
     except SingularProblemError as exc:
         if lost > PRECISION_DIGITS_WARN:
@@ -458,52 +528,51 @@ def fit_squared(
     pen = solver.penalty(theta)
     prior_cost = solver.prior_cost(theta)
 
-    if per_output:
+    if priors:
+        logdets = row_logdet if per_row else np.array([logdet])
+        loglik = float(_loglik_with_prior(solver, variances, theta, logdets).sum())
+        if np.isnan(loglik):
+            info["loglik_note"] = (
+                "the prior alone does not determine every parameter, so log p(y | prior) "
+                "is not defined"
+            )
+        weighted_prior = float(np.sum(variances * solver.row_prior_cost(theta))) if per_row \
+            else float(variances[0]) * prior_cost
+    elif per_row:
         row_cost = row_rss + solver.row_penalty(theta)  # RSS_i + penalty_i
         row_n_eff = n_obs - row_diffuse
-        if given is None:
+        if variances is None:
             if np.any(row_n_eff <= 0):
                 raise SingularProblemError(
                     f"too few samples to estimate the noise variance: {n_obs} observed rows "
                     f"and {int(row_diffuse.max())} unpenalized directions per output; pass "
                     "noise_var or use more data"
                 )
-            variances = row_cost / row_n_eff
-        else:
-            variances = given.copy()
-        variances = np.maximum(variances, np.finfo(float).tiny)
+            variances = np.maximum(row_cost / row_n_eff, np.finfo(float).tiny)
         loglik = float(np.sum(
             -0.5 * row_n_eff * (LOG_2PI + np.log(variances))
             + 0.5 * row_log_pdet
             - 0.5 * row_logdet
             - 0.5 * row_cost / variances
         ))
-    elif not priors:
-        if scalar_var is None:
+        weighted_prior = 0.0
+    else:
+        if variances is None:
             if n_eff <= 0:
                 raise SingularProblemError(
                     "too few samples to estimate the noise variance: the unpenalized "
                     "directions use up all observations; pass noise_var or use more data"
                 )
-            scalar_var = (rss + pen) / n_eff
-        variances = np.full(n, scalar_var)
-        loglik = (
-            -0.5 * n_eff * (LOG_2PI + np.log(scalar_var))
+            variances = np.full(n, (rss + pen) / n_eff)
+        loglik = float(
+            -0.5 * n_eff * (LOG_2PI + np.log(variances[0]))
             + 0.5 * float(row_log_pdet.sum())
             - 0.5 * logdet
-            - 0.5 * (rss + pen) / scalar_var
+            - 0.5 * (rss + pen) / variances[0]
         )
-    else:
-        variances = np.full(n, scalar_var)
-        loglik = _loglik_with_prior(solver, scalar_var, theta, logdet)
-        if np.isnan(loglik):
-            info["loglik_note"] = (
-                "the prior alone does not determine every parameter, so log p(y | prior) "
-                "is not defined"
-            )
+        weighted_prior = 0.0
 
-    prior_weight = 0.0 if scalar_var is None else scalar_var
-    objective = rss + pen + prior_weight * prior_cost
+    objective = rss + pen + weighted_prior
     return SquaredResult(
         theta=theta,
         cov=None if cov is None else cov.scale_rows(variances),

@@ -62,7 +62,8 @@ def arx_regressors(
     Parameters
     ----------
     y : array_like, shape (T, n) or (T,)
-        Outputs, time on axis 0.
+        Outputs, time on axis 0. NaN marks a missing sample: every row that
+        holds it (as output or lag) has NaN, which the estimators leave out.
     u : array_like, shape (T, m) or (T,)
         Inputs.
     na : int >= 0

@@ -173,8 +173,8 @@ def fit(
         Noise variance, shared or one per state equation; weighs priors
         against the data and scales the covariances. Default:
         maximum-likelihood estimate given λ, one per state equation
-        (``model.noise_var`` has shape (n,)); with priors or a (K, K) λ one
-        variance shared by all equations.
+        (``model.noise_var`` has shape (n,)); where a (K, K) λ or a prior
+        couples the equations' rows of [A_t B_t], one variance shared by all.
     compute_cov : bool
         Compute posterior covariances (selected inversion, O(N)); False skips them.
     max_iter, tol : int, float

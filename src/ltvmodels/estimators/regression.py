@@ -193,8 +193,8 @@ def _fit_with_lam(
         identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
         solution = solve_sparse(problem, weights, norm, max_iter=max_iter, tol=tol)
         return sparse_model(problem, lam, norm, solution, factory)
+    _enough_samples(problem, data_name, rows_note)  # before W's K × K allocation
     W = options.penalty_weight(lam, K)
-    _enough_samples(problem, data_name, rows_note)
     terms = resolve_priors(prior, N, n, p)
     if not problem.complete and any(term.on == "output" for term in terms):
         raise NotImplementedError(

@@ -168,7 +168,8 @@ class ARXModel(RegressionModel):
         Parameters
         ----------
         y : array_like, shape (T, n) or (T,), T = N + L
-            Measured outputs (as fitted, or new data of the same length).
+            Measured outputs (as fitted, or new data of the same length); NaN
+            (missing) gives NaN for every prediction that needs that sample.
         u : array_like, shape (T, m) or (T,); None for an AR model.
 
         Returns

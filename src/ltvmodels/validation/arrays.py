@@ -68,12 +68,15 @@ def as_float_array(value: Any, name: str, *, missing: bool = False) -> np.ndarra
     return arr
 
 
-def as_time_series(value: Any, name: str, *, allow_1d: bool = True) -> np.ndarray:
+def as_time_series(
+    value: Any, name: str, *, allow_1d: bool = True, missing: bool = False
+) -> np.ndarray:
     """Return a (T, d) float64 copy of a time series with time on axis 0.
 
-    A 1-d input of length T becomes (T, 1) when ``allow_1d``.
+    A 1-d input of length T becomes (T, 1) when ``allow_1d``; with ``missing``
+    NaN marks a missing sample.
     """
-    arr = as_float_array(value, name)
+    arr = as_float_array(value, name, missing=missing)
     if arr.ndim == 1 and allow_1d:
         arr = arr[:, None]
     if arr.ndim != 2:
@@ -95,7 +98,8 @@ def trajectories(value: Any, name: str) -> np.ndarray:
     if isinstance(value, (list, tuple)) and value and all(
         hasattr(item, "shape") for item in value
     ):
-        parts = [_one_trajectory(item, f"{name}[{r}]") for r, item in enumerate(value)]
+        parts = [as_time_series(item, f"{name}[{r}]", missing=True)
+                 for r, item in enumerate(value)]
         shapes = {part.shape for part in parts}
         if len(shapes) > 1:
             listed = ", ".join(str(part.shape) for part in parts[:4])
@@ -115,7 +119,7 @@ def trajectories(value: Any, name: str) -> np.ndarray:
             ) from None
         raise
     if arr.ndim in (1, 2):
-        return _one_trajectory(arr, name)[None]
+        return as_time_series(arr, name, missing=True)[None]
     if arr.ndim != 3:
         raise ValueError(
             f"{name}: expected shape (T, d) with time on axis 0, or (R, T, d) for R "
@@ -131,20 +135,6 @@ def is_batch(value: Any) -> bool:
     if isinstance(value, (list, tuple)) and value and all(hasattr(v, "shape") for v in value):
         return True
     return np.ndim(value) == 3
-
-
-def _one_trajectory(value: Any, name: str) -> np.ndarray:
-    arr = as_float_array(value, name, missing=True)
-    if arr.ndim == 1:
-        arr = arr[:, None]
-    if arr.ndim != 2:
-        raise ValueError(
-            f"{name}: expected a 2-d array of shape (T, d) with time on axis 0, "
-            f"received {arr.ndim}-d array of shape {arr.shape}"
-        )
-    if arr.shape[1] == 0:
-        raise ValueError(f"{name}: expected at least one column, received shape {arr.shape}")
-    return arr
 
 
 def recordings(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -212,41 +202,6 @@ def row_weights(weights: Any, R: int, N: int, name: str = "weights") -> np.ndarr
     if np.any(w < 0):
         raise ValueError(f"{name}: expected weights >= 0, received a minimum of {w.min():g}")
     return w
-
-
-def state_and_input(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Validate states ``x`` (T, n) and inputs ``u`` (T, m) | (T,) | None.
-
-    Returns float64 copies; ``u`` is (T, 0) when None.
-    """
-    x = as_time_series(x, "x", allow_1d=True)
-    T = x.shape[0]
-    if T < 2:
-        raise ValueError(f"x: expected at least 2 time steps, received T={T}")
-    if u is None:
-        u = np.zeros((T, 0))
-    else:
-        u = as_time_series(u, "u", allow_1d=True)
-        if u.shape[0] != T:
-            raise ValueError(
-                f"u: expected {T} rows (one per time step, as x), received {u.shape[0]}"
-            )
-    return x, u
-
-
-def regression_data(y: Any, phi: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Validate a regression y_t = Θ φ_t: y (N, n) or (N,), φ (N, p) or (N,).
-
-    Returns float64 copies of shapes (N, n) and (N, p).
-    """
-    y = as_time_series(y, "y", allow_1d=True)
-    phi = as_time_series(phi, "phi", allow_1d=True)
-    if phi.shape[0] != y.shape[0]:
-        raise ValueError(
-            f"phi: expected {y.shape[0]} rows (one regressor vector per row of y), "
-            f"received {phi.shape[0]}"
-        )
-    return y, phi
 
 
 def regressor_rows(value: Any, N: int, p: int, name: str = "phi") -> np.ndarray:
@@ -377,10 +332,10 @@ def lagged_series(
 
     ``u`` may be None unless ``require_inputs``; ``n_inputs`` (if given) is the
     required number of columns of ``u``. ``structure`` names the orders (e.g.
-    "na = 2, nb = 1, nk = 1") in the too-short message. Returns float64
-    copies, u of shape (T, 0) when None.
+    "na = 2, nb = 1, nk = 1") in the too-short message. NaN marks a missing
+    sample. Returns float64 copies, u of shape (T, 0) when None.
     """
-    y = as_time_series(y, "y", allow_1d=True)
+    y = as_time_series(y, "y", allow_1d=True, missing=True)
     T = y.shape[0]
     if u is None:
         if require_inputs:
@@ -388,7 +343,7 @@ def lagged_series(
             raise TypeError(f"u: expected inputs of shape {expected}, received None")
         u = np.zeros((T, 0))
     else:
-        u = as_time_series(u, "u", allow_1d=True)
+        u = as_time_series(u, "u", allow_1d=True, missing=True)
         if u.shape[0] != T:
             raise ValueError(
                 f"u: expected {T} rows (one per sample of y), received {u.shape[0]}"
