@@ -43,10 +43,14 @@ def _gram_entry(phi, n_rep, data_scale, extra, t, i, j):  # pragma: no cover - c
     p = phi.shape[2]
     value = extra[t if extra.shape[0] > 1 else 0, i, j] if extra.shape[0] > 0 else 0.0
     if data_scale != 0.0 and i // p == j // p:
-        acc = 0.0
-        for r in range(phi.shape[1]):
-            acc += phi[t, r, i % p] * phi[t, r, j % p]
-        value += data_scale * acc
+        a, b = i % p, j % p
+        if phi.shape[1] == 1:  # one trajectory: the common case, without the row loop
+            value += data_scale * phi[t, 0, a] * phi[t, 0, b]
+        else:
+            acc = 0.0
+            for r in range(phi.shape[1]):
+                acc += phi[t, r, a] * phi[t, r, b]
+            value += data_scale * acc
     return value
 
 

@@ -139,7 +139,7 @@ def weighted_problem(
     A row enters the data term only if all of y_t and φ_t are finite (and its
     weight is > 0); it is scaled by √w so its squared residual counts w times.
     """
-    observed = np.all(np.isfinite(y), axis=2) & np.all(np.isfinite(phi), axis=2)
+    observed = _finite_rows(y) & _finite_rows(phi)
     if weights is not None:
         observed &= weights > 0
         scale = np.sqrt(np.where(observed, weights, 0.0))[:, :, None]
@@ -148,6 +148,13 @@ def weighted_problem(
         y=np.swapaxes(y, 0, 1), phi=np.swapaxes(phi, 0, 1), coeffs=coeffs,
         observed=observed.T,
     )
+
+
+def _finite_rows(values: np.ndarray) -> np.ndarray:
+    """Rows (last axis) with only finite entries; one fast sum when all are."""
+    if np.isfinite(values.sum()):  # an overflowing sum only falls through to the check
+        return np.ones(values.shape[:-1], dtype=bool)
+    return np.all(np.isfinite(values), axis=-1)
 
 
 def state_space_problem(

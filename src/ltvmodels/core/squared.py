@@ -525,7 +525,9 @@ def fit_squared(
         )
     row_rss = problem.output_rss(theta)
     rss = float(row_rss.sum())
-    pen = solver.penalty(theta)
+    # per row when the rows decouple (one differencing pass serves both)
+    row_pen = solver.row_penalty(theta) if per_row else None
+    pen = float(row_pen.sum()) if per_row else solver.penalty(theta)
     prior_cost = solver.prior_cost(theta)
 
     if priors:
@@ -539,7 +541,7 @@ def fit_squared(
         weighted_prior = float(np.sum(variances * solver.row_prior_cost(theta))) if per_row \
             else float(variances[0]) * prior_cost
     elif per_row:
-        row_cost = row_rss + solver.row_penalty(theta)  # RSS_i + penalty_i
+        row_cost = row_rss + row_pen  # RSS_i + penalty_i
         row_n_eff = n_obs - row_diffuse
         if variances is None:
             if np.any(row_n_eff <= 0):

@@ -158,7 +158,7 @@ def recordings(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
         )
     if T < 2:
         raise ValueError(f"x: expected at least 2 time steps, received T={T}")
-    empty = np.all(np.isnan(x), axis=(0, 1))
+    empty = np.all(np.isnan(x), axis=(0, 1)) if np.isnan(x.sum()) else np.zeros(n, bool)
     if empty.any():
         raise ValueError(
             f"x: state {int(np.flatnonzero(empty)[0])} has no observed samples (all NaN); "
@@ -174,7 +174,7 @@ def recordings(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
             f"u: expected {T} rows (one input per state sample, as x){expected}, "
             f"received shape {received}"
         )
-    empty = np.all(np.isnan(u), axis=(0, 1))
+    empty = np.all(np.isnan(u), axis=(0, 1)) if np.isnan(u.sum()) else np.zeros(u.shape[2], bool)
     if empty.any():
         raise ValueError(
             f"u: input {int(np.flatnonzero(empty)[0])} has no observed samples (all NaN); "
