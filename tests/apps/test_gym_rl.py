@@ -12,8 +12,11 @@ from ltvmodels.apps import gym_rl  # noqa: E402
 from ltvmodels.control import LinearDynamics, QuadraticCost, ilqg  # noqa: E402
 from ltvmodels.apps.gym_rl import (  # noqa: E402
     PendulumCost,
+    fit_rollouts,
     learn_pendulum,
+    locality_weights,
     pendulum_rollout,
+    pendulum_rollouts,
     plot_pendulum_experiment,
     run_pendulum_experiment,
     state_from_observations,
@@ -143,6 +146,81 @@ def test_rollout_feedback_uses_the_wrapped_angle_error(env):
     np.testing.assert_allclose(x1, x0)
 
 
+def test_rollout_batch_shares_the_initial_state_and_reflects_the_noise(env):
+    N, R = 200, 4
+    rng = np.random.default_rng(0)
+    noise = np.zeros((R, N))
+    noise[1:] = 0.3 * rng.standard_normal((R - 1, N))
+    u_nom = np.full(N, 2.0)  # saturated throughout: clipped noise would vanish
+    x, u, rewards = pendulum_rollouts(env, 5, u_nom, noise=noise)
+    assert x.shape == (R, N + 1, 2) and u.shape == (R, N, 1) and rewards.shape == (R, N)
+    np.testing.assert_array_equal(x[:, 0], np.broadcast_to(x[0, 0], (R, 2)))  # one reset seed
+    # Row 0 (no noise) is the plain rollout; a saturated torque moves inward by |e|.
+    x0, u0, r0 = pendulum_rollout(env, 5, u_nom)
+    np.testing.assert_array_equal(x[0], x0)
+    np.testing.assert_array_equal(u[0], u0)
+    np.testing.assert_array_equal(rewards[0], r0)
+    np.testing.assert_allclose(u[:, :, 0], 2.0 - np.abs(noise), atol=1e-12)
+    assert np.all(np.abs(u) <= 2.0)
+    assert np.ptp(x[:, -1, 0]) > 0.01  # the noise changed the trajectories
+    with pytest.raises(ValueError, match="noise"):
+        pendulum_rollouts(env, 5, u_nom, noise=np.zeros(N))
+
+
+def _true_jacobians(x):
+    """Jacobians of gymnasium's Pendulum-v1 step (g = 10, m = l = 1, dt = 0.05), unclipped.
+
+    The library never uses them; they check what it identifies from rollouts.
+    """
+    dt = 0.05
+    a = 15.0 * np.cos(x[:, 0]) * dt  # ∂θ̇'/∂θ, with θ = 0 upright
+    A = np.zeros((x.shape[0], 2, 2))
+    A[:, 0, 0], A[:, 0, 1], A[:, 1, 0], A[:, 1, 1] = 1 + a * dt, dt, a, 1.0
+    B = np.broadcast_to(np.array([[3 * dt * dt], [3 * dt]]), (x.shape[0], 2, 1))
+    return A, B
+
+
+def test_ltv_fit_on_a_batch_recovers_the_pendulum_jacobians(env):
+    # Swings about hanging (|θ̇| < 8: the env's velocity clip never acts) under a small
+    # torque, perturbed by the reflected exploration noise of the learning loop.
+    N, R = 200, 8
+    rng = np.random.default_rng(1)
+    noise = np.zeros((R, N))
+    noise[1:] = 0.03 * rng.standard_normal((R - 1, N))
+    x, u, _ = pendulum_rollouts(env, 2, 0.5 * np.sin(0.3 * np.arange(N)), noise=noise)
+    assert np.max(np.abs(x[..., 1])) < 7.5
+    A_true, B_true = _true_jacobians(x[0, :-1])
+    A, B = fit_rollouts("ltv", x, u, 0.01, locality_weights(x, 0.3))
+    assert A.shape == (N, 2, 2) and B.shape == (N, 2, 1)
+    # A_0 is not identified (all rollouts start at the same state): skip the first steps.
+    err = np.abs(A[5:, 1, 0] - A_true[5:, 1, 0])  # A21 = 0.75 cos θ ranges over ±0.75
+    assert np.median(err) < 0.04 and np.quantile(err, 0.9) < 0.12
+    assert np.median(np.abs(B[5:, 1, 0] - B_true[5:, 1, 0])) < 0.005  # B21 = 0.15
+    # One rollout leaves the Jacobians to the smoothness penalty, and a large λ
+    # over-smooths them: both far off.
+    A1, _ = fit_rollouts("ltv", x[:1], u[:1], 0.01)
+    assert np.median(np.abs(A1[5:, 1, 0] - A_true[5:, 1, 0])) > 5 * np.median(err)
+    A100, _ = fit_rollouts("ltv", x, u, 100.0, locality_weights(x, 0.3))
+    assert np.median(np.abs(A100[5:, 1, 0] - A_true[5:, 1, 0])) > 4 * np.median(err)
+    # The LTI model fitted on the same batch: one A for the whole swing.
+    A_lti, _ = fit_rollouts("lti", x, u, 0.01, locality_weights(x, 0.3))
+    np.testing.assert_array_equal(A_lti, np.broadcast_to(A_lti[0], A_lti.shape))
+    assert np.median(np.abs(A_lti[5:, 1, 0] - A_true[5:, 1, 0])) > 0.15
+
+
+def test_locality_weights():
+    x = np.zeros((3, 11, 2))
+    x[1, :, 0] = 0.3  # 0.3 rad from rollout 0 throughout
+    x[2, 5:, 0] = 2 * np.pi  # over the top the other way from step 5: far
+    w = locality_weights(x, 0.3)
+    assert w.shape == (3, 10)
+    np.testing.assert_array_equal(w[0], 1.0)
+    np.testing.assert_allclose(w[1], np.exp(-0.5))
+    np.testing.assert_array_equal(w[2, :5], 1.0)
+    assert np.all(w[2, 5:] < 1e-50)
+    assert locality_weights(x, None) is None
+
+
 def test_swung_up_criterion():
     x = np.zeros((200, 2))
     x[:, 0] = 2 * np.pi  # upright, one turn later
@@ -162,6 +240,10 @@ def test_ltv_loop_swings_up_an_easy_initial_state(env):
     assert res.returns.shape == res.incumbent_returns.shape == (20,)
     assert res.swing_up_iteration is not None and res.swing_up_iteration <= 20
     assert swung_up(res.x)
+    # swing_up_iteration: from there on the incumbent stays swung up, and not before.
+    it = res.swing_up_iteration
+    assert np.all(res.swung_up[it - 1:])
+    assert it == 1 or not res.swung_up[it - 2]
     assert res.final_return > res.initial_return + 300
     assert res.final_return > -400
     # The incumbent changes only when a rollout is accepted, and is one of the rollouts.
@@ -179,9 +261,89 @@ def test_ltv_loop_swings_up_an_easy_initial_state(env):
 def test_learning_is_reproducible(env):
     a = learn_pendulum("lti", seed=3, iterations=4, env=env)
     b = learn_pendulum("lti", seed=3, iterations=4, env=env)
-    np.testing.assert_array_equal(a.returns, b.returns)
+    np.testing.assert_array_equal(a.batch_returns, b.batch_returns)
+    np.testing.assert_array_equal(a.x, b.x)
     c = learn_pendulum("lti", seed=5, iterations=4, env=env)
     assert not np.array_equal(a.returns, c.returns)
+
+
+def test_each_iteration_fits_both_models_on_the_same_batch_of_rollouts(env, monkeypatch):
+    calls = []
+    fit = gym_rl.fit_rollouts
+
+    def spy(model, x, u, lam, weights=None):
+        calls.append((model, np.array(x), np.array(u), None if weights is None
+                      else np.array(weights)))
+        return fit(model, x, u, lam, weights)
+
+    monkeypatch.setattr(gym_rl, "fit_rollouts", spy)
+    through = []
+    original_through = gym_rl.LinearDynamics.through.__func__
+
+    def through_spy(cls, A, B, x, u):
+        through.append((np.array(x), np.array(u)))
+        return original_through(cls, A, B, x, u)
+
+    monkeypatch.setattr(gym_rl.LinearDynamics, "through", classmethod(through_spy))
+    R, iterations = 5, 3
+    res = {m: learn_pendulum(m, seed=7, iterations=iterations, rollouts_per_iteration=R,
+                             env=env) for m in ("ltv", "lti")}
+    assert [c[0] for c in calls] == ["ltv"] * (iterations - 1) + ["lti"] * (iterations - 1)
+    for model, x, u, w in calls:
+        assert x.shape == (R, 201, 2) and u.shape == (R, 200, 1) and w.shape == (R, 200)
+        np.testing.assert_array_equal(x[:, 0], np.broadcast_to(x[0, 0], (R, 2)))
+        assert np.all(np.ptp(x[:, -1], axis=0) > 0)  # R different rollouts
+        np.testing.assert_array_equal(w[0], 1.0)  # the nominal rollout weighs fully
+        assert np.all((w > 0) & (w <= 1))
+    # Iteration 1 (the random-torque controller and its noise) is the same for both models.
+    np.testing.assert_array_equal(calls[0][1], calls[iterations - 1][1])
+    np.testing.assert_array_equal(calls[0][2], calls[iterations - 1][2])
+    for r in res.values():
+        assert r.batch_returns.shape == (iterations, R) and r.rollouts_per_iteration == R
+        np.testing.assert_array_equal(r.batch_returns[:, 0], r.returns)  # rollout 0: no noise
+        # The incumbent (the data of the fits) is a noise-free rollout of the controller.
+        assert r.final_return in r.returns
+    # Each linearization is through the incumbent: rollout 0 (noise-free) of the batch fitted.
+    assert len(through) == len(calls)
+    for (_, x, u, _), (xl, ul) in zip(calls, through):
+        H = ul.shape[0]
+        np.testing.assert_array_equal(xl, x[0, :H + 1])
+        np.testing.assert_array_equal(ul, u[0, :H])
+
+
+@pytest.mark.parametrize("tail", ["hold", "zero", "incumbent"])
+def test_controller_after_the_planning_horizon(env, monkeypatch, tail):
+    controllers = []
+    rollouts = gym_rl.pendulum_rollouts
+
+    def spy(env_, seed, u_nom, x_nom=None, K=None, *, noise):
+        controllers.append((np.array(u_nom), None if x_nom is None else np.array(x_nom),
+                            None if K is None else np.array(K)))
+        return rollouts(env_, seed, u_nom, x_nom, K, noise=noise)
+
+    monkeypatch.setattr(gym_rl, "pendulum_rollouts", spy)
+    H = 10
+    res = learn_pendulum("ltv", seed=7, iterations=2, horizon_start=H, tail=tail, env=env)
+    assert res.horizons[0] == H
+    u_nom, x_nom, K = controllers[1]  # the first planned controller
+    assert np.any(K[:H] != 0)
+    if tail == "hold":  # the plan's last gains towards its last state
+        np.testing.assert_array_equal(K[H:], np.broadcast_to(K[H - 1], K[H:].shape))
+        np.testing.assert_array_equal(x_nom[H + 1:], np.broadcast_to(x_nom[H], x_nom[H + 1:].shape))
+        np.testing.assert_array_equal(u_nom[H:], 0.0)
+    elif tail == "zero":
+        np.testing.assert_array_equal(K[H:], 0.0)
+        np.testing.assert_array_equal(u_nom[H:], 0.0)
+    else:  # the incumbent (the first rollout) replayed open loop
+        np.testing.assert_array_equal(K[H:], 0.0)
+        first_u = controllers[0][0]  # the random initial torques: the first rollout's
+        np.testing.assert_array_equal(u_nom[H:], first_u[H:])
+
+
+def test_one_rollout_per_iteration_is_the_loop_without_exploration(env):
+    res = learn_pendulum("ltv", seed=7, iterations=3, rollouts_per_iteration=1, env=env)
+    assert res.batch_returns.shape == (3, 1)
+    np.testing.assert_array_equal(res.batch_returns[:, 0], res.returns)
 
 
 def test_experiment_table_and_plot():
@@ -217,6 +379,9 @@ def test_missing_gymnasium_says_how_to_install(monkeypatch):
     ({"iterations": 0}, ValueError, "iterations"),
     ({"lam": 0.0}, ValueError, "lam"),
     ({"noise_std": -0.1}, ValueError, "noise_std"),
+    ({"rollouts_per_iteration": 0}, ValueError, "rollouts_per_iteration"),
+    ({"locality": 0.0}, ValueError, "locality"),
+    ({"tail": "brake"}, ValueError, "tail"),
     ({"initial_torque_std": "1"}, TypeError, "initial_torque_std"),
     ({"trust_region": 5.0}, ValueError, "trust_region"),
     ({"horizon_start": 201}, ValueError, "horizon_start"),
