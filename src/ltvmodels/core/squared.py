@@ -127,6 +127,11 @@ class SquaredSolver:
             else:
                 separable &= not np.any(term.precision * ~np.eye(n, dtype=bool))
         self.separable = separable
+        # W without the constant coefficients' infinities, and whether it is
+        # diagonal (scalar or vector λ), once: both are K × K passes.
+        self.W0 = _finite(W)
+        self.W0_diagonal = np.diag(self.W0).copy()
+        self.diagonal = np.count_nonzero(self.W0) == np.count_nonzero(self.W0_diagonal)
 
     # -- assembly -----------------------------------------------------------------
     def _prior_parts(self, scale: float | np.ndarray):
@@ -248,10 +253,11 @@ class SquaredSolver:
         directions are determined by the data alone, so Cholesky resolves them
         with relative accuracy about eps times that ratio.
         """
-        W0 = _finite(self.W)
-        penalty = float(np.abs(np.linalg.eigvalsh(W0)).max(initial=0.0)) * np.abs(
-            self.problem.coeffs
-        ).sum() ** 2
+        if self.diagonal:  # scalar or vector λ: no eigvalsh of a K × K matrix
+            largest = float(np.abs(self.W0_diagonal).max(initial=0.0))
+        else:
+            largest = float(np.abs(np.linalg.eigvalsh(self.W0)).max(initial=0.0))
+        penalty = largest * np.abs(self.problem.coeffs).sum() ** 2
         data = float(np.mean(np.sum(self.problem.phi**2, axis=1)))  # mean Gram diagonal
         if penalty == 0.0 or data == 0.0:
             return 0.0
@@ -261,20 +267,18 @@ class SquaredSolver:
     def penalty(self, theta: np.ndarray) -> float:
         N = self.problem.N
         Dk = apply_difference(theta.reshape(N, -1), self.problem.coeffs)
-        W0 = _finite(self.W)
-        if not np.any(W0 - np.diag(np.diag(W0))):  # diagonal: Σ_j w_j ‖(Dk)_j‖²
-            return float(np.einsum("tk,tk->k", Dk, Dk) @ np.diag(W0))
-        return float(np.sum((Dk @ W0) * Dk))
+        if self.diagonal:  # Σ_j w_j ‖(Dk)_j‖²
+            return float(np.einsum("tk,tk->k", Dk, Dk) @ self.W0_diagonal)
+        return float(np.sum((Dk @ self.W0) * Dk))
 
     def row_penalty(self, theta: np.ndarray) -> np.ndarray:
         """The penalty of each output row, shape (n,) (rows decoupled)."""
         pb = self.problem
         n, p = pb.n, pb.p
         Dk = apply_difference(theta.reshape(pb.N, -1), pb.coeffs)
-        W0 = _finite(self.W)
-        if not np.any(W0 - np.diag(np.diag(W0))):  # diagonal: Σ_j w_j ‖(Dk)_j‖² per row
-            return (np.einsum("tk,tk->k", Dk, Dk) * np.diag(W0)).reshape(n, p).sum(axis=1)
-        blocks = W0.reshape(n, p, n, p)[np.arange(n), :, np.arange(n), :]  # (n, p, p)
+        if self.diagonal:  # Σ_j w_j ‖(Dk)_j‖² per row
+            return (np.einsum("tk,tk->k", Dk, Dk) * self.W0_diagonal).reshape(n, p).sum(axis=1)
+        blocks = self.W0.reshape(n, p, n, p)[np.arange(n), :, np.arange(n), :]  # (n, p, p)
         Dk = Dk.reshape(-1, n, p)
         return np.einsum("tia,iab,tib->i", Dk, blocks, Dk)
 

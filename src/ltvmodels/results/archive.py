@@ -15,6 +15,7 @@ are read too; their status is reconstructed from ``info``.
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -22,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..core.covariance import CovarianceBlocks
+from ..validation.arrays import describe
 from .record import FitRecord, FitStatus, iterative_status
 
 FORMAT_VERSION = 2
@@ -47,6 +49,10 @@ class ModelFile:
 
 def write(model: Any, path: str | Path) -> None:
     """Write ``model`` (any model of :mod:`ltvmodels.results`) to ``path``."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(
+            f"path: expected a file path (str or pathlib.Path), received {describe(path)}"
+        )
     fit = model.record
     arrays: dict[str, np.ndarray] = {"k": np.asarray(model.k), "noise_cov": fit.noise_cov}
     if fit.coeffs is not None:

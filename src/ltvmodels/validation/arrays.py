@@ -37,8 +37,16 @@ def as_float_array(value: Any, name: str, *, missing: bool = False) -> np.ndarra
         raise TypeError(f"{name}: expected an array of numbers, received None")
     if hasattr(value, "to_numpy"):  # pandas DataFrame / Series
         value = value.to_numpy()
-    if missing and isinstance(value, np.ma.MaskedArray):
-        value = value.astype(float).filled(np.nan)
+    if isinstance(value, np.ma.MaskedArray):
+        if missing:  # masked entries are missing samples
+            value = value.astype(float).filled(np.nan)
+        elif np.ma.getmaskarray(value).any():
+            raise ValueError(
+                f"{name}: received a masked array with masked entries, which cannot be missing "
+                "here; pass the values to use (e.g. value.filled(...)) or a plain array"
+            )
+        else:
+            value = np.ma.getdata(value)
     expected = f"{name}: expected an array of real numbers, received {describe(value)}"
     if isinstance(value, (str, bytes)):
         raise TypeError(expected)

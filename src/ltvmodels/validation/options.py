@@ -116,6 +116,21 @@ def norm_name(norm: Any) -> str:
     return norm
 
 
+# The largest finite λ whose square (the weight of the squared norm) is finite.
+LARGEST_SQUARED_LAM = float(np.sqrt(np.finfo(float).max))
+
+
+def _square_fits(values: np.ndarray) -> None:
+    """Reject finite λ whose square overflows: it would silently act like inf."""
+    big = np.isfinite(values) & (values > LARGEST_SQUARED_LAM)
+    if big.any():
+        raise ValueError(
+            f"lam: expected a finite λ below {LARGEST_SQUARED_LAM:.3g} (its square weighs the "
+            f"penalty), received {values[big][0]:g}; for coefficients constant in time pass "
+            "lam=np.inf (an exact LTI fit)"
+        )
+
+
 def penalty_weight(lam: Any, K: int) -> np.ndarray:
     """Turn ``lam`` into the K x K penalty weight matrix W of sum_t (Dk)_t' W (Dk)_t.
 
@@ -134,7 +149,13 @@ def penalty_weight(lam: Any, K: int) -> np.ndarray:
         )
     if np.ndim(lam) == 0:
         value = nonnegative_scalar(lam, "lam", allow_inf=True)
+        _square_fits(np.array([value]))
         return np.diag(np.full(K, value**2))  # no 0·inf off the diagonal
+    if isinstance(lam, np.ma.MaskedArray) and np.ma.getmaskarray(lam).any():
+        raise ValueError(
+            "lam: received a masked array with masked entries; pass the weights to use "
+            "(a plain array, inf for a coefficient constant in time)"
+        )
     try:
         arr = np.array(lam.to_numpy() if hasattr(lam, "to_numpy") else lam, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -152,6 +173,7 @@ def penalty_weight(lam: Any, K: int) -> np.ndarray:
             )
         if (arr < 0).any():
             raise ValueError(f"lam: expected entries >= 0, received min {arr.min()}")
+        _square_fits(arr)
         return np.diag(arr**2)
     if arr.ndim == 2:
         if arr.shape != (K, K):

@@ -1,0 +1,71 @@
+"""Inputs that used to give a silent wrong result or a foreign exception."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import ltvmodels as ltv
+
+
+@pytest.fixture(scope="module")
+def data():
+    d = ltv.systems.jump_linear(T=120, change_at=60, seed=0)
+    return d.x, d.u
+
+
+def test_masked_entries_are_missing_samples(data):
+    x, u = data
+    spoiled = x.copy()
+    spoiled[50, 0] = 999.0
+    masked = np.ma.masked_array(spoiled, mask=np.zeros_like(spoiled, dtype=bool))
+    masked.mask[50, 0] = True
+    with_nan = x.copy()
+    with_nan[50, 0] = np.nan
+    np.testing.assert_array_equal(ltv.fit(masked, u, lam=5.0).k, ltv.fit(with_nan, u, lam=5.0).k)
+    seg = ltv.fit_segments(masked, u, n_changes=1)
+    np.testing.assert_array_equal(seg.changepoints, ltv.fit_segments(with_nan, u, n_changes=1)
+                                  .changepoints)
+    y = np.ma.masked_array(spoiled[:, 0], mask=masked.mask[:, 0])
+    ar_masked, ar_nan = ltv.fit_ar(y, 2, lam=10.0), ltv.fit_ar(with_nan[:, 0], 2, lam=10.0)
+    np.testing.assert_array_equal(ar_masked.k, ar_nan.k)
+
+
+def test_masked_entries_where_nothing_can_be_missing(data):
+    x, u = data
+    lam = np.ma.masked_array(np.ones(6), mask=[1, 0, 0, 0, 0, 0])
+    with pytest.raises(ValueError, match=r"^lam: received a masked array"):
+        ltv.fit(x, u, lam=lam)
+    mean = np.ma.masked_array(np.zeros(6), mask=[1, 0, 0, 0, 0, 0])
+    with pytest.raises(ValueError, match=r"^mean: received a masked array"):
+        ltv.Prior(mean, 1.0)
+    # an array without masked entries is just its data
+    plain = np.ma.masked_array(np.zeros(6))
+    assert np.array_equal(ltv.Prior(plain, 1.0).mean, np.zeros(6))
+
+
+@pytest.mark.parametrize("lam", [1e200, 1e300])
+def test_lam_whose_square_overflows_is_an_error_not_inf(data, lam):
+    x, u = data
+    with pytest.raises(ValueError, match=r"^lam: expected a finite λ below .*lam=np.inf"):
+        ltv.fit(x, u, lam=lam)
+    vector = np.full(6, 1.0)
+    vector[2] = lam
+    with pytest.raises(ValueError, match=r"^lam: expected a finite λ below"):
+        ltv.fit(x, u, lam=vector)
+    # a huge λ whose square is finite gets the precision message that names lam=np.inf
+    with pytest.raises(ltv.SingularProblemError, match=r"lam is too large .* lam=np.inf"):
+        ltv.fit(x, u, lam=1e150)
+
+
+def test_save_takes_paths_only(data, tmp_path):
+    x, u = data
+    model = ltv.fit(x, u, lam=5.0)
+    with open(tmp_path / "m.npz", "wb") as fh:
+        with pytest.raises(TypeError, match=r"^path: expected a file path"):
+            model.save(fh.fileno())
+        with pytest.raises(TypeError, match=r"^path: expected a file path"):
+            model.save(fh)
+    assert (tmp_path / "m.npz").stat().st_size == 0
+    model.save(tmp_path / "ok.npz")
+    np.testing.assert_array_equal(ltv.load(tmp_path / "ok.npz").k, model.k)
