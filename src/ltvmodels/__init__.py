@@ -25,6 +25,7 @@ from typing import Any
 from .errors import (
     ConvergenceWarning,
     IdentifiabilityWarning,
+    ModelFileError,
     OutputPathError,
     PrecisionWarning,
     SingularProblemError,
@@ -80,6 +81,7 @@ __all__ = [
     "IdentifiabilityWarning",
     "ConvergenceWarning",
     "PrecisionWarning",
+    "ModelFileError",
     "OutputPathError",
     "__version__",
 ]

@@ -45,3 +45,11 @@ class ConvergenceWarning(UserWarning):
 
 class OutputPathError(ValueError):
     """An output file cannot be written (missing directory, unsupported format, ...)."""
+
+
+class ModelFileError(ValueError):
+    """A file cannot be read as an ltvmodels model (not one, damaged, or invalid content).
+
+    The message starts with ``path: <the file>`` and says what is wrong; the
+    underlying exception, if any, is chained.
+    """

@@ -69,3 +69,70 @@ def test_save_takes_paths_only(data, tmp_path):
     assert (tmp_path / "m.npz").stat().st_size == 0
     model.save(tmp_path / "ok.npz")
     np.testing.assert_array_equal(ltv.load(tmp_path / "ok.npz").k, model.k)
+
+
+def _saved(tmp_path, data):
+    x, u = data
+    path = tmp_path / "m.npz"
+    ltv.fit(x, u, lam=5.0).save(path)
+    return path
+
+
+@pytest.mark.parametrize("damage", ["csv", "truncated", "garbage-zip", "nan-k", "bad-json",
+                                    "wrong-shape", "missing-k"])
+def test_load_names_the_file_for_every_damage(tmp_path, data, damage):
+    import json
+    import zipfile
+
+    path = _saved(tmp_path, data)
+    bad = tmp_path / f"{damage}.npz"
+    if damage == "csv":
+        bad.write_text("a,b\n1,2\n")
+    elif damage == "truncated":
+        bad.write_bytes(path.read_bytes()[:200])
+    elif damage == "garbage-zip":
+        with zipfile.ZipFile(bad, "w") as z:
+            z.writestr("k.npy", b"not an array")
+            z.writestr("meta.npy", b"nor this")
+    else:
+        with np.load(path) as f:
+            content = {key: f[key] for key in f.files}
+        meta = json.loads(str(content["meta"]))
+        if damage == "nan-k":
+            content["k"] = np.where(np.arange(content["k"].size).reshape(content["k"].shape)
+                                    == 3, np.nan, content["k"])
+        elif damage == "bad-json":
+            content["meta"] = np.array("{not json")
+        elif damage == "wrong-shape":
+            content["k"] = content["k"][:, :5]
+        elif damage == "missing-k":
+            del content["k"]
+        if damage != "bad-json":
+            content["meta"] = np.array(json.dumps(meta))
+        np.savez(bad, **content)
+    with pytest.raises(ltv.ModelFileError, match=rf"^path: {tmp_path}.*{damage}\.npz"):
+        ltv.load(bad)
+
+
+def test_load_keeps_file_system_errors_and_takes_paths_only(tmp_path):
+    with pytest.raises(FileNotFoundError):
+        ltv.load(tmp_path / "absent.npz")
+    with pytest.raises(TypeError, match=r"^path: expected a file path"):
+        ltv.load(3)
+
+
+def test_lam_auto_on_data_the_null_space_fits_exactly():
+    with pytest.raises(ValueError, match=r"^lam: there is no λ to choose.*λ_max = 0"):
+        ltv.fit(np.ones((8, 1)), lam="auto", norm="group", order=2)
+
+
+def test_ragged_lam_is_named_and_huge_sparse_lam_is_the_null_space_fit():
+    d = ltv.systems.jump_linear(T=80, change_at=40, seed=1)
+    with pytest.raises(TypeError, match=r"^lam: expected a number >= 0"):
+        ltv.fit(d.x, d.u, lam=[[1, 2], [3]])
+    # λ is not squared for the sparse norms: 1e200 is above λ_max, the exact null-space fit
+    huge = ltv.fit(d.x, d.u, lam=1e200, norm="group", order=2)
+    at_max = ltv.fit(d.x, d.u, lam=ltv.lambda_max(d.x, d.u, norm="group", order=2),
+                     norm="group", order=2)
+    assert huge.status.status == "closed_form"
+    np.testing.assert_allclose(huge.k, at_max.k, rtol=1e-10, atol=1e-12)

@@ -123,7 +123,7 @@ def fit_sparse(
     # one time step's worth of ΛDk (primal) and of the gradient Φᵀy (dual).
     dual_floor = float(np.linalg.norm(update.data_rhs)) / np.sqrt(N)
     # Keep (ρ/2)·Λ²·‖D‖² below 1e10 times the data so the k-update stays accurate.
-    rho_max = 2e10 * scale / max(wmax * np.abs(problem.coeffs).sum(), 1e-300) ** 2
+    rho_max = 2e10 * scale / max((wmax * np.abs(problem.coeffs).sum()) ** 2, 1e-300)
     for it in range(1, max_iter + 1):
         theta = update(z - w)
         q = apply_difference(theta.reshape(N, K), problem.coeffs) * weights

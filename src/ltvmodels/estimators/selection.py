@@ -322,6 +322,12 @@ def _grid(problem: RegressionProblem, norm: str) -> np.ndarray:
         d = problem.degree
         return scale * np.logspace(-1.0, np.log10(2.0 * problem.N**d), GRID_SIZE)
     lam_max = lambda_max(problem, norm)
+    if not lam_max > 0:
+        raise ValueError(
+            "lam: there is no λ to choose: coefficients in the null space of the difference "
+            "operator (constant for order 1, linear in time for order 2) already fit the data "
+            "exactly (λ_max = 0), so every λ > 0 gives that fit; pass a number for lam"
+        )
     return lam_max * np.logspace(-3.0, 0.0, GRID_SIZE)
 
 

@@ -93,8 +93,8 @@ def read(path: str | Path) -> ModelFile:
         version = meta.get("format_version")
         if version not in READABLE_VERSIONS:
             raise ValueError(
-                f"path: unsupported model file version {version} (this ltvmodels reads "
-                f"versions {', '.join(map(str, READABLE_VERSIONS))})"
+                f"path: {path} has unsupported model file version {version} (this ltvmodels "
+                f"reads versions {', '.join(map(str, READABLE_VERSIONS))})"
             )
         cov = None
         if "cov_blocks" in files:

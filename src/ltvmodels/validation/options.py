@@ -142,15 +142,36 @@ def penalty_weight(lam: Any, K: int) -> np.ndarray:
 
     Infinite diagonal entries of the returned matrix mark constant coefficients.
     """
-    if lam is None or isinstance(lam, (str, bool)):
-        raise TypeError(
-            "lam: expected a number >= 0, a (K,) vector or a (K, K) matrix "
-            f"(K={K}), received {describe(lam)}"
+    arr = _lam_array(lam, K)
+    if arr.ndim < 2:
+        _square_fits(arr)
+        return np.diag(np.broadcast_to(arr**2, (K,)).copy())  # no 0·inf off the diagonal
+    if not np.all(np.isfinite(arr)):
+        raise ValueError("lam: a weight matrix must be finite (use a vector with inf "
+                         "entries to hold coefficients constant)")
+    if not np.allclose(arr, arr.T, rtol=1e-10, atol=1e-12 * np.abs(arr).max()):
+        raise ValueError(
+            "lam: expected a symmetric weight matrix, received a non-symmetric one"
         )
-    if np.ndim(lam) == 0:
-        value = nonnegative_scalar(lam, "lam", allow_inf=True)
-        _square_fits(np.array([value]))
-        return np.diag(np.full(K, value**2))  # no 0·inf off the diagonal
+    eig_min = np.linalg.eigvalsh(arr).min()
+    if eig_min < -1e-10 * max(np.abs(arr).max(), 1e-300):
+        raise ValueError(
+            f"lam: expected a positive semidefinite weight matrix, received one with "
+            f"eigenvalue {eig_min:g}"
+        )
+    return 0.5 * (arr + arr.T)
+
+
+def _lam_array(lam: Any, K: int) -> np.ndarray:
+    """``lam`` as a float array: a scalar (shape ()), a (K,) vector >= 0, or a (K, K) matrix.
+
+    Checks type, NaN, shape and signs; what each norm allows beyond that is
+    checked by :func:`penalty_weight` and :func:`sparse_weights`.
+    """
+    expected = (f"lam: expected a number >= 0, a (K,) vector or a (K, K) matrix of real "
+                f"numbers (K={K}), received {describe(lam)}")
+    if lam is None or isinstance(lam, (str, bytes, bool)):
+        raise TypeError(expected)
     if isinstance(lam, np.ma.MaskedArray) and np.ma.getmaskarray(lam).any():
         raise ValueError(
             "lam: received a masked array with masked entries; pass the weights to use "
@@ -158,11 +179,10 @@ def penalty_weight(lam: Any, K: int) -> np.ndarray:
         )
     try:
         arr = np.array(lam.to_numpy() if hasattr(lam, "to_numpy") else lam, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(
-            "lam: expected a number >= 0, a (K,) vector or a (K, K) matrix of real numbers "
-            f"(K={K}), received {describe(lam)}"
-        ) from exc
+    except (TypeError, ValueError) as exc:  # text, objects, ragged nested lists
+        raise TypeError(expected) from exc
+    if arr.ndim == 0:
+        return np.asarray(nonnegative_scalar(float(arr), "lam", allow_inf=True))
     if np.isnan(arr).any():
         raise ValueError("lam: expected numbers, received NaN")
     if arr.ndim == 1:
@@ -173,25 +193,11 @@ def penalty_weight(lam: Any, K: int) -> np.ndarray:
             )
         if (arr < 0).any():
             raise ValueError(f"lam: expected entries >= 0, received min {arr.min()}")
-        _square_fits(arr)
-        return np.diag(arr**2)
+        return arr
     if arr.ndim == 2:
         if arr.shape != (K, K):
             raise ValueError(f"lam: expected a ({K}, {K}) matrix, received shape {arr.shape}")
-        if not np.all(np.isfinite(arr)):
-            raise ValueError("lam: a weight matrix must be finite (use a vector with inf "
-                             "entries to hold coefficients constant)")
-        if not np.allclose(arr, arr.T, rtol=1e-10, atol=1e-12 * np.abs(arr).max()):
-            raise ValueError(
-                "lam: expected a symmetric weight matrix, received a non-symmetric one"
-            )
-        eig_min = np.linalg.eigvalsh(arr).min()
-        if eig_min < -1e-10 * max(np.abs(arr).max(), 1e-300):
-            raise ValueError(
-                f"lam: expected a positive semidefinite weight matrix, received one with "
-                f"eigenvalue {eig_min:g}"
-            )
-        return 0.5 * (arr + arr.T)
+        return arr
     raise ValueError(
         f"lam: expected a scalar, a (K,) vector or a (K, K) matrix (K={K}), "
         f"received shape {arr.shape}"
@@ -201,15 +207,16 @@ def penalty_weight(lam: Any, K: int) -> np.ndarray:
 def sparse_weights(lam: Any, K: int) -> np.ndarray:
     """λ for norm="group"/"l1": a scalar > 0 or a (K,) vector of weights >= 0 (inf: constant).
 
-    Returns the (K,) weight vector Λ of the penalty Σ_t R(Λ (Dk)_t).
+    Returns the (K,) weight vector Λ of the penalty Σ_t R(Λ (Dk)_t). λ is not
+    squared here, so any finite value is allowed.
     """
-    W = penalty_weight(lam, K)  # shape and sign checks shared with norm="sq"
-    if np.ndim(lam) == 2:
+    arr = _lam_array(lam, K)
+    if arr.ndim == 2:
         raise ValueError(
             "lam: a (K, K) weight matrix applies to norm='sq' only; use a scalar or a "
-            f"(K,) vector with norm='group' or 'l1', received shape {np.shape(lam)}"
+            f"(K,) vector with norm='group' or 'l1', received shape {arr.shape}"
         )
-    weights = np.sqrt(np.diag(W))
+    weights = np.broadcast_to(arr, (K,)).copy()
     if not np.any(weights > 0):
         raise ValueError(
             "lam: expected lam > 0 with norm='group' or 'l1': with lam = 0 every time step "
