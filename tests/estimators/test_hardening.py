@@ -136,3 +136,11 @@ def test_ragged_lam_is_named_and_huge_sparse_lam_is_the_null_space_fit():
                      norm="group", order=2)
     assert huge.status.status == "closed_form"
     np.testing.assert_allclose(huge.k, at_max.k, rtol=1e-10, atol=1e-12)
+
+
+def test_l0_selection_does_not_reward_exact_fits_of_short_segments():
+    d = ltv.systems.jump_linear(seed=0)  # one change, at 200
+    sel = ltv.select_lambda(d.x, d.u, norm="l0", max_changes=10**6)
+    assert sel.lam == 1.0
+    assert np.all(np.isfinite(sel.scores))
+    assert sel.lams.max() <= d.x.shape[0] // 4  # segments of at least p + 1 = 4 transitions

@@ -103,7 +103,10 @@ def select_lambda(
         Folds of the blocked cross-validation (method="cv"), >= 2. The folds
         are blocks of time steps, shared by the trajectories.
     max_changes : int
-        For "l0" without ``lams``: candidates 0 … max_changes.
+        For "l0" without ``lams``: candidates 0 … max_changes (at most what
+        segments of p + 1 transitions allow: each keeps a residual degree of
+        freedom, and a number of changes whose optimal segments fit exactly is
+        not scored).
     progress : callable, optional
         Called as ``progress(done, total)`` after each candidate is scored
         (e.g. to draw a progress bar).
@@ -340,15 +343,24 @@ def _select_changes(data: StateSpaceData, method: str, lams: Any,
     else:
         candidates = arrays.count_grid(lams, "lams")
     N, n, p = data.problem.N, data.n, data.problem.p
-    M_max = min(int(candidates.max()), N // p - 1)
+    # Every segment keeps a residual degree of freedom: a segment of p samples
+    # fits exactly, and RSS = 0 would make the criterion −∞ (any M wins).
+    min_size = p + 1
+    M_max = min(int(candidates.max()), N // min_size - 1)
+    if M_max < 0:
+        raise ValueError(
+            f"x: too few samples to compare numbers of changes: {N} transitions, and one "
+            f"segment needs more than p = {p}"
+        )
     costs = fit_segments(data.x, data.inputs, n_changes=M_max, compute_cov=False,
-                         weights=data.weights, constant=data.constant
+                         min_size=min_size, weights=data.weights, constant=data.constant
                          ).info["costs_by_n_changes"]
     candidates = candidates[candidates <= M_max]
     size = data.problem.n_observed * n
     c = np.log(size) if method == "bic" else 2.0
     with np.errstate(divide="ignore"):
         scores = np.array([size * np.log(costs[M] / size) + c * ((M + 1) * n * p + M)
+                           if costs[M] > 0 else np.inf  # an exact fit: degenerate
                            for M in candidates])
     best = int(candidates[np.argmin(scores)])
     return LambdaSelection(float(best), candidates.astype(float), scores, method, "l0",
