@@ -25,6 +25,7 @@ from typing import Any
 from .errors import (
     ConvergenceWarning,
     IdentifiabilityWarning,
+    DivergenceWarning,
     ModelFileError,
     OutputPathError,
     PrecisionWarning,
@@ -81,6 +82,7 @@ __all__ = [
     "IdentifiabilityWarning",
     "ConvergenceWarning",
     "PrecisionWarning",
+    "DivergenceWarning",
     "ModelFileError",
     "OutputPathError",
     "__version__",

@@ -53,3 +53,10 @@ class ModelFileError(ValueError):
     The message starts with ``path: <the file>`` and says what is wrong; the
     underlying exception, if any, is chained.
     """
+
+
+class DivergenceWarning(UserWarning):
+    """A simulation left the floating-point range (the model is unstable along the inputs).
+
+    The returned trajectory holds inf or NaN from the step named in the message on.
+    """

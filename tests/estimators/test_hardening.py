@@ -144,3 +144,11 @@ def test_l0_selection_does_not_reward_exact_fits_of_short_segments():
     assert sel.lam == 1.0
     assert np.all(np.isfinite(sel.scores))
     assert sel.lams.max() <= d.x.shape[0] // 4  # segments of at least p + 1 = 4 transitions
+
+
+def test_a_diverging_simulation_warns():
+    k = np.tile([[1e100, 0.0]], (40, 1))  # x[t+1] = 1e100 x[t] + 0 u[t]
+    model = ltv.LTVModel(k, 1, 1)
+    with pytest.warns(ltv.DivergenceWarning, match="from time step 4 on"):
+        x = model.simulate([1.0], np.zeros(41))
+    assert np.isinf(x[4, 0]) and np.isfinite(x[3, 0])

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
 
 from ..core.simulation import simulate_affine
+from ..errors import DivergenceWarning
 from ..validation import arrays
 from .base import LinearTimeVarying
 from .record import FitRecord
@@ -138,6 +140,11 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         Returns
         -------
         ndarray, shape (T, n), or (R, T, n) for (R, n) initial states
+
+        Warns
+        -----
+        DivergenceWarning
+            If the state overflows to inf (an unstable model).
         """
         x0 = arrays.as_float_array(x0, "x0")
         batch = x0.ndim == 2
@@ -173,6 +180,12 @@ class LTVModel(RegressionModel, LinearTimeVarying):
             simulate_affine(A, B, c, x0[r], np.ascontiguousarray(u[r % u.shape[0], : self.N]))
             for r in range(R)
         ])
+        if not np.all(np.isfinite(out)):
+            step = int(np.flatnonzero(~np.all(np.isfinite(out), axis=(0, 2)))[0])
+            warnings.warn(
+                f"the simulation diverged: the state is inf or NaN from time step {step} on "
+                "(the model is unstable along these inputs)", DivergenceWarning, stacklevel=2,
+            )
         return out if batch else out[0]
 
     def _data(self, x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
