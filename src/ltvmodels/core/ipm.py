@@ -104,7 +104,7 @@ class _RowSystem:
             idx = self.offset + np.arange(b)
             cidx = self.offset + self.const
             same_row = (idx[:, None] // p == cidx[None, :] // p) & (self.pinned[:, None] == 0)
-            gram = np.einsum("tja,tjb->tab", cp.phi, cp.phi)
+            gram = cp.problem.gram()
             self.G = 2.0 * gram[:, idx % p][:, :, cidx % p] * same_row
             cc_row = cidx[:, None] // p == cidx[None, :] // p
             self.C0 = 2.0 * gram[:, cidx % p][:, :, cidx % p].sum(axis=0) * cc_row
@@ -172,6 +172,7 @@ class ConicProblem:
     """
 
     def __init__(self, problem: RegressionProblem, weights: np.ndarray, norm: str):
+        self.problem = problem
         self.N, self.n, self.p, self.K = problem.N, problem.n, problem.p, problem.K
         self.degree = problem.degree
         self.y = np.ascontiguousarray(problem.y)

@@ -120,18 +120,18 @@ class SquaredSolver:
         self.W = W
         self.priors = priors
         n, p = problem.n, problem.p
-        separable = _is_row_separable(np.where(np.isinf(W), 0.0, W), n, p)
+        # W without the constant coefficients' infinities, and whether it is
+        # diagonal (scalar or vector λ), once: both are K × K passes.
+        self.W0 = _finite(W)
+        self.W0_diagonal = np.diag(self.W0).copy()
+        self.diagonal = np.count_nonzero(self.W0) == np.count_nonzero(self.W0_diagonal)
+        separable = self.diagonal or _is_row_separable(self.W0, n, p)
         for term in priors:
             if term.on == "parameters":
                 separable &= _is_row_separable(term.precision, n, p)
             else:
                 separable &= not np.any(term.precision * ~np.eye(n, dtype=bool))
         self.separable = separable
-        # W without the constant coefficients' infinities, and whether it is
-        # diagonal (scalar or vector λ), once: both are K × K passes.
-        self.W0 = _finite(W)
-        self.W0_diagonal = np.diag(self.W0).copy()
-        self.diagonal = np.count_nonzero(self.W0) == np.count_nonzero(self.W0_diagonal)
 
     # -- assembly -----------------------------------------------------------------
     def _prior_parts(self, scale: float | np.ndarray):
@@ -532,7 +532,8 @@ def fit_squared(
     # per row when the rows decouple (one differencing pass serves both)
     row_pen = solver.row_penalty(theta) if per_row else None
     pen = float(row_pen.sum()) if per_row else solver.penalty(theta)
-    prior_cost = solver.prior_cost(theta)
+    row_prior = solver.row_prior_cost(theta)
+    prior_cost = float(row_prior.sum())
 
     if priors:
         logdets = row_logdet if per_row else np.array([logdet])
@@ -542,7 +543,7 @@ def fit_squared(
                 "the prior alone does not determine every parameter, so log p(y | prior) "
                 "is not defined"
             )
-        weighted_prior = float(np.sum(variances * solver.row_prior_cost(theta))) if per_row \
+        weighted_prior = float(np.sum(variances * row_prior)) if per_row \
             else float(variances[0]) * prior_cost
     elif per_row:
         row_cost = row_rss + row_pen  # RSS_i + penalty_i

@@ -311,8 +311,9 @@ def _fit_lagged(
     coeffs = options.difference_coefficients(order, max_degree=N)
     w = arrays.row_weights(weights, R, N)
     L = lag_length(na, nb, nk)
+    problem = weighted_problem(y_out, phi, coeffs, w)
     model = fit_problem(
-        weighted_problem(y_out, phi, coeffs, w),
+        problem,
         factory=factory,
         regressor_names=_names(y.shape[2], u.shape[2], na, nb, nk, constant),
         data_name="y",
@@ -320,6 +321,5 @@ def _fit_lagged(
         lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
         compute_cov=compute_cov, max_iter=max_iter, tol=tol,
     )
-    model.info["n_missing"] = R * N - int(np.sum(np.all(np.isfinite(phi), axis=2)
-                                                & np.all(np.isfinite(y_out), axis=2)))
+    model.info["n_missing"] = problem.N * problem.q - problem.n_observed  # rows left out
     return model
