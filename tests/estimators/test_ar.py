@@ -8,7 +8,6 @@ analytic instantaneous frequency of a chirp.
 from __future__ import annotations
 
 import importlib.util
-import time
 from pathlib import Path
 
 import numpy as np
@@ -105,8 +104,12 @@ def test_fit_regression_matches_dense_reference(n, p, order):
     model = ltv.fit_regression(y[:, 0] if n == 1 else y, phi, lam=1.7, order=order)
     np.testing.assert_allclose(model.theta, _dense_regression(y, phi, 1.7, coeffs),
                                rtol=1e-8, atol=1e-10)
-    # one noise variance per output: the rows share a (N, p, p) covariance only when n = 1
-    assert model.cov.shape == ((N, p, p) if n == 1 else (N, n * p, n * p))
+    # one noise variance per output: the rows share a (N, p, p) covariance only when n = 1,
+    # else each row has its own (N, n, p, p), the diagonal blocks of cov_full()
+    assert model.cov.shape == ((N, p, p) if n == 1 else (N, n, p, p))
+    full = model.cov_full().reshape(N, n, p, n, p)
+    for i in range(n):
+        np.testing.assert_array_equal(model.cov[:, i] if n > 1 else model.cov, full[:, i, :, i])
     assert model.std().shape == (N, n * p)
     with pytest.raises(AttributeError):
         model.A  # noqa: B018 - a general regression has no state-space split
@@ -273,13 +276,10 @@ def test_chirp_root_spectrogram_tracks_instantaneous_frequency(order, bound):
     """Paper-level check: T = 2^14 at 16 kHz, AR(6), λ² = 1e5, mean error < 20 Hz."""
     fs = 16000.0
     y, inst = chirp(2**14, fs)
-    start = time.perf_counter()
     model = ltv.fit_ar(y, na=6, lam=np.sqrt(1e5), norm="sq", order=order)
-    elapsed = time.perf_counter() - start
     assert model.root_spectrogram(fs).shape == (2**14 - 6, 3)
     error = _track_error(model, inst, fs)
     assert error < bound, error
-    assert elapsed < 10.0
 
 
 @pytest.mark.parametrize("norm", ["group", "l1"])

@@ -152,3 +152,82 @@ def test_a_diverging_simulation_warns():
     with pytest.warns(ltv.DivergenceWarning, match="from time step 4 on"):
         x = model.simulate([1.0], np.zeros(41))
     assert np.isinf(x[4, 0]) and np.isfinite(x[3, 0])
+
+
+@pytest.mark.parametrize("norm", ["group", "l1"])
+def test_sparse_fits_have_no_likelihood(data, norm):
+    x, u = data
+    model = ltv.fit(x, u, lam=5.0, norm=norm)
+    assert model.loglik is None and norm in model.info["loglik_note"]
+    assert "loglik=None" in repr(model)
+    assert np.all(np.isfinite(model.noise_var))
+
+
+def test_no_residual_degree_of_freedom_raises_and_exact_fits_have_no_likelihood():
+    x = np.array([[1.0, 0.0], [2.0, 1.0], [0.5, 3.0]])  # two transitions, two coefficients
+    with pytest.raises(ValueError, match=r"^x: 2 observed transitions and 2 coefficients"):
+        ltv.fit_lti(x)
+    exact = ltv.fit_lti(2.0 ** np.arange(6)[:, None])  # x[t+1] = 2 x[t]: zero residuals
+    assert exact.A[0, 0, 0] == pytest.approx(2.0)
+    assert exact.loglik is None and "singular" in exact.info["loglik_note"]
+    rng = np.random.default_rng(3)
+    walk = np.cumsum(rng.standard_normal((199, 2)), axis=0)
+    with pytest.raises(ValueError, match=r"^penalty: the 99 segments found use 198"):
+        ltv.fit_segments(walk, penalty=0.0)  # every segment holds exactly its 2 unknowns
+    nearly = ltv.fit_segments(walk[:-1], penalty=0.0)  # one residual left, n = 2 outputs
+    assert nearly.loglik is None and np.all(np.isfinite(nearly.noise_var))
+
+
+@pytest.mark.parametrize("scale, what", [(1e300, "large"), (1e-300, "small")])
+def test_data_beyond_double_precision_is_named(data, scale, what):
+    x, u = data
+    with pytest.raises(ValueError, match=rf"^x: column 0 has values .* too {what}"):
+        ltv.fit(x * scale, u, lam=5.0)
+    with pytest.raises(ValueError, match=rf"^u: column 0 has values .* too {what}"):
+        ltv.select_lambda(x, u * scale)
+    with pytest.raises(ValueError, match=rf"^y: column 0 has values .* too {what}"):
+        ltv.fit_ar(x[:, 0] * scale, 2, lam=5.0)
+    zeros = np.zeros((50, 1))
+    zeros[10] = scale
+    with pytest.raises(ValueError, match=rf"too {what}"):
+        ltv.fit_segments(zeros, n_changes=1)
+
+
+def test_select_lambda_names_the_unidentifiable_combination(data):
+    x, _ = data
+    with pytest.raises(ltv.SingularProblemError, match=r"the combination [+-]1·x0 [+-]1·u0"):
+        ltv.select_lambda(x, x[:, 0])
+    with pytest.raises(ltv.SingularProblemError, match=r"phi1"):
+        ltv.select_lambda_regression(x[1:, 0], np.c_[x[:-1, 0], 2 * x[:-1, 0]])
+
+
+def test_empty_series_blames_the_data():
+    with pytest.raises(ValueError, match=r"^y: expected at least one sample"):
+        ltv.fit_regression(np.zeros((0, 1)), np.zeros((0, 2)), lam=1.0)
+    with pytest.raises(ValueError, match=r"^x: expected at least one sample"):
+        ltv.fit(np.zeros((2, 0, 3)), lam=1.0)
+
+
+def test_given_coefficients_have_no_noise_estimate(tmp_path):
+    model = ltv.LTVModel(np.ones((5, 2)), 1, 1)
+    assert model.noise_var is None and model.noise_cov is None and model.loglik is None
+    model.save(tmp_path / "given.npz")
+    loaded = ltv.load(tmp_path / "given.npz")
+    assert loaded.noise_var is None and loaded.noise_cov is None and loaded.loglik is None
+
+
+def test_wide_scalar_lam_allocates_no_k_by_k_matrix():
+    import tracemalloc
+
+    n, T = 60, 80  # K = 3600: a K x K float64 array is 104 MB
+    rng = np.random.default_rng(0)
+    x = rng.standard_normal((T, n))
+    ltv.fit(x[: n + 5], lam=10.0, compute_cov=False)  # compile outside the measurement
+    tracemalloc.start()
+    try:
+        model = ltv.fit(x, lam=10.0)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert model.cov.shape == (T - 1, n, n, n)  # a (p, p) block per row, p = n
+    assert peak < 40e6, f"peak {peak / 1e6:.0f} MB"

@@ -303,7 +303,7 @@ def test_unidentified_data_raise_in_smoother_and_give_nan_in_filter():
     x, _ = simulate(seed=15, T=30)
     u = np.zeros(30)  # B is invisible in the data
     filt = kalman_filter(x, u, lam=1.0)
-    assert np.all(np.isnan(filt.k)) and np.isnan(filt.loglik) and filt.first_identified == 29
+    assert np.all(np.isnan(filt.k)) and filt.loglik is None and filt.first_identified == 29
     with pytest.raises(SingularProblemError, match="do not identify"):
         kalman_smoother(x, u, lam=1.0)
 

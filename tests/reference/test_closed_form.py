@@ -61,7 +61,7 @@ def test_scalar_lam_covariance_is_compact_and_shared_by_rows():
     assert model.cov.shape == (N, p, p)
     # estimated per output, the rows' covariances differ by their σ_i²
     own = ltv.fit(x, u, lam=2.0)
-    assert own.cov.shape == (N, n * p, n * p) and len(set(own.noise_var)) == n
+    assert own.cov.shape == (N, n, p, p) and len(set(own.noise_var)) == n
     ref = DenseProblem(x, u, 1, 2.0)
     _, H_inv = ref.solve()
     full = cov_scale(model) * diag_blocks(H_inv, N, n * p)

@@ -103,9 +103,15 @@ def test_shapes(name):
     assert model.noise_cov.shape == (n, n)
     assert model.noise_var.shape == (model.n_outputs,)
     if model.cov is not None:
-        assert model.cov.shape in ((N, p, p), (N, K, K))
-        assert model.cov.shape == ((N, p, p) if model.cov_shared_by_rows else (N, K, K))
+        assert model.cov.shape in ((N, p, p), (N, n, p, p), (N, K, K))
         full = model.cov_full()
+        if model.cov_shared_by_rows:
+            assert model.cov.shape == (N, p, p)
+        elif model.cov.shape == (N, n, p, p):  # independent rows: the diagonal blocks
+            blocks = full.reshape(N, n, p, n, p)
+            for i in range(n):
+                np.testing.assert_array_equal(model.cov[:, i], blocks[:, i, :, i])
+            assert not np.any(blocks[:, 0, :, 1])
         assert full.shape == (N, K, K)
         np.testing.assert_allclose(full, np.swapaxes(full, 1, 2), atol=1e-14)
         assert np.all(np.linalg.eigvalsh(full) > -1e-12)

@@ -6,10 +6,12 @@ noise variance:
     J(k) = Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t (Dk)_tᵀ W (Dk)_t
            + σ² Σ_t ‖μ_t − k_t‖²_{Σ_t⁻¹}  + σ² Σ_t ‖ȳ_t − Θ_t φ_t‖²_{S_t⁻¹}
 
-W = λ² I for a scalar λ. It is the negative log posterior (times σ²) of the
-Gaussian random walk k_{t+1} = k_t + w_t (paper eq. dynsys; for higher orders
-the polynomial model of Proposition 1) with measurement noise R2 = σ² I and
-parameter drift R1 = σ²/λ² I.
+W = λ² I for a scalar λ (stored as its diagonal, a (K,) vector, for a scalar
+or vector λ: no K × K array is formed unless the user passed a matrix). It is
+the negative log posterior (times σ²) of the Gaussian random walk
+k_{t+1} = k_t + w_t (paper eq. dynsys; for higher orders the polynomial model
+of Proposition 1) with measurement noise R2 = σ² I and parameter drift
+R1 = σ²/λ² I.
 
 The data term sums over the rows of each time step (trajectories, each row
 scaled by √weight; missing rows are zero, see
@@ -69,7 +71,7 @@ class SquaredResult:
     cov: CovarianceBlocks | None  # posterior covariance (σ² included)
     noise_var: np.ndarray  # (n,)
     noise_var_estimated: bool
-    loglik: float
+    loglik: float | None  # None: not defined (see info["loglik_note"])
     objective: float
     rss: float
     penalty: float
@@ -86,13 +88,26 @@ def _is_row_separable(matrix: np.ndarray, n: int, p: int) -> bool:
     return not np.any(blocks[..., ~np.eye(n, dtype=bool), :, :])
 
 
+def weight_diagonal(W: np.ndarray) -> np.ndarray:
+    """The diagonal of a penalty weight given as a (K,) diagonal or a (K, K) matrix."""
+    return W if W.ndim == 1 else np.diag(W)
+
+
 def _finite(W: np.ndarray) -> np.ndarray:
     """W with the rows/columns of constant coefficients (inf) set to zero."""
-    const = np.isinf(np.diag(W))
+    const = np.isinf(weight_diagonal(W))
     W0 = W.copy()
+    if W.ndim == 1:
+        W0[const] = 0.0
+        return W0
     W0[const, :] = 0.0
     W0[:, const] = 0.0
     return W0
+
+
+def _block(W: np.ndarray, rows: slice) -> np.ndarray:
+    """The square block of W (diagonal (K,) or matrix (K, K)) on ``rows``, as a matrix."""
+    return np.diag(W[rows]) if W.ndim == 1 else W[rows, rows]
 
 
 @dataclass
@@ -110,8 +125,9 @@ class SquaredSolver:
     Parameters
     ----------
     problem : RegressionProblem
-    W : ndarray, shape (K, K)
-        Penalty weight (inf on the diagonal: constant coefficient).
+    W : ndarray, shape (K,) or (K, K)
+        Penalty weight: its diagonal (scalar or vector λ) or the full matrix;
+        inf on the diagonal holds a coefficient constant.
     priors : list of PriorTerm
     """
 
@@ -121,10 +137,11 @@ class SquaredSolver:
         self.priors = priors
         n, p = problem.n, problem.p
         # W without the constant coefficients' infinities, and whether it is
-        # diagonal (scalar or vector λ), once: both are K × K passes.
+        # diagonal (scalar or vector λ), once: for a matrix both are K × K passes.
         self.W0 = _finite(W)
-        self.W0_diagonal = np.diag(self.W0).copy()
-        self.diagonal = np.count_nonzero(self.W0) == np.count_nonzero(self.W0_diagonal)
+        self.W0_diagonal = weight_diagonal(self.W0).copy()
+        self.diagonal = W.ndim == 1 or (
+            np.count_nonzero(self.W0) == np.count_nonzero(self.W0_diagonal))
         separable = self.diagonal or _is_row_separable(self.W0, n, p)
         for term in priors:
             if term.on == "parameters":
@@ -179,7 +196,8 @@ class SquaredSolver:
             if prior_rhs is not None:
                 rhs = rhs + prior_rhs
             extra = np.zeros((0, K, K)) if prior_gram is None else prior_gram
-            system = BlockSystem(pb.phi, n, data_scale, extra, self.W, pb.coeffs)
+            W = np.diag(self.W) if self.W.ndim == 1 else self.W  # b = K: H's blocks are K × K
+            system = BlockSystem(pb.phi, n, data_scale, extra, W, pb.coeffs)
             return [_Group(None, system, rhs[:, :, None])]
         # Rows with the same weight and prior blocks share one factorization.
         row_sets: list[list[int]] = []
@@ -187,7 +205,7 @@ class SquaredSolver:
         for i in range(n):
             sl = slice(i * p, (i + 1) * p)
             extra = np.zeros((0, p, p)) if prior_gram is None else prior_gram[:, sl, sl]
-            key = (self.W[sl, sl], extra)
+            key = (_block(self.W, sl), extra)
             for rows, (W_g, extra_g) in zip(row_sets, keys, strict=True):
                 if np.array_equal(W_g, key[0]) and np.array_equal(extra_g, key[1]):
                     rows.append(i)
@@ -322,8 +340,8 @@ class SquaredSolver:
         N, n, p = pb.N, pb.n, pb.p
         d = pb.degree
         log_dd = 2.0 * (N - d) * float(np.log(abs(pb.coeffs[-1])))
-        blocks = [self.W[i * p : (i + 1) * p, i * p : (i + 1) * p] for i in range(n)] \
-            if self.separable else [self.W]
+        blocks = [_block(self.W, slice(i * p, (i + 1) * p)) for i in range(n)] \
+            if self.separable else [_block(self.W, slice(None))]
         log_pdet = np.zeros(len(blocks))
         diffuse = np.zeros(len(blocks))
         for row, Wb in enumerate(blocks):
@@ -461,7 +479,8 @@ def fit_squared(
     Parameters
     ----------
     problem : RegressionProblem
-    W : ndarray, shape (K, K)
+    W : ndarray, shape (K,) or (K, K)
+        Penalty weight: the diagonal of W, or W itself (see :class:`SquaredSolver`).
     priors : list of PriorTerm
     noise_var : float, ndarray of shape (n,), or None
         σ², shared or one per output. None estimates it by maximum likelihood
@@ -539,6 +558,7 @@ def fit_squared(
         logdets = row_logdet if per_row else np.array([logdet])
         loglik = float(_loglik_with_prior(solver, variances, theta, logdets).sum())
         if np.isnan(loglik):
+            loglik = None
             info["loglik_note"] = (
                 "the prior alone does not determine every parameter, so log p(y | prior) "
                 "is not defined"
@@ -585,7 +605,7 @@ def fit_squared(
         cov=None if cov is None else cov.scale_rows(variances),
         noise_var=variances,
         noise_var_estimated=estimated,
-        loglik=float(loglik),
+        loglik=loglik if loglik is None else float(loglik),
         objective=float(objective),
         rss=rss,
         penalty=pen,

@@ -21,7 +21,7 @@ from ..results.record import FitRecord, FitStatus
 from ..results.statespace import LTVModel
 from ..validation import arrays, options
 from .changepoints import find_changepoints
-from .piecewise import fit_piecewise
+from .piecewise import fit_piecewise, residual_noise
 from .recordings import StateSpaceData, state_space_data
 from .regression import fit_problem, sparse_model
 
@@ -72,25 +72,22 @@ def fit_lti(x: Any, u: Any = None, *, weights: Any = None, constant: bool = Fals
     theta = np.linalg.solve(r, q.T @ y).T  # (n, p)
     resid = y - phi @ theta.T
     dof = M - p
-    noise_cov = resid.T @ resid / dof if dof > 0 else np.full((n, n), np.nan)
+    noise_cov, loglik, loglik_note = residual_noise(resid.T @ resid, M, p, "x: more samples")
     r_inv = np.linalg.solve(r, np.eye(p))
     gram_inv = r_inv @ r_inv.T  # (ΦᵀΦ)⁻¹ = R⁻¹R⁻ᵀ
-    ml_cov = resid.T @ resid / M
-    sign, logdet = np.linalg.slogdet(ml_cov)
-    loglik = -0.5 * M * (n * np.log(2 * np.pi) + logdet + n) if sign > 0 else float("inf")
     K = n * p
     k = np.broadcast_to(theta.ravel(), (N, K)).copy()
-    cov = None
-    if dof > 0:
-        cov_k = np.kron(noise_cov, gram_inv)
-        cov = CovarianceBlocks(np.broadcast_to(cov_k, (N, K, K)), None)
+    cov_k = np.kron(noise_cov, gram_inv)
+    cov = CovarianceBlocks(np.broadcast_to(cov_k, (N, K, K)), None)
     rss = float(np.sum(resid**2))
     info = {"solver": "least-squares (QR)", "rss": rss, "dof": int(dof),
             "n_missing": data.n_missing}
+    if loglik_note:
+        info["loglik_note"] = loglik_note
     return LTVModel(k, n, m, FitRecord(
         norm="lti", coeffs=None, lam=float("inf"), cov=cov,
         noise_var=np.diag(noise_cov).copy(),
-        noise_cov=noise_cov, loglik=float(loglik), info=info,
+        noise_cov=noise_cov, loglik=loglik, info=info,
         changepoints=np.zeros(0, dtype=int),
         status=FitStatus("closed_form", info["solver"], 0, rss),
     ), constant=data.constant)

@@ -103,7 +103,7 @@ def _filter_result(s: _Setup, vecs, mats, in_info, ell) -> KalmanFilterResult:
     identified = np.flatnonzero(~in_info)
     first = int(identified[0]) if identified.size else N
     offset = loglik_offset(s.model.coeffs, n, p, s.prior is None)
-    loglik = float("nan") if in_info[-1] else float(ell.sum()) + offset
+    loglik = None if in_info[-1] else float(ell.sum()) + offset
     return KalmanFilterResult(
         k=k, cov=cov, loglik=loglik, first_identified=first, noise_var=float(s.model.R),
         lam=s.lam, coeffs=s.model.coeffs.copy(), n_states=n,
@@ -322,10 +322,10 @@ class OnlineParameterFilter:
         return self.k.reshape(self.n_states, -1)[:, self.n_states :]
 
     @property
-    def loglik(self) -> float:
-        """Log-likelihood of the transitions seen so far (NaN until identified)."""
+    def loglik(self) -> float | None:
+        """Log-likelihood of the transitions seen so far (None until identified)."""
         if not self.identified:
-            return float("nan")
+            return None
         return float(self._ell.sum()) + self._loglik_offset
 
     def update(self, x_t: Any, u_t: Any, x_next: Any) -> np.ndarray:

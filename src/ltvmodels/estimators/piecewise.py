@@ -167,11 +167,11 @@ def fit_piecewise(
     rss_matrix = resid.T @ resid
     M = problem.n_observed
     dof = M - n_params
-    noise_cov = rss_matrix / dof if dof > 0 else np.full((n, n), np.nan)
-    sign, logdet = np.linalg.slogdet(rss_matrix / M)
-    loglik = -0.5 * M * (n * np.log(2 * np.pi) + logdet + n) if sign > 0 else float("inf")
+    noise_cov, loglik, loglik_note = residual_noise(
+        rss_matrix, M, n_params,
+        "changepoints: fewer change points (or a segment with more samples)")
     cov = None
-    if compute_cov and dof > 0:
+    if compute_cov:
         # Row i of Θ_t: Σ_v[i, i] S_t (one group per row, O(n N p²) memory). The
         # cross-row blocks Σ_v[i, i'] S_t are not stored: CovarianceBlocks has
         # no Kronecker form, and the full (N, K, K) array is n times larger.
@@ -187,12 +187,47 @@ def fit_piecewise(
         "n_params_per_row": int(n_params),
         "n_missing": data.n_missing,
     }
+    if loglik_note:
+        info["loglik_note"] = loglik_note
     return LTVModel(theta.reshape(N, n * p), n, m, FitRecord(
         norm="piecewise", coeffs=_DIFFERENCE[order].copy(), lam=float("inf"), cov=cov,
         noise_var=np.diag(noise_cov).copy(),
-        noise_cov=noise_cov, loglik=float(loglik), info=info, changepoints=changepoints,
+        noise_cov=noise_cov, loglik=loglik, info=info, changepoints=changepoints,
         status=FitStatus("closed_form", info["solver"], 0, info["rss"]),
     ), constant=data.constant)
+
+
+def residual_noise(
+    rss_matrix: np.ndarray, n_obs: int, n_params: int, remedy: str
+) -> tuple[np.ndarray, float | None, str | None]:
+    """Noise covariance and Gaussian log-likelihood of a least-squares fit.
+
+    ``rss_matrix`` (n, n) is the residual cross-product of ``n_obs`` observed
+    rows fitted with ``n_params`` coefficients per output. Returns the
+    unbiased noise covariance RSS / (n_obs − n_params), the log-likelihood at
+    the ML covariance RSS / n_obs, −½ n_obs (n log 2π + log det(RSS / n_obs) + n),
+    and a note. The likelihood is None (with the note saying why) when that
+    covariance is singular: an exact fit in some direction makes it unbounded.
+
+    Raises ValueError when no residual degree of freedom is left, naming the
+    argument to change in ``remedy``.
+    """
+    dof = n_obs - n_params
+    if dof <= 0:
+        argument, _, advice = remedy.partition(": ")
+        raise ValueError(
+            f"{argument}: {n_obs} observed transitions and {n_params} coefficients per "
+            "equation leave no residual degree of freedom to estimate the noise; use "
+            f"{advice}"
+        )
+    noise_cov = rss_matrix / dof
+    sign, logdet = np.linalg.slogdet(rss_matrix / n_obs)
+    if sign <= 0:
+        return noise_cov, None, (
+            "the residual covariance is singular (an exact fit in some direction), so the "
+            "Gaussian likelihood is unbounded; loglik is None")
+    n = rss_matrix.shape[0]
+    return noise_cov, float(-0.5 * n_obs * (n * np.log(2 * np.pi) + logdet + n)), None
 
 
 # -- order 1: piecewise constant --------------------------------------------------------

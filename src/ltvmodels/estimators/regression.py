@@ -22,7 +22,7 @@ from ..core.covariance import CovarianceBlocks
 from ..core.priorterms import posthoc_correction
 from ..core.problem import RegressionProblem, activation
 from ..core.sparse import SparseSolution, solve_sparse
-from ..core.squared import fit_squared
+from ..core.squared import fit_squared, weight_diagonal
 from ..results.base import signal_names
 from ..results.record import FitRecord, FitStatus, iterative_status
 from ..results.regression import RegressionModel
@@ -193,7 +193,7 @@ def _fit_with_lam(
         identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
         solution = solve_sparse(problem, weights, norm, max_iter=max_iter, tol=tol)
         return sparse_model(problem, lam, norm, solution, factory)
-    _enough_samples(problem, data_name, rows_note)  # before W's K × K allocation
+    _enough_samples(problem, data_name, rows_note)  # before a (K, K) λ is checked
     W = options.penalty_weight(lam, K)
     terms = resolve_priors(prior, N, n, p)
     if not problem.complete and any(term.on == "output" for term in terms):
@@ -202,7 +202,7 @@ def _fit_with_lam(
             "weights or batches); use a Prior on the coefficients instead"
         )
 
-    const = np.isinf(np.diag(W)).reshape(n, p)
+    const = np.isinf(weight_diagonal(W)).reshape(n, p)
     identifiability.check(
         problem,
         has_prior=bool(terms),
@@ -237,7 +237,7 @@ def _fit_with_lam(
         for term in terms:
             k, blocks = posthoc_correction(k, blocks, term, problem.phi[:, 0])
         cov = CovarianceBlocks(blocks, None) if compute_cov else None
-        loglik = float("nan")
+        loglik = None
         info["loglik_note"] = "no likelihood is defined for the posthoc correction"
     noise_cov = np.diag(result.noise_var)
     status = FitStatus("closed_form", info["solver"], 1, result.objective,
@@ -282,6 +282,7 @@ def sparse_model(
         {**solution.details, "lambda_max": solution.lambda_max},
     )
     noise_var = problem.output_rss(solution.theta) / max(problem.n_observed, 1)
+    info["loglik_note"] = f"norm={norm!r} has no Gaussian likelihood; loglik is None"
     changepoints = find_changepoints(activation(k, problem.coeffs), degree=problem.degree)
     return factory(k, fit=FitRecord(
         norm=norm, coeffs=problem.coeffs, lam=_lam_copy(lam), noise_var=noise_var,

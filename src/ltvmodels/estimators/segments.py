@@ -204,6 +204,14 @@ def fit_segments(
     if not isinstance(compute_cov, bool):
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
     result = _segment(data.problem, n_changes, penalty, min_size, data_name="x")
+    n_params = (result.n_changes + 1) * data.problem.p
+    if data.problem.n_observed <= n_params:
+        raise ValueError(
+            f"penalty: the {result.n_changes + 1} segments found use "
+            f"{n_params} coefficients per equation for {data.problem.n_observed} observed "
+            "transitions, leaving no residual degree of freedom to estimate the noise; use a "
+            f"larger penalty, fewer n_changes or min_size > {data.problem.p}"
+        )
     model = fit_piecewise(data.x, data.inputs, result.changepoints, order=1,
                           compute_cov=compute_cov, weights=data.weights,
                           constant=data.constant)

@@ -37,11 +37,13 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.optimize import minimize_scalar
 
+from ..core import identifiability
 from ..core.problem import RegressionProblem, apply_difference
 from ..core.sparse import solve_sparse
 from ..core.sparse_common import lambda_max
 from ..core.squared import fit_squared
 from ..errors import ConvergenceWarning, PrecisionWarning
+from ..results.base import signal_names
 from ..results.selection import LambdaSelection
 from ..validation import arrays, options
 from .recordings import StateSpaceData, regression_problem, state_space_data
@@ -122,7 +124,8 @@ def select_lambda(
                             constant=constant)
     if norm == "l0":
         return _select_changes(data, method, lams, max_changes)
-    return _select_validated(data.problem, norm, method, lams, n_folds, progress)
+    return _select_validated(data.problem, norm, method, lams, n_folds, progress,
+                             data.regressor_names)
 
 
 def select_lambda_regression(
@@ -154,7 +157,8 @@ def select_lambda_regression(
     """
     norm, method = _norm_and_method(norm, method, ("sq", "group", "l1"))
     problem = regression_problem(y, phi, order=order, weights=weights)
-    return _select_validated(problem, norm, method, lams, n_folds, progress)
+    return _select_validated(problem, norm, method, lams, n_folds, progress,
+                             signal_names("phi", problem.p))
 
 
 def _norm_and_method(norm: Any, method: Any, norms: tuple[str, ...]) -> tuple[str, str]:
@@ -165,11 +169,16 @@ def _norm_and_method(norm: Any, method: Any, norms: tuple[str, ...]) -> tuple[st
     return norm, method
 
 
-def _select_validated(problem, norm, method, lams, n_folds, progress) -> LambdaSelection:
-    """Check the sample count and ``n_folds``, then :func:`select_for_problem`."""
+def _select_validated(
+    problem, norm, method, lams, n_folds, progress, regressor_names
+) -> LambdaSelection:
+    """Check the sample count, identifiability and ``n_folds``, then
+    :func:`select_for_problem`."""
     options.enough_samples(problem.N, problem.p, problem.degree,
                            observed=problem.n_observed, n_rows=problem.N * problem.q)
     n_folds = options.integer(n_folds, "n_folds", minimum=2)
+    # as fit does: name the combination of regressors the data do not determine
+    identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
     return select_for_problem(problem, norm, method, lams, n_folds=n_folds, progress=progress)
 
 
@@ -233,7 +242,7 @@ def criterion_fit(
             # The largest grid values (averaging over the whole record) may lose
             # digits; they are scored all the same and are rarely the choice.
             warnings.simplefilter("ignore", PrecisionWarning)
-            result = fit_squared(problem, np.eye(K) * lam**2, [], noise_var=None,
+            result = fit_squared(problem, np.full(K, lam**2), [], noise_var=None,
                                  compute_cov=compute_cov)
         out = {"theta": result.theta, "rss": result.rss, "loglik": result.loglik,
                "penalty_norm": float(np.sqrt(result.penalty)) / lam}

@@ -1,12 +1,12 @@
 """The model file: a NumPy ``.npz`` archive of the coefficients, the fit record and the sizes.
 
-Members: ``k``, ``noise_cov``, ``lam``, optionally ``coeffs``,
+Members: ``k``, ``lam``, optionally ``noise_cov`` (absent: not estimated), ``coeffs``,
 ``cov_blocks``/``cov_row_group`` (the compact covariance), ``changepoints``,
 array-valued ``info`` entries as ``info__<key>``, and ``meta``: one JSON text
 with the format version, the model class, its sizes (``model.structure()``),
-``norm``, ``noise_var``, ``loglik``, the JSON part of ``info`` and (from version
-2) the fit status. Files are read with ``allow_pickle=False``: loading a model
-never executes code from the file.
+``norm``, ``noise_var``, ``loglik`` (null where not estimated or not defined),
+the JSON part of ``info`` and (from version 2) the fit status. Files are read
+with ``allow_pickle=False``: loading a model never executes code from the file.
 
 Version history: 1 (ltvmodels 0.1), 2 (adds the fit status). Version 1 files
 are read too; their status is reconstructed from ``info``.
@@ -54,7 +54,9 @@ def write(model: Any, path: str | Path) -> None:
             f"path: expected a file path (str or pathlib.Path), received {describe(path)}"
         )
     fit = model.record
-    arrays: dict[str, np.ndarray] = {"k": np.asarray(model.k), "noise_cov": fit.noise_cov}
+    arrays: dict[str, np.ndarray] = {"k": np.asarray(model.k)}
+    if fit.noise_cov is not None:
+        arrays["noise_cov"] = fit.noise_cov
     if fit.coeffs is not None:
         arrays["coeffs"] = fit.coeffs
     arrays["lam"] = np.asarray(fit.lam, dtype=float)
@@ -73,7 +75,8 @@ def write(model: Any, path: str | Path) -> None:
         "model_type": type(model).__name__,
         **model.structure(),
         "norm": fit.norm,
-        "noise_var": np.asarray(fit.noise_var, dtype=float).tolist(),
+        "noise_var": None if fit.noise_var is None
+        else np.asarray(fit.noise_var, dtype=float).tolist(),
         "loglik": fit.loglik,
         "info": info_json,
         "status": None if fit.status is None else fit.status.to_dict(),
@@ -113,8 +116,8 @@ def read(path: str | Path) -> ModelFile:
             coeffs=data["coeffs"] if "coeffs" in files else None,
             lam=float(lam) if lam.ndim == 0 else lam,
             cov=cov,
-            noise_var=meta["noise_var"],
-            noise_cov=data["noise_cov"],
+            noise_var=_estimated(meta["noise_var"]),
+            noise_cov=_estimated(data["noise_cov"]) if "noise_cov" in files else None,
             loglik=meta["loglik"],
             info=info,
             changepoints=data["changepoints"] if "changepoints" in files else None,
@@ -122,6 +125,13 @@ def read(path: str | Path) -> ModelFile:
         )
         # Files written before model types were recorded hold state-space models.
         return ModelFile(meta.get("model_type", "LTVModel"), data["k"], meta, fit)
+
+
+def _estimated(value: Any) -> Any:
+    """None for a quantity not estimated (older files wrote NaN for it), else ``value``."""
+    if value is None or np.all(np.isnan(np.asarray(value, dtype=float))):
+        return None
+    return value
 
 
 def _split_info(info: dict) -> tuple[dict, dict]:

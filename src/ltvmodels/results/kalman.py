@@ -54,9 +54,9 @@ class KalmanFilterResult(_ParameterAccess):
         Filtered covariance of one row θ_{t,i} of Θ_t (σ² included); all rows share
         it and are independent, so Cov(k_t | y_0 … y_t) = I_n ⊗ cov[t]. NaN where
         ``k`` is.
-    loglik : float
+    loglik : float or None
         Log-likelihood of all N observations (prediction-error decomposition);
-        NaN if the state is never identified.
+        None if the state is never identified.
     first_identified : int
         First time step with finite estimates (0 with a proper prior); N if none.
     noise_var : float
@@ -74,7 +74,7 @@ class KalmanFilterResult(_ParameterAccess):
 
     k: np.ndarray
     cov: np.ndarray
-    loglik: float
+    loglik: float | None
     first_identified: int
     noise_var: float
     lam: float
@@ -96,8 +96,9 @@ class KalmanSmootherResult(_ParameterAccess):
     cov : ndarray, shape (N, p, p)
         Smoothed covariance of one row θ_{t,i} (σ² included), shared by all rows:
         Cov(k_t | y) = I_n ⊗ cov[t].
-    loglik : float
-        Log-likelihood (see the module notes on the diffuse convention).
+    loglik : float or None
+        Log-likelihood (see the module notes on the diffuse convention); None
+        if the state is never identified.
     filtered : KalmanFilterResult
         The forward pass.
 
@@ -107,7 +108,7 @@ class KalmanSmootherResult(_ParameterAccess):
 
     k: np.ndarray
     cov: np.ndarray
-    loglik: float
+    loglik: float | None
     filtered: KalmanFilterResult
 
     @property

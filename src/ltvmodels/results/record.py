@@ -133,12 +133,14 @@ class FitRecord:
         λ (a scalar, a (K,) vector or a (K, K) matrix).
     cov : CovarianceBlocks or None
         Posterior covariance of k_t in compact form.
-    noise_var : float or ndarray, shape (n,)
-        Noise variance σ², shared or one per output.
+    noise_var : float, ndarray of shape (n,), or None
+        Noise variance σ², shared or one per output (None: not estimated, as
+        for given coefficients).
     noise_cov : ndarray, shape (n, n), or None
-        Noise covariance (None: NaN).
-    loglik : float
-        Log (marginal) likelihood.
+        Noise covariance (None: not estimated).
+    loglik : float or None
+        Log (marginal) likelihood; None where the estimator defines none (see
+        :attr:`RegressionModel.loglik`).
     info : dict
         Estimator-specific facts (see each estimator).
     changepoints : ndarray of int or None
@@ -151,9 +153,9 @@ class FitRecord:
     coeffs: Any = None
     lam: Any = float("nan")
     cov: CovarianceBlocks | None = None
-    noise_var: Any = float("nan")
+    noise_var: Any = None
     noise_cov: np.ndarray | None = None
-    loglik: float = float("nan")
+    loglik: float | None = None
     info: dict = field(default_factory=dict)
     changepoints: np.ndarray | None = None
     status: FitStatus | None = None

@@ -36,17 +36,25 @@ class RegressionModel:
         Coefficient matrices Θ_t.
     cov : ndarray or None
         Posterior covariance of k_t: shape (N, p, p) when the output rows are
-        independent with a shared covariance (then Cov(k_t) = I_n ⊗ cov[t]),
-        otherwise (N, K, K). None if not computed. :meth:`cov_full` always
-        returns (N, K, K); :meth:`std` (N, K).
-    noise_var : ndarray, shape (n,)
+        independent with a shared covariance (then Cov(k_t) = I_n ⊗ cov[t]);
+        (N, n, p, p) when they are independent with covariances of their own
+        (cov[t, i] is that of row i of Θ_t, e.g. with a noise variance per
+        output); (N, K, K) when the rows are correlated. None if not computed.
+        :meth:`cov_full` always returns (N, K, K) (O(N K²) memory); :meth:`std`
+        (N, K).
+    noise_var : ndarray, shape (n,), or None
         Noise variance σ_i² of each output (estimated or given; equal entries
-        where the estimator assumes one variance for all outputs).
-    noise_cov : ndarray, shape (n, n)
-        Noise covariance estimate.
-    loglik : float
+        where the estimator assumes one variance for all outputs). None for
+        coefficients given to the constructor.
+    noise_cov : ndarray, shape (n, n), or None
+        Noise covariance estimate (None for given coefficients).
+    loglik : float or None
         Log (marginal) likelihood of the data under the model's probabilistic
-        interpretation (see :func:`ltvmodels.fit`).
+        interpretation (see :func:`ltvmodels.fit`). None where it does not
+        exist: for norm="group"/"l1" (no Gaussian model), a post-hoc prior
+        correction, a prior that leaves parameters undetermined, a singular
+        residual covariance (an exact fit: the likelihood is unbounded) and
+        given coefficients; ``info["loglik_note"]`` says which.
     info : dict
         Solver details: objective, solver name, factorizations, and so on.
     status : FitStatus or None
@@ -83,9 +91,11 @@ class RegressionModel:
         self.lam = fit.lam
         self._cov = fit.cov
         n = self._n_outputs
-        self.noise_var = np.broadcast_to(np.asarray(fit.noise_var, dtype=float), (n,)).copy()
-        self.noise_cov = np.full((n, n), np.nan) if fit.noise_cov is None else fit.noise_cov
-        self.loglik = float(fit.loglik)
+        self.noise_var = None if fit.noise_var is None else np.broadcast_to(
+            np.asarray(fit.noise_var, dtype=float), (n,)).copy()
+        self.noise_cov = fit.noise_cov
+        # NaN: files written before None marked a missing likelihood
+        self.loglik = None if fit.loglik is None or np.isnan(fit.loglik) else float(fit.loglik)
         self.info = dict(fit.info)
         self._changepoints = fit.changepoints
         self.status = fit.status
@@ -139,12 +149,15 @@ class RegressionModel:
     # -- uncertainty --------------------------------------------------------------
     @property
     def cov(self) -> np.ndarray | None:
-        """Posterior covariance of k_t: (N, p, p) if shared by rows, else (N, K, K)."""
+        """Posterior covariance of k_t: (N, p, p) if shared by the output rows, (N, n, p, p)
+        if the rows are independent, else (N, K, K) (see the class docstring)."""
         if self._cov is None:
             return None
         c = self._cov
         if c.shared:
             return c.blocks[0] if c.row_scale is None else c.blocks[0] * c.row_scale[0]
+        if c.row_group is not None:
+            return c.rows(self.n_outputs)
         return self.cov_full()
 
     @property
@@ -231,7 +244,7 @@ class RegressionModel:
         return (
             f"{type(self).__name__}(N={self.N}, {self._repr_sizes()}, "
             f"norm={self.norm!r}, order={order}, lam={lam_text}, "
-            f"noise_var={_values_text(self.noise_var)}, loglik={self.loglik:.6g})"
+            f"noise_var={_values_text(self.noise_var)}, loglik={_number_text(self.loglik)})"
         )
 
     def summary(self) -> str:
@@ -248,8 +261,14 @@ class RegressionModel:
         return "\n".join(lines)
 
 
-def _values_text(values: np.ndarray) -> str:
+def _number_text(value: float | None) -> str:
+    return "None" if value is None else f"{value:.6g}"
+
+
+def _values_text(values: np.ndarray | None) -> str:
     """One number when all are equal, else the list (at 4 significant digits)."""
+    if values is None:
+        return "None"
     if values.size and np.all(values == values[0]):
         return f"{values[0]:.4g}"
     return "[" + ", ".join(f"{v:.4g}" for v in values) + "]"

@@ -40,17 +40,26 @@ class LTVModel(RegressionModel, LinearTimeVarying):
     constant : bool
         Whether the model has an intercept c_t.
     cov : ndarray or None
-        Posterior covariance of k_t: shape (N, p, p) with p = n + m (+ 1) when
-        the output rows are independent with a shared covariance (then
-        Cov(k_t) = I_n ⊗ cov[t]), otherwise (N, K, K). None if not computed.
-        :meth:`cov_full` always returns (N, K, K); :meth:`std` (N, K).
-    noise_var : ndarray, shape (n,)
-        Noise variance σ_i² of each state equation (estimated or given).
-    noise_cov : ndarray, shape (n, n)
-        Noise covariance estimate.
-    loglik : float
+        Posterior covariance of k_t, p = n + m (+ 1): shape (N, p, p) when the
+        output rows are independent with a shared covariance (then
+        Cov(k_t) = I_n ⊗ cov[t]); (N, n, p, p) when they are independent with
+        covariances of their own (cov[t, i] is that of row i of Θ_t, e.g. with
+        a noise variance per output); (N, K, K) when the rows are correlated.
+        None if not computed. :meth:`cov_full` always returns (N, K, K)
+        (O(N K²) memory); :meth:`std` (N, K).
+    noise_var : ndarray, shape (n,), or None
+        Noise variance σ_i² of each state equation (estimated or given; equal entries
+        where the estimator assumes one variance for all outputs). None for
+        coefficients given to the constructor.
+    noise_cov : ndarray, shape (n, n), or None
+        Noise covariance estimate (None for given coefficients).
+    loglik : float or None
         Log (marginal) likelihood of the data under the model's probabilistic
-        interpretation (see :func:`ltvmodels.fit`).
+        interpretation (see :func:`ltvmodels.fit`). None where it does not
+        exist: for norm="group"/"l1" (no Gaussian model), a post-hoc prior
+        correction, a prior that leaves parameters undetermined, a singular
+        residual covariance (an exact fit: the likelihood is unbounded) and
+        given coefficients; ``info["loglik_note"]`` says which.
     info : dict
         Solver details: objective, solver name, factorizations, and so on.
     status : FitStatus or None

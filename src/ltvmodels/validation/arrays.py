@@ -94,6 +94,9 @@ def as_time_series(
         )
     if arr.shape[1] == 0:
         raise ValueError(f"{name}: expected at least one column, received shape {arr.shape}")
+    if arr.shape[0] == 0:
+        raise ValueError(f"{name}: expected at least one sample (row), received shape "
+                         f"{arr.shape}")
     return arr
 
 
@@ -116,7 +119,7 @@ def trajectories(value: Any, name: str) -> np.ndarray:
                 f"{listed}{', ...' if len(parts) > 4 else ''}; pad the shorter ones with "
                 "NaN rows (missing samples) to a common length"
             )
-        return np.stack(parts)
+        return representable(np.stack(parts), name)
     try:
         arr = as_float_array(value, name, missing=True)
     except TypeError as exc:
@@ -127,7 +130,7 @@ def trajectories(value: Any, name: str) -> np.ndarray:
             ) from None
         raise
     if arr.ndim in (1, 2):
-        return as_time_series(arr, name, missing=True)[None]
+        return representable(as_time_series(arr, name, missing=True)[None], name)
     if arr.ndim != 3:
         raise ValueError(
             f"{name}: expected shape (T, d) with time on axis 0, or (R, T, d) for R "
@@ -135,6 +138,38 @@ def trajectories(value: Any, name: str) -> np.ndarray:
         )
     if arr.shape[2] == 0:
         raise ValueError(f"{name}: expected at least one column, received shape {arr.shape}")
+    if arr.shape[1] == 0:
+        raise ValueError(f"{name}: expected at least one sample (time on axis 1 of an "
+                         f"(R, T, d) batch), received shape {arr.shape}")
+    return representable(arr, name)
+
+
+# Data beyond these magnitudes cannot be fitted in float64: sums of squares of
+# 1e100 over a million samples still fit below 1.8e308, squares of 1e-100 stay
+# normal numbers. Scaling a column by a constant changes only its coefficients.
+LARGEST_DATA = 1e100
+SMALLEST_DATA = 1e-100
+
+
+def representable(arr: np.ndarray, name: str) -> np.ndarray:
+    """Reject columns (last axis) whose magnitudes overflow or underflow when squared.
+
+    A column that is all zero passes (the identifiability checks name it).
+    Returns ``arr``.
+    """
+    if arr.size == 0:
+        return arr
+    scale = np.fmax.reduce(np.abs(arr).reshape(-1, arr.shape[-1]), axis=0)  # NaN ignored
+    for bad, what, limit in ((scale > LARGEST_DATA, "large", LARGEST_DATA),
+                             ((scale > 0) & (scale < SMALLEST_DATA), "small", SMALLEST_DATA)):
+        if bad.any():
+            j = int(np.flatnonzero(bad)[0])
+            raise ValueError(
+                f"{name}: column {j} has values of magnitude up to {scale[j]:.3g}, too {what} "
+                f"to fit in double precision (expected magnitudes between {SMALLEST_DATA:g} "
+                f"and {LARGEST_DATA:g}); rescale it, e.g. divide by {scale[j]:.0e}: "
+                "the fitted coefficients scale accordingly"
+            )
     return arr
 
 
@@ -343,7 +378,7 @@ def lagged_series(
     "na = 2, nb = 1, nk = 1") in the too-short message. NaN marks a missing
     sample. Returns float64 copies, u of shape (T, 0) when None.
     """
-    y = as_time_series(y, "y", allow_1d=True, missing=True)
+    y = representable(as_time_series(y, "y", allow_1d=True, missing=True), "y")
     T = y.shape[0]
     if u is None:
         if require_inputs:
@@ -351,7 +386,7 @@ def lagged_series(
             raise TypeError(f"u: expected inputs of shape {expected}, received None")
         u = np.zeros((T, 0))
     else:
-        u = as_time_series(u, "u", allow_1d=True, missing=True)
+        u = representable(as_time_series(u, "u", allow_1d=True, missing=True), "u")
         if u.shape[0] != T:
             raise ValueError(
                 f"u: expected {T} rows (one per sample of y), received {u.shape[0]}"

@@ -132,20 +132,23 @@ def _square_fits(values: np.ndarray) -> None:
 
 
 def penalty_weight(lam: Any, K: int) -> np.ndarray:
-    """Turn ``lam`` into the K x K penalty weight matrix W of sum_t (Dk)_t' W (Dk)_t.
+    """Turn ``lam`` into the penalty weight W of sum_t (Dk)_t' W (Dk)_t.
 
-    * scalar λ >= 0:   W = λ² I;
-    * vector (K,):     W = diag(λ_j²); ``inf`` marks a coefficient constant in
-      time, 0 a coefficient free to change arbitrarily;
+    * scalar λ >= 0:   W = λ² I, returned as its diagonal, shape (K,);
+    * vector (K,):     W = diag(λ_j²), returned as its diagonal, shape (K,);
+      ``inf`` marks a coefficient constant in time, 0 a coefficient free to
+      change arbitrarily;
     * matrix (K, K):   W = Λ, symmetric positive semidefinite (used as is, so
-      λ² I is equivalent to the scalar λ).
+      λ² I is equivalent to the scalar λ), shape (K, K).
 
-    Infinite diagonal entries of the returned matrix mark constant coefficients.
+    A diagonal W stays a vector so that wide models (K = n·p in the tens of
+    thousands) never form a K x K array. Infinite diagonal entries mark
+    constant coefficients.
     """
     arr = _lam_array(lam, K)
     if arr.ndim < 2:
         _square_fits(arr)
-        return np.diag(np.broadcast_to(arr**2, (K,)).copy())  # no 0·inf off the diagonal
+        return np.broadcast_to(arr**2, (K,)).copy()
     if not np.all(np.isfinite(arr)):
         raise ValueError("lam: a weight matrix must be finite (use a vector with inf "
                          "entries to hold coefficients constant)")
