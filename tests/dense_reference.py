@@ -266,6 +266,32 @@ class DenseProblem:
                 mask.extend([free or t < d for t in range(N)])
         return np.array(mask)
 
+    def ml_noise_var(self) -> np.ndarray:
+        """σ̂² maximizing :meth:`loglik_kappa` (κ = ∞) given λ, per output (n,).
+
+        In the diffuse likelihood σ² scales the noise and the drift alike, so
+        with J_i = RSS_i + penalty_i of output row i at the estimate it is
+        −½ (N − z_i) log σ_i² − ½ J_i / σ_i² + const, z_i the diffuse unknowns
+        of the row: σ̂_i² = J_i / (N − z_i). When W couples the rows one σ² is
+        shared: σ̂² = Σ_i J_i / (N n − z). (No priors.)
+        """
+        assert not self.param_priors and not self.output_priors
+        N, n, K = self.N, self.n, self.K
+        p = K // n
+        k, _ = self.solve()
+        r = (self.y - self.Phi @ k.ravel()).reshape(N, n)
+        Dk = (self.Dt @ k.ravel()).reshape(-1, K)
+        penalty = np.einsum("tj,jl,tl->j", Dk, self.W, Dk)  # per coefficient (W's rows)
+        J = (r**2).sum(axis=0) + penalty.reshape(n, p).sum(axis=1)
+        diffuse_per_unknown = self.diffuse_mask()
+        # free unknowns in order: coefficient j's unknowns (1 if constant, else N)
+        owner = np.concatenate([[j] if self.const[j] else [j] * N for j in range(K)])
+        z = np.bincount(owner[diffuse_per_unknown] // p, minlength=n)
+        blocks = self.W.reshape(n, p, n, p).transpose(0, 2, 1, 3)  # (row, row, p, p)
+        if np.any(blocks[~np.eye(n, dtype=bool)]):  # W couples the rows: one σ²
+            return np.full(n, J.sum() / (N * n - z.sum()))
+        return J / (N - z)
+
     def _penalized_set(self) -> tuple[np.ndarray, np.ndarray]:
         """Penalized (varying, nonzero weight) and free (varying, zero weight) coefficients."""
         W = self.W
@@ -356,11 +382,168 @@ def random_spd(rng, d: int, scale: float = 1.0, jitter: float = 0.1) -> np.ndarr
     return scale * (G @ G.T / d + jitter * np.eye(d))
 
 
-def cov_scale(model) -> np.ndarray:
-    """Row scaling of a model's covariance: σ_i² for the parameters of output row i.
+def row_scale(noise_var, n: int, p: int) -> np.ndarray:
+    """Row scaling of a covariance: σ_i² for the p parameters of output row i, a (K, 1) column.
 
-    A fitted model's covariance is σ_i² times the rows' blocks of H⁻¹ (one
-    noise variance per output); multiplying H⁻¹ (unit noise) entrywise by this
-    (K, 1) column gives it where H⁻¹ does not couple the rows.
+    Covariances are σ_i² times the rows' blocks of H⁻¹ (one noise variance per
+    output); multiplying H⁻¹ (unit noise) entrywise by this column gives them
+    where H⁻¹ does not couple the rows. Pass the σ² given to the fit, or the
+    reference's own estimate :meth:`DenseProblem.ml_noise_var` — never the
+    model's ``noise_var``, which would make a wrong estimate invisible.
     """
-    return np.repeat(np.asarray(model.noise_var), model.n_regressors)[:, None]
+    return np.repeat(np.broadcast_to(np.asarray(noise_var, dtype=float), (n,)), p)[:, None]
+
+
+def cov_scale(model) -> np.ndarray:
+    """:func:`row_scale` of a model's own ``noise_var`` (only where the test gave it)."""
+    return row_scale(model.noise_var, len(model.noise_var), model.n_regressors)
+
+
+# -- sparse norms: objective and a dual lower bound --------------------------------------
+
+
+def sparse_regression(y, phi, row_weights=None):
+    """Φ̃ (M × N K) and Ỹ (M,) of Σ_r Σ_t w_rt ‖y_rt − Θ_t φ_rt‖², observed rows only.
+
+    y (R, N, n) or (N, n), phi (R, N, p) or (N, p), NaN = missing (a row enters
+    only if y_rt and φ_rt are finite and w_rt > 0); row_weights (R, N) or None.
+    Each observed (r, t) contributes n rows √w_rt (I_n ⊗ φ_rtᵀ) in the columns of
+    step t, so that Φ̃ k stacks the fitted outputs for k_t = Θ_t.ravel().
+    """
+    y = np.asarray(y, dtype=float)
+    phi = np.asarray(phi, dtype=float)
+    if y.ndim == 2:
+        y, phi = y[None], phi[None]
+    R, N, n = y.shape
+    p = phi.shape[2]
+    K = n * p
+    w = np.ones((R, N)) if row_weights is None else np.asarray(row_weights, dtype=float)
+    rows, targets = [], []
+    for r in range(R):
+        for t in range(N):
+            if not (np.all(np.isfinite(y[r, t])) and np.all(np.isfinite(phi[r, t]))
+                    and w[r, t] > 0):
+                continue
+            block = np.zeros((n, N * K))
+            block[:, t * K:(t + 1) * K] = np.sqrt(w[r, t]) * np.kron(np.eye(n), phi[r, t])
+            rows.append(block)
+            targets.append(np.sqrt(w[r, t]) * y[r, t])
+    return np.vstack(rows), np.concatenate(targets)
+
+
+def state_space_regression(x, u=None, row_weights=None, constant=False):
+    """:func:`sparse_regression` of x[t+1] = A_t x[t] + B_t u[t] (+ c_t).
+
+    y = x[1:] and φ = [x, u, 1][:-1], per trajectory; arguments as in
+    :func:`sparse_regression` (x (T, n) or (R, T, n), row_weights (R, T − 1)).
+    """
+    x = np.asarray(x, dtype=float)
+    x = x[None] if x.ndim == 2 else x
+    R, T, _ = x.shape
+    u = np.zeros((R, T, 0)) if u is None else np.asarray(u, dtype=float).reshape(R, T, -1)
+    cols = [x[:, :-1], u[:, :-1]] + ([np.ones((R, T - 1, 1))] if constant else [])
+    return sparse_regression(x[:, 1:], np.concatenate(cols, axis=2), row_weights)
+
+
+def sparse_penalty(k, weights, norm, coeffs) -> float:
+    """Σ_t R(Λ (Dk)_t): R = ‖·‖₂ ("group") or ‖·‖₁ ("l1"), Λ = diag(weights).
+
+    A weight inf holds its coefficient constant (a constraint, not a cost): it
+    adds nothing here, and the caller checks that the coefficient is constant.
+    """
+    k = np.asarray(k, dtype=float)
+    weights = np.asarray(weights, dtype=float)
+    weights = np.where(np.isinf(weights), 0.0, weights)
+    Z = difference_matrix(k.shape[0], coefficients(coeffs)) @ k * weights
+    return float(np.linalg.norm(Z, axis=1).sum() if norm == "group" else np.abs(Z).sum())
+
+
+def sparse_objective(Phi, Y, k, weights, norm, coeffs) -> float:
+    """‖Ỹ − Φ̃k‖² + Σ_t R(Λ (Dk)_t), k of shape (N, K) (see :func:`sparse_penalty` for inf)."""
+    r = Y - Phi @ np.asarray(k, dtype=float).ravel()
+    return float(r @ r) + sparse_penalty(k, weights, norm, coeffs)
+
+
+def sparse_lower_bound(Phi, Y, k, weights, norm, coeffs) -> float:
+    """A lower bound on min_k ‖Ỹ − Φ̃k‖² + Σ_t R(Λ(Dk)_t) from a dual certificate built at k.
+
+    The Lagrange dual (e = Ỹ − Φ̃k with multiplier u; ν for the penalty) is
+
+        max_{u, ν}  uᵀỸ − ‖u‖²/4   s.t.  Φ̃ᵀu + D̃ᵀν = 0,  ν_t in the dual ball,
+
+    the dual ball being ‖ν_t / λ‖₂ <= 1 (group) or |ν_tj| <= λ_j (l1) over the
+    penalized coefficients, with ν_tj = 0 for a weight λ_j = 0. A weight inf
+    (coefficient constant in time, a constraint) only needs (Φ̃ᵀu)_j to be
+    orthogonal to the constant sequence. At the optimum u = 2r (r the
+    residual). From any k: refit by least squares the directions that keep k
+    feasible and leave the penalty unchanged (null(D) per penalized
+    coefficient, every time step of a zero-weight one, the constant of a
+    constant one), so that g = −2Φ̃ᵀr is orthogonal to them; solve D̃ᵀν = g;
+    scale (u, ν) into the dual ball. Any dual-feasible point bounds the optimum
+    from below (weak duality) and the bound is tight at the optimum, so
+    objective(k) − bound bounds the suboptimality of k.
+    """
+    k = np.asarray(k, dtype=float)
+    N, K = k.shape
+    weights = np.broadcast_to(np.asarray(weights, dtype=float), (K,))
+    coeffs = coefficients(coeffs)
+    D = difference_matrix(N, coeffs)
+    free, const = weights == 0, np.isinf(weights)
+    pen = ~free & ~const
+    null = np.linalg.svd(D)[2][D.shape[0]:].T  # (N, d): orthonormal basis of null(D)
+    blocks = []
+    for j in range(K):
+        basis = np.eye(N) if free[j] else (np.ones((N, 1)) if const[j] else null)
+        cols = np.zeros((N * K, basis.shape[1]))
+        cols[np.arange(N) * K + j] = basis
+        blocks.append(cols)
+    E = np.hstack(blocks)
+    c, *_ = np.linalg.lstsq(Phi @ E, Y - Phi @ k.ravel(), rcond=None)
+    r = Y - Phi @ (k.ravel() + E @ c)
+    g = (-2.0 * Phi.T @ r).reshape(N, K)
+    nu, *_ = np.linalg.lstsq(D.T, g[:, pen], rcond=None)  # D̃ᵀν = g, one column per coefficient
+    violation = np.abs(D.T @ nu - g[:, pen]).max(initial=0.0)
+    assert violation <= 1e-9 * max(np.abs(g).max(), 1e-300), "g not in range(Dᵀ)"
+    scaled = nu / weights[pen]
+    size = np.linalg.norm(scaled, axis=1).max() if norm == "group" else np.abs(scaled).max()
+    s = max(1.0, float(size))
+    u = 2.0 * r / s
+    return float(u @ Y - u @ u / 4.0)
+
+
+# -- choosing λ (norm="sq"): the criteria and their optimum -------------------------------
+
+
+def lam_criterion(x, u, order, lam: float, method: str) -> float:
+    """The criterion select_lambda minimizes, from the dense problem at a scalar λ.
+
+    "ml": minus the diffuse log marginal likelihood at the ML noise variances
+    (:meth:`DenseProblem.ml_noise_var`, one per output). "gcv": M·RSS / (M − dof)²
+    with M = N·n observations and dof = tr(Φ̃ H⁻¹ Φ̃ᵀ), the trace of the hat matrix.
+    """
+    ref = DenseProblem(x, u, order, lam)
+    if method == "ml":
+        return -ref.loglik_kappa(np.inf, ref.ml_noise_var())
+    k, H_inv = ref.solve()
+    r = ref.y - ref.Phi @ k.ravel()
+    dof = float(np.einsum("ij,jk,ik->", ref.Phi, H_inv, ref.Phi))
+    M = ref.y.size
+    return M * float(r @ r) / (M - dof) ** 2
+
+
+def best_lam(x, u, order, method: str, lo: float = 1e-2, hi: float = 1e5) -> float:
+    """argmin over λ of :func:`lam_criterion`: a coarse log grid on [lo, hi] (15 points,
+    half a decade apart), then Brent's bounded search on log λ between the
+    neighbours of the best point, to 1e-7 in log λ. Fails if the best grid
+    point is at an end (no interior optimum to compare with)."""
+    from scipy.optimize import minimize_scalar
+
+    grid = np.logspace(np.log10(lo), np.log10(hi), 15)
+    values = [lam_criterion(x, u, order, lam, method) for lam in grid]
+    best = int(np.argmin(values))
+    assert 0 < best < len(grid) - 1, f"{method}: the optimum is not inside [{lo}, {hi}]"
+    res = minimize_scalar(lambda v: lam_criterion(x, u, order, float(np.exp(v)), method),
+                          bounds=(np.log(grid[best - 1]), np.log(grid[best + 1])),
+                          method="bounded", options={"xatol": 1e-7})
+    assert res.fun <= values[best]
+    return float(np.exp(res.x))

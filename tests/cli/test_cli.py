@@ -277,24 +277,38 @@ def test_headerless_csv_stdin_and_semicolons(tmp_path, monkeypatch, capsys):
     assert report["state"] == ["0", "1"]
 
 
-def test_parquet_through_pandas(workdir, tmp_path, monkeypatch, capsys):
+def test_parquet_through_pandas(workdir, tmp_path, capsys):
+    """A real Parquet file (written and read by pandas with pyarrow; skipped without it)."""
     pd = pytest.importorskip("pandas")
+    pytest.importorskip("pyarrow")
     _, data = workdir
     frame = pd.DataFrame({"x1": data.x[:, 0], "x2": data.x[:, 1], "u": data.u[:, 0],
                           "note": ["a"] * data.T})
-    try:
-        import pyarrow  # noqa: F401
-    except ImportError:  # no Parquet engine here: serve the frame directly
-        monkeypatch.setattr(pd, "read_parquet", lambda path: frame)
-    else:
-        frame.to_parquet(tmp_path / "d.parquet")
-    (tmp_path / "d.parquet").touch()
+    frame.to_parquet(tmp_path / "d.parquet")
     code, out, err = _run(["fit", tmp_path / "d.parquet", "--state", "x1,x2", "--input", "u",
                            "--lam", "30", "--json"], capsys)
     assert code == 0, err
-    assert json.loads(out)["T"] == data.T
+    report = json.loads(out)
+    assert report["T"] == data.T
+    # the same numbers as the fit of the arrays themselves
+    direct = ltvmodels.fit(data.x, data.u, lam=30.0)
+    assert report["noise_var"] == pytest.approx(list(direct.noise_var), rel=1e-12)
     code, out, err = _run(["fit", tmp_path / "d.parquet", "--state", "note"], capsys)
     assert code == 2 and "column 'note' is not numeric" in err
+
+
+def test_parquet_without_an_engine_says_what_to_install(workdir, tmp_path, capsys):
+    """Without pyarrow/fastparquet a .parquet file is a clean user error (exit 2)."""
+    pytest.importorskip("pandas")
+    for engine in ("pyarrow", "fastparquet"):
+        try:
+            __import__(engine)
+        except ImportError:
+            continue
+        pytest.skip(f"{engine} is installed: Parquet can be read here")
+    (tmp_path / "d.parquet").write_bytes(b"PAR1")
+    code, _, err = _run(["fit", tmp_path / "d.parquet", "--state", "x1"], capsys)
+    assert code == 2 and "pyarrow" in err and "d.parquet" in err, err
 
 
 def test_warnings_are_one_line_each(workdir, capsys):
@@ -705,8 +719,10 @@ def test_noise_variance_per_state_in_reports(workdir, capsys):
     assert len(report["noise_var"]) == 1
 
 
-def test_parquet_missing_values_and_inf(workdir, tmp_path, monkeypatch, capsys):
+def test_parquet_missing_values_and_inf(workdir, tmp_path, capsys):
+    """Nulls in a Parquet file are missing values; inf is an error naming row and column."""
     pd = pytest.importorskip("pandas")
+    pytest.importorskip("pyarrow")
     _, data = workdir
     x1 = data.x[:, 0].copy()
     x1[[7, 8]] = np.nan
@@ -715,9 +731,8 @@ def test_parquet_missing_values_and_inf(workdir, tmp_path, monkeypatch, capsys):
                             "u": pd.array([1] * 20 + [None] + [0] * 179, dtype="Int64")}),
         "inf": pd.DataFrame({"x1": np.where(np.arange(data.T) == 3, np.inf, x1)}),
     }
-    monkeypatch.setattr(pd, "read_parquet", lambda path: frames[path.stem])
-    for name in frames:
-        (tmp_path / f"{name}.parquet").touch()
+    for name, frame in frames.items():
+        frame.to_parquet(tmp_path / f"{name}.parquet")
     code, out, err = _run(["fit", tmp_path / "ok.parquet", "--state", "x1,x2", "--input", "u",
                            "--lam", "30", "--json"], capsys)
     assert code == 0, err

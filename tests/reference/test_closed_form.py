@@ -3,7 +3,10 @@
 k = (Φ̃ᵀΦ̃ + D̃ᵀW̃D̃)⁻¹ Φ̃ᵀỸ and Cov(k) = σ² (Φ̃ᵀΦ̃ + D̃ᵀW̃D̃)⁻¹ are built with plain
 numpy in ``dense_reference.py`` (no package code), for first, second and
 third-order (polynomial) differences, with and without inputs, and scalar,
-vector and matrix weights.
+vector and matrix weights. Where the fit estimates σ², the reference
+computes its own estimate from the dense solution (``ml_noise_var``:
+σ̂_i² = (RSS_i + penalty_i) / (N − diffuse unknowns of row i), the maximizer
+of the dense likelihood) rather than borrowing the model's ``noise_var``.
 """
 
 from __future__ import annotations
@@ -12,7 +15,7 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
-from dense_reference import DenseProblem, cov_scale, diag_blocks, random_data, relerr
+from dense_reference import DenseProblem, diag_blocks, random_data, relerr, row_scale
 
 ORDERS = [1, 2, [-1, 3, -3, 1]]
 ORDER_IDS = ["order1", "order2", "poly3"]
@@ -43,8 +46,12 @@ def test_fit_equals_dense_closed_form(order, m, kind):
     N = T - 1
     assert model.k.shape == (N, K)
     assert relerr(model.k, k) < TOL
-    # Posterior covariances: σ² × diagonal blocks of the dense inverse.
-    assert relerr(model.cov_full(), cov_scale(model) * diag_blocks(H_inv, N, K)) < TOL
+    # σ̂² from the dense solution: one per output, shared where a matrix λ couples the rows
+    s2 = ref.ml_noise_var()
+    np.testing.assert_allclose(model.noise_var, s2, rtol=1e-10)
+    assert (s2[0] == s2[1]) == (kind == "matrix")
+    # Posterior covariances: σ̂² × diagonal blocks of the dense inverse.
+    assert relerr(model.cov_full(), row_scale(s2, n, n + m) * diag_blocks(H_inv, N, K)) < TOL
     # The layout k_t = hstack([A_t, B_t]).ravel().
     theta = k.reshape(N, n, n + m)
     np.testing.assert_allclose(model.A, theta[:, :, :n], rtol=0, atol=TOL * np.abs(k).max())
@@ -64,7 +71,10 @@ def test_scalar_lam_covariance_is_compact_and_shared_by_rows():
     assert own.cov.shape == (N, n, p, p) and len(set(own.noise_var)) == n
     ref = DenseProblem(x, u, 1, 2.0)
     _, H_inv = ref.solve()
-    full = cov_scale(model) * diag_blocks(H_inv, N, n * p)
+    np.testing.assert_allclose(own.noise_var, ref.ml_noise_var(), rtol=1e-10)
+    assert relerr(own.cov_full(), row_scale(ref.ml_noise_var(), n, p)
+                  * diag_blocks(H_inv, N, n * p)) < TOL
+    full = 0.3 * diag_blocks(H_inv, N, n * p)
     for i in range(n):  # every output row has the same p × p block, rows independent
         sl = slice(i * p, (i + 1) * p)
         assert relerr(model.cov, full[:, sl, sl]) < TOL
@@ -112,7 +122,9 @@ def test_constant_coefficients_equal_shared_unknown_reference(order, const_idx):
     k, H_inv = ref.solve()
     assert relerr(model.k, k) < TOL
     assert np.ptp(model.k[:, const_idx], axis=0).max() == 0.0  # exactly constant
-    assert relerr(model.cov_full(), cov_scale(model) * diag_blocks(H_inv, T - 1, K)) < TOL
+    s2 = ref.ml_noise_var()  # a constant coefficient is one diffuse unknown of its row
+    np.testing.assert_allclose(model.noise_var, s2, rtol=1e-10)
+    assert relerr(model.cov_full(), row_scale(s2, n, n) * diag_blocks(H_inv, T - 1, K)) < TOL
 
 
 def test_constant_input_column_with_inputs():
@@ -127,7 +139,9 @@ def test_constant_input_column_with_inputs():
     k, H_inv = ref.solve()
     assert relerr(model.k, k) < TOL
     assert np.ptp(model.B, axis=0).max() == 0.0
-    assert relerr(model.cov_full(), cov_scale(model) * diag_blocks(H_inv, T - 1, K)) < TOL
+    s2 = ref.ml_noise_var()
+    np.testing.assert_allclose(model.noise_var, s2, rtol=1e-10)
+    assert relerr(model.cov_full(), row_scale(s2, n, n + m) * diag_blocks(H_inv, T - 1, K)) < TOL
 
 
 def test_free_coefficient_interpolates_exactly():
@@ -154,9 +168,12 @@ def test_other_polynomials_equal_dense_reference():
     x, u = random_data(12, 30, 2, 1)
     for coeffs in ([-1.0, 0.0, 1.0], [0.5, -1.5, 1.0], [2.0, -3.0, 1.0]):
         model = ltv.fit(x, u, lam=1.7, order=coeffs)
-        k, H_inv = DenseProblem(x, u, coeffs, 1.7).solve()
+        ref = DenseProblem(x, u, coeffs, 1.7)
+        k, H_inv = ref.solve()
         assert relerr(model.k, k) < TOL, coeffs
-        assert relerr(model.cov_full(), cov_scale(model) * diag_blocks(H_inv, 29, 6)) < TOL
+        s2 = ref.ml_noise_var()
+        np.testing.assert_allclose(model.noise_var, s2, rtol=1e-10, err_msg=str(coeffs))
+        assert relerr(model.cov_full(), row_scale(s2, 2, 3) * diag_blocks(H_inv, 29, 6)) < TOL
 
 
 def test_scalar_lam_equals_isotropic_matrix_and_vector():
@@ -181,7 +198,7 @@ def test_vector_lam_rows_sharing_a_factorization(pattern):
     lam = np.tile(v, n) if pattern == "all-rows-equal" else np.r_[v, v, 2 * v]
     model = ltv.fit(x, u, lam=lam, noise_var=0.5)
     k, H_inv = DenseProblem(x, u, 1, lam).solve()
-    full = cov_scale(model) * diag_blocks(H_inv, T - 1, n * (n + m))
+    full = 0.5 * diag_blocks(H_inv, T - 1, n * (n + m))  # the given σ²
     assert relerr(model.k, k) < TOL
     assert relerr(model.cov_full(), full) < TOL
     assert relerr(model.std(), np.sqrt(np.diagonal(full, axis1=1, axis2=2))) < TOL

@@ -112,6 +112,12 @@ def test_noise_var_none_is_the_ml_estimate(order, kind):
     np.testing.assert_allclose(np.exp(res.x), s2[: res.x.size], rtol=1e-4)
     assert ref.loglik_kappa(np.inf, s2) >= -res.fun - 1e-9
     assert model.loglik == pytest.approx(-res.fun, abs=1e-7)
+    # The reference's closed form σ̂² (used by the closed-form covariance tests
+    # instead of the model's noise_var) is this maximizer, and equals the model's.
+    closed = ref.ml_noise_var()
+    np.testing.assert_allclose(np.exp(res.x), closed[: res.x.size], rtol=1e-4)
+    assert ref.loglik_kappa(np.inf, closed) >= -res.fun - 1e-9
+    np.testing.assert_allclose(s2, closed, rtol=1e-10)
 
 
 # -- with priors: a proper Gaussian ---------------------------------------------------------------

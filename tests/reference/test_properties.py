@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
-from dense_reference import DenseProblem, cov_scale, diag_blocks, random_data, random_spd, relerr
+from dense_reference import DenseProblem, diag_blocks, random_data, random_spd, relerr, row_scale
 
 hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import given, settings  # noqa: E402
@@ -45,10 +45,11 @@ def test_fit_equals_dense_reference(problem):
     ref = DenseProblem(x, u, order, lam)
     k, H_inv = ref.solve()
     assert relerr(model.k, k) < 1e-7
-    cov = cov_scale(model) * diag_blocks(H_inv, ref.N, ref.K)
+    s2 = ref.ml_noise_var()  # the reference's own σ̂², not the model's
+    np.testing.assert_allclose(model.noise_var, s2, rtol=1e-7)
+    cov = row_scale(s2, ref.n, ref.K // ref.n) * diag_blocks(H_inv, ref.N, ref.K)
     assert relerr(model.cov_full(), cov) < 1e-7
-    assert model.loglik == pytest.approx(ref.loglik_kappa(np.inf, model.noise_var),
-                                         rel=1e-8, abs=1e-7)
+    assert model.loglik == pytest.approx(ref.loglik_kappa(np.inf, s2), rel=1e-8, abs=1e-7)
 
 
 @settings(max_examples=25, deadline=None, derandomize=True)
