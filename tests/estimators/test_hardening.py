@@ -231,3 +231,14 @@ def test_wide_scalar_lam_allocates_no_k_by_k_matrix():
         tracemalloc.stop()
     assert model.cov.shape == (T - 1, n, n, n)  # a (p, p) block per row, p = n
     assert peak < 40e6, f"peak {peak / 1e6:.0f} MB"
+
+
+def test_solver_residue_is_no_change_point():
+    walk = np.cumsum(np.random.default_rng(0).standard_normal((100, 2)), axis=0)
+    lti = ltv.fit(walk, lam=1e150, norm="group")  # beyond lambda_max: constant coefficients
+    assert lti.activation().max() < 1e-12  # rounding, which the relative level alone would take
+    assert lti.changepoints.size == 0 and ltv.find_changepoints(lti).size == 0
+    residue = np.zeros(98)
+    residue[0] = 1.3e-15
+    assert ltv.find_changepoints(residue).tolist() == [1]  # an array has no scale of its own
+    assert ltv.find_changepoints(residue, min_level=1e-12).size == 0

@@ -64,8 +64,15 @@ MAD_TO_STD = 1.4826
 """Factor turning the median absolute deviation into a standard deviation (Gaussian)."""
 TIE_TOLERANCE = 1e-10
 """Activations closer than this fraction of max(a) are equal when finding peaks."""
+RESIDUE = 1e-9
+"""Activations below this fraction of the largest ‖k_t‖ are solver residue, not changes."""
 
-__all__ = ["changepoint_offset", "detection_level", "find_changepoints"]
+__all__ = ["changepoint_offset", "detection_level", "find_changepoints", "residue_level"]
+
+
+def residue_level(k: np.ndarray) -> float:
+    """The activation level of rounding and solver residue for coefficients k (N, K)."""
+    return RESIDUE * float(np.max(np.linalg.norm(k, axis=1), initial=0.0))
 
 
 def changepoint_offset(degree: int) -> int:
@@ -81,6 +88,7 @@ def find_changepoints(
     min_distance: int = 10,
     max_changes: int | None = None,
     degree: int | None = None,
+    min_level: float | None = None,
 ) -> np.ndarray:
     """Detect change points from the activation a_t = ‖(Dk)_t‖₂ of a model.
 
@@ -134,6 +142,11 @@ def find_changepoints(
         Degree d of the difference operator that produced an activation array
         (default 1). With a model it is taken from the model; passing a
         different value is an error.
+    min_level : float or None
+        Activations at or below this absolute level are no change. Default:
+        for a model 1e-9 · max_t ‖k_t‖ (rounding and solver residue, so a model
+        that does not change gives no change point even when a_t is 1e-15
+        somewhere); for an activation array 0.
 
     Returns
     -------
@@ -156,6 +169,11 @@ def find_changepoints(
     [50]
     """
     activation, degree = _activation_and_degree(model_or_activation, degree)
+    if min_level is None:
+        min_level = (residue_level(np.asarray(model_or_activation.k))
+                     if isinstance(model_or_activation, RegressionModel) else 0.0)
+    else:
+        min_level = options.nonnegative_scalar(min_level, "min_level")
     threshold = options.fraction(threshold, "threshold")
     noise_factor = options.optional_nonnegative(noise_factor, "noise_factor")
     min_distance = options.integer(min_distance, "min_distance", 1)
@@ -163,7 +181,7 @@ def find_changepoints(
 
     if activation.size == 0 or max_changes == 0:
         return np.zeros(0, dtype=np.int64)
-    level = detection_level(activation, threshold, noise_factor)
+    level = max(detection_level(activation, threshold, noise_factor), min_level)
     peaks = _local_maxima(activation)
     candidates = peaks[activation[peaks] > level]
     kept = _suppress_non_maxima(activation, candidates, min_distance, max_changes)

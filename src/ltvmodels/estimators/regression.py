@@ -27,7 +27,7 @@ from ..results.base import signal_names
 from ..results.record import FitRecord, FitStatus, iterative_status
 from ..results.regression import RegressionModel
 from ..validation import options
-from .changepoints import find_changepoints
+from .changepoints import find_changepoints, residue_level
 from .priors import resolve as resolve_priors
 from .recordings import regression_problem
 from .selection import DEFAULT_METHOD, select_for_problem
@@ -283,7 +283,8 @@ def sparse_model(
     )
     noise_var = problem.output_rss(solution.theta) / max(problem.n_observed, 1)
     info["loglik_note"] = f"norm={norm!r} has no Gaussian likelihood; loglik is None"
-    changepoints = find_changepoints(activation(k, problem.coeffs), degree=problem.degree)
+    changepoints = find_changepoints(activation(k, problem.coeffs), degree=problem.degree,
+                                     min_level=residue_level(k))
     return factory(k, fit=FitRecord(
         norm=norm, coeffs=problem.coeffs, lam=_lam_copy(lam), noise_var=noise_var,
         noise_cov=np.diag(noise_var), info=info, changepoints=changepoints, status=status,
