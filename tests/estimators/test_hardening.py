@@ -242,3 +242,36 @@ def test_solver_residue_is_no_change_point():
     residue[0] = 1.3e-15
     assert ltv.find_changepoints(residue).tolist() == [1]  # an array has no scale of its own
     assert ltv.find_changepoints(residue, min_level=1e-12).size == 0
+
+
+def test_more_inputs_found_by_fuzzing(data, tmp_path):
+    x, u = data
+    with pytest.raises(ValueError, match=r"^k: expected finite values"):
+        ltv.LTVModel(np.full((5, 2), np.nan), 1, 1)
+    assert "lam=None" in repr(ltv.LTVModel(np.ones((5, 2)), 1, 1))
+    with pytest.raises(ValueError, match=r"^order: expected polynomial coefficients of magn"):
+        ltv.fit(x, u, lam=1.0, order=[-1e300, 1e300])
+    with pytest.raises(ValueError, match=r"^mean: column 0 has values .* too large"):
+        ltv.Prior(np.full(6, 1e300), 1.0)
+    with pytest.raises(ValueError, match=r"^lams: the L-curve has no corner"):
+        ltv.select_lambda(x, u, norm="l1", lams=[1e6, 2e6, 3e6])
+    with pytest.raises(ValueError, match=r"^y: too few samples"):
+        ltv.select_lambda_regression(x[1:4], np.c_[x[:3], u[:3]], order=2)
+    with pytest.raises(ValueError, match=r"^y: the noise variance cannot be estimated"):
+        ltv.noise_variance_estimate(np.zeros(3), np.ones((3, 3)))
+
+
+@pytest.mark.parametrize("member, value", [
+    ("changepoints", np.array([-3, 10**6])), ("coeffs", np.zeros((2, 2))),
+    ("cov_blocks", np.zeros((3, 3))), ("noise_cov", np.array([[1.0, np.nan], [np.nan, 1.0]])),
+])
+def test_load_checks_every_member(data, tmp_path, member, value):
+    x, u = data
+    path = tmp_path / "model.npz"
+    ltv.fit(x, u, lam=5.0, norm="group").save(path)
+    with np.load(path) as stored:
+        members = dict(stored)
+    members[member] = value
+    np.savez(path, **members)
+    with pytest.raises(ltv.ModelFileError, match=rf"^path: {path} holds an invalid"):
+        ltv.load(path)

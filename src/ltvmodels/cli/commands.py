@@ -413,7 +413,8 @@ def _cmd_ar(args: argparse.Namespace) -> Report:
         ax.set_title(f"{label}: root spectrogram of AR({args.na}), norm={args.norm!r}, "
                      f"order {args.order}, λ = {float(facts['lam']):.4g}"
                      + (" (no spectrogram: missing samples)" if stft and any_missing else ""))
-        ax.legend(loc="upper right", fontsize="small", markerscale=6)
+        if ax.get_legend_handles_labels()[1]:  # nothing labelled without complex poles
+            ax.legend(loc="upper right", fontsize="small", markerscale=6)
         fig = ax.figure
     _save_model(model, out, report, lines)
     _save_plot(fig, plot, report, lines)

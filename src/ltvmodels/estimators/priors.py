@@ -51,6 +51,7 @@ class Prior:
             raise ValueError(
                 f"mean: expected shape (K,) or (N, K), received shape {self.mean.shape}"
             )
+        arrays.representable(self.mean, "mean", small=False)
         self.cov = arrays.as_float_array(cov, "cov")
         if self.cov.ndim not in (0, 2, 3):
             raise ValueError(
@@ -78,6 +79,7 @@ class OutputPrior:
             raise ValueError(
                 f"mean: expected shape (n,) or (N, n), received shape {self.mean.shape}"
             )
+        arrays.representable(self.mean, "mean", small=False)
         self.cov = arrays.as_float_array(cov, "cov")
         if self.cov.ndim not in (0, 2, 3):
             raise ValueError(

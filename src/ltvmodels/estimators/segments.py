@@ -263,11 +263,14 @@ def noise_variance_estimate(y: Any, phi: Any, min_size: int | None = None) -> fl
     """
     problem = regression_problem(y, phi)
     min_size = options.optional_integer(min_size, "min_size", 1)
-    return _noise_variance(problem, min_size)
+    return _noise_variance(problem, min_size, remedy="y: more samples")
 
 
-def _noise_variance(problem: RegressionProblem, min_size: int | None) -> float:
-    """:func:`noise_variance_estimate` on a validated problem (windows of time steps)."""
+def _noise_variance(problem: RegressionProblem, min_size: int | None, remedy: str) -> float:
+    """:func:`noise_variance_estimate` on a validated problem (windows of time steps).
+
+    ``remedy`` ("argument: what to do") ends the error when no window can be fitted.
+    """
     N, n, p = problem.N, problem.n, problem.p
     y, phi, observed = problem.y, problem.phi, problem.observed
     w = max(4 * p, 20, min_size or 0)
@@ -289,9 +292,10 @@ def _noise_variance(problem: RegressionProblem, min_size: int | None) -> float:
         ratios.append(float(np.sum(resid**2)) / dof)
         dofs.append(dof)
     if not ratios:
+        argument, _, advice = remedy.partition(": ")
         raise ValueError(
-            "penalty: a penalty rule needs a noise variance estimate, but no window of the data "
-            f"has more samples than the p = {p} regressors and full rank; give a number instead"
+            f"{argument}: the noise variance cannot be estimated: no window of the data has "
+            f"more samples than the p = {p} regressors and full rank; {advice}"
         )
     nu = float(np.median(dofs))
     sigma2 = float(np.median(ratios)) / (1.0 - 2.0 / (9.0 * nu)) ** 3
@@ -357,7 +361,8 @@ def _segment(
         )
     else:
         if isinstance(beta_spec, str):
-            sigma2 = _noise_variance(problem, min_size)
+            sigma2 = _noise_variance(problem, min_size,
+                                     remedy="penalty: a penalty rule needs it; give a number")
             K = n * p
             beta = K * np.log(N) * sigma2 if beta_spec == "bic" else 2.0 * K * sigma2
             rule: str | None = beta_spec

@@ -125,7 +125,7 @@ def select_lambda(
     if norm == "l0":
         return _select_changes(data, method, lams, max_changes)
     return _select_validated(data.problem, norm, method, lams, n_folds, progress,
-                             data.regressor_names)
+                             data.regressor_names, data_name="x")
 
 
 def select_lambda_regression(
@@ -158,7 +158,7 @@ def select_lambda_regression(
     norm, method = _norm_and_method(norm, method, ("sq", "group", "l1"))
     problem = regression_problem(y, phi, order=order, weights=weights)
     return _select_validated(problem, norm, method, lams, n_folds, progress,
-                             signal_names("phi", problem.p))
+                             signal_names("phi", problem.p), data_name="y")
 
 
 def _norm_and_method(norm: Any, method: Any, norms: tuple[str, ...]) -> tuple[str, str]:
@@ -170,12 +170,15 @@ def _norm_and_method(norm: Any, method: Any, norms: tuple[str, ...]) -> tuple[st
 
 
 def _select_validated(
-    problem, norm, method, lams, n_folds, progress, regressor_names
+    problem, norm, method, lams, n_folds, progress, regressor_names, *, data_name: str
 ) -> LambdaSelection:
     """Check the sample count, identifiability and ``n_folds``, then
     :func:`select_for_problem`."""
-    options.enough_samples(problem.N, problem.p, problem.degree,
-                           observed=problem.n_observed, n_rows=problem.N * problem.q)
+    counts = {"observed": problem.n_observed, "n_rows": problem.N * problem.q}
+    if data_name == "x":
+        options.enough_samples(problem.N, problem.p, problem.degree, **counts)
+    else:
+        options.enough_rows(problem.N, problem.p, problem.degree, data_name, **counts)
     n_folds = options.integer(n_folds, "n_folds", minimum=2)
     # as fit does: name the combination of regressors the data do not determine
     identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
@@ -210,6 +213,13 @@ def select_for_problem(
     penalty = np.array([f["penalty_norm"] for f in fits])
     if method == "lcurve":
         curvature = _lcurve_curvature(grid, residual, penalty)
+        if not np.isfinite(curvature).any():
+            raise ValueError(
+                "lams: the L-curve has no corner: every candidate gives the same fit "
+                f"(residual norm {residual[0]:.6g}), e.g. all at or above λ_max = "
+                f"{lambda_max(problem, norm):.6g}; pass candidates below λ_max, or none for the "
+                "default grid"
+            )
         best = int(np.argmax(curvature))
         return LambdaSelection(float(grid[best]), grid, curvature, method, norm, residual, penalty)
     if method == "ml":

@@ -59,7 +59,8 @@ def write(model: Any, path: str | Path) -> None:
         arrays["noise_cov"] = fit.noise_cov
     if fit.coeffs is not None:
         arrays["coeffs"] = fit.coeffs
-    arrays["lam"] = np.asarray(fit.lam, dtype=float)
+    if fit.lam is not None:
+        arrays["lam"] = np.asarray(fit.lam, dtype=float)
     if fit.cov is not None:
         arrays["cov_blocks"] = fit.cov.blocks
         if fit.cov.row_group is not None:
@@ -110,11 +111,11 @@ def read(path: str | Path) -> ModelFile:
             status = _status_from_info(info)
         else:
             status = None if meta["status"] is None else FitStatus.from_dict(meta["status"])
-        lam = data["lam"]
+        lam = data["lam"] if "lam" in files else None
         fit = FitRecord(
             norm=meta["norm"],
             coeffs=data["coeffs"] if "coeffs" in files else None,
-            lam=float(lam) if lam.ndim == 0 else lam,
+            lam=_lam_value(lam),
             cov=cov,
             noise_var=_estimated(meta["noise_var"]),
             noise_cov=_estimated(data["noise_cov"]) if "noise_cov" in files else None,
@@ -125,6 +126,14 @@ def read(path: str | Path) -> ModelFile:
         )
         # Files written before model types were recorded hold state-space models.
         return ModelFile(meta.get("model_type", "LTVModel"), data["k"], meta, fit)
+
+
+def _lam_value(lam: np.ndarray | None) -> Any:
+    """λ as the fit stored it: a float, an array, or None (given coefficients; older files
+    wrote NaN)."""
+    if lam is None or (lam.ndim == 0 and np.isnan(lam)):
+        return None
+    return float(lam) if lam.ndim == 0 else lam
 
 
 def _estimated(value: Any) -> Any:

@@ -58,9 +58,13 @@ def load(path: str | Path) -> RegressionModel:
                 f"path: {path} holds a model of unknown type {content.model_type!r} (known: "
                 f"{sorted(MODEL_TYPES)})"
             )
-        if not np.all(np.isfinite(np.asarray(content.k, dtype=float))):
-            raise ValueError(f"path: {path} holds coefficients that are NaN or infinite")
-        return cls.from_structure(content.k, content.structure, content.fit)
+        if not np.isrealobj(content.k) or not np.all(np.isfinite(content.k)):
+            raise ValueError(f"path: {path} holds coefficients that are not finite real numbers")
+        model = cls.from_structure(content.k, content.structure, content.fit)
+        problem = _invalid_record(model)
+        if problem:
+            raise ValueError(f"path: {path} holds an invalid {problem}")
+        return model
     except (FileNotFoundError, PermissionError, IsADirectoryError):
         raise
     except Exception as exc:  # numpy, zipfile, json and our own checks: one error
@@ -71,3 +75,83 @@ def load(path: str | Path) -> RegressionModel:
             f"path: {path} is not a readable ltvmodels model file (written by model.save): "
             f"{type(exc).__name__}: {text}"
         ) from exc
+
+
+def _invalid_record(model: RegressionModel) -> str | None:
+    """What is wrong with a loaded model's fit record (None: nothing).
+
+    A file can be edited or damaged in ways its structure does not reveal;
+    everything the model later computes with is checked here.
+    """
+    N, n, p = model.N, model.n_outputs, model.n_regressors
+    K = n * p
+    fit = model.record
+    if fit.coeffs is not None:
+        c = np.asarray(fit.coeffs)
+        if (c.ndim != 1 or c.size < 2 or c.size > N or not np.all(np.isfinite(c))
+                or c[-1] == 0 or abs(c.sum()) > 1e-8 * np.abs(c).sum()):
+            return f"difference operator 'coeffs' {c.tolist()}"
+    if fit.changepoints is not None:
+        cp = np.asarray(fit.changepoints)
+        if (cp.ndim != 1 or cp.dtype.kind not in "iu" or np.any(cp < 1) or np.any(cp > N - 1)
+                or np.any(np.diff(cp) <= 0)):
+            return f"'changepoints' (expected increasing integers in [1, {N - 1}])"
+    if fit.noise_var is not None:
+        v = np.asarray(fit.noise_var, dtype=float)
+        if v.shape != (n,) or not np.all(np.isfinite(v)) or np.any(v < 0):
+            return f"'noise_var' (expected {n} finite variances >= 0)"
+    if fit.noise_cov is not None:
+        c = np.asarray(fit.noise_cov)
+        if c.shape != (n, n) or not np.all(np.isfinite(c)):
+            return f"'noise_cov' (expected a finite ({n}, {n}) matrix)"
+    if fit.loglik is not None and not np.isfinite(fit.loglik):
+        return f"'loglik' {fit.loglik}"
+    if fit.lam is not None:
+        lam = np.asarray(fit.lam)
+        if lam.shape not in ((), (K,), (K, K)) or np.any(np.isnan(lam)) or np.any(lam < 0):
+            return "'lam' (expected λ >= 0: a scalar, a (K,) vector or a (K, K) matrix)"
+    cov = fit.cov
+    if cov is not None:
+        blocks = np.asarray(cov.blocks)
+        if cov.row_group is None:
+            expected_ok = blocks.shape == (N, K, K)
+        else:
+            group = np.asarray(cov.row_group)
+            expected_ok = (blocks.ndim == 4 and blocks.shape[1:] == (N, p, p)
+                           and group.shape == (n,) and group.dtype.kind in "iu"
+                           and np.all((group >= 0) & (group < blocks.shape[0])))
+            if cov.row_scale is not None:
+                scale = np.asarray(cov.row_scale)
+                expected_ok &= scale.shape == (n,) and bool(np.all(np.isfinite(scale)))
+        if not expected_ok or not np.all(np.isfinite(blocks)):
+            return "covariance ('cov_blocks', 'cov_row_group', 'cov_row_scale')"
+    bad = _nan_entry(model.info)
+    if bad:
+        return f"'info' entry {bad!r} (NaN)"
+    return None
+
+
+def _nan_entry(value: object, key: str = "") -> str | None:
+    """The key of the first NaN in nested info values (None: none).
+
+    Infinities are kept: some entries document them (e.g. the cost of an
+    infeasible number of changes).
+    """
+    if isinstance(value, dict):
+        for k, v in value.items():
+            found = _nan_entry(v, f"{key}.{k}" if key else str(k))
+            if found:
+                return found
+        return None
+    if isinstance(value, (list, tuple)):
+        for v in value:
+            found = _nan_entry(v, key)
+            if found:
+                return found
+        return None
+    if isinstance(value, np.ndarray):
+        ok = value.dtype.kind not in "fc" or not bool(np.any(np.isnan(value)))
+        return None if ok else key
+    if isinstance(value, float) and np.isnan(value):
+        return key
+    return None

@@ -129,8 +129,9 @@ class FitRecord:
     coeffs : array_like of float, shape (d + 1,), or None
         Difference-operator coefficients c_0 … c_d of the penalty
         (``model.activation()`` uses them; None: the first difference).
-    lam : float or ndarray
-        λ (a scalar, a (K,) vector or a (K, K) matrix).
+    lam : float, ndarray or None
+        λ (a scalar, a (K,) vector or a (K, K) matrix); None for given
+        coefficients.
     cov : CovarianceBlocks or None
         Posterior covariance of k_t in compact form.
     noise_var : float, ndarray of shape (n,), or None
@@ -151,7 +152,7 @@ class FitRecord:
 
     norm: str | None = None
     coeffs: Any = None
-    lam: Any = float("nan")
+    lam: Any = None
     cov: CovarianceBlocks | None = None
     noise_var: Any = None
     noise_cov: np.ndarray | None = None

@@ -76,7 +76,7 @@ class RegressionModel:
     def __init__(
         self, k: np.ndarray, n_outputs: int, n_regressors: int, fit: FitRecord | None = None
     ) -> None:
-        self._k = np.array(k, dtype=float)
+        self._k = arrays.as_float_array(k, "k")  # a finite float64 copy
         self._n_outputs = int(n_outputs)
         self._n_regressors = int(n_regressors)
         if self._k.ndim != 2 or self._k.shape[1] != self._n_outputs * self._n_regressors:
@@ -239,7 +239,10 @@ class RegressionModel:
 
     def __repr__(self) -> str:
         lam = self.lam
-        lam_text = f"{float(lam):g}" if np.ndim(lam) == 0 else f"array{np.shape(lam)}"
+        if lam is None:
+            lam_text = "None"
+        else:
+            lam_text = f"{float(lam):g}" if np.ndim(lam) == 0 else f"array{np.shape(lam)}"
         order = "-" if self.coeffs is None else _order_text(self.coeffs)
         return (
             f"{type(self).__name__}(N={self.N}, {self._repr_sizes()}, "

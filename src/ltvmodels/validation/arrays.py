@@ -151,17 +151,19 @@ LARGEST_DATA = 1e100
 SMALLEST_DATA = 1e-100
 
 
-def representable(arr: np.ndarray, name: str) -> np.ndarray:
+def representable(arr: np.ndarray, name: str, *, small: bool = True) -> np.ndarray:
     """Reject columns (last axis) whose magnitudes overflow or underflow when squared.
 
-    A column that is all zero passes (the identifiability checks name it).
-    Returns ``arr``.
+    A column that is all zero passes (the identifiability checks name it);
+    ``small=False`` checks only the upper limit (for values where tiny is fine,
+    e.g. a prior mean). Returns ``arr``.
     """
     if arr.size == 0:
         return arr
     scale = np.fmax.reduce(np.abs(arr).reshape(-1, arr.shape[-1]), axis=0)  # NaN ignored
     for bad, what, limit in ((scale > LARGEST_DATA, "large", LARGEST_DATA),
-                             ((scale > 0) & (scale < SMALLEST_DATA), "small", SMALLEST_DATA)):
+                             ((scale > 0) & (scale < SMALLEST_DATA) & small, "small",
+                              SMALLEST_DATA)):
         if bad.any():
             j = int(np.flatnonzero(bad)[0])
             raise ValueError(

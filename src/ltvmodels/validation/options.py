@@ -283,6 +283,12 @@ def difference_coefficients(order: Any, max_degree: int | None = None) -> np.nda
             f"(trim them to lower the degree), received {coeffs.tolist()}"
         )
     scale = np.abs(coeffs).sum()
+    if not 1e-50 <= np.abs(coeffs).max() <= 1e50:
+        raise ValueError(
+            "order: expected polynomial coefficients of magnitude between 1e-50 and 1e50 "
+            f"(their squares weigh the penalty), received {coeffs.tolist()}; divide them by a "
+            "common factor (only their ratios and λ matter)"
+        )
     if abs(coeffs.sum()) > 1e-10 * scale:
         raise ValueError(
             "order: polynomial coefficients must sum to zero so that constant "
