@@ -350,7 +350,8 @@ def _forward_linear(A, B, c, x0, x_nom, u_nom, k, K, alpha, lo, hi):  # pragma: 
     m = B.shape[2]
     x = np.empty((N + 1, n))
     u = np.empty((N, m))
-    x[0] = x0
+    for i in range(n):  # not x[0] = x0: see _backward
+        x[0, i] = x0[i]
     for t in range(N):
         for i in range(m):
             v = u_nom[t, i] + alpha * k[t, i]
@@ -432,7 +433,9 @@ def _box_qp(H, g, lower, upper, x0, L):  # pragma: no cover
                 if clamped[j]:
                     s += H[i, j] * x[j]
             rhs[a, 0] = s
-        cholesky_solve(L, n_free, rhs)
+        # rhs.shape[0] (= n_free): numba types n_free here as the literal 0 at first,
+        # which compiled cholesky_solve a second time.
+        cholesky_solve(L, rhs.shape[0], rhs)
         search = np.zeros(m)
         for a in range(n_free):
             i = free[a]
@@ -517,14 +520,20 @@ def _backward(A, B, lx, lu, lxx, luu, lux, u, lo, hi, mu, k_warm):  # pragma: no
         kt, free, n_free, ok = _box_qp(Hreg, Qu, lower, upper, k_warm[t], L)
         if not ok:
             return k, K, dV, t
-        k[t] = kt
+        # Copies element by element: an array assignment (k[t] = kt) makes numba
+        # compile its shape-mismatch error message, string formatting that cost
+        # ~2 s of the first ilqg call.
+        for i in range(m):
+            k[t, i] = kt[i]
         if n_free > 0:
             rhs = np.empty((n_free, n))
             for a in range(n_free):
-                rhs[a] = Qux[free[a]]
+                for j in range(n):
+                    rhs[a, j] = Qux[free[a], j]
             cholesky_solve(L, n_free, rhs)
             for a in range(n_free):
-                K[t, free[a]] = -rhs[a]
+                for j in range(n):
+                    K[t, free[a], j] = -rhs[a, j]
         Kt = K[t]
         dV[0] += kt @ Qu
         dV[1] += 0.5 * (kt @ (Quu @ kt))
@@ -952,6 +961,7 @@ def ilqg(
     if x0a.ndim != 1 or x0a.size == 0:
         raise ValueError(f"x0: expected a 1-d state vector of shape (n,), received shape "
                          f"{x0a.shape}")
+    arrays.representable(x0a, "x0", small=False)
     n = x0a.size
     if isinstance(dynamics, LinearDynamics) or (
         hasattr(dynamics, "A") and hasattr(dynamics, "B") and hasattr(dynamics, "k")

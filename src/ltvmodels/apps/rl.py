@@ -102,15 +102,23 @@ def _deriv(x, F, par):  # pragma: no cover - compiled
     J = np.zeros((4, 4))
     J[0, 1] = 1.0
     J[2, 3] = 1.0
-    J[1] = i11 * d1 + i12 * d2
-    J[3] = i12 * d1 + i22 * d2
+    # Element by element: an array assignment (J[1] = i11 * d1 + i12 * d2) makes
+    # numba compile its shape-mismatch error message, ~2 s on first use.
+    for a in range(4):
+        J[1, a] = i11 * d1[a] + i12 * d2[a]
+        J[3, a] = i12 * d1[a] + i22 * d2[a]
     b = np.array([0.0, i11, 0.0, i12])
     return xd, J, b
 
 
-@numba.njit(cache=True)
-def _rk4_step(x, F, par, h, substeps, with_jacobian):  # pragma: no cover - compiled
-    """One sampling interval (force held constant) by RK4, with the exact Jacobian of the map."""
+@numba.njit(cache=True, inline="always")
+def _rk4(x, F, par, h, substeps, with_jacobian):  # pragma: no cover - compiled
+    """One sampling interval (force held constant) by RK4, with the exact Jacobian of the map.
+
+    Inlined with a constant ``with_jacobian`` into the kernels below: passed to a
+    compiled function, the constants True and False are types of their own, each
+    compiled separately (and a third time for a flag from Python).
+    """
     dt = h / substeps
     Phi = np.eye(4)
     Gam = np.zeros(4)
@@ -138,14 +146,28 @@ def _rk4_step(x, F, par, h, substeps, with_jacobian):  # pragma: no cover - comp
 
 
 @numba.njit(cache=True)
+def _rk4_step(x, F, par, h, substeps):  # pragma: no cover - compiled
+    """The state one sampling interval later (:func:`_rk4`)."""
+    return _rk4(x, F, par, h, substeps, False)[0]
+
+
+@numba.njit(cache=True)
+def _rk4_jacobian(x, F, par, h, substeps):  # pragma: no cover - compiled
+    """(next state, Φ (4, 4), Γ (4,)): :func:`_rk4` with the Jacobians of the map."""
+    return _rk4(x, F, par, h, substeps, True)
+
+
+@numba.njit(cache=True)
 def _linearize(x, u, par, h, substeps):  # pragma: no cover - compiled
     N = u.shape[0]
     A = np.empty((N, 4, 4))
     B = np.empty((N, 4, 1))
     for t in range(N):
-        _, Phi, Gam = _rk4_step(x[t], u[t, 0], par, h, substeps, True)
-        A[t] = Phi
-        B[t, :, 0] = Gam
+        _, Phi, Gam = _rk4(x[t], u[t, 0], par, h, substeps, True)
+        for i in range(4):  # element by element: see _deriv
+            for j in range(4):
+                A[t, i, j] = Phi[i, j]
+            B[t, i, 0] = Gam[i]
     return A, B
 
 
@@ -155,15 +177,17 @@ def _closed_loop(x0, x_nom, u_nom, K, noise, lo, hi, par, h, substeps):  # pragm
     N = u_nom.shape[0]
     x = np.empty((N + 1, 4))
     u = np.empty((N, 1))
-    x[0] = x0
+    for j in range(4):  # element by element: see _deriv
+        x[0, j] = x0[j]
     for t in range(N):
         v = u_nom[t, 0] + noise[t]
         for j in range(4):
             v += K[t, 0, j] * (x[t, j] - x_nom[t, j])
         v = min(max(v, lo), hi)
         u[t, 0] = v
-        xn, _, _ = _rk4_step(x[t], v, par, h, substeps, False)
-        x[t + 1] = xn
+        xn, _, _ = _rk4(x[t], v, par, h, substeps, False)
+        for j in range(4):
+            x[t + 1, j] = xn[j]
     return x, u
 
 
@@ -232,14 +256,13 @@ class CartPole:
 
     def step(self, x: Any, u: Any) -> np.ndarray:
         """The state one sampling interval later, shape (4,) (the force is not clipped)."""
-        xn, _, _ = _rk4_step(self._state(x), self._force(u), self._par, float(self.dt),
-                             int(self.substeps), False)
-        return xn
+        return _rk4_step(self._state(x), self._force(u), self._par, float(self.dt),
+                         int(self.substeps))
 
     def jacobian(self, x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
         """Exact Jacobians (A (4, 4), B (4, 1)) of :meth:`step` at (x, u)."""
-        _, Phi, Gam = _rk4_step(self._state(x), self._force(u), self._par, float(self.dt),
-                                int(self.substeps), True)
+        _, Phi, Gam = _rk4_jacobian(self._state(x), self._force(u), self._par,
+                                    float(self.dt), int(self.substeps))
         return Phi, Gam[:, None]
 
     def linearize(self, x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -631,10 +654,10 @@ def optimal_control(task: CartPoleTask) -> ILQGResult:
     par, h, sub = sysm._par, float(sysm.dt), int(sysm.substeps)
 
     def step(x: np.ndarray, u: np.ndarray, t: int) -> np.ndarray:
-        return _rk4_step(x, float(u[0]), par, h, sub, False)[0]
+        return _rk4_step(x, float(u[0]), par, h, sub)
 
     def jacobian(x: np.ndarray, u: np.ndarray, t: int) -> tuple[np.ndarray, np.ndarray]:
-        _, Phi, Gam = _rk4_step(x, float(u[0]), par, h, sub, True)
+        _, Phi, Gam = _rk4_jacobian(x, float(u[0]), par, h, sub)
         return Phi, Gam[:, None]
 
     return ilqg(step, task.cost, task.x0, np.zeros((task.horizon, 1)), jacobian=jacobian,

@@ -155,10 +155,8 @@ def _factor_forward(system: BlockSystem, rhs: np.ndarray, what: str):
     N, b = system.N, system.b
     d = len(system.coeffs) - 1
     L = np.empty((N, d + 1, b, b))
-    size = _kernel_size(N, b)
-    factor_forward = kernels.factor_forward_fixed if isinstance(size, tuple) else \
-        kernels.factor_forward
-    worst, worst_t, logdet = factor_forward(
+    size = _kernel_size(N, b)  # a tuple selects the version compiled for this b
+    worst, worst_t, logdet = kernels.factor_forward(
         np.ascontiguousarray(system.phi), system.n_rep, float(system.data_scale),
         np.ascontiguousarray(system.extra), np.ascontiguousarray(system.W),
         system.bands(), rhs, L, size,
@@ -174,8 +172,7 @@ def _factor_solve(system: BlockSystem, rhs: np.ndarray, compute_cov: bool, what:
     """
     L, logdet, size = _factor_forward(system, rhs, what)
     cov = np.empty((system.N if compute_cov else 0, system.b, system.b))
-    backward = kernels.backward_fixed if isinstance(size, tuple) else kernels.backward
-    backward(L, rhs, cov, size)
+    kernels.backward(L, rhs, cov, size)
     return rhs, (cov if compute_cov else None), logdet
 
 
@@ -195,10 +192,7 @@ class BlockFactor:
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """Solve H X = rhs; ``rhs`` (N, b, r), C-contiguous float, is overwritten and returned."""
-        if isinstance(self._size, tuple):
-            kernels.solve_fixed(self.L, rhs, self._size)
-        else:
-            kernels.solve(self.L, rhs, self._size)
+        kernels.solve(self.L, rhs, self._size)
         return rhs
 
 
@@ -207,14 +201,18 @@ def solve_block_banded(
 ) -> BlockSolution:
     """Solve H θ = rhs for rhs of shape (N, b, r), with constants where diag(W) = inf.
 
-    ``rhs`` must be a C-contiguous float array owned by the caller: it is
-    overwritten (with the solution when no coefficient is constant).
+    ``rhs`` is an array owned by the caller: if C-contiguous float, it is
+    overwritten (with the solution when no coefficient is constant), otherwise
+    a C-contiguous copy is.
 
     Raises
     ------
     SingularProblemError
         If H is singular to working precision.
     """
+    # A layout of its own (e.g. a sum with a transposed array) would compile the
+    # kernels once more (numba specializes on it), ~2.5 s on first use.
+    rhs = np.ascontiguousarray(rhs, dtype=float)
     const = np.isinf(np.diag(system.W))
     if not const.any():
         theta, cov, logdet = _factor_solve(system, rhs, compute_cov, what)

@@ -21,20 +21,50 @@ than a division on the dependency chains of the sweeps.
 Two sweeps do everything: forward (factor + forward substitution) and
 backward (back substitution + selected inversion).
 
-The block size b is an argument of every kernel. The ``*_fixed`` entry
-points take it as a tuple of length b instead: a tuple's length is part of
-its type, so they compile one version per block size with b a compile-time
-constant (the kernels are inlined into them), and the b × b loops unroll.
-That is about 1.5× faster, at the price of one compilation per block size
-(cached on disk); it pays off for long series only. Small explicit loops over
-b × b blocks are several times faster than LAPACK's banded routines here,
-whose per-column BLAS calls dominate at small bandwidths.
+The block size b is an argument of every kernel, ``size``: an int, or a
+tuple of length b. A tuple's length is part of its type, so a tuple compiles
+one version per block size with b a compile-time constant, and the b × b
+loops unroll. That is about 1.5× faster, at the price of one compilation per
+block size (cached on disk); it pays off for long series only. (The
+``*_fixed`` names are the same kernels, for callers that pass the tuple.)
+Small explicit loops over b × b blocks are several times faster than LAPACK's
+banded routines here, whose per-column BLAS calls dominate at small
+bandwidths.
+
+Compilation time: the helpers below are inlined into the kernels (numba's
+``inline="always"``) once, not through a second wrapper per variant: numba's
+inlining of an inlined function's inlined helpers took about 1 s per kernel.
 """
 
 from __future__ import annotations
 
 import numba
 import numpy as np
+from numba.core import types
+from numba.extending import intrinsic
+
+
+@intrinsic
+def block_size(typingctx, size):  # pragma: no cover - compiled
+    """The block size b from a kernel's ``size`` argument (an int, or a tuple of length b).
+
+    For a tuple b is a constant of the compiled code. (An intrinsic: numba's
+    overloads cost about 0.3 s more compilation on first use.)
+    """
+    if isinstance(size, types.BaseTuple):
+        b = len(size)
+
+        def codegen(context, builder, signature, args):
+            return context.get_constant(types.intp, b)
+
+        return types.intp(size), codegen
+    if isinstance(size, types.Integer):
+
+        def codegen(context, builder, signature, args):
+            return context.cast(builder, args[0], size, types.intp)
+
+        return types.intp(size), codegen
+    return None
 
 
 @numba.njit(cache=True, inline="always")
@@ -182,8 +212,8 @@ def _log_det_block(L, t, b):  # pragma: no cover - compiled
     return logdet
 
 
-@numba.njit(cache=True, inline="always")
-def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, b):  # pragma: no cover - compiled
+@numba.njit(cache=True)
+def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, size):  # pragma: no cover
     """Factor H = L Lᵀ and forward-substitute the right-hand sides, in place.
 
     Output arrays are allocated by the caller with numpy, which requests
@@ -197,7 +227,7 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, b):  # pragma:
     W : (b, b);  bands : (d+1, N), bands[lag, s] = (DᵀD)_{s+lag, s}
     Z : (N, b, r) right-hand sides (r may be 0), overwritten with L⁻¹ rhs
     L : (N, d+1, b, b) output, the factor
-    b : int, the block size n_rep·p (see ``factor_forward_fixed``)
+    size : int or tuple, the block size b = n_rep·p (see the module docstring)
 
     Returns
     -------
@@ -209,6 +239,7 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, b):  # pragma:
     logdet : float
         log det H = 2 Σ log diag(L).
     """
+    b = block_size(size)
     N = phi.shape[0]
     d = bands.shape[0] - 1
     M = np.empty((b, b))
@@ -242,8 +273,8 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, b):  # pragma:
     return worst, worst_t, logdet
 
 
-@numba.njit(cache=True, inline="always")
-def backward(L, X, cov, b):  # pragma: no cover - compiled
+@numba.njit(cache=True)
+def backward(L, X, cov, size):  # pragma: no cover - compiled
     """Back substitution X ← L⁻ᵀ X in place and the diagonal blocks of H⁻¹ into ``cov``.
 
     Selected inversion (block Takahashi recursion): from Lᵀ Σ = L⁻¹, for i >= t,
@@ -259,8 +290,9 @@ def backward(L, X, cov, b):  # pragma: no cover - compiled
     ----------
     L : (N, d+1, b, b) factor;  X : (N, b, r), overwritten
     cov : (N, b, b) output, or (0, b, b) to skip the covariances
-    b : int, the block size
+    size : int or tuple, the block size b
     """
+    b = block_size(size)
     N, dp1, _, _ = L.shape
     d = dp1 - 1
     w = d + 1
@@ -312,12 +344,18 @@ def backward(L, X, cov, b):  # pragma: no cover - compiled
                 for a in range(b):
                     for c in range(a):
                         dest[a, c] = dest[c, a]
-        cov[t] = window[t % w, t % w]
+        # A loop, not cov[t] = ...: numba compiles an array assignment with a
+        # shape-mismatch error message that formats strings, ~2 s on first use.
+        Stt = window[t % w, t % w]
+        for a in range(b):
+            for c in range(b):
+                cov[t, a, c] = Stt[a, c]
 
 
-@numba.njit(cache=True, inline="always")
-def solve(L, X, b):  # pragma: no cover - compiled
-    """Solve L Lᵀ X = rhs in place; X (N, b, r) holds rhs on entry."""
+@numba.njit(cache=True)
+def solve(L, X, size):  # pragma: no cover - compiled
+    """Solve L Lᵀ X = rhs in place; X (N, b, r) holds rhs on entry; size: int or tuple."""
+    b = block_size(size)
     N, dp1, _, _ = L.shape
     d = dp1 - 1
     for t in range(N):
@@ -339,21 +377,7 @@ def rowwise_matvec(theta, phi, out):  # pragma: no cover - compiled
                 out[t, r, i] = acc
 
 
-@numba.njit(cache=True)
-def factor_forward_fixed(
-    phi, n_rep, data_scale, extra, W, bands, Z, L, b_tuple
-):  # pragma: no cover - compiled
-    """:func:`factor_forward` with the block size ``len(b_tuple)`` as a constant."""
-    return factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, len(b_tuple))
-
-
-@numba.njit(cache=True)
-def backward_fixed(L, X, cov, b_tuple):  # pragma: no cover - compiled
-    """:func:`backward` with the block size ``len(b_tuple)`` as a constant."""
-    backward(L, X, cov, len(b_tuple))
-
-
-@numba.njit(cache=True)
-def solve_fixed(L, X, b_tuple):  # pragma: no cover - compiled
-    """:func:`solve` with the block size ``len(b_tuple)`` as a constant."""
-    solve(L, X, len(b_tuple))
+# The same kernels under the names of their constant-size use (a tuple ``size``).
+factor_forward_fixed = factor_forward
+backward_fixed = backward
+solve_fixed = solve

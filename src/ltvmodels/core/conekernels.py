@@ -15,7 +15,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .blockkernels import diagonal_step, offdiagonal_step
+from .blockkernels import block_size, diagonal_step, offdiagonal_step
 
 
 @numba.njit(cache=True)
@@ -192,11 +192,14 @@ def _penalty_row(v, eta, s_coef, w, r, offset, out, b):  # pragma: no cover - co
                 out[j, i] = value
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def factor_newton(
-    phi, n_rep, v, eta, s_coef, w, coeffs, offset, pinned, L, b
+    phi, n_rep, v, eta, s_coef, w, coeffs, offset, pinned, L, size
 ):  # pragma: no cover - compiled
     """Factor the Newton matrix 2ΦᵀΦ + DᵀΛSΛD into L (N, d+1, b, b).
+
+    ``size`` is the block size b as an int, or as a tuple of length b for the
+    version compiled with b a constant (see :mod:`.blockkernels`).
 
     The block-banded Cholesky of :mod:`.blockkernels` with the penalty
     blocks (ΛSΛ)_r formed on the fly from the cone scaling (one per row of D,
@@ -212,6 +215,7 @@ def factor_newton(
 
     Returns (smallest pivot² ratio, −1 if not positive definite; its time step).
     """
+    b = block_size(size)
     N, n_rows, p = phi.shape
     d = coeffs.shape[0] - 1
     R = N - d
@@ -281,24 +285,17 @@ def factor_newton(
     return worst, worst_t
 
 
-@numba.njit(cache=True)
-def factor_newton_any(
-    phi, n_rep, v, eta, s_coef, w, coeffs, offset, pinned, L
-):  # pragma: no cover - compiled
-    """:func:`factor_newton` with the block size taken from ``L`` at run time."""
-    return factor_newton(
-        phi, n_rep, v, eta, s_coef, w, coeffs, offset, pinned, L, L.shape[2]
-    )
+# The constant-size version is the same kernel with a tuple ``size``.
+factor_newton_fixed = factor_newton
 
 
-@numba.njit(cache=True)
-def factor_newton_fixed(
-    phi, n_rep, v, eta, s_coef, w, coeffs, offset, pinned, L, b_tuple
-):  # pragma: no cover - compiled
-    """:func:`factor_newton` with the block size ``len(b_tuple)`` as a compile-time constant."""
-    return factor_newton(
-        phi, n_rep, v, eta, s_coef, w, coeffs, offset, pinned, L, len(b_tuple)
-    )
+def factor_newton_any(phi, n_rep, v, eta, s_coef, w, coeffs, offset, pinned, L):
+    """:func:`factor_newton` with the block size taken from ``L`` at run time.
+
+    A Python function: as a compiled wrapper it made numba inline the kernel
+    (and its inlined helpers) once more, about 1 s of compilation.
+    """
+    return factor_newton(phi, n_rep, v, eta, s_coef, w, coeffs, offset, pinned, L, L.shape[2])
 
 
 @numba.njit(cache=True)

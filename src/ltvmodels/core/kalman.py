@@ -68,7 +68,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from .dense import cholesky_solve
+from .dense import cholesky, cholesky_solve
 
 LOG_2PI = float(np.log(2.0 * np.pi))
 
@@ -148,46 +148,114 @@ def realize(coeffs: np.ndarray, p: int, lam: float, noise_var: float) -> Paramet
 # Compiled steps. State of the recursion, for all rows at once:
 #   information phase (info=True):  mat = Ω (D, D), vec = η (D, n), ell = log normalizer (n,)
 #   covariance phase  (info=False): mat = P (D, D), vec = m (D, n), ell = log-likelihood (n,)
+#
+# The matrices are small (D = d·p), so everything is written as explicit loops over
+# C-contiguous arrays with the small Cholesky of :mod:`.dense`: numba compiles this
+# in a fraction of the time that ``@``, ``np.linalg`` and array expressions take
+# (the first kalman_smoother call in a fresh process compiled for 16 s before), and
+# the loops are as fast as BLAS/LAPACK calls at these sizes. For the same reason the
+# steps used at one place are inlined (``inline="always"``: a compiled callee is
+# optimized again inside every caller), while the small helpers used at many
+# places are compiled once.
 # ---------------------------------------------------------------------------------------
 
 
 @numba.njit(cache=True)
-def _symmetrize(A: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
-    return 0.5 * (A + A.T)
+def _matmul(A, B, out):  # pragma: no cover - compiled
+    """out = A B (out must not alias A or B)."""
+    for i in range(A.shape[0]):
+        for j in range(B.shape[1]):
+            acc = 0.0
+            for k in range(A.shape[1]):
+                acc += A[i, k] * B[k, j]
+            out[i, j] = acc
 
 
 @numba.njit(cache=True)
-def _chol_solve(L: np.ndarray, B: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
-    """A⁻¹ B from the Cholesky factor L of A (D, D), B (D, r); returns a new C array."""
-    X = B.copy()
-    cholesky_solve(L, B.shape[0], X)
+def _matmul_bt(A, B, out):  # pragma: no cover - compiled
+    """out = A Bᵀ (out must not alias A or B)."""
+    for i in range(A.shape[0]):
+        for j in range(B.shape[0]):
+            acc = 0.0
+            for k in range(A.shape[1]):
+                acc += A[i, k] * B[j, k]
+            out[i, j] = acc
+
+
+@numba.njit(cache=True)
+def _symmetrize(A):  # pragma: no cover - compiled
+    """A ← (A + Aᵀ)/2 in place."""
+    for a in range(A.shape[0]):
+        for b in range(a):
+            value = 0.5 * (A[a, b] + A[b, a])
+            A[a, b] = value
+            A[b, a] = value
+
+
+@numba.njit(cache=True)
+def _leading_cholesky(A, p, shift):  # pragma: no cover - compiled
+    """Cholesky factor (p, p) of A[:p, :p] + shift·I (np.linalg.cholesky's error if not PD)."""
+    L = np.zeros((p, p))
+    if not cholesky(A, np.arange(p), -shift, L):
+        raise np.linalg.LinAlgError("Matrix is not positive definite.")
+    return L
+
+
+@numba.njit(cache=True)
+def _solve_rows(L, B):  # pragma: no cover - compiled
+    """(L Lᵀ)⁻¹ B[:d] for the (d, d) factor L, as a new (d, r) array."""
+    d = L.shape[0]
+    X = np.empty((d, B.shape[1]))
+    for a in range(d):
+        for c in range(B.shape[1]):
+            X[a, c] = B[a, c]
+    cholesky_solve(L, d, X)
     return X
 
 
-@numba.njit(cache=True)
-def _spd_solve(A: np.ndarray, B: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
-    """A⁻¹ B for symmetric positive definite A."""
-    return _chol_solve(np.linalg.cholesky(A), B)
+@numba.njit(cache=True, inline="always")
+def _info_gain(Omega, eta, F_inv, F_invT, p, q):  # pragma: no cover - compiled
+    """The Woodbury terms of an information-form prediction (shared with the smoother).
+
+    Returns M = F⁻ᵀ Ω F⁻¹, η' = F⁻ᵀ η, the Cholesky factor L of S = Gᵀ M G + I/q,
+    X = S⁻¹ Gᵀ M (p, D) and Z = S⁻¹ Gᵀ η' (p, n).
+    """
+    D = Omega.shape[0]
+    work = np.empty((D, D))
+    _matmul(F_invT, Omega, work)
+    M = np.empty((D, D))
+    _matmul(work, F_inv, M)
+    _symmetrize(M)
+    eta_p = np.empty((D, eta.shape[1]))
+    _matmul(F_invT, eta, eta_p)
+    L = _leading_cholesky(M, p, 1.0 / q)
+    return M, eta_p, L, _solve_rows(L, M), _solve_rows(L, eta_p)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _info_predict(Omega, eta, ell, F_inv, F_invT, p, q, log_abs_det_F):  # pragma: no cover
     """Flat-prior-exact prediction in information form (Woodbury, Ω may be singular)."""
-    M = _symmetrize(F_invT @ Omega @ F_inv)
-    eta_p = F_invT @ eta
-    S = M[:p, :p].copy()
-    for a in range(p):
-        S[a, a] += 1.0 / q
-    Mp = np.ascontiguousarray(M[:, :p])
-    L = np.linalg.cholesky(S)
-    X = _chol_solve(L, M[:p, :])  # S⁻¹ Gᵀ M, (p, D)
-    Z = _chol_solve(L, eta_p[:p])  # S⁻¹ Gᵀ η', (p, n)
-    Omega_new = _symmetrize(M - Mp @ X)
-    eta_new = eta_p - Mp @ Z
+    D = Omega.shape[0]
+    n = eta.shape[1]
+    M, eta_p, L, X, Z = _info_gain(Omega, eta, F_inv, F_invT, p, q)
+    Omega_new = np.empty((D, D))  # M − M G X
+    eta_new = np.empty((D, n))  # η' − M G Z
+    for a in range(D):
+        for b in range(D):
+            acc = 0.0
+            for c in range(p):
+                acc += M[a, c] * X[c, b]
+            Omega_new[a, b] = M[a, b] - acc
+        for i in range(n):
+            acc = 0.0
+            for c in range(p):
+                acc += M[a, c] * Z[c, i]
+            eta_new[a, i] = eta_p[a, i] - acc
+    _symmetrize(Omega_new)
     logdet_qS = p * np.log(q)  # log det(q S) = log det(I + q Gᵀ M G)
     for a in range(p):
         logdet_qS += 2.0 * np.log(L[a, a])
-    for i in range(ell.shape[0]):
+    for i in range(n):
         quad = 0.0
         for a in range(p):
             quad += eta_p[a, i] * Z[a, i]
@@ -195,7 +263,7 @@ def _info_predict(Omega, eta, ell, F_inv, F_invT, p, q, log_abs_det_F):  # pragm
     return Omega_new, eta_new
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _info_update(Omega, eta, ell, phi_t, y_t, r):  # pragma: no cover - compiled
     """Add the measurement y_t = φ_tᵀ θ_t + e to (Ω, η) and the log normalizer, in place."""
     p = phi_t.shape[0]
@@ -208,9 +276,13 @@ def _info_update(Omega, eta, ell, phi_t, y_t, r):  # pragma: no cover - compiled
         ell[i] += -0.5 * (LOG_2PI + np.log(r)) - 0.5 * y_t[i] ** 2 / r
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _info_identified(Omega, tol):  # pragma: no cover - compiled
-    """True if Ω scaled to unit diagonal has smallest eigenvalue > tol."""
+    """True if Ω scaled to unit diagonal has smallest eigenvalue > tol.
+
+    That is, if the scaled Ω minus tol·I is positive definite: its Cholesky
+    factorization succeeds (as the feasibility test of :mod:`.segmentation`).
+    """
     D = Omega.shape[0]
     s = np.empty(D)
     for a in range(D):
@@ -221,16 +293,20 @@ def _info_identified(Omega, tol):  # pragma: no cover - compiled
     for a in range(D):
         for b in range(D):
             scaled[a, b] = 0.5 * (Omega[a, b] + Omega[b, a]) * s[a] * s[b]
-    return np.linalg.eigvalsh(scaled)[0] > tol
+    return cholesky(scaled, np.arange(D), tol, np.empty((D, D)))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _info_to_moments(Omega, eta, ell):  # pragma: no cover - compiled
     """Switch to moments: P = Ω⁻¹, m = Ω⁻¹η; ell becomes log ∫ (likelihood so far) ds."""
     D = Omega.shape[0]
-    L = np.linalg.cholesky(Omega)
-    P = _symmetrize(_chol_solve(L, np.eye(D)))
-    m = _chol_solve(L, eta)
+    L = _leading_cholesky(Omega, D, 0.0)
+    P = np.zeros((D, D))
+    for a in range(D):
+        P[a, a] = 1.0
+    P = _solve_rows(L, P)
+    _symmetrize(P)
+    m = _solve_rows(L, eta)
     logdet = 0.0
     for a in range(D):
         logdet += 2.0 * np.log(L[a, a])
@@ -242,16 +318,23 @@ def _info_to_moments(Omega, eta, ell):  # pragma: no cover - compiled
     return P, m
 
 
-@numba.njit(cache=True)
-def _cov_predict(P, m, F, FT, p, q):  # pragma: no cover - compiled
-    """m⁺ = F m, P⁺ = F P Fᵀ + G q Gᵀ."""
-    P_new = F @ P @ FT
+@numba.njit(cache=True, inline="always")
+def _cov_predict(P, m, F, p, q):  # pragma: no cover - compiled
+    """m⁺ = F m, P⁺ = F P Fᵀ + G q Gᵀ; returns (P⁺, m⁺, F P)."""
+    D = P.shape[0]
+    FP = np.empty((D, D))
+    _matmul(F, P, FP)
+    P_new = np.empty((D, D))
+    _matmul_bt(FP, F, P_new)
     for a in range(p):
         P_new[a, a] += q
-    return _symmetrize(P_new), F @ m
+    _symmetrize(P_new)
+    m_new = np.empty((D, m.shape[1]))
+    _matmul(F, m, m_new)
+    return P_new, m_new, FP
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _cov_update(P, m, ell, phi_t, y_t, r):  # pragma: no cover - compiled
     """Scalar measurement update shared by all rows, in place; adds to the log-likelihood."""
     D, n = m.shape
@@ -281,110 +364,172 @@ def _cov_update(P, m, ell, phi_t, y_t, r):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def step(mat, vec, ell, info, predict, phi_t, y_t, obs_t, F, FT, F_inv, F_invT, q, r,
-          log_abs_det_F, tol):  # pragma: no cover - compiled
+def _filter_steps(mat, vec, ell, info, predict_first, phi, y, observed, F, F_inv, F_invT, q, r,
+                  log_abs_det_F, tol, vecs, mats, in_info):  # pragma: no cover - compiled
+    """The filter over the time steps of φ (N, q, p), y (N, q, n), observed (N, q).
+
+    Starts from the state (mat, vec, info) (see above), predicts before every
+    step but the first (and before the first too if ``predict_first``), and
+    stores each step's state in vecs (N, D, n), mats (N, D, D), in_info (N,);
+    ``ell`` is updated in place. Returns the final (mat, vec, info).
+
+    This one kernel serves :func:`filter_kernel` and :func:`step` (the online
+    filter): a compiled function calling another compiled function makes numba
+    optimize the callee's code once more inside the caller, so the whole filter
+    as a callee of a loop kernel cost ~1.5 s more compilation.
+    """
+    p = phi.shape[2]
+    D, n = vec.shape
+    for t in range(phi.shape[0]):
+        predict = t > 0 or predict_first
+        if info:
+            if predict:
+                mat, vec = _info_predict(mat, vec, ell, F_inv, F_invT, p, q, log_abs_det_F)
+            for j in range(phi.shape[1]):
+                if observed[t, j]:
+                    _info_update(mat, vec, ell, phi[t, j], y[t, j], r)
+            if _info_identified(mat, tol):
+                mat, vec = _info_to_moments(mat, vec, ell)
+                info = False
+        else:
+            if predict:
+                mat, vec, _ = _cov_predict(mat, vec, F, p, q)
+            for j in range(phi.shape[1]):
+                if observed[t, j]:
+                    _cov_update(mat, vec, ell, phi[t, j], y[t, j], r)
+        # Element by element: an array assignment (vecs[t] = vec) makes numba
+        # compile its shape-mismatch error message, ~2 s on first use.
+        for a in range(D):
+            for i in range(n):
+                vecs[t, a, i] = vec[a, i]
+            for b in range(D):
+                mats[t, a, b] = mat[a, b]
+        in_info[t] = info
+    return mat, vec, info
+
+
+def step(mat, vec, ell, info, predict, phi_t, y_t, obs_t, F, F_inv, F_invT, q, r,
+         log_abs_det_F, tol):
     """One time step: predict from t−1 (unless ``predict`` is False), then update.
 
     The measurements of step t are the rows j of φ_t (q, p), y_t (q, n) with
     ``obs_t[j]`` True (one per trajectory; none for a missing sample).
     Returns the new (mat, vec, info); ``ell`` is updated in place.
     """
-    p = phi_t.shape[1]
-    if info:
-        if predict:
-            mat, vec = _info_predict(mat, vec, ell, F_inv, F_invT, p, q, log_abs_det_F)
-        for j in range(phi_t.shape[0]):
-            if obs_t[j]:
-                _info_update(mat, vec, ell, phi_t[j], y_t[j], r)
-        if _info_identified(mat, tol):
-            P, m = _info_to_moments(mat, vec, ell)
-            return P, m, False
-        return mat, vec, True
-    if predict:
-        mat, vec = _cov_predict(mat, vec, F, FT, p, q)
-    for j in range(phi_t.shape[0]):
-        if obs_t[j]:
-            _cov_update(mat, vec, ell, phi_t[j], y_t[j], r)
-    return mat, vec, False
+    D, n = vec.shape
+    mat, vec, info = _filter_steps(
+        mat, vec, ell, bool(info), bool(predict), np.ascontiguousarray(phi_t[None], float),
+        np.ascontiguousarray(y_t[None], float), np.ascontiguousarray(obs_t[None], bool), F,
+        F_inv, F_invT, float(q), float(r), float(log_abs_det_F), float(tol),
+        np.empty((1, D, n)), np.empty((1, D, D)), np.empty(1, bool),
+    )
+    return mat, vec, info
 
 
-@numba.njit(cache=True)
-def filter_kernel(phi, y, observed, F, F_inv, q, r, log_abs_det_F, diffuse, m0, P0,
-                   tol):  # pragma: no cover - compiled
+def filter_kernel(phi, y, observed, F, F_inv, q, r, log_abs_det_F, diffuse, m0, P0, tol):
     """Run the filter over all time steps: φ (N, q, p), y (N, q, n), observed (N, q).
 
     Returns (vecs (N, D, n), mats (N, D, D), in_info (N,), ell (n,)): per step the
     filtered (m, P), or (η, Ω) while the state is not identified (in_info True).
     """
-    N = phi.shape[0]
-    n = y.shape[2]
-    D = F.shape[0]
-    FT = np.ascontiguousarray(F.T)
-    F_invT = np.ascontiguousarray(F_inv.T)
-    vecs = np.empty((N, D, n))
-    mats = np.empty((N, D, D))
-    in_info = np.zeros(N, dtype=np.bool_)
+    N, n, D = phi.shape[0], y.shape[2], F.shape[0]
+    vecs, mats, in_info = np.empty((N, D, n)), np.empty((N, D, D)), np.empty(N, bool)
     ell = np.zeros(n)
     if diffuse:
-        mat = np.zeros((D, D))
-        vec = np.zeros((D, n))
+        mat, vec = np.zeros((D, D)), np.zeros((D, n))
     else:
-        mat = P0.copy()
-        vec = m0.copy()
-    info = diffuse
-    for t in range(N):
-        mat, vec, info = step(mat, vec, ell, info, t > 0, phi[t], y[t], observed[t], F, FT,
-                              F_inv, F_invT, q, r, log_abs_det_F, tol)
-        vecs[t] = vec
-        mats[t] = mat
-        in_info[t] = info
+        mat, vec = np.array(P0, float), np.array(m0, float)
+    _filter_steps(
+        mat, vec, ell, bool(diffuse), False, np.ascontiguousarray(phi, float),
+        np.ascontiguousarray(y, float), np.ascontiguousarray(observed, bool),
+        np.ascontiguousarray(F, float), np.ascontiguousarray(F_inv, float),
+        np.ascontiguousarray(F_inv.T, float), float(q), float(r), float(log_abs_det_F),
+        float(tol), vecs, mats, in_info,
+    )
     return vecs, mats, in_info, ell
 
 
 @numba.njit(cache=True)
 def smoother_kernel(vecs, mats, in_info, F, F_inv, p, q):  # pragma: no cover - compiled
-    """RTS backward pass; returns the k-blocks: means (N, p, n), covariances (N, p, p)."""
+    """RTS backward pass; returns the k-blocks: means (N, p, n), covariances (N, p, p).
+
+    The conditional mean of s_t given s_{t+1} is J s_{t+1} + b, its covariance L:
+    in the information phase J = F⁻¹(I − G X), b = F⁻¹ G Z, L = F⁻¹ G S⁻¹ Gᵀ F⁻ᵀ
+    (the terms of :func:`_info_gain`); in the covariance phase
+    J = P_t Fᵀ P_pred⁻¹, b = m_t − J F m_t, L = P_t − J P_pred Jᵀ.
+    """
     N, D, n = vecs.shape
-    FT = np.ascontiguousarray(F.T)
-    F_invT = np.ascontiguousarray(F_inv.T)
-    Fp = np.ascontiguousarray(F_inv[:, :p])  # F⁻¹ G
-    FpT = np.ascontiguousarray(Fp.T)
+    F_invT = np.empty((D, D))
+    for a in range(D):
+        for b in range(D):
+            F_invT[a, b] = F_inv[b, a]
+    FpT = np.empty((p, D))  # (F⁻¹ G)ᵀ
+    for c in range(p):
+        for a in range(D):
+            FpT[c, a] = F_inv[a, c]
     out_m = np.empty((N, p, n))
     out_P = np.empty((N, p, p))
     ms = vecs[N - 1].copy()
     Ps = mats[N - 1].copy()
-    out_m[N - 1] = ms[:p]
-    out_P[N - 1] = Ps[:p, :p]
-    for t in range(N - 2, -1, -1):
-        if in_info[t]:
-            M = _symmetrize(F_invT @ mats[t] @ F_inv)
-            eta_p = F_invT @ vecs[t]
-            S = M[:p, :p].copy()
-            for a in range(p):
-                S[a, a] += 1.0 / q
-            L_S = np.linalg.cholesky(S)
-            X = _chol_solve(L_S, M[:p, :])  # S⁻¹ Gᵀ M
-            IGX = np.eye(D)
-            IGX[:p, :] -= X
-            J = F_inv @ IGX
-            b = Fp @ _chol_solve(L_S, eta_p[:p])
-            L = Fp @ _chol_solve(L_S, FpT)
-            ms = J @ ms + b
-            Ps = _symmetrize(J @ Ps @ np.ascontiguousarray(J.T) + L)
-        else:
+    J = np.empty((D, D))
+    JP = np.empty((D, D))
+    work = np.empty((D, D))
+    ms_new = np.empty((D, n))
+    for t in range(N - 1, -1, -1):
+        if t < N - 1 and in_info[t]:
+            _, _, L_S, X, Z = _info_gain(mats[t], vecs[t], F_inv, F_invT, p, q)
+            for a in range(D):  # J = F⁻¹ (I − G X)
+                for b in range(D):
+                    acc = F_inv[a, b]
+                    for c in range(p):
+                        acc -= F_inv[a, c] * X[c, b]
+                    J[a, b] = acc
+            _matmul(J, ms, ms_new)  # m = J m⁺ + F⁻¹ G Z
+            for a in range(D):
+                for i in range(n):
+                    acc = 0.0
+                    for c in range(p):
+                        acc += F_inv[a, c] * Z[c, i]
+                    ms[a, i] = ms_new[a, i] + acc
+            Lt = _solve_rows(L_S, FpT)  # P = J P⁺ Jᵀ + F⁻¹ G S⁻¹ Gᵀ F⁻ᵀ
+            _matmul(J, Ps, JP)
+            _matmul_bt(JP, J, work)
+            for a in range(D):
+                for b in range(D):
+                    acc = 0.0
+                    for c in range(p):
+                        acc += F_inv[a, c] * Lt[c, b]
+                    Ps[a, b] = work[a, b] + acc
+            _symmetrize(Ps)
+        elif t < N - 1:
             P = mats[t]
             m = vecs[t]
-            FP = F @ P
-            P_pred = FP @ FT
-            for a in range(p):
-                P_pred[a, a] += q
-            P_pred = _symmetrize(P_pred)
-            JT = _spd_solve(P_pred, FP)  # P⁻¹_{t+1|t} F P_{t|t} = Jᵀ
-            J = np.ascontiguousarray(JT.T)
-            ms = m + J @ (ms - F @ m)
-            Ps = _symmetrize(P + J @ (Ps - P_pred) @ JT)
-        out_m[t] = ms[:p]
-        out_P[t] = Ps[:p, :p]
+            P_pred, m_pred, FP = _cov_predict(P, m, F, p, q)
+            JT = _solve_rows(_leading_cholesky(P_pred, D, 0.0), FP)  # P_pred⁻¹ F P_t = Jᵀ
+            for a in range(D):
+                for b in range(D):
+                    J[a, b] = JT[b, a]
+            for a in range(D):  # m = m_t + J (m⁺ − F m_t)
+                for i in range(n):
+                    m_pred[a, i] = ms[a, i] - m_pred[a, i]
+            _matmul(J, m_pred, ms_new)
+            for a in range(D):
+                for i in range(n):
+                    ms[a, i] = m[a, i] + ms_new[a, i]
+            for a in range(D):  # P = P_t + J (P⁺ − P_pred) Jᵀ
+                for b in range(D):
+                    work[a, b] = Ps[a, b] - P_pred[a, b]
+            _matmul(J, work, JP)
+            _matmul(JP, JT, work)
+            for a in range(D):
+                for b in range(D):
+                    Ps[a, b] = P[a, b] + work[a, b]
+            _symmetrize(Ps)
+        for a in range(p):
+            for i in range(n):
+                out_m[t, a, i] = ms[a, i]
+            for b in range(p):
+                out_P[t, a, b] = Ps[a, b]
     return out_m, out_P
 
 

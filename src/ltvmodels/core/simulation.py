@@ -15,7 +15,10 @@ def simulate_affine(A, B, w, x0, u):  # pragma: no cover - compiled
     N, n, _ = A.shape
     m = B.shape[2]
     x = np.empty((N + 1, n))
-    x[0] = x0
+    # Element by element: an array assignment (x[0] = x0) makes numba compile its
+    # shape-mismatch error message, string formatting that took ~2 s on first use.
+    for i in range(n):
+        x[0, i] = x0[i]
     for t in range(N):
         for i in range(n):
             acc = w[t, i]
