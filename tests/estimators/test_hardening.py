@@ -275,3 +275,34 @@ def test_load_checks_every_member(data, tmp_path, member, value):
     np.savez(path, **members)
     with pytest.raises(ltv.ModelFileError, match=rf"^path: {path} holds an invalid"):
         ltv.load(path)
+
+
+def test_inputs_found_by_the_long_fuzzing_profile(data):
+    x, u = data
+    N = x.shape[0] - 1
+    rng = np.random.default_rng(0)
+    assert ltv.fit(rng.standard_normal((3, 1)), lam=1.0, norm="group").k.shape == (2, 1)
+    with pytest.raises(ValueError, match=r"^weights: expected weights of 0 or between"):
+        ltv.fit(x, u, lam=1.0, weights=np.full(N, 1e300))
+    with pytest.raises(ValueError, match=r"^lam: expected a finite λ below"):
+        ltv.fit(x, u, lam=np.array([1e200, 3, 3, 3, 3, 3.0]), norm="group")
+    with pytest.raises(ValueError, match=r"^lams: expected a finite real number >= 0"):
+        ltv.fit_path(x, u, lams=[-1.0])
+    with pytest.raises(ValueError, match=r"^noise_var: expected a variance between"):
+        ltv.kalman_smoother(x, u, lam=100.0, noise_var=1e300)
+    online = ltv.OnlineParameterFilter(2, 1, lam=10.0)
+    with pytest.raises(ValueError, match=r"^x_t: column 0 has values .* too large"):
+        online.update(x[0] * 1e292, u[0], x[1])
+    with pytest.raises(ValueError, match=r"^lams: every candidate exceeds"):
+        ltv.select_lambda(rng.standard_normal((13, 6)), norm="l0", lams=[4, 2, 3],
+                          constant=True)
+    with pytest.raises(TypeError, match=r"^progress: expected a function"):
+        ltv.select_lambda(x, u, progress="bar")
+    with pytest.raises(ValueError, match=r"^n_states: expected an integer"):
+        ltv.LTVModel(np.zeros((8, 3)), None, 2)
+    with pytest.raises(ValueError, match=r"^k: expected at least one time step"):
+        ltv.LTVModel(np.zeros((0, 4)), 2, 0)
+    with pytest.raises(ValueError, match=r"^x0: expected at least one initial state"):
+        ltv.fit(x, u, lam=10.0).simulate(np.zeros((0, 2)), u)
+    with pytest.raises(ValueError, match=r"^x: the noise variance cannot be estimated"):
+        ltv.fit_segments(rng.standard_normal((2, 1)))

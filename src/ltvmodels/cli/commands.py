@@ -46,6 +46,7 @@ from ..plotting.figure import image_file, output_file, save_figure
 from ..results.arx import ARModel, ARXModel
 from ..results.loading import load
 from ..results.statespace import LTVModel
+from ..validation.arrays import representable
 from .data import read_columns, write_csv
 from .messages import CommandError, DataError, one_line, user_errors
 from .progress import Progress
@@ -600,6 +601,10 @@ def _check_simulation_data(data: dict[str, Any], model: Any) -> None:
     """An open-loop simulation needs the initial state (samples) and every input."""
     ltv = data["kind"] == "ltv"
     u = data["u"]
+    with user_errors(f"{data['label']}: "):  # as predict checks them: no inf in the report
+        representable(data["y"], "--state" if ltv else "--column")
+        if u is not None:
+            representable(u, "--input")
     if u is not None and ltv:
         u = u[:model.N]  # u[T-1] drives no transition
     missing = _first_missing(u, data["input_names"])

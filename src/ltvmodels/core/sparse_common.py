@@ -120,7 +120,9 @@ def lambda_max(
     ab = np.zeros((d + 1, rows))
     for lag in range(d + 1):
         ab[d - lag, lag:] = acf[lag]  # upper band storage of D Dᵀ
-    nu = -solveh_banded(ab, apply_difference(g, c), check_finite=False)  # (N − d, K)
+    Dg = apply_difference(g, c)
+    # (N − d, K); LAPACK's banded solver needs two rows or more
+    nu = -Dg / acf[0] if rows == 1 else -solveh_banded(ab, Dg, check_finite=False)
     scaled = nu[:, ~free] / weights[~free]
     if norm == "group":
         return float(np.linalg.norm(scaled, axis=1).max(initial=0.0))

@@ -249,8 +249,17 @@ def _refine(x: Any, u: Any, first: LTVModel, weights: Any) -> LTVModel:
             f"operator of degree {degree}"
         )
     changepoints = first.changepoints if first.norm != "sq" else find_changepoints(first)
-    refined = fit_piecewise(x, u, changepoints, order=degree, weights=weights,
-                            constant=first.constant)
+    try:
+        refined = fit_piecewise(x, u, changepoints, order=degree, weights=weights,
+                                constant=first.constant)
+    except ValueError as exc:  # the change points are ours, not the caller's
+        if not str(exc).startswith("changepoints:"):
+            raise
+        raise type(exc)(
+            f"refine: the change points found in the first step, {changepoints.tolist()}, "
+            f"cannot be refitted ({str(exc).removeprefix('changepoints: ')}); use a larger "
+            "lam (fewer changes) or refine=False"
+        ) from exc
     refined.info["first_step"] = {
         "norm": first.norm,
         "lam": first.lam if np.ndim(first.lam) == 0 else np.asarray(first.lam).tolist(),
@@ -302,6 +311,11 @@ def fit_path(
     if values.ndim != 1 or values.size == 0:
         raise ValueError(f"lams: expected a non-empty 1-d sequence of λ values, received "
                          f"shape {values.shape}")
+    for lam in values:  # each as fit checks lam, named as passed here
+        try:
+            options.penalty_weight(lam, 1)
+        except ValueError as exc:
+            raise ValueError("lams: " + str(exc).removeprefix("lam: ")) from None
     norm = options.norm_name(norm)
     if norm == "sq":
         return [fit(x, u, lam=float(lam), norm=norm, order=order, compute_cov=compute_cov,

@@ -57,7 +57,7 @@ def parameter_state_space(
     coeffs = options.difference_coefficients(order)
     p = options.integer(n_regressors, "n_regressors", 1)
     lam = options.scalar_lam(lam)
-    noise_var = options.positive_scalar(noise_var, "noise_var")
+    noise_var = options.variance(noise_var, "noise_var")
     return realize(coeffs, p, lam, noise_var)
 
 
@@ -73,7 +73,7 @@ class _Setup:
 
 def _setup(x, u, lam, order, noise_var, init_mean, init_cov) -> _Setup:
     lam = options.scalar_lam(lam)
-    noise_var = options.positive_scalar(noise_var, "noise_var")
+    noise_var = options.variance(noise_var, "noise_var")
     problem = state_space_data(x, u, order=order).problem
     prior = arrays.initial_state_prior(init_mean, init_cov, problem.degree, problem.n, problem.p)
     return _Setup(problem=problem, model=realize(problem.coeffs, problem.p, lam, noise_var),
@@ -265,14 +265,13 @@ class OnlineParameterFilter:
         p = self.n_states + self.n_inputs
         coeffs = options.difference_coefficients(order)
         self.lam = options.scalar_lam(lam)
-        noise_var = options.positive_scalar(noise_var, "noise_var")
+        noise_var = options.variance(noise_var, "noise_var")
         self.model = realize(coeffs, p, self.lam, noise_var)
         d = self.model.degree
         prior = arrays.initial_state_prior(init_mean, init_cov, d, self.n_states, p)
         self._log_abs_det_F = log_abs_det_transition(coeffs, p)
         self._loglik_offset = loglik_offset(coeffs, self.n_states, p, prior is None)
         D = d * p
-        self._FT = np.ascontiguousarray(self.model.F.T)
         self._F_invT = np.ascontiguousarray(self.model.F_inv.T)
         self._info = prior is None
         if prior is None:
@@ -349,6 +348,8 @@ class OnlineParameterFilter:
         x_next = arrays.vector(x_next, "x_next", n, missing=True)
         u_t = (np.zeros(0) if u_t is None and m == 0
                else arrays.vector(u_t, "u_t", m, missing=True))
+        for value, name in ((x_t, "x_t"), (u_t, "u_t"), (x_next, "x_next")):
+            arrays.representable(value, name, small=False)  # one sample: tiny values are fine
         phi = np.concatenate([x_t, u_t])
         observed = np.array([np.all(np.isfinite(phi)) and np.all(np.isfinite(x_next))])
         if not observed[0]:  # a missing sample: predict only
@@ -356,7 +357,7 @@ class OnlineParameterFilter:
         model = self.model
         self._mat, self._vec, self._info = step(
             self._mat, self._vec, self._ell, self._info, self._t > 0, phi[None], x_next[None],
-            observed, model.F, self._FT, model.F_inv, self._F_invT, model.q, model.R,
+            observed, model.F, model.F_inv, self._F_invT, model.q, model.R,
             self._log_abs_det_F, IDENTIFIED_TOL,
         )
         self._t += 1

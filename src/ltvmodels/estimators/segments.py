@@ -362,7 +362,8 @@ def _segment(
     else:
         if isinstance(beta_spec, str):
             sigma2 = _noise_variance(problem, min_size,
-                                     remedy="penalty: a penalty rule needs it; give a number")
+                                     remedy=f"{data_name}: more samples, or a number for "
+                                     f"penalty (the rule {beta_spec!r} needs the noise variance)")
             K = n * p
             beta = K * np.log(N) * sigma2 if beta_spec == "bic" else 2.0 * K * sigma2
             rule: str | None = beta_spec

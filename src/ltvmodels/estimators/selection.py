@@ -182,7 +182,11 @@ def _select_validated(
     n_folds = options.integer(n_folds, "n_folds", minimum=2)
     # as fit does: name the combination of regressors the data do not determine
     identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
-    return select_for_problem(problem, norm, method, lams, n_folds=n_folds, progress=progress)
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress: expected a function progress(done, total) or None, "
+                        f"received {arrays.describe(progress)}")
+    return select_for_problem(problem, norm, method, lams, n_folds=n_folds, progress=progress,
+                              data_name=data_name)
 
 
 def select_for_problem(
@@ -193,9 +197,15 @@ def select_for_problem(
     *,
     n_folds: int = 5,
     progress: Callable[[int, int], None] | None = None,
+    data_name: str = "lam",
 ) -> LambdaSelection:
-    """:func:`select_lambda` on a validated regression problem (any front-end)."""
-    grid = _grid(problem, norm) if lams is None else arrays.positive_grid(lams, "lams")
+    """:func:`select_lambda` on a validated regression problem (any front-end).
+
+    ``data_name`` is the argument an error blames when there is nothing to
+    choose: ``lam`` for ``lam="auto"``, the data otherwise.
+    """
+    grid = _grid(problem, norm, data_name) if lams is None \
+        else arrays.positive_grid(lams, "lams")
 
     def scored(values):
         """Yield each candidate, reporting the ones done so far."""
@@ -336,7 +346,7 @@ def _cv_error(problem: RegressionProblem, norm: str, lam: float, n_folds: int) -
     return errors / (problem.n_observed * problem.n)
 
 
-def _grid(problem: RegressionProblem, norm: str) -> np.ndarray:
+def _grid(problem: RegressionProblem, norm: str, data_name: str) -> np.ndarray:
     """The default candidates (see :func:`select_lambda`)."""
     if norm == "sq":
         # root-mean-square ‖φ‖ of the observed rows
@@ -346,9 +356,10 @@ def _grid(problem: RegressionProblem, norm: str) -> np.ndarray:
     lam_max = lambda_max(problem, norm)
     if not lam_max > 0:
         raise ValueError(
-            "lam: there is no λ to choose: coefficients in the null space of the difference "
-            "operator (constant for order 1, linear in time for order 2) already fit the data "
-            "exactly (λ_max = 0), so every λ > 0 gives that fit; pass a number for lam"
+            f"{data_name}: there is no λ to choose: coefficients in the null space of the "
+            "difference operator (constant for order 1, linear in time for order 2) already "
+            "fit the data exactly (λ_max = 0), so every λ > 0 gives that fit; pass a number "
+            "for lam"
         )
     return lam_max * np.logspace(-3.0, 0.0, GRID_SIZE)
 
@@ -375,12 +386,22 @@ def _select_changes(data: StateSpaceData, method: str, lams: Any,
                          min_size=min_size, weights=data.weights, constant=data.constant
                          ).info["costs_by_n_changes"]
     candidates = candidates[candidates <= M_max]
+    if candidates.size == 0:
+        raise ValueError(
+            f"lams: every candidate exceeds the {M_max} changes the data can hold (segments "
+            f"of more than p = {p} transitions); pass numbers up to {M_max}"
+        )
     size = data.problem.n_observed * n
     c = np.log(size) if method == "bic" else 2.0
     with np.errstate(divide="ignore"):
         scores = np.array([size * np.log(costs[M] / size) + c * ((M + 1) * n * p + M)
                            if costs[M] > 0 else np.inf  # an exact fit: degenerate
                            for M in candidates])
+    if not np.isfinite(scores).any():
+        raise ValueError(
+            "x: every candidate number of changes fits the data exactly (zero residuals), so "
+            "no criterion can compare them; use data with noise or fewer changes"
+        )
     best = int(candidates[np.argmin(scores)])
     return LambdaSelection(float(best), candidates.astype(float), scores, method, "l0",
                            residual_norms=np.sqrt(costs[candidates]))

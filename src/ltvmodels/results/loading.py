@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ModelFileError
-from ..validation.arrays import describe
+from ..validation.arrays import LARGEST_DATA, describe
 from . import archive
 from .arx import ARModel, ARXModel
 from .regression import RegressionModel
@@ -58,8 +58,9 @@ def load(path: str | Path) -> RegressionModel:
                 f"path: {path} holds a model of unknown type {content.model_type!r} (known: "
                 f"{sorted(MODEL_TYPES)})"
             )
-        if not np.isrealobj(content.k) or not np.all(np.isfinite(content.k)):
-            raise ValueError(f"path: {path} holds coefficients that are not finite real numbers")
+        if not np.isrealobj(content.k) or not np.all(np.abs(content.k) <= LARGEST_DATA):
+            raise ValueError(f"path: {path} holds coefficients that are not finite real numbers "
+                             f"of magnitude up to {LARGEST_DATA:g}")
         model = cls.from_structure(content.k, content.structure, content.fit)
         problem = _invalid_record(model)
         if problem:

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from ..core.problem import activation
-from ..validation import arrays
+from ..validation import arrays, options
 from . import archive
 from .record import FitRecord
 
@@ -77,14 +77,17 @@ class RegressionModel:
         self, k: np.ndarray, n_outputs: int, n_regressors: int, fit: FitRecord | None = None
     ) -> None:
         self._k = arrays.as_float_array(k, "k")  # a finite float64 copy
-        self._n_outputs = int(n_outputs)
-        self._n_regressors = int(n_regressors)
+        self._n_outputs = options.integer(n_outputs, "n_outputs", minimum=1)
+        self._n_regressors = options.integer(n_regressors, "n_regressors", minimum=1)
         if self._k.ndim != 2 or self._k.shape[1] != self._n_outputs * self._n_regressors:
             raise ValueError(
                 f"k: expected shape (N, {self._n_outputs * self._n_regressors}) for "
                 f"{self._n_outputs} outputs and {self._n_regressors} regressors, received "
                 f"{self._k.shape}"
             )
+        if self._k.shape[0] == 0:
+            raise ValueError("k: expected at least one time step, received shape "
+                             f"{self._k.shape}")
         fit = FitRecord() if fit is None else fit
         self.norm = fit.norm
         self.coeffs = None if fit.coeffs is None else np.asarray(fit.coeffs, dtype=float)

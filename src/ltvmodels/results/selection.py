@@ -22,7 +22,8 @@ class LambdaSelection:
         The criterion per candidate; the choice maximizes it for "ml" and
         "lcurve" (log-likelihood, curvature) and minimizes it otherwise. The
         curvature is -inf where the L-curve does not bend (neighbouring
-        candidates give the same fit, e.g. beyond λ_max): never the choice.
+        candidates give the same fit, e.g. beyond λ_max), and the BIC/AIC of a
+        number of changes whose segments fit exactly is +inf: never the choice.
     method, norm : str
     residual_norms, penalty_norms : ndarray, shape (G,)
         ‖y − Φk‖ and R(Dk) per candidate (the L-curve), where computed.

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..core.simulation import simulate_affine
 from ..errors import DivergenceWarning
-from ..validation import arrays
+from ..validation import arrays, options
 from .base import LinearTimeVarying
 from .record import FitRecord
 from .regression import RegressionModel
@@ -83,10 +83,13 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         self, k: np.ndarray, n_states: int, n_inputs: int, fit: FitRecord | None = None,
         constant: bool = False,
     ) -> None:
-        super().__init__(k, n_states, int(n_states) + int(n_inputs) + bool(constant), fit)
-        self.n_states = int(n_states)
-        self.n_inputs = int(n_inputs)
-        self.constant = bool(constant)
+        n_states = options.integer(n_states, "n_states", minimum=1)
+        n_inputs = options.integer(n_inputs, "n_inputs", minimum=0)
+        constant = options.flag(constant, "constant")
+        super().__init__(k, n_states, n_states + n_inputs + constant, fit)
+        self.n_states = n_states
+        self.n_inputs = n_inputs
+        self.constant = constant
 
     # -- shapes -------------------------------------------------------------------
     @property
@@ -164,6 +167,9 @@ class LTVModel(RegressionModel, LinearTimeVarying):
                 f"{x0.shape if batch else x0.shape[1:]}"
             )
         R = x0.shape[0]
+        if R == 0:
+            raise ValueError("x0: expected at least one initial state, received shape "
+                             f"{x0.shape}")
         if u is None:
             if self.n_inputs:
                 raise ValueError(f"u: the model has {self.n_inputs} inputs, received None")

@@ -151,6 +151,11 @@ LARGEST_DATA = 1e100
 SMALLEST_DATA = 1e-100
 
 
+# Weights scale the rows by √w: within these the weighted data stay representable.
+LIGHTEST_WEIGHT = 1e-50
+HEAVIEST_WEIGHT = 1e50
+
+
 def representable(arr: np.ndarray, name: str, *, small: bool = True) -> np.ndarray:
     """Reject columns (last axis) whose magnitudes overflow or underflow when squared.
 
@@ -246,6 +251,15 @@ def row_weights(weights: Any, R: int, N: int, name: str = "weights") -> np.ndarr
         )
     if np.any(w < 0):
         raise ValueError(f"{name}: expected weights >= 0, received a minimum of {w.min():g}")
+    positive = w[w > 0]
+    if positive.size and not (LIGHTEST_WEIGHT <= positive.min()
+                              and positive.max() <= HEAVIEST_WEIGHT):
+        raise ValueError(
+            f"{name}: expected weights of 0 or between {LIGHTEST_WEIGHT:g} and "
+            f"{HEAVIEST_WEIGHT:g}, received values from {positive.min():g} to "
+            f"{positive.max():g}; only their ratios and λ matter, so divide them by a common "
+            "factor"
+        )
     return w
 
 

@@ -85,15 +85,27 @@ def noise_variance(value: Any, n: int) -> float | np.ndarray | None:
     if value is None:
         return None
     if np.ndim(value) == 0 or (n != 1 and np.size(value) == 1):
-        return positive_scalar(value if np.ndim(value) == 0 else np.ravel(value)[0],
-                               "noise_var")
+        return variance(value if np.ndim(value) == 0 else np.ravel(value)[0], "noise_var")
     arr = np.asarray(value, dtype=float) if not isinstance(value, str) else None
     if arr is None or arr.shape != (n,) or not np.all(np.isfinite(arr)) or np.any(arr <= 0):
         raise ValueError(
             f"noise_var: expected a variance > 0 or one per output (shape ({n},)), received "
             f"{value!r}"
         )
+    for v in arr:
+        variance(v, "noise_var")
     return arr.copy()
+
+
+def variance(value: Any, name: str) -> float:
+    """Validate a variance: a number between 1e-100 and 1e100 (products of two are formed)."""
+    v = positive_scalar(value, name)
+    if not 1e-100 <= v <= 1e100:
+        raise ValueError(
+            f"{name}: expected a variance between 1e-100 and 1e100, received {v:g}; rescale "
+            "the data so that the noise is of a representable size"
+        )
+    return v
 
 
 def optional_nonnegative(value: Any, name: str) -> float | None:
@@ -211,7 +223,8 @@ def sparse_weights(lam: Any, K: int) -> np.ndarray:
     """λ for norm="group"/"l1": a scalar > 0 or a (K,) vector of weights >= 0 (inf: constant).
 
     Returns the (K,) weight vector Λ of the penalty Σ_t R(Λ (Dk)_t). λ is not
-    squared here, so any finite value is allowed.
+    squared here, so any finite scalar is allowed; a vector's finite entries
+    must stay below 1.34e154 (inf holds a coefficient constant).
     """
     arr = _lam_array(lam, K)
     if arr.ndim == 2:
@@ -219,6 +232,8 @@ def sparse_weights(lam: Any, K: int) -> np.ndarray:
             "lam: a (K, K) weight matrix applies to norm='sq' only; use a scalar or a "
             f"(K,) vector with norm='group' or 'l1', received shape {arr.shape}"
         )
+    if arr.ndim == 1:  # a scalar is scale-free (λ >= λ_max is the constant fit); a vector is not
+        _square_fits(arr)
     weights = np.broadcast_to(arr, (K,)).copy()
     if not np.any(weights > 0):
         raise ValueError(
