@@ -21,7 +21,9 @@ from fuzz_oracle import check_call, expect, fail_result
 from fuzz_strategies import (
     BOOL,
     CONSTANT,
+    HUBER_DELTA,
     LAM,
+    LOSS,
     MAX_ITER,
     NOISE_VAR,
     NORM,
@@ -59,7 +61,10 @@ def fit_options(max_bad: int = 2) -> st.SearchStrategy:
     sparse = options(required=("lam", "norm", "max_iter"), max_bad=max_bad, lam=SPARSE_LAM,
                      norm=SPARSE_NORM, max_iter=Opt(st.integers(1, 300), MAX_ITER.invalid),
                      tol=TOL, **FIT_OPTIONS)
-    return st.one_of(sq, sparse)
+    huber = options(required=("lam", "loss"), max_bad=max_bad, lam=LAM, loss=LOSS,
+                    huber_delta=HUBER_DELTA, max_iter=Opt(st.integers(1, 300), MAX_ITER.invalid),
+                    tol=TOL, **FIT_OPTIONS)
+    return st.one_of(sq, sparse, huber)
 
 
 HUGE = Data(30, 2, 1, seed=1, scale=1e300)

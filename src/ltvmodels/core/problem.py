@@ -40,12 +40,17 @@ class RegressionProblem:
         Difference-operator coefficients c_0 … c_d.
     observed : ndarray of bool, shape (N, q), optional
         Which rows hold data (default: all).
+    row_scale : ndarray, shape (N, q), optional
+        The √w each row was multiplied by (default: 1 where observed, 0
+        elsewhere); losses other than the squared one need it (a threshold in
+        the units of y is δ√w on a scaled row).
     """
 
     y: np.ndarray
     phi: np.ndarray
     coeffs: np.ndarray
     observed: np.ndarray | None = None
+    row_scale: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         # C order for every kernel: compiled kernels specialize on the memory
@@ -63,6 +68,9 @@ class RegressionProblem:
         object.__setattr__(self, "y", np.ascontiguousarray(y))
         object.__setattr__(self, "phi", np.ascontiguousarray(phi))
         object.__setattr__(self, "observed", observed)
+        row_scale = (observed.astype(float) if self.row_scale is None
+                     else np.where(observed, np.asarray(self.row_scale, dtype=float), 0.0))
+        object.__setattr__(self, "row_scale", row_scale)
 
     @property
     def N(self) -> int:
@@ -140,13 +148,14 @@ def weighted_problem(
     weight is > 0); it is scaled by √w so its squared residual counts w times.
     """
     observed = _finite_rows(y) & _finite_rows(phi)
+    scale = None
     if weights is not None:
         observed &= weights > 0
-        scale = np.sqrt(np.where(observed, weights, 0.0))[:, :, None]
-        y, phi = y * scale, phi * scale
+        scale = np.sqrt(np.where(observed, weights, 0.0))
+        y, phi = y * scale[:, :, None], phi * scale[:, :, None]
     return RegressionProblem(
         y=np.swapaxes(y, 0, 1), phi=np.swapaxes(phi, 0, 1), coeffs=coeffs,
-        observed=observed.T,
+        observed=observed.T, row_scale=None if scale is None else scale.T,
     )
 
 

@@ -149,6 +149,8 @@ def fit_arx(
     max_iter: int = 10000,
     tol: float = 1e-6,
     weights: Any = None,
+    loss: str = "squared",
+    huber_delta: Any = None,
 ) -> ARXModel:
     """Identify a time-varying (V)ARX model.
 
@@ -175,7 +177,7 @@ def fit_arx(
         Number of input lags.
     nk : int >= 0, default 1
         Input delay (0: direct feedthrough of u[t]).
-    lam, norm, order, prior, prior_mode, noise_var, compute_cov, max_iter, tol
+    lam, norm, order, prior, prior_mode, noise_var, compute_cov, max_iter, tol, loss, huber_delta
         As in :func:`ltvmodels.fit`, with K = n·p parameters per time step,
         p = n·na + m·nb (+ 1).
     weights : array_like, shape (T − L,) or (R, T − L), optional
@@ -207,7 +209,8 @@ def fit_arx(
     factory = partial(ARXModel, n_outputs=n, n_inputs=m, na=na, nb=nb, nk=nk, constant=constant)
     return _fit_lagged(y, u, na, nb, nk, constant, factory, lam=lam, norm=norm, order=order,
                        prior=prior, prior_mode=prior_mode, noise_var=noise_var,
-                       compute_cov=compute_cov, max_iter=max_iter, tol=tol, weights=weights)
+                       compute_cov=compute_cov, max_iter=max_iter, tol=tol, weights=weights,
+                       loss=loss, huber_delta=huber_delta)
 
 
 def fit_ar(
@@ -225,6 +228,8 @@ def fit_ar(
     max_iter: int = 10000,
     tol: float = 1e-6,
     weights: Any = None,
+    loss: str = "squared",
+    huber_delta: Any = None,
 ) -> ARModel:
     """Identify a time-varying (V)AR(na) model y[t] = Σ_{i=1}^{na} A_{t,i} y[t−i] (+ c_t) + e[t].
 
@@ -241,7 +246,7 @@ def fit_ar(
         and all its lags are observed.
     na : int >= 1
         Model order.
-    lam, norm, order, prior, prior_mode, noise_var, compute_cov, max_iter, tol
+    lam, norm, order, prior, prior_mode, noise_var, compute_cov, max_iter, tol, loss, huber_delta
         As in :func:`ltvmodels.fit`, with K = n·p, p = n·na (+ 1).
     weights : array_like, shape (T − na,) or (R, T − na), optional
         Weights >= 0 of the regression rows (model time steps).
@@ -278,7 +283,8 @@ def fit_ar(
     factory = partial(ARModel, n_outputs=y.shape[2], na=na, constant=constant)
     return _fit_lagged(y, u, na, 0, 1, constant, factory, lam=lam, norm=norm, order=order,
                        prior=prior, prior_mode=prior_mode, noise_var=noise_var,
-                       compute_cov=compute_cov, max_iter=max_iter, tol=tol, weights=weights)
+                       compute_cov=compute_cov, max_iter=max_iter, tol=tol, weights=weights,
+                       loss=loss, huber_delta=huber_delta)
 
 
 def _fit_lagged(
@@ -300,6 +306,8 @@ def _fit_lagged(
     max_iter: Any,
     tol: Any,
     weights: Any,
+    loss: Any,
+    huber_delta: Any,
 ) -> ARXModel:
     """Build the regression of validated AR/ARX data (R, T, ·) and run the shared core.
 
@@ -319,7 +327,7 @@ def _fit_lagged(
         data_name="y",
         rows_note=f" (T = {y.shape[1]} samples, the first {L} only as lags)",
         lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
-        compute_cov=compute_cov, max_iter=max_iter, tol=tol,
+        compute_cov=compute_cov, max_iter=max_iter, tol=tol, loss=loss, huber_delta=huber_delta,
     )
     model.info["n_missing"] = problem.N * problem.q - problem.n_observed  # rows left out
     return model

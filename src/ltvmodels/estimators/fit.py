@@ -24,9 +24,18 @@ from .changepoints import find_changepoints
 from .piecewise import fit_piecewise, residual_noise
 from .recordings import StateSpaceData, state_space_data
 from .regression import fit_problem, sparse_model
+from .robust import huber_model
 
 
-def fit_lti(x: Any, u: Any = None, *, weights: Any = None, constant: bool = False) -> LTVModel:
+# Reweighting steps and KKT tolerance of fit_lti(loss="huber") (it takes no solver options).
+LTI_HUBER_MAX_ITER = 500
+LTI_HUBER_TOL = 1e-10
+
+
+def fit_lti(
+    x: Any, u: Any = None, *, weights: Any = None, constant: bool = False,
+    loss: str = "squared", huber_delta: Any = None,
+) -> LTVModel:
     """Least-squares LTI model x[t+1] = A x[t] + B u[t] (+ c) + v_t (paper eqs. lscost, ls).
 
     Minimizes Σ_r Σ_t w_rt ‖x^r_{t+1} − A x^r_t − B u^r_t (− c)‖² over the observed
@@ -44,6 +53,11 @@ def fit_lti(x: Any, u: Any = None, *, weights: Any = None, constant: bool = Fals
         Weights >= 0 of the transitions (inverse relative noise variances).
     constant : bool
         Fit an intercept c.
+    loss, huber_delta
+        As in :func:`fit`: ``loss="huber"`` minimizes Σ w h_δ(r) over the
+        entries of the residuals instead (reweighted least squares to a KKT
+        residual of 1e-10), with ``model.outliers``; no ``cov``, ``loglik``
+        None.
 
     Returns
     -------
@@ -66,6 +80,17 @@ def fit_lti(x: Any, u: Any = None, *, weights: Any = None, constant: bool = Fals
     M = problem.n_observed
     options.enough_samples(N, p, 1, observed=M, n_rows=N * problem.q)
     identifiability.check(problem, has_prior=False, regressor_names=data.regressor_names)
+    loss = options.loss_name(loss, "sq")
+    delta = options.huber_delta(huber_delta, n)
+    if loss == "huber":  # every coefficient held constant: λ = inf
+        model = huber_model(
+            problem, np.full(n * p, np.inf), lam=float("inf"), norm="lti", delta=delta,
+            factory=partial(LTVModel, n_states=n, n_inputs=m, constant=data.constant),
+            max_iter=LTI_HUBER_MAX_ITER, tol=LTI_HUBER_TOL)
+        model.info["n_missing"] = data.n_missing
+        return model
+    if delta is not None:
+        raise ValueError("huber_delta: applies to loss='huber' only; pass loss='huber'")
     phi, y = problem.stacked_rows()
     # QR-based least squares: solve, don't form (ΦᵀΦ)⁻¹ for the estimate.
     q, r = np.linalg.qr(phi)
@@ -109,6 +134,8 @@ def fit(
     refine: bool = False,
     weights: Any = None,
     constant: bool = False,
+    loss: str = "squared",
+    huber_delta: Any = None,
 ) -> LTVModel:
     """Identify an LTV model x[t+1] = A_t x[t] + B_t u[t] (+ c_t) + v_t.
 
@@ -203,6 +230,19 @@ def fit(
         Fit an intercept: x[t+1] = A_t x[t] + B_t u[t] + c_t, with
         ``model.c`` (N, n) and k_t = rows of [A_t B_t c_t]. ``predict`` and
         ``simulate`` include it.
+    loss : {"squared", "huber"}
+        The loss of each residual entry. "huber" (norm="sq" so far):
+        h_δ(r) = r² for |r| <= δ and 2δ|r| − δ² beyond (cvxpy's ``huber``), so
+        a gross outlier pulls the fit as little as one δ away; solved exactly
+        by reweighted squared-loss fits, stopped on the KKT residual (``tol``,
+        ``max_iter``). Then ``model.outliers`` marks the residuals beyond δ,
+        ``info`` holds "huber_delta" and "n_outliers", ``loglik`` is None and
+        no ``cov`` is computed. Not yet with priors, ``lam="auto"`` or
+        ``refine``.
+    huber_delta : float or array_like of shape (n,), optional
+        δ in the units of x, shared or one per state. Default: 1.345 × 1.4826
+        · MAD of each state's squared-loss residuals (Huber's 95 % efficiency
+        at Gaussian noise).
 
     Returns
     -------
@@ -220,6 +260,8 @@ def fit(
     if not isinstance(refine, bool):
         raise TypeError(f"refine: expected True or False, received {refine!r}")
     if refine:
+        if loss != "squared":
+            raise NotImplementedError(f"refine: not available with loss={loss!r} yet")
         first = fit(
             x, u, lam=lam, norm=norm, order=order, prior=prior, prior_mode=prior_mode,
             noise_var=noise_var, compute_cov=False, max_iter=max_iter, tol=tol,
@@ -234,7 +276,7 @@ def fit(
         regressor_names=data.regressor_names,
         data_name="x",
         lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
-        compute_cov=compute_cov, max_iter=max_iter, tol=tol,
+        compute_cov=compute_cov, max_iter=max_iter, tol=tol, loss=loss, huber_delta=huber_delta,
     )
     model.info["n_missing"] = data.n_missing
     return model

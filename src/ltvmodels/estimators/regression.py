@@ -28,6 +28,7 @@ from ..results.record import FitRecord, FitStatus, iterative_status
 from ..results.regression import RegressionModel
 from ..validation import options
 from .changepoints import find_changepoints, residue_level
+from .robust import huber_model
 from .priors import resolve as resolve_priors
 from .recordings import regression_problem
 from .selection import DEFAULT_METHOD, select_for_problem
@@ -50,6 +51,8 @@ def fit_regression(
     max_iter: int = 10000,
     tol: float = 1e-6,
     weights: Any = None,
+    loss: str = "squared",
+    huber_delta: Any = None,
 ) -> RegressionModel:
     """Identify a time-varying regression y_t = Θ_t φ_t + e_t.
 
@@ -76,6 +79,8 @@ def fit_regression(
     lam, norm, order, prior, prior_mode, noise_var, compute_cov, max_iter, tol, weights
         As in :func:`fit`, with K = n·p parameters per time step (a ``Prior``
         mean is (K,) or (N, K); an ``OutputPrior`` is a prior on Θ_t φ_t).
+    loss, huber_delta
+        As in :func:`fit` (δ in the units of y).
 
     Returns
     -------
@@ -114,7 +119,7 @@ def fit_regression(
         regressor_names=signal_names("phi", p),
         data_name="y",
         lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
-        compute_cov=compute_cov, max_iter=max_iter, tol=tol,
+        compute_cov=compute_cov, max_iter=max_iter, tol=tol, loss=loss, huber_delta=huber_delta,
     )
 
 
@@ -136,6 +141,8 @@ def fit_problem(
     max_iter: Any,
     tol: Any,
     rows_note: str = "",
+    loss: Any = "squared",
+    huber_delta: Any = None,
 ) -> RegressionModel:
     """The core shared by every front-end: a validated (y, φ) problem → model.
 
@@ -148,10 +155,19 @@ def fit_problem(
     norm = options.norm_name(norm)
     prior_mode = options.choice(prior_mode, "prior_mode", ("exact", "posthoc"))
     noise_var = options.noise_variance(noise_var, problem.n)
+    loss = options.loss_name(loss, norm)
+    huber_delta = options.huber_delta(huber_delta, problem.n)
+    if loss == "squared" and huber_delta is not None:
+        raise ValueError("huber_delta: applies to loss='huber' only; pass loss='huber'")
     if not isinstance(compute_cov, bool):
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
     selection = None
     if options.is_auto(lam, "lam"):
+        if loss != "squared":
+            raise NotImplementedError(
+                f"lam: 'auto' is not available with loss={loss!r} yet; choose λ with "
+                "ltvmodels.select_lambda or pass a number"
+            )
         if prior is not None:
             raise ValueError(
                 "lam: 'auto' chooses λ from the data alone and does not take a prior into "
@@ -164,7 +180,8 @@ def fit_problem(
     model = _fit_with_lam(
         problem, factory=factory, regressor_names=regressor_names, data_name=data_name,
         lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
-        compute_cov=compute_cov, max_iter=max_iter, tol=tol, rows_note=rows_note,
+        compute_cov=compute_cov, max_iter=max_iter, tol=tol, rows_note=rows_note, loss=loss,
+        huber_delta=huber_delta,
     )
     if selection is not None:
         model.info["lam_selection"] = {
@@ -176,7 +193,8 @@ def fit_problem(
 
 def _fit_with_lam(
     problem: RegressionProblem, *, factory, regressor_names, data_name, lam, norm, prior,
-    prior_mode, noise_var, compute_cov, max_iter, tol, rows_note,
+    prior_mode, noise_var, compute_cov, max_iter, tol, rows_note, loss="squared",
+    huber_delta=None,
 ) -> RegressionModel:
     """:func:`fit_problem` for a given λ, on validated options."""
     n, p = problem.n, problem.p
@@ -209,6 +227,15 @@ def _fit_with_lam(
         regressor_names=regressor_names,
         const_mask=const.all(axis=0) if const.any() else None,
     )
+    if loss == "huber":
+        for value, name in ((prior, "prior"), (noise_var, "noise_var")):
+            if value is not None:
+                raise NotImplementedError(f"{name}: not available with loss='huber' yet")
+        return huber_model(
+            problem, W, lam=_lam_copy(lam), norm=norm, delta=huber_delta, factory=factory,
+            max_iter=options.integer(max_iter, "max_iter", minimum=1),
+            tol=options.positive_scalar(tol, "tol"),
+        )
 
     exact_terms = terms if prior_mode == "exact" else []
     result = fit_squared(

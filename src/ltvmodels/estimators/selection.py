@@ -339,6 +339,7 @@ def _cv_error(problem: RegressionProblem, norm: str, lam: float, n_folds: int) -
     for f in range(n_folds):
         held = fold == f
         train = RegressionProblem(y=problem.y, phi=problem.phi, coeffs=problem.coeffs,
+                                  row_scale=problem.row_scale,
                                   observed=problem.observed & ~held[:, None])
         theta = criterion_fit(train, norm, lam)["theta"]
         pred = np.einsum("tij,tqj->tqi", theta[held], problem.phi[held])

@@ -164,6 +164,19 @@ class RegressionModel:
         return self.cov_full()
 
     @property
+    def outliers(self) -> np.ndarray | None:
+        """Residual entries beyond the Huber threshold δ (``loss="huber"`` fits; else None).
+
+        Boolean, shape (N, n) — (R, N, n) for R trajectories — over model time
+        steps and outputs; missing rows are False.
+        """
+        mask = self.info.get("outliers")
+        if mask is None:
+            return None
+        mask = np.asarray(mask, dtype=bool)  # (N, q, n)
+        return mask[:, 0, :] if mask.shape[1] == 1 else np.swapaxes(mask, 0, 1)
+
+    @property
     def cov_shared_by_rows(self) -> bool:
         """True when :attr:`cov` is the compact (N, p, p) form."""
         c = self._cov

@@ -128,6 +128,39 @@ def norm_name(norm: Any) -> str:
     return norm
 
 
+LOSSES = ("squared", "huber", "laplace")
+
+
+def loss_name(loss: Any, norm: str) -> str:
+    """Validate ``loss``: "squared", or "huber" (with norm="sq" so far)."""
+    loss = choice(loss, "loss", LOSSES)
+    if loss == "laplace":
+        raise NotImplementedError("loss: 'laplace' is not available yet; use 'huber'")
+    if loss == "huber" and norm != "sq":
+        raise NotImplementedError(
+            f"loss: 'huber' is available with norm='sq' only so far, received norm={norm!r}"
+        )
+    return loss
+
+
+def huber_delta(value: Any, n: int) -> np.ndarray | None:
+    """Validate None (the default rule), a threshold δ > 0, or one per output (n,)."""
+    if value is None:
+        return None
+    arr = np.asarray(value, dtype=float) if not isinstance(value, (str, bytes, bool)) \
+        else None
+    if arr is None or arr.shape not in ((), (n,)) or not np.all(np.isfinite(arr)) \
+            or np.any(arr <= 0):
+        raise ValueError(
+            f"huber_delta: expected a threshold > 0 or one per output (shape ({n},)), in the "
+            f"units of the outputs, received {describe(value)}"
+        )
+    if np.any(arr > 1e100) or np.any(arr < 1e-100):
+        raise ValueError(f"huber_delta: expected thresholds between 1e-100 and 1e100, "
+                         f"received {describe(value)}")
+    return np.broadcast_to(arr, (n,)).copy()
+
+
 # The largest finite λ whose square (the weight of the squared norm) is finite.
 LARGEST_SQUARED_LAM = float(np.sqrt(np.finfo(float).max))
 
