@@ -170,3 +170,18 @@ def test_outliers_survive_save_and_load(tmp_path):
     loaded = ltv.load(tmp_path / "huber.npz")
     np.testing.assert_array_equal(loaded.outliers, model.outliers)
     assert loaded.info["huber_delta"] == model.info["huber_delta"]
+
+
+def test_segments_keep_the_squared_loss_and_the_cli_takes_huber(tmp_path, capsys):
+    x, u, _ = _data(9)
+    with pytest.raises(ValueError, match=r"^loss: fit_segments uses the squared loss only"):
+        ltv.fit_segments(x[0], u[0], n_changes=1, loss="huber")
+    from ltvmodels.cli import main
+
+    path = tmp_path / "data.csv"
+    np.savetxt(path, np.c_[x[1], u[1]], delimiter=",", header="x1,x2,u1", comments="")
+    code = main(["fit", str(path), "--state", "x1,x2", "--input", "u1", "--lam", "3",
+                 "--loss", "huber", "--huber-delta", "0.2", "--json"])
+    report = __import__("json").loads(capsys.readouterr().out)
+    assert code == 0 and report["loss"] == "huber" and report["huber_delta"] == [0.2, 0.2]
+    assert report["n_outliers"] >= 1  # the planted -4 in x2

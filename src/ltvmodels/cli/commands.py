@@ -293,18 +293,24 @@ def _cmd_fit(args: argparse.Namespace) -> Report:
     what = "choosing lambda and fitting" if args.lam == "auto" else "fitting"
     with Progress(f"ltvmodels fit: {what}"), user_errors():
         model = fit(x, u, lam=args.lam, norm=args.norm, order=args.order, refine=args.refine,
-                    max_iter=args.max_iter, tol=args.tol, constant=args.constant)
+                    max_iter=args.max_iter, tol=args.tol, constant=args.constant,
+                    loss=args.loss, huber_delta=args.huber_delta)
     model.info["data_columns"] = {"state": state_names, "input": input_names}
     report, lines, changepoints = _state_space_report("fit", label, model, x, u, state_names,
                                                       input_names)
     facts = _lam_facts(model, args.lam)
-    report.update(facts, norm=args.norm, order=args.order, refine=args.refine)
+    report.update(facts, norm=args.norm, order=args.order, refine=args.refine, loss=args.loss)
     how = (f"chosen by lam=auto, criterion {facts['lam_method']!r}" if args.lam == "auto"
            else "given")
     lines.insert(1, f"fit: norm={args.norm!r}, order={args.order}, lambda = "
                     f"{fmt(float(facts['lam']))} ({how})"
                  + (", with a constant term c_t" if args.constant else "")
                  + (", then the two-step refinement" if args.refine else ""))
+    if args.loss == "huber":
+        report.update(huber_delta=model.info["huber_delta"],
+                      n_outliers=model.info["n_outliers"])
+        lines.insert(2, f"loss: huber, delta = {per_name(state_names, model.info['huber_delta'])}"
+                        f"; {model.info['n_outliers']} residuals beyond delta (outliers)")
     fig = None
     if plot is not None:  # drawn before anything is written: it may fail
         with _figure_errors("a model with a constant term c_t" if model.constant else None):

@@ -37,7 +37,8 @@ OPTION_NAMES = {
     "x": "--state data", "u": "--input data", "y": "--column data", "lam": "--lam",
     "order": "--order", "max_iter": "--max-iter", "tol": "--tol", "n_changes": "--n-changes",
     "penalty": "--penalty", "min_size": "--min-size", "na": "--na", "fs": "--fs",
-    "method": "--method", "x0": "--state data", "y0": "--column data",
+    "method": "--method", "x0": "--state data", "y0": "--column data", "loss": "--loss",
+    "huber_delta": "--huber-delta",
 }
 
 

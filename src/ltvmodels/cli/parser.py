@@ -153,6 +153,12 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--refine", action="store_true",
                      help="two-step refinement: refit piecewise between the detected change "
                      "points")
+    fit.add_argument("--loss", choices=["squared", "huber"], default="squared",
+                     help="loss of the residuals: squared (default) or huber (robust to "
+                     "outliers; with --norm sq)")
+    fit.add_argument("--huber-delta", type=_positive_float, default=None, metavar="D",
+                     help="Huber threshold in the units of the states (default: 1.345 x the "
+                     "robust scale of the squared-loss residuals)")
     _add_constant_option(fit, "a time-varying constant term c_t in x[t+1] = A_t x[t] + "
                          "B_t u[t] + c_t")
     _add_sparse_options(fit)

@@ -100,6 +100,7 @@ def fit_segments(
     compute_cov: bool = True,
     weights: Any = None,
     constant: bool = False,
+    loss: str = "squared",
 ) -> LTVModel:
     """Piecewise-constant LTV model with exactly optimal change points (paper eq:l0).
 
@@ -158,6 +159,10 @@ def fit_segments(
         1e-10 · N) are excluded as well.
     compute_cov : bool, default True
         Compute the covariances of the per-segment estimates.
+    loss : {"squared"}
+        Only the squared loss: the exact dynamic program relies on segment
+        costs that update in O(1) (QR row updates); for outliers refit the
+        segments found with ``ltvmodels.fit(..., loss="huber")``.
     weights, constant
         As in :func:`ltvmodels.fit`; x and u may also hold R trajectories
         (each segment's cost sums over them) and NaN for missing samples.
@@ -200,6 +205,11 @@ def fit_segments(
     >>> model.info["costs_by_n_changes"].shape
     (2,)
     """
+    if loss != "squared":
+        raise ValueError(
+            f"loss: fit_segments uses the squared loss only (its exact dynamic program relies "
+            f"on it), received {loss!r}; for outliers use ltvmodels.fit(..., loss='huber')"
+        )
     data = state_space_data(x, u, weights=weights, constant=constant)
     if not isinstance(compute_cov, bool):
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
