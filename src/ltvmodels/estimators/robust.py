@@ -19,9 +19,9 @@ from ..core.squared import SquaredSolver
 from ..errors import ConvergenceWarning
 from ..results.record import FitRecord, FitStatus, iterative_status
 from ..results.regression import RegressionModel
+from .changepoints import MAD_TO_STD
 
 HUBER_EFFICIENCY = 1.345  # δ / σ of Huber's 95 %-efficient estimator
-MAD_TO_STD = 1.4826  # median absolute deviation → standard deviation (Gaussian)
 SOLVER = "IRLS (majorize-minimize, exact)"
 
 
