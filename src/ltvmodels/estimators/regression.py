@@ -28,9 +28,9 @@ from ..results.record import FitRecord, FitStatus, iterative_status
 from ..results.regression import RegressionModel
 from ..validation import options
 from .changepoints import find_changepoints, residue_level
-from .robust import huber_model
 from .priors import resolve as resolve_priors
 from .recordings import regression_problem
+from .robust import huber_model
 from .selection import DEFAULT_METHOD, select_for_problem
 
 ModelFactory = Callable[..., RegressionModel]
