@@ -64,6 +64,7 @@ def fit_huber(
     *,
     max_iter: int = 200,
     tol: float = 1e-9,
+    start: np.ndarray | None = None,
 ) -> HuberFit:
     """Minimize F (module docstring) for a penalty weight that does not couple output rows.
 
@@ -79,6 +80,8 @@ def fit_huber(
         Steps at most.
     tol : float
         Stop when ‖∇F‖∞ <= tol · (the largest gradient term).
+    start : ndarray, shape (N, n, p), optional
+        The squared-loss fit, if the caller has it (it starts the iteration).
     """
     n, p = problem.n, problem.p
     thresholds = delta[None, None, :] * problem.row_scale[:, :, None]  # δ̃ (N, q, n)
@@ -86,7 +89,8 @@ def fit_huber(
     if not penalty.separable:
         raise NotImplementedError("loss='huber' needs a penalty that does not couple outputs")
     W0 = penalty.W0
-    theta = penalty.solve(1.0)[0]  # the squared-loss fit starts the iteration
+    # the squared-loss fit starts the iteration
+    theta = penalty.solve(1.0)[0] if start is None else start.copy()
     outputs = [_output_problem(problem, i) for i in range(n)]
     blocks = [_block(W, i, p) for i in range(n)]
     finite_blocks = [_block(W0, i, p) for i in range(n)]

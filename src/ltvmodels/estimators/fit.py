@@ -80,8 +80,7 @@ def fit_lti(
     M = problem.n_observed
     options.enough_samples(N, p, 1, observed=M, n_rows=N * problem.q)
     identifiability.check(problem, has_prior=False, regressor_names=data.regressor_names)
-    loss = options.loss_name(loss, "sq")
-    delta = options.huber_delta(huber_delta, n)
+    loss, delta = options.loss_options(loss, huber_delta, "sq", n)
     if loss == "huber":  # every coefficient held constant: λ = inf
         model = huber_model(
             problem, np.full(n * p, np.inf), lam=float("inf"), norm="lti", delta=delta,
@@ -89,8 +88,6 @@ def fit_lti(
             max_iter=LTI_HUBER_MAX_ITER, tol=LTI_HUBER_TOL)
         model.info["n_missing"] = data.n_missing
         return model
-    if delta is not None:
-        raise ValueError("huber_delta: applies to loss='huber' only; pass loss='huber'")
     phi, y = problem.stacked_rows()
     # QR-based least squares: solve, don't form (ΦᵀΦ)⁻¹ for the estimate.
     q, r = np.linalg.qr(phi)

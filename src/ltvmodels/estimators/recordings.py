@@ -119,3 +119,18 @@ def regression_problem(y: Any, phi: Any, *, order: Any = 1, weights: Any = None
     coeffs = options.difference_coefficients(order, max_degree=y.shape[1])
     w = arrays.row_weights(weights, y.shape[0], y.shape[1])
     return weighted_problem(y, phi, coeffs, w)
+
+
+def require_enough_data(problem: RegressionProblem, data_name: str, rows_note: str = "") -> None:
+    """Enough observed rows to identify p regressors per output with the penalty's degree.
+
+    ``data_name`` is the argument blamed: "x" counts transitions (T = N + 1),
+    anything else regression rows (``rows_note`` says how they relate to the
+    series, e.g. for AR).
+    """
+    counts = {"observed": problem.n_observed, "n_rows": problem.N * problem.q}
+    if data_name == "x":
+        options.enough_samples(problem.N, problem.p, problem.degree, **counts)
+    else:
+        options.enough_rows(problem.N, problem.p, problem.degree, data_name, rows_note,
+                            **counts)

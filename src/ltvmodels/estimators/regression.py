@@ -29,7 +29,7 @@ from ..results.regression import RegressionModel
 from ..validation import options
 from .changepoints import find_changepoints, residue_level
 from .priors import resolve as resolve_priors
-from .recordings import regression_problem
+from .recordings import regression_problem, require_enough_data
 from .robust import huber_model
 from .selection import DEFAULT_METHOD, select_for_problem
 
@@ -155,10 +155,7 @@ def fit_problem(
     norm = options.norm_name(norm)
     prior_mode = options.choice(prior_mode, "prior_mode", ("exact", "posthoc"))
     noise_var = options.noise_variance(noise_var, problem.n)
-    loss = options.loss_name(loss, norm)
-    huber_delta = options.huber_delta(huber_delta, problem.n)
-    if loss == "squared" and huber_delta is not None:
-        raise ValueError("huber_delta: applies to loss='huber' only; pass loss='huber'")
+    loss, huber_delta = options.loss_options(loss, huber_delta, norm, problem.n)
     if not isinstance(compute_cov, bool):
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
     selection = None
@@ -173,7 +170,7 @@ def fit_problem(
                 "lam: 'auto' chooses λ from the data alone and does not take a prior into "
                 "account; choose λ with ltvmodels.select_lambda or pass a number"
             )
-        _enough_samples(problem, data_name, rows_note)
+        require_enough_data(problem, data_name, rows_note)
         identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
         selection = select_for_problem(problem, norm, DEFAULT_METHOD[norm], None)
         lam = selection.lam
@@ -207,11 +204,11 @@ def _fit_with_lam(
         max_iter = options.integer(max_iter, "max_iter", minimum=1)
         tol = options.positive_scalar(tol, "tol")
         weights = options.sparse_weights(lam, K)
-        _enough_samples(problem, data_name, rows_note)
+        require_enough_data(problem, data_name, rows_note)
         identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
         solution = solve_sparse(problem, weights, norm, max_iter=max_iter, tol=tol)
         return sparse_model(problem, lam, norm, solution, factory)
-    _enough_samples(problem, data_name, rows_note)  # before a (K, K) λ is checked
+    require_enough_data(problem, data_name, rows_note)  # before a (K, K) λ is checked
     W = options.penalty_weight(lam, K)
     terms = resolve_priors(prior, N, n, p)
     if not problem.complete and any(term.on == "output" for term in terms):
@@ -273,15 +270,6 @@ def _fit_with_lam(
         norm=norm, coeffs=problem.coeffs, lam=_lam_copy(lam), cov=cov,
         noise_var=result.noise_var, noise_cov=noise_cov, loglik=loglik, info=info, status=status,
     ))
-
-
-def _enough_samples(problem: RegressionProblem, data_name: str, rows_note: str) -> None:
-    counts = {"observed": problem.n_observed, "n_rows": problem.N * problem.q}
-    if data_name == "x":  # state space: rows are transitions, T = N + 1
-        options.enough_samples(problem.N, problem.p, problem.degree, **counts)
-    else:
-        options.enough_rows(problem.N, problem.p, problem.degree, data_name, rows_note,
-                            **counts)
 
 
 def sparse_model(

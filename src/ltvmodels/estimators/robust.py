@@ -25,9 +25,9 @@ HUBER_EFFICIENCY = 1.345  # δ / σ of Huber's 95 %-efficient estimator
 SOLVER = "IRLS (majorize-minimize, exact)"
 
 
-def default_delta(problem: RegressionProblem, W: np.ndarray) -> np.ndarray:
-    """1.345 × the robust scale (1.4826 · MAD) of each output's squared-loss residuals."""
-    theta = SquaredSolver(problem, W, []).solve(1.0)[0]
+def default_delta(problem: RegressionProblem, theta: np.ndarray) -> np.ndarray:
+    """1.345 × the robust scale (1.4826 · MAD) of each output's residuals of ``theta``
+    (N, n, p), the squared-loss fit."""
     scale = np.where(problem.row_scale > 0, problem.row_scale, 1.0)[:, :, None]
     resid = (problem.residuals(theta) / scale)[problem.observed]  # (rows, n), units of y
     median = np.median(resid, axis=0)
@@ -51,8 +51,11 @@ def huber_model(
     residual mean square of each output.
     """
     rule = "given" if delta is not None else "1.345 * 1.4826 * MAD of squared-loss residuals"
-    delta = default_delta(problem, W) if delta is None else delta
-    result = fit_huber(problem, W, delta, max_iter=max_iter, tol=tol)
+    start = None
+    if delta is None:  # the squared-loss fit gives δ and starts the iteration
+        start = SquaredSolver(problem, W, []).solve(1.0)[0]
+        delta = default_delta(problem, start)
+    result = fit_huber(problem, W, delta, max_iter=max_iter, tol=tol, start=start)
     if not result.converged:
         warnings.warn(
             f"loss='huber': the reweighting did not reach its tolerance {tol:g} in "

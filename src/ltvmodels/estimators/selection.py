@@ -46,7 +46,12 @@ from ..errors import ConvergenceWarning, PrecisionWarning
 from ..results.base import signal_names
 from ..results.selection import LambdaSelection
 from ..validation import arrays, options
-from .recordings import StateSpaceData, regression_problem, state_space_data
+from .recordings import (
+    StateSpaceData,
+    regression_problem,
+    require_enough_data,
+    state_space_data,
+)
 from .segments import fit_segments
 
 __all__ = ["select_lambda", "select_lambda_regression", "DEFAULT_METHOD"]
@@ -174,11 +179,7 @@ def _select_validated(
 ) -> LambdaSelection:
     """Check the sample count, identifiability and ``n_folds``, then
     :func:`select_for_problem`."""
-    counts = {"observed": problem.n_observed, "n_rows": problem.N * problem.q}
-    if data_name == "x":
-        options.enough_samples(problem.N, problem.p, problem.degree, **counts)
-    else:
-        options.enough_rows(problem.N, problem.p, problem.degree, data_name, **counts)
+    require_enough_data(problem, data_name)
     n_folds = options.integer(n_folds, "n_folds", minimum=2)
     # as fit does: name the combination of regressors the data do not determine
     identifiability.check(problem, has_prior=False, regressor_names=regressor_names)

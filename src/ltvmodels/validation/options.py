@@ -143,6 +143,15 @@ def loss_name(loss: Any, norm: str) -> str:
     return loss
 
 
+def loss_options(loss: Any, delta: Any, norm: str, n: int) -> tuple[str, np.ndarray | None]:
+    """Validate ``loss`` and ``huber_delta`` together: (loss, δ (n,) or None)."""
+    loss = loss_name(loss, norm)
+    delta = huber_delta(delta, n)
+    if loss == "squared" and delta is not None:
+        raise ValueError("huber_delta: applies to loss='huber' only; pass loss='huber'")
+    return loss, delta
+
+
 def huber_delta(value: Any, n: int) -> np.ndarray | None:
     """Validate None (the default rule), a threshold δ > 0, or one per output (n,)."""
     if value is None:
