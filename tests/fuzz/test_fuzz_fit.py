@@ -90,9 +90,13 @@ def test_fit(data, kwargs):
     check_call(ltv.fit, x, u, **resolved(data, kwargs))
 
 
-@fuzz_test(datasets(), options(weights=WEIGHTS, constant=CONSTANT),
-           explicit=[(HUGE, {}), (HUGE3, {}), (TINY, {}), (Data(5, 2, 1), {"constant": True})],
-           valid=(datasets(forms=False), options(max_bad=0, weights=WEIGHTS, constant=CONSTANT)))
+LTI_OPTIONS = dict(weights=WEIGHTS, constant=CONSTANT, loss=LOSS, huber_delta=HUBER_DELTA)
+
+
+@fuzz_test(datasets(), options(**LTI_OPTIONS),
+           explicit=[(HUGE, {}), (HUGE3, {}), (TINY, {}), (Data(5, 2, 1), {"constant": True}),
+                     (PLAIN, {"loss": "huber"})],
+           valid=(datasets(forms=False), options(max_bad=0, **LTI_OPTIONS)))
 def test_fit_lti(data, kwargs):
     """ltv.fit_lti: least squares over edge-case data, weights and intercepts."""
     x, u = data.xu()
@@ -273,7 +277,9 @@ ACTIVATION = st.one_of(
                    noise_factor=Opt(choice_of(8.0, None, 0.0, 3.0),
                                     choice_of(-1.0, np.nan, np.inf, 1e300, "8")),
                    min_distance=counts(1, 20), max_changes=counts(0, 5),
-                   degree=Opt(choice_of(1, 2, 3), choice_of(0, -1, 1.5, "1"))))
+                   degree=Opt(choice_of(1, 2, 3), choice_of(0, -1, 1.5, "1")),
+                   min_level=Opt(choice_of(None, 0.0, 1e-12, 0.1),
+                                 choice_of(-1.0, np.nan, np.inf, "0"))))
 def test_find_changepoints(activation, data, kwargs):
     """ltv.find_changepoints on fuzzed activations and on fitted models."""
     if isinstance(activation, str) and activation == "@model":

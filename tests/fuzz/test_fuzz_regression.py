@@ -18,6 +18,8 @@ from fuzz_oracle import check_call, expect
 from fuzz_strategies import (
     BOOL,
     CONSTANT,
+    HUBER_DELTA,
+    LOSS,
     LAM,
     MAX_ITER,
     NOISE_VAR,
@@ -50,7 +52,9 @@ def regression_options(max_bad: int = 2) -> st.SearchStrategy:
     sparse = options(required=("lam", "norm", "max_iter"), max_bad=max_bad, lam=SPARSE_LAM,
                      norm=SPARSE_NORM, max_iter=Opt(st.integers(1, 300), MAX_ITER.invalid),
                      tol=TOL, **common)
-    return st.one_of(sq, sparse)
+    huber = options(required=("lam", "loss"), max_bad=max_bad, lam=LAM, loss=LOSS,
+                    huber_delta=HUBER_DELTA, tol=TOL, **common)
+    return st.one_of(sq, sparse, huber)
 
 
 def _resolve_all(kwargs: dict, *, K: int, n: int, N: int, R: int) -> dict:
@@ -80,7 +84,9 @@ def ar_options(max_bad: int = 2) -> st.SearchStrategy:
                 compute_cov=BOOL, prior=PRIOR),
         options(required=("lam", "na", "norm", "max_iter"), max_bad=max_bad, na=NA,
                 lam=SPARSE_LAM, norm=SPARSE_NORM, order=ORDER, constant=CONSTANT,
-                max_iter=Opt(st.integers(1, 300), MAX_ITER.invalid), tol=TOL))
+                max_iter=Opt(st.integers(1, 300), MAX_ITER.invalid), tol=TOL),
+        options(required=("lam", "na", "loss"), max_bad=max_bad, na=NA, lam=LAM, loss=LOSS,
+                huber_delta=HUBER_DELTA, constant=CONSTANT, weights=WEIGHTS))
 
 
 @fuzz_test(datasets(inputs=False), ar_options(), examples=1.5,
