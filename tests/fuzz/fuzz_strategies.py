@@ -452,7 +452,7 @@ PRIOR = Opt(choice_of(None, "@prior_ok", "@prior_NK", "@prior_NKK", "@output_pri
 PRIOR_MODE = Opt(choice_of("exact", "posthoc"), choice_of("bogus", None, "EXACT", 1))
 MAX_ITER = Opt(st.integers(1, 50), choice_of(0, -1, 1.5, "10", None, np.nan, 10**12))
 TOL = Opt(choice_of(1e-6, 1e-3, 0.5, 1e-12), choice_of(0.0, -1.0, np.nan, np.inf, "x", 1e-300, 2.0))
-LOSS = Opt(choice_of("squared", "huber"), choice_of("laplace", "cauchy", None, 1, "HUBER"))
+LOSS = Opt(choice_of("squared", "huber", "laplace"), choice_of("cauchy", None, 1, "HUBER"))
 HUBER_DELTA = Opt(choice_of(None, 0.5, 1e-3, 10.0, "@vec_n"),
                   choice_of(0.0, -1.0, np.nan, np.inf, "x", 1e300, "@vec_wrong"))
 

@@ -37,6 +37,9 @@ from .squared import SquaredSolver
 # back to the majorize-minimize step.
 NEWTON_DAMPING = 1e-2
 LINE_SEARCH_STEPS = 30
+# The smallest damping, reached once the outliers are identified (a smaller τ
+# would inflate the model's rows beyond δ̃ by 1/√τ).
+MIN_DAMPING = 1e-4
 
 
 @dataclass
@@ -49,6 +52,7 @@ class HuberFit:
     converged: bool  # the KKT residual met tol
     kkt_residual: float  # relative ‖∇F‖∞ at theta
     outliers: np.ndarray  # (N, q, n) bool: observed entries with |r| > δ
+    stalled: bool = False  # stopped short of tol: F flat to rounding
 
 
 def huber_loss(r: np.ndarray, delta: np.ndarray) -> np.ndarray:
@@ -94,52 +98,127 @@ def fit_huber(
     outputs = [_output_problem(problem, i) for i in range(n)]
     blocks = [_block(W, i, p) for i in range(n)]
     finite_blocks = [_block(W0, i, p) for i in range(n)]
-    kkt, iterations = np.inf, 0
+    damping = np.full(n, NEWTON_DAMPING)
+    kkt, iterations, stalled = np.full(n, np.inf), 0, False
     for iterations in range(max_iter + 1):
         r = problem.residuals(theta)
-        kkt = _kkt_residual(problem, theta, r, thresholds, W, W0)
-        if kkt <= tol or iterations == max_iter:
+        kkt = _kkt_residuals(problem, theta, r, thresholds, W, W0)
+        if kkt.max() <= tol or iterations == max_iter:
             break
-        for i in range(n):
-            current = theta[:, i, :].copy()
-            value = _output_objective(outputs[i], current, thresholds[:, :, i],
-                                      finite_blocks[i])
-            step = _reweighted_fit(outputs[i], blocks[i], current, r[:, :, i],
-                                   thresholds[:, :, i], NEWTON_DAMPING)
-            # near the optimum F changes by rounding only: no increase beyond that is a decrease
-            limit = value + 8 * np.finfo(float).eps * abs(value)
-            for alpha in 0.5 ** np.arange(LINE_SEARCH_STEPS):
-                trial = current + alpha * (step - current)
-                if _output_objective(outputs[i], trial, thresholds[:, :, i],
-                                     finite_blocks[i]) <= limit:
-                    break
-            else:  # no decrease along the Newton direction: the majorize-minimize step
-                trial = _reweighted_fit(outputs[i], blocks[i], current, r[:, :, i],
-                                        thresholds[:, :, i], 1.0)
-            theta[:, i, :] = trial
+        progress = False
+        for i in np.flatnonzero(kkt > tol):  # the outputs are independent problems
+            theta[:, i, :], damping[i], decreased = _newton_step(
+                outputs[i], blocks[i], finite_blocks[i], theta[:, i, :], r[:, :, i],
+                thresholds[:, :, i], damping[i])
+            progress |= decreased
+        if not progress:  # F is flat to rounding: the tolerance is beyond working precision
+            iterations += 1
+            kkt = _kkt_residuals(problem, theta, problem.residuals(theta), thresholds, W, W0)
+            stalled = bool(kkt.max() > tol)
+            break
     r = problem.residuals(theta)
     objective = float(huber_loss(r, thresholds).sum() + penalty.penalty(theta))
     return HuberFit(theta=theta, objective=objective, iterations=iterations,
-                    converged=bool(kkt <= tol), kkt_residual=float(kkt),
-                    outliers=(np.abs(r) > thresholds) & problem.observed[:, :, None])
+                    converged=bool(kkt.max() <= tol), kkt_residual=float(kkt.max()),
+                    outliers=(np.abs(r) > thresholds) & problem.observed[:, :, None],
+                    stalled=stalled)
 
 
-def _reweighted_fit(output, W, theta, r, thresholds, damping) -> np.ndarray:
-    """The minimizer (N, p) of the quadratic model of output i's F at ``theta``.
+def _newton_step(output, W, W0, current, r, thresholds, damping):
+    """One damped Newton step of output i: its new coefficients (N, p), damping, and
+    whether F decreased.
+
+    The step length minimizes F along the Newton direction exactly
+    (:func:`_line_minimum`); a step that keeps the outliers (entries beyond δ̃)
+    lowers the damping, towards the exact generalized Newton model.
+    """
+    direction = _reweighted_fit(output, W, r, thresholds, damping) - current
+    fitted_direction = np.einsum("tjk,tk->tj", output.phi, direction)
+    alpha = _line_minimum(output, W0, current, direction, r, fitted_direction, thresholds)
+    trial = current + alpha * direction
+    value = _output_objective(output, current, thresholds, W0)
+    trial_value = _output_objective(output, trial, thresholds, W0)
+    # near the optimum F changes by rounding only: no increase beyond that is a decrease
+    if alpha == 0.0 or trial_value > value + 8 * np.finfo(float).eps * abs(value):
+        # no decrease along the Newton direction: the majorize-minimize step
+        step = _reweighted_fit(output, W, r, thresholds, 1.0)
+        decreased = _output_objective(output, step, thresholds, W0) < value
+        return step, NEWTON_DAMPING, decreased
+    kept = alpha == 1.0 and np.array_equal(
+        np.abs(r - fitted_direction) > thresholds, np.abs(r) > thresholds)
+    damping = max(damping * 0.1, MIN_DAMPING) if kept else NEWTON_DAMPING
+    return trial, damping, trial_value < value
+
+
+def _line_minimum(output, W0, current, direction, r, fitted_direction, thresholds) -> float:
+    """argmin over α in [0, 1] of F(current + α·direction), for one output.
+
+    F along the line is convex and piecewise quadratic:
+    f'(α) = −2Σ clip(r − αg, ±δ̃)g + 2αa + 2b with g = φᵀdirection,
+    a = ⟨DΔ, W DΔ⟩ and b = ⟨DΔ, W Dk⟩; its root is found by Newton's method
+    safeguarded by bisection (exact once the entries within δ̃ settle).
+    """
+    g = fitted_direction
+    Dd = apply_difference(direction, output.coeffs)
+    Dc = apply_difference(current, output.coeffs)
+    Wd = Dd * W0 if W0.ndim == 1 else Dd @ W0
+    a, b = float(np.sum(Wd * Dd)), float(np.sum(Wd * Dc))
+
+    def slope(alpha: float) -> tuple[float, float]:
+        shifted = r - alpha * g
+        inside = np.abs(shifted) <= thresholds
+        first = -2.0 * float(np.sum(np.clip(shifted, -thresholds, thresholds) * g))
+        return first + 2.0 * (alpha * a + b), 2.0 * (float(np.sum(g[inside] ** 2)) + a)
+
+    low, high, alpha = 0.0, 1.0, 1.0
+    first, second = slope(1.0)
+    if first <= 0.0:
+        return 1.0
+    if slope(0.0)[0] >= 0.0:
+        return 0.0  # not a descent direction (rounding at the optimum)
+    for _ in range(LINE_SEARCH_STEPS):
+        if first > 0.0:
+            high = alpha
+        else:
+            low = alpha
+        alpha = alpha - first / second if second > 0.0 else 0.5 * (low + high)
+        if not low < alpha < high:
+            alpha = 0.5 * (low + high)
+        if high - low <= 1e-12:
+            break
+        first, second = slope(alpha)
+        if first == 0.0:
+            break
+    return alpha
+
+
+def _reweighted_fit(output, W, r, thresholds, damping) -> np.ndarray:
+    """The minimizer (N, p) of the quadratic model of output i's F at residuals r.
 
     Residuals beyond δ̃ count with weight a = τ δ̃/|r| and the pseudo-response
     ŷ + r/τ: its gradient at ``theta`` is F's, its curvature there τ δ̃/|r|
     instead of 0. τ = 1 is the majorizer (a step that never increases F),
     small τ a damped Newton step (fast, checked by the line search).
     """
-    beyond = np.abs(r) > thresholds
-    a = np.divide(damping * thresholds, np.abs(r), out=np.ones_like(r), where=beyond)
-    y = output.y[:, :, 0]
-    y = np.where(beyond, y - r + r / damping, y)
-    scale = np.sqrt(a)[:, :, None]
-    weighted = RegressionProblem(y=y[:, :, None] * scale, phi=output.phi * scale,
+    sqrt_a, y_hat = newton_model(output.y[:, :, 0], r, thresholds, damping)
+    scale = sqrt_a[:, :, None]
+    weighted = RegressionProblem(y=y_hat[:, :, None] * scale, phi=output.phi * scale,
                                  coeffs=output.coeffs, observed=output.observed)
     return SquaredSolver(weighted, W, []).solve(1.0)[0][:, 0, :]
+
+
+def newton_model(
+    y: np.ndarray, r: np.ndarray, thresholds: np.ndarray, damping: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The rows of the quadratic model of Σ h_δ̃(r) at residuals r: (√a, ŷ), shapes of r.
+
+    Σ a (ŷ − φᵀk)² has h's gradient at the current k and curvature a = 1 inside
+    δ̃, τ δ̃/|r| beyond (τ = ``damping``), with the pseudo-response
+    ŷ = y − r + r/τ beyond δ̃ (ŷ = y inside).
+    """
+    beyond = np.abs(r) > thresholds
+    a = np.divide(damping * thresholds, np.abs(r), out=np.ones_like(r), where=beyond)
+    return np.sqrt(a), np.where(beyond, y - r + r / damping, y)
 
 
 def _output_objective(output, theta, thresholds, W0) -> float:
@@ -162,26 +241,36 @@ def _block(W: np.ndarray, i: int, p: int) -> np.ndarray:
     return W[rows] if W.ndim == 1 else W[rows, rows]
 
 
-def _kkt_residual(problem, theta, r, thresholds, W, W0) -> float:
-    """‖∇F‖∞ relative to the largest of its data and penalty terms.
+def _kkt_residuals(problem, theta, r, thresholds, W, W0) -> np.ndarray:
+    """‖∇F‖∞ of each output, shape (n,), relative to its largest data or penalty term.
 
     A coefficient held constant (inf weight) has one free value: its
     stationarity condition is the sum of its gradient over time.
     """
-    N, K = problem.N, problem.K
+    N, n, p = problem.N, problem.n, problem.p
     tiny = np.finfo(float).tiny
     psi = np.clip(r, -thresholds, thresholds)  # h'(r) / 2
-    data = -2.0 * np.einsum("tji,tjk->tik", psi, problem.phi).reshape(N, K)
-    Dk = apply_difference(theta.reshape(N, K), problem.coeffs)
+    if problem.q == 1:  # an outer product per step (einsum's reduction is slower)
+        data = -2.0 * psi[:, 0, :, None] * problem.phi[:, 0, None, :]  # (N, n, p)
+    else:
+        data = -2.0 * np.einsum("tji,tjk->tik", psi, problem.phi)
+    Dk = apply_difference(theta.reshape(N, n * p), problem.coeffs)
     weighted = Dk * W0 if W0.ndim == 1 else Dk @ W0
-    pen = 2.0 * apply_difference_adjoint(weighted, problem.coeffs, N)
-    const = np.isinf(W if W.ndim == 1 else np.diag(W))
-    residual = 0.0
-    if (~const).any():
-        scale = max(float(np.abs(data[:, ~const]).max()), float(np.abs(pen[:, ~const]).max()),
-                    tiny)
-        residual = float(np.abs(data + pen)[:, ~const].max()) / scale
-    if const.any():
-        scale = max(float(np.abs(data[:, const]).sum(axis=0).max()), tiny)
-        residual = max(residual, float(np.abs(data[:, const].sum(axis=0)).max()) / scale)
-    return residual
+    pen = 2.0 * apply_difference_adjoint(weighted, problem.coeffs, N).reshape(N, n, p)
+    const = np.isinf(W if W.ndim == 1 else np.diag(W))  # (K,)
+
+    def column_max(values: np.ndarray) -> np.ndarray:  # (K,), over time
+        return np.abs(values.reshape(N, n * p)).max(axis=0)
+
+    def per_output(values: np.ndarray) -> np.ndarray:  # (K,) → (n,), max over its coefficients
+        return values.reshape(n, p).max(axis=1)
+
+    free = np.where(const, 0.0, 1.0)
+    scale = per_output(np.maximum(column_max(data), column_max(pen)) * free)
+    residuals = per_output(column_max(data + pen) * free) / np.maximum(scale, tiny)
+    if const.any():  # one free value per constant coefficient: its gradient summed over time
+        fixed = np.where(const, 1.0, 0.0)
+        sums = np.abs(data.reshape(N, n * p).sum(axis=0)) * fixed
+        scale = per_output(np.abs(data.reshape(N, n * p)).sum(axis=0) * fixed)
+        residuals = np.maximum(residuals, per_output(sums) / np.maximum(scale, tiny))
+    return residuals

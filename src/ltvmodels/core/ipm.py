@@ -237,8 +237,14 @@ class NewtonSystem:
         self.s_coef = np.empty(n_cones)
         self.lam_sq = np.empty_like(s)
         self.u_rz = np.empty_like(s)  # W⁻² r_z, shared by both directions
-        cones.prepare_newton(s, z, r_z, self.v, self.eta, self.lam, self.lam_sq, self.u_rz,
-                             self.alpha, self.beta, self.s_coef)
+        try:
+            cones.prepare_newton(s, z, r_z, self.v, self.eta, self.lam, self.lam_sq,
+                                 self.u_rz, self.alpha, self.beta, self.s_coef)
+        except ZeroDivisionError:  # a cone's s or z reached its boundary in rounding
+            raise SingularProblemError(
+                "the interior-point iterate reached the boundary of a cone at working "
+                "precision; a looser tol helps"
+            ) from None
         self.s = s
 
     def affine_direction(self):

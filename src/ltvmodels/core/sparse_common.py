@@ -107,23 +107,30 @@ def lambda_max(
     theta_bar : ndarray, shape (N, n, p), optional
         :func:`null_space_fit` of the problem, if already computed.
     """
-    N, n, p = problem.N, problem.n, problem.p
-    K = n * p
+    K = problem.K
     weights = np.ones(K) if weights is None else weights
     theta = null_space_fit(problem) if theta_bar is None else theta_bar
     g = problem.gradient(theta)
     free = weights == 0  # unpenalized coefficients: their dual part is unconstrained
-    d = problem.degree
-    c = problem.coeffs
-    acf = np.array([np.dot(c[: d + 1 - lag], c[lag:]) for lag in range(d + 1)])
-    rows = N - d
-    ab = np.zeros((d + 1, rows))
-    for lag in range(d + 1):
-        ab[d - lag, lag:] = acf[lag]  # upper band storage of D Dᵀ
-    Dg = apply_difference(g, c)
-    # (N − d, K); LAPACK's banded solver needs two rows or more
-    nu = -Dg / acf[0] if rows == 1 else -solveh_banded(ab, Dg, check_finite=False)
+    nu = -difference_preimage(g, problem.coeffs)
     scaled = nu[:, ~free] / weights[~free]
     if norm == "group":
         return float(np.linalg.norm(scaled, axis=1).max(initial=0.0))
     return float(np.abs(scaled).max(initial=0.0))
+
+
+def difference_preimage(v: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
+    """μ = (DDᵀ)⁻¹ D v, shape (N − d, ...): the solution of Dᵀμ = v when v ⊥ null(D).
+
+    One banded solve (D has full row rank); v is (N, ...).
+    """
+    d = len(coeffs) - 1
+    c = np.asarray(coeffs, dtype=float)
+    acf = np.array([np.dot(c[: d + 1 - lag], c[lag:]) for lag in range(d + 1)])
+    rows = v.shape[0] - d
+    ab = np.zeros((d + 1, rows))
+    for lag in range(d + 1):
+        ab[d - lag, lag:] = acf[lag]  # upper band storage of D Dᵀ
+    Dv = apply_difference(v, c)
+    # LAPACK's banded solver needs two rows or more
+    return Dv / acf[0] if rows == 1 else solveh_banded(ab, Dv, check_finite=False)

@@ -30,7 +30,7 @@ from ..validation import options
 from .changepoints import find_changepoints, residue_level
 from .priors import resolve as resolve_priors
 from .recordings import regression_problem, require_enough_data
-from .robust import huber_model
+from .robust import robust_model
 from .selection import DEFAULT_METHOD, select_for_problem
 
 ModelFactory = Callable[..., RegressionModel]
@@ -155,7 +155,7 @@ def fit_problem(
     norm = options.norm_name(norm)
     prior_mode = options.choice(prior_mode, "prior_mode", ("exact", "posthoc"))
     noise_var = options.noise_variance(noise_var, problem.n)
-    loss, huber_delta = options.loss_options(loss, huber_delta, norm, problem.n)
+    loss, huber_delta = options.loss_options(loss, huber_delta, problem.n)
     if not isinstance(compute_cov, bool):
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
     selection = None
@@ -206,6 +206,11 @@ def _fit_with_lam(
         weights = options.sparse_weights(lam, K)
         require_enough_data(problem, data_name, rows_note)
         identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
+        if loss != "squared":
+            _no_robust_option(noise_var, "noise_var", loss)
+            return robust_model(problem, weights, loss=loss, lam=_lam_copy(lam), norm=norm,
+                                delta=huber_delta, factory=factory, max_iter=max_iter,
+                                tol=tol)
         solution = solve_sparse(problem, weights, norm, max_iter=max_iter, tol=tol)
         return sparse_model(problem, lam, norm, solution, factory)
     require_enough_data(problem, data_name, rows_note)  # before a (K, K) λ is checked
@@ -224,13 +229,12 @@ def _fit_with_lam(
         regressor_names=regressor_names,
         const_mask=const.all(axis=0) if const.any() else None,
     )
-    if loss == "huber":
-        for value, name in ((prior, "prior"), (noise_var, "noise_var")):
-            if value is not None:
-                raise NotImplementedError(f"{name}: not available with loss='huber' yet")
-        return huber_model(
-            problem, W, lam=_lam_copy(lam), norm=norm, delta=huber_delta, factory=factory,
-            max_iter=options.integer(max_iter, "max_iter", minimum=1),
+    if loss != "squared":
+        _no_robust_option(prior, "prior", loss)
+        _no_robust_option(noise_var, "noise_var", loss)
+        return robust_model(
+            problem, W, loss=loss, lam=_lam_copy(lam), norm=norm, delta=huber_delta,
+            factory=factory,            max_iter=options.integer(max_iter, "max_iter", minimum=1),
             tol=options.positive_scalar(tol, "tol"),
         )
 
@@ -304,6 +308,11 @@ def sparse_model(
         norm=norm, coeffs=problem.coeffs, lam=_lam_copy(lam), noise_var=noise_var,
         noise_cov=np.diag(noise_var), info=info, changepoints=changepoints, status=status,
     ))
+
+
+def _no_robust_option(value: Any, name: str, loss: str) -> None:
+    if value is not None:
+        raise NotImplementedError(f"{name}: not available with loss={loss!r} yet")
 
 
 def _lam_copy(lam: Any) -> Any:

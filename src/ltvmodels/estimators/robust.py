@@ -1,9 +1,12 @@
-"""loss="huber": models robust to outliers (the solver is :mod:`ltvmodels.core.huber`).
+"""loss="huber" and loss="laplace": models robust to outliers.
 
-The default threshold is δ_i = 1.345 σ̂_i with σ̂_i the robust scale of the
-squared-loss fit's residuals of output i, 1.4826 · MAD (95 % efficiency at
-Gaussian noise, Huber 1964); residuals beyond δ count linearly, so a gross
-outlier moves the fit as little as one δ away.
+The solvers are :mod:`ltvmodels.core.huber` (norm="sq"),
+:mod:`ltvmodels.core.huber_sparse` (norm="group"/"l1") and
+:mod:`ltvmodels.core.laplace`. The default Huber threshold is
+δ_i = 1.345 σ̂_i with σ̂_i the robust scale of the squared-loss fit's residuals
+of output i, 1.4826 · MAD (95 % efficiency at Gaussian noise, Huber 1964);
+residuals beyond δ count linearly, so a gross outlier moves the fit as little
+as one δ away. The Laplacian loss Σ w|r| counts every residual linearly.
 """
 
 from __future__ import annotations
@@ -14,15 +17,17 @@ from typing import Any, Callable
 import numpy as np
 
 from ..core.huber import fit_huber
-from ..core.problem import RegressionProblem
+from ..core.huber_sparse import fit_huber_sparse
+from ..core.laplace import fit_laplace
+from ..core.problem import RegressionProblem, activation
+from ..core.sparse import solve_sparse
 from ..core.squared import SquaredSolver
 from ..errors import ConvergenceWarning
 from ..results.record import FitRecord, FitStatus, iterative_status
 from ..results.regression import RegressionModel
-from .changepoints import MAD_TO_STD
+from .changepoints import MAD_TO_STD, find_changepoints, residue_level
 
 HUBER_EFFICIENCY = 1.345  # δ / σ of Huber's 95 %-efficient estimator
-SOLVER = "IRLS (majorize-minimize, exact)"
 
 
 def default_delta(problem: RegressionProblem, theta: np.ndarray) -> np.ndarray:
@@ -39,45 +44,82 @@ def default_delta(problem: RegressionProblem, theta: np.ndarray) -> np.ndarray:
     return HUBER_EFFICIENCY * sigma
 
 
-def huber_model(
-    problem: RegressionProblem, W: np.ndarray, *, lam: Any, norm: str, delta: np.ndarray | None,
-    factory: Callable[..., RegressionModel], max_iter: int, tol: float,
+def robust_model(
+    problem: RegressionProblem, penalty: np.ndarray, *, loss: str, lam: Any, norm: str,
+    delta: np.ndarray | None, factory: Callable[..., RegressionModel], max_iter: int,
+    tol: float,
 ) -> RegressionModel:
-    """Fit with loss="huber" and build the model (``delta`` None: :func:`default_delta`).
+    """Fit with loss="huber" or "laplace" and build the model.
 
-    ``model.info`` holds "huber_delta" (n,), "n_outliers", "outliers" (the
-    (N, q, n) mask of residuals beyond δ), "kkt_residual" and "iterations";
-    ``loglik`` is None (no Gaussian likelihood) and ``noise_var`` is the
-    residual mean square of each output.
+    ``penalty`` is the weight W (K,) or (K, K) of norm="sq", or the sparse
+    weights (K,) of norm="group"/"l1"; ``delta`` the Huber thresholds (n,)
+    (None: :func:`default_delta`). ``model.info`` holds "loss", "objective",
+    "iterations", "converged" and the certificate: "kkt_residual" (Huber), or
+    "duality_gap" and "kkt_residual" (Laplace). Huber fits also hold
+    "huber_delta" (n,), "n_outliers" and "outliers" (the (N, q, n) mask of
+    residuals beyond δ). ``loglik`` is None (no Gaussian likelihood) and
+    ``noise_var`` is the residual mean square of each output.
     """
-    rule = "given" if delta is not None else "1.345 * 1.4826 * MAD of squared-loss residuals"
-    start = None
-    if delta is None:  # the squared-loss fit gives δ and starts the iteration
-        start = SquaredSolver(problem, W, []).solve(1.0)[0]
+    sparse = norm in ("group", "l1")  # else a squared-difference penalty (or LTI: W = inf)
+    # the squared-loss fit starts the iteration (and gives the robust residual scale)
+    if not sparse:
+        start = SquaredSolver(problem, penalty, []).solve(1.0)[0]
+    else:
+        with warnings.catch_warnings():  # only a starting point
+            warnings.simplefilter("ignore", ConvergenceWarning)
+            start = solve_sparse(problem, penalty, norm, max_iter=max_iter, tol=tol).theta
+    rule = "given"
+    if delta is None:
         delta = default_delta(problem, start)
-    result = fit_huber(problem, W, delta, max_iter=max_iter, tol=tol, start=start)
+        rule = "1.345 * 1.4826 * MAD of squared-loss residuals"
+    if loss == "laplace":
+        result = fit_laplace(problem, penalty, norm if sparse else "sq", delta,
+                             max_iter=max_iter, tol=tol, start=start)
+        solver = "Huber smoothing with a duality-gap certificate" + (
+            ", exact active-set polish" if result.polished else "")
+        details: dict[str, Any] = {"duality_gap": result.duality_gap,
+                                   "duality_gap_rigorous": result.rigorous,
+                                   "kkt_residual": result.kkt_residual,
+                                   "smoothing": result.smoothing, "stages": result.stages}
+        failure = (f"the duality gap {result.duality_gap:.3g} (relative) did not reach its "
+                   f"tolerance {tol:g} in {result.stages} smoothing stages")
+    else:
+        if not sparse:
+            result = fit_huber(problem, penalty, delta, max_iter=max_iter, tol=tol,
+                               start=start)
+            solver = "damped Newton on reweighted fits (exact)"
+            details = {}
+        else:
+            result = fit_huber_sparse(problem, penalty, norm, delta, max_iter=max_iter,
+                                      tol=tol, start=start)
+            solver = f"proximal Newton on {result.solver}"
+            details = {"inner_iterations": result.inner_iterations}
+        details.update(kkt_residual=result.kkt_residual, huber_delta=delta.tolist(),
+                       n_outliers=int(result.outliers.sum()))
+        failure = (f"the KKT residual {result.kkt_residual:.3g} did not reach its tolerance "
+                   f"{tol:g} in {result.iterations} steps")
     if not result.converged:
-        warnings.warn(
-            f"loss='huber': the reweighting did not reach its tolerance {tol:g} in "
-            f"{max_iter} steps (KKT residual {result.kkt_residual:.3g}); the model is the last "
-            "iterate. Increase max_iter or tol.",
-            ConvergenceWarning, stacklevel=4,
-        )
+        remedy = ("it stopped at the limit of working precision; loosen tol" if result.stalled
+                  else "increase max_iter or loosen tol")
+        warnings.warn(f"loss={loss!r}: {failure}; the model is the last iterate: {remedy}",
+                      ConvergenceWarning, stacklevel=4)
     N, K = problem.N, problem.K
-    n_outliers = int(result.outliers.sum())
-    details = {"kkt_residual": result.kkt_residual, "huber_delta": delta.tolist(),
-               "n_outliers": n_outliers}
+    k = result.theta.reshape(N, K)
     info = {
-        "solver": SOLVER, "iterations": result.iterations, "converged": result.converged,
-        "objective": result.objective, "loss": "huber", "huber_delta": delta.tolist(),
-        "huber_delta_rule": rule, "n_outliers": n_outliers, "outliers": result.outliers,
-        "kkt_residual": result.kkt_residual,
-        "loglik_note": "loss='huber' has no Gaussian likelihood; loglik is None",
+        "solver": solver, "iterations": result.iterations, "converged": result.converged,
+        "objective": result.objective, "loss": loss, **details,
+        "loglik_note": f"loss={loss!r} has no Gaussian likelihood; loglik is None",
     }
-    status = FitStatus(iterative_status(result.converged), SOLVER, result.iterations,
-                       result.objective, details)
+    if loss == "huber":
+        info.update(huber_delta_rule=rule, outliers=result.outliers)
+    status = FitStatus(iterative_status(result.converged, stalled=result.stalled), solver,
+                       result.iterations, result.objective, details)
+    changepoints = None
+    if sparse:
+        changepoints = find_changepoints(activation(k, problem.coeffs), degree=problem.degree,
+                                         min_level=residue_level(k))
     noise_var = problem.output_rss(result.theta) / max(problem.n_observed, 1)
-    return factory(result.theta.reshape(N, K), fit=FitRecord(
+    return factory(k, fit=FitRecord(
         norm=norm, coeffs=problem.coeffs, lam=lam, noise_var=noise_var,
-        noise_cov=np.diag(noise_var), info=info, status=status,
+        noise_cov=np.diag(noise_var), info=info, changepoints=changepoints, status=status,
     ))

@@ -131,24 +131,14 @@ def norm_name(norm: Any) -> str:
 LOSSES = ("squared", "huber", "laplace")
 
 
-def loss_name(loss: Any, norm: str) -> str:
-    """Validate ``loss``: "squared", or "huber" (with norm="sq" so far)."""
+def loss_options(loss: Any, delta: Any, n: int) -> tuple[str, np.ndarray | None]:
+    """Validate ``loss`` ("squared", "huber" or "laplace") and ``huber_delta`` together:
+    (loss, δ (n,) or None)."""
     loss = choice(loss, "loss", LOSSES)
-    if loss == "laplace":
-        raise NotImplementedError("loss: 'laplace' is not available yet; use 'huber'")
-    if loss == "huber" and norm != "sq":
-        raise NotImplementedError(
-            f"loss: 'huber' is available with norm='sq' only so far, received norm={norm!r}"
-        )
-    return loss
-
-
-def loss_options(loss: Any, delta: Any, norm: str, n: int) -> tuple[str, np.ndarray | None]:
-    """Validate ``loss`` and ``huber_delta`` together: (loss, δ (n,) or None)."""
-    loss = loss_name(loss, norm)
     delta = huber_delta(delta, n)
-    if loss == "squared" and delta is not None:
-        raise ValueError("huber_delta: applies to loss='huber' only; pass loss='huber'")
+    if loss != "huber" and delta is not None:
+        raise ValueError(f"huber_delta: applies to loss='huber' only, received loss={loss!r}; "
+                         "pass loss='huber' or leave huber_delta out")
     return loss, delta
 
 
