@@ -243,7 +243,9 @@ def test_sparse_huber_with_delta_beyond_every_residual_is_the_squared_loss_fit(n
 @pytest.mark.parametrize("order, coeffs", [(1, [-1.0, 1.0]), (2, [1.0, -2.0, 1.0])])
 def test_laplace_matches_clarabel_and_its_certificate_holds(norm, lam, order, coeffs):
     x, u, w = _data(20 + order)
-    tol = 1e-9 if norm == "sq" else 1e-6  # "sq" is exact (the polish), the sparse norms not
+    # "sq" is exact (the polish); the sparse norms' certificate reaches about 1e-7 (order 1)
+    # and 1e-6 (order 2: the dual repair amplifies the stationarity error more)
+    tol = 1e-9 if norm == "sq" else 10.0 ** (order - 7)
     model = ltv.fit(x, u, lam=lam, norm=norm, order=order, weights=w, loss="laplace", tol=tol)
     optimum, _ = _cvxpy_reference(x, u, w, lam, np.array(coeffs), norm=norm, loss="laplace")
     assert model.status.success and model.info["loss"] == "laplace"
@@ -289,3 +291,87 @@ def test_huber_group_finds_the_change_despite_gross_outliers():
                 assert np.abs(model.changepoints - 200).min() <= 3, model.changepoints
                 assert model.changepoints.size == 1, model.changepoints
     assert np.mean(errors["huber"]) < 0.85 * np.mean(errors["squared"]), errors
+
+
+def _cvxpy_piecewise(x, u, changepoints, order, loss, delta=None):
+    """Optimal value of the piecewise model (constant or continuous linear between the
+    change points) with a robust loss, from scratch: k_t = Σ_l B_tl Γ_l."""
+    T, n = x.shape
+    p = n + u.shape[1]
+    N = T - 1
+    t = np.arange(N)
+    if order == 1:
+        bounds = np.concatenate([[0], changepoints, [N]])
+        basis = np.stack([(t >= a) & (t < b) for a, b in zip(bounds[:-1], bounds[1:])], 1)
+    else:
+        knots = np.concatenate([[0], changepoints, [N - 1]])
+        basis = np.stack([np.interp(t, knots, np.eye(len(knots))[j])
+                          for j in range(len(knots))], 1)
+    gamma = cp.Variable((basis.shape[1], n * p))
+    k = basis.astype(float) @ gamma
+    phi = np.concatenate([x[:-1], u[:-1]], axis=1)
+    terms = []
+    for i in range(n):
+        resid = x[1:, i] - cp.sum(cp.multiply(phi, k[:, i * p:(i + 1) * p]), axis=1)
+        terms.append(cp.sum(cp.huber(resid, delta[i]) if loss == "huber" else cp.abs(resid)))
+    problem = cp.Problem(cp.Minimize(sum(terms)))
+    problem.solve(solver=cp.CLARABEL, tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10)
+    return problem.value
+
+
+@pytest.mark.parametrize("loss", ["huber", "laplace"])
+@pytest.mark.parametrize("order", [1, 2])
+def test_robust_piecewise_matches_clarabel(loss, order):
+    data, x = _spoiled_jump_linear(3)
+    x, u = x[:120], data.u[:120]
+    delta = np.array([0.3, 0.3]) if loss == "huber" else None
+    model = ltv.fit_piecewise(x, u, [40, 80], order=order, loss=loss, huber_delta=delta)
+    optimum = _cvxpy_piecewise(x, u, np.array([40, 80]), order, loss, delta)
+    assert model.status.success and model.info["loss"] == loss
+    assert model.info["objective"] == pytest.approx(optimum, rel=1e-7)
+    assert model.cov is None and model.loglik is None
+    assert model.changepoints.tolist() == [40, 80]
+
+
+def test_refine_keeps_the_robust_loss():
+    """One gross outlier at t = 50 makes the squared loss report a change there."""
+    data = ltv.systems.jump_linear(seed=0)
+    x = data.x.copy()
+    x[50, 0] += 5.0
+    squared = ltv.fit(x, data.u, lam=8.0, norm="group", refine=True)
+    huber = ltv.fit(x, data.u, lam=8.0, norm="group", refine=True, loss="huber")
+    assert 50 in squared.changepoints.tolist()  # measured: [50, 200]
+    assert huber.changepoints.tolist() == [200]
+    assert huber.info["loss"] == "huber" and huber.norm == "piecewise"
+    assert huber.info["first_step"]["changepoints"] == [200]
+
+
+def test_lam_auto_with_a_robust_loss_is_robust_cross_validation():
+    data, x = _spoiled_jump_linear(1)
+    selection = ltv.select_lambda(x, data.u, norm="group", loss="huber")
+    assert selection.method == "cv" and selection.loss == "huber"
+    assert len(selection.lams) == 15 and len(selection.huber_delta) == 2
+    model = ltv.fit(x, data.u, lam="auto", norm="group", loss="huber")
+    assert model.lam == selection.lam
+    assert model.info["huber_delta"] == selection.huber_delta  # the loss λ was chosen for
+    assert model.info["lam_selection"]["loss"] == "huber"
+    assert model.changepoints.tolist() == [200]  # measured at λ = 7.9
+    with pytest.raises(ValueError, match=r"^method: expected one of \('cv',\)"):
+        ltv.select_lambda(x, data.u, norm="sq", method="ml", loss="huber")
+    with pytest.raises(ValueError, match=r"^loss: norm='l0'"):
+        ltv.select_lambda(x, data.u, norm="l0", loss="laplace")
+
+
+def test_cli_fits_the_laplacian_loss(tmp_path, capsys):
+    from ltvmodels.cli import main
+
+    x, u, _ = _data(24)
+    path = tmp_path / "data.csv"
+    np.savetxt(path, np.c_[x[0], u[0]], delimiter=",", header="x1,x2,u1", comments="")
+    code = main(["fit", str(path), "--state", "x1,x2", "--input", "u1", "--lam", "1",
+                 "--loss", "laplace", "--json"])
+    report = __import__("json").loads(capsys.readouterr().out)
+    assert code == 0 and report["loss"] == "laplace" and report["duality_gap"] <= 1e-6
+    code = main(["fit", str(path), "--state", "x1,x2", "--input", "u1", "--lam", "1",
+                 "--loss", "laplace"])
+    assert code == 0 and "loss: laplace (absolute residuals)" in capsys.readouterr().out

@@ -311,6 +311,10 @@ def _cmd_fit(args: argparse.Namespace) -> Report:
                       n_outliers=model.info["n_outliers"])
         lines.insert(2, f"loss: huber, delta = {per_name(state_names, model.info['huber_delta'])}"
                         f"; {model.info['n_outliers']} residuals beyond delta (outliers)")
+    elif args.loss == "laplace":
+        report.update(duality_gap=model.info["duality_gap"])
+        lines.insert(2, f"loss: laplace (absolute residuals); relative duality gap "
+                        f"{model.info['duality_gap']:.1e}")
     fig = None
     if plot is not None:  # drawn before anything is written: it may fail
         with _figure_errors("a model with a constant term c_t" if model.constant else None):

@@ -153,9 +153,10 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--refine", action="store_true",
                      help="two-step refinement: refit piecewise between the detected change "
                      "points")
-    fit.add_argument("--loss", choices=["squared", "huber"], default="squared",
-                     help="loss of the residuals: squared (default) or huber (robust to "
-                     "outliers; with --norm sq)")
+    fit.add_argument("--loss", choices=["squared", "huber", "laplace"], default="squared",
+                     help="loss of the residuals: squared (default), huber (robust to "
+                     "outliers) or laplace (absolute values, the most robust); with a robust "
+                     "loss, --lam auto is cross-validation scored with that loss")
     fit.add_argument("--huber-delta", type=_positive_float, default=None, metavar="D",
                      help="Huber threshold in the units of the states (default: 1.345 x the "
                      "robust scale of the squared-loss residuals)")

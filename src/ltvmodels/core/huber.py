@@ -271,6 +271,8 @@ def _kkt_residuals(problem, theta, r, thresholds, W, W0) -> np.ndarray:
     if const.any():  # one free value per constant coefficient: its gradient summed over time
         fixed = np.where(const, 1.0, 0.0)
         sums = np.abs(data.reshape(N, n * p).sum(axis=0)) * fixed
-        scale = per_output(np.abs(data.reshape(N, n * p)).sum(axis=0) * fixed)
+        # the size of the terms summed, row by row (a step's rows may cancel)
+        terms = 2.0 * np.einsum("tji,tjk->ik", np.abs(psi), np.abs(problem.phi))
+        scale = per_output(terms.reshape(n * p) * fixed)
         residuals = np.maximum(residuals, per_output(sums) / np.maximum(scale, tiny))
     return residuals

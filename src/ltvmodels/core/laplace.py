@@ -7,8 +7,8 @@ Objective (rows scaled by s = √w as in :mod:`.huber`, so w|r| = s|r̃|):
 Method: |r| is smoothed by the Huber function, h_δ(r)/(2δ), which lies within
 [|r| − δ/2, |r|]; its minimizer, that of Σ w h_δ(r) + 2δ P(k), is computed by
 the Huber solvers (:mod:`.huber`, :mod:`.huber_sparse`) from the previous
-one, for δ decreasing (by the factor the last gap asks for, between 1/100 and
-1/10) until a duality gap certifies the answer. For norm="sq" each stage also
+one, for δ decreasing tenfold per stage until a duality gap certifies the
+answer. For norm="sq" each stage also
 tries the exact solution with the zero residuals and signs it has found
 (:func:`polish_squared`, the method of multipliers on an equality-constrained
 QP), which ends the iteration as soon as they are right.
@@ -40,14 +40,15 @@ from .problem import (
 from .sparse_common import difference_preimage
 from .squared import SquaredSolver, weight_diagonal
 
-# δ shrinks by the last stage's gap over the target times 1/4 (the gap is about
-# proportional to δ), by a factor between these.
-SLOWEST_REDUCTION = 0.1
-FASTEST_REDUCTION = 1e-2
+# δ shrinks by this factor per stage (a larger step changes which residuals are
+# within δ too much at once: the next stage then needs many more Newton steps).
+REDUCTION = 0.1
 MAX_STAGES = 40
 # A stage that fails (too little smoothing for working precision) is retried
 # this often, each time halfway (geometrically) to the last stage's δ.
 MAX_RETRIES = 4
+# Smoothing stops when the gap has grown this much over the best one: rounding wins.
+GAP_GROWTH = 100.0
 # The smoothed problems are solved to this fraction of tol (at least the floor),
 # in at most STAGE_STEPS Newton steps each.
 STAGE_TOL_FACTOR = 1e-3
@@ -103,10 +104,9 @@ def fit_laplace(
     tiny = np.finfo(float).tiny
     theta = start.copy()
     smoothing = float(np.min(delta))  # one δ: the penalty is scaled by 2δ
-    steps, kkt, gap, converged, stage, polished_stage = 0, np.inf, np.inf, False, 0, False
-    rigorous = True
-    objective = _objective(problem, theta, penalty, norm)
-    reduction, retries, stalled = 1.0, 0, False
+    # the best certified point so far: (gap, Θ, objective, KKT residual, rigorous, polished)
+    best = (np.inf, theta, _objective(problem, theta, penalty, norm), np.inf, True, False)
+    steps, stage, reduction, retries, stalled = 0, 0, 1.0, 0, False
     # the dual point inherits the stages' stationarity error, amplified by the
     # difference operator's inverse: the stages are solved more tightly
     stage_tol = max(STAGE_TOL_FACTOR * tol, STAGE_TOL_FLOOR)
@@ -133,32 +133,35 @@ def fit_laplace(
             reduction = np.sqrt(reduction)
             smoothing *= reduction
             continue
-        theta, steps, kkt = fit.theta, steps + fit.iterations, fit.kkt_residual
+        theta, steps = fit.theta, steps + fit.iterations
         objective = _objective(problem, theta, penalty, norm)
         r = problem.residuals(theta)
         psi = np.clip(r / np.maximum(problem.row_scale[:, :, None] * smoothing, tiny), -1, 1)
         gap, rigorous = relative_gap(problem, theta, objective, psi, penalty, norm)
-        if gap <= tol and (rigorous or fit.converged):
-            converged = True
-            break
-        if norm == "sq":  # try the exact solution with the zero residuals found so far
+        candidates = [(gap, theta, objective, fit.kkt_residual, rigorous, False)]
+        if norm == "sq" and gap > tol:  # the exact solution with the zeros found so far
             polished = polish_squared(problem, penalty, theta, smoothing)
             if polished is not None:
                 polished_objective = _objective(problem, polished[0], penalty, norm)
-                polished_gap, rigorous = relative_gap(problem, polished[0], polished_objective,
-                                                      polished[1], penalty, norm)
-                if polished_gap <= tol:
-                    theta, gap, kkt = polished[0], polished_gap, polished[2]
-                    objective = polished_objective
-                    converged = polished_stage = True
-                    break
-        reduction = float(np.clip(0.25 * tol / max(gap, tiny), FASTEST_REDUCTION,
-                                  SLOWEST_REDUCTION))
+                polished_gap, polished_rigorous = relative_gap(
+                    problem, polished[0], polished_objective, polished[1], penalty, norm)
+                candidates.append((polished_gap, polished[0], polished_objective, polished[2],
+                                   polished_rigorous, True))
+        for candidate in candidates:
+            if candidate[0] < best[0] and (candidate[4] or fit.converged or candidate[5]):
+                best = candidate
+        if best[0] <= tol:
+            break
+        if gap > GAP_GROWTH * best[0]:  # less smoothing only loses digits now
+            stalled = True
+            break
+        reduction = REDUCTION
         smoothing *= reduction
+    gap, theta, objective, kkt, rigorous, polished = best
+    converged = gap <= tol
     return LaplaceFit(theta=theta, objective=objective, duality_gap=gap, rigorous=rigorous,
-                      kkt_residual=kkt,
-                      iterations=steps, stages=stage, smoothing=smoothing,
-                      converged=converged, polished=polished_stage, stalled=stalled)
+                      kkt_residual=kkt, iterations=steps, stages=stage, smoothing=smoothing,
+                      converged=converged, polished=polished, stalled=stalled and not converged)
 
 
 def polish_squared(
@@ -284,10 +287,6 @@ POLISH_STEPS = 50
 POLISH_FEASIBILITY = 1e-13
 
 
-def _fitted(problem: RegressionProblem, theta: np.ndarray) -> np.ndarray:
-    return problem.y - problem.residuals(theta)
-
-
 def _weighted_fit(problem, row_weight, pseudo, W) -> np.ndarray | None:
     """argmin Σ a(ŷ − φ̃ᵀk)² + P(k) per output (a = ``row_weight``), or None if singular."""
     n = problem.n
@@ -306,19 +305,24 @@ def _weighted_fit(problem, row_weight, pseudo, W) -> np.ndarray | None:
 
 
 def _laplace_kkt(problem, theta, W, weighted_psi) -> float:
-    """‖∇P(k) − Σ sψφ̃‖ relative to the larger of its two terms (constants: summed)."""
+    """‖∇P(k) − Σ sψφ̃‖ relative to the size of its terms (constants: summed over time).
+
+    The size counts each row's term |sψφ̃| separately (a step's rows may cancel).
+    """
     N, K = problem.N, problem.K
     data = np.einsum("tji,tjk->tik", weighted_psi, problem.phi).reshape(N, K)
-    solver = SquaredSolver(problem, W, [])
+    terms = np.einsum("tji,tjk->tik", np.abs(weighted_psi), np.abs(problem.phi)).reshape(N, K)
+    W0 = SquaredSolver(problem, W, []).W0
     Dk = apply_difference(theta.reshape(N, K), problem.coeffs)
-    W0 = solver.W0
     pen = 2.0 * apply_difference_adjoint(Dk * W0 if W0.ndim == 1 else Dk @ W0,
                                          problem.coeffs, N)
     const = np.isinf(np.diag(W) if W.ndim == 2 else W)
     total = pen - data
     residual = np.concatenate([total[:, ~const].ravel(), total[:, const].sum(axis=0)])
-    scale = max(float(np.linalg.norm(pen)), float(np.linalg.norm(data)), np.finfo(float).tiny)
-    return float(np.linalg.norm(residual)) / scale
+    size = np.concatenate([(np.abs(pen) + terms)[:, ~const].ravel(),
+                           terms[:, const].sum(axis=0)])
+    return float(np.linalg.norm(residual)) / max(float(np.linalg.norm(size)),
+                                                  np.finfo(float).tiny)
 
 
 def laplace_loss(problem: RegressionProblem, theta: np.ndarray) -> float:

@@ -55,9 +55,9 @@ def fit_lti(
         Fit an intercept c.
     loss, huber_delta
         As in :func:`fit`: ``loss="huber"`` minimizes Σ w h_δ(r) over the
-        entries of the residuals instead (reweighted least squares to a KKT
-        residual of 1e-10), with ``model.outliers``; no ``cov``, ``loglik``
-        None.
+        entries of the residuals instead (to a KKT residual of 1e-10), with
+        ``model.outliers``; ``loss="laplace"`` minimizes Σ w|r| (to a relative
+        duality gap of 1e-10); then no ``cov``, ``loglik`` None.
 
     Returns
     -------
@@ -86,7 +86,7 @@ def fit_lti(
             problem, np.full(n * p, np.inf), loss=loss, lam=float("inf"), norm="lti",
             delta=delta,
             factory=partial(LTVModel, n_states=n, n_inputs=m, constant=data.constant),
-            max_iter=LTI_HUBER_MAX_ITER, tol=LTI_HUBER_TOL)
+            max_iter=LTI_HUBER_MAX_ITER, tol=LTI_HUBER_TOL, stacklevel=2)
         model.info["n_missing"] = data.n_missing
         return model
     phi, y = problem.stacked_rows()
@@ -218,8 +218,8 @@ def fit(
         this fit (:func:`ltvmodels.find_changepoints`, default rules) and refit
         with coefficients constant (order 1) or linear and continuous (order 2)
         between them (:func:`ltvmodels.fit_piecewise`), removing the penalty's
-        shrinkage of the changes. The refined model is returned;
-        ``info["first_step"]`` summarizes the first fit and
+        shrinkage of the changes; a robust ``loss`` is kept for the refit. The
+        refined model is returned; ``info["first_step"]`` summarizes the first fit and
         ``info["first_step_k"]`` holds its coefficients.
     weights : array_like, shape (T − 1,) or (R, T − 1), optional
         Weights >= 0 of the transitions' squared residuals (inverse relative
@@ -246,7 +246,8 @@ def fit(
 
         With either, ``loglik`` is None, no ``cov`` is computed and
         ``noise_var`` is the residual mean square; not yet with priors or
-        ``noise_var``.
+        ``noise_var``. ``lam="auto"`` chooses λ by blocked cross-validation
+        scored with the same loss (see :func:`ltvmodels.select_lambda`).
     huber_delta : float or array_like of shape (n,), optional
         δ in the units of x, shared or one per state. Default: 1.345 × 1.4826
         · MAD of each state's squared-loss residuals (Huber's 95 % efficiency
@@ -268,14 +269,12 @@ def fit(
     if not isinstance(refine, bool):
         raise TypeError(f"refine: expected True or False, received {refine!r}")
     if refine:
-        if loss != "squared":
-            raise NotImplementedError(f"refine: not available with loss={loss!r} yet")
         first = fit(
             x, u, lam=lam, norm=norm, order=order, prior=prior, prior_mode=prior_mode,
             noise_var=noise_var, compute_cov=False, max_iter=max_iter, tol=tol,
-            weights=weights, constant=constant,
+            weights=weights, constant=constant, loss=loss, huber_delta=huber_delta,
         )
-        return _refine(x, u, first, weights)
+        return _refine(x, u, first, weights, loss, huber_delta)
     data = state_space_data(x, u, order=order, weights=weights, constant=constant)
     norm = options.norm_name(norm)
     model = fit_problem(
@@ -290,8 +289,9 @@ def fit(
     return model
 
 
-def _refine(x: Any, u: Any, first: LTVModel, weights: Any) -> LTVModel:
-    """Second step of the two-step refinement: refit between the change points."""
+def _refine(x: Any, u: Any, first: LTVModel, weights: Any, loss: str,
+            huber_delta: Any) -> LTVModel:
+    """Second step of the two-step refinement: refit between the change points (same loss)."""
     degree = len(first.coeffs) - 1
     if degree not in (1, 2):
         raise NotImplementedError(
@@ -301,7 +301,7 @@ def _refine(x: Any, u: Any, first: LTVModel, weights: Any) -> LTVModel:
     changepoints = first.changepoints if first.norm != "sq" else find_changepoints(first)
     try:
         refined = fit_piecewise(x, u, changepoints, order=degree, weights=weights,
-                                constant=first.constant)
+                                constant=first.constant, loss=loss, huber_delta=huber_delta)
     except ValueError as exc:  # the change points are ours, not the caller's
         if not str(exc).startswith("changepoints:"):
             raise

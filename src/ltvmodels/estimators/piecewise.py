@@ -44,11 +44,13 @@ from ..core.identifiability import (
     describe_direction,
     scaled_min_eig,
 )
+from ..core.problem import RegressionProblem
 from ..errors import IdentifiabilityWarning, SingularProblemError
 from ..results.record import FitRecord, FitStatus
 from ..results.statespace import LTVModel
 from ..validation import arrays, options
 from .recordings import state_space_data
+from .robust import robust_record_parts, solve_robust
 
 __all__ = ["fit_piecewise"]
 
@@ -64,6 +66,8 @@ def fit_piecewise(
     compute_cov: bool = True,
     weights: Any = None,
     constant: bool = False,
+    loss: str = "squared",
+    huber_delta: Any = None,
 ) -> LTVModel:
     """Least-squares LTV model that is piecewise constant or linear between given change points.
 
@@ -94,6 +98,13 @@ def fit_piecewise(
     weights, constant
         As in :func:`ltvmodels.fit`; x and u may also hold R trajectories and
         NaN for missing samples, as there.
+    loss, huber_delta
+        As in :func:`ltvmodels.fit`: "huber" or "laplace" fit the same
+        piecewise model with that loss (a static robust regression on the
+        segment or hat-function regressors; exact, with the certificate in
+        ``info``); then ``cov`` and ``loglik`` are None and ``noise_var`` is
+        the residual mean square. The regressors of that regression take
+        N·q·(M + 2)·p numbers; beyond ROBUST_MAX_ENTRIES (2e7) it is refused.
 
     Returns
     -------
@@ -153,6 +164,7 @@ def fit_piecewise(
     bounds = np.concatenate([[0], changepoints, [N]])
     segments = [[int(a), int(b)] for a, b in itertools.pairwise(bounds)]
 
+    loss, delta = options.loss_options(loss, huber_delta, n)
     if order == 1:
         theta, unit_cov = _fit_constant(phi, y, problem.observed, bounds, names)
         n_params = (len(changepoints) + 1) * p
@@ -163,6 +175,10 @@ def fit_piecewise(
         n_params = (len(changepoints) + 2) * p
         info_extra = {"knots": [int(t) for t in knots]}
 
+    if loss != "squared":  # the squared-loss fit above checked the segments
+        return _fit_robust(data, order, bounds, changepoints, loss, delta,
+                           {"order": order, "segments": segments, **info_extra,
+                            "n_params_per_row": int(n_params), "n_missing": data.n_missing})
     resid = problem.residuals(theta).reshape(-1, n)
     rss_matrix = resid.T @ resid
     M = problem.n_observed
@@ -194,6 +210,64 @@ def fit_piecewise(
         noise_var=np.diag(noise_cov).copy(),
         noise_cov=noise_cov, loglik=loglik, info=info, changepoints=changepoints,
         status=FitStatus("closed_form", info["solver"], 0, info["rss"]),
+    ), constant=data.constant)
+
+
+# Robust piecewise fits: the largest lifted regressor array (numbers), and the
+# solver's tolerance and step limit (fit_piecewise takes no solver options).
+ROBUST_MAX_ENTRIES = 20_000_000
+ROBUST_TOL = 1e-9
+ROBUST_MAX_ITER = 500
+
+
+def _fit_robust(data, order: int, bounds: np.ndarray, changepoints: np.ndarray, loss: str,
+                delta: np.ndarray | None, info_extra: dict) -> LTVModel:
+    """The piecewise model with loss "huber" or "laplace".
+
+    With basis functions B (N, J) — segment indicators (order 1) or hat
+    functions (order 2) — Θ_t = Σ_l B_tl Γ_l, and each output row is the
+    static regression y_tji = Σ_l B_tl φ_tjᵀ Γ_li: one time step with N·q rows
+    and J·p regressors, solved by :func:`.robust.solve_robust` with every
+    coefficient held constant.
+    """
+    problem, n, m = data.problem, data.n, data.m
+    N, q, p = problem.N, problem.q, problem.p
+    if order == 1:
+        basis = (np.arange(N)[:, None] >= bounds[None, :-1]) & \
+            (np.arange(N)[:, None] < bounds[None, 1:])
+        basis = basis.astype(float)
+    else:
+        knots = np.concatenate([[0], changepoints, [N - 1]])
+        left, w = hat_weights(knots, N)
+        basis = np.zeros((N, len(knots)))
+        basis[np.arange(N), left] = 1.0 - w
+        basis[np.arange(N), left + 1] = w
+    J = basis.shape[1]
+    if N * q * J * p > ROBUST_MAX_ENTRIES:
+        raise NotImplementedError(
+            f"loss: a robust piecewise fit with {len(changepoints)} change points takes "
+            f"{N * q * J * p:.3g} regressor entries (more than {ROBUST_MAX_ENTRIES:.0e}); use "
+            "fewer change points or loss='squared'"
+        )
+    lifted = (basis[:, None, :, None] * problem.phi[:, :, None, :]).reshape(1, N * q, J * p)
+    static = RegressionProblem(
+        y=problem.y.reshape(1, N * q, n), phi=lifted, coeffs=_DIFFERENCE[1],
+        observed=problem.observed.reshape(1, N * q),
+        row_scale=problem.row_scale.reshape(1, N * q),
+    )
+    solution = solve_robust(static, np.full(n * J * p, np.inf), loss=loss, norm="piecewise",
+                            delta=delta, max_iter=ROBUST_MAX_ITER, tol=ROBUST_TOL,
+                            stacklevel=3)
+    gamma = solution.theta[0].reshape(n, J, p)
+    theta = np.einsum("tl,ilp->tip", basis, gamma)
+    if solution.outliers is not None:
+        solution.outliers = solution.outliers.reshape(N, q, n)
+    info, status = robust_record_parts(solution, loss)
+    noise_var = problem.output_rss(theta) / max(problem.n_observed, 1)
+    return LTVModel(theta.reshape(N, n * p), n, m, FitRecord(
+        norm="piecewise", coeffs=_DIFFERENCE[order].copy(), lam=float("inf"),
+        noise_var=noise_var, noise_cov=np.diag(noise_var),
+        info={**info, **info_extra}, changepoints=changepoints, status=status,
     ), constant=data.constant)
 
 

@@ -160,11 +160,6 @@ def fit_problem(
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
     selection = None
     if options.is_auto(lam, "lam"):
-        if loss != "squared":
-            raise NotImplementedError(
-                f"lam: 'auto' is not available with loss={loss!r} yet; choose λ with "
-                "ltvmodels.select_lambda or pass a number"
-            )
         if prior is not None:
             raise ValueError(
                 "lam: 'auto' chooses λ from the data alone and does not take a prior into "
@@ -172,8 +167,12 @@ def fit_problem(
             )
         require_enough_data(problem, data_name, rows_note)
         identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
-        selection = select_for_problem(problem, norm, DEFAULT_METHOD[norm], None)
+        method = DEFAULT_METHOD[norm] if loss == "squared" else "cv"
+        selection = select_for_problem(problem, norm, method, None, loss=loss,
+                                       delta=huber_delta)
         lam = selection.lam
+        if selection.huber_delta is not None:  # the model has the loss λ was chosen for
+            huber_delta = np.array(selection.huber_delta)
     model = _fit_with_lam(
         problem, factory=factory, regressor_names=regressor_names, data_name=data_name,
         lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
@@ -184,6 +183,7 @@ def fit_problem(
         model.info["lam_selection"] = {
             "method": selection.method, "lam": selection.lam,
             "lams": selection.lams.tolist(), "scores": selection.scores.tolist(),
+            "loss": selection.loss,
         }
     return model
 

@@ -12,6 +12,7 @@ as one δ away. The Laplacian loss Σ w|r| counts every residual linearly.
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
@@ -44,23 +45,34 @@ def default_delta(problem: RegressionProblem, theta: np.ndarray) -> np.ndarray:
     return HUBER_EFFICIENCY * sigma
 
 
-def robust_model(
-    problem: RegressionProblem, penalty: np.ndarray, *, loss: str, lam: Any, norm: str,
-    delta: np.ndarray | None, factory: Callable[..., RegressionModel], max_iter: int,
-    tol: float,
-) -> RegressionModel:
-    """Fit with loss="huber" or "laplace" and build the model.
+@dataclass
+class RobustSolution:
+    """A robust-loss fit before it becomes a model (:func:`solve_robust`)."""
 
-    ``penalty`` is the weight W (K,) or (K, K) of norm="sq", or the sparse
-    weights (K,) of norm="group"/"l1"; ``delta`` the Huber thresholds (n,)
-    (None: :func:`default_delta`). ``model.info`` holds "loss", "objective",
-    "iterations", "converged" and the certificate: "kkt_residual" (Huber), or
-    "duality_gap" and "kkt_residual" (Laplace). Huber fits also hold
-    "huber_delta" (n,), "n_outliers" and "outliers" (the (N, q, n) mask of
-    residuals beyond δ). ``loglik`` is None (no Gaussian likelihood) and
-    ``noise_var`` is the residual mean square of each output.
+    theta: np.ndarray  # (N, n, p)
+    objective: float
+    iterations: int
+    converged: bool
+    stalled: bool
+    solver: str
+    details: dict  # the certificate and loss-specific numbers (FitStatus.details)
+    outliers: np.ndarray | None  # (N, q, n) mask of residuals beyond δ (Huber)
+    delta_rule: str
+
+
+def solve_robust(
+    problem: RegressionProblem, penalty: np.ndarray, *, loss: str, norm: str,
+    delta: np.ndarray | None, max_iter: int, tol: float, stacklevel: int = 2,
+) -> RobustSolution:
+    """Minimize the robust loss plus the penalty of ``norm`` from the squared-loss fit.
+
+    ``penalty`` is the weight W (K,) or (K, K) of a squared-difference penalty
+    (norm "sq", or any other name: LTI and piecewise fits pass W = inf), or
+    the sparse weights (K,) of "group"/"l1"; ``delta`` the Huber thresholds
+    (n,) (None: :func:`default_delta`). Warns (ConvergenceWarning) when the
+    certificate does not reach ``tol``, at ``stacklevel`` counted from the caller.
     """
-    sparse = norm in ("group", "l1")  # else a squared-difference penalty (or LTI: W = inf)
+    sparse = norm in ("group", "l1")
     # the squared-loss fit starts the iteration (and gives the robust residual scale)
     if not sparse:
         start = SquaredSolver(problem, penalty, []).solve(1.0)[0]
@@ -72,6 +84,7 @@ def robust_model(
     if delta is None:
         delta = default_delta(problem, start)
         rule = "1.345 * 1.4826 * MAD of squared-loss residuals"
+    outliers = None
     if loss == "laplace":
         result = fit_laplace(problem, penalty, norm if sparse else "sq", delta,
                              max_iter=max_iter, tol=tol, start=start)
@@ -94,31 +107,66 @@ def robust_model(
                                       tol=tol, start=start)
             solver = f"proximal Newton on {result.solver}"
             details = {"inner_iterations": result.inner_iterations}
+        outliers = result.outliers
         details.update(kkt_residual=result.kkt_residual, huber_delta=delta.tolist(),
-                       n_outliers=int(result.outliers.sum()))
+                       n_outliers=int(outliers.sum()))
         failure = (f"the KKT residual {result.kkt_residual:.3g} did not reach its tolerance "
                    f"{tol:g} in {result.iterations} steps")
     if not result.converged:
         remedy = ("it stopped at the limit of working precision; loosen tol" if result.stalled
                   else "increase max_iter or loosen tol")
         warnings.warn(f"loss={loss!r}: {failure}; the model is the last iterate: {remedy}",
-                      ConvergenceWarning, stacklevel=4)
-    N, K = problem.N, problem.K
-    k = result.theta.reshape(N, K)
+                      ConvergenceWarning, stacklevel=stacklevel + 1)
+    return RobustSolution(
+        theta=result.theta, objective=result.objective, iterations=result.iterations,
+        converged=result.converged, stalled=result.stalled, solver=solver, details=details,
+        outliers=outliers, delta_rule=rule,
+    )
+
+
+def robust_record_parts(solution: RobustSolution, loss: str) -> tuple[dict, FitStatus]:
+    """``info`` and ``status`` of a model fitted with a robust loss."""
     info = {
-        "solver": solver, "iterations": result.iterations, "converged": result.converged,
-        "objective": result.objective, "loss": loss, **details,
+        "solver": solution.solver, "iterations": solution.iterations,
+        "converged": solution.converged, "objective": solution.objective, "loss": loss,
+        **solution.details,
         "loglik_note": f"loss={loss!r} has no Gaussian likelihood; loglik is None",
     }
-    if loss == "huber":
-        info.update(huber_delta_rule=rule, outliers=result.outliers)
-    status = FitStatus(iterative_status(result.converged, stalled=result.stalled), solver,
-                       result.iterations, result.objective, details)
+    if solution.outliers is not None:
+        info.update(huber_delta_rule=solution.delta_rule, outliers=solution.outliers)
+    status = FitStatus(iterative_status(solution.converged, stalled=solution.stalled),
+                       solution.solver, solution.iterations, solution.objective,
+                       solution.details)
+    return info, status
+
+
+def robust_model(
+    problem: RegressionProblem, penalty: np.ndarray, *, loss: str, lam: Any, norm: str,
+    delta: np.ndarray | None, factory: Callable[..., RegressionModel], max_iter: int,
+    tol: float, stacklevel: int = 4,
+) -> RegressionModel:
+    """Fit with loss="huber" or "laplace" (:func:`solve_robust`) and build the model.
+
+    A ConvergenceWarning points ``stacklevel`` frames up from the caller (the
+    user's call through fit → fit_problem → _fit_with_lam).
+
+    ``model.info`` holds "loss", "objective", "iterations", "converged" and
+    the certificate: "kkt_residual" (Huber), or "duality_gap" and
+    "kkt_residual" (Laplace). Huber fits also hold "huber_delta" (n,),
+    "n_outliers" and "outliers" (the (N, q, n) mask of residuals beyond δ).
+    ``loglik`` is None (no Gaussian likelihood) and ``noise_var`` is the
+    residual mean square of each output.
+    """
+    solution = solve_robust(problem, penalty, loss=loss, norm=norm, delta=delta,
+                            max_iter=max_iter, tol=tol, stacklevel=stacklevel + 1)
+    info, status = robust_record_parts(solution, loss)
+    N, K = problem.N, problem.K
+    k = solution.theta.reshape(N, K)
     changepoints = None
-    if sparse:
+    if norm in ("group", "l1"):
         changepoints = find_changepoints(activation(k, problem.coeffs), degree=problem.degree,
                                          min_level=residue_level(k))
-    noise_var = problem.output_rss(result.theta) / max(problem.n_observed, 1)
+    noise_var = problem.output_rss(solution.theta) / max(problem.n_observed, 1)
     return factory(k, fit=FitRecord(
         norm=norm, coeffs=problem.coeffs, lam=lam, noise_var=noise_var,
         noise_cov=np.diag(noise_var), info=info, changepoints=changepoints, status=status,

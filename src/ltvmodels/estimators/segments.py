@@ -162,7 +162,8 @@ def fit_segments(
     loss : {"squared"}
         Only the squared loss: the exact dynamic program relies on segment
         costs that update in O(1) (QR row updates); for outliers refit the
-        segments found with ``ltvmodels.fit(..., loss="huber")``.
+        change points found with ``ltvmodels.fit(..., loss="huber")`` (or
+        "laplace") by ``ltvmodels.fit_piecewise(..., loss=...)``.
     weights, constant
         As in :func:`ltvmodels.fit`; x and u may also hold R trajectories
         (each segment's cost sums over them) and NaN for missing samples.

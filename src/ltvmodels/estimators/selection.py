@@ -20,7 +20,12 @@ Every criterion scores a fit per candidate λ on one grid and keeps the best:
   into 5·``n_folds`` contiguous blocks; fold f holds out blocks f, f + n_folds,
   …; the model is fitted without the held-out equations (their rows of y and
   φ set to zero, so the penalty bridges the gaps) and scored by the mean
-  squared one-step prediction error on them.
+  squared one-step prediction error on them. With a robust loss ("huber",
+  "laplace"; the only criterion then) the folds are fitted with that loss and
+  scored by its mean on the held-out residual entries, so held-out outliers
+  count as little as in the fit. Huber's δ is the same for every candidate: the
+  one given, or the default rule on the squared-loss fit at the middle of the
+  grid.
 
 For ``norm="l0"`` (:func:`ltvmodels.fit_segments`) the candidates are numbers
 of changes M, all optimal costs come from one dynamic program, and the
@@ -38,6 +43,7 @@ from scipy.interpolate import CubicSpline
 from scipy.optimize import minimize_scalar
 
 from ..core import identifiability
+from ..core.huber import huber_loss
 from ..core.problem import RegressionProblem, apply_difference
 from ..core.sparse import solve_sparse
 from ..core.sparse_common import lambda_max
@@ -52,6 +58,7 @@ from .recordings import (
     require_enough_data,
     state_space_data,
 )
+from .robust import default_delta, solve_robust
 from .segments import fit_segments
 
 __all__ = ["select_lambda", "select_lambda_regression", "DEFAULT_METHOD"]
@@ -65,6 +72,12 @@ METHODS = {
     "l0": ("bic", "aic"),
 }
 GRID_SIZE = 30
+# Robust cross-validation: the folds' solver limits (a score needs a few digits, not
+# the optimum to 1e-6), and the default grid's size (each candidate costs n_folds
+# robust fits).
+CV_MAX_ITER = 200
+CV_TOL = 1e-4
+ROBUST_GRID_SIZE = 15
 
 
 def select_lambda(
@@ -80,6 +93,8 @@ def select_lambda(
     progress: Callable[[int, int], None] | None = None,
     weights: Any = None,
     constant: bool = False,
+    loss: str = "squared",
+    huber_delta: Any = None,
 ) -> LambdaSelection:
     """Choose λ for :func:`ltvmodels.fit` (state-space data) by a documented criterion.
 
@@ -119,18 +134,22 @@ def select_lambda(
         (e.g. to draw a progress bar).
     weights, constant
         As in :func:`ltvmodels.fit`.
+    loss, huber_delta
+        As in :func:`ltvmodels.fit`; a robust loss takes method="cv" (the
+        default then), scored with that loss.
 
     Returns
     -------
     LambdaSelection
     """
-    norm, method = _norm_and_method(norm, method, tuple(METHODS))
+    norm, method, loss = _norm_and_method(norm, method, tuple(METHODS), loss)
     data = state_space_data(x, u, order=1 if norm == "l0" else order, weights=weights,
                             constant=constant)
+    _, delta = options.loss_options(loss, huber_delta, data.n)
     if norm == "l0":
         return _select_changes(data, method, lams, max_changes)
     return _select_validated(data.problem, norm, method, lams, n_folds, progress,
-                             data.regressor_names, data_name="x")
+                             data.regressor_names, data_name="x", loss=loss, delta=delta)
 
 
 def select_lambda_regression(
@@ -144,6 +163,8 @@ def select_lambda_regression(
     n_folds: int = 5,
     progress: Callable[[int, int], None] | None = None,
     weights: Any = None,
+    loss: str = "squared",
+    huber_delta: Any = None,
 ) -> LambdaSelection:
     """:func:`select_lambda` for a regression y_t = Θ_t φ_t + e_t (any front-end).
 
@@ -156,26 +177,37 @@ def select_lambda_regression(
     y : array_like, shape (N, n), (N,) or (R, N, n)
     phi : array_like, shape (N, p), (N,) or (R, N, p)
     norm : {"sq", "group", "l1"}
-    order, method, lams, n_folds, progress, weights
+    order, method, lams, n_folds, progress, weights, loss, huber_delta
         As in :func:`select_lambda` (NaN = missing, as in
         :func:`ltvmodels.fit_regression`).
     """
-    norm, method = _norm_and_method(norm, method, ("sq", "group", "l1"))
+    norm, method, loss = _norm_and_method(norm, method, ("sq", "group", "l1"), loss)
     problem = regression_problem(y, phi, order=order, weights=weights)
+    _, delta = options.loss_options(loss, huber_delta, problem.n)
     return _select_validated(problem, norm, method, lams, n_folds, progress,
-                             signal_names("phi", problem.p), data_name="y")
+                             signal_names("phi", problem.p), data_name="y", loss=loss,
+                             delta=delta)
 
 
-def _norm_and_method(norm: Any, method: Any, norms: tuple[str, ...]) -> tuple[str, str]:
-    """The validated norm and criterion (the norm's default when ``method`` is None)."""
+def _norm_and_method(norm: Any, method: Any, norms: tuple[str, ...],
+                     loss: Any) -> tuple[str, str, str]:
+    """The validated norm, criterion (the default when ``method`` is None) and loss."""
     norm = options.choice(norm, "norm", norms)
+    loss = options.choice(loss, "loss", options.LOSSES)
+    if loss != "squared":
+        if norm == "l0":
+            raise ValueError(f"loss: norm='l0' (fit_segments) uses the squared loss only, "
+                             f"received loss={loss!r}")
+        method = options.choice("cv" if method is None else method, "method", ("cv",))
+        return norm, method, loss
     method = options.choice(DEFAULT_METHOD[norm] if method is None else method, "method",
-                              METHODS[norm])
-    return norm, method
+                            METHODS[norm])
+    return norm, method, loss
 
 
 def _select_validated(
-    problem, norm, method, lams, n_folds, progress, regressor_names, *, data_name: str
+    problem, norm, method, lams, n_folds, progress, regressor_names, *, data_name: str,
+    loss: str = "squared", delta: np.ndarray | None = None,
 ) -> LambdaSelection:
     """Check the sample count, identifiability and ``n_folds``, then
     :func:`select_for_problem`."""
@@ -187,7 +219,7 @@ def _select_validated(
         raise TypeError(f"progress: expected a function progress(done, total) or None, "
                         f"received {arrays.describe(progress)}")
     return select_for_problem(problem, norm, method, lams, n_folds=n_folds, progress=progress,
-                              data_name=data_name)
+                              data_name=data_name, loss=loss, delta=delta)
 
 
 def select_for_problem(
@@ -199,14 +231,20 @@ def select_for_problem(
     n_folds: int = 5,
     progress: Callable[[int, int], None] | None = None,
     data_name: str = "lam",
+    loss: str = "squared",
+    delta: np.ndarray | None = None,
 ) -> LambdaSelection:
     """:func:`select_lambda` on a validated regression problem (any front-end).
 
     ``data_name`` is the argument an error blames when there is nothing to
-    choose: ``lam`` for ``lam="auto"``, the data otherwise.
+    choose: ``lam`` for ``lam="auto"``, the data otherwise. A robust ``loss``
+    takes method "cv" with Huber thresholds ``delta`` (None: the default rule
+    at the middle of the grid).
     """
     grid = _grid(problem, norm, data_name) if lams is None \
         else arrays.positive_grid(lams, "lams")
+    if lams is None and loss != "squared":  # the same range, fewer (costlier) candidates
+        grid = np.geomspace(grid[0], grid[-1], ROBUST_GRID_SIZE)
 
     def scored(values):
         """Yield each candidate, reporting the ones done so far."""
@@ -215,6 +253,15 @@ def select_for_problem(
             if progress is not None:
                 progress(i + 1, len(values))
 
+    if loss != "squared":
+        if loss == "huber" and delta is None:
+            middle = float(np.sqrt(grid[0] * grid[-1]))
+            delta = default_delta(problem, criterion_fit(problem, norm, middle)["theta"])
+        scores = np.array([_robust_cv_error(problem, norm, lam, n_folds, loss, delta)
+                           for lam in scored(grid)])
+        return LambdaSelection(float(grid[np.argmin(scores)]), grid, scores, method, norm,
+                               loss=loss,
+                               huber_delta=None if delta is None else delta.tolist())
     if method == "cv":
         scores = np.array([_cv_error(problem, norm, lam, n_folds) for lam in scored(grid)])
         return LambdaSelection(float(grid[np.argmin(scores)]), grid, scores, method, norm)
@@ -332,20 +379,49 @@ def _lcurve_curvature(grid: np.ndarray, residual: np.ndarray, penalty: np.ndarra
 
 def _cv_error(problem: RegressionProblem, norm: str, lam: float, n_folds: int) -> float:
     """Mean squared one-step prediction error on held-out blocks (blocked CV on time)."""
-    N = problem.N
-    n_blocks = min(5 * n_folds, N // 2)
-    block = np.minimum(np.arange(N) * n_blocks // N, n_blocks - 1)
-    fold = block % n_folds
+    fold = _folds(problem.N, n_folds)
     errors = 0.0
     for f in range(n_folds):
         held = fold == f
-        train = RegressionProblem(y=problem.y, phi=problem.phi, coeffs=problem.coeffs,
-                                  row_scale=problem.row_scale,
-                                  observed=problem.observed & ~held[:, None])
-        theta = criterion_fit(train, norm, lam)["theta"]
+        theta = criterion_fit(_without(problem, held), norm, lam)["theta"]
         pred = np.einsum("tij,tqj->tqi", theta[held], problem.phi[held])
         errors += float(np.sum((problem.y[held] - pred) ** 2))  # unobserved rows are 0
     return errors / (problem.n_observed * problem.n)
+
+
+def _folds(N: int, n_folds: int) -> np.ndarray:
+    """The fold of each time step: 5·n_folds contiguous blocks, dealt out in turn."""
+    n_blocks = min(5 * n_folds, N // 2)
+    block = np.minimum(np.arange(N) * n_blocks // N, n_blocks - 1)
+    return block % n_folds
+
+
+def _without(problem: RegressionProblem, held: np.ndarray) -> RegressionProblem:
+    """The problem with the time steps ``held`` (N,) unobserved (the penalty bridges them)."""
+    return RegressionProblem(y=problem.y, phi=problem.phi, coeffs=problem.coeffs,
+                             row_scale=problem.row_scale,
+                             observed=problem.observed & ~held[:, None])
+
+
+def _robust_cv_error(problem: RegressionProblem, norm: str, lam: float, n_folds: int,
+                     loss: str, delta: np.ndarray | None) -> float:
+    """Mean robust loss of the one-step predictions on held-out blocks (blocked CV)."""
+    penalty = np.full(problem.K, lam**2 if norm == "sq" else lam)
+    fold = _folds(problem.N, n_folds)
+    total = 0.0
+    for f in range(n_folds):
+        held = fold == f
+        with warnings.catch_warnings():  # a fold's fit is scored, not reported
+            warnings.simplefilter("ignore", ConvergenceWarning)
+            theta = solve_robust(_without(problem, held), penalty, loss=loss, norm=norm,
+                                 delta=delta, max_iter=CV_MAX_ITER, tol=CV_TOL).theta
+        r = problem.residuals(theta)[held]  # scaled rows; unobserved rows are 0
+        s = problem.row_scale[held][:, :, None]
+        if loss == "huber":
+            total += float(huber_loss(r, delta * s).sum())
+        else:
+            total += float(np.sum(s * np.abs(r)))
+    return total / (problem.n_observed * problem.n)
 
 
 def _grid(problem: RegressionProblem, norm: str, data_name: str) -> np.ndarray:

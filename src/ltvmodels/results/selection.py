@@ -29,6 +29,11 @@ class LambdaSelection:
         ‖y − Φk‖ and R(Dk) per candidate (the L-curve), where computed.
     dof : ndarray, shape (G,) or None
         Effective degrees of freedom per candidate ("gcv").
+    loss : str
+        The loss the candidates were fitted and scored with ("squared",
+        "huber", "laplace").
+    huber_delta : list of float or None
+        The Huber thresholds used for every candidate (loss="huber").
     """
 
     lam: float
@@ -39,6 +44,8 @@ class LambdaSelection:
     residual_norms: np.ndarray | None = None
     penalty_norms: np.ndarray | None = None
     dof: np.ndarray | None = None
+    loss: str = "squared"
+    huber_delta: list | None = None
 
     @property
     def maximize(self) -> bool:
