@@ -232,20 +232,17 @@ def test_sparse_huber_with_delta_beyond_every_residual_is_the_squared_loss_fit(n
     squared = ltv.fit(x, u, lam=0.5, norm=norm, weights=w, tol=1e-10)
     huber = ltv.fit(x, u, lam=0.5, norm=norm, weights=w, loss="huber", huber_delta=1e6,
                     tol=1e-10)
-    # one step: the quadratic model is the squared loss, solved again (to the tolerance)
+    # both solved to the tolerance: the same optimum
     assert huber.info["objective"] == pytest.approx(squared.info["objective"], rel=1e-9)
     np.testing.assert_allclose(huber.k, squared.k, rtol=0, atol=1e-5)
-    parts = 1 if norm == "group" else 2  # l1: each output is a separate problem
-    assert huber.info["n_outliers"] == 0 and huber.status.iterations == parts
+    assert huber.info["n_outliers"] == 0
 
 
 @pytest.mark.parametrize("norm, lam", [("sq", 1.0), ("group", 0.5), ("l1", 0.5)])
 @pytest.mark.parametrize("order, coeffs", [(1, [-1.0, 1.0]), (2, [1.0, -2.0, 1.0])])
 def test_laplace_matches_clarabel_and_its_certificate_holds(norm, lam, order, coeffs):
     x, u, w = _data(20 + order)
-    # "sq" is exact (the polish); the sparse norms' certificate reaches about 1e-7 (order 1)
-    # and 1e-6 (order 2: the dual repair amplifies the stationarity error more)
-    tol = 1e-9 if norm == "sq" else 10.0 ** (order - 7)
+    tol = 1e-9
     model = ltv.fit(x, u, lam=lam, norm=norm, order=order, weights=w, loss="laplace", tol=tol)
     optimum, _ = _cvxpy_reference(x, u, w, lam, np.array(coeffs), norm=norm, loss="laplace")
     assert model.status.success and model.info["loss"] == "laplace"

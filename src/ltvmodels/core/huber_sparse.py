@@ -1,26 +1,28 @@
-"""The Huber loss with the group or l1 penalty: the exact minimizer by proximal Newton.
+"""The Huber loss with the group or l1 penalty: the exact minimizer.
 
 Objective (rows scaled by √w as in :mod:`.huber`, thresholds δ̃ = δ√w):
 
     F(k) = L(k) + Σ_t R(Λ(Dk)_t),   L(k) = Σ h_δ̃(r),   R = ‖·‖₂ (group) or ‖·‖₁ (l1).
 
-Method: proximal Newton (Lee, Sun & Saunders, SIAM J. Optim. 2014). At the
-iterate k, L is replaced by the quadratic model Q of :func:`.huber.newton_model`
-(L's gradient, curvature 1 inside δ̃ and τδ̃/|r| beyond); Q + R is a weighted
-sparse fit, solved exactly by :func:`.sparse.solve_sparse` (the interior-point
-method); a backtracking line search on F keeps it decreasing.
+Independent parts are solved one at a time (:func:`sparse_parts`): with
+norm="l1" every output row (both terms separate over outputs); with
+norm="group" the whole problem, and when several outputs share the group
+(whose rows then need different weights) in the "lifted" form of one output
+with K regressors, y_tji = kᵀ(e_i ⊗ φ_tj).
 
-Certificate: the sparse fit's minimizer k⁺ satisfies −∇Q(k⁺) ∈ ∂R(k⁺) (to the
-inner solver's tolerance), so F's KKT residual at k⁺ is ‖∇L(k⁺) − ∇Q(k⁺)‖,
-computed explicitly. It vanishes once the outliers are identified, at the
-rate τ per step; the iteration stops when it is below ``tol`` relative to the
-size of L's gradient, 2‖ψ‖‖Φ‖ with ψ = clip(r, ±δ̃).
-
-Independent parts are solved one at a time: with norm="l1" every output row
-(both terms separate over outputs); with norm="group" the whole problem, and
-when several outputs share the group (whose rows then need different
-reweightings) in the "lifted" form of one output with K regressors,
-y_tji = kᵀ(e_i ⊗ φ_tj).
+Each part is solved by the interior-point method with residual cones
+(:mod:`.robust_ipm`) when its weights are finite and it has at most
+IPM_MAX_K coefficients per step: one solve, certified by its duality gap.
+Otherwise (coefficients held constant, or many per step) by proximal Newton
+(Lee, Sun & Saunders, SIAM J. Optim. 2014): at the iterate k, L is replaced by
+the quadratic model Q of :func:`.huber.newton_model` (L's gradient, curvature
+1 inside δ̃ and τδ̃/|r| beyond); Q + R is a weighted sparse fit, solved exactly
+by :func:`.sparse.solve_sparse`; a backtracking line search on F keeps it
+decreasing. Its certificate: the sparse fit's minimizer k⁺ satisfies
+−∇Q(k⁺) ∈ ∂R(k⁺) (to the inner solver's tolerance), so F's KKT residual at
+k⁺ is ‖∇L(k⁺) − ∇Q(k⁺)‖, computed explicitly; it vanishes once the outliers
+are identified, and the iteration stops when it is below ``tol`` relative to
+the size of L's gradient, 2‖ψ‖‖Φ‖ with ψ = clip(r, ±δ̃).
 """
 
 from __future__ import annotations
@@ -33,10 +35,12 @@ import numpy as np
 from ..errors import ConvergenceWarning
 from .huber import LINE_SEARCH_STEPS, MIN_DAMPING, NEWTON_DAMPING, huber_loss, newton_model
 from .problem import RegressionProblem, apply_difference
-from .sparse import solve_sparse
+from .robust_ipm import fit_robust_ipm
+from .sparse import IPM_MAX_K, solve_sparse
 
 # The tightest tolerance asked of the inner solver.
 INNER_TOL_FLOOR = 1e-14
+IPM_SOLVER = "interior point with residual cones (block-banded Newton systems)"
 
 
 @dataclass
@@ -64,7 +68,7 @@ def fit_huber_sparse(
     tol: float,
     start: np.ndarray,
 ) -> SparseHuberFit:
-    """Minimize F (module docstring) by proximal Newton from ``start``.
+    """Minimize F (module docstring), part by part, from ``start``.
 
     Parameters
     ----------
@@ -76,22 +80,34 @@ def fit_huber_sparse(
     delta : ndarray, shape (n,)
         Huber threshold δ_i > 0 of each output, in the units of y.
     max_iter : int
-        Proximal Newton steps per part at most (also the sparse solver's limit).
+        Interior-point iterations, or proximal Newton steps, per part at most
+        (also the inner sparse solver's limit).
     tol : float
-        Relative KKT residual to stop at (also the sparse solver's tolerance).
+        Relative tolerance of the certificates (duality gap and residuals, or
+        the KKT residual).
     start : ndarray, shape (N, n, p)
-        Starting coefficients (the squared-loss fit).
+        Starting coefficients of proximal Newton (the squared-loss fit).
     """
     N, p = problem.N, problem.p
     thresholds = delta[None, None, :] * problem.row_scale[:, :, None]  # (N, q, n)
     theta = start.copy()
     objective, steps, inner, kkt_worst, all_converged, solver = 0.0, 0, 0, 0.0, True, ""
     stalled = False
-    for part, part_weights, part_thresholds, index in _parts(problem, weights, norm,
-                                                             thresholds):
-        k = theta[:, index, :].reshape(N, -1)
-        result = _proximal_newton(part, part_weights, norm, part_thresholds, k,
-                                  max_iter=max_iter, tol=tol)
+    for part, part_weights, part_thresholds, index in sparse_parts(problem, weights, norm,
+                                                                   thresholds):
+        if ipm_applies(part_weights):
+            with warnings.catch_warnings():  # judged by the caller from `converged`
+                warnings.simplefilter("ignore", ConvergenceWarning)
+                ip = fit_robust_ipm(part, part_weights, norm, "huber", 2.0 * part_thresholds,
+                                    tol=tol, max_iter=max_iter)
+            result = _PartResult(k=ip.k, objective=ip.objective, steps=ip.iterations,
+                                 inner_iterations=0, converged=ip.converged,
+                                 kkt=max(ip.dual_residual, ip.duality_gap),
+                                 solver=IPM_SOLVER, stalled=ip.stalled)
+        else:
+            k = theta[:, index, :].reshape(N, -1)
+            result = _proximal_newton(part, part_weights, norm, part_thresholds, k,
+                                      max_iter=max_iter, tol=tol)
         theta[:, index, :] = result.k.reshape(N, -1, p)
         objective += result.objective
         steps += result.steps
@@ -109,15 +125,29 @@ def fit_huber_sparse(
     )
 
 
-def _parts(problem: RegressionProblem, weights: np.ndarray, norm: str, thresholds: np.ndarray):
-    """(single-output problem, its weights, its thresholds (N, q'), output index) per part."""
+def ipm_applies(weights: np.ndarray) -> bool:
+    """Whether :func:`.robust_ipm.fit_robust_ipm` takes a part with these weights: all
+    finite and positive, at most IPM_MAX_K coefficients per step."""
+    return bool(np.all(np.isfinite(weights)) and np.all(weights > 0)
+                and weights.size <= IPM_MAX_K)
+
+
+def sparse_parts(problem: RegressionProblem, weights: np.ndarray, norm: str,
+                 per_entry: np.ndarray):
+    """The independent single-output parts of a sparse-norm problem with a robust loss.
+
+    Yields (problem, its weights, its values of ``per_entry`` (N, q'), the output
+    index) per part: each output with norm="l1" (both terms separate), the lifted
+    problem of one output with regressors e_i ⊗ φ_tj (rows j·n + i) when a group
+    couples several outputs. ``per_entry`` is (N, q, n).
+    """
     n, p = problem.n, problem.p
     if norm == "l1" or n == 1:
         for i in range(n):
             part = RegressionProblem(y=problem.y[:, :, i : i + 1], phi=problem.phi,
                                      coeffs=problem.coeffs, observed=problem.observed,
                                      row_scale=problem.row_scale)
-            yield part, weights[i * p : (i + 1) * p], thresholds[:, :, i], slice(i, i + 1)
+            yield part, weights[i * p : (i + 1) * p], per_entry[:, :, i], slice(i, i + 1)
         return
     # group over several outputs: one output with regressors e_i ⊗ φ_tj (rows j·n + i)
     N, q, K = problem.N, problem.q, problem.K
@@ -129,7 +159,7 @@ def _parts(problem: RegressionProblem, weights: np.ndarray, norm: str, threshold
         observed=np.repeat(problem.observed, n, axis=1),
         row_scale=np.repeat(problem.row_scale, n, axis=1),
     )
-    yield lifted, weights, thresholds.reshape(N, q * n), slice(0, n)
+    yield lifted, weights, per_entry.reshape(N, q * n), slice(0, n)
 
 
 @dataclass

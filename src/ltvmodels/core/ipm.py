@@ -249,15 +249,16 @@ class NewtonSystem:
 
     def affine_direction(self):
         """Factor the Newton matrix and solve for the predictor target −λ∘λ."""
-        work, rhs = self._rhs(-self.lam_sq)
-        return self._finish(self.cp.factor_and_solve(self, rhs), work)
+        work, rhs = self.rhs_for(-self.lam_sq)
+        return self.finish(self.cp.factor_and_solve(self, rhs), work)
 
     def direction(self, target: np.ndarray):
         """(Δk, Δt, Δs, Δz, largest step) for the target (after :meth:`affine_direction`)."""
-        work, rhs = self._rhs(target)
-        return self._finish(self.cp.solve(rhs), work)
+        work, rhs = self.rhs_for(target)
+        return self.finish(self.cp.solve(rhs), work)
 
-    def _rhs(self, target: np.ndarray):
+    def rhs_for(self, target: np.ndarray):
+        """(work, rhs): the banded system's right-hand side (N, K) for a cone target."""
         cp = self.cp
         work = np.empty_like(target)
         rhs = np.empty((cp.N, cp.K))
@@ -267,7 +268,7 @@ class NewtonSystem:
         )
         return work, rhs
 
-    def _finish(self, dk: np.ndarray, work: np.ndarray):
+    def finish(self, dk: np.ndarray, work: np.ndarray):
         """(Δk, Δt, Δs, Δz) and the largest steps keeping s and z in the cones."""
         cp = self.cp
         dt, ds, dz = np.empty(cp.n_cones), np.empty_like(work), np.empty_like(work)

@@ -234,15 +234,18 @@ def fit(
         * "huber": h_δ(r) = r² for |r| <= δ and 2δ|r| − δ² beyond (cvxpy's
           ``huber``), so λ keeps its meaning and a gross outlier pulls the fit
           as little as one δ away. Exact: damped Newton steps on reweighted
-          squared-loss fits ("sq"), or proximal Newton steps on reweighted
-          sparse fits ("group", "l1"), stopped on the KKT residual (``tol``,
-          ``max_iter``). ``model.outliers`` marks the residuals beyond δ;
+          squared-loss fits ("sq", stopped on the KKT residual), or the
+          interior-point method with one more cone pair per residual entry
+          ("group", "l1", stopped on its duality gap and residuals; proximal
+          Newton on reweighted sparse fits where it does not apply); ``tol``
+          and ``max_iter`` apply. ``model.outliers`` marks the residuals beyond δ;
           ``info`` holds "huber_delta", "n_outliers" and "kkt_residual".
         * "laplace": |r| (the paper's Laplacian noise, Section IV-A), the most
-          robust. Solved by Huber smoothing with decreasing δ (and, for "sq",
-          an exact active-set polish), stopped when a rigorous duality gap
-          ("duality_gap" in ``info``, relative) is below ``tol``; the sparse
-          norms reach about 1e-7 at best.
+          robust. Exact: the interior-point method with one more cone pair
+          per residual entry ("group", "l1"), or Huber smoothing with
+          decreasing δ and an exact active-set polish ("sq"), stopped when a
+          rigorous duality gap ("duality_gap" in ``info``, relative) is below
+          ``tol``.
 
         With either, ``loglik`` is None, no ``cov`` is computed and
         ``noise_var`` is the residual mean square; not yet with priors or

@@ -1,0 +1,364 @@
+"""Huber and Laplacian losses with the group or l1 penalty, in one interior-point method.
+
+The interior-point method of :mod:`.ipm` with two more cones per residual
+entry e (row j of step t of a single-output problem, rows scaled by √w):
+
+* Huber, Σ h_δ̃(r) with h_δ(r) = min_w (r − w)² + 2δ|w|:
+
+      minimize Σ (r_e − w_e)² + Σ c_e b_e + Σ_c t_c,   c_e = 2δ̃_e,
+      subject to σ±_e = b_e ∓ w_e >= 0;
+
+* Laplace, Σ s|r̃|:
+
+      minimize Σ c_e b_e + Σ_c t_c,   c_e = s_e,
+      subject to σ±_e = b_e ∓ r_e >= 0,
+
+with r = y − φᵀk and the group/l1 cones (t_c, (ΛDk)_c) of :mod:`.ipm`.
+
+Each entry's variables (w, b, their duals ζ±) are eliminated from the Newton
+equations in closed form (a 2 × 2 orthant per entry: g± = ζ±/σ±), which
+leaves the block-banded system of :mod:`.ipm` with the data block
+Σ_e d_e φ_eφ_eᵀ instead of 2ΦᵀΦ: d_e = 2κ/(2 + κ) (Huber) or κ (Laplace),
+κ = 4g⁺g⁻/(g⁺ + g⁻). The same banded factorization serves the predictor and
+Mehrotra's corrector; steps keep σ, ζ and the cones interior. Derivation in
+the comments of :func:`_Entries.eliminate`.
+
+Stops when the duality gap (cones and orthants) relative to the objective and
+the residuals of stationarity (in k, w, b and t) and of the cone constraints
+are below ``tol``: an optimality certificate of the convex problem.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ConvergenceWarning, SingularProblemError
+from . import conekernels as cones
+from .ipm import MIN_STEP, STEP_FRACTION, ConicProblem, NewtonSystem, feasible_start
+from .problem import RegressionProblem
+
+# The starting slack of each entry's orthant, relative to its cost c_e times a
+# residual scale; and how far inside [0, c] the starting duals ζ± sit.
+START_SLACK = 0.1
+START_DUAL_SHRINK = 0.9
+
+
+@dataclass
+class RobustIPMResult:
+    """What :func:`fit_robust_ipm` computes for one single-output part."""
+
+    k: np.ndarray  # (N, K)
+    objective: float  # the loss plus Σ_t R(Λ(Dk)_t)
+    duality_gap: float  # relative to the objective
+    dual_residual: float  # relative stationarity residual
+    iterations: int
+    converged: bool
+    stalled: bool
+    psi: np.ndarray  # (N, q): ζ⁺ − ζ⁻, the loss's gradient pairing (Laplace dual · s)
+
+
+def fit_robust_ipm(
+    part: RegressionProblem, weights: np.ndarray, norm: str, loss: str, costs: np.ndarray,
+    *, tol: float, max_iter: int,
+) -> RobustIPMResult:
+    """Minimize the loss plus the sparse penalty of a single-output problem (module docstring).
+
+    Parameters
+    ----------
+    part : RegressionProblem
+        One output (n = 1): rows scaled by √w, unobserved rows zero.
+    weights : ndarray, shape (K,)
+        λ_j > 0, all finite.
+    norm : {"group", "l1"}
+    loss : {"huber", "laplace"}
+    costs : ndarray, shape (N, q)
+        c_e per row: 2δ̃ (Huber thresholds δ̃ = δ√w) or s = √w (Laplace).
+    tol, max_iter
+        Relative tolerance of the certificate; iterations at most.
+    """
+    cp = ConicProblem(part, weights, norm)
+    entries = _Entries(part, loss, costs)
+    data_phi = cp.phi
+    n_cones = cp.n_cones
+    k, rho = (feasible_start(part, cp) if part.degree in (1, 2)
+              else (np.zeros((cp.N, cp.K)), None))
+    entries.start(k)
+    t = np.zeros(n_cones)
+    s, z = np.zeros(cp.cone_shape), np.zeros(cp.cone_shape)
+    r_z, r_k = np.empty(cp.cone_shape), np.empty((cp.N, cp.K))
+    cones.weighted_difference(k, cp.coeffs, cp.w, r_z)
+    size = np.sqrt(np.sum(r_z[:, 1:] ** 2, axis=1))
+    objective = entries.loss(k) + float(size.sum())
+    s[:, 1:] = r_z[:, 1:]
+    s[:, 0] = size + max(0.1 * objective / n_cones, 1e-12)
+    t[:] = s[:, 0]
+    z[:, 0] = 1.0
+    if rho is not None:
+        z[:, 1:] = -rho * s[:, 1:]
+    degree = n_cones + 2 * entries.count
+    converged = stalled = False
+    iterations = 0
+    gap = dual_res = np.inf
+    while True:
+        entries.refresh(k)
+        if not entries.interior():  # a slack or dual underflowed to the boundary
+            stalled = True
+            break
+        # residuals of the cone constraints and of stationarity in k (data + cones)
+        cones.weighted_difference(k, cp.coeffs, cp.w, r_z)
+        r_z[:, 0] = s[:, 0] - t
+        r_z[:, 1:] = s[:, 1:] - r_z[:, 1:]
+        r_k[:] = entries.gradient(k)
+        cones.add_weighted_difference_adjoint(z, cp.coeffs, cp.w, -1.0, r_k)
+        reg = float(np.sqrt(np.sum((s[:, 1:] - r_z[:, 1:]) ** 2, axis=1)).sum())
+        objective = entries.loss(k) + reg
+        gap = float(np.sum(s * z)) + entries.gap()
+        primal_res = float(np.linalg.norm(r_z)) / (1.0 + float(np.linalg.norm(s)))
+        dual_res = max(float(np.linalg.norm(r_k)) / entries.scale,
+                       float(np.abs(1.0 - z[:, 0]).max(initial=0.0)), entries.residual())
+        if gap <= tol * max(objective, 1e-300) and primal_res <= tol and dual_res <= tol:
+            converged = True
+            break
+        if iterations == max_iter:
+            break
+        cp.phi = entries.scaled_regressors(data_phi)  # the data block Σ d_e φφᵀ
+        try:
+            newton = NewtonSystem(cp, s, z, r_z, r_k)
+            work, rhs = newton.rhs_for(-newton.lam_sq)
+            affine = entries.eliminate(-entries.complementarity())
+            rhs += affine.rhs
+            dk, _, ds_a, dz_a, cone_step = newton.finish(cp.factor_and_solve(newton, rhs), work)
+        except SingularProblemError:
+            if iterations == 0:
+                raise
+            stalled = True  # the scaling lost definiteness at working precision
+            break
+        iterations += 1
+        step = min(1.0, cone_step, affine.step(dk))
+        mu = gap / degree
+        sigma_mu = (1.0 - step) ** 3 * mu
+        # Mehrotra's corrector, for the cones (conekernels) and the orthants
+        target = np.empty_like(s)
+        cones.corrector_target(newton.lam, newton.v, newton.eta, ds_a, dz_a, sigma_mu, target)
+        orthant_target = sigma_mu - entries.complementarity() - affine.second_order(dk)
+        work, rhs = newton.rhs_for(target)
+        direction = entries.eliminate(orthant_target)
+        rhs += direction.rhs
+        dk, dt, ds, dz, cone_step = newton.finish(cp.solve(rhs), work)
+        step = min(1.0, STEP_FRACTION * min(cone_step, direction.step(dk)))
+        if step < MIN_STEP:
+            stalled = True
+            break
+        cones.take_step(k, dk, t, dt, s, ds, z, dz, step)
+        entries.take_step(direction, dk, step)
+    cp.phi = data_phi
+    if not converged:
+        reason = ("stalled at the limit of working precision" if stalled
+                  else f"did not converge in {max_iter} iterations")
+        warnings.warn(f"the interior-point method {reason} (relative gap "
+                      f"{gap / max(objective, 1e-300):.1e}, dual residual {dual_res:.1e})",
+                      ConvergenceWarning, stacklevel=3)
+    return RobustIPMResult(
+        k=k, objective=objective, duality_gap=gap / max(objective, 1e-300),
+        dual_residual=dual_res, iterations=iterations, converged=converged,
+        stalled=stalled and not converged, psi=entries.pairing(),
+    )
+
+
+@dataclass
+class _Direction:
+    """One Newton direction's per-entry parts, before Δk is known."""
+
+    rhs: np.ndarray  # (N, K) added to the banded system's right-hand side
+    entries: "_Entries"
+    target: np.ndarray  # (2, N, q) the orthant targets η±
+
+    def deltas(self, dk: np.ndarray):
+        """(Δw or None, Δb, Δσ (2, N, q), Δζ (2, N, q)) for the solution Δk."""
+        return self.entries.deltas(self, dk)
+
+    def step(self, dk: np.ndarray) -> float:
+        """The largest step keeping every entry's σ± and ζ± positive."""
+        _, _, d_sigma, d_zeta = self.deltas(dk)
+        e = self.entries
+        return min(_ratio(e.sigma, d_sigma, e.mask), _ratio(e.zeta, d_zeta, e.mask))
+
+    def second_order(self, dk: np.ndarray) -> np.ndarray:
+        """Δσ ∘ Δζ of this (affine) direction, for Mehrotra's corrector."""
+        _, _, d_sigma, d_zeta = self.deltas(dk)
+        return d_sigma * d_zeta
+
+
+class _Entries:
+    """The residual entries' variables: b, w (Huber), slacks σ± and duals ζ± (2, N, q)."""
+
+    def __init__(self, part: RegressionProblem, loss: str, costs: np.ndarray):
+        self.loss_name = loss
+        self.y = part.y[:, :, 0]
+        self.phi = part.phi
+        self.mask = part.observed & (costs > 0)  # entries that enter the loss
+        self.c = np.where(self.mask, costs, 0.0)
+        self.count = int(self.mask.sum())
+        row_norms = np.sqrt(np.einsum("tjk,tjk->tj", self.phi, self.phi))
+        # stationarity scale: the largest possible data gradient, ‖c·|φ|‖ (floored)
+        self.scale = max(float(np.linalg.norm(self.c * row_norms)), np.finfo(float).tiny)
+
+    # -- state ----------------------------------------------------------------------------
+    def start(self, k: np.ndarray) -> None:
+        r = self.residuals(k)
+        c = self.c
+        spread = float(np.median(np.abs(r[self.mask]))) if self.count else 1.0
+        slack = START_SLACK * np.maximum(np.where(self.mask, spread, 1.0), 1e-300)
+        if self.loss_name == "huber":
+            delta = c / 2.0
+            self.w = np.where(self.mask, r - np.clip(r, -delta, delta), 0.0)
+            self.b = np.abs(self.w) + slack
+            pairing = 2.0 * START_DUAL_SHRINK * np.clip(r, -delta, delta)
+        else:
+            self.w = None
+            self.b = np.abs(r) + slack
+            pairing = START_DUAL_SHRINK * c * np.sign(r)
+        # ζ⁺ + ζ⁻ = c (stationarity in b), ζ⁺ − ζ⁻ a shrunk pairing: both >= 0.05c > 0;
+        # entries outside the loss are frozen at σ = ζ = 1 and never move
+        self.zeta = np.stack([np.where(self.mask, (c + pairing) / 2.0, 1.0),
+                              np.where(self.mask, (c - pairing) / 2.0, 1.0)])
+        self.refresh(k)
+
+    def _slacks(self, r: np.ndarray) -> np.ndarray:
+        inner = self.w if self.w is not None else r
+        sigma = np.stack([self.b - inner, self.b + inner])
+        return np.where(self.mask, sigma, 1.0)
+
+    def take_step(self, direction: _Direction, dk: np.ndarray, step: float) -> None:
+        dw, db, d_sigma, d_zeta = direction.deltas(dk)
+        mask = self.mask
+        if dw is not None:
+            self.w = self.w + step * np.where(mask, dw, 0.0)
+        self.b = self.b + step * np.where(mask, db, 0.0)
+        self.zeta = np.where(mask, self.zeta + step * d_zeta, 1.0)  # σ: refresh()
+
+    # -- values ---------------------------------------------------------------------------
+    def residuals(self, k: np.ndarray) -> np.ndarray:
+        return self.y - np.einsum("tjk,tk->tj", self.phi, k)
+
+    def loss(self, k: np.ndarray) -> float:
+        """Σ h_δ̃(r) or Σ s|r̃| at k (the exact loss, not the lifted objective)."""
+        r = np.where(self.mask, self.residuals(k), 0.0)
+        if self.loss_name == "huber":
+            delta = self.c / 2.0
+            a = np.abs(r)
+            return float(np.sum(np.where(a <= delta, r * r, 2.0 * delta * a - delta * delta)))
+        return float(np.sum(self.c * np.abs(r)))
+
+    def gradient(self, k: np.ndarray) -> np.ndarray:
+        """The data part of the stationarity residual in k, (N, K)."""
+        if self.loss_name == "huber":
+            factor = -2.0 * (self.residuals(k) - self.w)
+        else:
+            factor = self.zeta[1] - self.zeta[0]
+        return np.einsum("tj,tjk->tk", np.where(self.mask, factor, 0.0), self.phi)
+
+    def residual(self) -> float:
+        """Stationarity in b (and w), relative to the costs."""
+        c_norm = max(float(np.linalg.norm(self.c)), np.finfo(float).tiny)
+        r_b = np.where(self.mask, self.c - self.zeta[0] - self.zeta[1], 0.0)
+        value = float(np.linalg.norm(r_b))
+        if self.loss_name == "huber":
+            value = max(value, float(np.linalg.norm(self._r_w())))
+        return value / c_norm
+
+    def _r_w(self) -> np.ndarray:
+        r = self._last_r
+        return np.where(self.mask, -2.0 * (r - self.w) + self.zeta[0] - self.zeta[1], 0.0)
+
+    def interior(self) -> bool:
+        """Every slack σ± and dual ζ± of the loss's entries is positive."""
+        return bool(np.all(self.sigma[:, self.mask] > 0) and np.all(self.zeta[:, self.mask] > 0))
+
+    def complementarity(self) -> np.ndarray:
+        return np.where(self.mask, self.sigma * self.zeta, 0.0)
+
+    def gap(self) -> float:
+        return float(np.sum(self.complementarity()))
+
+    def pairing(self) -> np.ndarray:
+        """ζ⁺ − ζ⁻: at the optimum 2·clip(r, ±δ̃) (Huber) or s·ψ, ψ ∈ sign(r) (Laplace)."""
+        return np.where(self.mask, self.zeta[0] - self.zeta[1], 0.0)
+
+    def scaled_regressors(self, phi: np.ndarray) -> np.ndarray:
+        """φ·√(d/2), so that the kernel's 2Φ̃ᵀΦ̃ is the data block Σ d_e φφᵀ."""
+        d = self._curvature()
+        return np.ascontiguousarray(phi * np.sqrt(d / 2.0)[:, :, None])
+
+    def _terms(self):
+        g = self.zeta / self.sigma
+        G, H = g[0] + g[1], g[0] - g[1]
+        kappa = 4.0 * g[0] * g[1] / G
+        return G, H, kappa
+
+    def _curvature(self) -> np.ndarray:
+        _, _, kappa = self._terms()
+        d = 2.0 * kappa / (2.0 + kappa) if self.loss_name == "huber" else kappa
+        return np.where(self.mask, d, 0.0)
+
+    # -- Newton directions ------------------------------------------------------------------
+    def eliminate(self, target: np.ndarray) -> _Direction:
+        """The per-entry elimination for the orthant targets η± (2, N, q).
+
+        Linearizing σ±ζ± = η± gives Δζ± = η±/σ± − g±Δσ±. Huber (Δσ± = Δb ∓ Δw):
+        stationarity in b, Δζ⁺ + Δζ⁻ = r_b, gives Δb = (E + HΔw)/G with
+        E = η⁺/σ⁺ + η⁻/σ⁻ − r_b; then Δζ⁺ − Δζ⁻ = A + κΔw, A = F − HE/G,
+        F = η⁺/σ⁺ − η⁻/σ⁻; stationarity in w, 2φᵀΔk + 2Δw + Δζ⁺ − Δζ⁻ = −r_w,
+        gives Δw = −(r_w + A + 2φᵀΔk)/(2 + κ), and the k equation gains
+        Σ d φφᵀ with d = 2κ/(2 + κ) and 2Σ φ(r_w + A)/(2 + κ) on the right.
+        Laplace (Δσ± = Δb ± φᵀΔk): Δb = (E − HφᵀΔk)/G, Δζ⁻ − Δζ⁺ = −A + κφᵀΔk,
+        so d = κ and the right-hand side gains Σ φA.
+        """
+        G, H, kappa = self._terms()
+        r_b = self.c - self.zeta[0] - self.zeta[1]
+        ratio = target / self.sigma
+        E = ratio[0] + ratio[1] - r_b
+        F = ratio[0] - ratio[1]
+        A = F - H * E / G
+        if self.loss_name == "huber":
+            q = 2.0 * (self._r_w() + A) / (2.0 + kappa)
+        else:
+            q = A
+        q = np.where(self.mask, q, 0.0)
+        return _Direction(rhs=np.einsum("tj,tjk->tk", q, self.phi), entries=self,
+                          target=target)
+
+    def deltas(self, direction: _Direction, dk: np.ndarray):
+        G, H, kappa = self._terms()
+        ratio = direction.target / self.sigma
+        r_b = self.c - self.zeta[0] - self.zeta[1]
+        E = ratio[0] + ratio[1] - r_b
+        A = ratio[0] - ratio[1] - H * E / G
+        g = self.zeta / self.sigma
+        fitted = np.einsum("tjk,tk->tj", self.phi, dk)  # φᵀΔk
+        if self.loss_name == "huber":
+            dw = -(self._r_w() + A + 2.0 * fitted) / (2.0 + kappa)
+            db = (E + H * dw) / G
+            d_sigma = np.stack([db - dw, db + dw])
+        else:
+            dw = None
+            db = (E - H * fitted) / G
+            d_sigma = np.stack([db + fitted, db - fitted])
+        d_zeta = ratio - g * d_sigma
+        return dw, db, d_sigma, d_zeta
+
+    def refresh(self, k: np.ndarray) -> None:
+        """The residuals and slacks at k (Laplace's σ depends on k; Huber's on b, w)."""
+        self._last_r = self.residuals(k)
+        self.sigma = self._slacks(self._last_r)
+
+
+def _ratio(x: np.ndarray, dx: np.ndarray, mask: np.ndarray) -> float:
+    """The largest α with x + α·dx > 0 where ``mask`` (inf if none decreases)."""
+    shrinking = mask & (dx < 0)
+    if not shrinking.any():
+        return np.inf
+    return float(np.min(-x[shrinking] / dx[shrinking]))
