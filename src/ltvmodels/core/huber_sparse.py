@@ -54,7 +54,7 @@ class SparseHuberFit:
     converged: bool  # every part's KKT residual met tol
     kkt_residual: float  # the largest part's relative KKT residual
     outliers: np.ndarray  # (N, q, n) bool: observed entries with |r| > δ
-    solver: str  # the sparse solver of the last step
+    solver: str  # the methods used (parts may differ)
     stalled: bool = False  # stopped short of tol: no decrease along a step at working precision
 
 
@@ -91,7 +91,7 @@ def fit_huber_sparse(
     N, p = problem.N, problem.p
     thresholds = delta[None, None, :] * problem.row_scale[:, :, None]  # (N, q, n)
     theta = start.copy()
-    objective, steps, inner, kkt_worst, all_converged, solver = 0.0, 0, 0, 0.0, True, ""
+    objective, steps, inner, kkt_worst, all_converged, solvers = 0.0, 0, 0, 0.0, True, []
     stalled = False
     for part, part_weights, part_thresholds, index in sparse_parts(problem, weights, norm,
                                                                    thresholds):
@@ -115,13 +115,14 @@ def fit_huber_sparse(
         kkt_worst = max(kkt_worst, result.kkt)
         all_converged &= result.converged
         stalled |= result.stalled
-        solver = result.solver
+        if result.solver not in solvers:
+            solvers.append(result.solver)
     r = problem.residuals(theta)
     return SparseHuberFit(
         theta=theta, objective=objective, iterations=steps, inner_iterations=inner,
         converged=all_converged, kkt_residual=kkt_worst,
-        outliers=(np.abs(r) > thresholds) & problem.observed[:, :, None], solver=solver,
-        stalled=stalled and not all_converged,
+        outliers=(np.abs(r) > thresholds) & problem.observed[:, :, None],
+        solver="; ".join(solvers), stalled=stalled and not all_converged,
     )
 
 
@@ -201,7 +202,7 @@ def _proximal_newton(part, weights, norm, thresholds, k, *, max_iter, tol) -> _P
             solution = solve_sparse(model, weights, norm, max_iter=max_iter, tol=inner_tol)
         steps += 1
         inner += solution.iterations
-        solver = solution.solver
+        solver = f"proximal Newton on {solution.solver}"
         k_new = solution.theta.reshape(k.shape)
         # F's KKT residual at the model's minimizer: ∇L(k⁺) − ∇Q(k⁺), plus the
         # inner solver's own stationarity residual and duality gap

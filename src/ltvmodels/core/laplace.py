@@ -49,6 +49,8 @@ from .problem import (
 from .sparse_common import difference_preimage
 from .squared import SquaredSolver, weight_diagonal
 
+SMOOTHING = "Huber smoothing with a duality-gap certificate"
+IPM = "interior point with residual cones (block-banded Newton systems)"
 # δ shrinks by this factor per stage (a larger step changes which residuals are
 # within δ too much at once: the next stage then needs many more Newton steps).
 REDUCTION = 0.1
@@ -80,6 +82,8 @@ class LaplaceFit:
     converged: bool
     polished: bool = False  # the exact active-set solution (norm="sq") gave the result
     stalled: bool = False  # ended short of tol: less smoothing fails at working precision
+    psi: np.ndarray | None = None  # (N, q, n) the dual point of the certificate
+    method: str = SMOOTHING  # how it was solved (parts may differ)
 
 
 def fit_laplace(
@@ -110,17 +114,52 @@ def fit_laplace(
     start : ndarray, shape (N, n, p)
         Starting coefficients (the squared-loss fit).
     """
-    if norm != "sq":
-        parts = list(sparse_parts(problem, penalty, norm,
-                                  np.repeat(problem.row_scale[:, :, None], problem.n, 2)))
-        if all(ipm_applies(weights) for _, weights, _, _ in parts):
-            return _fit_sparse_ipm(problem, penalty, norm, parts, start, max_iter=max_iter,
-                                   tol=tol)
+    if norm == "sq":
+        return _smoothed(problem, penalty, norm, delta, max_iter=max_iter, tol=tol,
+                         start=start)
+    # the sparse norms part by part: the interior-point method where it applies
+    N, p = problem.N, problem.p
+    theta = start.copy()
+    psi = np.zeros_like(problem.y)
+    costs = np.repeat(problem.row_scale[:, :, None], problem.n, 2)
+    iterations, stages, smoothing, kkt, stalled, methods = 0, 0, 0.0, 0.0, False, []
+    for part, weights, part_costs, index in sparse_parts(problem, penalty, norm, costs):
+        method = IPM if ipm_applies(weights) else SMOOTHING
+        if method not in methods:
+            methods.append(method)
+        if method == IPM:
+            with warnings.catch_warnings():  # judged below by the certificate
+                warnings.simplefilter("ignore", ConvergenceWarning)
+                ip = fit_robust_ipm(part, weights, norm, "laplace", part_costs, tol=tol,
+                                    max_iter=max_iter)
+            k, pairing = ip.k, ip.psi / np.where(part_costs > 0, part_costs, 1.0)
+            iterations, kkt = iterations + ip.iterations, max(kkt, ip.dual_residual)
+            stalled |= ip.stalled
+        else:
+            smoothed = _smoothed(part, weights, norm, delta, max_iter=max_iter, tol=tol,
+                                 start=theta[:, index, :].reshape(N, 1, -1))
+            k, pairing = smoothed.theta.reshape(N, -1), smoothed.psi[:, :, 0]
+            iterations, kkt = iterations + smoothed.iterations, max(kkt, smoothed.kkt_residual)
+            stages, smoothing = max(stages, smoothed.stages), smoothed.smoothing
+            stalled |= smoothed.stalled
+        theta[:, index, :] = k.reshape(N, -1, p)
+        psi[:, :, index] = pairing.reshape(N, problem.q, -1)
+    objective = _objective(problem, theta, penalty, norm)
+    gap, rigorous = relative_gap(problem, theta, objective, psi, penalty, norm)
+    return LaplaceFit(theta=theta, objective=objective, duality_gap=gap, rigorous=rigorous,
+                      kkt_residual=kkt, iterations=iterations, stages=stages,
+                      smoothing=smoothing, converged=gap <= tol, stalled=stalled and gap > tol,
+                      psi=psi, method="; ".join(methods))
+
+
+def _smoothed(problem, penalty, norm, delta, *, max_iter, tol, start) -> LaplaceFit:
+    """Certified Huber smoothing (module docstring) of the whole ``problem``."""
     tiny = np.finfo(float).tiny
     theta = start.copy()
     smoothing = float(np.min(delta))  # one δ: the penalty is scaled by 2δ
-    # the best certified point so far: (gap, Θ, objective, KKT residual, rigorous, polished)
-    best = (np.inf, theta, _objective(problem, theta, penalty, norm), np.inf, True, False)
+    # the best certified point so far: (gap, Θ, objective, KKT residual, rigorous, polished, ψ)
+    best = (np.inf, theta, _objective(problem, theta, penalty, norm), np.inf, True, False,
+            np.zeros_like(problem.y))
     steps, stage, reduction, retries, stalled = 0, 0, 1.0, 0, False
     # the dual point inherits the stages' stationarity error, amplified by the
     # difference operator's inverse: the stages are solved more tightly
@@ -153,7 +192,7 @@ def fit_laplace(
         r = problem.residuals(theta)
         psi = np.clip(r / np.maximum(problem.row_scale[:, :, None] * smoothing, tiny), -1, 1)
         gap, rigorous = relative_gap(problem, theta, objective, psi, penalty, norm)
-        candidates = [(gap, theta, objective, fit.kkt_residual, rigorous, False)]
+        candidates = [(gap, theta, objective, fit.kkt_residual, rigorous, False, psi)]
         if norm == "sq" and gap > tol:  # the exact solution with the zeros found so far
             polished = polish_squared(problem, penalty, theta, smoothing)
             if polished is not None:
@@ -161,7 +200,7 @@ def fit_laplace(
                 polished_gap, polished_rigorous = relative_gap(
                     problem, polished[0], polished_objective, polished[1], penalty, norm)
                 candidates.append((polished_gap, polished[0], polished_objective, polished[2],
-                                   polished_rigorous, True))
+                                   polished_rigorous, True, polished[1]))
         for candidate in candidates:
             if candidate[0] < best[0] and (candidate[4] or fit.converged or candidate[5]):
                 best = candidate
@@ -172,40 +211,12 @@ def fit_laplace(
             break
         reduction = REDUCTION
         smoothing *= reduction
-    gap, theta, objective, kkt, rigorous, polished = best
+    gap, theta, objective, kkt, rigorous, polished, psi = best
     converged = gap <= tol
     return LaplaceFit(theta=theta, objective=objective, duality_gap=gap, rigorous=rigorous,
                       kkt_residual=kkt, iterations=steps, stages=stage, smoothing=smoothing,
-                      converged=converged, polished=polished, stalled=stalled and not converged)
-
-
-def _fit_sparse_ipm(problem, weights, norm, parts, start, *, max_iter, tol) -> LaplaceFit:
-    """The sparse norms by the interior-point method with residual cones, part by part.
-
-    The certificate is the rigorous dual bound (:func:`dual_bound`) at the
-    method's dual point ψ = (ζ⁺ − ζ⁻)/s, which is within rounding of its own
-    duality gap.
-    """
-    N, p = problem.N, problem.p
-    theta = start.copy()
-    psi = np.zeros_like(problem.residuals(theta))
-    iterations, stalled, kkt = 0, False, 0.0
-    for part, part_weights, costs, index in parts:
-        with warnings.catch_warnings():  # judged below by the certificate
-            warnings.simplefilter("ignore", ConvergenceWarning)
-            result = fit_robust_ipm(part, part_weights, norm, "laplace", costs, tol=tol,
-                                    max_iter=max_iter)
-        theta[:, index, :] = result.k.reshape(N, -1, p)
-        pairing = result.psi / np.where(costs > 0, costs, 1.0)
-        psi[:, :, index] = pairing.reshape(N, problem.q, -1)
-        iterations += result.iterations
-        stalled |= result.stalled
-        kkt = max(kkt, result.dual_residual)
-    objective = _objective(problem, theta, weights, norm)
-    gap, rigorous = relative_gap(problem, theta, objective, psi, weights, norm)
-    return LaplaceFit(theta=theta, objective=objective, duality_gap=gap, rigorous=rigorous,
-                      kkt_residual=kkt, iterations=iterations, stages=0, smoothing=0.0,
-                      converged=gap <= tol, stalled=stalled and gap > tol)
+                      converged=converged, polished=polished, stalled=stalled and not converged,
+                      psi=psi)
 
 
 def polish_squared(

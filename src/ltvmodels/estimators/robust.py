@@ -88,8 +88,7 @@ def solve_robust(
     if loss == "laplace":
         result = fit_laplace(problem, penalty, norm if sparse else "sq", delta,
                              max_iter=max_iter, tol=tol, start=start)
-        solver = "Huber smoothing with a duality-gap certificate" + (
-            ", exact active-set polish" if result.polished else "")
+        solver = result.method + (", exact active-set polish" if result.polished else "")
         details: dict[str, Any] = {"duality_gap": result.duality_gap,
                                    "duality_gap_rigorous": result.rigorous,
                                    "kkt_residual": result.kkt_residual,
@@ -105,7 +104,7 @@ def solve_robust(
         else:
             result = fit_huber_sparse(problem, penalty, norm, delta, max_iter=max_iter,
                                       tol=tol, start=start)
-            solver = f"proximal Newton on {result.solver}"
+            solver = result.solver
             details = {"inner_iterations": result.inner_iterations}
         outliers = result.outliers
         details.update(kkt_residual=result.kkt_residual, huber_delta=delta.tolist(),
