@@ -396,3 +396,48 @@ def test_sparse_robust_losses_with_a_coefficient_held_constant(loss, norm):
     if loss == "laplace":  # the certificate bounds the true excess
         excess = (model.info["objective"] - optimum) / optimum
         assert excess <= model.info["duality_gap"] + 1e-9
+
+
+def test_huber_with_a_parameter_prior_matches_clarabel():
+    """Σ w h_δ(r) + λ²Σ‖Dk‖² + σ²Σ_t (k_t − m)ᵀP(k_t − m), σ² = noise_var (the
+    squared loss's MAP convention), against cvxpy."""
+    x, u, w = _data(31)
+    delta = np.array([0.15, 0.25])
+    mean = np.array([0.5, 0.1, 0.3, -0.1, 0.4, 0.2])
+    cov = np.diag([0.5, 0.5, 1.0, 0.2, 0.2, 1.0])
+    sigma2 = np.array([0.01, 0.02])
+    model = ltv.fit(x, u, lam=3.0, weights=w, loss="huber", huber_delta=delta,
+                    prior=ltv.Prior(mean, cov), noise_var=sigma2, tol=1e-11)
+    R, T, n = x.shape
+    p, N = n + u.shape[2], T - 1
+    k = cp.Variable((N, n * p))
+    value, _ = _cvxpy_reference(x, u, w, 3.0, np.array([-1.0, 1.0]), norm="sq", loss="huber",
+                                delta=delta)
+    # the same problem plus the prior, built directly
+    terms = []
+    precision = np.linalg.inv(cov)
+    for r in range(R):
+        for t in range(N):
+            phi = np.concatenate([x[r, t], u[r, t]])
+            if w[r, t] == 0 or not np.all(np.isfinite(phi)) or not np.all(np.isfinite(x[r, t + 1])):
+                continue
+            for i in range(n):
+                terms.append(w[r, t] * cp.huber(x[r, t + 1, i] - phi @ k[t, i * p:(i + 1) * p],
+                                                delta[i]))
+    terms.append(9.0 * cp.sum_squares(k[1:] - k[:-1]))
+    scale = np.repeat(sigma2, p)  # output i's rows weighted by σ_i²
+    root = np.linalg.cholesky(precision).T * np.sqrt(scale)[None, :]
+    terms.append(cp.sum_squares((k - mean[None, :]) @ root.T))
+    problem = cp.Problem(cp.Minimize(sum(terms)))
+    problem.solve(solver=cp.CLARABEL, tol_gap_abs=1e-9, tol_gap_rel=1e-9, tol_feas=1e-9)
+    assert model.status.success and model.info["prior_scale"] == sigma2.tolist()
+    assert model.info["objective"] == pytest.approx(problem.value, rel=1e-7)
+    assert model.info["objective"] > value  # the prior pulls away from the prior-free optimum
+    np.testing.assert_array_equal(model.noise_var, sigma2)
+    default = ltv.fit(x, u, lam=3.0, weights=w, loss="huber", huber_delta=delta,
+                      prior=ltv.Prior(mean, cov))
+    assert default.info["prior_scale"] == pytest.approx((delta / 1.345) ** 2)
+    with pytest.raises(NotImplementedError, match=r"^prior: not available with loss='laplace'"):
+        ltv.fit(x, u, lam=3.0, loss="laplace", prior=ltv.Prior(mean, cov))
+    with pytest.raises(NotImplementedError, match=r"^prior_mode: 'posthoc' is not available"):
+        ltv.fit(x, u, lam=3.0, loss="huber", prior=ltv.Prior(mean, cov), prior_mode="posthoc")

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .priorterms import PriorTerm
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 from .squared import SquaredSolver
 
@@ -69,6 +70,8 @@ def fit_huber(
     max_iter: int = 200,
     tol: float = 1e-9,
     start: np.ndarray | None = None,
+    priors: list[PriorTerm] | None = None,
+    prior_scale: np.ndarray | None = None,
 ) -> HuberFit:
     """Minimize F (module docstring) for a penalty weight that does not couple output rows.
 
@@ -86,45 +89,124 @@ def fit_huber(
         Stop when ‖∇F‖∞ <= tol · (the largest gradient term).
     start : ndarray, shape (N, n, p), optional
         The squared-loss fit, if the caller has it (it starts the iteration).
+    priors : list of PriorTerm, optional
+        Parameter priors that do not couple output rows: F gains
+        σ_i² Σ_t (k_ti − m_ti)ᵀ P_t (k_ti − m_ti) per output i (the squared
+        loss's convention, with the noise variance σ_i² = ``prior_scale[i]``).
+    prior_scale : ndarray, shape (n,), optional
+        σ_i² of each output (required with ``priors``).
     """
-    n, p = problem.n, problem.p
+    n = problem.n
     thresholds = delta[None, None, :] * problem.row_scale[:, :, None]  # δ̃ (N, q, n)
     penalty = SquaredSolver(problem, W, [])
     if not penalty.separable:
         raise NotImplementedError("loss='huber' needs a penalty that does not couple outputs")
-    W0 = penalty.W0
     # the squared-loss fit starts the iteration
     theta = penalty.solve(1.0)[0] if start is None else start.copy()
     outputs = [_output_problem(problem, i) for i in range(n)]
-    blocks = [_block(W, i, p) for i in range(n)]
-    finite_blocks = [_block(W0, i, p) for i in range(n)]
+    quadratics = [_OutputQuadratic(problem, W, penalty.W0, i, priors or [],
+                                   1.0 if prior_scale is None else float(prior_scale[i]))
+                  for i in range(n)]
     damping = np.full(n, NEWTON_DAMPING)
     kkt, iterations, stalled = np.full(n, np.inf), 0, False
     for iterations in range(max_iter + 1):
         r = problem.residuals(theta)
-        kkt = _kkt_residuals(problem, theta, r, thresholds, W, W0)
+        kkt = _kkt_residuals(problem, theta, r, thresholds, quadratics)
         if kkt.max() <= tol or iterations == max_iter:
             break
         progress = False
         for i in np.flatnonzero(kkt > tol):  # the outputs are independent problems
             theta[:, i, :], damping[i], decreased = _newton_step(
-                outputs[i], blocks[i], finite_blocks[i], theta[:, i, :], r[:, :, i],
-                thresholds[:, :, i], damping[i])
+                outputs[i], quadratics[i], theta[:, i, :], r[:, :, i], thresholds[:, :, i],
+                damping[i])
             progress |= decreased
         if not progress:  # F is flat to rounding: the tolerance is beyond working precision
             iterations += 1
-            kkt = _kkt_residuals(problem, theta, problem.residuals(theta), thresholds, W, W0)
+            kkt = _kkt_residuals(problem, theta, problem.residuals(theta), thresholds,
+                                 quadratics)
             stalled = bool(kkt.max() > tol)
             break
     r = problem.residuals(theta)
-    objective = float(huber_loss(r, thresholds).sum() + penalty.penalty(theta))
+    objective = float(huber_loss(r, thresholds).sum()
+                      + sum(quad.value(theta[:, i, :]) for i, quad in enumerate(quadratics)))
     return HuberFit(theta=theta, objective=objective, iterations=iterations,
                     converged=bool(kkt.max() <= tol), kkt_residual=float(kkt.max()),
                     outliers=(np.abs(r) > thresholds) & problem.observed[:, :, None],
                     stalled=stalled)
 
 
-def _newton_step(output, W, W0, current, r, thresholds, damping):
+class _OutputQuadratic:
+    """Output i's quadratic terms of F: the difference penalty and the prior terms.
+
+    value(Θ_i) = Σ_t (DΘ_i)_tᵀ W_i (DΘ_i)_t + σ_i² Σ_t (Θ_ti − m_ti)ᵀ P_t (Θ_ti − m_ti),
+    with W_i, P_t and m_ti output i's blocks (constant coefficients: W's
+    infinite entries contribute nothing, the coefficient is held by the solver).
+    """
+
+    def __init__(self, problem: RegressionProblem, W: np.ndarray, W0: np.ndarray, i: int,
+                 priors: list[PriorTerm], scale: float):
+        p = problem.p
+        rows = slice(i * p, (i + 1) * p)
+        self.coeffs, self.N = problem.coeffs, problem.N
+        self.W = W[rows] if W.ndim == 1 else W[rows, rows]
+        self.W0 = W0[rows] if W0.ndim == 1 else W0[rows, rows]
+        self.const = np.isinf(self.W if self.W.ndim == 1 else np.diag(self.W))
+        self.scale = scale
+        self.priors = [_output_prior(term, rows, problem.n, p) for term in priors]
+
+    def value(self, theta: np.ndarray) -> float:
+        Dk = apply_difference(theta, self.coeffs)
+        weighted = Dk * self.W0 if self.W0.ndim == 1 else Dk @ self.W0
+        total = float(np.sum(weighted * Dk))
+        for term in self.priors:
+            e = theta - term.mean
+            total += self.scale * float(np.einsum("ta,tab,tb->", e, term.precision_at(self.N),
+                                                  e))
+        return total
+
+    def gradient(self, theta: np.ndarray) -> np.ndarray:
+        """(N, p): 2DᵀW DΘ_i + 2σ² P (Θ_i − m_i)."""
+        Dk = apply_difference(theta, self.coeffs)
+        weighted = Dk * self.W0 if self.W0.ndim == 1 else Dk @ self.W0
+        grad = 2.0 * apply_difference_adjoint(weighted, self.coeffs, self.N)
+        for term in self.priors:
+            grad += 2.0 * self.scale * np.einsum("tab,tb->ta", term.precision_at(self.N),
+                                                 theta - term.mean)
+        return grad
+
+    def line(self, current: np.ndarray, direction: np.ndarray) -> tuple[float, float]:
+        """(a, b) with value(current + α·direction) = value(current) + 2αb + α²a."""
+        Dd = apply_difference(direction, self.coeffs)
+        Dc = apply_difference(current, self.coeffs)
+        Wd = Dd * self.W0 if self.W0.ndim == 1 else Dd @ self.W0
+        a, b = float(np.sum(Wd * Dd)), float(np.sum(Wd * Dc))
+        for term in self.priors:
+            Pd = np.einsum("tab,tb->ta", term.precision_at(self.N), direction)
+            a += self.scale * float(np.sum(Pd * direction))
+            b += self.scale * float(np.sum(Pd * (current - term.mean)))
+        return a, b
+
+    def solve(self, weighted: RegressionProblem) -> np.ndarray:
+        """The minimizer (N, p) of the weighted squared loss of ``weighted`` plus these terms."""
+        return SquaredSolver(weighted, self.W, self.priors).solve(self.scale)[0][:, 0, :]
+
+
+def _output_prior(term: PriorTerm, rows: slice, n: int, p: int) -> PriorTerm:
+    """Output i's block of a parameter prior (it must not couple the outputs)."""
+    if term.on != "parameters":
+        raise NotImplementedError("prior: an OutputPrior is not available with loss='huber'; "
+                                  "use a Prior on the coefficients")
+    precision = term.precision
+    coupling = precision.copy()
+    coupling[..., rows, rows] = 0.0
+    if n > 1 and np.any(coupling[..., rows, :] != 0):
+        raise NotImplementedError("prior: with loss='huber' the prior must not couple the "
+                                  "outputs (a block-diagonal precision)")
+    return PriorTerm("parameters", np.ascontiguousarray(precision[..., rows, rows]),
+                     np.ascontiguousarray(term.mean[:, rows]))
+
+
+def _newton_step(output, quadratic, current, r, thresholds, damping):
     """One damped Newton step of output i: its new coefficients (N, p), damping, and
     whether F decreased.
 
@@ -132,17 +214,17 @@ def _newton_step(output, W, W0, current, r, thresholds, damping):
     (:func:`_line_minimum`); a step that keeps the outliers (entries beyond δ̃)
     lowers the damping, towards the exact generalized Newton model.
     """
-    direction = _reweighted_fit(output, W, r, thresholds, damping) - current
+    direction = _reweighted_fit(output, quadratic, r, thresholds, damping) - current
     fitted_direction = np.einsum("tjk,tk->tj", output.phi, direction)
-    alpha = _line_minimum(output, W0, current, direction, r, fitted_direction, thresholds)
+    alpha = _line_minimum(quadratic, current, direction, r, fitted_direction, thresholds)
     trial = current + alpha * direction
-    value = _output_objective(output, current, thresholds, W0)
-    trial_value = _output_objective(output, trial, thresholds, W0)
+    value = _output_objective(output, quadratic, current, thresholds)
+    trial_value = _output_objective(output, quadratic, trial, thresholds)
     # near the optimum F changes by rounding only: no increase beyond that is a decrease
     if alpha == 0.0 or trial_value > value + 8 * np.finfo(float).eps * abs(value):
         # no decrease along the Newton direction: the majorize-minimize step
-        step = _reweighted_fit(output, W, r, thresholds, 1.0)
-        decreased = _output_objective(output, step, thresholds, W0) < value
+        step = _reweighted_fit(output, quadratic, r, thresholds, 1.0)
+        decreased = _output_objective(output, quadratic, step, thresholds) < value
         return step, NEWTON_DAMPING, decreased
     kept = alpha == 1.0 and np.array_equal(
         np.abs(r - fitted_direction) > thresholds, np.abs(r) > thresholds)
@@ -150,19 +232,17 @@ def _newton_step(output, W, W0, current, r, thresholds, damping):
     return trial, damping, trial_value < value
 
 
-def _line_minimum(output, W0, current, direction, r, fitted_direction, thresholds) -> float:
+def _line_minimum(quadratic, current, direction, r, fitted_direction, thresholds) -> float:
     """argmin over α in [0, 1] of F(current + α·direction), for one output.
 
     F along the line is convex and piecewise quadratic:
-    f'(α) = −2Σ clip(r − αg, ±δ̃)g + 2αa + 2b with g = φᵀdirection,
-    a = ⟨DΔ, W DΔ⟩ and b = ⟨DΔ, W Dk⟩; its root is found by Newton's method
-    safeguarded by bisection (exact once the entries within δ̃ settle).
+    f'(α) = −2Σ clip(r − αg, ±δ̃)g + 2αa + 2b with g = φᵀdirection and the
+    quadratic terms' a, b (:meth:`_OutputQuadratic.line`); its root is found
+    by Newton's method safeguarded by bisection (exact once the entries within
+    δ̃ settle).
     """
     g = fitted_direction
-    Dd = apply_difference(direction, output.coeffs)
-    Dc = apply_difference(current, output.coeffs)
-    Wd = Dd * W0 if W0.ndim == 1 else Dd @ W0
-    a, b = float(np.sum(Wd * Dd)), float(np.sum(Wd * Dc))
+    a, b = quadratic.line(current, direction)
 
     def slope(alpha: float) -> tuple[float, float]:
         shifted = r - alpha * g
@@ -192,7 +272,7 @@ def _line_minimum(output, W0, current, direction, r, fitted_direction, threshold
     return alpha
 
 
-def _reweighted_fit(output, W, r, thresholds, damping) -> np.ndarray:
+def _reweighted_fit(output, quadratic, r, thresholds, damping) -> np.ndarray:
     """The minimizer (N, p) of the quadratic model of output i's F at residuals r.
 
     Residuals beyond δ̃ count with weight a = τ δ̃/|r| and the pseudo-response
@@ -204,7 +284,7 @@ def _reweighted_fit(output, W, r, thresholds, damping) -> np.ndarray:
     scale = sqrt_a[:, :, None]
     weighted = RegressionProblem(y=y_hat[:, :, None] * scale, phi=output.phi * scale,
                                  coeffs=output.coeffs, observed=output.observed)
-    return SquaredSolver(weighted, W, []).solve(1.0)[0][:, 0, :]
+    return quadratic.solve(weighted)
 
 
 def newton_model(
@@ -221,12 +301,10 @@ def newton_model(
     return np.sqrt(a), np.where(beyond, y - r + r / damping, y)
 
 
-def _output_objective(output, theta, thresholds, W0) -> float:
+def _output_objective(output, quadratic, theta, thresholds) -> float:
     """Output i's part of F at its coefficients ``theta`` (N, p)."""
     r = output.y[:, :, 0] - np.einsum("tjk,tk->tj", output.phi, theta)
-    Dk = apply_difference(theta, output.coeffs)
-    pen = np.einsum("tk,tk->", Dk * W0, Dk) if W0.ndim == 1 else np.sum((Dk @ W0) * Dk)
-    return float(huber_loss(r, thresholds).sum() + pen)
+    return float(huber_loss(r, thresholds).sum()) + quadratic.value(theta)
 
 
 def _output_problem(problem: RegressionProblem, i: int) -> RegressionProblem:
@@ -235,44 +313,32 @@ def _output_problem(problem: RegressionProblem, i: int) -> RegressionProblem:
                              coeffs=problem.coeffs, observed=problem.observed)
 
 
-def _block(W: np.ndarray, i: int, p: int) -> np.ndarray:
-    """Output row i's part of the penalty weight (same form as W)."""
-    rows = slice(i * p, (i + 1) * p)
-    return W[rows] if W.ndim == 1 else W[rows, rows]
-
-
-def _kkt_residuals(problem, theta, r, thresholds, W, W0) -> np.ndarray:
-    """‖∇F‖∞ of each output, shape (n,), relative to its largest data or penalty term.
+def _kkt_residuals(problem, theta, r, thresholds, quadratics) -> np.ndarray:
+    """‖∇F‖∞ of each output, shape (n,), relative to its largest data or quadratic term.
 
     A coefficient held constant (inf weight) has one free value: its
-    stationarity condition is the sum of its gradient over time.
+    stationarity condition is the sum of its gradient over time, relative to
+    the sum of its terms' sizes, row by row (a step's rows may cancel).
     """
-    N, n, p = problem.N, problem.n, problem.p
+    n = problem.n
     tiny = np.finfo(float).tiny
     psi = np.clip(r, -thresholds, thresholds)  # h'(r) / 2
     if problem.q == 1:  # an outer product per step (einsum's reduction is slower)
         data = -2.0 * psi[:, 0, :, None] * problem.phi[:, 0, None, :]  # (N, n, p)
     else:
         data = -2.0 * np.einsum("tji,tjk->tik", psi, problem.phi)
-    Dk = apply_difference(theta.reshape(N, n * p), problem.coeffs)
-    weighted = Dk * W0 if W0.ndim == 1 else Dk @ W0
-    pen = 2.0 * apply_difference_adjoint(weighted, problem.coeffs, N).reshape(N, n, p)
-    const = np.isinf(W if W.ndim == 1 else np.diag(W))  # (K,)
-
-    def column_max(values: np.ndarray) -> np.ndarray:  # (K,), over time
-        return np.abs(values.reshape(N, n * p)).max(axis=0)
-
-    def per_output(values: np.ndarray) -> np.ndarray:  # (K,) → (n,), max over its coefficients
-        return values.reshape(n, p).max(axis=1)
-
-    free = np.where(const, 0.0, 1.0)
-    scale = per_output(np.maximum(column_max(data), column_max(pen)) * free)
-    residuals = per_output(column_max(data + pen) * free) / np.maximum(scale, tiny)
-    if const.any():  # one free value per constant coefficient: its gradient summed over time
-        fixed = np.where(const, 1.0, 0.0)
-        sums = np.abs(data.reshape(N, n * p).sum(axis=0)) * fixed
-        # the size of the terms summed, row by row (a step's rows may cancel)
-        terms = 2.0 * np.einsum("tji,tjk->ik", np.abs(psi), np.abs(problem.phi))
-        scale = per_output(terms.reshape(n * p) * fixed)
-        residuals = np.maximum(residuals, per_output(sums) / np.maximum(scale, tiny))
+    residuals = np.zeros(n)
+    for i, quad in enumerate(quadratics):
+        grad = quad.gradient(theta[:, i, :])
+        free, fixed = ~quad.const, quad.const
+        if free.any():
+            scale = max(float(np.abs(data[:, i, free]).max()), float(np.abs(grad[:, free]).max()),
+                        tiny)
+            residuals[i] = float(np.abs(data[:, i, free] + grad[:, free]).max()) / scale
+        if fixed.any():
+            sums = np.abs((data[:, i, fixed] + grad[:, fixed]).sum(axis=0))
+            sizes = 2.0 * np.einsum("tj,tjk->k", np.abs(psi[:, :, i]),
+                                    np.abs(problem.phi[:, :, fixed])) \
+                + np.abs(grad[:, fixed]).sum(axis=0)
+            residuals[i] = max(residuals[i], float((sums / np.maximum(sizes, tiny)).max()))
     return residuals

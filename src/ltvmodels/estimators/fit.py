@@ -248,8 +248,10 @@ def fit(
           ``tol``.
 
         With either, ``loglik`` is None, no ``cov`` is computed and
-        ``noise_var`` is the residual mean square; not yet with priors or
-        ``noise_var``. ``lam="auto"`` chooses λ by blocked cross-validation
+        ``noise_var`` is the residual mean square. "huber" with norm="sq"
+        takes a ``Prior`` on the coefficients (prior_mode="exact"): the
+        objective gains σ_i² Σ_t (k_t − μ_t)ᵀΣ_t⁻¹(k_t − μ_t) per output as for
+        the squared loss, with σ_i² = ``noise_var`` or (δ_i / 1.345)². ``lam="auto"`` chooses λ by blocked cross-validation
         scored with the same loss (see :func:`ltvmodels.select_lambda`).
     huber_delta : float or array_like of shape (n,), optional
         δ in the units of x, shared or one per state. Default: 1.345 × 1.4826

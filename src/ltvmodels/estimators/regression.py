@@ -230,12 +230,17 @@ def _fit_with_lam(
         const_mask=const.all(axis=0) if const.any() else None,
     )
     if loss != "squared":
-        _no_robust_option(prior, "prior", loss)
-        _no_robust_option(noise_var, "noise_var", loss)
+        if loss == "laplace":
+            _no_robust_option(prior, "prior", loss)
+            _no_robust_option(noise_var, "noise_var", loss)
+        elif terms and prior_mode != "exact":
+            raise NotImplementedError("prior_mode: 'posthoc' is not available with "
+                                      "loss='huber'; use prior_mode='exact'")
         return robust_model(
             problem, W, loss=loss, lam=_lam_copy(lam), norm=norm, delta=huber_delta,
-            factory=factory,            max_iter=options.integer(max_iter, "max_iter", minimum=1),
-            tol=options.positive_scalar(tol, "tol"),
+            factory=factory, max_iter=options.integer(max_iter, "max_iter", minimum=1),
+            tol=options.positive_scalar(tol, "tol"), priors=terms,
+            noise_var=None if noise_var is None else np.broadcast_to(noise_var, (n,)).copy(),
         )
 
     exact_terms = terms if prior_mode == "exact" else []

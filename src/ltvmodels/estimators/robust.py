@@ -20,6 +20,7 @@ import numpy as np
 from ..core.huber import fit_huber
 from ..core.huber_sparse import fit_huber_sparse
 from ..core.laplace import fit_laplace
+from ..core.priorterms import PriorTerm
 from ..core.problem import RegressionProblem, activation
 from ..core.sparse import solve_sparse
 from ..core.squared import SquaredSolver
@@ -63,6 +64,7 @@ class RobustSolution:
 def solve_robust(
     problem: RegressionProblem, penalty: np.ndarray, *, loss: str, norm: str,
     delta: np.ndarray | None, max_iter: int, tol: float, stacklevel: int = 2,
+    priors: list[PriorTerm] | None = None, noise_var: np.ndarray | None = None,
 ) -> RobustSolution:
     """Minimize the robust loss plus the penalty of ``norm`` from the squared-loss fit.
 
@@ -71,6 +73,11 @@ def solve_robust(
     the sparse weights (K,) of "group"/"l1"; ``delta`` the Huber thresholds
     (n,) (None: :func:`default_delta`). Warns (ConvergenceWarning) when the
     certificate does not reach ``tol``, at ``stacklevel`` counted from the caller.
+
+    ``priors`` (loss="huber", a squared-difference penalty) add
+    σ_i² Σ_t (k_ti − m_ti)ᵀ P_t (k_ti − m_ti) per output, as in the squared
+    loss's MAP estimate, with σ_i² = ``noise_var`` or, by default, the robust
+    scale (δ_i / 1.345)².
     """
     sparse = norm in ("group", "l1")
     # the squared-loss fit starts the iteration (and gives the robust residual scale)
@@ -97,10 +104,15 @@ def solve_robust(
                    f"tolerance {tol:g} in {result.stages} smoothing stages")
     else:
         if not sparse:
-            result = fit_huber(problem, penalty, delta, max_iter=max_iter, tol=tol,
-                               start=start)
-            solver = "damped Newton on reweighted fits (exact)"
+            prior_scale = None
             details = {}
+            if priors:
+                prior_scale = (delta / HUBER_EFFICIENCY) ** 2 if noise_var is None \
+                    else np.asarray(noise_var, dtype=float)
+                details["prior_scale"] = prior_scale.tolist()
+            result = fit_huber(problem, penalty, delta, max_iter=max_iter, tol=tol,
+                               start=start, priors=priors, prior_scale=prior_scale)
+            solver = "damped Newton on reweighted fits (exact)"
         else:
             result = fit_huber_sparse(problem, penalty, norm, delta, max_iter=max_iter,
                                       tol=tol, start=start)
@@ -142,7 +154,8 @@ def robust_record_parts(solution: RobustSolution, loss: str) -> tuple[dict, FitS
 def robust_model(
     problem: RegressionProblem, penalty: np.ndarray, *, loss: str, lam: Any, norm: str,
     delta: np.ndarray | None, factory: Callable[..., RegressionModel], max_iter: int,
-    tol: float, stacklevel: int = 4,
+    tol: float, stacklevel: int = 4, priors: list[PriorTerm] | None = None,
+    noise_var: np.ndarray | None = None,
 ) -> RegressionModel:
     """Fit with loss="huber" or "laplace" (:func:`solve_robust`) and build the model.
 
@@ -153,11 +166,13 @@ def robust_model(
     the certificate: "kkt_residual" (Huber), or "duality_gap" and
     "kkt_residual" (Laplace). Huber fits also hold "huber_delta" (n,),
     "n_outliers" and "outliers" (the (N, q, n) mask of residuals beyond δ).
-    ``loglik`` is None (no Gaussian likelihood) and ``noise_var`` is the
-    residual mean square of each output.
+    ``loglik`` is None (no Gaussian likelihood) and ``noise_var`` is the given
+    one, else the residual mean square of each output. ``priors`` and
+    ``noise_var`` as in :func:`solve_robust`.
     """
     solution = solve_robust(problem, penalty, loss=loss, norm=norm, delta=delta,
-                            max_iter=max_iter, tol=tol, stacklevel=stacklevel + 1)
+                            max_iter=max_iter, tol=tol, stacklevel=stacklevel + 1,
+                            priors=priors, noise_var=noise_var)
     info, status = robust_record_parts(solution, loss)
     N, K = problem.N, problem.K
     k = solution.theta.reshape(N, K)
@@ -165,7 +180,8 @@ def robust_model(
     if norm in ("group", "l1"):
         changepoints = find_changepoints(activation(k, problem.coeffs), degree=problem.degree,
                                          min_level=residue_level(k))
-    noise_var = problem.output_rss(solution.theta) / max(problem.n_observed, 1)
+    if noise_var is None:
+        noise_var = problem.output_rss(solution.theta) / max(problem.n_observed, 1)
     return factory(k, fit=FitRecord(
         norm=norm, coeffs=problem.coeffs, lam=lam, noise_var=noise_var,
         noise_cov=np.diag(noise_var), info=info, changepoints=changepoints, status=status,
