@@ -175,10 +175,13 @@ class _Direction:
     rhs: np.ndarray  # (N, K) added to the banded system's right-hand side
     entries: "_Entries"
     target: np.ndarray  # (2, N, q) the orthant targets η±
+    cached: tuple | None = None  # (Δk, its deltas)
 
     def deltas(self, dk: np.ndarray):
-        """(Δw or None, Δb, Δσ (2, N, q), Δζ (2, N, q)) for the solution Δk."""
-        return self.entries.deltas(self, dk)
+        """(Δw or None, Δb, Δσ (2, N, q), Δζ (2, N, q)) for the solution Δk (kept for reuse)."""
+        if self.cached is None or self.cached[0] is not dk:
+            self.cached = (dk, self.entries.deltas(self, dk))
+        return self.cached[1]
 
     def step(self, dk: np.ndarray) -> float:
         """The largest step keeping every entry's σ± and ζ± positive."""
