@@ -86,7 +86,7 @@ def fit_huber_sparse(
         Relative tolerance of the certificates (duality gap and residuals, or
         the KKT residual).
     start : ndarray, shape (N, n, p)
-        Starting coefficients of proximal Newton (the squared-loss fit).
+        Starting coefficients (the squared-loss fit).
     """
     N, p = problem.N, problem.p
     thresholds = delta[None, None, :] * problem.row_scale[:, :, None]  # (N, q, n)
@@ -95,17 +95,17 @@ def fit_huber_sparse(
     stalled = False
     for part, part_weights, part_thresholds, index in sparse_parts(problem, weights, norm,
                                                                    thresholds):
+        k = theta[:, index, :].reshape(N, -1)
         if ipm_applies(part_weights):
             with warnings.catch_warnings():  # judged by the caller from `converged`
                 warnings.simplefilter("ignore", ConvergenceWarning)
                 ip = fit_robust_ipm(part, part_weights, norm, "huber", 2.0 * part_thresholds,
-                                    tol=tol, max_iter=max_iter)
+                                    tol=tol, max_iter=max_iter, start=k)
             result = _PartResult(k=ip.k, objective=ip.objective, steps=ip.iterations,
                                  inner_iterations=0, converged=ip.converged,
                                  kkt=max(ip.dual_residual, ip.duality_gap),
                                  solver=IPM_SOLVER, stalled=ip.stalled)
         else:
-            k = theta[:, index, :].reshape(N, -1)
             result = _proximal_newton(part, part_weights, norm, part_thresholds, k,
                                       max_iter=max_iter, tol=tol)
         theta[:, index, :] = result.k.reshape(N, -1, p)

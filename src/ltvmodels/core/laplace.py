@@ -131,7 +131,7 @@ def fit_laplace(
             with warnings.catch_warnings():  # judged below by the certificate
                 warnings.simplefilter("ignore", ConvergenceWarning)
                 ip = fit_robust_ipm(part, weights, norm, "laplace", part_costs, tol=tol,
-                                    max_iter=max_iter)
+                                    max_iter=max_iter, start=theta[:, index, :].reshape(N, -1))
             k, pairing = ip.k, ip.psi / np.where(part_costs > 0, part_costs, 1.0)
             iterations, kkt = iterations + ip.iterations, max(kkt, ip.dual_residual)
             stalled |= ip.stalled

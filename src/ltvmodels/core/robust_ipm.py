@@ -39,11 +39,15 @@ from ..errors import ConvergenceWarning, SingularProblemError
 from . import conekernels as cones
 from .ipm import MIN_STEP, STEP_FRACTION, ConicProblem, NewtonSystem, feasible_start
 from .problem import RegressionProblem
+from .sparse_common import difference_preimage
 
 # The starting slack of each entry's orthant, relative to its cost c_e times a
 # residual scale; and how far inside [0, c] the starting duals ζ± sit.
 START_SLACK = 0.1
 START_DUAL_SHRINK = 0.9
+# From a given start, the cone duals' norms are capped here (0.5 took 12
+# iterations on the jump-linear benchmark, 0.9 took 14, 0.99 took 17).
+WARM_DUAL_NORM = 0.5
 
 
 @dataclass
@@ -62,7 +66,7 @@ class RobustIPMResult:
 
 def fit_robust_ipm(
     part: RegressionProblem, weights: np.ndarray, norm: str, loss: str, costs: np.ndarray,
-    *, tol: float, max_iter: int,
+    *, tol: float, max_iter: int, start: np.ndarray | None = None,
 ) -> RobustIPMResult:
     """Minimize the loss plus the sparse penalty of a single-output problem (module docstring).
 
@@ -78,13 +82,24 @@ def fit_robust_ipm(
         c_e per row: 2δ̃ (Huber thresholds δ̃ = δ√w) or s = √w (Laplace).
     tol, max_iter
         Relative tolerance of the certificate; iterations at most.
+    start : ndarray, shape (N, K), optional
+        Starting coefficients (e.g. the squared-loss fit). The cone duals then
+        start from the loss's gradient there, u = Λ⁻¹(DDᵀ)⁻¹D∇L (the duals that
+        make k stationary), shrunk into the cones' interior. Default: the
+        quadratic fit of :func:`.ipm.feasible_start`. On the jump-linear
+        benchmark (T = 1e4, Huber, group) the squared-loss start took 12
+        iterations instead of 16.
     """
     cp = ConicProblem(part, weights, norm)
     entries = _Entries(part, loss, costs)
     data_phi = cp.phi
     n_cones = cp.n_cones
-    k, rho = (feasible_start(part, cp) if part.degree in (1, 2)
-              else (np.zeros((cp.N, cp.K)), None))
+    if start is not None:
+        k, rho = np.array(start, dtype=float), None
+    elif part.degree in (1, 2):
+        k, rho = feasible_start(part, cp)
+    else:
+        k, rho = np.zeros((cp.N, cp.K)), None
     entries.start(k)
     t = np.zeros(n_cones)
     s, z = np.zeros(cp.cone_shape), np.zeros(cp.cone_shape)
@@ -98,6 +113,11 @@ def fit_robust_ipm(
     z[:, 0] = 1.0
     if rho is not None:
         z[:, 1:] = -rho * s[:, 1:]
+    elif start is not None:  # the duals that make k stationary (DᵀΛu = ∇L), inside the cones
+        entries.refresh(k)
+        u = (difference_preimage(entries.gradient(k), cp.coeffs) / cp.w).reshape(n_cones, -1)
+        norms = np.linalg.norm(u, axis=1)
+        z[:, 1:] = u * (WARM_DUAL_NORM / np.maximum(norms, WARM_DUAL_NORM))[:, None]
     degree = n_cones + 2 * entries.count
     converged = stalled = False
     iterations = 0

@@ -251,8 +251,9 @@ def fit(
         ``noise_var`` is the residual mean square. "huber" with norm="sq"
         takes a ``Prior`` on the coefficients (prior_mode="exact"): the
         objective gains σ_i² Σ_t (k_t − μ_t)ᵀΣ_t⁻¹(k_t − μ_t) per output as for
-        the squared loss, with σ_i² = ``noise_var`` or (δ_i / 1.345)². ``lam="auto"`` chooses λ by blocked cross-validation
-        scored with the same loss (see :func:`ltvmodels.select_lambda`).
+        the squared loss, with σ_i² = ``noise_var`` or (δ_i / 1.345)².
+        ``lam="auto"`` chooses λ by blocked cross-validation scored with the
+        same loss (see :func:`ltvmodels.select_lambda`).
     huber_delta : float or array_like of shape (n,), optional
         δ in the units of x, shared or one per state. Default: 1.345 × 1.4826
         · MAD of each state's squared-loss residuals (Huber's 95 % efficiency

@@ -30,6 +30,9 @@ from ..results.regression import RegressionModel
 from .changepoints import MAD_TO_STD, find_changepoints, residue_level
 
 HUBER_EFFICIENCY = 1.345  # δ / σ of Huber's 95 %-efficient estimator
+# Tolerance of the squared-loss sparse fit that starts a robust one: its residuals'
+# MAD (the default δ) and a starting point need a few digits only.
+START_TOL = 1e-3
 
 
 def default_delta(problem: RegressionProblem, theta: np.ndarray) -> np.ndarray:
@@ -84,9 +87,10 @@ def solve_robust(
     if not sparse:
         start = SquaredSolver(problem, penalty, []).solve(1.0)[0]
     else:
-        with warnings.catch_warnings():  # only a starting point
+        with warnings.catch_warnings():  # only a starting point and a residual scale
             warnings.simplefilter("ignore", ConvergenceWarning)
-            start = solve_sparse(problem, penalty, norm, max_iter=max_iter, tol=tol).theta
+            start = solve_sparse(problem, penalty, norm, max_iter=max_iter,
+                                 tol=max(tol, START_TOL)).theta
     rule = "given"
     if delta is None:
         delta = default_delta(problem, start)
