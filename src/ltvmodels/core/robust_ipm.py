@@ -41,8 +41,8 @@ from .ipm import MIN_STEP, STEP_FRACTION, ConicProblem, NewtonSystem, feasible_s
 from .problem import RegressionProblem
 from .sparse_common import difference_preimage
 
-# The starting slack of each entry's orthant, relative to its cost c_e times a
-# residual scale; and how far inside [0, c] the starting duals ζ± sit.
+# The starting slack of each entry's orthant, relative to the median |r|; and how
+# far inside [0, c] the starting duals ζ± sit.
 START_SLACK = 0.1
 START_DUAL_SHRINK = 0.9
 # From a given start, the cone duals' norms are capped here (0.5 took 12
