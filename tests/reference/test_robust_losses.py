@@ -441,3 +441,21 @@ def test_huber_with_a_parameter_prior_matches_clarabel():
         ltv.fit(x, u, lam=3.0, loss="laplace", prior=ltv.Prior(mean, cov))
     with pytest.raises(NotImplementedError, match=r"^prior_mode: 'posthoc' is not available"):
         ltv.fit(x, u, lam=3.0, loss="huber", prior=ltv.Prior(mean, cov), prior_mode="posthoc")
+
+
+def test_huber_group_error_with_outliers_of_the_state_scale():
+    """+5 standard deviations of the state (not of the noise) in 5 % of the samples, λ = 16,
+    8 seeds (measured): RMS coefficient error 0.155 (Huber) against 0.415 (squared), at most
+    0.45 of it in every seed."""
+    errors = {"squared": [], "huber": []}
+    for seed in range(8):
+        data = ltv.systems.jump_linear(seed=seed)
+        rng = np.random.default_rng(seed)
+        x = data.x.copy()
+        hit = rng.choice(np.arange(1, x.shape[0]), size=x.shape[0] // 20, replace=False)
+        state = rng.integers(0, 2, size=hit.size)
+        x[hit, state] += 5 * np.std(data.x, axis=0)[state]
+        for loss in errors:
+            model = ltv.fit(x, data.u, lam=16.0, norm="group", loss=loss)
+            errors[loss].append(np.sqrt(np.mean((model.theta - data.theta) ** 2)))
+    assert np.mean(errors["huber"]) < 0.5 * np.mean(errors["squared"]), errors
