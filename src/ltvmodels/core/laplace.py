@@ -6,10 +6,10 @@ Objective (rows scaled by s = √w as in :mod:`.huber`, so w|r| = s|r̃|):
 
 Methods:
 
-* norm="group"/"l1" (finite weights, at most IPM_MAX_K coefficients per
+* Finite weights (and, for "group"/"l1", at most IPM_MAX_K coefficients per
   step): the interior-point method with residual cones (:mod:`.robust_ipm`),
-  part by part.
-* Otherwise (norm="sq", or constants held, or many coefficients): |r| is
+  part by part (each output for "sq" and "l1").
+* Otherwise (coefficients held constant, or many per step): |r| is
   smoothed by the Huber function, h_δ(r)/(2δ), which lies within
   [|r| − δ/2, |r|]; its minimizer, that of Σ w h_δ(r) + 2δ P(k), is computed
   by the Huber solvers (:mod:`.huber`, :mod:`.huber_sparse`) from the
@@ -38,7 +38,7 @@ import numpy as np
 
 from .huber import fit_huber
 from .huber_sparse import fit_huber_sparse, ipm_applies, sparse_parts
-from .robust_ipm import fit_robust_ipm
+from .robust_ipm import fit_robust_ipm, fit_robust_ipm_squared
 from ..errors import ConvergenceWarning, SingularProblemError
 from .problem import (
     RegressionProblem,
@@ -114,24 +114,36 @@ def fit_laplace(
     start : ndarray, shape (N, n, p)
         Starting coefficients (the squared-loss fit).
     """
-    if norm == "sq":
-        return _smoothed(problem, penalty, norm, delta, max_iter=max_iter, tol=tol,
-                         start=start)
-    # the sparse norms part by part: the interior-point method where it applies
     N, p = problem.N, problem.p
+    costs = np.repeat(problem.row_scale[:, :, None], problem.n, 2)
+    if norm == "sq":
+        # each output alone, by the interior-point method where the weights are finite
+        if not SquaredSolver(problem, penalty, []).separable or \
+                np.isinf(weight_diagonal(penalty)).any():
+            return _smoothed(problem, penalty, norm, delta, max_iter=max_iter, tol=tol,
+                             start=start)
+        parts = sparse_parts(problem, weight_diagonal(penalty), "l1", costs)
+    else:  # the sparse norms part by part: the interior-point method where it applies
+        parts = sparse_parts(problem, penalty, norm, costs)
     theta = start.copy()
     psi = np.zeros_like(problem.y)
-    costs = np.repeat(problem.row_scale[:, :, None], problem.n, 2)
     iterations, stages, smoothing, kkt, stalled, methods = 0, 0, 0.0, 0.0, False, []
-    for part, weights, part_costs, index in sparse_parts(problem, penalty, norm, costs):
-        method = IPM if ipm_applies(weights) else SMOOTHING
+    for part, weights, part_costs, index in parts:
+        method = IPM if norm == "sq" or ipm_applies(weights) else SMOOTHING
         if method not in methods:
             methods.append(method)
         if method == IPM:
+            k0 = theta[:, index, :].reshape(N, -1)
             with warnings.catch_warnings():  # judged below by the certificate
                 warnings.simplefilter("ignore", ConvergenceWarning)
-                ip = fit_robust_ipm(part, weights, norm, "laplace", part_costs, tol=tol,
-                                    max_iter=max_iter, start=theta[:, index, :].reshape(N, -1))
+                if norm == "sq":
+                    rows = slice(index.start * p, index.stop * p)
+                    block = penalty[rows] if penalty.ndim == 1 else penalty[rows, rows]
+                    ip = fit_robust_ipm_squared(part, block, "laplace", part_costs, tol=tol,
+                                                max_iter=max_iter, start=k0)
+                else:
+                    ip = fit_robust_ipm(part, weights, norm, "laplace", part_costs, tol=tol,
+                                        max_iter=max_iter, start=k0)
             k, pairing = ip.k, ip.psi / np.where(part_costs > 0, part_costs, 1.0)
             iterations, kkt = iterations + ip.iterations, max(kkt, ip.dual_residual)
             stalled |= ip.stalled
@@ -222,8 +234,8 @@ def _smoothed(problem, penalty, norm, delta, *, max_iter, tol, start) -> Laplace
 def polish_squared(
     problem: RegressionProblem, W: np.ndarray, theta: np.ndarray, smoothing: float,
 ) -> tuple[np.ndarray, np.ndarray, float] | None:
-    """The exact optimum with the zero residuals Z (|r| <= δ) and the signs of the others
-    fixed: (Θ, its dual point ψ (N, q, n), relative KKT residual), or None.
+    """The exact optimum from the zero residuals Z (|r| <= δ) and the signs of the others:
+    (Θ, its dual point ψ (N, q, n), relative KKT residual), or None.
 
     With Z and the signs c = s·sign(r̃) fixed, F is the equality-constrained QP
 
@@ -232,36 +244,56 @@ def polish_squared(
     solved by the method of multipliers (each step a weighted squared-loss fit
     with the same matrix: Z rows weighted ρ, the others ε with the
     pseudo-response c/2ε that carries the linear term). Its multipliers ν are
-    Laplace's dual on Z, ψ = ν/s, sign(r) elsewhere; None if no residual may
-    be zero, the QP is singular, or the multipliers do not settle.
+    Laplace's dual on Z, ψ = ν/s, sign(r) elsewhere. The split is optimal when
+    |ψ| <= 1 on Z and no residual outside Z changed sign; otherwise the
+    entries of Z with |ψ| > 1 leave it (with the sign of ψ) and those that
+    changed sign join it, up to POLISH_SPLITS times. None if no residual may be
+    zero, a QP is singular, or the multipliers or the split do not settle.
     """
     s = problem.row_scale[:, :, None] * np.ones((1, 1, problem.n))  # (N, q, n)
     r = problem.residuals(theta)
     observed = s > 0
     zero = observed & (np.abs(r) <= smoothing * s)
+    signs = np.where(observed & ~zero, np.sign(r), 0.0)
+    for _ in range(POLISH_SPLITS):
+        solved = _equality_qp(problem, W, zero, signs * s)
+        if solved is None:
+            return None
+        theta, nu = solved
+        psi = np.where(zero, nu / np.where(zero, s, 1.0), signs)
+        r = problem.residuals(theta)
+        leave = zero & (np.abs(psi) > 1.0)
+        join = observed & ~zero & (signs * r < 0.0)
+        if not (leave.any() or join.any()):
+            return theta, psi, _laplace_kkt(problem, theta, W, psi * s)
+        signs = np.where(leave, np.sign(psi), np.where(join, 0.0, signs))
+        zero = (zero & ~leave) | join
+    return None
+
+
+def _equality_qp(problem, W, zero, linear) -> tuple[np.ndarray, np.ndarray] | None:
+    """(Θ, ν) of the polish's QP for the zero set ``zero`` and linear terms c = ``linear``
+    (N, q, n), by the method of multipliers; None if singular or not settled."""
+    observed = problem.row_scale[:, :, None] * np.ones((1, 1, problem.n)) > 0
     if not zero.any():
         return None
-    signs = np.where(observed & ~zero, s * np.sign(r), 0.0)
-    phi_sq = np.einsum("tjk,tjk->tj", problem.phi, problem.phi)[:, :, None] * np.ones_like(r)
+    phi_sq = np.einsum("tjk,tjk->tj", problem.phi, problem.phi)[:, :, None] * np.ones(zero.shape)
     W_scale = float(np.max(np.where(np.isinf(W), 0.0, W), initial=0.0))
     rho = POLISH_RHO * max(W_scale, 1.0) / max(float(np.mean(phi_sq[zero])), 1e-300)
     eps = POLISH_EPSILON * rho
-    nu = np.zeros_like(r)
+    nu = np.zeros(zero.shape)
     row_weight = np.where(zero, rho, np.where(observed, eps, 0.0))
     y_scale = float(np.abs(problem.y).max(initial=0.0)) + 1e-300
     for _ in range(POLISH_STEPS):
-        pseudo = np.where(zero, problem.y + nu / (2.0 * rho), signs / (2.0 * eps))
+        pseudo = np.where(zero, problem.y + nu / (2.0 * rho), linear / (2.0 * eps))
         theta = _weighted_fit(problem, row_weight, pseudo, W)
         if theta is None:
             return None
         violation = np.where(zero, problem.residuals(theta), 0.0)
         nu += 2.0 * rho * violation
         if np.abs(violation).max() <= POLISH_FEASIBILITY * y_scale:
-            break
-    else:
-        return None
-    psi = np.where(zero, nu / np.where(zero, s, 1.0), np.sign(signs))
-    return theta, psi, _laplace_kkt(problem, theta, W, psi * s)
+            return theta, nu
+    return None
 
 
 def relative_gap(problem: RegressionProblem, theta: np.ndarray, objective: float,
@@ -334,12 +366,13 @@ def dual_bound(problem: RegressionProblem, psi: np.ndarray, penalty: np.ndarray,
 
 
 # Polish: ρ relative to the penalty weight over the mean squared regressor of Z,
-# ε relative to ρ, the multiplier steps at most, and the constraint violation
-# (relative to the largest |y|) accepted as zero.
+# ε relative to ρ, the multiplier steps at most, the constraint violation
+# (relative to the largest |y|) accepted as zero, and the corrections of the split.
 POLISH_RHO = 1e6
 POLISH_EPSILON = 1e-30
 POLISH_STEPS = 50
 POLISH_FEASIBILITY = 1e-13
+POLISH_SPLITS = 10
 
 
 def _weighted_fit(problem, row_weight, pseudo, W) -> np.ndarray | None:

@@ -13,7 +13,9 @@ entry e (row j of step t of a single-output problem, rows scaled by √w):
       minimize Σ c_e b_e + Σ_c t_c,   c_e = s_e,
       subject to σ±_e = b_e ∓ r_e >= 0,
 
-with r = y − φᵀk and the group/l1 cones (t_c, (ΛDk)_c) of :mod:`.ipm`.
+with r = y − φᵀk and the group/l1 cones (t_c, (ΛDk)_c) of :mod:`.ipm`
+(:func:`fit_robust_ipm`), or the squared-difference penalty
+(:func:`fit_robust_ipm_squared`).
 
 Each entry's variables (w, b, their duals ζ±) are eliminated from the Newton
 equations in closed form (a 2 × 2 orthant per entry: g± = ζ±/σ±), which
@@ -38,7 +40,8 @@ import numpy as np
 from ..errors import ConvergenceWarning, SingularProblemError
 from . import conekernels as cones
 from .ipm import MIN_STEP, STEP_FRACTION, ConicProblem, NewtonSystem, feasible_start
-from .problem import RegressionProblem
+from .banded import BlockFactor, BlockSystem
+from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 from .sparse_common import difference_preimage
 
 # The starting slack of each entry's orthant, relative to the median |r|; and how
@@ -181,6 +184,80 @@ def fit_robust_ipm(
         warnings.warn(f"the interior-point method {reason} (relative gap "
                       f"{gap / max(objective, 1e-300):.1e}, dual residual {dual_res:.1e})",
                       ConvergenceWarning, stacklevel=3)
+    return RobustIPMResult(
+        k=k, objective=objective, duality_gap=gap / max(objective, 1e-300),
+        dual_residual=dual_res, iterations=iterations, converged=converged,
+        stalled=stalled and not converged, psi=entries.pairing(),
+    )
+
+
+def fit_robust_ipm_squared(
+    part: RegressionProblem, W: np.ndarray, loss: str, costs: np.ndarray, *, tol: float,
+    max_iter: int, start: np.ndarray,
+) -> RobustIPMResult:
+    """The same with the squared-difference penalty Σ_t (Dk)_tᵀ W (Dk)_t instead of cones.
+
+    The Newton system is then (Σ_e d_e φ_eφ_eᵀ + 2DᵀWD)Δk = rhs, one block-banded
+    factorization per iteration (a weighted squared-loss fit's matrix), used by
+    the predictor and the corrector.
+
+    Parameters
+    ----------
+    part : RegressionProblem
+        One output (n = 1).
+    W : ndarray, shape (p,) or (p, p)
+        Its penalty weight, finite.
+    loss, costs, tol, max_iter
+        As in :func:`fit_robust_ipm`.
+    start : ndarray, shape (N, p)
+        Starting coefficients (the squared-loss fit).
+    """
+    entries = _Entries(part, loss, costs)
+    N, coeffs = part.N, part.coeffs
+    Wm = np.diag(W) if W.ndim == 1 else W
+    k = np.array(start, dtype=float)
+    entries.start(k)
+    degree = 2 * entries.count
+    converged = stalled = False
+    iterations, gap, dual_res, objective = 0, np.inf, np.inf, np.inf
+    while True:
+        entries.refresh(k)
+        if not entries.interior():
+            stalled = True
+            break
+        WDk = apply_difference(k, coeffs) @ Wm
+        r_k = entries.gradient(k) + 2.0 * apply_difference_adjoint(WDk, coeffs, N)
+        objective = entries.loss(k) + float(np.sum(WDk * apply_difference(k, coeffs)))
+        gap = entries.gap()
+        dual_res = max(float(np.linalg.norm(r_k)) / entries.scale, entries.residual())
+        if gap <= tol * max(objective, 1e-300) and dual_res <= tol:
+            converged = True
+            break
+        if iterations == max_iter:
+            break
+        phi = entries.scaled_regressors(part.phi) * np.sqrt(2.0)  # Σ d φφᵀ
+        try:
+            factor = BlockFactor(BlockSystem(phi, 1, 1.0, np.zeros((0,) + Wm.shape), 2.0 * Wm,
+                                             coeffs), "the interior-point Newton system")
+        except SingularProblemError:
+            if iterations == 0:
+                raise
+            stalled = True
+            break
+        iterations += 1
+        affine = entries.eliminate(-entries.complementarity())
+        dk = factor.solve(np.ascontiguousarray((affine.rhs - r_k)[:, :, None]))[:, :, 0]
+        step = min(1.0, affine.step(dk))
+        sigma_mu = (1.0 - step) ** 3 * gap / degree
+        direction = entries.eliminate(sigma_mu - entries.complementarity()
+                                      - affine.second_order(dk))
+        dk = factor.solve(np.ascontiguousarray((direction.rhs - r_k)[:, :, None]))[:, :, 0]
+        step = min(1.0, STEP_FRACTION * direction.step(dk))
+        if step < MIN_STEP:
+            stalled = True
+            break
+        k += step * dk
+        entries.take_step(direction, dk, step)
     return RobustIPMResult(
         k=k, objective=objective, duality_gap=gap / max(objective, 1e-300),
         dual_residual=dual_res, iterations=iterations, converged=converged,

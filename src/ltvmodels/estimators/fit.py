@@ -242,10 +242,9 @@ def fit(
           ``info`` holds "huber_delta", "n_outliers" and "kkt_residual".
         * "laplace": |r| (the paper's Laplacian noise, Section IV-A), the most
           robust. Exact: the interior-point method with one more cone pair
-          per residual entry ("group", "l1"), or Huber smoothing with
-          decreasing δ and an exact active-set polish ("sq"), stopped when a
-          rigorous duality gap ("duality_gap" in ``info``, relative) is below
-          ``tol``.
+          per residual entry (Huber smoothing with an exact active-set polish
+          where coefficients are held constant), stopped when a rigorous
+          duality gap ("duality_gap" in ``info``, relative) is below ``tol``.
 
         With either, ``loglik`` is None, no ``cov`` is computed and
         ``noise_var`` is the residual mean square. "huber" with norm="sq"
