@@ -459,3 +459,16 @@ def test_huber_group_error_with_outliers_of_the_state_scale():
             model = ltv.fit(x, data.u, lam=16.0, norm="group", loss=loss)
             errors[loss].append(np.sqrt(np.mean((model.theta - data.theta) ** 2)))
     assert np.mean(errors["huber"]) < 0.5 * np.mean(errors["squared"]), errors
+
+
+@pytest.mark.parametrize("loss", ["huber", "laplace"])
+def test_an_exact_fit_is_optimal_for_every_loss(loss):
+    """Noise-free data that the squared-loss fit reproduces: that fit has ∇P = 0 and no
+    residual, so it is the robust optimum too (reported with a zero certificate)."""
+    rng = np.random.default_rng(11)
+    phi = rng.standard_normal((60, 2))
+    y = phi @ np.array([1.5, -0.5])
+    squared = ltv.fit_regression(y, phi, lam=5.0)
+    robust = ltv.fit_regression(y, phi, lam=5.0, loss=loss)
+    assert robust.status.success and robust.info["exact_fit"]
+    np.testing.assert_array_equal(robust.k, squared.k)

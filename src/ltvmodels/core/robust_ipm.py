@@ -127,9 +127,6 @@ def fit_robust_ipm(
     gap = dual_res = np.inf
     while True:
         entries.refresh(k)
-        if not entries.interior():  # a slack or dual underflowed to the boundary
-            stalled = True
-            break
         # residuals of the cone constraints and of stationarity in k (data + cones)
         cones.weighted_difference(k, cp.coeffs, cp.w, r_z)
         r_z[:, 0] = s[:, 0] - t
@@ -144,6 +141,9 @@ def fit_robust_ipm(
                        float(np.abs(1.0 - z[:, 0]).max(initial=0.0)), entries.residual())
         if gap <= tol * max(objective, 1e-300) and primal_res <= tol and dual_res <= tol:
             converged = True
+            break
+        if not entries.interior():  # a slack or dual underflowed to the boundary
+            stalled = True
             break
         if iterations == max_iter:
             break
@@ -222,9 +222,6 @@ def fit_robust_ipm_squared(
     iterations, gap, dual_res, objective = 0, np.inf, np.inf, np.inf
     while True:
         entries.refresh(k)
-        if not entries.interior():
-            stalled = True
-            break
         WDk = apply_difference(k, coeffs) @ Wm
         r_k = entries.gradient(k) + 2.0 * apply_difference_adjoint(WDk, coeffs, N)
         objective = entries.loss(k) + float(np.sum(WDk * apply_difference(k, coeffs)))
@@ -233,7 +230,8 @@ def fit_robust_ipm_squared(
         if gap <= tol * max(objective, 1e-300) and dual_res <= tol:
             converged = True
             break
-        if iterations == max_iter:
+        if not entries.interior() or iterations == max_iter:  # interior: see fit_robust_ipm
+            stalled = not entries.interior()
             break
         phi = entries.scaled_regressors(part.phi) * np.sqrt(2.0)  # Σ d φφᵀ
         try:

@@ -17,7 +17,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..core.huber import fit_huber
+from ..core.huber import fit_huber, huber_loss
 from ..core.huber_sparse import fit_huber_sparse
 from ..core.laplace import fit_laplace
 from ..core.priorterms import PriorTerm
@@ -33,6 +33,8 @@ HUBER_EFFICIENCY = 1.345  # δ / σ of Huber's 95 %-efficient estimator
 # Tolerance of the squared-loss sparse fit that starts a robust one: its residuals'
 # MAD (the default δ) and a starting point need a few digits only.
 START_TOL = 1e-3
+# Residuals at most this fraction of the largest |y| are rounding: an exact fit.
+EXACT_FIT = 1e-12
 
 
 def default_delta(problem: RegressionProblem, theta: np.ndarray) -> np.ndarray:
@@ -95,6 +97,8 @@ def solve_robust(
     if delta is None:
         delta = default_delta(problem, start)
         rule = "1.345 * 1.4826 * MAD of squared-loss residuals"
+    if not sparse and not priors and _fits_exactly(problem, start):
+        return _exact_fit(problem, penalty, start, loss, delta, rule)
     outliers = None
     if loss == "laplace":
         result = fit_laplace(problem, penalty, norm if sparse else "sq", delta,
@@ -135,6 +139,34 @@ def solve_robust(
     return RobustSolution(
         theta=result.theta, objective=result.objective, iterations=result.iterations,
         converged=result.converged, stalled=result.stalled, solver=solver, details=details,
+        outliers=outliers, delta_rule=rule,
+    )
+
+
+def _fits_exactly(problem: RegressionProblem, theta: np.ndarray) -> bool:
+    """No residual beyond rounding (EXACT_FIT relative to the largest |y|)."""
+    scale = max(float(np.abs(problem.y).max(initial=0.0)), np.finfo(float).tiny)
+    return bool(np.abs(problem.residuals(theta)).max(initial=0.0) <= EXACT_FIT * scale)
+
+
+def _exact_fit(problem, W, theta, loss, delta, rule) -> RobustSolution:
+    """The squared-loss fit when it leaves no residual: it minimizes the penalty with every
+    residual zero (its stationarity is ∇P = 2Φᵀr = 0), so it minimizes any loss plus the
+    penalty; the certificate is that zero gradient."""
+    r = problem.residuals(theta)
+    s = problem.row_scale[:, :, None]
+    if loss == "huber":
+        value = float(huber_loss(r, delta[None, None, :] * s).sum())
+        outliers = np.zeros(r.shape, dtype=bool)
+        details = {"kkt_residual": 0.0, "huber_delta": delta.tolist(), "n_outliers": 0}
+    else:
+        value, outliers = float(np.sum(s * np.abs(r))), None
+        details = {"duality_gap": 0.0, "duality_gap_rigorous": True, "kkt_residual": 0.0}
+    details["exact_fit"] = True
+    return RobustSolution(
+        theta=theta, objective=value + SquaredSolver(problem, W, []).penalty(theta),
+        iterations=0, converged=True, stalled=False,
+        solver="the squared-loss fit (no residual: optimal for any loss)", details=details,
         outliers=outliers, delta_rule=rule,
     )
 
