@@ -185,6 +185,8 @@ def fit_problem(
             "lams": selection.lams.tolist(), "scores": selection.scores.tolist(),
             "loss": selection.loss,
         }
+        if selection.skipped:
+            model.info["lam_selection"]["skipped"] = [list(item) for item in selection.skipped]
     return model
 
 

@@ -48,7 +48,7 @@ from ..core.problem import RegressionProblem, apply_difference
 from ..core.sparse import solve_sparse
 from ..core.sparse_common import lambda_max
 from ..core.squared import fit_squared
-from ..errors import ConvergenceWarning, PrecisionWarning
+from ..errors import ConvergenceWarning, PrecisionWarning, SingularProblemError
 from ..results.base import signal_names
 from ..results.selection import LambdaSelection
 from ..validation import arrays, options
@@ -253,43 +253,88 @@ def select_for_problem(
             if progress is not None:
                 progress(i + 1, len(values))
 
+    skipped: list = []  # (λ, why) of candidates whose problem is singular
+
+    def attempt(function: Callable[[float], Any], lam: float) -> Any:
+        """function(λ), or None (recorded in ``skipped``) where the problem is singular."""
+        try:
+            return function(lam)
+        except SingularProblemError as exc:
+            skipped.append((float(lam), str(exc)))
+            return None
+
+    def finish(selection: LambdaSelection) -> LambdaSelection:
+        selection.skipped = skipped or None
+        return selection
+
     if loss != "squared":
         if loss == "huber" and delta is None:
             middle = float(np.sqrt(grid[0] * grid[-1]))
             delta = default_delta(problem, criterion_fit(problem, norm, middle)["theta"])
-        scores = np.array([_robust_cv_error(problem, norm, lam, n_folds, loss, delta)
-                           for lam in scored(grid)])
-        return LambdaSelection(float(grid[np.argmin(scores)]), grid, scores, method, norm,
-                               loss=loss,
-                               huber_delta=None if delta is None else delta.tolist())
+        values = [attempt(lambda lam: _robust_cv_error(problem, norm, lam, n_folds, loss,
+                                                        delta), lam) for lam in scored(grid)]
+        scores = _scores(values, grid, skipped, data_name, worst=np.inf)
+        return finish(LambdaSelection(float(grid[np.argmin(scores)]), grid, scores, method,
+                                      norm, loss=loss,
+                                      huber_delta=None if delta is None else delta.tolist()))
     if method == "cv":
-        scores = np.array([_cv_error(problem, norm, lam, n_folds) for lam in scored(grid)])
-        return LambdaSelection(float(grid[np.argmin(scores)]), grid, scores, method, norm)
-    fits = [criterion_fit(problem, norm, lam, compute_cov=method == "gcv")
-            for lam in scored(grid)]
-    residual = np.array([np.sqrt(f["rss"]) for f in fits])
-    penalty = np.array([f["penalty_norm"] for f in fits])
+        values = [attempt(lambda lam: _cv_error(problem, norm, lam, n_folds), lam)
+                  for lam in scored(grid)]
+        scores = _scores(values, grid, skipped, data_name, worst=np.inf)
+        return finish(LambdaSelection(float(grid[np.argmin(scores)]), grid, scores, method,
+                                      norm))
+    fits = [attempt(lambda lam: criterion_fit(problem, norm, lam, compute_cov=method == "gcv"),
+                    lam) for lam in scored(grid)]
+    _scores([None if f is None else 0.0 for f in fits], grid, skipped, data_name, worst=0.0)
+    ok = np.array([f is not None for f in fits])
+    residual = np.array([np.sqrt(f["rss"]) if f is not None else np.nan for f in fits])
+    penalty = np.array([f["penalty_norm"] if f is not None else np.nan for f in fits])
     if method == "lcurve":
-        curvature = _lcurve_curvature(grid, residual, penalty)
+        curvature = np.full(grid.size, -np.inf)
+        if ok.sum() >= 2:
+            curvature[ok] = _lcurve_curvature(grid[ok], residual[ok], penalty[ok])
         if not np.isfinite(curvature).any():
             raise ValueError(
                 "lams: the L-curve has no corner: every candidate gives the same fit "
-                f"(residual norm {residual[0]:.6g}), e.g. all at or above λ_max = "
+                f"(residual norm {residual[ok][0]:.6g}), e.g. all at or above λ_max = "
                 f"{lambda_max(problem, norm):.6g}; pass candidates below λ_max, or none for the "
                 "default grid"
             )
         best = int(np.argmax(curvature))
-        return LambdaSelection(float(grid[best]), grid, curvature, method, norm, residual, penalty)
+        return finish(LambdaSelection(float(grid[best]), grid, curvature, method, norm,
+                                      residual, penalty))
     if method == "ml":
-        scores = np.array([f["loglik"] for f in fits])
-        lam = _refine(grid, scores, lambda lam: -criterion_fit(problem, norm, lam)["loglik"],
-                      maximize=True)
-        return LambdaSelection(lam, grid, scores, method, norm, residual, penalty)
+        scores = np.array([f["loglik"] if f is not None else -np.inf for f in fits])
+
+        def negative_loglik(lam: float) -> float:
+            fit = attempt(lambda value: criterion_fit(problem, norm, value), lam)
+            return np.inf if fit is None else -fit["loglik"]
+
+        lam = _refine(grid, scores, negative_loglik, maximize=True)
+        return finish(LambdaSelection(lam, grid, scores, method, norm, residual, penalty))
     # gcv
-    dof = np.array([f["dof"] for f in fits])
-    scores = np.array([_gcv(problem, f["rss"], f["dof"]) for f in fits])
-    lam = _refine(grid, scores, lambda lam: _gcv_at(problem, lam), maximize=False)
-    return LambdaSelection(lam, grid, scores, method, norm, residual, penalty, dof)
+    dof = np.array([f["dof"] if f is not None else np.nan for f in fits])
+    scores = np.array([_gcv(problem, f["rss"], f["dof"]) if f is not None else np.inf
+                       for f in fits])
+
+    def gcv(lam: float) -> float:
+        value = attempt(lambda value: _gcv_at(problem, value), lam)
+        return np.inf if value is None else value
+
+    lam = _refine(grid, scores, gcv, maximize=False)
+    return finish(LambdaSelection(lam, grid, scores, method, norm, residual, penalty, dof))
+
+
+def _scores(values: list, grid: np.ndarray, skipped: list, data_name: str, *,
+            worst: float) -> np.ndarray:
+    """The scores with ``worst`` for skipped candidates; an error if every one was skipped."""
+    if all(value is None for value in values):
+        lam, why = skipped[0]
+        raise SingularProblemError(
+            f"{data_name}: every candidate λ ({grid[0]:.3g} … {grid[-1]:.3g}) gives a "
+            f"singular problem; at λ = {lam:.3g}: {why}"
+        )
+    return np.array([worst if value is None else value for value in values], dtype=float)
 
 
 # -- fits and criteria --------------------------------------------------------------------

@@ -34,6 +34,9 @@ class LambdaSelection:
         "huber", "laplace").
     huber_delta : list of float or None
         The Huber thresholds used for every candidate (loss="huber").
+    skipped : list of (float, str) or None
+        Candidates left out because their problem is singular, with the reason
+        (they score worst: -inf or +inf).
     """
 
     lam: float
@@ -46,6 +49,7 @@ class LambdaSelection:
     dof: np.ndarray | None = None
     loss: str = "squared"
     huber_delta: list | None = None
+    skipped: list | None = None
 
     @property
     def maximize(self) -> bool:
