@@ -60,3 +60,11 @@ class DivergenceWarning(UserWarning):
 
     The returned trajectory holds inf or NaN from the step named in the message on.
     """
+
+
+class ModelStructureWarning(UserWarning):
+    """The model's structure looks wrong for the data.
+
+    Issued for example when an AR/ARX model without an intercept is fitted to
+    a series whose mean is clearly not zero; the message says what to change.
+    """

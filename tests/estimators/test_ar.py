@@ -10,6 +10,8 @@ from __future__ import annotations
 import importlib.util
 from pathlib import Path
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -183,6 +185,8 @@ def test_time_varying_arx_with_constant_is_recovered():
     assert np.abs(model.c - c)[50:-50].max() < 0.03
 
 
+# compared with AutoReg without a trend too, on a series with a level: the warning is expected
+@pytest.mark.filterwarnings("ignore::ltvmodels.errors.ModelStructureWarning")
 def test_lti_limit_equals_least_squares_and_autoreg():
     from statsmodels.tsa.ar_model import AutoReg
 
@@ -471,3 +475,19 @@ def test_chirp_example_runs_quick(tmp_path, capsys):
     assert out.stat().st_size > 10_000
     text = capsys.readouterr().out
     assert "order 1: mean error" in text and "order 2: mean error" in text
+
+
+def test_an_ar_model_without_intercept_on_a_series_with_a_level_warns():
+    """statsmodels' yearly sunspots: mean 49.7, 1.2 standard deviations from 0."""
+    sm = pytest.importorskip("statsmodels.api")
+    sunspots = sm.datasets.sunspots.load_pandas().data["SUNACTIVITY"].to_numpy()
+    with pytest.warns(ltv.errors.ModelStructureWarning, match=r"^y has mean 49.75, 1.2 "
+                      r"standard deviations from 0, .* pass constant=True"):
+        ltv.fit_ar(sunspots, 2, lam=10.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ltv.errors.ModelStructureWarning)
+        ltv.fit_ar(sunspots, 2, lam=10.0, constant=True)
+        ltv.fit_ar(sunspots - sunspots.mean(), 2, lam=10.0)
+        u = np.random.default_rng(0).standard_normal(sunspots.size)
+        with pytest.warns(ltv.errors.ModelStructureWarning):
+            ltv.fit_arx(sunspots, u, 2, 1, lam=10.0)

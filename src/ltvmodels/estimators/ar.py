@@ -27,6 +27,7 @@ j describes y[L + j] (``model.sample_index``).
 
 from __future__ import annotations
 
+import warnings
 from functools import partial
 from typing import Any
 
@@ -34,6 +35,7 @@ import numpy as np
 
 from ..core.lags import lag_length, lagged_regressors
 from ..core.problem import weighted_problem
+from ..errors import ModelStructureWarning
 from ..results.arx import ARModel, ARXModel
 from ..validation import arrays, options
 from .regression import fit_problem
@@ -205,6 +207,8 @@ def fit_arx(
     constant = options.flag(constant, "constant")
     L = lag_length(na, nb, nk)
     y, u = arrays.lagged_recordings(y, u, L, _structure_text(na, nb, nk), require_inputs=True)
+    if not constant:
+        _warn_if_offset(y)
     n, m = y.shape[2], u.shape[2]
     factory = partial(ARXModel, n_outputs=n, n_inputs=m, na=na, nb=nb, nk=nk, constant=constant)
     return _fit_lagged(y, u, na, nb, nk, constant, factory, lam=lam, norm=norm, order=order,
@@ -280,11 +284,40 @@ def fit_ar(
     na, _, _ = options.lag_orders(na, 0, 1, min_na=1, min_nb=0)
     constant = options.flag(constant, "constant")
     y, u = arrays.lagged_recordings(y, None, na, _structure_text(na, 0, 1))
+    if not constant:
+        _warn_if_offset(y)
     factory = partial(ARModel, n_outputs=y.shape[2], na=na, constant=constant)
     return _fit_lagged(y, u, na, 0, 1, constant, factory, lam=lam, norm=norm, order=order,
                        prior=prior, prior_mode=prior_mode, noise_var=noise_var,
                        compute_cov=compute_cov, max_iter=max_iter, tol=tol, weights=weights,
                        loss=loss, huber_delta=huber_delta)
+
+
+# A mean farther from 0 than this many standard deviations is clearly not zero (a
+# zero-mean stationary series almost never strays that far on average).
+OFFSET_IN_STDS = 1.0
+
+
+def _warn_if_offset(y: np.ndarray) -> None:
+    """Warn when a series fitted without an intercept has a clearly non-zero mean.
+
+    Without c_t the model y[t] = Σ A_i y[t−i] pulls the level towards 0, and
+    the AR coefficients absorb it (near-unit roots, a wrong spectrum).
+    """
+    values = y.reshape(-1, y.shape[-1])
+    for i in range(values.shape[1]):
+        column = values[:, i][np.isfinite(values[:, i])]
+        if column.size < 2:
+            continue
+        mean, std = float(np.mean(column)), float(np.std(column))
+        if abs(mean) > OFFSET_IN_STDS * std:
+            where = f"output {i} of y" if values.shape[1] > 1 else "y"
+            warnings.warn(
+                f"{where} has mean {mean:.4g}, {abs(mean) / max(std, 1e-300):.1f} standard "
+                "deviations from 0, but the model has no intercept, so the coefficients must "
+                "absorb the level; pass constant=True (or subtract the mean)",
+                ModelStructureWarning, stacklevel=3,
+            )
 
 
 def _fit_lagged(
