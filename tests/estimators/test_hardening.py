@@ -114,6 +114,26 @@ def test_load_names_the_file_for_every_damage(tmp_path, data, damage):
         ltv.load(bad)
 
 
+def test_load_says_plainly_that_a_file_is_not_a_model(tmp_path, data):
+    """A CSV, garbage, an empty or truncated archive, pickled objects: one message, and
+    never numpy's advice to load pickles unsafely."""
+    model = ltv.fit(*data, lam=10.0)
+    model.save(tmp_path / "model.npz")
+    whole = (tmp_path / "model.npz").read_bytes()
+    files = {"data.csv": b"a,b\n1,2\n", "garbage.npz": b"\x00\x01 not a model",
+             "empty.npz": b"", "truncated.npz": whole[: len(whole) // 2]}
+    for name, content in files.items():
+        (tmp_path / name).write_bytes(content)
+    np.savez(tmp_path / "objects.npz", meta=np.array([{"k": 1}], dtype=object),
+             k=np.ones((3, 6)))
+    for name in [*files, "objects.npz"]:
+        with pytest.raises(ltv.ModelFileError) as info:
+            ltv.load(tmp_path / name)
+        text = str(info.value)
+        assert text.startswith(f"path: {tmp_path / name} is not ")
+        assert "ltvmodels model file" in text and "allow_pickle" not in text
+
+
 def test_load_keeps_file_system_errors_and_takes_paths_only(tmp_path):
     with pytest.raises(FileNotFoundError):
         ltv.load(tmp_path / "absent.npz")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -50,6 +51,11 @@ def load(path: str | Path) -> RegressionModel:
         raise TypeError(
             f"path: expected a file path (str or pathlib.Path), received {describe(path)}"
         )
+    if os.path.isfile(path) and not zipfile.is_zipfile(path):
+        raise ModelFileError(
+            f"path: {path} is not an ltvmodels model file (model files are .npz archives "
+            "written by model.save or the command line's --out)"
+        )
     try:
         content = archive.read(path)
         cls = MODEL_TYPES.get(content.model_type)
@@ -72,6 +78,8 @@ def load(path: str | Path) -> RegressionModel:
         text = str(exc)
         if isinstance(exc, ValueError) and text.startswith(f"path: {path} "):
             raise ModelFileError(text) from exc
+        if "pickle" in text:  # numpy's advice to load unsafely is not ours to give
+            text = "it holds Python objects, which model files never do"
         raise ModelFileError(
             f"path: {path} is not a readable ltvmodels model file (written by model.save): "
             f"{type(exc).__name__}: {text}"
