@@ -741,3 +741,18 @@ def test_parquet_missing_values_and_inf(workdir, tmp_path, capsys):
     assert report["n_missing"] == 4  # transitions 6, 7, 8 (x1) and 20 (u)
     code, out, err = _run(["fit", tmp_path / "inf.parquet", "--state", "x1"], capsys)
     assert code == 2 and "row 3, column 'x1': value inf is not finite" in err
+
+
+@pytest.mark.parametrize("command", ["fit", "segments"])
+def test_model_out_must_be_an_npz_archive(command, tmp_path, capsys):
+    """`--out coef.csv` used to write an NPZ archive named .csv: refused before any work."""
+    data = ltvmodels.systems.jump_linear(T=60, change_at=30, seed=0)
+    path = tmp_path / "data.csv"
+    np.savetxt(path, np.c_[data.x, data.u], delimiter=",", header="x1,x2,u1", comments="")
+    extra = ["--lam", "5"] if command == "fit" else ["--n-changes", "1"]
+    code = main([command, str(path), "--state", "x1,x2", "--input", "u1", *extra,
+                 "--out", str(tmp_path / "coef.csv")])
+    err = capsys.readouterr().err
+    assert code == 2 and "out: a model file is an .npz archive" in err
+    assert "'" + str(tmp_path / "coef.csv") + "'" in err
+    assert not (tmp_path / "coef.csv").exists()

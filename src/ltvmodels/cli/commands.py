@@ -55,13 +55,19 @@ from .report import fmt, info_subset, per_name, rms, rms_columns
 Report = tuple[dict[str, Any], list[str]]
 
 
-def _outputs(args: argparse.Namespace, *, image: str = "plot", file: str | None = "out"
-             ) -> tuple[Path | None, tuple[Path, str] | None]:
-    """Check ``--out`` (any file) and ``--plot`` (an image) before any work."""
+def _outputs(args: argparse.Namespace, *, image: str = "plot", file: str | None = "out",
+             model_file: bool = False) -> tuple[Path | None, tuple[Path, str] | None]:
+    """Check ``--out`` (any file, or a model file: .npz) and ``--plot`` (an image) before
+    any work."""
     out = getattr(args, file, None) if file else None
     plot = getattr(args, image, None)
-    return (output_file(out, file) if out is not None else None,
-            image_file(plot, image) if plot is not None else None)
+    path = output_file(out, file) if out is not None else None
+    if model_file and path is not None and path.suffix.lower() != ".npz":
+        raise OutputPathError(
+            f"{file}: a model file is an .npz archive (read it with ltvmodels.load); expected "
+            f"a name ending in .npz, received {str(path)!r}"
+        )
+    return path, image_file(plot, image) if plot is not None else None
 
 
 def _state_space_data(args: argparse.Namespace) -> tuple[str, np.ndarray, np.ndarray | None,
@@ -288,7 +294,7 @@ def _save_plot(fig: Any, target: tuple[Path, str] | None, report: dict,
 
 def _cmd_fit(args: argparse.Namespace) -> Report:
 
-    out, plot = _outputs(args)
+    out, plot = _outputs(args, model_file=True)
     label, x, u, state_names, input_names = _state_space_data(args)
     what = "choosing lambda and fitting" if args.lam == "auto" else "fitting"
     with Progress(f"ltvmodels fit: {what}"), user_errors():
@@ -328,7 +334,7 @@ def _cmd_fit(args: argparse.Namespace) -> Report:
 
 def _cmd_segments(args: argparse.Namespace) -> Report:
 
-    out, plot = _outputs(args)
+    out, plot = _outputs(args, model_file=True)
     label, x, u, state_names, input_names = _state_space_data(args)
     how = (f"exactly optimal with at most {args.n_changes} changes (dynamic programming)"
            if args.n_changes is not None else
@@ -361,7 +367,7 @@ def _cmd_segments(args: argparse.Namespace) -> Report:
 
 def _cmd_ar(args: argparse.Namespace) -> Report:
 
-    out, plot = _outputs(args)
+    out, plot = _outputs(args, model_file=True)
     T, label, cols = read_columns(args.data, column=args.column)
     names, y = cols["column"]
     what = "choosing lambda and fitting" if args.lam == "auto" else "fitting"
