@@ -491,3 +491,24 @@ def test_an_ar_model_without_intercept_on_a_series_with_a_level_warns():
         u = np.random.default_rng(0).standard_normal(sunspots.size)
         with pytest.warns(ltv.errors.ModelStructureWarning):
             ltv.fit_arx(sunspots, u, 2, 1, lam=10.0)
+
+
+def test_fit_regression_refine_refits_each_segment_by_least_squares():
+    rng = np.random.default_rng(3)
+    phi = rng.standard_normal((300, 2))
+    theta = np.where(np.arange(300)[:, None] < 120, [1.0, -0.5], [0.2, 0.7])
+    y = np.sum(theta * phi, axis=1) + 0.05 * rng.standard_normal(300)
+    first = ltv.fit_regression(y, phi, lam=5.0, norm="group")
+    model = ltv.fit_regression(y, phi, lam=5.0, norm="group", refine=True)
+    assert model.norm == "piecewise" and model.changepoints.tolist() == [120]
+    assert model.info["first_step"]["changepoints"] == first.changepoints.tolist()
+    np.testing.assert_array_equal(model.info["first_step_k"], first.k)
+    for start, stop in model.info["segments"]:  # independent: lstsq per segment
+        expected, *_ = np.linalg.lstsq(phi[start:stop], y[start:stop], rcond=None)
+        np.testing.assert_allclose(model.theta[start:stop, 0], np.tile(expected,
+                                   (stop - start, 1)), rtol=0, atol=1e-12)
+    assert model.std() is not None  # the refit's covariance
+    robust = ltv.fit_regression(y, phi, lam=5.0, norm="group", refine=True, loss="huber")
+    assert robust.info["loss"] == "huber" and robust.changepoints.tolist() == [120]
+    with pytest.raises(TypeError, match=r"^refine: expected True or False"):
+        ltv.fit_regression(y, phi, lam=5.0, refine="yes")

@@ -35,7 +35,8 @@ warnings recorded and accepts exactly three kinds of outcome:
     ``IsADirectoryError``, ``PermissionError``; ``ilqg``: ``LinAlgError``).
 (c) **documented warnings only.** :class:`~ltvmodels.IdentifiabilityWarning`,
     :class:`~ltvmodels.PrecisionWarning`, :class:`~ltvmodels.ConvergenceWarning`,
-    :class:`~ltvmodels.DivergenceWarning` may accompany (a) or (b). Any other
+    :class:`~ltvmodels.DivergenceWarning`, :class:`~ltvmodels.ModelStructureWarning`
+    may accompany (a) or (b). Any other
     warning (numpy/numba ``RuntimeWarning`` overflow/invalid-value, a
     ``UserWarning`` of another package, ...) is a failure.
 
@@ -80,7 +81,7 @@ PLAIN_ERRORS = (ValueError, TypeError, NotImplementedError)
 """Exception types accepted when raised exactly (not a foreign subclass)."""
 
 LIBRARY_WARNINGS = (ltv.IdentifiabilityWarning, ltv.PrecisionWarning, ltv.ConvergenceWarning,
-                    ltv.DivergenceWarning)
+                    ltv.DivergenceWarning, ltv.ModelStructureWarning)
 """The warning classes a call may issue."""
 
 FOREIGN_MESSAGES = (

@@ -296,6 +296,7 @@ def fit_ar(
 # A mean farther from 0 than this many standard deviations is clearly not zero (a
 # zero-mean stationary series almost never strays that far on average).
 OFFSET_IN_STDS = 1.0
+OFFSET_MIN_SAMPLES = 20
 
 
 def _warn_if_offset(y: np.ndarray) -> None:
@@ -307,7 +308,7 @@ def _warn_if_offset(y: np.ndarray) -> None:
     values = y.reshape(-1, y.shape[-1])
     for i in range(values.shape[1]):
         column = values[:, i][np.isfinite(values[:, i])]
-        if column.size < 2:
+        if column.size < OFFSET_MIN_SAMPLES:  # too few to tell a level from chance
             continue
         mean, std = float(np.mean(column)), float(np.std(column))
         if abs(mean) > OFFSET_IN_STDS * std:

@@ -20,8 +20,7 @@ from ..core.sparse_common import lambda_max as problem_lambda_max
 from ..results.record import FitRecord, FitStatus
 from ..results.statespace import LTVModel
 from ..validation import arrays, options
-from .changepoints import find_changepoints
-from .piecewise import fit_piecewise, residual_noise
+from .piecewise import refine_fit, residual_noise
 from .recordings import StateSpaceData, state_space_data
 from .regression import fit_problem, sparse_model
 from .robust import robust_model
@@ -279,7 +278,13 @@ def fit(
             noise_var=noise_var, compute_cov=False, max_iter=max_iter, tol=tol,
             weights=weights, constant=constant, loss=loss, huber_delta=huber_delta,
         )
-        return _refine(x, u, first, weights, loss, huber_delta)
+        data = state_space_data(x, u, weights=weights, constant=constant)
+        _, delta = options.loss_options(loss, huber_delta, data.n)
+        return refine_fit(
+            data.problem, first, names=data.regressor_names, loss=loss, delta=delta,
+            factory=partial(LTVModel, n_states=data.n, n_inputs=data.m,
+                            constant=data.constant),
+            n_missing=data.n_missing)
     data = state_space_data(x, u, order=order, weights=weights, constant=constant)
     norm = options.norm_name(norm)
     model = fit_problem(
@@ -292,41 +297,6 @@ def fit(
     )
     model.info["n_missing"] = data.n_missing
     return model
-
-
-def _refine(x: Any, u: Any, first: LTVModel, weights: Any, loss: str,
-            huber_delta: Any) -> LTVModel:
-    """Second step of the two-step refinement: refit between the change points (same loss)."""
-    degree = len(first.coeffs) - 1
-    if degree not in (1, 2):
-        raise NotImplementedError(
-            f"refine: the refit is defined for order 1 and 2, received a difference "
-            f"operator of degree {degree}"
-        )
-    changepoints = first.changepoints if first.norm != "sq" else find_changepoints(first)
-    try:
-        refined = fit_piecewise(x, u, changepoints, order=degree, weights=weights,
-                                constant=first.constant, loss=loss, huber_delta=huber_delta)
-    except ValueError as exc:  # the change points are ours, not the caller's
-        if not str(exc).startswith("changepoints:"):
-            raise
-        raise type(exc)(
-            f"refine: the change points found in the first step, {changepoints.tolist()}, "
-            f"cannot be refitted ({str(exc).removeprefix('changepoints: ')}); use a larger "
-            "lam (fewer changes) or refine=False"
-        ) from exc
-    refined.info["first_step"] = {
-        "norm": first.norm,
-        "lam": first.lam if np.ndim(first.lam) == 0 else np.asarray(first.lam).tolist(),
-        "objective": first.info.get("objective"),
-        "iterations": first.info.get("iterations"),
-        "converged": first.info.get("converged"),
-        "changepoints": [int(c) for c in changepoints],
-    }
-    if "lam_selection" in first.info:
-        refined.info["lam_selection"] = first.info["lam_selection"]
-    refined.info["first_step_k"] = np.array(first.k)
-    return refined
 
 
 def fit_path(

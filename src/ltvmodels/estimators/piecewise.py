@@ -33,7 +33,8 @@ from __future__ import annotations
 
 import itertools
 import warnings
-from typing import Any
+from functools import partial
+from typing import Any, Callable
 
 import numpy as np
 
@@ -49,6 +50,7 @@ from ..errors import IdentifiabilityWarning, SingularProblemError
 from ..results.record import FitRecord, FitStatus
 from ..results.statespace import LTVModel
 from ..validation import arrays, options
+from .changepoints import find_changepoints
 from .recordings import state_space_data
 from .robust import robust_record_parts, solve_robust
 
@@ -154,17 +156,28 @@ def fit_piecewise(
     order = options.piecewise_order(order)
     if not isinstance(compute_cov, bool):
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
-    n, m = data.n, data.m
-    problem = data.problem
+    loss, delta = options.loss_options(loss, huber_delta, data.n)
+    factory = partial(LTVModel, n_states=data.n, n_inputs=data.m, constant=data.constant)
+    return piecewise_fit(data.problem, changepoints, order=order, compute_cov=compute_cov,
+                         names=data.regressor_names, loss=loss, delta=delta, factory=factory,
+                         n_missing=data.n_missing)
+
+
+def piecewise_fit(
+    problem: RegressionProblem, changepoints: Any, *, order: int, compute_cov: bool,
+    names: list[str], loss: str, delta: np.ndarray | None, factory: Callable[..., Any],
+    n_missing: int,
+) -> Any:
+    """:func:`fit_piecewise` on a validated regression problem (any front-end): the model
+    ``factory(k, fit=FitRecord(...))``; ``changepoints`` are validated here."""
+    n = problem.n
     N, p = problem.N, problem.p
     note = "; order=2 needs a sample after the last knot" if order == 2 else ""
     changepoints = arrays.changepoint_indices(changepoints, N, last=N - order, note=note)
     phi, y = problem.phi, problem.y  # (N, R, p), (N, R, n); unobserved rows are 0
-    names = data.regressor_names
     bounds = np.concatenate([[0], changepoints, [N]])
     segments = [[int(a), int(b)] for a, b in itertools.pairwise(bounds)]
 
-    loss, delta = options.loss_options(loss, huber_delta, n)
     if order == 1:
         theta, unit_cov = _fit_constant(phi, y, problem.observed, bounds, names)
         n_params = (len(changepoints) + 1) * p
@@ -176,9 +189,9 @@ def fit_piecewise(
         info_extra = {"knots": [int(t) for t in knots]}
 
     if loss != "squared":  # the squared-loss fit above checked the segments
-        return _fit_robust(data, order, bounds, changepoints, loss, delta,
+        return _fit_robust(problem, order, bounds, changepoints, loss, delta, factory,
                            {"order": order, "segments": segments, **info_extra,
-                            "n_params_per_row": int(n_params), "n_missing": data.n_missing})
+                            "n_params_per_row": int(n_params), "n_missing": n_missing})
     resid = problem.residuals(theta).reshape(-1, n)
     rss_matrix = resid.T @ resid
     M = problem.n_observed
@@ -201,16 +214,59 @@ def fit_piecewise(
         "rss": float(np.trace(rss_matrix)),
         "dof": int(dof),
         "n_params_per_row": int(n_params),
-        "n_missing": data.n_missing,
+        "n_missing": n_missing,
     }
     if loglik_note:
         info["loglik_note"] = loglik_note
-    return LTVModel(theta.reshape(N, n * p), n, m, FitRecord(
+    return factory(theta.reshape(N, n * p), fit=FitRecord(
         norm="piecewise", coeffs=_DIFFERENCE[order].copy(), lam=float("inf"), cov=cov,
         noise_var=np.diag(noise_cov).copy(),
         noise_cov=noise_cov, loglik=loglik, info=info, changepoints=changepoints,
         status=FitStatus("closed_form", info["solver"], 0, info["rss"]),
-    ), constant=data.constant)
+    ))
+
+
+def refine_fit(
+    problem: RegressionProblem, first: Any, *, names: list[str], loss: str,
+    delta: np.ndarray | None, factory: Callable[..., Any], n_missing: int,
+) -> Any:
+    """Second step of the two-step refinement (paper Section III-G): refit ``first``'s
+    problem between its change points, with the same loss (any front-end).
+
+    The refined model's ``info["first_step"]`` summarizes ``first``, and
+    ``info["first_step_k"]`` holds its coefficients.
+    """
+    degree = len(first.coeffs) - 1
+    if degree not in (1, 2):
+        raise NotImplementedError(
+            f"refine: the refit is defined for order 1 and 2, received a difference "
+            f"operator of degree {degree}"
+        )
+    changepoints = first.changepoints if first.norm != "sq" else find_changepoints(first)
+    try:
+        refined = piecewise_fit(problem, changepoints, order=degree, compute_cov=True,
+                                names=names, loss=loss, delta=delta, factory=factory,
+                                n_missing=n_missing)
+    except ValueError as exc:  # the change points are ours, not the caller's
+        if not str(exc).startswith("changepoints:"):
+            raise
+        raise type(exc)(
+            f"refine: the change points found in the first step, {changepoints.tolist()}, "
+            f"cannot be refitted ({str(exc).removeprefix('changepoints: ')}); use a larger "
+            "lam (fewer changes) or refine=False"
+        ) from exc
+    refined.info["first_step"] = {
+        "norm": first.norm,
+        "lam": first.lam if np.ndim(first.lam) == 0 else np.asarray(first.lam).tolist(),
+        "objective": first.info.get("objective"),
+        "iterations": first.info.get("iterations"),
+        "converged": first.info.get("converged"),
+        "changepoints": [int(c) for c in changepoints],
+    }
+    if "lam_selection" in first.info:
+        refined.info["lam_selection"] = first.info["lam_selection"]
+    refined.info["first_step_k"] = np.array(first.k)
+    return refined
 
 
 # Robust piecewise fits: the largest lifted regressor array (numbers), and the
@@ -220,8 +276,9 @@ ROBUST_TOL = 1e-9
 ROBUST_MAX_ITER = 500
 
 
-def _fit_robust(data, order: int, bounds: np.ndarray, changepoints: np.ndarray, loss: str,
-                delta: np.ndarray | None, info_extra: dict) -> LTVModel:
+def _fit_robust(problem: RegressionProblem, order: int, bounds: np.ndarray,
+                changepoints: np.ndarray, loss: str, delta: np.ndarray | None,
+                factory: Callable[..., Any], info_extra: dict) -> Any:
     """The piecewise model with loss "huber" or "laplace".
 
     With basis functions B (N, J) — segment indicators (order 1) or hat
@@ -230,7 +287,7 @@ def _fit_robust(data, order: int, bounds: np.ndarray, changepoints: np.ndarray, 
     and J·p regressors, solved by :func:`.robust.solve_robust` with every
     coefficient held constant.
     """
-    problem, n, m = data.problem, data.n, data.m
+    n = problem.n
     N, q, p = problem.N, problem.q, problem.p
     if order == 1:
         basis = (np.arange(N)[:, None] >= bounds[None, :-1]) & \
@@ -264,11 +321,11 @@ def _fit_robust(data, order: int, bounds: np.ndarray, changepoints: np.ndarray, 
         solution.outliers = solution.outliers.reshape(N, q, n)
     info, status = robust_record_parts(solution, loss)
     noise_var = problem.output_rss(theta) / max(problem.n_observed, 1)
-    return LTVModel(theta.reshape(N, n * p), n, m, FitRecord(
+    return factory(theta.reshape(N, n * p), fit=FitRecord(
         norm="piecewise", coeffs=_DIFFERENCE[order].copy(), lam=float("inf"),
         noise_var=noise_var, noise_cov=np.diag(noise_var),
         info={**info, **info_extra}, changepoints=changepoints, status=status,
-    ), constant=data.constant)
+    ))
 
 
 def residual_noise(

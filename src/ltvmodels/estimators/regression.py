@@ -29,6 +29,7 @@ from ..results.regression import RegressionModel
 from ..validation import options
 from .changepoints import find_changepoints, residue_level
 from .priors import resolve as resolve_priors
+from .piecewise import refine_fit
 from .recordings import regression_problem, require_enough_data
 from .robust import robust_model
 from .selection import DEFAULT_METHOD, select_for_problem
@@ -53,6 +54,7 @@ def fit_regression(
     weights: Any = None,
     loss: str = "squared",
     huber_delta: Any = None,
+    refine: bool = False,
 ) -> RegressionModel:
     """Identify a time-varying regression y_t = Θ_t φ_t + e_t.
 
@@ -81,6 +83,11 @@ def fit_regression(
         mean is (K,) or (N, K); an ``OutputPrior`` is a prior on Θ_t φ_t).
     loss, huber_delta
         As in :func:`fit` (δ in the units of y).
+    refine : bool
+        The two-step refinement, as in :func:`fit`: refit with coefficients
+        constant (order 1) or linear and continuous (order 2) between the
+        change points of this fit, removing the penalty's shrinkage of the
+        changes (``info["first_step"]`` summarizes the first fit).
 
     Returns
     -------
@@ -110,17 +117,24 @@ def fit_regression(
     >>> bool(np.abs(model.theta[:, 0, 0] - slope).max() < 0.05)
     True
     """
+    if not isinstance(refine, bool):
+        raise TypeError(f"refine: expected True or False, received {refine!r}")
     problem = regression_problem(y, phi, order=order, weights=weights)
     norm = options.norm_name(norm)
     n, p = problem.n, problem.p
-    return fit_problem(
-        problem,
-        factory=partial(RegressionModel, n_outputs=n, n_regressors=p),
-        regressor_names=signal_names("phi", p),
-        data_name="y",
+    factory = partial(RegressionModel, n_outputs=n, n_regressors=p)
+    names = signal_names("phi", p)
+    model = fit_problem(
+        problem, factory=factory, regressor_names=names, data_name="y",
         lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
-        compute_cov=compute_cov, max_iter=max_iter, tol=tol, loss=loss, huber_delta=huber_delta,
+        compute_cov=compute_cov and not refine, max_iter=max_iter, tol=tol, loss=loss,
+        huber_delta=huber_delta,
     )
+    if not refine:
+        return model
+    _, delta = options.loss_options(loss, huber_delta, n)
+    return refine_fit(problem, model, names=names, loss=loss, delta=delta, factory=factory,
+                      n_missing=int((~problem.observed).sum()))
 
 
 ModelFactory = Callable[..., RegressionModel]
