@@ -400,3 +400,19 @@ def test_bad_input_data():
         segment_regression(x[1:], x[:-2], n_changes=1)
     with pytest.raises(TypeError, match="compute_cov"):
         ltv.fit_segments(x, u, n_changes=1, compute_cov=1)
+
+
+def test_segment_regression_returns_the_unshrunk_segment_model():
+    """statsmodels' Nile flow (1871–1970): one change, at 1899 (index 28); the segment
+    levels are the segment means, 1097.75 and 849.97, computed here independently."""
+    sm = pytest.importorskip("statsmodels.api")
+    nile = sm.datasets.nile.load_pandas().data["volume"].to_numpy()
+    seg = ltv.segment_regression(nile, np.ones(nile.size), n_changes=1)
+    assert seg.changepoints.tolist() == [28]
+    model = seg.model
+    assert model.norm == "l0" and model.changepoints.tolist() == [28]
+    np.testing.assert_allclose(model.theta[:28, 0, 0], nile[:28].mean(), rtol=1e-12)
+    np.testing.assert_allclose(model.theta[28:, 0, 0], nile[28:].mean(), rtol=1e-12)
+    assert model.std() is not None and model.info["cost"] == seg.cost
+    # a segmentation that leaves no residual degree of freedom has no model
+    assert ltv.segment_regression(nile[:2], np.ones(2), n_changes=1, min_size=1).model is None

@@ -19,6 +19,8 @@ dynamic programming (fixed M) and PELT (penalty). The searches are in
 from __future__ import annotations
 
 import itertools
+from dataclasses import replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -26,11 +28,13 @@ import numpy as np
 from ..core import segmentation as search
 from ..core.problem import RegressionProblem
 from ..errors import SingularProblemError
+from ..results.base import signal_names
 from ..results.record import FitStatus
+from ..results.regression import RegressionModel
 from ..results.segmentation import Segmentation
 from ..results.statespace import LTVModel
 from ..validation import options
-from .piecewise import fit_piecewise
+from .piecewise import fit_piecewise, piecewise_fit
 from .recordings import regression_problem, state_space_data
 
 __all__ = ["fit_segments", "segment_regression", "noise_variance_estimate"]
@@ -76,6 +80,10 @@ def segment_regression(
     Returns
     -------
     Segmentation
+        With ``model``, the least-squares :class:`~ltvmodels.RegressionModel`
+        on the segments (unshrunk segment levels, their covariances and the
+        noise estimate; ``norm="l0"``), or None when the segments leave no
+        residual degree of freedom.
 
     Raises
     ------
@@ -86,8 +94,16 @@ def segment_regression(
         The regressors are linearly dependent over the whole data set, so no
         segment is identifiable.
     """
-    return _segment(regression_problem(y, phi, weights=weights), n_changes, penalty, min_size,
-                    data_name="y")
+    problem = regression_problem(y, phi, weights=weights)
+    result = _segment(problem, n_changes, penalty, min_size, data_name="y")
+    if problem.n_observed <= (result.n_changes + 1) * problem.p:
+        return result  # no residual degree of freedom: no noise estimate, no model
+    model = piecewise_fit(
+        problem, result.changepoints, order=1, compute_cov=True,
+        names=signal_names("phi", problem.p), loss="squared", delta=None,
+        factory=partial(RegressionModel, n_outputs=problem.n, n_regressors=problem.p),
+        n_missing=int((~problem.observed).sum()))
+    return replace(result, model=_segmentation_model(model, result))
 
 
 def fit_segments(
@@ -226,6 +242,11 @@ def fit_segments(
     model = fit_piecewise(data.x, data.inputs, result.changepoints, order=1,
                           compute_cov=compute_cov, weights=data.weights,
                           constant=data.constant)
+    return _segmentation_model(model, result)
+
+
+def _segmentation_model(model: Any, result: Segmentation) -> Any:
+    """The piecewise least-squares refit on ``result``'s segments, marked as the l0 optimum."""
     model.norm = "l0"
     model.status = FitStatus("optimal", result.solver, 0, result.objective)
     model.info.update(

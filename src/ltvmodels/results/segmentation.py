@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -39,6 +40,9 @@ class Segmentation:
         "dynamic programming" or "PELT".
     work : int
         Rows rotated into a segment factor (about N²/2 for the dynamic program).
+    model : RegressionModel or None
+        The least-squares fit on the segments (:func:`ltvmodels.segment_regression`
+        sets it when the segments leave a residual degree of freedom).
     """
 
     changepoints: np.ndarray
@@ -53,3 +57,4 @@ class Segmentation:
     min_size: int
     solver: str
     work: int = field(default=0)
+    model: Any = None
