@@ -27,6 +27,7 @@ from .errors import (
     IdentifiabilityWarning,
     DivergenceWarning,
     ModelFileError,
+    ModelStructureWarning,
     OutputPathError,
     PrecisionWarning,
     SingularProblemError,
@@ -67,6 +68,7 @@ _API = {
     "Segmentation": "results.segmentation",
     "KalmanFilterResult": "results.kalman",
     "KalmanSmootherResult": "results.kalman",
+    "Forecast": "results.forecast",
     "load": "results.loading",
     "ilqg": "control",
 }
@@ -83,6 +85,7 @@ __all__ = [
     "ConvergenceWarning",
     "PrecisionWarning",
     "DivergenceWarning",
+    "ModelStructureWarning",
     "ModelFileError",
     "OutputPathError",
     "__version__",

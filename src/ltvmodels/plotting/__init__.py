@@ -20,7 +20,7 @@ from .coefficients import (
     plot_poles,
 )
 from .selection import plot_lambda_selection
-from .signals import plot_root_spectrogram, plot_simulation, plot_spectrogram
+from .signals import plot_forecast, plot_root_spectrogram, plot_simulation, plot_spectrogram
 
 __all__ = [
     "plot_coefficients",
@@ -30,6 +30,7 @@ __all__ = [
     "plot_root_spectrogram",
     "plot_spectrogram",
     "plot_simulation",
+    "plot_forecast",
     "plot_lambda_selection",
     "plot_model",
 ]

@@ -1,4 +1,4 @@
-"""Figures of signals: a simulation or prediction against data, spectrograms."""
+"""Figures of signals: a simulation or prediction against data, forecasts, spectrograms."""
 
 from __future__ import annotations
 
@@ -97,6 +97,78 @@ def plot_simulation(data: Any, simulation: Any, *, start: int = 0, names: Any = 
         pad = 0.05 * ((high - low) or 1.0)
         ax.set_ylim(low - pad, high + pad)
     axes[-1].set_xlabel("t")
+    axes[0].legend(fontsize="small", loc="best")
+    return fig
+
+
+def plot_forecast(forecast: Any, *, history: Any = None,
+                  fig: "Figure | None" = None) -> "Figure":
+    """Plot a forecast: its mean and prediction interval, one subplot per state (output).
+
+    Parameters
+    ----------
+    forecast : Forecast
+        From :meth:`ltvmodels.LTVModel.forecast` or
+        :meth:`ltvmodels.ARXModel.forecast` (any object with ``mean``,
+        ``lower``, ``upper`` (steps, n), ``time`` (steps,), ``level`` and
+        ``names``).
+    history : array_like, shape (H, n) or (H,), optional
+        Recorded samples leading up to the forecast, drawn solid in black:
+        row i belongs to time ``time[0] − H + i`` (pass the end of the data,
+        e.g. ``x[-50:]``). A line joins the last of them to the first forecast.
+    fig : matplotlib.figure.Figure, optional
+        Figure to draw into; it is cleared first. Default: a new Figure.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        With n axes stacked vertically (shared time axis "t"), each with the
+        state's name as y label, the mean as a line and the interval as a
+        band (``ax.collections[0]``).
+
+    Raises
+    ------
+    TypeError, ValueError
+        A ``forecast`` without those attributes, or a ``history`` whose
+        columns do not match.
+    """
+    needed = ("mean", "lower", "upper", "time", "level", "names")
+    if not all(hasattr(forecast, name) for name in needed):
+        raise TypeError(f"forecast: expected a Forecast (from model.forecast), received "
+                        f"{type(forecast).__name__}")
+    mean = np.asarray(forecast.mean, dtype=float)
+    lower = np.asarray(forecast.lower, dtype=float)
+    upper = np.asarray(forecast.upper, dtype=float)
+    time = np.asarray(forecast.time, dtype=float)
+    steps, n = mean.shape
+    names = list(forecast.names)
+    past = None
+    if history is not None:
+        past = arrays.as_float_array(history, "history", missing=True)
+        past = past[:, None] if past.ndim == 1 else past
+        if past.ndim != 2 or past.shape[1] != n:
+            raise ValueError(f"history: expected shape (H, {n}) (one column per state of the "
+                             f"forecast), received {past.shape}")
+    if fig is None:
+        fig = new_figure((8.0, min(1.9 * n + 0.6, 14.0)))
+    else:
+        fig.clear()
+    axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
+    band = f"{100 * float(forecast.level):g} % interval"
+    for i, ax in enumerate(axes):
+        ax.fill_between(time, lower[:, i], upper[:, i], color=ESTIMATE_COLOR, alpha=0.25,
+                        linewidth=0, label=band)
+        if past is not None and past.shape[0]:
+            t_past = time[0] - past.shape[0] + np.arange(past.shape[0])
+            ax.plot(t_past, past[:, i], color="black", linewidth=1.0, label="data")
+            ax.plot([t_past[-1], time[0]], [past[-1, i], mean[0, i]], color=ESTIMATE_COLOR,
+                    linewidth=1.0, linestyle=":")
+        ax.plot(time, mean[:, i], color=ESTIMATE_COLOR, linewidth=1.2, marker="." if steps < 30
+                else None, label="forecast mean")
+        ax.set_ylabel(names[i])
+        ax.grid(True, alpha=0.3)
+    axes[-1].set_xlabel("t")
+    axes[0].set_title(f"Forecast, {steps} step{'s' if steps > 1 else ''}", fontsize="medium")
     axes[0].legend(fontsize="small", loc="best")
     return fig
 

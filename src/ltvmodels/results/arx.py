@@ -15,6 +15,14 @@ import numpy as np
 
 from ..core.lags import lag_length, lagged_regressors
 from ..validation import arrays, options
+from .forecast import (
+    DEFAULT_SAMPLES,
+    Forecast,
+    forecast_model,
+    forecast_options,
+    lagged_inputs,
+    noise_covariance,
+)
 from .record import FitRecord
 from .regression import RegressionModel
 
@@ -208,6 +216,67 @@ class ARXModel(RegressionModel):
                       self.lag, self.constant)
         return y[:, 0] if self.n_outputs == 1 else y
 
+    def forecast(
+        self, y_last: Any, u: Any = None, *, steps: int | None = None, level: float = 0.95,
+        n_samples: int = DEFAULT_SAMPLES, seed: Any = 0, noise_cov: Any = None,
+    ) -> Forecast:
+        """Forecast the outputs after the end of the data, with prediction intervals.
+
+        The AR/ARX counterpart of :meth:`ltvmodels.LTVModel.forecast`: for a
+        series of T = N + L samples the model continues
+        y[t] = Θ_t φ_t + e[t] for t = T, T+1, …, from the last L samples of y
+        (L = ``lag``), with the coefficients continued by the penalty's
+        difference operator, their uncertainty (the last estimate's posterior
+        covariance and, for norm="sq", the drift σ²/λ² per step) and noise
+        of covariance ``noise_cov``. The first step is exact and Gaussian,
+        the others come from seeded Monte Carlo simulation (exact where the
+        coefficients are certain). See :mod:`ltvmodels.results.forecast`.
+
+        Parameters
+        ----------
+        y_last : array_like, shape (L, n), or (L,) for n = 1
+            The last L samples y[T−L] … y[T−1], oldest first (as ``y0`` of
+            :meth:`simulate`); None when L = 0.
+        u : array_like, shape (L + steps, m), or (L + steps,) for m = 1; None for an AR model
+            The inputs at the samples of ``y_last`` and at the forecast
+            samples: u[T−L] … u[T+steps−1] (the rows that no regressor reaches,
+            with nk >= 1 the last nk, are unused, as in :meth:`simulate`).
+        steps : int, optional
+            Number of samples to forecast, >= 1. Required for an AR model;
+            with inputs it defaults to ``len(u) − L`` (and must equal it).
+        level : float, default 0.95
+            Probability of the central prediction intervals, in (0, 1).
+        n_samples : int, default 2000
+            Monte Carlo paths (rounded up to an even number: antithetic pairs).
+        seed : int, numpy Generator or None, default 0
+            Seed of the Monte Carlo draws.
+        noise_cov : array_like, shape (n, n), optional
+            Covariance of e[t]; default the model's ``noise_cov``.
+
+        Returns
+        -------
+        Forecast
+            ``mean``, ``lower``, ``upper`` of shape (steps, n) and ``cov``
+            (steps, n, n) — with the output axis also for n = 1, unlike
+            :meth:`predict` — for y[T] … y[T+steps−1] (``time``).
+        """
+        n, m, L = self.n_outputs, self.n_inputs, self.lag
+        y_last, u, steps = lagged_inputs(y_last, u, steps, n=n, m=m, lag=L)
+        level, n_samples, seed = forecast_options(level, n_samples, seed)
+        noise = noise_covariance(noise_cov, self.noise_cov, n)
+        # φ = [y[t−1]; …; y[t−na]; u[t−nk]; …; u[t−nk−nb+1]; 1], u row L + s is sample T + s
+        known = [u[L - self.nk - j : L - self.nk - j + steps] for j in range(self.nb)]
+        if self.constant:
+            known.append(np.ones((steps, 1)))
+        known = np.concatenate(known, axis=1) if known else np.zeros((steps, 0))
+        initial = y_last[::-1][: self.na]  # the lags y[T−1], …, y[T−na], newest first
+        T = self.N + L
+        return forecast_model(
+            self, np.ascontiguousarray(initial), known, level=level, n_samples=n_samples,
+            seed=seed, noise_cov=noise, time=np.arange(T, T + steps),
+            names=[f"y{i}" for i in range(n)],
+        )
+
     def plot(self, fs: float, ax: Any = None):
         """Plot the root spectrogram; see :func:`ltvmodels.plotting.plot_root_spectrogram`."""
         from ..plotting import plot_root_spectrogram
@@ -270,6 +339,17 @@ class ARModel(ARXModel):
         ndarray, shape (N + na, n), or (N + na,) for n = 1
         """
         return super().simulate(y0, None, noise)
+
+    def forecast(
+        self, y_last: Any, *, steps: int, level: float = 0.95,
+        n_samples: int = DEFAULT_SAMPLES, seed: Any = 0, noise_cov: Any = None,
+    ) -> Forecast:
+        """Forecast y[T] … y[T+steps−1] from the last na samples y_last (na, n) or (na,).
+
+        :meth:`ARXModel.forecast` without inputs; ``steps`` is required.
+        """
+        return super().forecast(y_last, None, steps=steps, level=level, n_samples=n_samples,
+                                seed=seed, noise_cov=noise_cov)
 
     def structure(self) -> dict:
         return {"n_outputs": self.n_outputs, "na": self.na, "constant": self.constant}

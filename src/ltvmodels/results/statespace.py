@@ -11,6 +11,14 @@ from ..core.simulation import simulate_affine
 from ..errors import DivergenceWarning
 from ..validation import arrays, options
 from .base import LinearTimeVarying
+from .forecast import (
+    DEFAULT_SAMPLES,
+    Forecast,
+    forecast_model,
+    forecast_options,
+    noise_covariance,
+    state_space_inputs,
+)
 from .record import FitRecord
 from .regression import RegressionModel
 
@@ -202,6 +210,71 @@ class LTVModel(RegressionModel, LinearTimeVarying):
                 "(the model is unstable along these inputs)", DivergenceWarning, stacklevel=2,
             )
         return out if batch else out[0]
+
+    def forecast(
+        self, x0: Any, u: Any = None, *, steps: int | None = None, level: float = 0.95,
+        n_samples: int = DEFAULT_SAMPLES, seed: Any = 0, noise_cov: Any = None,
+    ) -> Forecast:
+        """Forecast the states after the end of the data, with prediction intervals.
+
+        From the last recorded state x0 = x[T−1] (= x[N]) the model continues
+        x[t+1] = A_t x[t] + B_t u[t] + c_t + v_t for t = N, N+1, …: the
+        coefficients after the data follow the recursion of the penalty's
+        difference operator (order 1: they stay at the last estimate; order
+        2: they continue its straight line), with their uncertainty (the
+        posterior covariance of the last estimate and, for norm="sq", the
+        drift σ_i²/λ² per step of the penalty's random walk); v_t has the
+        covariance ``noise_cov``. The first step is exact and Gaussian, the
+        others come from seeded Monte Carlo simulation, or are exact where
+        the coefficients are certain (no covariance, no drift). See
+        :mod:`ltvmodels.results.forecast` for the model and the method.
+
+        Parameters
+        ----------
+        x0 : array_like, shape (n,)
+            The state at the end of the data, x[T−1].
+        u : array_like, shape (steps, m), or (steps,) when m = 1; None without inputs
+            The future inputs u[T−1], u[T], …: row j drives the step from
+            x[T−1+j] to x[T+j] (the data's last input u[T−1] drives no fitted
+            transition, so it is the first one here).
+        steps : int, optional
+            Number of steps, >= 1. Required without inputs; with inputs it
+            defaults to ``len(u)`` (and must equal it when given).
+        level : float, default 0.95
+            Probability of the central prediction intervals, in (0, 1).
+        n_samples : int, default 2000
+            Monte Carlo paths (rounded up to an even number: antithetic pairs).
+        seed : int, numpy Generator or None, default 0
+            Seed of the Monte Carlo draws (the same seed gives the same forecast).
+        noise_cov : array_like, shape (n, n), optional
+            Covariance of v_t (a variance or (n,) variances: a diagonal).
+            Default: the model's ``noise_cov``; required for a model built
+            from given coefficients.
+
+        Returns
+        -------
+        Forecast
+            ``mean``, ``lower``, ``upper`` (steps, n), ``cov`` (steps, n, n);
+            row j is x[T+j] (``time`` = T … T + steps − 1, T = N + 1).
+
+        Raises
+        ------
+        TypeError, ValueError
+            Inputs of the wrong type or shape (the message names the
+            argument); a model without a noise covariance and no
+            ``noise_cov``; a norm="sq" model fitted with λ = 0 for some
+            coefficient (its drift is unbounded).
+        """
+        x0, future, steps = state_space_inputs(x0, u, steps, n=self.n_states, m=self.n_inputs)
+        level, n_samples, seed = forecast_options(level, n_samples, seed)
+        noise = noise_covariance(noise_cov, self.noise_cov, self.n_states)
+        known = np.concatenate([future, np.ones((steps, 1))], axis=1) if self.constant \
+            else future
+        return forecast_model(
+            self, x0[None, :], known, level=level, n_samples=n_samples, seed=seed,
+            noise_cov=noise, time=np.arange(self.N + 1, self.N + 1 + steps),
+            names=self.state_names,
+        )
 
     def _data(self, x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
         x, u = arrays.recordings(x, u)
