@@ -756,3 +756,49 @@ def test_model_out_must_be_an_npz_archive(command, tmp_path, capsys):
     assert code == 2 and "out: a model file is an .npz archive" in err
     assert "'" + str(tmp_path / "coef.csv") + "'" in err
     assert not (tmp_path / "coef.csv").exists()
+
+
+def test_forecast_command_matches_the_model_forecast(tmp_path, capsys):
+    data = ltvmodels.systems.jump_linear(seed=0)
+    path = tmp_path / "data.csv"
+    np.savetxt(path, np.c_[data.x, data.u], delimiter=",", header="x1,x2,u1", comments="")
+    future = np.random.default_rng(1).standard_normal((12, 1))
+    np.savetxt(tmp_path / "future.csv", future, delimiter=",", header="u1", comments="")
+    assert main(["fit", str(path), "--state", "x1,x2", "--input", "u1", "--lam", "10",
+                 "--out", str(tmp_path / "m.npz")]) == 0
+    capsys.readouterr()
+    code = main(["forecast", str(tmp_path / "m.npz"), str(path), "--steps", "6",
+                 "--future-input", str(tmp_path / "future.csv"), "--level", "0.8", "--json",
+                 "--out", str(tmp_path / "fc.csv"), "--plot", str(tmp_path / "fc.png")])
+    report = __import__("json").loads(capsys.readouterr().out)
+    assert code == 0 and report["steps"] == 6 and report["columns"] == ["x1", "x2"]
+    model = ltvmodels.load(tmp_path / "m.npz")
+    expected = model.forecast(data.x[-1], np.r_[data.u[-1:], future[:5]], level=0.8)
+    np.testing.assert_allclose(report["mean"], expected.mean)
+    np.testing.assert_allclose(report["lower"], expected.lower)
+    table = np.loadtxt(tmp_path / "fc.csv", delimiter=",", skiprows=1)
+    np.testing.assert_allclose(table[:, 0], np.arange(400, 406))
+    np.testing.assert_allclose(table[:, [1, 4]], expected.mean)
+    assert (tmp_path / "fc.png").stat().st_size > 0
+    # an input model needs the future inputs
+    assert main(["forecast", str(tmp_path / "m.npz"), str(path), "--steps", "6"]) == 2
+    assert "--future-input: the model has inputs (u1)" in capsys.readouterr().err
+
+
+def test_forecast_command_of_an_ar_model(tmp_path, capsys):
+    rng = np.random.default_rng(2)
+    y = np.zeros(300)
+    for t in range(2, 300):
+        y[t] = 1.2 * y[t - 1] - 0.5 * y[t - 2] + 0.1 * rng.standard_normal()
+    path = tmp_path / "series.csv"
+    np.savetxt(path, y[:, None], delimiter=",", header="y", comments="")
+    assert main(["ar", str(path), "--column", "y", "--na", "2", "--lam", "30",
+                 "--out", str(tmp_path / "ar.npz")]) == 0
+    capsys.readouterr()
+    assert main(["forecast", str(tmp_path / "ar.npz"), str(path), "--steps", "4", "--json"]) == 0
+    report = __import__("json").loads(capsys.readouterr().out)
+    expected = ltvmodels.load(tmp_path / "ar.npz").forecast(y[-2:], steps=4)
+    np.testing.assert_allclose(report["mean"], expected.mean)
+    assert main(["forecast", str(tmp_path / "ar.npz"), str(path), "--steps", "4",
+                 "--level", "1.5"]) == 2
+    assert "--level" in capsys.readouterr().err

@@ -11,6 +11,7 @@ import argparse
 import contextlib
 import warnings
 import zipfile
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Callable, Iterator
 
@@ -708,6 +709,90 @@ def _cmd_simulate_or_predict(args: argparse.Namespace) -> Report:
     return report, lines
 
 
+def _cmd_forecast(args: argparse.Namespace) -> Report:
+    """Forecast a saved model after the end of the data it was fitted on."""
+    out, plot = _outputs(args)
+    model = _load_model(args.model)
+    data = _model_data(args, model)
+    kind, y, u, lag, H = data["kind"], data["y"], data["u"], data["lag"], args.steps
+    future = _future_inputs(args, model, data, H)
+    with user_errors(f"{data['label']}: "):
+        representable(y[-lag:], "--state" if kind == "ltv" else "--column")
+    with user_errors():
+        if kind == "ltv":
+            inputs = None if u is None else np.concatenate([u[-1:], future[: H - 1]])
+            forecast = model.forecast(y[-1], inputs, steps=H, level=args.level, seed=args.seed)
+        elif kind == "arx":
+            forecast = model.forecast(y[-lag:], np.concatenate([u[-lag:], future[:H]]),
+                                      steps=H, level=args.level, seed=args.seed)
+        else:
+            forecast = model.forecast(y[-lag:], steps=H, level=args.level, seed=args.seed)
+    names = data["names"]
+    forecast = replace(forecast, names=names)  # the data's column names
+    report: dict[str, Any] = {
+        "command": "forecast", "model_file": str(args.model), "model": type(model).__name__,
+        "data": data["label"], "T": data["T"], "columns": names, "steps": H,
+        "level": args.level, "method": forecast.method, "time": forecast.time.tolist(),
+        "mean": forecast.mean.tolist(), "lower": forecast.lower.tolist(),
+        "upper": forecast.upper.tolist(),
+    }
+    percent = f"{100 * args.level:g} %"
+    lines = [
+        f"ltvmodels forecast: {args.model} after {data['label']} (T = {data['T']} samples; "
+        f"columns {', '.join(names)})",
+        repr(model),
+        f"{H} samples, t = {forecast.time[0]} to {forecast.time[-1]}; {percent} prediction "
+        f"intervals ({'exact' if forecast.method == 'gaussian' else 'exact first step, '}"
+        f"{'' if forecast.method == 'gaussian' else 'Monte Carlo beyond'})",
+    ]
+    shown = list(range(min(H, 3))) + ([H - 1] if H > 3 else [])
+    for j in shown:
+        cells = ", ".join(f"{name} {fmt(forecast.mean[j, i])} [{fmt(forecast.lower[j, i])}, "
+                          f"{fmt(forecast.upper[j, i])}]" for i, name in enumerate(names))
+        lines.append(f"  t = {forecast.time[j]}: {cells}")
+    fig = None
+    if plot is not None:
+        with _figure_errors(None):
+            history = y[-min(len(y), max(4 * H, 50)):]
+            fig = forecast.plot(history=history)
+            fig.suptitle(f"{args.model} after {data['label']}: forecast, {percent} intervals")
+    if out is not None:
+        columns = [f"{name}{suffix}" for name in names for suffix in ("", "_lower", "_upper")]
+        table = np.column_stack([forecast.time] + [
+            part[:, i] for i in range(len(names))
+            for part in (forecast.mean, forecast.lower, forecast.upper)])
+        write_csv(out, ["t", *columns], table, "out")
+        report.setdefault("files", {})["out"] = str(out)
+        lines.append(f"wrote {out}")
+    _save_plot(fig, plot, report, lines)
+    return report, lines
+
+
+def _future_inputs(args: argparse.Namespace, model: Any, data: dict[str, Any],
+                   H: int) -> np.ndarray | None:
+    """The inputs after the end of DATA from --future-input (None for a model without)."""
+    m = len(data["input_names"])
+    if not m:
+        if args.future_input is not None:
+            raise DataError("--future-input: the model has no inputs")
+        return None
+    needed = H - 1 if data["kind"] == "ltv" else H
+    if args.future_input is None:
+        if needed == 0:
+            return np.zeros((0, m))
+        raise DataError(f"--future-input: the model has inputs ({', '.join(data['input_names'])}"
+                        f"); give a data file with those columns for the {needed} samples "
+                        "after the end of the data")
+    rows, label, cols = read_columns(args.future_input, input=",".join(data["input_names"]))
+    values = cols["input"][1]
+    if rows < needed:
+        raise DataError(f"{label}: expected at least {needed} rows of future inputs for "
+                        f"--steps {H}, received {rows}")
+    if not np.all(np.isfinite(values[:needed])):
+        raise DataError(f"{label}: the future inputs must be observed (no missing values)")
+    return values
+
+
 def _cmd_demo(args: argparse.Namespace) -> Report:
     system = args.system
     if system != "jump-linear":
@@ -752,6 +837,7 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], Report]] = {
     "select-lambda": _cmd_select_lambda,
     "simulate": _cmd_simulate_or_predict,
     "predict": _cmd_simulate_or_predict,
+    "forecast": _cmd_forecast,
     "demo": _cmd_demo,
 }
 """The subcommands by name: each returns (report dict, text lines)."""

@@ -45,6 +45,17 @@ _nonnegative_int = _int_at_least(0)
 _positive_int = _int_at_least(1)
 
 
+def _probability(text: str) -> float:
+    """A probability strictly between 0 and 1 (argparse type)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0.0 < value < 1.0:
+        raise argparse.ArgumentTypeError(f"expected a number in (0, 1), received {text!r}")
+    return value
+
+
 def _positive_float(text: str) -> float:
     try:
         value = float(text)
@@ -255,6 +266,35 @@ def build_parser() -> argparse.ArgumentParser:
                          help="input columns; default: those recorded in the model file")
         _add_outputs(sub, out=f"CSV file to write: t and the {noun}",
                      plot=f"figure: {noun} against the data")
+
+    fc = commands.add_parser(
+        "forecast", help="forecast of a saved model after the end of its data, with intervals",
+        description="Load a model file (from fit, segments or ar) and forecast the states "
+        "(AR: the outputs) after the end of the data it was fitted on, with prediction "
+        "intervals: the coefficients continue as the penalty's model says, their "
+        "uncertainty and the noise propagate (see ltvmodels.LTVModel.forecast). Data "
+        "columns default to those the model was fitted on.",
+    )
+    fc.add_argument("model", metavar="MODEL", help="model file (.npz)")
+    fc.add_argument("data", metavar="DATA", help=_DATA_HELP)
+    fc.add_argument("--steps", type=_positive_int, required=True, metavar="H",
+                    help="number of samples to forecast")
+    fc.add_argument("--level", type=_probability, default=0.95, metavar="P",
+                    help="probability of the prediction intervals (default: 0.95)")
+    fc.add_argument("--future-input", metavar="FILE", default=None,
+                    help="models with inputs: a data file with the input columns after the "
+                    "end of DATA, one row per sample, at least H rows (a state-space model "
+                    "uses the first H - 1: its first step is driven by DATA's last input)")
+    fc.add_argument("--seed", type=_nonnegative_int, default=0,
+                    help="seed of the Monte Carlo samples beyond the first step (default: 0)")
+    fc.add_argument("--state", "--column", dest="state", metavar="COLS", default=None,
+                    help="state columns (AR: output columns); default: those recorded in the "
+                    "model file")
+    fc.add_argument("--input", metavar="COLS", default=None,
+                    help="input columns (in DATA and --future-input); default: those "
+                    "recorded in the model file")
+    _add_outputs(fc, out="CSV file to write: t and, per state, the mean, lower and upper "
+                 "bound", plot="figure: the end of the data and the forecast with its band")
 
     demo = commands.add_parser(
         "demo", help="run an example of the paper on built-in data, report and plot",
