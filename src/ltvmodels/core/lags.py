@@ -37,3 +37,14 @@ def lagged_regressors(
         cols.append(np.ones(lead + (N, 1)))
     phi = np.concatenate(cols, axis=-1) if cols else np.zeros(lead + (N, 0))
     return y[..., L:, :].copy(), np.ascontiguousarray(phi)
+
+
+def lag_regressor_names(n: int, m: int, na: int, nb: int, nk: int,
+                        constant: bool) -> list[str]:
+    """Names of the regressors of :func:`lagged_regressors`, in their order:
+    y[t-1] (y0[t-1], y1[t-1], … for several outputs), …, u[t-nk], …, 1."""
+    ys = [""] if n == 1 else [str(i) for i in range(n)]
+    us = [""] if m == 1 else [str(i) for i in range(m)]
+    names = [f"y{i}[t-{lag}]" for lag in range(1, na + 1) for i in ys]
+    names += [f"u{i}[t-{nk + j}]" if nk + j else f"u{i}[t]" for j in range(nb) for i in us]
+    return names + (["1"] if constant else [])

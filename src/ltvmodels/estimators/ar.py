@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.lags import lag_length, lagged_regressors
+from ..core.lags import lag_length, lag_regressor_names, lagged_regressors
 from ..core.problem import weighted_problem
 from ..errors import ModelStructureWarning
 from ..results.arx import ARModel, ARXModel
@@ -45,15 +45,6 @@ __all__ = ["ar_regressors", "arx_regressors", "fit_ar", "fit_arx"]
 
 def _structure_text(na: int, nb: int, nk: int) -> str:
     return f"na = {na}" if nb == 0 else f"na = {na}, nb = {nb}, nk = {nk}"
-
-
-def _names(n: int, m: int, na: int, nb: int, nk: int, constant: bool) -> list[str]:
-    """Regressor names for messages: y[t-1], y0[t-1], u[t-1], …, 1."""
-    ys = [""] if n == 1 else [str(i) for i in range(n)]
-    us = [""] if m == 1 else [str(i) for i in range(m)]
-    names = [f"y{i}[t-{lag}]" for lag in range(1, na + 1) for i in ys]
-    names += [f"u{i}[t-{nk + j}]" if nk + j else f"u{i}[t]" for j in range(nb) for i in us]
-    return names + (["1"] if constant else [])
 
 
 def arx_regressors(
@@ -357,7 +348,7 @@ def _fit_lagged(
     model = fit_problem(
         problem,
         factory=factory,
-        regressor_names=_names(y.shape[2], u.shape[2], na, nb, nk, constant),
+        regressor_names=lag_regressor_names(y.shape[2], u.shape[2], na, nb, nk, constant),
         data_name="y",
         rows_note=f" (T = {y.shape[1]} samples, the first {L} only as lags)",
         lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,

@@ -13,7 +13,7 @@ from typing import Any
 import numba
 import numpy as np
 
-from ..core.lags import lag_length, lagged_regressors
+from ..core.lags import lag_length, lag_regressor_names, lagged_regressors
 from ..validation import arrays, options
 from .forecast import (
     DEFAULT_SAMPLES,
@@ -84,6 +84,17 @@ class ARXModel(RegressionModel):
         super().__init__(k, n_outputs, p, fit)
 
     # -- structure --------------------------------------------------------------------
+    @property
+    def output_names(self) -> list[str]:
+        """"y" for one output, else "y0", "y1", …"""
+        return ["y"] if self.n_outputs == 1 else [f"y{i}" for i in range(self.n_outputs)]
+
+    @property
+    def regressor_names(self) -> list[str]:
+        """The lagged regressors: "y[t-1]", …, "u[t-nk]", …, "1" (see :func:`ar_regressors`)."""
+        return lag_regressor_names(self.n_outputs, self.n_inputs, self.na, self.nb, self.nk,
+                                   self.constant)
+
     @property
     def lag(self) -> int:
         """L = max(na, nk + nb − 1): the number of initial samples used only as lags."""

@@ -202,6 +202,65 @@ class RegressionModel:
                                  axis=1)
         return np.sqrt(np.maximum(var, 0.0))
 
+    # -- names and export -----------------------------------------------------------
+    @property
+    def output_names(self) -> list[str]:
+        """Names of the n outputs (rows of Θ_t): "y0", "y1", …"""
+        return [f"y{i}" for i in range(self.n_outputs)]
+
+    @property
+    def regressor_names(self) -> list[str]:
+        """Names of the p regressors (columns of Θ_t): "phi0", "phi1", …"""
+        return [f"phi{j}" for j in range(self.n_regressors)]
+
+    def coefficient_names(self) -> list[str]:
+        """Names of the K entries of k_t, "output:regressor" in k's order (rows of Θ_t)."""
+        return [f"{out}:{reg}" for out in self.output_names for reg in self.regressor_names]
+
+    def to_frame(self, *, std: bool = False) -> Any:
+        """The coefficients as a pandas DataFrame, one row per model time step.
+
+        Column "output:regressor" holds Θ_t[output, regressor] (for a state-space
+        model "x0:u0" is B_t[x0, u0]); the index is the model time step t,
+        named "t". Needs pandas (``pip install pandas``).
+
+        Parameters
+        ----------
+        std : bool, default False
+            Also the posterior standard deviations, in columns "output:regressor std"
+            (after all the coefficients); only for models with a covariance.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Shape (N, K) or (N, 2K).
+
+        Raises
+        ------
+        ImportError
+            pandas is not installed.
+        ValueError
+            ``std=True`` for a model without a covariance (e.g. norm="group").
+        """
+        try:
+            import pandas as pd
+        except ImportError:  # pragma: no cover - pandas is installed wherever tests run
+            raise ImportError("to_frame needs pandas: pip install pandas") from None
+        if not isinstance(std, bool):
+            raise TypeError(f"std: expected True or False, received {std!r}")
+        names = self.coefficient_names()
+        frame = pd.DataFrame(np.array(self.k), columns=names,
+                             index=pd.RangeIndex(self.N, name="t"))
+        if std:
+            deviations = self.std()
+            if deviations is None:
+                raise ValueError(f"std: this model (norm={self.norm!r}) has no covariance; "
+                                 "use std=False")
+            frame = pd.concat([frame, pd.DataFrame(deviations, columns=[f"{name} std"
+                                                                         for name in names],
+                                                   index=frame.index)], axis=1)
+        return frame
+
     # -- use ----------------------------------------------------------------------
     def predict(self, phi: Any) -> np.ndarray:
         """Predictions ŷ_t = Θ_t φ_t of the regression.

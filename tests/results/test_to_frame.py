@@ -1,0 +1,36 @@
+"""model.to_frame(): the coefficients as a pandas DataFrame, named from the model."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import ltvmodels as ltv
+
+pd = pytest.importorskip("pandas")
+
+
+def test_regression_frame_holds_k_and_its_standard_deviations():
+    rng = np.random.default_rng(0)
+    phi = rng.standard_normal((50, 2))
+    y = phi @ np.array([[1.0, -0.5], [0.3, 0.8]]).T + 0.1 * rng.standard_normal((50, 2))
+    model = ltv.fit_regression(y, phi, lam=5.0)
+    frame = model.to_frame(std=True)
+    assert frame.shape == (50, 8) and frame.index.name == "t"
+    assert list(frame.columns[:4]) == ["y0:phi0", "y0:phi1", "y1:phi0", "y1:phi1"]
+    np.testing.assert_array_equal(frame.iloc[:, :4].to_numpy(), model.k)
+    np.testing.assert_array_equal(frame.iloc[:, 4:].to_numpy(), model.std())
+    assert frame.columns[4] == "y0:phi0 std"
+    sparse = ltv.fit_regression(y, phi, lam=5.0, norm="group")
+    with pytest.raises(ValueError, match=r"^std: this model \(norm='group'\) has no "):
+        sparse.to_frame(std=True)
+    with pytest.raises(TypeError, match=r"^std: expected True or False"):
+        model.to_frame(std="yes")
+
+
+def test_ar_frame_names_the_lags():
+    y = np.random.default_rng(1).standard_normal(120)
+    model = ltv.fit_ar(y, 2, lam=10.0, constant=True)
+    frame = model.to_frame()
+    assert list(frame.columns) == ["y:y[t-1]", "y:y[t-2]", "y:1"]
+    np.testing.assert_array_equal(frame.to_numpy(), model.k)
