@@ -802,3 +802,38 @@ def test_forecast_command_of_an_ar_model(tmp_path, capsys):
     assert main(["forecast", str(tmp_path / "ar.npz"), str(path), "--steps", "4",
                  "--level", "1.5"]) == 2
     assert "--level" in capsys.readouterr().err
+
+
+def test_fit_options_match_the_python_api(tmp_path, capsys):
+    """--weights COL, --noise-var and --coef-out on fit; --loss and --weights on
+    select-lambda; each the same as the library call."""
+    data = ltvmodels.systems.jump_linear(T=120, change_at=60, seed=3)
+    w = np.random.default_rng(0).uniform(0.5, 2.0, 120)
+    path = tmp_path / "data.csv"
+    np.savetxt(path, np.c_[data.x, data.u, w], delimiter=",", header="x1,x2,u1,w",
+               comments="")
+    base = ["fit", str(path), "--state", "x1,x2", "--input", "u1", "--lam", "5"]
+    assert main([*base, "--weights", "w", "--noise-var", "0.04,0.05", "--json",
+                 "--out", str(tmp_path / "m.npz"), "--coef-out",
+                 str(tmp_path / "coef.csv")]) == 0
+    capsys.readouterr()
+    expected = ltvmodels.fit(data.x, data.u, lam=5.0, weights=w[1:], noise_var=[0.04, 0.05])
+    model = ltvmodels.load(tmp_path / "m.npz")
+    np.testing.assert_allclose(model.k, expected.k, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(model.noise_var, [0.04, 0.05])
+    frame = __import__("pandas").read_csv(tmp_path / "coef.csv", index_col="t")
+    np.testing.assert_allclose(frame.iloc[:, :6].to_numpy(), expected.k, atol=1e-10)
+    assert frame.columns[0] == "y0:phi0" and frame.columns[6] == "y0:phi0 std"
+    code = main(["select-lambda", str(path), "--state", "x1,x2", "--input", "u1", "--norm",
+                 "group", "--loss", "huber", "--weights", "w", "--json"])
+    report = __import__("json").loads(capsys.readouterr().out)
+    selection = ltvmodels.select_lambda(data.x, data.u, norm="group", loss="huber",
+                                        weights=w[1:])
+    assert code == 0 and report["method"] == "cv"
+    assert report["lam"] == pytest.approx(selection.lam)
+    np.savetxt(path, np.c_[data.x, data.u, np.r_[w[:50], np.nan, w[51:]]], delimiter=",",
+               header="x1,x2,u1,w", comments="")
+    assert main([*base, "--weights", "w"]) == 2
+    assert "--weights: the weights must be observed" in capsys.readouterr().err
+    assert main([*base, "--noise-var", "-1"]) == 2
+    assert "--noise-var" in capsys.readouterr().err

@@ -73,11 +73,43 @@ def _outputs(args: argparse.Namespace, *, image: str = "plot", file: str | None 
 
 def _state_space_data(args: argparse.Namespace) -> tuple[str, np.ndarray, np.ndarray | None,
                                                          list[str], list[str]]:
-    """(label, x (T, n), u (T, m) or None, state names, input names) of DATA."""
-    T, label, cols = read_columns(args.data, state=args.state, input=args.input)
+    """(label, x (T, n), u (T, m) or None, state names, input names) of DATA; with
+    ``--weights`` the transitions' weights are left in ``args.transition_weights``."""
+    weights = getattr(args, "weights", None)
+    T, label, cols = read_columns(args.data, state=args.state, input=args.input,
+                                  weights=weights)
     state_names, x = cols["state"]
     input_names, u = cols["input"] if cols["input"] is not None else ([], None)
+    args.transition_weights = None
+    if weights is not None:  # the equation predicting row t has the weight of row t
+        column = cols["weights"][1][1:, 0]
+        if not np.all(np.isfinite(column)):
+            raise DataError(f"--weights: the weights must be observed, received a missing "
+                            f"value at row {1 + int(np.flatnonzero(~np.isfinite(column))[0])}")
+        args.transition_weights = column
     return label, x, u, state_names, input_names
+
+
+def _check_coef_out(args: argparse.Namespace) -> None:
+    """``--coef-out`` is writable (checked before any work)."""
+    if getattr(args, "coef_out", None) is not None:
+        output_file(args.coef_out, "coef-out")
+
+
+def _write_coefficients(model: Any, args: argparse.Namespace, report: dict,
+                        lines: list[str]) -> None:
+    """``--coef-out``: the coefficients (and standard deviations) as CSV."""
+    path = getattr(args, "coef_out", None)
+    if path is None:
+        return
+    frame = model.to_frame(std=model.std() is not None)
+    try:
+        frame.to_csv(path)
+    except OSError as exc:
+        raise OutputPathError(f"coef-out: cannot write {str(path)!r}: "
+                              f"{exc.strerror or exc}") from exc
+    report.setdefault("files", {})["coefficients"] = str(path)
+    lines.append(f"wrote {path}")
 
 
 def _detected_changepoints(model: Any) -> tuple[np.ndarray, str]:
@@ -296,12 +328,14 @@ def _save_plot(fig: Any, target: tuple[Path, str] | None, report: dict,
 def _cmd_fit(args: argparse.Namespace) -> Report:
 
     out, plot = _outputs(args, model_file=True)
+    _check_coef_out(args)
     label, x, u, state_names, input_names = _state_space_data(args)
     what = "choosing lambda and fitting" if args.lam == "auto" else "fitting"
     with Progress(f"ltvmodels fit: {what}"), user_errors():
         model = fit(x, u, lam=args.lam, norm=args.norm, order=args.order, refine=args.refine,
                     max_iter=args.max_iter, tol=args.tol, constant=args.constant,
-                    loss=args.loss, huber_delta=args.huber_delta)
+                    loss=args.loss, huber_delta=args.huber_delta, noise_var=args.noise_var,
+                    weights=args.transition_weights)
     model.info["data_columns"] = {"state": state_names, "input": input_names}
     report, lines, changepoints = _state_space_report("fit", label, model, x, u, state_names,
                                                       input_names)
@@ -329,6 +363,7 @@ def _cmd_fit(args: argparse.Namespace) -> Report:
         fig.suptitle(f"{label}: norm={args.norm!r}, order={args.order}, "
                      f"λ = {float(facts['lam']):.4g}" + (", refined" if args.refine else ""))
     _save_model(model, out, report, lines)
+    _write_coefficients(model, args, report, lines)
     _save_plot(fig, plot, report, lines)
     return report, lines
 
@@ -336,13 +371,15 @@ def _cmd_fit(args: argparse.Namespace) -> Report:
 def _cmd_segments(args: argparse.Namespace) -> Report:
 
     out, plot = _outputs(args, model_file=True)
+    _check_coef_out(args)
     label, x, u, state_names, input_names = _state_space_data(args)
     how = (f"exactly optimal with at most {args.n_changes} changes (dynamic programming)"
            if args.n_changes is not None else
            f"penalty {args.penalty or 'bic'} per change (PELT)")
     with Progress("ltvmodels segments: searching change points"), user_errors():
         model = fit_segments(x, u, n_changes=args.n_changes, penalty=args.penalty,
-                             min_size=args.min_size, constant=args.constant)
+                             min_size=args.min_size, constant=args.constant,
+                             weights=args.transition_weights)
     model.info["data_columns"] = {"state": state_names, "input": input_names}
     report, lines, changepoints = _state_space_report("segments", label, model, x, u,
                                                       state_names, input_names)
@@ -362,6 +399,7 @@ def _cmd_segments(args: argparse.Namespace) -> Report:
         fig.suptitle(f"{label}: piecewise-constant model, {info['n_changes']} changes at "
                      f"{[int(c) for c in changepoints]}")
     _save_model(model, out, report, lines)
+    _write_coefficients(model, args, report, lines)
     _save_plot(fig, plot, report, lines)
     return report, lines
 
@@ -445,6 +483,8 @@ def _cmd_select_lambda(args: argparse.Namespace) -> Report:
     if args.column is not None:
         if args.state is not None or args.input is not None:
             raise CommandError("--column: an AR model takes no --state or --input")
+        if args.weights is not None:
+            raise CommandError("--weights: applies to state-space data (--state) only")
         if args.na is None:
             raise CommandError("--na: the AR order is required with --column")
         T, label, cols = read_columns(args.data, column=args.column)
@@ -487,16 +527,20 @@ def _cmd_select_lambda(args: argparse.Namespace) -> Report:
         def progress(done: int, total: int) -> None:
             bar.total, bar.done = total, done
 
+        robust = {"loss": args.loss, "huber_delta": args.huber_delta}
         if args.column is not None:
             selection = select_lambda_regression(y_out, phi, norm=args.norm, order=args.order,
-                                                 method=args.method, progress=progress)
+                                                 method=args.method, progress=progress,
+                                                 **robust)
         elif args.norm == "l0":  # one dynamic program: no steps to count
             selection = select_lambda(x, u, norm=args.norm, method=args.method,
-                                      constant=args.constant)
+                                      constant=args.constant, weights=args.transition_weights,
+                                      **robust)
         else:
             selection = select_lambda(x, u, norm=args.norm, order=args.order,
                                       method=args.method, progress=progress,
-                                      constant=args.constant)
+                                      constant=args.constant, weights=args.transition_weights,
+                                      **robust)
     is_l0 = selection.norm == "l0"
     report: dict[str, Any] = {
         "command": "select-lambda", "data": label, "T": T, **data_facts,

@@ -38,7 +38,7 @@ OPTION_NAMES = {
     "order": "--order", "max_iter": "--max-iter", "tol": "--tol", "n_changes": "--n-changes",
     "penalty": "--penalty", "min_size": "--min-size", "na": "--na", "fs": "--fs",
     "method": "--method", "x0": "--state data", "y0": "--column data", "loss": "--loss",
-    "huber_delta": "--huber-delta",
+    "huber_delta": "--huber-delta", "noise_var": "--noise-var", "weights": "--weights",
 }
 
 

@@ -56,6 +56,12 @@ def _probability(text: str) -> float:
     return value
 
 
+def _positive_float_list(text: str) -> float | list[float]:
+    """One number > 0, or comma-separated numbers > 0 (argparse type)."""
+    values = [_positive_float(part) for part in text.split(",")]
+    return values[0] if len(values) == 1 else values
+
+
 def _positive_float(text: str) -> float:
     try:
         value = float(text)
@@ -105,6 +111,20 @@ def _add_state_options(p: argparse.ArgumentParser, *, required: bool = True) -> 
                    help=f"state columns x ({_COLS_HELP})")
     p.add_argument("--input", metavar="COLS", default=None,
                    help=f"input columns u ({_COLS_HELP}); none for an autonomous system")
+
+
+def _add_weights_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--weights", metavar="COL", default=None,
+                   help="column of weights >= 0: the weight of the equation that predicts row "
+                   "t is the column's value at row t (0 drops it; the first row's value is "
+                   "unused)")
+
+
+def _add_coef_out_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--coef-out", metavar="PATH", default=None,
+                   help="CSV file to write the coefficients to: one row per model step t, "
+                   "columns 'output:regressor' (and their standard deviations, where the "
+                   "model has them)")
 
 
 def _add_constant_option(p: argparse.ArgumentParser, what: str) -> None:
@@ -171,9 +191,16 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--huber-delta", type=_positive_float, default=None, metavar="D",
                      help="Huber threshold in the units of the states (default: 1.345 x the "
                      "robust scale of the squared-loss residuals)")
+    fit.add_argument("--noise-var", type=_positive_float_list, default=None,
+                     metavar="V[,V...]",
+                     help="noise variance of the state equations, one or one per state "
+                     "(default: estimated); with --norm sq it scales a prior-free fit's "
+                     "likelihood and covariances")
+    _add_weights_option(fit)
     _add_constant_option(fit, "a time-varying constant term c_t in x[t+1] = A_t x[t] + "
                          "B_t u[t] + c_t")
     _add_sparse_options(fit)
+    _add_coef_out_option(fit)
     _add_outputs(fit, out="model file to write (.npz; read it with ltvmodels.load or "
                  "'ltvmodels simulate')",
                  plot="figure: coefficients with ±2σ bands, activation with change points, "
@@ -195,7 +222,9 @@ def build_parser() -> argparse.ArgumentParser:
     seg.add_argument("--min-size", type=_positive_int, default=None, metavar="S",
                      help="minimum segment length (default: n + m, or n + m + 1 with "
                      "--constant)")
+    _add_weights_option(seg)
     _add_constant_option(seg, "a constant term c_t per segment")
+    _add_coef_out_option(seg)
     _add_outputs(seg, out="model file to write (.npz)",
                  plot="figure: coefficients, activation with change points, eigenvalues")
 
@@ -243,6 +272,12 @@ def build_parser() -> argparse.ArgumentParser:
     sel.add_argument("--method", default=None,
                      help="criterion: sq: ml (default), gcv, lcurve, cv; group/l1: lcurve "
                      "(default), cv; l0: bic (default), aic")
+    sel.add_argument("--loss", choices=["squared", "huber", "laplace"], default="squared",
+                     help="loss of the residuals (as fit --loss); a robust loss takes the "
+                     "criterion cv, scored with that loss")
+    sel.add_argument("--huber-delta", type=_positive_float, default=None, metavar="D",
+                     help="Huber threshold with --loss huber (default: the robust rule)")
+    _add_weights_option(sel)
     _add_constant_option(sel, "a constant term c_t in the models compared (as fit, segments "
                          "or ar with --constant)")
     _add_outputs(sel, out=None, plot="figure of the criterion (or L-curve) with the choice")
