@@ -16,7 +16,7 @@ from matplotlib.figure import Figure  # noqa: E402
 import ltvmodels as ltv  # noqa: E402
 from ltvmodels import plotting, systems  # noqa: E402
 
-TITLES = ["A[0,0]", "A[0,1]", "B[0,0]", "A[1,0]", "A[1,1]", "B[1,0]"]
+TITLES = ["A[x0,x0]", "A[x0,x1]", "B[x0,u0]", "A[x1,x0]", "A[x1,x1]", "B[x1,u0]"]
 
 
 @pytest.fixture(scope="module")
@@ -84,7 +84,7 @@ def test_plot_coefficients_three_states_two_inputs():
     model = ltv.fit(rw.x, rw.u, lam=100.0)
     fig = plotting.plot_coefficients(model, truth=rw)
     assert len(fig.axes) == 15
-    assert fig.axes[4].get_title() == "B[0,1]"
+    assert fig.axes[4].get_title() == "B[x0,u1]"
 
 
 def test_plot_coefficients_lti_model(data):
@@ -206,3 +206,26 @@ def test_plot_model_marks_the_change_points_the_fit_found(data):
     found = ltv.find_changepoints(smooth)
     activation_ax = plotting.plot_model(smooth, changepoints=found).subfigs[1].axes[0]
     assert len(activation_ax.lines) == 1 + len(found)
+
+
+def test_every_model_kind_plots():
+    """Regression and AR models: coefficients named "output:regressor", AR poles from the
+    companion matrix (they used to be refused)."""
+    rng = np.random.default_rng(0)
+    phi = rng.standard_normal((100, 2))
+    y = phi @ np.array([1.0, 2.0]) + 0.1 * rng.standard_normal(100)
+    regression = ltv.fit_regression(y, phi, lam=5.0)
+    fig = regression.plot()
+    assert [ax.get_title() for ax in fig.axes] == ["y0:phi0", "y0:phi1"]
+    assert len(fig.axes[0].collections) == 1  # the ±2σ band
+    series = rng.standard_normal(200)
+    ar = ltv.fit_ar(series, 2, lam=10.0)
+    fig = plotting.plot_coefficients(ar)
+    assert [ax.get_title() for ax in fig.axes] == ["y:y[t-1]", "y:y[t-2]"]
+    ax = plotting.plot_poles(ar)
+    assert ax.get_title() == "Poles of the AR model"
+    np.testing.assert_allclose(np.sort_complex(ax.collections[0].get_offsets()[:2] @
+                                               np.array([1, 1j])),
+                               np.sort_complex(ar.poles()[0]))
+    with pytest.raises(TypeError, match=r"^model: expected a model with coefficients"):
+        plotting.plot_coefficients(object())

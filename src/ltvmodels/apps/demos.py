@@ -48,7 +48,7 @@ def _optional_output_path(out: Any) -> tuple[Path | None, str | None]:
 
 
 def _report(lines: list[str], stream: TextIO, fig: Any, path: Path | None,
-            fmt: str | None, dpi: int = 120) -> None:
+            fmt: str | None, dpi: int = 150) -> None:
     """Write ``fig`` to ``path`` (if any), then print the demo's report."""
     if path is not None:
         save_figure(fig, path, fmt, dpi=dpi)
@@ -172,7 +172,7 @@ def run_jump_linear_demo(
     fig.suptitle(title)
     result["figure"] = fig
     result["out"] = path
-    _report(lines, stream, fig, path, fmt, dpi=110)
+    _report(lines, stream, fig, path, fmt)
     return result
 
 

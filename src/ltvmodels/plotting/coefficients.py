@@ -17,26 +17,41 @@ MODELS_WITH_CHANGEPOINTS = ("group", "l1", "piecewise", "l0", "lti")
 """Norms of the models whose ``changepoints`` were found by the fit itself."""
 
 
-def _coefficient_names(n: int, m: int) -> list[list[str]]:
-    return [[f"A[{i},{j}]" for j in range(n)] + [f"B[{i},{j}]" for j in range(m)]
-            for i in range(n)]
+def _model_theta(model: Any) -> tuple[np.ndarray, list[list[str]]]:
+    """(N, n, p) coefficients of ``model`` and their panel titles (n lists of p).
 
-
-def _model_theta(model: Any) -> np.ndarray:
-    """(N, n, n + m) coefficients [A_t B_t] of ``model``."""
-    for attr in ("A", "B"):
-        if not hasattr(model, attr):
-            raise TypeError(
-                f"model: expected an object with attributes A (N, n, n) and B (N, n, m) "
-                f"such as an LTVModel, received {type(model).__name__} without {attr!r}"
-            )
-    A = np.asarray(model.A, dtype=float)
-    B = np.asarray(model.B, dtype=float)
-    if A.ndim != 3 or A.shape[1] != A.shape[2]:
-        raise ValueError(f"model.A: expected shape (N, n, n), received {A.shape}")
-    if B.ndim != 3 or B.shape[:2] != A.shape[:2]:
-        raise ValueError(f"model.B: expected shape {A.shape[:2] + ('m',)}, received {B.shape}")
-    return np.concatenate([A, B], axis=2)
+    A state-space model ([A_t B_t]: "A[x0,x1]", "B[x0,u0]") or any regression
+    model with ``theta`` (N, n, p) (titles from ``coefficient_names()``,
+    "output:regressor").
+    """
+    if hasattr(model, "A") and hasattr(model, "B"):
+        A = np.asarray(model.A, dtype=float)
+        B = np.asarray(model.B, dtype=float)
+        if A.ndim != 3 or A.shape[1] != A.shape[2]:
+            raise ValueError(f"model.A: expected shape (N, n, n), received {A.shape}")
+        if B.ndim != 3 or B.shape[:2] != A.shape[:2]:
+            raise ValueError(f"model.B: expected shape {A.shape[:2] + ('m',)}, received "
+                             f"{B.shape}")
+        n, m = A.shape[1], B.shape[2]
+        states = list(getattr(model, "state_names", [str(i) for i in range(n)]))
+        inputs = list(getattr(model, "input_names", [str(j) for j in range(m)]))
+        names = [[f"A[{states[i]},{states[j]}]" for j in range(n)]
+                 + [f"B[{states[i]},{inputs[j]}]" for j in range(m)] for i in range(n)]
+        return np.concatenate([A, B], axis=2), names
+    if not hasattr(model, "theta"):
+        raise TypeError(
+            f"model: expected a model with coefficients (attributes A and B, or theta "
+            f"(N, n, p)) such as an LTVModel or a RegressionModel, received "
+            f"{type(model).__name__}"
+        )
+    theta = np.asarray(model.theta, dtype=float)
+    if theta.ndim != 3:
+        raise ValueError(f"model.theta: expected shape (N, n, p), received {theta.shape}")
+    N, n, p = theta.shape
+    flat = (list(model.coefficient_names()) if callable(getattr(model, "coefficient_names",
+                                                                 None))
+            else [f"theta[{i},{j}]" for i in range(n) for j in range(p)])
+    return theta, [flat[i * p:(i + 1) * p] for i in range(n)]
 
 
 def _truth_theta(truth: Any, N: int, n: int, p: int) -> np.ndarray:
@@ -66,13 +81,14 @@ def _truth_theta(truth: Any, N: int, n: int, p: int) -> np.ndarray:
 
 def plot_coefficients(model: Any, truth: Any = None, *, bands: bool = True,
                       fig: "Figure | None" = None) -> "Figure":
-    """Plot every coefficient of [A_t B_t] over time, one subplot each.
+    """Plot every coefficient of [A_t B_t] (or of Θ_t) over time, one subplot each.
 
     Parameters
     ----------
-    model : LTVModel
-        Identified model (any object with ``A`` (N, n, n), ``B`` (N, n, m) and
-        optionally ``std()`` → (N, K) works).
+    model : LTVModel, RegressionModel, ARModel, ARXModel
+        Identified model: any object with ``A`` (N, n, n) and ``B`` (N, n, m),
+        or with ``theta`` (N, n, p) (and ``coefficient_names()`` for the
+        titles), and optionally ``std()`` → (N, K).
     truth : object with ``.A``/``.B``, or array_like, optional
         True coefficients, drawn as dashed black lines: e.g. a
         :class:`ltvmodels.systems.SimulatedData` or another model (``A``
@@ -90,8 +106,10 @@ def plot_coefficients(model: Any, truth: Any = None, *, bands: bool = True,
     Returns
     -------
     matplotlib.figure.Figure
-        With n × (n + m) axes in row-major order, titled ``"A[i,j]"`` /
-        ``"B[i,j]"``; the x axis is the model index t = 0 … N − 1.
+        With n × (n + m) axes in row-major order, titled ``"A[x0,x1]"`` /
+        ``"B[x0,u0]"`` by the model's state and input names (a regression:
+        n × p axes titled "output:regressor"); the x axis is the model index
+        t = 0 … N − 1.
 
     Raises
     ------
@@ -100,9 +118,8 @@ def plot_coefficients(model: Any, truth: Any = None, *, bands: bool = True,
     """
     if not isinstance(bands, bool):
         raise TypeError(f"bands: expected True or False, received {bands!r}")
-    theta = _model_theta(model)
+    theta, names = _model_theta(model)
     N, n, p = theta.shape
-    m = p - n
     truth_theta = None if truth is None else _truth_theta(truth, N, n, p)
     std = None
     if bands and callable(getattr(model, "std", None)):
@@ -120,7 +137,6 @@ def plot_coefficients(model: Any, truth: Any = None, *, bands: bool = True,
         fig.clear()
     axes = fig.subplots(n, p, sharex=True, squeeze=False)
     t = np.arange(N)
-    names = _coefficient_names(n, m)
     for i in range(n):
         for j in range(p):
             ax = axes[i, j]
@@ -249,8 +265,9 @@ def plot_poles(model: Any, ax: "Axes | None" = None) -> "Axes":
 
     Parameters
     ----------
-    model : LTVModel
-        Any object with ``A`` (N, n, n).
+    model : LTVModel, ARModel, ARXModel
+        Any object with ``A`` (N, n, n), or with ``poles()`` → (N, D) (AR/ARX
+        models: the eigenvalues of the companion matrix of their coefficients).
     ax : matplotlib.axes.Axes, optional
         Axes to draw into. Default: the single axes of a new Figure (with a
         colour bar for t).
@@ -261,11 +278,17 @@ def plot_poles(model: Any, ax: "Axes | None" = None) -> "Axes":
         The axes; ``ax.lines[0]`` is the unit circle and ``ax.collections[0]``
         the eigenvalues (N·n points), equal aspect ratio.
     """
-    A = arrays.dynamics_matrices(model)
+    if callable(getattr(model, "poles", None)) and not hasattr(model, "A"):
+        eig = np.asarray(model.poles())  # (N, D): the companion matrix's eigenvalues
+        if eig.ndim != 2:
+            raise ValueError(f"model.poles(): expected shape (N, D), received {eig.shape}")
+        title = "Poles of the AR model"
+    else:
+        eig = np.linalg.eigvals(arrays.dynamics_matrices(model))  # (N, n)
+        title = "Eigenvalues of $A_t$"
     new = ax is None
     if ax is None:
         ax = new_axes((4.6, 4.0))
-    eig = np.linalg.eigvals(A)  # (N, n)
     N, n = eig.shape
     phase = np.linspace(0.0, 2 * np.pi, 361)
     ax.plot(np.cos(phase), np.sin(phase), color="black", linestyle=":", linewidth=1.0,
@@ -276,7 +299,7 @@ def plot_poles(model: Any, ax: "Axes | None" = None) -> "Axes":
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("Re λ")
     ax.set_ylabel("Im λ")
-    ax.set_title("Eigenvalues of $A_t$")
+    ax.set_title(title)
     ax.grid(True, alpha=0.3)
     if new:
         ax.figure.colorbar(points, ax=ax, label="t")
@@ -314,7 +337,7 @@ def plot_model(model: Any, truth: Any = None, *, changepoints: Any = None,
         ``fig.subfigs[0]`` holds the coefficient axes, ``fig.subfigs[1]`` the
         activation and eigenvalue axes.
     """
-    theta = _model_theta(model)
+    theta, _ = _model_theta(model)
     _, n, p = theta.shape
     if changepoints is None and getattr(model, "norm", None) in MODELS_WITH_CHANGEPOINTS:
         changepoints = np.asarray(model.changepoints)

@@ -88,7 +88,7 @@ def image_file(out: Any, option: str = "out") -> tuple[Path, str]:
     return path, suffix
 
 
-def save_figure(fig: "Figure", path: Path, fmt: str, option: str = "out", dpi: int = 110) -> None:
+def save_figure(fig: "Figure", path: Path, fmt: str, option: str = "out", dpi: int = 150) -> None:
     """``fig.savefig`` with write errors as :class:`~ltvmodels.errors.OutputPathError`."""
     try:
         fig.savefig(path, format=fmt, dpi=dpi)

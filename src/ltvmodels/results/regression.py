@@ -261,6 +261,13 @@ class RegressionModel:
                                                    index=frame.index)], axis=1)
         return frame
 
+    def plot(self, truth: Any = None, *, bands: bool = True, fig: Any = None):
+        """Plot the coefficients Θ_t over time with ±2σ bands
+        (:func:`ltvmodels.plotting.plot_coefficients`); returns the Figure."""
+        from ..plotting import plot_coefficients
+
+        return plot_coefficients(self, truth, bands=bands, fig=fig)
+
     # -- use ----------------------------------------------------------------------
     def predict(self, phi: Any) -> np.ndarray:
         """Predictions ŷ_t = Θ_t φ_t of the regression.
