@@ -377,3 +377,26 @@ def test_simulation_ignores_the_unused_last_input():
                                   model.simulate(x[0, 0], u[0]))
     with pytest.raises(ValueError, match="u: expected finite inputs"):
         model.simulate(x[0, 0], np.where(np.arange(40)[:, None] == 5, np.nan, u[0]))
+
+
+def test_dataframe_column_names_name_the_model(tmp_path):
+    """States and inputs keep their DataFrame column names through fit, save/load and the
+    plots; arrays keep the default names."""
+    pd = pytest.importorskip("pandas")
+    data = ltv.systems.jump_linear(T=120, change_at=60, seed=0)
+    x = pd.DataFrame(data.x, columns=["position", "velocity"])
+    u = pd.DataFrame(data.u, columns=["force"])
+    for model in (ltv.fit(x, u, lam=10.0), ltv.fit(x, u, lam=1.0, norm="group", refine=True),
+                  ltv.fit_lti(x, u), ltv.fit_piecewise(x, u, [60]),
+                  ltv.fit_segments(x, u, n_changes=1)):
+        assert model.state_names == ["position", "velocity"]
+        assert model.input_names == ["force"]
+    model = ltv.fit(x, u["force"], lam=10.0)  # a named Series
+    assert model.input_names == ["force"]
+    model.save(tmp_path / "m.npz")
+    loaded = ltv.load(tmp_path / "m.npz")
+    assert loaded.state_names == ["position", "velocity"] and loaded.input_names == ["force"]
+    titles = [ax.get_title() for ax in loaded.plot().axes[:3]]
+    assert titles == ["A[position,position]", "A[position,velocity]", "B[position,force]"]
+    plain = ltv.fit(data.x, data.u, lam=10.0)
+    assert plain.state_names == ["x0", "x1"] and "signal_names" not in plain.info

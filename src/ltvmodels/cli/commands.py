@@ -90,6 +90,14 @@ def _state_space_data(args: argparse.Namespace) -> tuple[str, np.ndarray, np.nda
     return label, x, u, state_names, input_names
 
 
+def _record_columns(model: Any, state_names: list[str], input_names: list[str]) -> None:
+    """The data's columns in the model: to read them again (simulate, predict, forecast)
+    and as its signal names (plots, to_frame)."""
+    model.info["data_columns"] = {"state": state_names, "input": input_names}
+    model.info["signal_names"] = {"state": state_names, **({"input": input_names}
+                                                           if input_names else {})}
+
+
 def _check_coef_out(args: argparse.Namespace) -> None:
     """``--coef-out`` is writable (checked before any work)."""
     if getattr(args, "coef_out", None) is not None:
@@ -336,7 +344,7 @@ def _cmd_fit(args: argparse.Namespace) -> Report:
                     max_iter=args.max_iter, tol=args.tol, constant=args.constant,
                     loss=args.loss, huber_delta=args.huber_delta, noise_var=args.noise_var,
                     weights=args.transition_weights)
-    model.info["data_columns"] = {"state": state_names, "input": input_names}
+    _record_columns(model, state_names, input_names)
     report, lines, changepoints = _state_space_report("fit", label, model, x, u, state_names,
                                                       input_names)
     facts = _lam_facts(model, args.lam)
@@ -380,7 +388,7 @@ def _cmd_segments(args: argparse.Namespace) -> Report:
         model = fit_segments(x, u, n_changes=args.n_changes, penalty=args.penalty,
                              min_size=args.min_size, constant=args.constant,
                              weights=args.transition_weights)
-    model.info["data_columns"] = {"state": state_names, "input": input_names}
+    _record_columns(model, state_names, input_names)
     report, lines, changepoints = _state_space_report("segments", label, model, x, u,
                                                       state_names, input_names)
     info = model.info

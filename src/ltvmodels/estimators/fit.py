@@ -86,8 +86,7 @@ def fit_lti(
             delta=delta,
             factory=partial(LTVModel, n_states=n, n_inputs=m, constant=data.constant),
             max_iter=LTI_HUBER_MAX_ITER, tol=LTI_HUBER_TOL, stacklevel=2)
-        model.info["n_missing"] = data.n_missing
-        return model
+        return data.describe(model)
     phi, y = problem.stacked_rows()
     # QR-based least squares: solve, don't form (ΦᵀΦ)⁻¹ for the estimate.
     q, r = np.linalg.qr(phi)
@@ -106,13 +105,13 @@ def fit_lti(
             "n_missing": data.n_missing}
     if loglik_note:
         info["loglik_note"] = loglik_note
-    return LTVModel(k, n, m, FitRecord(
+    return data.describe(LTVModel(k, n, m, FitRecord(
         norm="lti", coeffs=None, lam=float("inf"), cov=cov,
         noise_var=np.diag(noise_cov).copy(),
         noise_cov=noise_cov, loglik=loglik, info=info,
         changepoints=np.zeros(0, dtype=int),
         status=FitStatus("closed_form", info["solver"], 0, rss),
-    ), constant=data.constant)
+    ), constant=data.constant))
 
 
 def fit(
@@ -280,11 +279,11 @@ def fit(
         )
         data = state_space_data(x, u, weights=weights, constant=constant)
         _, delta = options.loss_options(loss, huber_delta, data.n)
-        return refine_fit(
+        return data.describe(refine_fit(
             data.problem, first, names=data.regressor_names, loss=loss, delta=delta,
             factory=partial(LTVModel, n_states=data.n, n_inputs=data.m,
                             constant=data.constant),
-            n_missing=data.n_missing)
+            n_missing=data.n_missing))
     data = state_space_data(x, u, order=order, weights=weights, constant=constant)
     norm = options.norm_name(norm)
     model = fit_problem(
@@ -295,8 +294,7 @@ def fit(
         lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
         compute_cov=compute_cov, max_iter=max_iter, tol=tol, loss=loss, huber_delta=huber_delta,
     )
-    model.info["n_missing"] = data.n_missing
-    return model
+    return data.describe(model)
 
 
 def fit_path(

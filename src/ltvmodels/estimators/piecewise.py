@@ -158,9 +158,10 @@ def fit_piecewise(
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
     loss, delta = options.loss_options(loss, huber_delta, data.n)
     factory = partial(LTVModel, n_states=data.n, n_inputs=data.m, constant=data.constant)
-    return piecewise_fit(data.problem, changepoints, order=order, compute_cov=compute_cov,
-                         names=data.regressor_names, loss=loss, delta=delta, factory=factory,
-                         n_missing=data.n_missing)
+    return data.describe(piecewise_fit(
+        data.problem, changepoints, order=order, compute_cov=compute_cov,
+        names=data.regressor_names, loss=loss, delta=delta, factory=factory,
+        n_missing=data.n_missing))
 
 
 def piecewise_fit(

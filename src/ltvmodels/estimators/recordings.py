@@ -36,6 +36,8 @@ class StateSpaceData:
         The validated data (NaN = missing).
     weights : ndarray, shape (R, T − 1), or None
     constant : bool
+    state_names, input_names : list of str or None
+        The column names of pandas inputs (None: the data had none).
     """
 
     problem: RegressionProblem
@@ -43,6 +45,8 @@ class StateSpaceData:
     u: np.ndarray
     weights: np.ndarray | None
     constant: bool
+    state_names: list[str] | None = None
+    input_names: list[str] | None = None
 
     @property
     def n(self) -> int:
@@ -59,17 +63,26 @@ class StateSpaceData:
 
     @property
     def regressor_names(self) -> list[str]:
-        """Names of the columns of φ_t: x0 …, u0 …, and "1" for the intercept."""
-        return regressor_names(self.n, self.m, self.constant)
+        """Names of the columns of φ_t: the states' and inputs' names (x0 …, u0 … by
+        default), and "1" for the intercept."""
+        states = self.state_names or signal_names("x", self.n)
+        inputs = self.input_names or signal_names("u", self.m)
+        return states + inputs + (["1"] if self.constant else [])
+
+    def describe(self, model: Any) -> Any:
+        """Record what the data say about ``model`` in its ``info``: "n_missing" and, for
+        pandas inputs, "signal_names" ({"state": …, "input": …}, the column names)."""
+        model.info["n_missing"] = self.n_missing
+        names = {"state": self.state_names, "input": self.input_names if self.m else None}
+        names = {key: value for key, value in names.items() if value is not None}
+        if names:
+            model.info["signal_names"] = names
+        return model
 
     @property
     def n_missing(self) -> int:
         """Transitions (of all trajectories) left out of the data term."""
         return self.problem.N * self.problem.q - self.problem.n_observed
-
-
-def regressor_names(n: int, m: int, constant: bool) -> list[str]:
-    return signal_names("x", n) + signal_names("u", m) + (["1"] if constant else [])
 
 
 def state_space_data(
@@ -90,13 +103,16 @@ def state_space_data(
     constant : bool
         Add an intercept c_t to every state equation.
     """
+    x_data, u_data = x, u
     x, u = arrays.recordings(x, u)
     R, T, _ = x.shape
     coeffs = options.difference_coefficients(order, max_degree=T)
     w = arrays.row_weights(weights, R, T - 1)
     constant = options.flag(constant, "constant")
     problem = state_space_problem(x, u, coeffs, weights=w, constant=constant)
-    return StateSpaceData(problem, x, u, w, constant)
+    return StateSpaceData(problem, x, u, w, constant,
+                          state_names=arrays.column_names(x_data, x.shape[2]),
+                          input_names=arrays.column_names(u_data, u.shape[2]))
 
 
 def regression_problem(y: Any, phi: Any, *, order: Any = 1, weights: Any = None

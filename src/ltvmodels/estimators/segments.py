@@ -242,7 +242,7 @@ def fit_segments(
     model = fit_piecewise(data.x, data.inputs, result.changepoints, order=1,
                           compute_cov=compute_cov, weights=data.weights,
                           constant=data.constant)
-    return _segmentation_model(model, result)
+    return _segmentation_model(data.describe(model), result)
 
 
 def _segmentation_model(model: Any, result: Segmentation) -> Any:

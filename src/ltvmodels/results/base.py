@@ -49,13 +49,22 @@ class LinearTimeVarying:
 
     @property
     def state_names(self) -> list[str]:
-        """Names of the states, ``["x0", "x1", …]``."""
-        return signal_names("x", self.n)
+        """Names of the states: the data's column names where it had them (a pandas
+        DataFrame, recorded in ``info["signal_names"]``), else ``["x0", "x1", …]``."""
+        return _recorded_names(self, "state", self.n) or signal_names("x", self.n)
 
     @property
     def input_names(self) -> list[str]:
-        """Names of the inputs, ``["u0", "u1", …]``."""
-        return signal_names("u", self.m)
+        """Names of the inputs: the data's column names, else ``["u0", "u1", …]``."""
+        return _recorded_names(self, "input", self.m) or signal_names("u", self.m)
+
+
+def _recorded_names(obj: object, key: str, count: int) -> list[str] | None:
+    """``obj.info["signal_names"][key]`` when it names ``count`` signals, else None."""
+    info = getattr(obj, "info", None)
+    names = info.get("signal_names", {}).get(key) if isinstance(info, dict) else None
+    return [str(name) for name in names] if names is not None and len(names) == count \
+        else None
 
 
 def signal_names(prefix: str, count: int) -> list[str]:

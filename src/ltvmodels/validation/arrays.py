@@ -187,6 +187,19 @@ def is_batch(value: Any) -> bool:
     return np.ndim(value) == 3
 
 
+def column_names(value: Any, count: int) -> list[str] | None:
+    """The column names of a pandas DataFrame (or a named Series) with ``count`` columns,
+    as strings; None for anything else (arrays, lists, unnamed series)."""
+    columns = getattr(value, "columns", None)
+    if columns is not None and getattr(value, "ndim", 0) == 2 and len(columns) == count:
+        return [str(name) for name in columns]
+    name = getattr(value, "name", None)
+    if name is not None and getattr(value, "ndim", 0) == 1 and count == 1 and \
+            hasattr(value, "index"):
+        return [str(name)]
+    return None
+
+
 def recordings(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
     """Validate recorded states ``x`` and inputs ``u`` of R time-aligned trajectories.
 
