@@ -351,6 +351,7 @@ def test_ar_with_missing_samples_and_several_series():
     np.testing.assert_allclose(single.k, reg.k, rtol=1e-10)
 
 
+@pytest.mark.filterwarnings("ignore::ltvmodels.ModelStructureWarning")  # a level, by design
 def test_ar_predictions_and_regressors_mark_missing_lags():
     rng = np.random.default_rng(18)
     y = np.cumsum(rng.standard_normal(60)) * 0.1
@@ -400,3 +401,28 @@ def test_dataframe_column_names_name_the_model(tmp_path):
     assert titles == ["A[position,position]", "A[position,velocity]", "B[position,force]"]
     plain = ltv.fit(data.x, data.u, lam=10.0)
     assert plain.state_names == ["x0", "x1"] and "signal_names" not in plain.info
+
+
+def test_a_datetime_index_times_the_model(tmp_path):
+    """The index of x is model.time; change point c is reported at the time of x[c]; it
+    survives save/load and indexes to_frame."""
+    pd = pytest.importorskip("pandas")
+    data = ltv.systems.jump_linear(T=120, change_at=60, seed=0)
+    index = pd.date_range("2021-03-01", periods=120, freq="D", tz="Europe/Stockholm")
+    x = pd.DataFrame(data.x, columns=["position", "velocity"], index=index)
+    u = pd.Series(data.u[:, 0], name="force", index=index)
+    model = ltv.fit(x, u, lam=30.0, norm="group")
+    expected = index.tz_convert("UTC").tz_localize(None).to_numpy()
+    np.testing.assert_array_equal(model.time, expected)
+    assert model.changepoints.tolist() == [60]
+    np.testing.assert_array_equal(model.changepoint_times, expected[[60]])
+    model.save(tmp_path / "m.npz")
+    loaded = ltv.load(tmp_path / "m.npz")
+    np.testing.assert_array_equal(loaded.changepoint_times, expected[[60]])
+    frame = loaded.to_frame()
+    assert frame.index.name == "time" and frame.index[0] == pd.Timestamp(expected[0])
+    # numbers keep their values; the default index 0 … T−1 is no time
+    years = ltv.fit(pd.DataFrame(data.x, index=1900.0 + np.arange(120)), lam=10.0)
+    assert years.time[0] == 1900.0
+    assert ltv.fit(pd.DataFrame(data.x), lam=10.0).time is None
+    assert ltv.fit(data.x, lam=10.0).changepoint_times is None

@@ -38,6 +38,8 @@ class StateSpaceData:
     constant : bool
     state_names, input_names : list of str or None
         The column names of pandas inputs (None: the data had none).
+    time : ndarray, shape (T,), or None
+        The index of a pandas ``x`` (dates as datetime64[ns], or numbers).
     """
 
     problem: RegressionProblem
@@ -47,6 +49,7 @@ class StateSpaceData:
     constant: bool
     state_names: list[str] | None = None
     input_names: list[str] | None = None
+    time: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -71,8 +74,11 @@ class StateSpaceData:
 
     def describe(self, model: Any) -> Any:
         """Record what the data say about ``model`` in its ``info``: "n_missing" and, for
-        pandas inputs, "signal_names" ({"state": …, "input": …}, the column names)."""
+        pandas inputs, "signal_names" ({"state": …, "input": …}, the column names) and
+        "time" (the index of x, (T,))."""
         model.info["n_missing"] = self.n_missing
+        if self.time is not None:
+            model.info["time"] = self.time
         names = {"state": self.state_names, "input": self.input_names if self.m else None}
         names = {key: value for key, value in names.items() if value is not None}
         if names:
@@ -112,7 +118,8 @@ def state_space_data(
     problem = state_space_problem(x, u, coeffs, weights=w, constant=constant)
     return StateSpaceData(problem, x, u, w, constant,
                           state_names=arrays.column_names(x_data, x.shape[2]),
-                          input_names=arrays.column_names(u_data, u.shape[2]))
+                          input_names=arrays.column_names(u_data, u.shape[2]),
+                          time=arrays.time_index(x_data, T) if R == 1 else None)
 
 
 def regression_problem(y: Any, phi: Any, *, order: Any = 1, weights: Any = None

@@ -202,7 +202,24 @@ class RegressionModel:
                                  axis=1)
         return np.sqrt(np.maximum(var, 0.0))
 
-    # -- names and export -----------------------------------------------------------
+    # -- names, time and export ------------------------------------------------------
+    @property
+    def time(self) -> np.ndarray | None:
+        """The time index of the data (a pandas index: dates as datetime64[ns], or
+        numbers), or None; for a state-space model one value per sample x[t], (N + 1,)."""
+        value = self.info.get("time")
+        return None if value is None else np.array(value)
+
+    @property
+    def changepoint_times(self) -> np.ndarray | None:
+        """The times of the change points: change point c (the first step whose
+        coefficients differ, mapping x[c] to x[c+1]) at the time of x[c]; None without a
+        time index or change points."""
+        time, changepoints = self.time, self.changepoints
+        if time is None or changepoints is None:
+            return None
+        return time[np.asarray(changepoints, dtype=int)]
+
     @property
     def output_names(self) -> list[str]:
         """Names of the n outputs (rows of Θ_t): "y0", "y1", …"""
@@ -222,7 +239,8 @@ class RegressionModel:
 
         Column "output:regressor" holds Θ_t[output, regressor] (for a state-space
         model "x0:u0" is B_t[x0, u0]); the index is the model time step t,
-        named "t". Needs pandas (``pip install pandas``).
+        named "t", or, with a time index (:attr:`time`), the time of x[t],
+        named "time". Needs pandas (``pip install pandas``).
 
         Parameters
         ----------
@@ -249,8 +267,10 @@ class RegressionModel:
         if not isinstance(std, bool):
             raise TypeError(f"std: expected True or False, received {std!r}")
         names = self.coefficient_names()
-        frame = pd.DataFrame(np.array(self.k), columns=names,
-                             index=pd.RangeIndex(self.N, name="t"))
+        time = self.time
+        index = (pd.RangeIndex(self.N, name="t") if time is None
+                 else pd.Index(time[: self.N], name="time"))
+        frame = pd.DataFrame(np.array(self.k), columns=names, index=index)
         if std:
             deviations = self.std()
             if deviations is None:

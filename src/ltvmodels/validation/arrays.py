@@ -200,6 +200,28 @@ def column_names(value: Any, count: int) -> list[str] | None:
     return None
 
 
+def time_index(value: Any, count: int) -> np.ndarray | None:
+    """The index of a pandas object with ``count`` rows as an array: datetime64[ns] for
+    dates (time zones dropped after conversion to UTC, periods at their start), float
+    for numbers; None for other data and for the default index 0, 1, …"""
+    index = getattr(value, "index", None)
+    if index is None or not hasattr(index, "to_numpy") or len(index) != count:
+        return None
+    if hasattr(index, "to_timestamp"):  # a PeriodIndex
+        index = index.to_timestamp()
+    if getattr(index, "tz", None) is not None:
+        index = index.tz_convert("UTC").tz_localize(None)
+    values = index.to_numpy()
+    if np.issubdtype(values.dtype, np.datetime64):
+        return values.astype("datetime64[ns]")
+    if not np.issubdtype(values.dtype, np.number):
+        return None
+    values = values.astype(float)
+    if np.array_equal(values, np.arange(count)):
+        return None
+    return values
+
+
 def recordings(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
     """Validate recorded states ``x`` and inputs ``u`` of R time-aligned trajectories.
 
