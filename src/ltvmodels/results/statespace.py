@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import warnings
+from numbers import Integral
 from typing import Any
 
 import numpy as np
@@ -10,6 +11,7 @@ import numpy as np
 from ..core.simulation import simulate_affine
 from ..errors import DivergenceWarning
 from ..validation import arrays, options
+from ..validation.arrays import LARGEST_DATA, describe
 from .base import LinearTimeVarying
 from .forecast import (
     DEFAULT_SAMPLES,
@@ -85,6 +87,11 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         coefficients, e.g. ``LTVModel(k, 2, 1).simulate(x0, u)``).
     constant : bool
         Whether k holds an intercept c_t.
+
+    See Also
+    --------
+    from_arrays : a model from known matrices A_t, B_t (and c_t).
+    to_statespace : the model at one step as a python-control ``StateSpace``.
     """
 
     def __init__(
@@ -116,6 +123,117 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         if not self.constant:
             return np.zeros((self.N, self.n_states))
         return self.theta[:, :, -1]
+
+    @classmethod
+    def from_arrays(
+        cls, A: Any, B: Any = None, *, c: Any = None, steps: int | None = None,
+        noise_cov: Any = None, order: Any = None,
+    ) -> LTVModel:
+        """A model with known coefficients: x[t+1] = A_t x[t] + B_t u[t] (+ c_t) + v_t.
+
+        The model of a known (e.g. physical or linearized) system, or another
+        model's coefficients, as an :class:`LTVModel`: it simulates, predicts,
+        forecasts (with ``noise_cov``), plots, saves and loads like a fitted
+        one, and serves as the mean of a :class:`~ltvmodels.Prior`. Like
+        coefficients given to the constructor, it records no fit: ``norm``,
+        ``lam``, ``cov``, ``loglik`` and ``status`` are None.
+
+        Parameters
+        ----------
+        A : array_like, shape (N, n, n), or (n, n) with ``steps``
+            State matrices A_t; one (n, n) matrix is repeated over ``steps``
+            time steps.
+        B : array_like, shape (N, n, m) or (n, m), optional
+            Input matrices B_t (an (n, m) matrix is used at every step).
+            Default: no inputs (m = 0).
+        c : array_like, shape (N, n) or (n,), optional
+            Intercepts c_t (an (n,) vector at every step); given, the model has
+            ``constant=True`` (even if c is zero). Default: no intercept.
+        steps : int, optional
+            N, the number of time steps (transitions), >= 1. Required when A is
+            one (n, n) matrix; with an (N, n, n) A it may be given and must
+            equal N.
+        noise_cov : array_like, shape (n, n), optional
+            Covariance of the process noise v_t (a scalar or (n,) variances: a
+            diagonal); symmetric positive semidefinite. Stored as
+            ``noise_cov`` (and its diagonal as ``noise_var``) for
+            :meth:`forecast`. Default: None (``forecast`` then needs its own
+            ``noise_cov=``).
+        order : int or array_like, optional
+            The difference operator that continues the coefficients after the
+            end in :meth:`forecast` and that :meth:`activation` applies, as in
+            :func:`ltvmodels.fit`: an integer d >= 1 (at most N − 1) or
+            coefficients c_0 … c_d. Default: None, the first difference, as
+            for every model without a penalty (the coefficients stay at A_{N−1},
+            B_{N−1} after the end).
+
+        Returns
+        -------
+        LTVModel
+            ``A``, ``B``, ``c`` equal to the given matrices, ``n_inputs`` = m,
+            ``constant`` = (c is not None).
+
+        Raises
+        ------
+        TypeError
+            An argument that is not an array of real numbers (or an integer
+            for ``steps``, ``order``).
+        ValueError
+            A shape that does not fit the others, non-finite entries or
+            magnitudes above 1e100 (which model files reject), an invalid
+            ``noise_cov`` or ``order``; the message names the argument.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import ltvmodels as ltv
+        >>> model = ltv.LTVModel.from_arrays([[0.9, 0.1], [0.0, 0.8]], [[0.0], [1.0]], steps=50)
+        >>> model.simulate([1.0, 0.0], np.ones(50)).shape
+        (51, 2)
+        """
+        A = _coefficient_array(A, "A")
+        if A.ndim not in (2, 3) or A.shape[-1] != A.shape[-2] or A.shape[-1] == 0:
+            raise ValueError(f"A: expected shape (N, n, n) or (n, n) with n >= 1, received shape "
+                             f"{A.shape}")
+        if steps is not None:
+            steps = options.integer(steps, "steps", minimum=1)
+        if A.ndim == 2:
+            if steps is None:
+                raise ValueError(f"steps: required when A is one {A.shape} matrix (it is "
+                                 "repeated over steps time steps); pass steps=N, or A of shape "
+                                 f"(N, {A.shape[0]}, {A.shape[1]})")
+            A = np.broadcast_to(A, (steps,) + A.shape)
+        elif A.shape[0] == 0:
+            raise ValueError(f"A: expected at least one time step, received shape {A.shape}")
+        elif steps is not None and steps != A.shape[0]:
+            raise ValueError(f"steps: expected None or {A.shape[0]} (the length of A, shape "
+                             f"{A.shape}), received {steps}")
+        N, n = A.shape[0], A.shape[1]
+        if B is None:
+            B = np.zeros((N, n, 0))
+        else:
+            B = _coefficient_array(B, "B")
+            if B.ndim not in (2, 3) or B.shape[-2] != n or (B.ndim == 3 and B.shape[0] != N):
+                raise ValueError(f"B: expected shape ({N}, {n}, m) or ({n}, m) for A with N = "
+                                 f"{N} steps and n = {n} states, received shape {B.shape}")
+            B = np.broadcast_to(B, (N,) + B.shape[-2:])
+        parts = [A, B]
+        if c is not None:
+            c = _coefficient_array(c, "c")
+            if c.ndim not in (1, 2) or c.shape[-1] != n or (c.ndim == 2 and c.shape[0] != N):
+                raise ValueError(f"c: expected shape ({N}, {n}) or ({n},) for A with N = {N} "
+                                 f"steps and n = {n} states, received shape {c.shape}")
+            parts.append(np.broadcast_to(c, (N, n))[:, :, None])
+        coeffs = None if order is None else \
+            options.difference_coefficients(order, max_degree=N - 1)
+        if coeffs is not None and coeffs.size > N:  # model files hold at most N coefficients
+            raise ValueError(f"order: expected at most {N} coefficients (degree N − 1 = {N - 1}) "
+                             f"for a model of N = {N} steps, received {coeffs.size}")
+        noise = None if noise_cov is None else noise_covariance(noise_cov, None, n)
+        fit = FitRecord(coeffs=coeffs, noise_cov=noise,
+                        noise_var=None if noise is None else np.diag(noise).copy())
+        k = np.concatenate(parts, axis=2).reshape(N, -1)
+        return cls(k, n, B.shape[2], fit, constant=c is not None)
 
     # -- use ----------------------------------------------------------------------
     def predict(self, x: Any, u: Any = None) -> np.ndarray:
@@ -276,6 +394,96 @@ class LTVModel(RegressionModel, LinearTimeVarying):
             names=self.state_names,
         )
 
+    def to_statespace(self, t: int = -1, *, dt: float | None = None) -> Any:
+        """The model at step t as a discrete-time python-control ``StateSpace``.
+
+        The frozen system of model step t,
+
+            x[k+1] = A_t x[k] + B_t u[k],   y[k] = x[k],
+
+        i.e. ``control.StateSpace(A_t, B_t, I_n, 0, dt)``: all states are the
+        outputs (C = I_n, D = 0), so it can be analysed (poles, gains,
+        controllability, LQR design) and simulated with python-control's
+        tools. python-control is an optional dependency: ``pip install
+        'ltvmodels[control]'``.
+
+        The intercept: a model with ``constant=True`` has
+        x[t+1] = A_t x[t] + B_t u[t] + c_t, which is not of this form; c_t is
+        appended as an extra, last input column, B = [B_t c_t] (n, m + 1)
+        with input label ``"const"`` (``"const_"`` if an input has that
+        name), and the system equals the model when that input is held at 1
+        (keep it in mind for gains and controllability, which then count it
+        as an input).
+
+        Parameters
+        ----------
+        t : int, default -1
+            The model step, -N <= t < N; negative values count from the end
+            as in Python indexing (-1: the last step, N − 1).
+        dt : float, optional
+            Sampling period of the discrete-time system, > 0. Default: 1 (one
+            model step; the model has no time unit of its own).
+
+        Returns
+        -------
+        control.StateSpace
+            A (n, n) = ``model.A[t]``; B (n, m) = ``model.B[t]``, or
+            [B_t c_t] (n, m + 1) with the intercept; C = I_n; D = 0 of B's
+            shape; ``dt``; labelled with ``state_names`` (states and outputs) and
+            ``input_names`` (+ ``"const"``), named ``"ltv_t<t>"`` with t
+            counted from 0. A model without inputs (m = 0, no intercept)
+            gives a system with zero inputs (B of shape (n, 0)).
+
+        Raises
+        ------
+        ImportError
+            python-control is not installed.
+        TypeError
+            ``t`` is not an integer, ``dt`` not a real number.
+        ValueError
+            ``t`` outside [-N, N − 1], ``dt`` not > 0.
+
+        Examples
+        --------
+        The poles of the last step (the eigenvalues of A_{N−1}); the first
+        step with a sampling period of 10 ms, and its steady-state gain:
+
+        >>> sys_last = model.to_statespace()             # doctest: +SKIP
+        >>> sys_last.poles()                             # doctest: +SKIP
+        >>> model.to_statespace(0, dt=0.01).dcgain()     # doctest: +SKIP
+        """
+        if isinstance(t, (bool, np.bool_)) or not isinstance(t, Integral):
+            raise TypeError(f"t: expected an integer model step in [{-self.N}, {self.N - 1}], "
+                            f"received {describe(t)}")
+        if not -self.N <= t < self.N:
+            raise ValueError(f"t: expected a model step in [{-self.N}, {self.N - 1}] (the model "
+                             f"has N = {self.N} steps; negative steps count from the end), "
+                             f"received {int(t)}")
+        step = int(t) % self.N
+        dt = 1.0 if dt is None else options.positive_scalar(dt, "dt")
+        missing = ("to_statespace needs python-control (the package 'control', >= 0.9.4): "
+                   "install it with pip install 'ltvmodels[control]' (or pip install control)")
+        try:
+            import control
+        except ImportError as exc:
+            raise ImportError(missing) from exc
+        if not hasattr(control, "StateSpace"):  # a directory named control/ on sys.path
+            raise ImportError(f"{missing}; the module 'control' found "
+                              f"({getattr(control, '__path__', None) or control}) is not it")
+        n = self.n_states
+        B = self.theta[step, :, n:]  # [B_t] or [B_t c_t]
+        inputs = self.input_names
+        if self.constant:
+            label = "const"
+            while label in inputs:  # the data named an input "const"
+                label += "_"
+            inputs = inputs + [label]
+        return control.StateSpace(
+            np.array(self.A[step]), np.array(B), np.eye(n), np.zeros((n, B.shape[1])), dt,
+            inputs=inputs, outputs=self.state_names, states=self.state_names,
+            name=f"ltv_t{step}",
+        )
+
     def _data(self, x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
         x, u = arrays.recordings(x, u)
         if x.shape[2] != self.n_states:
@@ -306,3 +514,12 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         from ..plotting import plot_coefficients
 
         return plot_coefficients(self, truth=truth, bands=bands, fig=fig)
+
+
+def _coefficient_array(value: Any, name: str) -> np.ndarray:
+    """A finite float64 copy of given coefficients, of magnitude up to ``LARGEST_DATA``."""
+    arr = arrays.as_float_array(value, name)
+    if arr.size and np.abs(arr).max() > LARGEST_DATA:
+        raise ValueError(f"{name}: expected finite values of magnitude up to {LARGEST_DATA:g}, "
+                         f"received values up to {np.abs(arr).max():.3g}")
+    return arr
