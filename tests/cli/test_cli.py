@@ -823,7 +823,7 @@ def test_fit_options_match_the_python_api(tmp_path, capsys):
     np.testing.assert_allclose(model.noise_var, [0.04, 0.05])
     frame = __import__("pandas").read_csv(tmp_path / "coef.csv", index_col="t")
     np.testing.assert_allclose(frame.iloc[:, :6].to_numpy(), expected.k, atol=1e-10)
-    assert frame.columns[0] == "y0:phi0" and frame.columns[6] == "y0:phi0 std"
+    assert frame.columns[0] == "A[x1,x1]" and frame.columns[6] == "A[x1,x1] std"
     code = main(["select-lambda", str(path), "--state", "x1,x2", "--input", "u1", "--norm",
                  "group", "--loss", "huber", "--weights", "w", "--json"])
     report = __import__("json").loads(capsys.readouterr().out)

@@ -34,3 +34,13 @@ def test_ar_frame_names_the_lags():
     frame = model.to_frame()
     assert list(frame.columns) == ["y:y[t-1]", "y:y[t-2]", "y:1"]
     np.testing.assert_array_equal(frame.to_numpy(), model.k)
+
+
+def test_state_space_frame_names_a_b_and_c():
+    data = ltv.systems.jump_linear(T=80, change_at=40, seed=0)
+    x = pd.DataFrame(data.x, columns=["p", "v"])
+    model = ltv.fit(x, pd.DataFrame(data.u, columns=["f"]), lam=5.0, constant=True)
+    frame = model.to_frame()
+    assert list(frame.columns[:4]) == ["A[p,p]", "A[p,v]", "B[p,f]", "c[p]"]
+    np.testing.assert_array_equal(frame["B[v,f]"].to_numpy(), model.B[:, 1, 0])
+    np.testing.assert_array_equal(frame["c[v]"].to_numpy(), model.c[:, 1])

@@ -124,6 +124,26 @@ class LTVModel(RegressionModel, LinearTimeVarying):
             return np.zeros((self.N, self.n_states))
         return self.theta[:, :, -1]
 
+    # -- names ----------------------------------------------------------------------
+    @property
+    def output_names(self) -> list[str]:
+        """The states (the outputs of x[t+1] = A_t x[t] + …)."""
+        return self.state_names
+
+    @property
+    def regressor_names(self) -> list[str]:
+        """The states, the inputs and "1" for the intercept."""
+        return self.state_names + self.input_names + (["1"] if self.constant else [])
+
+    def coefficient_names(self) -> list[str]:
+        """Names of the entries of k_t in its order: "A[x0,x1]", "B[x0,u0]", "c[x0]"."""
+        names = []
+        for out in self.state_names:
+            names += [f"A[{out},{state}]" for state in self.state_names]
+            names += [f"B[{out},{name}]" for name in self.input_names]
+            names += [f"c[{out}]"] if self.constant else []
+        return names
+
     @classmethod
     def from_arrays(
         cls, A: Any, B: Any = None, *, c: Any = None, steps: int | None = None,
