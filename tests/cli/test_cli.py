@@ -837,3 +837,25 @@ def test_fit_options_match_the_python_api(tmp_path, capsys):
     assert "--weights: the weights must be observed" in capsys.readouterr().err
     assert main([*base, "--noise-var", "-1"]) == 2
     assert "--noise-var" in capsys.readouterr().err
+
+
+def test_time_column_dates_the_change_points(tmp_path, capsys):
+    """--time parses ISO dates (or numbers); change points are reported at the date of
+    x[c]; the model keeps the times and indexes its coefficients by them."""
+    data = ltvmodels.systems.jump_linear(seed=0)
+    days = np.arange("2020-01-01", "2021-02-04", dtype="datetime64[D]")[:400]
+    path = tmp_path / "dated.csv"
+    path.write_text("date,x1,x2,u1\n" + "".join(
+        f"{days[t]},{data.x[t, 0]:.17g},{data.x[t, 1]:.17g},{data.u[t, 0]:.17g}\n"
+        for t in range(400)))
+    code = main(["fit", str(path), "--state", "x1,x2", "--input", "u1", "--norm", "group",
+                 "--lam", "30", "--time", "date", "--json", "--out", str(tmp_path / "m.npz")])
+    report = __import__("json").loads(capsys.readouterr().out)
+    assert code == 0 and report["changepoints"] == [200]
+    assert report["changepoint_times"] == ["2020-07-19"]
+    model = ltvmodels.load(tmp_path / "m.npz")
+    np.testing.assert_array_equal(model.time, days.astype("datetime64[ns]"))
+    assert model.state_names == ["x1", "x2"] and model.to_frame().index.name == "time"
+    path.write_text("date,x1\n01/02/2020,1\n01/03/2020,2\n01/04/2020,3\n")
+    assert main(["fit", str(path), "--state", "x1", "--lam", "1", "--time", "date"]) == 2
+    assert "expected numbers or ISO 8601 dates" in capsys.readouterr().err

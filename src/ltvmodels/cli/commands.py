@@ -77,7 +77,8 @@ def _state_space_data(args: argparse.Namespace) -> tuple[str, np.ndarray, np.nda
     ``--weights`` the transitions' weights are left in ``args.transition_weights``."""
     weights = getattr(args, "weights", None)
     T, label, cols = read_columns(args.data, state=args.state, input=args.input,
-                                  weights=weights)
+                                  weights=weights, time=getattr(args, "time", None))
+    args.time_values = None if cols.get("time") is None else cols["time"][1]
     state_names, x = cols["state"]
     input_names, u = cols["input"] if cols["input"] is not None else ([], None)
     args.transition_weights = None
@@ -90,12 +91,15 @@ def _state_space_data(args: argparse.Namespace) -> tuple[str, np.ndarray, np.nda
     return label, x, u, state_names, input_names
 
 
-def _record_columns(model: Any, state_names: list[str], input_names: list[str]) -> None:
-    """The data's columns in the model: to read them again (simulate, predict, forecast)
-    and as its signal names (plots, to_frame)."""
+def _record_columns(model: Any, state_names: list[str], input_names: list[str],
+                    time: np.ndarray | None) -> None:
+    """The data's columns in the model: to read them again (simulate, predict, forecast),
+    as its signal names (plots, to_frame) and, with --time, as its time index."""
     model.info["data_columns"] = {"state": state_names, "input": input_names}
     model.info["signal_names"] = {"state": state_names, **({"input": input_names}
                                                            if input_names else {})}
+    if time is not None:
+        model.info["time"] = time
 
 
 def _check_coef_out(args: argparse.Namespace) -> None:
@@ -296,7 +300,22 @@ def _state_space_report(command: str, label: str, model: Any, x: np.ndarray,
         f"open-loop simulation: not computed ({skipped})",
         f"change points: {[int(c) for c in changepoints]} ({rule})",
     ]
+    time = model.time
+    if time is not None and len(changepoints):  # change c at the time of x[c]
+        times = _time_text(time[np.asarray(changepoints, dtype=int)])
+        report["changepoint_times"] = times
+        lines[-1] += f"; at times {', '.join(times)}"
     return report, lines, changepoints
+
+
+def _time_text(values: np.ndarray) -> list[str]:
+    """Times as text: dates without a time of day as YYYY-MM-DD, else to the second; numbers
+    as numbers."""
+    if not np.issubdtype(values.dtype, np.datetime64):
+        return [fmt(float(value)) for value in values]
+    days = values.astype("datetime64[D]")
+    unit = "D" if np.all(days == values) else "s"
+    return [str(text) for text in np.datetime_as_string(values, unit=unit)]
 
 
 def _save_model(model: Any, path: Path | None, report: dict, lines: list[str]) -> None:
@@ -344,7 +363,7 @@ def _cmd_fit(args: argparse.Namespace) -> Report:
                     max_iter=args.max_iter, tol=args.tol, constant=args.constant,
                     loss=args.loss, huber_delta=args.huber_delta, noise_var=args.noise_var,
                     weights=args.transition_weights)
-    _record_columns(model, state_names, input_names)
+    _record_columns(model, state_names, input_names, args.time_values)
     report, lines, changepoints = _state_space_report("fit", label, model, x, u, state_names,
                                                       input_names)
     facts = _lam_facts(model, args.lam)
@@ -388,7 +407,7 @@ def _cmd_segments(args: argparse.Namespace) -> Report:
         model = fit_segments(x, u, n_changes=args.n_changes, penalty=args.penalty,
                              min_size=args.min_size, constant=args.constant,
                              weights=args.transition_weights)
-    _record_columns(model, state_names, input_names)
+    _record_columns(model, state_names, input_names, args.time_values)
     report, lines, changepoints = _state_space_report("segments", label, model, x, u,
                                                       state_names, input_names)
     info = model.info

@@ -37,6 +37,7 @@ class _Source:
     label: str
     names: list[str]
     read: Callable[[list[int]], np.ndarray]
+    text: Callable[[int], list[str]]  # one column's fields as text ("" where missing)
 
 
 def _display(path: Any) -> str:
@@ -100,7 +101,12 @@ def _open_parquet(path: Path) -> _Source:
                                 "or a null or NaN for a missing value")
         return out
 
-    return _Source(str(path), names, read)
+    def text(index: int) -> list[str]:
+        column = frame.iloc[:, index]
+        return ["" if value is None or (isinstance(value, float) and math.isnan(value))
+                else str(value) for value in column.astype(object).where(column.notna(), None)]
+
+    return _Source(str(path), names, read, text)
 
 
 def _is_missing(text: str) -> bool:
@@ -171,7 +177,10 @@ def _parse_csv(text: str, label: str) -> _Source:
                 out[r, j] = value  # float() also reads 'nan', '-nan': missing
         return out
 
-    return _Source(label, names, read)
+    def text(index: int) -> list[str]:
+        return ["" if _is_missing(row[index]) else row[index] for row in data_rows]
+
+    return _Source(label, names, read, text)
 
 
 def _resolve(source: _Source, spec: str, option: str) -> list[int]:
@@ -229,10 +238,36 @@ def read_columns(path: Any, **selections: str | None) -> tuple[int, str, dict[st
         if indices is None:
             columns[key] = None
             continue
-        values = source.read(indices)
+        if key == "time":  # dates or numbers, see parse_times
+            if len(indices) != 1:
+                raise DataError(f"--time: expected one column, received {selections[key]!r}")
+            values = parse_times(source.text(indices[0]), source.label,
+                                 source.names[indices[0]])
+        else:
+            values = source.read(indices)
         T = values.shape[0]
         columns[key] = ([source.names[i] for i in indices], values)
     return T, source.label, columns
+
+
+def parse_times(fields: list[str], label: str, name: str) -> np.ndarray:
+    """A time column: numbers (float), or ISO 8601 dates and times (datetime64[ns]).
+
+    Every field must be given (a time cannot be missing) and of one kind.
+    """
+    if "" in fields:
+        row = fields.index("")
+        raise DataError(f"{label}, column {name!r}: the time of row {row} is missing; every "
+                        "sample needs its time")
+    try:
+        return np.array([float(field) for field in fields])
+    except ValueError:
+        pass
+    try:
+        return np.array([np.datetime64(field) for field in fields]).astype("datetime64[ns]")
+    except ValueError as exc:
+        raise DataError(f"{label}, column {name!r}: {one_line(exc)}; expected numbers or ISO "
+                        "8601 dates and times (YYYY-MM-DD, YYYY-MM-DDTHH:MM:SS)") from None
 
 
 def write_csv(path: Path, names: list[str], columns: np.ndarray, option: str) -> None:

@@ -113,6 +113,13 @@ def _add_state_options(p: argparse.ArgumentParser, *, required: bool = True) -> 
                    help=f"input columns u ({_COLS_HELP}); none for an autonomous system")
 
 
+def _add_time_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--time", metavar="COL", default=None,
+                   help="column of the samples' times: numbers, or ISO 8601 dates "
+                   "(YYYY-MM-DD[THH:MM:SS]); change points are then also reported as times, "
+                   "and the model keeps them (model.time)")
+
+
 def _add_weights_option(p: argparse.ArgumentParser) -> None:
     p.add_argument("--weights", metavar="COL", default=None,
                    help="column of weights >= 0: the weight of the equation that predicts row "
@@ -197,6 +204,7 @@ def build_parser() -> argparse.ArgumentParser:
                      "(default: estimated); with --norm sq it scales a prior-free fit's "
                      "likelihood and covariances")
     _add_weights_option(fit)
+    _add_time_option(fit)
     _add_constant_option(fit, "a time-varying constant term c_t in x[t+1] = A_t x[t] + "
                          "B_t u[t] + c_t")
     _add_sparse_options(fit)
@@ -223,6 +231,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="minimum segment length (default: n + m, or n + m + 1 with "
                      "--constant)")
     _add_weights_option(seg)
+    _add_time_option(seg)
     _add_constant_option(seg, "a constant term c_t per segment")
     _add_coef_out_option(seg)
     _add_outputs(seg, out="model file to write (.npz)",
