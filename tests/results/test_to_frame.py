@@ -44,3 +44,23 @@ def test_state_space_frame_names_a_b_and_c():
     assert list(frame.columns[:4]) == ["A[p,p]", "A[p,v]", "B[p,f]", "c[p]"]
     np.testing.assert_array_equal(frame["B[v,f]"].to_numpy(), model.B[:, 1, 0])
     np.testing.assert_array_equal(frame["c[v]"].to_numpy(), model.c[:, 1])
+
+
+def test_regression_keeps_the_names_and_dates_of_its_data(tmp_path):
+    rng = np.random.default_rng(0)
+    months = pd.date_range("2000-01-01", periods=100, freq="MS")
+    phi = pd.DataFrame(rng.standard_normal((100, 2)), columns=["gdp", "rate"], index=months)
+    slope = np.where(np.arange(100) < 60, 1.0, -1.0)
+    y = pd.Series(slope * phi["gdp"].to_numpy() + 2.0 * phi["rate"].to_numpy()
+                  + 0.05 * rng.standard_normal(100), name="inflation", index=months)
+    model = ltv.fit_regression(y, phi, lam=5.0, norm="group")
+    assert model.output_names == ["inflation"] and model.regressor_names == ["gdp", "rate"]
+    assert model.changepoints.tolist() == [60]
+    assert model.changepoint_times[0] == np.datetime64("2005-01-01")
+    frame = model.to_frame()
+    assert list(frame.columns) == ["inflation:gdp", "inflation:rate"]
+    assert frame.index[0] == pd.Timestamp("2000-01-01")
+    model.save(tmp_path / "m.npz")
+    loaded = ltv.load(tmp_path / "m.npz")
+    assert loaded.regressor_names == ["gdp", "rate"]
+    assert [ax.get_title() for ax in loaded.plot().axes] == ["inflation:gdp", "inflation:rate"]

@@ -26,7 +26,7 @@ from ..core.squared import fit_squared, weight_diagonal
 from ..results.base import signal_names
 from ..results.record import FitRecord, FitStatus, iterative_status
 from ..results.regression import RegressionModel
-from ..validation import options
+from ..validation import arrays, options
 from .changepoints import find_changepoints, residue_level
 from .priors import resolve as resolve_priors
 from .piecewise import refine_fit
@@ -123,18 +123,25 @@ def fit_regression(
     norm = options.norm_name(norm)
     n, p = problem.n, problem.p
     factory = partial(RegressionModel, n_outputs=n, n_regressors=p)
-    names = signal_names("phi", p)
+    described = {"output": arrays.column_names(y, n), "regressor": arrays.column_names(phi, p)}
+    described = {key: value for key, value in described.items() if value is not None}
+    time = arrays.time_index(y, problem.N) if problem.q == 1 else None
+    names = described.get("regressor", signal_names("phi", p))
     model = fit_problem(
         problem, factory=factory, regressor_names=names, data_name="y",
         lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
         compute_cov=compute_cov and not refine, max_iter=max_iter, tol=tol, loss=loss,
         huber_delta=huber_delta,
     )
-    if not refine:
-        return model
-    _, delta = options.loss_options(loss, huber_delta, n)
-    return refine_fit(problem, model, names=names, loss=loss, delta=delta, factory=factory,
-                      n_missing=int((~problem.observed).sum()))
+    if refine:
+        _, delta = options.loss_options(loss, huber_delta, n)
+        model = refine_fit(problem, model, names=names, loss=loss, delta=delta,
+                           factory=factory, n_missing=int((~problem.observed).sum()))
+    if described:
+        model.info["signal_names"] = described
+    if time is not None:
+        model.info["time"] = time
+    return model
 
 
 ModelFactory = Callable[..., RegressionModel]

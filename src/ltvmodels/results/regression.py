@@ -222,13 +222,23 @@ class RegressionModel:
 
     @property
     def output_names(self) -> list[str]:
-        """Names of the n outputs (rows of Θ_t): "y0", "y1", …"""
-        return [f"y{i}" for i in range(self.n_outputs)]
+        """Names of the n outputs (rows of Θ_t): the data's column names (a pandas y),
+        else "y0", "y1", …"""
+        return self._recorded("output", self.n_outputs) or \
+            [f"y{i}" for i in range(self.n_outputs)]
 
     @property
     def regressor_names(self) -> list[str]:
-        """Names of the p regressors (columns of Θ_t): "phi0", "phi1", …"""
-        return [f"phi{j}" for j in range(self.n_regressors)]
+        """Names of the p regressors (columns of Θ_t): the data's column names (a pandas
+        phi), else "phi0", "phi1", …"""
+        return self._recorded("regressor", self.n_regressors) or \
+            [f"phi{j}" for j in range(self.n_regressors)]
+
+    def _recorded(self, key: str, count: int) -> list[str] | None:
+        """``info["signal_names"][key]`` when it names ``count`` signals, else None."""
+        names = self.info.get("signal_names", {}).get(key)
+        return [str(name) for name in names] if names is not None and len(names) == count \
+            else None
 
     def coefficient_names(self) -> list[str]:
         """Names of the K entries of k_t, "output:regressor" in k's order (rows of Θ_t)."""
