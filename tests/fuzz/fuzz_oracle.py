@@ -361,6 +361,8 @@ DOCUMENTED_NONFINITE = {
     "root_spectrogram()": "NaN slots for real poles",
     "simulate()": "inf/NaN after the step a DivergenceWarning names",
     "LambdaSelection.scores": "-inf (lcurve: no bend) or +inf (l0: exact fit), never chosen",
+    "LambdaSelection (skipped)": "a candidate whose problem is singular scores worst (-inf "
+                                 "maximized, +inf minimized), its norms and dof NaN",
 }
 """Non-finite values the documentation promises."""
 
@@ -583,6 +585,13 @@ def inspect_selection(sel: Any, call: Call, context: dict) -> str:
     require_finite(call, "selection.lam", sel.lam)
     require_finite(call, "selection.lams", sel.lams)
     scores = np.asarray(sel.scores, dtype=float)
+    # documented: skipped (singular) candidates score worst and have NaN norms
+    skipped = np.isin(np.asarray(sel.lams, dtype=float),
+                      [lam for lam, _ in (getattr(sel, "skipped", None) or [])])
+    worst = -np.inf if sel.maximize else np.inf
+    if np.any(scores[skipped] != worst):
+        _fail(call, "invalid value", f"skipped candidates score {_short(scores[skipped])}")
+    scores = scores[~skipped]
     # documented: -inf where the L-curve does not bend, +inf for counts of changes whose
     # segments fit exactly; never NaN, never the choice
     allowed = {"lcurve": -np.inf, "bic": np.inf, "aic": np.inf}.get(sel.method)
@@ -590,12 +599,14 @@ def inspect_selection(sel: Any, call: Call, context: dict) -> str:
         if np.isnan(scores).any() or np.any(np.isinf(scores) & (scores != allowed)):
             _fail(call, "non-finite value", f"selection.scores = {_short(scores)}")
         chosen = int(np.argmin(np.abs(np.asarray(sel.lams) - sel.lam)))
-        require_finite(call, "selection.scores[choice]", scores[chosen])
+        require_finite(call, "selection.scores[choice]", np.asarray(sel.scores)[chosen])
     else:
         require_finite(call, "selection.scores", scores)
     outcome = "finite"
     for name in ("residual_norms", "penalty_norms", "dof"):
-        if require_finite(call, f"selection.{name}", getattr(sel, name), none_ok=True):
+        value = getattr(sel, name)
+        value = None if value is None else np.asarray(value)[~skipped]
+        if require_finite(call, f"selection.{name}", value, none_ok=True):
             outcome = "finite+None"
     if sel.norm != "l0" and not sel.lam > 0:
         _fail(call, "invalid value", f"selection.lam = {sel.lam} is not > 0")

@@ -203,7 +203,9 @@ def fit_problem(
     if selection is not None:
         model.info["lam_selection"] = {
             "method": selection.method, "lam": selection.lam,
-            "lams": selection.lams.tolist(), "scores": selection.scores.tolist(),
+            "lams": selection.lams.tolist(),
+            # None where there is no score (a skipped candidate, an L-curve without a bend)
+            "scores": [float(v) if np.isfinite(v) else None for v in selection.scores],
             "loss": selection.loss,
         }
         if selection.skipped:

@@ -26,7 +26,8 @@ class LambdaSelection:
         number of changes whose segments fit exactly is +inf: never the choice.
     method, norm : str
     residual_norms, penalty_norms : ndarray, shape (G,)
-        ‖y − Φk‖ and R(Dk) per candidate (the L-curve), where computed.
+        ‖y − Φk‖ and R(Dk) per candidate (the L-curve), where computed (NaN for
+        a skipped candidate).
     dof : ndarray, shape (G,) or None
         Effective degrees of freedom per candidate ("gcv").
     loss : str
@@ -36,7 +37,8 @@ class LambdaSelection:
         The Huber thresholds used for every candidate (loss="huber").
     skipped : list of (float, str) or None
         Candidates left out because their problem is singular, with the reason
-        (they score worst: -inf or +inf).
+        (they score worst: -inf where the criterion is maximized, +inf where it
+        is minimized; ``dof`` and the norms are NaN there).
     """
 
     lam: float
