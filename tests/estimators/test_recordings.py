@@ -426,3 +426,23 @@ def test_a_datetime_index_times_the_model(tmp_path):
     assert years.time[0] == 1900.0
     assert ltv.fit(pd.DataFrame(data.x), lam=10.0).time is None
     assert ltv.fit(data.x, lam=10.0).changepoint_times is None
+
+
+def test_a_forecast_continues_a_regular_time_index():
+    pd = pytest.importorskip("pandas")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    data = ltv.systems.jump_linear(T=120, change_at=60, seed=0)
+    days = pd.date_range("2021-01-01", periods=120, freq="D")
+    model = ltv.fit(pd.DataFrame(data.x, index=days), pd.DataFrame(data.u, index=days),
+                    lam=10.0)
+    forecast = model.forecast(data.x[-1], np.zeros(3))
+    expected = (days[-1] + pd.to_timedelta([1, 2, 3], unit="D")).to_numpy()
+    np.testing.assert_array_equal(forecast.time, expected)
+    fig = forecast.plot(history=data.x[-10:])
+    assert fig.axes[-1].get_xlabel() == "time"
+    irregular = days.delete(5).append(pd.DatetimeIndex(["2021-06-01"]))
+    model = ltv.fit(pd.DataFrame(data.x, index=irregular), pd.DataFrame(data.u, index=irregular),
+                    lam=10.0)
+    np.testing.assert_array_equal(model.forecast(data.x[-1], np.zeros(2)).time, [120, 121])

@@ -114,8 +114,10 @@ def plot_forecast(forecast: Any, *, history: Any = None,
         ``names``).
     history : array_like, shape (H, n) or (H,), optional
         Recorded samples leading up to the forecast, drawn solid in black:
-        row i belongs to time ``time[0] − H + i`` (pass the end of the data,
-        e.g. ``x[-50:]``). A line joins the last of them to the first forecast.
+        row i belongs to time ``time[0] − (H − i)·Δ`` with Δ one sample (for a
+        dated forecast the step between its first two times) (pass the end of
+        the data, e.g. ``x[-50:]``). A line joins the last of them to the
+        first forecast.
     fig : matplotlib.figure.Figure, optional
         Figure to draw into; it is cleared first. Default: a new Figure.
 
@@ -139,7 +141,10 @@ def plot_forecast(forecast: Any, *, history: Any = None,
     mean = np.asarray(forecast.mean, dtype=float)
     lower = np.asarray(forecast.lower, dtype=float)
     upper = np.asarray(forecast.upper, dtype=float)
-    time = np.asarray(forecast.time, dtype=float)
+    time = np.asarray(forecast.time)
+    dated = np.issubdtype(time.dtype, np.datetime64)
+    if not dated:
+        time = time.astype(float)
     steps, n = mean.shape
     names = list(forecast.names)
     past = None
@@ -159,7 +164,10 @@ def plot_forecast(forecast: Any, *, history: Any = None,
         ax.fill_between(time, lower[:, i], upper[:, i], color=ESTIMATE_COLOR, alpha=0.25,
                         linewidth=0, label=band)
         if past is not None and past.shape[0]:
-            t_past = time[0] - past.shape[0] + np.arange(past.shape[0])
+            # one sample per step before the forecast (for dates: the forecast's step)
+            step = (time[1] - time[0]) if dated and steps > 1 else (np.timedelta64(1, "D")
+                                                                   if dated else 1.0)
+            t_past = time[0] - (past.shape[0] - np.arange(past.shape[0])) * step
             ax.plot(t_past, past[:, i], color="black", linewidth=1.0, label="data")
             ax.plot([t_past[-1], time[0]], [past[-1, i], mean[0, i]], color=ESTIMATE_COLOR,
                     linewidth=1.0, linestyle=":")
@@ -167,7 +175,9 @@ def plot_forecast(forecast: Any, *, history: Any = None,
                 else None, label="forecast mean")
         ax.set_ylabel(names[i])
         ax.grid(True, alpha=0.3)
-    axes[-1].set_xlabel("t")
+    axes[-1].set_xlabel("time" if dated else "t")
+    if dated:
+        fig.autofmt_xdate()
     axes[0].set_title(f"Forecast, {steps} step{'s' if steps > 1 else ''}", fontsize="medium")
     axes[0].legend(fontsize="small", loc="best")
     return fig

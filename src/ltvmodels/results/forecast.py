@@ -99,10 +99,11 @@ class Forecast:
         Covariance of the forecast (exact, or the Monte Carlo sample covariance).
     level : float
         Probability of the intervals, in (0, 1).
-    time : ndarray of int, shape (steps,)
+    time : ndarray, shape (steps,)
         Sample index of each row in the data's time axis: the first forecast
         is the sample right after the data (x[T] for T recorded states, y[T]
-        for an AR/ARX series of T samples).
+        for an AR/ARX series of T samples). For a model with a regular time
+        index (``model.time``, e.g. daily dates) the times continue it instead.
     names : list of str
         Names of the n states (``model.state_names``) or outputs ("y0", …).
     method : {"gaussian", "monte_carlo"}
@@ -435,7 +436,7 @@ def forecast_model(
     n_samples : int
     seed : int, Generator or None
     noise_cov : ndarray, shape (n, n)
-    time : ndarray of int, shape (steps,)
+    time : ndarray, shape (steps,)
     names : list of str
 
     Returns

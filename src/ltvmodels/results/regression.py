@@ -210,6 +210,25 @@ class RegressionModel:
         value = self.info.get("time")
         return None if value is None else np.array(value)
 
+    def times_after(self, first: int, steps: int) -> np.ndarray:
+        """Times of the samples ``first`` … ``first + steps − 1`` of the data's time axis.
+
+        Sample indices without a time index; beyond the data, the time index
+        continued by its step when it is regular (every step equal), else the
+        sample indices as well.
+        """
+        index = np.arange(first, first + steps)
+        time = self.time
+        if time is None:
+            return index
+        known = index < time.size
+        if known.all():
+            return time[index]
+        steps_between = np.diff(time)
+        if time.size < 2 or np.any(steps_between != steps_between[0]):
+            return index
+        return time[-1] + (index - (time.size - 1)) * steps_between[0]
+
     @property
     def changepoint_times(self) -> np.ndarray | None:
         """The times of the change points: change point c (the first step whose

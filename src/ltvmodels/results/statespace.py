@@ -410,7 +410,7 @@ class LTVModel(RegressionModel, LinearTimeVarying):
             else future
         return forecast_model(
             self, x0[None, :], known, level=level, n_samples=n_samples, seed=seed,
-            noise_cov=noise, time=np.arange(self.N + 1, self.N + 1 + steps),
+            noise_cov=noise, time=self.times_after(self.N + 1, steps),
             names=self.state_names,
         )
 
