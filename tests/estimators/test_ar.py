@@ -512,3 +512,24 @@ def test_fit_regression_refine_refits_each_segment_by_least_squares():
     assert robust.info["loss"] == "huber" and robust.changepoints.tolist() == [120]
     with pytest.raises(TypeError, match=r"^refine: expected True or False"):
         ltv.fit_regression(y, phi, lam=5.0, refine="yes")
+
+
+def test_ar_models_keep_the_name_and_index_of_their_series():
+    """statsmodels' yearly sunspots as a named Series indexed by year: the lags are named
+    after it, change c is reported at the year of y[na + c], forecasts continue the years."""
+    sm = pytest.importorskip("statsmodels.api")
+    pd = pytest.importorskip("pandas")
+    table = sm.datasets.sunspots.load_pandas().data
+    y = pd.Series(table["SUNACTIVITY"].to_numpy(), index=table["YEAR"].to_numpy(),
+                  name="sunspots")
+    model = ltv.fit_ar(y, 2, lam=10.0, constant=True, norm="group")
+    assert model.regressor_names == ["sunspots[t-1]", "sunspots[t-2]", "1"]
+    c = int(model.changepoints[0])
+    assert model.changepoint_times[0] == y.index[2 + c]
+    assert model.to_frame().index[0] == y.index[2]
+    forecast = model.forecast(y.to_numpy()[-2:], steps=2)
+    np.testing.assert_array_equal(forecast.time, [y.index[-1] + 1, y.index[-1] + 2])
+    assert forecast.names == ["sunspots"]
+    u = pd.DataFrame({"rain": np.random.default_rng(0).standard_normal(len(y))}, index=y.index)
+    arx = ltv.fit_arx(y, u, 2, 1, lam=10.0, constant=True)
+    assert arx.regressor_names == ["sunspots[t-1]", "sunspots[t-2]", "rain[t-1]", "1"]

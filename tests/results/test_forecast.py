@@ -314,7 +314,7 @@ def test_ar_forecast_first_step_and_trend():
     f = model.forecast(y[-2:], steps=6, level=0.8)
     assert f.mean.shape == (6, 1) and f.cov.shape == (6, 1, 1)
     np.testing.assert_array_equal(f.time, np.arange(200, 206))
-    assert f.names == ["y0"]
+    assert f.names == ["y"]  # the model's output_names
     phi = np.array([y[-1], y[-2]])  # φ = [y[t−1], y[t−2]]
     drift = model.noise_var[0] / 10.0**2
     var = phi @ (model.cov_full()[-1] + drift * np.eye(2)) @ phi + model.noise_var[0]

@@ -39,12 +39,14 @@ def lagged_regressors(
     return y[..., L:, :].copy(), np.ascontiguousarray(phi)
 
 
-def lag_regressor_names(n: int, m: int, na: int, nb: int, nk: int,
-                        constant: bool) -> list[str]:
+def lag_regressor_names(n: int, m: int, na: int, nb: int, nk: int, constant: bool, *,
+                        output_names: list[str] | None = None,
+                        input_names: list[str] | None = None) -> list[str]:
     """Names of the regressors of :func:`lagged_regressors`, in their order:
-    y[t-1] (y0[t-1], y1[t-1], … for several outputs), …, u[t-nk], …, 1."""
-    ys = [""] if n == 1 else [str(i) for i in range(n)]
-    us = [""] if m == 1 else [str(i) for i in range(m)]
-    names = [f"y{i}[t-{lag}]" for lag in range(1, na + 1) for i in ys]
-    names += [f"u{i}[t-{nk + j}]" if nk + j else f"u{i}[t]" for j in range(nb) for i in us]
+    y[t-1] (y0[t-1], y1[t-1], … for several outputs), …, u[t-nk], …, 1 — with the
+    signals' own names when given."""
+    ys = output_names or (["y"] if n == 1 else [f"y{i}" for i in range(n)])
+    us = input_names or (["u"] if m == 1 else [f"u{i}" for i in range(m)])
+    names = [f"{y}[t-{lag}]" for lag in range(1, na + 1) for y in ys]
+    names += [f"{u}[t-{nk + j}]" if nk + j else f"{u}[t]" for j in range(nb) for u in us]
     return names + (["1"] if constant else [])

@@ -197,15 +197,17 @@ def fit_arx(
     na, nb, nk = options.lag_orders(na, nb, nk, min_na=0, min_nb=1)
     constant = options.flag(constant, "constant")
     L = lag_length(na, nb, nk)
+    y_data, u_data = y, u
     y, u = arrays.lagged_recordings(y, u, L, _structure_text(na, nb, nk), require_inputs=True)
     if not constant:
         _warn_if_offset(y)
     n, m = y.shape[2], u.shape[2]
     factory = partial(ARXModel, n_outputs=n, n_inputs=m, na=na, nb=nb, nk=nk, constant=constant)
-    return _fit_lagged(y, u, na, nb, nk, constant, factory, lam=lam, norm=norm, order=order,
-                       prior=prior, prior_mode=prior_mode, noise_var=noise_var,
-                       compute_cov=compute_cov, max_iter=max_iter, tol=tol, weights=weights,
-                       loss=loss, huber_delta=huber_delta)
+    model = _fit_lagged(y, u, na, nb, nk, constant, factory, lam=lam, norm=norm, order=order,
+                        prior=prior, prior_mode=prior_mode, noise_var=noise_var,
+                        compute_cov=compute_cov, max_iter=max_iter, tol=tol, weights=weights,
+                        loss=loss, huber_delta=huber_delta)
+    return _describe(model, y_data, u_data, y.shape)
 
 
 def fit_ar(
@@ -274,14 +276,31 @@ def fit_ar(
     """
     na, _, _ = options.lag_orders(na, 0, 1, min_na=1, min_nb=0)
     constant = options.flag(constant, "constant")
+    y_data = y
     y, u = arrays.lagged_recordings(y, None, na, _structure_text(na, 0, 1))
     if not constant:
         _warn_if_offset(y)
     factory = partial(ARModel, n_outputs=y.shape[2], na=na, constant=constant)
-    return _fit_lagged(y, u, na, 0, 1, constant, factory, lam=lam, norm=norm, order=order,
-                       prior=prior, prior_mode=prior_mode, noise_var=noise_var,
-                       compute_cov=compute_cov, max_iter=max_iter, tol=tol, weights=weights,
-                       loss=loss, huber_delta=huber_delta)
+    model = _fit_lagged(y, u, na, 0, 1, constant, factory, lam=lam, norm=norm, order=order,
+                        prior=prior, prior_mode=prior_mode, noise_var=noise_var,
+                        compute_cov=compute_cov, max_iter=max_iter, tol=tol, weights=weights,
+                        loss=loss, huber_delta=huber_delta)
+    return _describe(model, y_data, None, y.shape)
+
+
+def _describe(model: Any, y: Any, u: Any, shape: tuple[int, int, int]) -> Any:
+    """Record the column names of a pandas y (and u) and the index of y (one series) in
+    the model's ``info`` ("signal_names", "time")."""
+    R, T, n = shape
+    names = {"output": arrays.column_names(y, n),
+             "input": None if u is None else arrays.column_names(u, model.n_inputs)}
+    names = {key: value for key, value in names.items() if value is not None}
+    if names:
+        model.info["signal_names"] = names
+    time = arrays.time_index(y, T) if R == 1 else None
+    if time is not None:
+        model.info["time"] = time
+    return model
 
 
 # A mean farther from 0 than this many standard deviations is clearly not zero (a

@@ -86,14 +86,28 @@ class ARXModel(RegressionModel):
     # -- structure --------------------------------------------------------------------
     @property
     def output_names(self) -> list[str]:
-        """"y" for one output, else "y0", "y1", …"""
-        return ["y"] if self.n_outputs == 1 else [f"y{i}" for i in range(self.n_outputs)]
+        """The data's column names (a pandas y), else "y" for one output, "y0", "y1", …"""
+        return self._recorded("output", self.n_outputs) or (
+            ["y"] if self.n_outputs == 1 else [f"y{i}" for i in range(self.n_outputs)])
+
+    @property
+    def input_names(self) -> list[str]:
+        """The data's column names (a pandas u), else "u" for one input, "u0", "u1", …"""
+        return self._recorded("input", self.n_inputs) or (
+            ["u"] if self.n_inputs == 1 else [f"u{i}" for i in range(self.n_inputs)])
 
     @property
     def regressor_names(self) -> list[str]:
-        """The lagged regressors: "y[t-1]", …, "u[t-nk]", …, "1" (see :func:`ar_regressors`)."""
+        """The lagged regressors: "y[t-1]", …, "u[t-nk]", …, "1" (see :func:`ar_regressors`),
+        with the signals' names."""
         return lag_regressor_names(self.n_outputs, self.n_inputs, self.na, self.nb, self.nk,
-                                   self.constant)
+                                   self.constant, output_names=self.output_names,
+                                   input_names=self.input_names)
+
+    @property
+    def step_offset(self) -> int:
+        """Model step t describes y[lag + t]: the offset is the lag."""
+        return self.lag
 
     @property
     def lag(self) -> int:
@@ -284,8 +298,8 @@ class ARXModel(RegressionModel):
         T = self.N + L
         return forecast_model(
             self, np.ascontiguousarray(initial), known, level=level, n_samples=n_samples,
-            seed=seed, noise_cov=noise, time=np.arange(T, T + steps),
-            names=[f"y{i}" for i in range(n)],
+            seed=seed, noise_cov=noise, time=self.times_after(T, steps),
+            names=self.output_names,
         )
 
     def plot(self, fs: float, ax: Any = None):

@@ -230,14 +230,24 @@ class RegressionModel:
         return time[-1] + (index - (time.size - 1)) * steps_between[0]
 
     @property
+    def step_times(self) -> np.ndarray | None:
+        """The time of each model step t, (N,): of its row (a regression), of x[t] (a
+        state-space model), of y[lag + t] (AR/ARX); None without a time index."""
+        time = self.time
+        return None if time is None else time[self.step_offset : self.step_offset + self.N]
+
+    step_offset = 0
+    """The sample of the data's time axis that model step 0 describes (0; AR/ARX: lag)."""
+
+    @property
     def changepoint_times(self) -> np.ndarray | None:
         """The times of the change points: change point c (the first step whose
-        coefficients differ, mapping x[c] to x[c+1]) at the time of x[c]; None without a
-        time index or change points."""
-        time, changepoints = self.time, self.changepoints
-        if time is None or changepoints is None:
+        coefficients differ; for a state-space model mapping x[c] to x[c+1]) at the time
+        of step c (:attr:`step_times`); None without a time index or change points."""
+        times, changepoints = self.step_times, self.changepoints
+        if times is None or changepoints is None:
             return None
-        return time[np.asarray(changepoints, dtype=int)]
+        return times[np.asarray(changepoints, dtype=int)]
 
     @property
     def output_names(self) -> list[str]:
@@ -268,8 +278,8 @@ class RegressionModel:
 
         Column "output:regressor" holds Θ_t[output, regressor] (for a state-space
         model "x0:u0" is B_t[x0, u0]); the index is the model time step t,
-        named "t", or, with a time index (:attr:`time`), the time of x[t],
-        named "time". Needs pandas (``pip install pandas``).
+        named "t", or, with a time index, the time of step t
+        (:attr:`step_times`), named "time". Needs pandas (``pip install pandas``).
 
         Parameters
         ----------
@@ -296,9 +306,9 @@ class RegressionModel:
         if not isinstance(std, bool):
             raise TypeError(f"std: expected True or False, received {std!r}")
         names = self.coefficient_names()
-        time = self.time
-        index = (pd.RangeIndex(self.N, name="t") if time is None
-                 else pd.Index(time[: self.N], name="time"))
+        times = self.step_times
+        index = (pd.RangeIndex(self.N, name="t") if times is None
+                 else pd.Index(times, name="time"))
         frame = pd.DataFrame(np.array(self.k), columns=names, index=index)
         if std:
             deviations = self.std()
