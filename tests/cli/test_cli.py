@@ -859,3 +859,22 @@ def test_time_column_dates_the_change_points(tmp_path, capsys):
     path.write_text("date,x1\n01/02/2020,1\n01/03/2020,2\n01/04/2020,3\n")
     assert main(["fit", str(path), "--state", "x1", "--lam", "1", "--time", "date"]) == 2
     assert "expected numbers or ISO 8601 dates" in capsys.readouterr().err
+
+
+def test_ar_command_takes_weights_noise_var_and_coef_out(tmp_path, capsys):
+    rng = np.random.default_rng(4)
+    y = np.zeros(200)
+    for t in range(2, 200):
+        y[t] = 1.2 * y[t - 1] - 0.5 * y[t - 2] + 0.1 * rng.standard_normal()
+    w = rng.uniform(0.5, 2.0, 200)
+    path = tmp_path / "series.csv"
+    np.savetxt(path, np.c_[y, w], delimiter=",", header="level,w", comments="")
+    assert main(["ar", str(path), "--column", "level", "--na", "2", "--lam", "30",
+                 "--weights", "w", "--noise-var", "0.01", "--out", str(tmp_path / "ar.npz"),
+                 "--coef-out", str(tmp_path / "coef.csv")]) == 0
+    capsys.readouterr()
+    expected = ltvmodels.fit_ar(y, 2, lam=30.0, weights=w[2:], noise_var=0.01)
+    model = ltvmodels.load(tmp_path / "ar.npz")
+    np.testing.assert_allclose(model.k, expected.k, rtol=1e-12, atol=1e-12)
+    header = (tmp_path / "coef.csv").read_text().splitlines()[0]
+    assert header.startswith("t,level:level[t-1],level:level[t-2]")

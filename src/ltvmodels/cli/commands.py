@@ -434,15 +434,23 @@ def _cmd_segments(args: argparse.Namespace) -> Report:
 def _cmd_ar(args: argparse.Namespace) -> Report:
 
     out, plot = _outputs(args, model_file=True)
-    T, label, cols = read_columns(args.data, column=args.column)
+    _check_coef_out(args)
+    T, label, cols = read_columns(args.data, column=args.column, weights=args.weights)
     names, y = cols["column"]
+    weights = None
+    if cols["weights"] is not None:  # the equation predicting row t has row t's weight
+        weights = cols["weights"][1][args.na:, 0]
+        if not np.all(np.isfinite(weights)):
+            raise DataError("--weights: the weights must be observed (no missing values)")
     what = "choosing lambda and fitting" if args.lam == "auto" else "fitting"
     with Progress(f"ltvmodels ar: {what}"), user_errors():
         model = fit_ar(y[:, 0] if y.shape[1] == 1 else y, args.na, lam=args.lam,
                        norm=args.norm, order=args.order, constant=args.constant,
-                       max_iter=args.max_iter, tol=args.tol)
+                       max_iter=args.max_iter, tol=args.tol, weights=weights,
+                       noise_var=args.noise_var)
         freq = model.root_spectrogram(args.fs)
     model.info["data_columns"] = {"output": names}
+    model.info["signal_names"] = {"output": names}
     prediction, ok = _predict(model, y, None)
     err = prediction - y[model.lag:]
     valid = ok[:, None] & np.isfinite(y[model.lag:])
@@ -500,6 +508,7 @@ def _cmd_ar(args: argparse.Namespace) -> Report:
             ax.legend(loc="upper right", fontsize="small", markerscale=6)
         fig = ax.figure
     _save_model(model, out, report, lines)
+    _write_coefficients(model, args, report, lines)
     _save_plot(fig, plot, report, lines)
     return report, lines
 

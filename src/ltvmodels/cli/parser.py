@@ -255,8 +255,13 @@ def build_parser() -> argparse.ArgumentParser:
                     help="order of the time difference penalized (default: 1)")
     ar.add_argument("--lam", type=_lam_or_auto, default="auto", metavar="{VALUE,auto}",
                     help="regularization lambda or auto (default: auto)")
+    ar.add_argument("--noise-var", type=_positive_float_list, default=None,
+                    metavar="V[,V...]", help="noise variance, one or one per column "
+                    "(default: estimated)")
+    _add_weights_option(ar)
     _add_constant_option(ar, "a time-varying offset c_t")
     _add_sparse_options(ar)
+    _add_coef_out_option(ar)
     _add_outputs(ar, out="model file to write (.npz)",
                  plot="figure: root spectrogram over the short-time Fourier spectrogram")
 
