@@ -812,16 +812,17 @@ def _cmd_forecast(args: argparse.Namespace) -> Report:
     report: dict[str, Any] = {
         "command": "forecast", "model_file": str(args.model), "model": type(model).__name__,
         "data": data["label"], "T": data["T"], "columns": names, "steps": H,
-        "level": args.level, "method": forecast.method, "time": forecast.time.tolist(),
+        "level": args.level, "method": forecast.method, "time": _time_text(forecast.time),
         "mean": forecast.mean.tolist(), "lower": forecast.lower.tolist(),
         "upper": forecast.upper.tolist(),
     }
     percent = f"{100 * args.level:g} %"
+    times = _time_text(forecast.time)  # sample indices, or the dates of a dated model
     lines = [
         f"ltvmodels forecast: {args.model} after {data['label']} (T = {data['T']} samples; "
         f"columns {', '.join(names)})",
         repr(model),
-        f"{H} samples, t = {forecast.time[0]} to {forecast.time[-1]}; {percent} prediction "
+        f"{H} samples, t = {times[0]} to {times[-1]}; {percent} prediction "
         f"intervals ({'exact' if forecast.method == 'gaussian' else 'exact first step, '}"
         f"{'' if forecast.method == 'gaussian' else 'Monte Carlo beyond'})",
     ]
@@ -829,7 +830,7 @@ def _cmd_forecast(args: argparse.Namespace) -> Report:
     for j in shown:
         cells = ", ".join(f"{name} {fmt(forecast.mean[j, i])} [{fmt(forecast.lower[j, i])}, "
                           f"{fmt(forecast.upper[j, i])}]" for i, name in enumerate(names))
-        lines.append(f"  t = {forecast.time[j]}: {cells}")
+        lines.append(f"  t = {times[j]}: {cells}")
     fig = None
     if plot is not None:
         with _figure_errors(None):
@@ -838,10 +839,10 @@ def _cmd_forecast(args: argparse.Namespace) -> Report:
             fig.suptitle(f"{args.model} after {data['label']}: forecast, {percent} intervals")
     if out is not None:
         columns = [f"{name}{suffix}" for name in names for suffix in ("", "_lower", "_upper")]
-        table = np.column_stack([forecast.time] + [
+        table = np.column_stack([
             part[:, i] for i in range(len(names))
             for part in (forecast.mean, forecast.lower, forecast.upper)])
-        write_csv(out, ["t", *columns], table, "out")
+        write_csv(out, ["t", *columns], table, "out", index=times)
         report.setdefault("files", {})["out"] = str(out)
         lines.append(f"wrote {out}")
     _save_plot(fig, plot, report, lines)

@@ -270,14 +270,17 @@ def parse_times(fields: list[str], label: str, name: str) -> np.ndarray:
                         "8601 dates and times (YYYY-MM-DD, YYYY-MM-DDTHH:MM:SS)") from None
 
 
-def write_csv(path: Path, names: list[str], columns: np.ndarray, option: str) -> None:
-    """Write a header and rows of numbers (12 significant digits) as CSV."""
+def write_csv(path: Path, names: list[str], columns: np.ndarray, option: str,
+              index: list[str] | None = None) -> None:
+    """Write a header and rows of numbers (12 significant digits) as CSV; with ``index``
+    (one text per row, e.g. dates) as the first column."""
     try:
         with open(path, "w", newline="", encoding="utf-8") as fh:
             writer = csv.writer(fh)
             writer.writerow(names)
-            for row in columns:
-                writer.writerow([f"{v:.12g}" for v in row])
+            for r, row in enumerate(columns):
+                cells = [f"{v:.12g}" for v in row]
+                writer.writerow(cells if index is None else [index[r], *cells])
     except OSError as exc:
         raise OutputPathError(f"{option}: cannot write {str(path)!r}: "
                               f"{exc.strerror or exc}") from exc
