@@ -183,7 +183,8 @@ def plot_forecast(forecast: Any, *, history: Any = None,
     return fig
 
 
-def plot_root_spectrogram(model: Any, fs: float, *, ax: "Axes | None" = None) -> "Axes":
+def plot_root_spectrogram(model: Any, fs: float | None = None, *,
+                          ax: "Axes | None" = None) -> "Axes":
     """Plot the root spectrogram of an AR/ARX model: pole frequencies over time.
 
     Each complex-conjugate pair of poles of 1/A_t(z) is one dot per time step
@@ -196,9 +197,14 @@ def plot_root_spectrogram(model: Any, fs: float, *, ax: "Axes | None" = None) ->
     ----------
     model : ARModel or ARXModel
         Any object with ``root_spectrogram(fs)`` → (N, r) and
-        ``sample_index`` (N,).
-    fs : float
-        Sampling frequency (Hz); the time axis is ``sample_index / fs`` seconds.
+        ``sample_index`` (N,) (and, optionally, ``step_times``: the time index
+        of the data).
+    fs : float, optional
+        Sampling frequency (Hz); the time axis is then ``sample_index / fs``
+        seconds. Default: from the model's time index when it is regular —
+        dates: cycles per day against the dates; numbers (e.g. years): cycles
+        per unit of the index against it — else cycles per sample against the
+        sample.
     ax : matplotlib.axes.Axes, optional
         Axes to draw into. Default: the single axes of a new Figure.
 
@@ -212,20 +218,39 @@ def plot_root_spectrogram(model: Any, fs: float, *, ax: "Axes | None" = None) ->
     ):
         raise TypeError(f"model: expected an AR/ARX model with root_spectrogram() and "
                         f"sample_index, received {type(model).__name__}")
-    fs = options.positive_scalar(fs, "fs")
+    if fs is not None:
+        fs = options.positive_scalar(fs, "fs")
+        time = np.asarray(model.sample_index, dtype=float) / fs
+        time_label, unit = "time (s)", "Hz"
+    else:
+        fs, time, time_label, unit = _index_frequency(model)
     freq = np.asarray(model.root_spectrogram(fs), dtype=float)
-    time = np.asarray(model.sample_index, dtype=float) / fs
     if ax is None:
         ax = new_axes((7.0, 3.2))
     for i in range(freq.shape[1]):
         ax.plot(time, freq[:, i], linestyle="none", marker=".", markersize=1.5,
                 color=ESTIMATE_COLOR, label="pole frequencies" if i == 0 else None)
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("frequency (Hz)")
+    ax.set_xlabel(time_label)
+    ax.set_ylabel(f"frequency ({unit})")
     ax.set_title("Root spectrogram")
     ax.set_ylim(0, fs / 2)
     ax.grid(True, alpha=0.3)
     return ax
+
+
+def _index_frequency(model: Any) -> tuple[float, np.ndarray, str, str]:
+    """(fs, time axis, its label, the frequency unit) from a model's regular time index."""
+    times = getattr(model, "step_times", None)
+    samples = np.asarray(model.sample_index, dtype=float)
+    if times is None or len(times) < 2:
+        return 1.0, samples, "sample", "cycles per sample"
+    steps = np.diff(times)
+    if np.any(steps != steps[0]):
+        return 1.0, samples, "sample", "cycles per sample"
+    if np.issubdtype(times.dtype, np.datetime64):
+        day = float(steps[0] / np.timedelta64(1, "D"))
+        return 1.0 / day, times, "time", "cycles per day"
+    return 1.0 / float(steps[0]), times, "time", "cycles per unit of time"
 
 
 def plot_spectrogram(y: Any, fs: float, *, ax: "Axes | None" = None, nperseg: int = 256,

@@ -302,8 +302,9 @@ class ARXModel(RegressionModel):
             names=self.output_names,
         )
 
-    def plot(self, fs: float, ax: Any = None):
-        """Plot the root spectrogram; see :func:`ltvmodels.plotting.plot_root_spectrogram`."""
+    def plot(self, fs: float | None = None, ax: Any = None):
+        """Plot the root spectrogram; see :func:`ltvmodels.plotting.plot_root_spectrogram`
+        (``fs`` None: from the model's time index, or cycles per sample)."""
         from ..plotting import plot_root_spectrogram
 
         return plot_root_spectrogram(self, fs, ax=ax)
