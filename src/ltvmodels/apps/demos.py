@@ -165,11 +165,11 @@ def run_jump_linear_demo(
         for ax, first_step in zip(fig.axes, first_k.T, strict=False):
             ax.plot(first_step, color="tab:orange", lw=0.9, alpha=0.8, label="first step")
         fig.axes[0].legend(fontsize=7, loc="lower left")
-        title = (f"Jump-linear system (paper Fig. 1): group lasso, λ = {lam:.3g}, refined "
-                 "(±2σ), first step orange, truth dashed")
+        title = (f"Jump-linear system (paper Fig. 1): group lasso, λ = {lam:.3g}, refined\n"
+                 "±2σ band, first step orange, truth dashed")
     else:
-        title = f"Jump-linear system: norm='sq', order=1, λ = {lam:g} (±2σ, truth dashed)"
-    fig.suptitle(title)
+        title = f"Jump-linear system: norm='sq', order=1, λ = {lam:g}\n±2σ band, truth dashed"
+    fig.suptitle(title, fontsize="medium")
     result["figure"] = fig
     result["out"] = path
     _report(lines, stream, fig, path, fmt)

@@ -151,6 +151,8 @@ def plot_coefficients(model: Any, truth: Any = None, *, bands: bool = True,
                         label="truth")
             ax.set_title(names[i][j])
             ax.grid(True, alpha=0.3)
+            if j == 0:
+                ax.set_ylabel("coefficient")
             if i == n - 1:
                 ax.set_xlabel("t")
     axes[0, 0].legend(fontsize="small", loc="best")
