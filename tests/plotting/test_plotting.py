@@ -229,6 +229,12 @@ def test_every_model_kind_plots():
                                np.sort_complex(ar.poles()[0]))
     with pytest.raises(TypeError, match=r"^model: expected a model with coefficients"):
         plotting.plot_coefficients(object())
+    # overviews: a regression has no dynamics panel, an AR model shows its pole magnitudes
+    assert len(plotting.plot_model(regression).subfigs[1].axes) == 1
+    bottom = plotting.plot_model(ar).subfigs[1].axes
+    assert bottom[1].get_title() == "Magnitudes of the poles of the AR model"
+    segmentation = ltv.segment_regression(y, phi, n_changes=1)
+    assert [ax.get_title() for ax in segmentation.plot().axes] == ["y0:phi0", "y0:phi1"]
 
 
 def test_root_spectrogram_takes_its_units_from_the_time_index():

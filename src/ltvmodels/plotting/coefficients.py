@@ -222,6 +222,17 @@ def plot_activation(model: Any, ax: "Axes | None" = None, *,
     return ax
 
 
+def _dynamics_eigenvalues(model: Any) -> tuple[np.ndarray, str, str]:
+    """(eigenvalues (N, D), their symbol, their name): of A_t, or an AR/ARX model's poles
+    (the eigenvalues of its companion matrix)."""
+    if callable(getattr(model, "poles", None)) and not hasattr(model, "A"):
+        eig = np.asarray(model.poles())
+        if eig.ndim != 2:
+            raise ValueError(f"model.poles(): expected shape (N, D), received {eig.shape}")
+        return eig, "z_t", "poles of the AR model"
+    return np.linalg.eigvals(arrays.dynamics_matrices(model)), "A_t", "eigenvalues of $A_t$"
+
+
 def plot_eigenvalues(model: Any, ax: "Axes | None" = None) -> "Axes":
     """Plot the magnitudes of the eigenvalues of A_t over time.
 
@@ -230,8 +241,9 @@ def plot_eigenvalues(model: Any, ax: "Axes | None" = None) -> "Axes":
 
     Parameters
     ----------
-    model : LTVModel
-        Any object with ``A`` (N, n, n).
+    model : LTVModel, ARModel, ARXModel
+        Any object with ``A`` (N, n, n), or with ``poles()`` → (N, D) (AR/ARX
+        models: the magnitudes of their poles).
     ax : matplotlib.axes.Axes, optional
         Axes to draw into. Default: the single axes of a new Figure.
 
@@ -240,17 +252,17 @@ def plot_eigenvalues(model: Any, ax: "Axes | None" = None) -> "Axes":
     matplotlib.axes.Axes
         The axes (``ax.figure`` is its figure).
     """
-    A = arrays.dynamics_matrices(model)
-    mag = np.sort(np.abs(np.linalg.eigvals(A)), axis=1)[:, ::-1]  # (N, n), largest first
+    eig, symbol, title = _dynamics_eigenvalues(model)
+    mag = np.sort(np.abs(eig), axis=1)[:, ::-1]  # (N, n), largest first
     if ax is None:
         ax = new_axes((7.0, 2.8))
-    t = np.arange(A.shape[0])
+    t = np.arange(mag.shape[0])
     for i in range(mag.shape[1]):
-        ax.plot(t, mag[:, i], linewidth=1.2, label=rf"$|\lambda_{{{i + 1}}}(A_t)|$")
+        ax.plot(t, mag[:, i], linewidth=1.2, label=rf"$|\lambda_{{{i + 1}}}|$")
     ax.axhline(1.0, color="black", linestyle=":", linewidth=1.0, label=r"$|\lambda| = 1$")
     ax.set_xlabel("t")
-    ax.set_ylabel(r"$|\lambda(A_t)|$")
-    ax.set_title("Eigenvalue magnitudes of $A_t$")
+    ax.set_ylabel(rf"$|\lambda({symbol})|$")
+    ax.set_title(f"Magnitudes of the {title}")
     ax.set_ylim(bottom=0, top=max(1.1, float(mag.max(initial=0.0)) * 1.05))
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize="small", loc="best")
@@ -280,14 +292,8 @@ def plot_poles(model: Any, ax: "Axes | None" = None) -> "Axes":
         The axes; ``ax.lines[0]`` is the unit circle and ``ax.collections[0]``
         the eigenvalues (N·n points), equal aspect ratio.
     """
-    if callable(getattr(model, "poles", None)) and not hasattr(model, "A"):
-        eig = np.asarray(model.poles())  # (N, D): the companion matrix's eigenvalues
-        if eig.ndim != 2:
-            raise ValueError(f"model.poles(): expected shape (N, D), received {eig.shape}")
-        title = "Poles of the AR model"
-    else:
-        eig = np.linalg.eigvals(arrays.dynamics_matrices(model))  # (N, n)
-        title = "Eigenvalues of $A_t$"
+    eig, _, title = _dynamics_eigenvalues(model)
+    title = title[0].upper() + title[1:]
     new = ax is None
     if ax is None:
         ax = new_axes((4.6, 4.0))
@@ -349,7 +355,9 @@ def plot_model(model: Any, truth: Any = None, *, changepoints: Any = None,
         fig.clear()
     top, bottom = fig.subfigures(2, 1, height_ratios=[min(1.9 * n + 0.5, 14.0), 2.8])
     plot_coefficients(model, truth=truth, fig=top)
-    ax_act, ax_eig = bottom.subplots(1, 2)
-    plot_activation(model, ax=ax_act, changepoints=changepoints)
-    plot_eigenvalues(model, ax=ax_eig)
+    dynamics = hasattr(model, "A") or callable(getattr(model, "poles", None))
+    axes = bottom.subplots(1, 2 if dynamics else 1, squeeze=False)[0]
+    plot_activation(model, ax=axes[0], changepoints=changepoints)
+    if dynamics:  # a regression has no dynamics to draw
+        plot_eigenvalues(model, ax=axes[1])
     return fig

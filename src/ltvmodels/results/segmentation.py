@@ -58,3 +58,10 @@ class Segmentation:
     solver: str
     work: int = field(default=0)
     model: Any = None
+
+    def plot(self, fig: Any = None):
+        """Plot the model on the segments (:meth:`RegressionModel.plot`); needs ``model``."""
+        if self.model is None:
+            raise ValueError("the segmentation has no model (its segments leave no residual "
+                             "degree of freedom), so there are no coefficients to plot")
+        return self.model.plot(fig=fig)
