@@ -446,3 +446,17 @@ def test_a_forecast_continues_a_regular_time_index():
     model = ltv.fit(pd.DataFrame(data.x, index=irregular), pd.DataFrame(data.u, index=irregular),
                     lam=10.0)
     np.testing.assert_array_equal(model.forecast(data.x[-1], np.zeros(2)).time, [120, 121])
+
+
+def test_xarray_dataarrays_name_and_time_the_model():
+    xr = pytest.importorskip("xarray")
+    pd = pytest.importorskip("pandas")
+    data = ltv.systems.jump_linear(T=120, change_at=60, seed=0)
+    days = pd.date_range("2021-03-01", periods=120, freq="D")
+    x = xr.DataArray(data.x, dims=("time", "state"),
+                     coords={"time": days, "state": ["position", "velocity"]})
+    u = xr.DataArray(data.u[:, 0], dims=("time",), coords={"time": days}, name="force")
+    model = ltv.fit(x, u, lam=30.0, norm="group")
+    assert model.state_names == ["position", "velocity"] and model.input_names == ["force"]
+    np.testing.assert_array_equal(model.time, days.to_numpy())
+    assert model.changepoint_times[0] == days[60]

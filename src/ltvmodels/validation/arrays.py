@@ -189,7 +189,14 @@ def is_batch(value: Any) -> bool:
 
 def column_names(value: Any, count: int) -> list[str] | None:
     """The column names of a pandas DataFrame (or a named Series) with ``count`` columns,
-    as strings; None for anything else (arrays, lists, unnamed series)."""
+    or the coordinate of an xarray DataArray's second dimension (its name for one
+    dimension), as strings; None for anything else (arrays, lists, unnamed series)."""
+    dims = getattr(value, "dims", None)
+    if isinstance(dims, tuple) and hasattr(value, "coords"):  # an xarray DataArray
+        if len(dims) == 2 and dims[1] in value.coords and value.shape[1] == count:
+            return [str(name) for name in np.asarray(value.coords[dims[1]].values)]
+        name = getattr(value, "name", None)
+        return [str(name)] if len(dims) == 1 and name is not None and count == 1 else None
     columns = getattr(value, "columns", None)
     if columns is not None and getattr(value, "ndim", 0) == 2 and len(columns) == count:
         return [str(name) for name in columns]
@@ -201,10 +208,14 @@ def column_names(value: Any, count: int) -> list[str] | None:
 
 
 def time_index(value: Any, count: int) -> np.ndarray | None:
-    """The index of a pandas object with ``count`` rows as an array: datetime64[ns] for
+    """The index of a pandas object (or the coordinate of an xarray DataArray's first
+    dimension) with ``count`` rows as an array: datetime64[ns] for
     dates (time zones dropped after conversion to UTC, periods at their start), float
     for numbers; None for other data and for the default index 0, 1, …"""
     index = getattr(value, "index", None)
+    dims = getattr(value, "dims", None)
+    if isinstance(dims, tuple) and dims and hasattr(value, "indexes"):  # an xarray DataArray
+        index = value.indexes[dims[0]] if dims[0] in value.indexes else None
     if index is None or not hasattr(index, "to_numpy") or len(index) != count:
         return None
     if hasattr(index, "to_timestamp"):  # a PeriodIndex
