@@ -878,3 +878,19 @@ def test_ar_command_takes_weights_noise_var_and_coef_out(tmp_path, capsys):
     np.testing.assert_allclose(model.k, expected.k, rtol=1e-12, atol=1e-12)
     header = (tmp_path / "coef.csv").read_text().splitlines()[0]
     assert header.startswith("t,level:level[t-1],level:level[t-2]")
+
+
+def test_select_lambda_of_an_ar_column_takes_weights(tmp_path, capsys):
+    rng = np.random.default_rng(5)
+    y = np.zeros(150)
+    for t in range(2, 150):
+        y[t] = 1.2 * y[t - 1] - 0.5 * y[t - 2] + 0.1 * rng.standard_normal()
+    w = rng.uniform(0.5, 2.0, 150)
+    path = tmp_path / "series.csv"
+    np.savetxt(path, np.c_[y, w], delimiter=",", header="y,w", comments="")
+    assert main(["select-lambda", str(path), "--column", "y", "--na", "2", "--weights", "w",
+                 "--json"]) == 0
+    report = __import__("json").loads(capsys.readouterr().out)
+    expected = ltvmodels.select_lambda_regression(*ltvmodels.ar_regressors(y, 2),
+                                                  weights=w[2:])
+    assert report["lam"] == pytest.approx(expected.lam)

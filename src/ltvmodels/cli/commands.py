@@ -519,11 +519,14 @@ def _cmd_select_lambda(args: argparse.Namespace) -> Report:
     if args.column is not None:
         if args.state is not None or args.input is not None:
             raise CommandError("--column: an AR model takes no --state or --input")
-        if args.weights is not None:
-            raise CommandError("--weights: applies to state-space data (--state) only")
         if args.na is None:
             raise CommandError("--na: the AR order is required with --column")
-        T, label, cols = read_columns(args.data, column=args.column)
+        T, label, cols = read_columns(args.data, column=args.column, weights=args.weights)
+        row_weights = None
+        if cols["weights"] is not None:  # the equation predicting row t has row t's weight
+            row_weights = cols["weights"][1][args.na:, 0]
+            if not np.all(np.isfinite(row_weights)):
+                raise DataError("--weights: the weights must be observed (no missing values)")
         names, y = cols["column"]
         # ar_regressors takes finite data: fill missing samples, then leave out (NaN) the
         # rows whose target or lags are missing, as fit_ar does
@@ -567,7 +570,7 @@ def _cmd_select_lambda(args: argparse.Namespace) -> Report:
         if args.column is not None:
             selection = select_lambda_regression(y_out, phi, norm=args.norm, order=args.order,
                                                  method=args.method, progress=progress,
-                                                 **robust)
+                                                 weights=row_weights, **robust)
         elif args.norm == "l0":  # one dynamic program: no steps to count
             selection = select_lambda(x, u, norm=args.norm, method=args.method,
                                       constant=args.constant, weights=args.transition_weights,
