@@ -64,3 +64,24 @@ def test_regression_keeps_the_names_and_dates_of_its_data(tmp_path):
     loaded = ltv.load(tmp_path / "m.npz")
     assert loaded.regressor_names == ["gdp", "rate"]
     assert [ax.get_title() for ax in loaded.plot().axes] == ["inflation:gdp", "inflation:rate"]
+
+
+def test_a_sparse_fit_forecasts_with_its_last_segments_uncertainty(tmp_path):
+    """norm="group" has no posterior covariance: the forecast's coefficient uncertainty is
+    the least-squares covariance of the last segment, exactly at step 1."""
+    data = ltv.systems.jump_linear(seed=0)
+    model = ltv.fit(data.x, data.u, lam=30.0, norm="group")
+    assert model.changepoints.tolist() == [200]
+    phi = np.c_[data.x[200:-1], data.u[200:-1]]
+    unit = np.linalg.inv(phi.T @ phi)
+    np.testing.assert_allclose(model.info["last_segment_unit_cov"], unit, rtol=1e-10)
+    u0 = np.array([0.3])
+    forecast = model.forecast(data.x[-1], u0[None, :])
+    z = np.r_[data.x[-1], u0]
+    expected = np.diag(model.noise_var * (1.0 + z @ unit @ z)) + model.noise_cov \
+        - np.diag(model.noise_var)
+    np.testing.assert_allclose(forecast.cov[0], expected, rtol=1e-10)
+    model.save(tmp_path / "m.npz")
+    loaded = ltv.load(tmp_path / "m.npz")
+    np.testing.assert_allclose(loaded.forecast(data.x[-1], u0[None, :]).cov[0], expected,
+                               rtol=1e-10)

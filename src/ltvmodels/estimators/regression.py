@@ -334,10 +334,32 @@ def sparse_model(
     info["loglik_note"] = f"norm={norm!r} has no Gaussian likelihood; loglik is None"
     changepoints = find_changepoints(activation(k, problem.coeffs), degree=problem.degree,
                                      min_level=residue_level(k))
+    unit = last_segment_unit_cov(problem, changepoints)
+    if unit is not None:
+        info["last_segment_unit_cov"] = unit
     return factory(k, fit=FitRecord(
         norm=norm, coeffs=problem.coeffs, lam=_lam_copy(lam), noise_var=noise_var,
         noise_cov=np.diag(noise_var), info=info, changepoints=changepoints, status=status,
     ))
+
+
+def last_segment_unit_cov(problem: RegressionProblem, changepoints: np.ndarray
+                          ) -> np.ndarray | None:
+    """(Σ_{t >= c} Σ_j φ_tj φ_tjᵀ)⁻¹ over the last segment [c, N) of a piecewise-constant
+    fit (order 1), the least-squares covariance of its coefficients per unit noise
+    variance, (p, p); None for other orders or where the segment does not determine
+    them. A forecast uses it as the uncertainty of the last estimate."""
+    if problem.degree != 1:
+        return None
+    start = int(changepoints[-1]) if len(changepoints) else 0
+    gram = problem.gram()[start:].sum(axis=0)
+    try:
+        factor = np.linalg.cholesky(gram)
+    except np.linalg.LinAlgError:
+        return None
+    inverse = np.linalg.solve(factor, np.eye(gram.shape[0]))
+    unit = inverse.T @ inverse
+    return unit if np.all(np.isfinite(unit)) else None
 
 
 def _no_robust_option(value: Any, name: str, loss: str) -> None:

@@ -18,8 +18,9 @@ segment models, coeffs [−1, 1], stay constant).
 
 *Coefficient uncertainty* has two parts:
 
-1. the posterior covariance of k_{N−1} (``model.cov`` at the last step; none
-   for norm="group"/"l1" and robust losses, which have no covariance). For
+1. the posterior covariance of k_{N−1} (``model.cov`` at the last step); for
+   norm="group"/"l1" (no posterior covariance) the least-squares covariance
+   of the last segment's coefficients (order 1; none for robust losses). For
    order >= 2 the fit keeps the covariance of each k_t, not the joint one of
    the last d estimates, so the uncertainty of the estimated trend is not
    included: the error of k_{N−1} is carried forward unchanged (as if the
@@ -339,13 +340,20 @@ def end_coefficient_cov(model: Any) -> np.ndarray | None:
     """Cov(k_{N−1}), the posterior covariance of the last estimate, as a (K, K) array.
 
     Reads the compact ``model.cov``: (N, p, p) shared by the output rows
-    (I_n ⊗ cov[-1]), (N, n, p, p) per row (block diagonal) or (N, K, K).
-    None when the model has no covariance.
+    (I_n ⊗ cov[-1]), (N, n, p, p) per row (block diagonal) or (N, K, K). A
+    sparse-norm fit has no posterior covariance: then the least-squares
+    covariance of its last segment, diag(σ_i²) ⊗ (Σ φφᵀ)⁻¹ over [c_last, N)
+    (``info["last_segment_unit_cov"]``, order 1). None when the model has
+    neither.
     """
     cov = model.cov
-    if cov is None:
-        return None
     n, p = model.n_outputs, model.n_regressors
+    if cov is None:
+        unit = model.info.get("last_segment_unit_cov")
+        if unit is None or model.noise_var is None:
+            return None
+        return np.kron(np.diag(np.asarray(model.noise_var, dtype=float)),
+                       np.asarray(unit, dtype=float))
     cov = np.asarray(cov, dtype=float)
     if model.cov_shared_by_rows:
         return np.kron(np.eye(n), cov[-1])
