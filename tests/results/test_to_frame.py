@@ -85,3 +85,15 @@ def test_a_sparse_fit_forecasts_with_its_last_segments_uncertainty(tmp_path):
     loaded = ltv.load(tmp_path / "m.npz")
     np.testing.assert_allclose(loaded.forecast(data.x[-1], u0[None, :]).cov[0], expected,
                                rtol=1e-10)
+
+
+def test_to_statespace_takes_dt_from_the_time_index():
+    pytest.importorskip("control.statesp")
+    data = ltv.systems.jump_linear(T=60, change_at=30, seed=0)
+    hours = pd.date_range("2024-01-01", periods=60, freq="h")
+    model = ltv.fit(pd.DataFrame(data.x, index=hours), pd.DataFrame(data.u, index=hours),
+                    lam=10.0)
+    assert model.to_statespace().dt == 3600.0
+    yearly = ltv.fit(pd.DataFrame(data.x, index=2000.0 + 0.5 * np.arange(60)), lam=10.0)
+    assert yearly.to_statespace().dt == 0.5
+    assert ltv.fit(data.x, data.u, lam=10.0).to_statespace().dt == 1.0

@@ -144,6 +144,19 @@ class LTVModel(RegressionModel, LinearTimeVarying):
             names += [f"c[{out}]"] if self.constant else []
         return names
 
+    def _index_step(self) -> float:
+        """The step of a regular time index (dates in seconds), else 1."""
+        time = self.time
+        if time is None or time.size < 2:
+            return 1.0
+        steps = np.diff(time)
+        if np.any(steps != steps[0]):
+            return 1.0
+        if np.issubdtype(time.dtype, np.datetime64):
+            return float(steps[0] / np.timedelta64(1, "s"))
+        step = float(steps[0])
+        return step if step > 0 else 1.0
+
     @classmethod
     def from_arrays(
         cls, A: Any, B: Any = None, *, c: Any = None, steps: int | None = None,
@@ -441,8 +454,9 @@ class LTVModel(RegressionModel, LinearTimeVarying):
             The model step, -N <= t < N; negative values count from the end
             as in Python indexing (-1: the last step, N − 1).
         dt : float, optional
-            Sampling period of the discrete-time system, > 0. Default: 1 (one
-            model step; the model has no time unit of its own).
+            Sampling period of the discrete-time system, > 0. Default: the
+            step of the model's time index when it is regular (numbers: in
+            their unit; dates: in seconds), else 1 (one model step).
 
         Returns
         -------
@@ -480,7 +494,7 @@ class LTVModel(RegressionModel, LinearTimeVarying):
                              f"has N = {self.N} steps; negative steps count from the end), "
                              f"received {int(t)}")
         step = int(t) % self.N
-        dt = 1.0 if dt is None else options.positive_scalar(dt, "dt")
+        dt = self._index_step() if dt is None else options.positive_scalar(dt, "dt")
         missing = ("to_statespace needs python-control (the package 'control', >= 0.9.4): "
                    "install it with pip install 'ltvmodels[control]' (or pip install control)")
         try:
