@@ -861,14 +861,20 @@ def test_time_column_dates_the_change_points(tmp_path, capsys):
     assert "expected numbers or ISO 8601 dates" in capsys.readouterr().err
 
 
-def test_ar_command_takes_weights_noise_var_and_coef_out(tmp_path, capsys):
-    rng = np.random.default_rng(4)
-    y = np.zeros(200)
-    for t in range(2, 200):
+def _weighted_ar_series(path, T, seed, name):
+    """An AR(2) series y and weights w, written to ``path`` as columns ``name`` and w."""
+    rng = np.random.default_rng(seed)
+    y = np.zeros(T)
+    for t in range(2, T):
         y[t] = 1.2 * y[t - 1] - 0.5 * y[t - 2] + 0.1 * rng.standard_normal()
-    w = rng.uniform(0.5, 2.0, 200)
+    w = rng.uniform(0.5, 2.0, T)
+    np.savetxt(path, np.c_[y, w], delimiter=",", header=f"{name},w", comments="")
+    return y, w
+
+
+def test_ar_command_takes_weights_noise_var_and_coef_out(tmp_path, capsys):
     path = tmp_path / "series.csv"
-    np.savetxt(path, np.c_[y, w], delimiter=",", header="level,w", comments="")
+    y, w = _weighted_ar_series(path, 200, 4, "level")
     assert main(["ar", str(path), "--column", "level", "--na", "2", "--lam", "30",
                  "--weights", "w", "--noise-var", "0.01", "--out", str(tmp_path / "ar.npz"),
                  "--coef-out", str(tmp_path / "coef.csv")]) == 0
@@ -881,13 +887,8 @@ def test_ar_command_takes_weights_noise_var_and_coef_out(tmp_path, capsys):
 
 
 def test_select_lambda_of_an_ar_column_takes_weights(tmp_path, capsys):
-    rng = np.random.default_rng(5)
-    y = np.zeros(150)
-    for t in range(2, 150):
-        y[t] = 1.2 * y[t - 1] - 0.5 * y[t - 2] + 0.1 * rng.standard_normal()
-    w = rng.uniform(0.5, 2.0, 150)
     path = tmp_path / "series.csv"
-    np.savetxt(path, np.c_[y, w], delimiter=",", header="y,w", comments="")
+    y, w = _weighted_ar_series(path, 150, 5, "y")
     assert main(["select-lambda", str(path), "--column", "y", "--na", "2", "--weights", "w",
                  "--json"]) == 0
     report = __import__("json").loads(capsys.readouterr().out)
