@@ -367,3 +367,46 @@ def _ilqg_inspector(result, call, context):
             expect(bool(np.all(np.isfinite(np.asarray(value, dtype=float)))), call.label,
                    "non-finite value", f"ILQGResult.{name} holds NaN/inf")
     return "finite"
+
+
+@fuzz_test(st.sampled_from(LTV_KINDS), st.sampled_from(ARRAY_VARIANTS),
+           st.sampled_from(ARRAY_VARIANTS),
+           st.one_of(st.integers(-2, 8), choice_of(None, 2.5, "3", np.inf, True)),
+           st.one_of(st.floats(0.01, 0.99), choice_of(0.0, 1.0, -0.5, np.nan, "0.9", None)))
+def test_ltv_forecast(kind, x_variant, u_variant, steps, level):
+    """LTVModel.forecast(x0, u, steps=, level=) with fuzzed arguments."""
+    model = fitted(kind)
+    n, m = model.n_states, model.n_inputs
+    x0 = variant(_fresh((1, n)), x_variant)
+    x0 = x0[0] if isinstance(x0, np.ndarray) and x0.ndim == 2 and x0.shape[0] == 1 else x0
+    u = variant(_fresh((5, m)), u_variant) if m else (None if u_variant in ("ok", "none")
+                                                     else variant(_fresh((5, 1)), u_variant))
+    check_call(model.forecast, x0, u, steps=steps, level=level, n_samples=100,
+               label="LTVModel.forecast", inspector=_forecast_inspector)
+
+
+@fuzz_test(st.sampled_from(ARX_KINDS), st.sampled_from(ARRAY_VARIANTS),
+           st.one_of(st.integers(-1, 6), choice_of(None, 1.5)))
+def test_arx_forecast(kind, y_variant, steps):
+    """ARModel/ARXModel.forecast from the last samples, with fuzzed arguments."""
+    model = fitted(kind)
+    n, m, L = model.n_outputs, model.n_inputs, model.lag
+    y_last = variant(_fresh((L, n)), y_variant)
+    if m:
+        u = _fresh((L + 4, m))
+        check_call(model.forecast, y_last, u, steps=steps, n_samples=100,
+                   label="ARXModel.forecast", inspector=_forecast_inspector)
+    else:
+        check_call(model.forecast, y_last, steps=steps, n_samples=100,
+                   label="ARModel.forecast", inspector=_forecast_inspector)
+
+
+def _forecast_inspector(result, call, context):
+    """A forecast: finite mean, bounds and covariances, lower <= upper."""
+    for name in ("mean", "lower", "upper", "cov"):
+        arr = np.asarray(getattr(result, name), dtype=float)
+        if not np.all(np.isfinite(arr)):
+            fail_result(call, "non-finite value", f"forecast.{name} holds NaN/inf")
+    if np.any(np.asarray(result.lower) > np.asarray(result.upper)):
+        fail_result(call, "invalid value", "forecast.lower > forecast.upper")
+    return "finite"

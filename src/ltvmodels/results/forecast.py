@@ -245,6 +245,7 @@ def state_space_inputs(
     if x0.shape != (n,):
         raise ValueError(f"x0: expected the state at the end of the data, shape ({n},), "
                          f"received shape {x0.shape}")
+    arrays.representable(x0, "x0", small=False)  # beyond 1e100 the forecast overflows
     if m == 0:
         if u is not None:
             raise ValueError(f"u: the model has no inputs, expected None, received "
@@ -261,6 +262,7 @@ def state_space_inputs(
         expected = f"(steps, {m})" + (" or (steps,)" if m == 1 else "")
         raise ValueError(f"u: expected the future inputs u[T−1], u[T], …, shape {expected}, "
                          f"received shape {u.shape}")
+    arrays.representable(u, "u", small=False)
     steps = forecast_steps(steps, u.shape[0], "u[T−1], u[T], …")
     return x0, u, steps
 
@@ -282,6 +284,7 @@ def lagged_inputs(
             expected = f"({lag}, {n})" + (f" or ({lag},)" if n == 1 else "")
             raise ValueError(f"y_last: expected the last {lag} samples of y (oldest first), "
                              f"shape {expected}, received shape {y_last.shape}")
+        arrays.representable(y_last, "y_last", small=False)
     if m == 0:
         if u is not None:
             raise ValueError(f"u: the model has no inputs, expected None, received "
@@ -299,6 +302,7 @@ def lagged_inputs(
         raise ValueError(f"u: expected the inputs at the {lag} samples of y_last and at the "
                          f"forecast samples, shape {expected} with steps >= 1, received shape "
                          f"{u.shape}")
+    arrays.representable(u, "u", small=False)
     steps = forecast_steps(steps, u.shape[0] - lag,
                            f"{u.shape[0]} rows of u after the {lag} of y_last")
     return y_last, u, steps
