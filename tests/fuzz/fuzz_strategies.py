@@ -622,7 +622,6 @@ def fitted(kind: str):
     raise AssertionError(kind)
 
 
-
 # ---------------------------------------------------------------------------- file contents
 
 MODEL_KINDS = ["sq", "sq_constant", "group", "autonomous", "lti", "segments", "ar", "var", "arx",

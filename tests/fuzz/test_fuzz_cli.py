@@ -490,4 +490,3 @@ def test_cli_json_nulls_are_documented():
     except ValueError:
         return
     raise AssertionError("strict_json accepted NaN")
-

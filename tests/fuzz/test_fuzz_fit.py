@@ -54,6 +54,7 @@ def resolved(data, kw: dict) -> dict:
 SPARSE_NORM = Opt(choice_of("group", "l1"), NORM.invalid)
 FIT_OPTIONS = dict(order=ORDER, weights=WEIGHTS, constant=CONSTANT, refine=BOOL)
 
+
 def fit_options(max_bad: int = 2) -> st.SearchStrategy:
     """Options of ltv.fit: the squared norm with priors, or a sparse norm with its solver."""
     sq = options(required=("lam",), max_bad=max_bad, lam=LAM, norm=NORM, noise_var=NOISE_VAR,

@@ -14,6 +14,7 @@ import os
 import re
 
 import numpy as np
+import pytest
 from hypothesis import strategies as st
 
 import ltvmodels as ltv
@@ -409,4 +410,75 @@ def _forecast_inspector(result, call, context):
             fail_result(call, "non-finite value", f"forecast.{name} holds NaN/inf")
     if np.any(np.asarray(result.lower) > np.asarray(result.upper)):
         fail_result(call, "invalid value", "forecast.lower > forecast.upper")
+    return "finite"
+
+
+@fuzz_test(st.sampled_from(ARRAY_VARIANTS), st.sampled_from(ARRAY_VARIANTS + ["absent"]),
+           st.sampled_from(ARRAY_VARIANTS + ["absent"]),
+           st.one_of(st.integers(-1, 6), choice_of(None, 2.5, "4", True)),
+           st.one_of(st.integers(0, 4), choice_of(None, [-1.0, 1.0], [0.0, 0.0], "2")),
+           st.sampled_from(["absent", "eye", "scalar", "negative", "wrong_shape"]),
+           valid=(st.sampled_from(["ok", "list", "int", "huge"]),
+                  st.sampled_from(["ok", "list", "absent"]),
+                  st.sampled_from(["ok", "absent"]), choice_of(None, 4),
+                  choice_of(None, 1, 2, [-1.0, 1.0]), st.sampled_from(["absent", "eye", "scalar"])))
+def test_from_arrays(a_variant, b_variant, c_variant, steps, order, noise):
+    """LTVModel.from_arrays(A, B, c=, steps=, order=, noise_cov=) with fuzzed arguments."""
+    n, m, N = 2, 1, 4
+    A = variant(_fresh((N, n, n)) * 0.3, a_variant)
+    B = None if b_variant == "absent" else variant(_fresh((N, n, m)), b_variant)
+    c = None if c_variant == "absent" else variant(_fresh((N, n)), c_variant)
+    noise_cov = {"absent": None, "eye": np.eye(n), "scalar": 0.1, "negative": -np.eye(n),
+                 "wrong_shape": np.eye(n + 1)}[noise]
+    check_call(ltv.LTVModel.from_arrays, A, B, c=c, steps=steps, order=order,
+               noise_cov=noise_cov, label="LTVModel.from_arrays",
+               inspector=_from_arrays_inspector)
+
+
+def _from_arrays_inspector(result, call, context):
+    """A model from arrays: finite coefficients of consistent shapes that simulate."""
+    N, n, m = result.N, result.n_states, result.n_inputs
+    expect(result.A.shape == (N, n, n) and result.B.shape == (N, n, m), call.label,
+           "invalid value", f"A {result.A.shape} and B {result.B.shape} do not fit N, n, m")
+    if not np.all(np.isfinite(result.k)):
+        fail_result(call, "non-finite value", "the model's coefficients hold NaN/inf")
+    result.simulate(np.zeros(n), np.zeros((N, m)) if m else None)
+    return "finite"
+
+
+@fuzz_test(st.sampled_from(LTV_KINDS),
+           st.one_of(st.integers(-200, 200), choice_of(1.5, "0", None, True, np.int64(2))),
+           st.one_of(st.floats(1e-6, 1e6), choice_of(None, 0.0, -1.0, np.nan, np.inf, True,
+                                                     "0.1")),
+           choice_of(False, True, None, "yes"),
+           valid=(st.sampled_from(LTV_KINDS), st.integers(-3, 3),
+                  st.one_of(st.floats(1e-6, 1e6), st.none()), st.booleans()))
+def test_to_statespace_and_frame(kind, t, dt, std):
+    """LTVModel.to_statespace(t, dt=) and to_frame() on fitted models."""
+    pytest.importorskip("control")
+    pytest.importorskip("pandas")
+    model = fitted(kind)
+    check_call(model.to_statespace, t, dt=dt, label="LTVModel.to_statespace",
+               inspector=_statespace_inspector)
+    check_call(model.to_frame, std=std, label="LTVModel.to_frame", inspector=_frame_inspector)
+
+
+def _statespace_inspector(result, call, context):
+    """A python-control system with finite matrices and a positive step."""
+    for name in ("A", "B", "C", "D"):
+        if not np.all(np.isfinite(np.asarray(getattr(result, name), dtype=float))):
+            fail_result(call, "non-finite value", f"StateSpace.{name} holds NaN/inf")
+    expect(result.dt is True or result.dt > 0, call.label, "invalid value",
+           f"StateSpace.dt = {result.dt!r}")
+    return "finite"
+
+
+def _frame_inspector(result, call, context):
+    """One row per time step and one column per coefficient, all finite."""
+    k = call.fn.__self__.k
+    columns = 2 * k.shape[1] if call.kwargs["std"] else k.shape[1]
+    expect(result.shape == (k.shape[0], columns), call.label, "invalid value",
+           f"to_frame shape {result.shape} for k of shape {k.shape}")
+    if not np.all(np.isfinite(result.to_numpy(dtype=float))):
+        fail_result(call, "non-finite value", "to_frame holds NaN/inf")
     return "finite"

@@ -149,18 +149,27 @@ def _fits_exactly(problem: RegressionProblem, theta: np.ndarray) -> bool:
     return bool(np.abs(problem.residuals(theta)).max(initial=0.0) <= EXACT_FIT * scale)
 
 
+def loss_value(loss: str, r: np.ndarray, scale: np.ndarray, delta: np.ndarray | None) -> float:
+    """The robust loss of scaled residuals ``r`` (..., n) with row scales ``scale``
+    (..., 1): Σ huber(r; δ·s) for "huber", Σ s·|r| for "laplace" (the residual in
+    the units of y is r / s)."""
+    if loss == "huber":
+        return float(huber_loss(r, delta * scale).sum())
+    return float(np.sum(scale * np.abs(r)))
+
+
 def _exact_fit(problem, W, theta, loss, delta, rule) -> RobustSolution:
     """The squared-loss fit when it leaves no residual: it minimizes the penalty with every
     residual zero (its stationarity is ∇P = 2Φᵀr = 0), so it minimizes any loss plus the
     penalty; the certificate is that zero gradient."""
     r = problem.residuals(theta)
     s = problem.row_scale[:, :, None]
+    value = loss_value(loss, r, s, delta)
     if loss == "huber":
-        value = float(huber_loss(r, delta[None, None, :] * s).sum())
         outliers = np.zeros(r.shape, dtype=bool)
         details = {"kkt_residual": 0.0, "huber_delta": delta.tolist(), "n_outliers": 0}
     else:
-        value, outliers = float(np.sum(s * np.abs(r))), None
+        outliers = None
         details = {"duality_gap": 0.0, "duality_gap_rigorous": True, "kkt_residual": 0.0}
     details["exact_fit"] = True
     return RobustSolution(

@@ -43,7 +43,6 @@ from scipy.interpolate import CubicSpline
 from scipy.optimize import minimize_scalar
 
 from ..core import identifiability
-from ..core.huber import huber_loss
 from ..core.problem import RegressionProblem, apply_difference
 from ..core.sparse import solve_sparse
 from ..core.sparse_common import lambda_max
@@ -58,7 +57,7 @@ from .recordings import (
     require_enough_data,
     state_space_data,
 )
-from .robust import default_delta, solve_robust
+from .robust import default_delta, loss_value, solve_robust
 from .segments import fit_segments
 
 __all__ = ["select_lambda", "select_lambda_regression", "DEFAULT_METHOD"]
@@ -461,11 +460,7 @@ def _robust_cv_error(problem: RegressionProblem, norm: str, lam: float, n_folds:
             theta = solve_robust(_without(problem, held), penalty, loss=loss, norm=norm,
                                  delta=delta, max_iter=CV_MAX_ITER, tol=CV_TOL).theta
         r = problem.residuals(theta)[held]  # scaled rows; unobserved rows are 0
-        s = problem.row_scale[held][:, :, None]
-        if loss == "huber":
-            total += float(huber_loss(r, delta * s).sum())
-        else:
-            total += float(np.sum(s * np.abs(r)))
+        total += loss_value(loss, r, problem.row_scale[held][:, :, None], delta)
     return total / (problem.n_observed * problem.n)
 
 

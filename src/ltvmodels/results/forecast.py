@@ -182,23 +182,25 @@ def forecast_options(level: Any, n_samples: Any, seed: Any) -> tuple[float, int,
     return level, n_samples, seed
 
 
-def forecast_steps(steps: Any, rows: int | None, what: str) -> int:
+def forecast_steps(steps: Any, rows: int | None, lag: int = 0) -> int:
     """The number of steps: ``steps`` (an integer >= 1), or ``rows`` future inputs when None.
 
-    ``rows`` is the number of future inputs given (None without inputs);
-    ``what`` describes them for the message.
+    ``rows`` is the number of future inputs given (None without inputs), the
+    rows of u after its first ``lag`` (those at the samples that start the forecast).
     """
+    after = f" after its first {lag}" if lag else ""
     if steps is None:
         if rows is None:
             raise TypeError("steps: expected the number of steps to forecast (an integer >= 1) "
                             "for a model without inputs, received None")
         if rows < 1:
-            raise ValueError(f"u: expected at least one future input ({what}), received none")
+            raise ValueError(f"u: expected at least one future input (a row of u{after}), "
+                             "received none")
         return rows
     steps = options.integer(steps, "steps", minimum=1)
     if rows is not None and rows != steps:
-        raise ValueError(f"steps: expected {rows} (the number of future inputs in u: {what}) "
-                         f"or None, received {steps}")
+        raise ValueError(f"steps: expected {rows} (the number of future inputs: the rows of "
+                         f"u{after}) or None, received {steps}")
     return steps
 
 
@@ -246,24 +248,7 @@ def state_space_inputs(
         raise ValueError(f"x0: expected the state at the end of the data, shape ({n},), "
                          f"received shape {x0.shape}")
     arrays.representable(x0, "x0", small=False)  # beyond 1e100 the forecast overflows
-    if m == 0:
-        if u is not None:
-            raise ValueError(f"u: the model has no inputs, expected None, received "
-                             f"{describe(u)}")
-        steps = forecast_steps(steps, None, "")
-        return x0, np.zeros((steps, 0)), steps
-    if u is None:
-        raise TypeError(f"u: expected the future inputs, shape (steps, {m}), for a model with "
-                        f"{m} input{'s' if m > 1 else ''}, received None")
-    u = arrays.as_float_array(u, "u")
-    if u.ndim == 1 and m == 1:
-        u = u[:, None]
-    if u.ndim != 2 or u.shape[1] != m:
-        expected = f"(steps, {m})" + (" or (steps,)" if m == 1 else "")
-        raise ValueError(f"u: expected the future inputs u[T−1], u[T], …, shape {expected}, "
-                         f"received shape {u.shape}")
-    arrays.representable(u, "u", small=False)
-    steps = forecast_steps(steps, u.shape[0], "u[T−1], u[T], …")
+    u, steps = _future_inputs(u, steps, m=m, lag=0, meaning="the future inputs")
     return x0, u, steps
 
 
@@ -285,27 +270,37 @@ def lagged_inputs(
             raise ValueError(f"y_last: expected the last {lag} samples of y (oldest first), "
                              f"shape {expected}, received shape {y_last.shape}")
         arrays.representable(y_last, "y_last", small=False)
+    u, steps = _future_inputs(
+        u, steps, m=m, lag=lag,
+        meaning=f"the inputs at the {lag} samples of y_last and at the forecast samples")
+    return y_last, u, steps
+
+
+def _future_inputs(u: Any, steps: Any, *, m: int, lag: int, meaning: str
+                   ) -> tuple[np.ndarray, int]:
+    """Validate the inputs u (lag + steps, m) of a forecast, the first ``lag`` rows at
+    the known samples that start it; ``meaning`` says what they are in the messages.
+
+    Returns u (lag + steps, m) and steps.
+    """
     if m == 0:
         if u is not None:
             raise ValueError(f"u: the model has no inputs, expected None, received "
                              f"{describe(u)}")
-        steps = forecast_steps(steps, None, "")
-        return y_last, np.zeros((lag + steps, 0)), steps
+        steps = forecast_steps(steps, None)
+        return np.zeros((lag + steps, 0)), steps
+    rows = "steps" if lag == 0 else f"{lag} + steps"
     if u is None:
-        raise TypeError(f"u: expected the inputs at the {lag} samples of y_last and at the "
-                        f"forecast samples, shape ({lag} + steps, {m}), received None")
+        raise TypeError(f"u: expected {meaning}, shape ({rows}, {m}), received None")
     u = arrays.as_float_array(u, "u")
     if u.ndim == 1 and m == 1:
         u = u[:, None]
-    if u.ndim != 2 or u.shape[1] != m or u.shape[0] <= lag:
-        expected = f"({lag} + steps, {m})" + (f" or ({lag} + steps,)" if m == 1 else "")
-        raise ValueError(f"u: expected the inputs at the {lag} samples of y_last and at the "
-                         f"forecast samples, shape {expected} with steps >= 1, received shape "
-                         f"{u.shape}")
+    if u.ndim != 2 or u.shape[1] != m or u.shape[0] < lag:
+        expected = f"({rows}, {m})" + (f" or ({rows},)" if m == 1 else "")
+        raise ValueError(f"u: expected {meaning}, shape {expected}, received shape {u.shape}")
     arrays.representable(u, "u", small=False)
-    steps = forecast_steps(steps, u.shape[0] - lag,
-                           f"{u.shape[0]} rows of u after the {lag} of y_last")
-    return y_last, u, steps
+    steps = forecast_steps(steps, u.shape[0] - lag, lag)
+    return u, steps
 
 
 # -- the coefficients after the data ---------------------------------------------------------
