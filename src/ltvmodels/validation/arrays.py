@@ -9,9 +9,35 @@ aliased by a returned model. Scalar options and counts are checked in
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+
+@dataclass(frozen=True)
+class LabelledSeries:
+    """A (T, d) series with the column names and time index a pandas DataFrame carries.
+
+    The estimators read it as they read a DataFrame (:func:`column_names`,
+    :func:`time_index`), without the cost of building one: :func:`ltvmodels.fit_many`
+    hands each unit's slice of a long table to the estimators this way.
+
+    Attributes
+    ----------
+    values : ndarray, shape (T, d)
+    names : list of str, optional
+        The d column names.
+    time : ndarray, shape (T,), optional
+        Time stamps (datetime64 or numbers).
+    """
+
+    values: np.ndarray
+    names: list[str] | None = None
+    time: np.ndarray | None = None
+
+    def to_numpy(self) -> np.ndarray:
+        return self.values
 
 
 def describe(value: Any) -> str:
@@ -191,6 +217,9 @@ def column_names(value: Any, count: int) -> list[str] | None:
     """The column names of a pandas DataFrame (or a named Series) with ``count`` columns,
     or the coordinate of an xarray DataArray's second dimension (its name for one
     dimension), as strings; None for anything else (arrays, lists, unnamed series)."""
+    if isinstance(value, LabelledSeries):
+        names = value.names
+        return [str(name) for name in names] if names and len(names) == count else None
     dims = getattr(value, "dims", None)
     if isinstance(dims, tuple) and hasattr(value, "coords"):  # an xarray DataArray
         if len(dims) == 2 and dims[1] in value.coords and value.shape[1] == count:
@@ -212,6 +241,10 @@ def time_index(value: Any, count: int) -> np.ndarray | None:
     dimension) with ``count`` rows as an array: datetime64[ns] for
     dates (time zones dropped after conversion to UTC, periods at their start), float
     for numbers; None for other data and for the default index 0, 1, …"""
+    if isinstance(value, LabelledSeries):
+        if value.time is None or len(value.time) != count:
+            return None
+        return time_values(np.asarray(value.time), count)
     index = getattr(value, "index", None)
     dims = getattr(value, "dims", None)
     if isinstance(dims, tuple) and dims and hasattr(value, "indexes"):  # an xarray DataArray
@@ -222,7 +255,12 @@ def time_index(value: Any, count: int) -> np.ndarray | None:
         index = index.to_timestamp()
     if getattr(index, "tz", None) is not None:
         index = index.tz_convert("UTC").tz_localize(None)
-    values = index.to_numpy()
+    return time_values(index.to_numpy(), count)
+
+
+def time_values(values: np.ndarray, count: int) -> np.ndarray | None:
+    """Time stamps as a model keeps them: datetime64[ns] for dates, float for numbers;
+    None for other values and for the default 0, 1, …, count − 1."""
     if np.issubdtype(values.dtype, np.datetime64):
         return values.astype("datetime64[ns]")
     if not np.issubdtype(values.dtype, np.number):
