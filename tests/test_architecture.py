@@ -25,6 +25,7 @@ PACKAGE = "ltvmodels"
 
 LAYERS = {
     "errors": 0,
+    "progress": 0,
     "validation": 0,
     "core": 1,
     "results": 2,

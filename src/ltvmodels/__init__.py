@@ -71,6 +71,9 @@ _API = {
     "Forecast": "results.forecast",
     "load": "results.loading",
     "ilqg": "control",
+    "fit_many": "estimators.many",
+    "ModelSet": "results.model_set",
+    "load_many": "results.model_set",
 }
 # Public modules, imported on first attribute access.
 _MODULES = ("systems", "plotting", "control")

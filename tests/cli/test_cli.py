@@ -133,7 +133,7 @@ import json  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ltvmodels import systems  # noqa: E402
-from ltvmodels.cli.progress import Progress
+from ltvmodels.progress import Progress
 from ltvmodels.cli.report import jsonable  # noqa: E402
 
 

@@ -50,7 +50,7 @@ from ..results.statespace import LTVModel
 from ..validation.arrays import representable
 from .data import read_columns, write_csv
 from .messages import CommandError, DataError, one_line, user_errors
-from .progress import Progress
+from ..progress import Progress
 from .report import fmt, info_subset, per_name, rms, rms_columns
 
 Report = tuple[dict[str, Any], list[str]]

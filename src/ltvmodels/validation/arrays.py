@@ -251,11 +251,17 @@ def time_index(value: Any, count: int) -> np.ndarray | None:
         index = value.indexes[dims[0]] if dims[0] in value.indexes else None
     if index is None or not hasattr(index, "to_numpy") or len(index) != count:
         return None
+    return time_values(index_values(index), count)
+
+
+def index_values(index: Any) -> np.ndarray:
+    """The values of a pandas Index as an array: periods at their start, dates with a time
+    zone converted to UTC and the zone dropped."""
     if hasattr(index, "to_timestamp"):  # a PeriodIndex
         index = index.to_timestamp()
     if getattr(index, "tz", None) is not None:
         index = index.tz_convert("UTC").tz_localize(None)
-    return time_values(index.to_numpy(), count)
+    return index.to_numpy()
 
 
 def time_values(values: np.ndarray, count: int) -> np.ndarray | None:

@@ -1,0 +1,221 @@
+"""``ModelSet``: the models of many units fitted by :func:`ltvmodels.fit_many`, with their summary.
+
+A model set maps each unit that was fitted to its model, keeps one summary
+record per unit (fitted or not) and the error message of every unit whose
+fit failed. Models live in memory, in a directory (one model file per unit,
+read back on access), or nowhere (only the summary was kept).
+
+On disk (:meth:`ModelSet.save`, :func:`load_many`) a model set is a directory
+with one ``.npz`` model file per fitted unit (:meth:`RegressionModel.save`)
+and ``manifest.json``: the format version, the name of the unit column, and
+per unit, in the order of the input, the unit, its model file (or null), its
+error (or null) and its summary record.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+from ..errors import ModelFileError
+from ..validation.arrays import describe
+from .loading import load
+
+MANIFEST = "manifest.json"
+FORMAT_VERSION = 1
+
+
+def model_file_name(position: int) -> str:
+    """The model file of the unit at ``position`` in the input order."""
+    return f"unit-{position:06d}.npz"
+
+
+class ModelSet(Mapping):
+    """Models fitted per unit, a summary row per unit and the units that failed.
+
+    ``ms[unit]`` is the model of a unit (as the estimator returned it);
+    iterating yields the units that were fitted, in input order; ``len(ms)``
+    counts them. Built by :func:`ltvmodels.fit_many` and
+    :func:`ltvmodels.load_many`.
+
+    Attributes
+    ----------
+    units : list
+        Every unit, in input order, fitted or not.
+    errors : dict
+        ``{unit: message}`` for the units whose fit failed.
+    records : list of dict
+        One summary record per unit, in input order (what :attr:`summary`
+        tabulates; JSON-compatible values).
+    by : str
+        The name of the unit column (the index name of :attr:`summary`).
+    directory : pathlib.Path or None
+        Where the model files of units not held in memory are.
+    """
+
+    def __init__(self, units: list, records: list[dict], errors: dict, *, by: str = "unit",
+                 models: dict | None = None, directory: str | Path | None = None,
+                 files: dict | None = None) -> None:
+        self.units = list(units)
+        self.records = list(records)
+        self.errors = dict(errors)
+        self.by = by
+        self._models = dict(models or {})
+        self.directory = None if directory is None else Path(directory)
+        self._files = dict(files or {})
+        self._summary: Any = None
+
+    # -- the mapping ----------------------------------------------------------------
+    def __getitem__(self, unit: Any) -> Any:
+        if unit in self._models:
+            return self._models[unit]
+        if unit in self.errors:
+            raise KeyError(f"unit {unit!r} was not fitted: {self.errors[unit]}")
+        if unit in self._files and self.directory is not None:
+            return load(self.directory / self._files[unit])
+        if unit in self._files or unit in self.fitted_units():
+            raise KeyError(
+                f"unit {unit!r}: its model was not kept (fit_many(..., keep_models=False) "
+                "without models_dir); pass models_dir=DIRECTORY to keep the models on disk"
+            )
+        raise KeyError(f"unit {unit!r} is not in this model set ({len(self.units)} units)")
+
+    def __iter__(self) -> Iterator:
+        return iter(self.fitted_units())
+
+    def __len__(self) -> int:
+        return len(self.units) - len(self.errors)
+
+    def __contains__(self, unit: object) -> bool:
+        return unit in self._models or unit in self._files or (
+            unit in set(self.fitted_units()))
+
+    def fitted_units(self) -> list:
+        """The units that were fitted, in input order."""
+        return [unit for unit in self.units if unit not in self.errors]
+
+    def __repr__(self) -> str:
+        where = ("in memory" if self._models else
+                 f"in {self.directory}" if self._files else "not kept")
+        return (f"ModelSet({len(self.units)} units, {len(self)} fitted, "
+                f"{len(self.errors)} failed, models {where})")
+
+    # -- the summary ------------------------------------------------------------------
+    @property
+    def summary(self) -> Any:
+        """A pandas DataFrame with one row per unit, indexed by unit (in input order).
+
+        Columns: ``T`` (time steps), ``missing`` (time steps with a missing
+        state or input), ``lam`` and ``lam_method`` (how λ was chosen:
+        "given", or the criterion of ``lam="auto"``), ``noise_var_<state>``,
+        ``loglik``, ``rms`` (root mean square of the one-step prediction
+        errors over the observed transitions), ``n_changes`` and
+        ``change_times`` (the change points of the sparse and segmented
+        fits, as times where the data had them; empty for ``norm="sq"``),
+        ``status`` (the fit status, "error" for a unit that failed),
+        ``seconds`` (the unit's fit time). Needs pandas.
+        """
+        if self._summary is None:
+            try:
+                import pandas as pd
+            except ImportError:  # pragma: no cover - the pandas extra is missing
+                raise ImportError(
+                    "ModelSet.summary needs pandas: pip install 'ltvmodels[pandas]' (the "
+                    "records are in ModelSet.records without it)"
+                ) from None
+            frame = pd.DataFrame.from_records(self.records)
+            if "unit" in frame:
+                frame = frame.set_index("unit")
+                frame.index.name = self.by
+            self._summary = frame
+        return self._summary
+
+    # -- persistence --------------------------------------------------------------------
+    def save(self, directory: str | Path) -> None:
+        """Write the model set to ``directory`` (created if needed): one model file per
+        fitted unit whose model was kept and ``manifest.json`` (see the module
+        docstring); :func:`ltvmodels.load_many` reads it back."""
+        if not isinstance(directory, (str, os.PathLike)):
+            raise TypeError(f"directory: expected a directory path (str or pathlib.Path), "
+                            f"received {describe(directory)}")
+        target = Path(directory)
+        target.mkdir(parents=True, exist_ok=True)
+        files = {}
+        for position, unit in enumerate(self.units):
+            if unit in self.errors:
+                continue
+            name = model_file_name(position)
+            if unit in self._models:
+                self._models[unit].save(target / name)
+            elif unit in self._files and self.directory is not None:
+                source = self.directory / self._files[unit]
+                if source.resolve() != (target / name).resolve():
+                    shutil.copyfile(source, target / name)
+            else:
+                continue
+            files[unit] = name
+        entries = [{"unit": json_unit(unit), "file": files.get(unit),
+                    "error": self.errors.get(unit), "summary": record}
+                   for unit, record in zip(self.units, self.records)]
+        manifest = {"format": FORMAT_VERSION, "by": self.by, "units": entries}
+        (target / MANIFEST).write_text(json.dumps(manifest, indent=1, allow_nan=True))
+
+
+def json_unit(unit: Any) -> Any:
+    """A unit as JSON keeps it: strings and numbers as they are, anything else as text."""
+    if isinstance(unit, bool) or not isinstance(unit, (str, int, float)):
+        return str(unit)
+    return unit
+
+
+def load_many(directory: str | Path) -> ModelSet:
+    """Read a model set written by :meth:`ModelSet.save` or ``fit_many(models_dir=...)``.
+
+    The models stay on disk: ``ms[unit]`` reads a unit's model file when asked.
+
+    Parameters
+    ----------
+    directory : str or path-like
+        The directory holding ``manifest.json`` and the model files.
+
+    Returns
+    -------
+    ModelSet
+        Units that are not strings or numbers come back as their text.
+
+    Raises
+    ------
+    FileNotFoundError
+        No ``manifest.json`` in ``directory``.
+    ModelFileError
+        The manifest is not one this version reads.
+    """
+    if not isinstance(directory, (str, os.PathLike)):
+        raise TypeError(f"directory: expected a directory path (str or pathlib.Path), "
+                        f"received {describe(directory)}")
+    path = Path(directory) / MANIFEST
+    if not path.is_file():
+        raise FileNotFoundError(
+            f"directory: {directory} holds no {MANIFEST}; expected a directory written by "
+            "ModelSet.save or fit_many(..., models_dir=...)"
+        )
+    try:
+        manifest = json.loads(path.read_text())
+        if manifest.get("format") != FORMAT_VERSION:
+            raise ModelFileError(f"{path}: unknown model-set format {manifest.get('format')!r} "
+                                 f"(this version reads {FORMAT_VERSION})")
+        entries = manifest["units"]
+        units = [entry["unit"] for entry in entries]
+        records = [entry["summary"] for entry in entries]
+        errors = {entry["unit"]: entry["error"] for entry in entries if entry["error"]}
+        files = {entry["unit"]: entry["file"] for entry in entries if entry["file"]}
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        if isinstance(exc, ModelFileError):
+            raise
+        raise ModelFileError(f"{path}: not a model-set manifest ({exc})") from None
+    return ModelSet(units, records, errors, by=manifest.get("by", "unit"),
+                    directory=directory, files=files)
