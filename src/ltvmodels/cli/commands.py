@@ -44,13 +44,14 @@ from ..plotting import (
     plot_spectrogram,
 )
 from ..plotting.figure import image_file, output_file, save_figure
+from ..progress import Progress
 from ..results.arx import ARModel, ARXModel
 from ..results.loading import load
 from ..results.statespace import LTVModel
 from ..validation.arrays import representable
 from .data import read_columns, write_csv
+from .many import cmd_fit_many
 from .messages import CommandError, DataError, one_line, user_errors
-from ..progress import Progress
 from .report import fmt, info_subset, per_name, rms, rms_columns
 
 Report = tuple[dict[str, Any], list[str]]
@@ -923,5 +924,6 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], Report]] = {
     "predict": _cmd_simulate_or_predict,
     "forecast": _cmd_forecast,
     "demo": _cmd_demo,
+    "fit-many": cmd_fit_many,
 }
 """The subcommands by name: each returns (report dict, text lines)."""

@@ -373,4 +373,51 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--full", action="store_true",
                       help="rl: the paper's 20 runs of 14 iterations (default: 3 runs of 8); "
                       "pendulum: 20 initial states of 40 iterations (default: 2 of 20)")
+    many = commands.add_parser(
+        "fit-many", help="one model per unit of a long table (fleets, panels, many loops)",
+        description="Fit one LTV model per unit of a long table (one row per unit and time "
+        "step) on all local cores or a Dask cluster, and write one summary row per unit: "
+        "lambda, noise variances, log-likelihood, one-step RMS, change points, status, "
+        "seconds, or the error of a unit that failed (one bad unit never stops the others).",
+    )
+    many.add_argument("data", metavar="DATA",
+                      help="CSV file ('-' for standard input) or Parquet (.parquet, .pq)")
+    many.add_argument("--by", required=True, metavar="COL", help="the unit column")
+    many.add_argument("--state", required=True, metavar="COLS",
+                      help="state columns x (comma-separated names)")
+    many.add_argument("--input", metavar="COLS", default=None,
+                      help="input columns u (comma-separated names); none for an autonomous "
+                      "system")
+    many.add_argument("--time", metavar="COL", default=None,
+                      help="column to sort each unit's rows by: numbers or dates (default: "
+                      "the rows' order)")
+    many.add_argument("--method", choices=["fit", "segments", "lti"], default="fit",
+                      help="fit (default), segments (exact change points, BIC penalty unless "
+                      "--n-changes) or lti (least squares)")
+    many.add_argument("--norm", choices=["sq", "group", "l1"], default="sq",
+                      help="penalty of --method fit (default: sq)")
+    many.add_argument("--order", type=_positive_int, default=1,
+                      help="order of the time difference penalized (default: 1)")
+    many.add_argument("--lam", type=_lam_or_auto, default="auto", metavar="{VALUE,auto}",
+                      help="regularization lambda, or auto: chosen per unit (default)")
+    many.add_argument("--refine", action="store_true", help="two-step refinement")
+    many.add_argument("--loss", choices=["squared", "huber", "laplace"], default="squared",
+                      help="loss of the residuals (default: squared)")
+    many.add_argument("--n-changes", type=_nonnegative_int, default=None, metavar="M",
+                      help="--method segments: at most M changes per unit")
+    many.add_argument("--weights", metavar="COL", default=None,
+                      help="column of weights >= 0 (row t weighs the transition to t + 1)")
+    _add_constant_option(many, "a constant term c_t")
+    many.add_argument("--out", metavar="PATH", default=None,
+                      help="summary file to write (.csv, or .parquet/.pq)")
+    many.add_argument("--models-dir", metavar="DIR", default=None,
+                      help="directory for every unit's model file and the manifest "
+                      "(read it with ltvmodels.load_many)")
+    many.add_argument("--jobs", type=_positive_int, default=None, metavar="N",
+                      help="local worker processes (default: all cores; 1: this process)")
+    many.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                      help="address of a Dask scheduler (e.g. tcp://host:8786) to fit on "
+                      "its workers instead (needs 'ltvmodels[dask]')")
+    many.add_argument("--json", action="store_true",
+                      help="print one JSON object instead of the text summary")
     return parser

@@ -21,7 +21,7 @@ one by one in a one-process pool, where a second death names its unit.
 Dask (:func:`run_dask`): tasks are submitted to a ``distributed.Client``. The
 scheduler itself reruns the tasks of a lost worker (its ``allowed-failures``
 setting, 3 by default); a task that still fails (``KilledWorker``) has its
-units resubmitted one per task, once.
+units resubmitted one per task, once, and those that fail again run alone.
 """
 
 from __future__ import annotations
@@ -183,24 +183,33 @@ def run_dask(client: Any, task: Callable[[list], list], chunks: Sequence[list],
 
     A task that fails anyway (``KilledWorker`` after the scheduler's own
     retries, or a lost connection to its worker) has its units resubmitted
-    one per task, once; a unit that fails again is reported by ``lost``.
+    once, one per task; a unit whose task fails again runs alone on the
+    cluster (no other task of this run beside it), and if that fails too it
+    is reported by ``lost`` — every task queued on a dying worker fails with
+    it, so only a unit that fails alone is known to be the cause.
     """
+    failures = _run_futures(client, task, chunks, done)
+    failures = _run_futures(client, task, [[unit] for units, _ in failures for unit in units],
+                            done)
+    for units, _ in failures:
+        for units_again, exc in _run_futures(client, task, [units], done):
+            lost(units_again[0], f"{WORKER_DIED} ({type(exc).__name__}: {exc})")
+
+
+def _run_futures(client: Any, task: Callable[[list], list], chunks: Sequence[list],
+                 done: Callable[[list], None]) -> list[tuple[list, BaseException]]:
+    """Submit the chunks, report each result; returns the chunks whose task failed."""
     from distributed import as_completed as dask_completed
 
-    futures = {client.submit(run_task, task, units, pure=False): (units, False)
-               for units in chunks}
-    queue = dask_completed(list(futures))
-    for future in queue:
-        units, retried = futures.pop(future)
+    if not chunks:
+        return []
+    futures = {client.submit(run_task, task, units, pure=False): units for units in chunks}
+    failures = []
+    for future in dask_completed(list(futures)):
         try:
             results = future.result()
         except Exception as exc:  # the worker died, or the task could not run
-            if retried:
-                lost(units[0], f"{WORKER_DIED} ({type(exc).__name__}: {exc})")
-                continue
-            for unit in units:
-                again = client.submit(run_task, task, [unit], pure=False)
-                futures[again] = ([unit], True)
-                queue.add(again)
+            failures.append((futures[future], exc))
             continue
         done(results)
+    return failures

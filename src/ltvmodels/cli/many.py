@@ -1,0 +1,146 @@
+"""``ltvmodels fit-many``: one model per unit of a long table (CSV or Parquet).
+
+The table has one row per unit and time step; ``--by`` names the unit
+column, ``--state``/``--input`` the columns of x and u, ``--time`` the column
+each unit's rows are sorted by (dates or numbers). The summary (one row per
+unit: see :attr:`ltvmodels.ModelSet.summary`) goes to ``--out`` (CSV, or
+Parquet by its suffix); ``--models-dir`` keeps every model file and the
+manifest that :func:`ltvmodels.load_many` reads.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from ..estimators.many import fit_many
+from .data import PARQUET_SUFFIXES
+from .messages import CommandError, DataError, user_errors
+
+# How many failed units the text summary lists (--json lists them all).
+LISTED_ERRORS = 5
+
+
+def read_table(path: str) -> Any:
+    """The data file as a pandas DataFrame (CSV, '-' for standard input, or Parquet)."""
+    try:
+        import pandas as pd
+    except ImportError:
+        raise CommandError("fit-many needs pandas: pip install 'ltvmodels[pandas]'") from None
+    if path != "-" and not Path(path).is_file():
+        raise DataError(f"{path}: no such file")
+    try:
+        if path != "-" and Path(path).suffix.lower() in PARQUET_SUFFIXES:
+            return pd.read_parquet(path)
+        text = sys.stdin.read() if path == "-" else None
+        if text is None:
+            with open(path, encoding="utf-8-sig") as handle:
+                first = handle.readline()
+        else:
+            first = text.lstrip("\ufeff").split("\n", 1)[0]
+        separator = max(",;\t", key=first.count)  # as the other commands detect it
+        source = io.StringIO(text) if text is not None else path
+        return pd.read_csv(source, sep=separator, comment="#", encoding="utf-8-sig",
+                           na_values=["NA", "N/A", "NaN", "null", "na", "n/a", "nan"])
+    except (ValueError, OSError, ImportError) as exc:
+        raise DataError(f"{path}: cannot read it as a table ({exc})") from None
+
+
+def columns(text: str | None) -> list[str]:
+    return [] if text is None else [name.strip() for name in text.split(",") if name.strip()]
+
+
+def parse_time_column(frame: Any, name: str | None) -> None:
+    """Convert a text time column to dates in place (numbers and dates stay as they are)."""
+    if name is None or name not in frame.columns or frame[name].dtype.kind in "biufM":
+        return
+    import pandas as pd
+
+    try:
+        frame[name] = pd.to_datetime(frame[name])
+    except (ValueError, TypeError):
+        raise CommandError(f"--time: column {name!r} holds neither numbers nor dates "
+                           f"(first value {frame[name].iloc[0]!r})") from None
+
+
+def connect(address: str | None) -> Any:
+    """A dask.distributed Client of the scheduler at ``address`` (None: no cluster)."""
+    if address is None:
+        return None
+    try:
+        from distributed import Client
+    except ImportError:
+        raise CommandError("--scheduler needs dask.distributed: pip install "
+                           "'ltvmodels[dask]'") from None
+    try:
+        return Client(address, timeout="20s")
+    except (OSError, TimeoutError) as exc:
+        raise CommandError(f"--scheduler: cannot connect to {address} ({exc}); start one "
+                           "with 'dask scheduler' and 'dask worker ADDRESS'") from None
+
+
+def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
+    """Run ``fit-many``: returns the report and the text summary."""
+    frame = read_table(args.data)
+    parse_time_column(frame, args.time)
+    options: dict[str, Any] = {"constant": args.constant}
+    if args.method == "fit":
+        options.update(lam=args.lam, norm=args.norm, order=args.order, refine=args.refine,
+                       loss=args.loss)
+    elif args.method == "segments" and args.n_changes is not None:
+        options["n_changes"] = args.n_changes
+    if args.weights is not None:
+        options["weights"] = args.weights
+    client = connect(args.scheduler)
+    start = time.perf_counter()
+    try:
+        with user_errors():
+            models = fit_many(frame, by=args.by, state=columns(args.state),
+                              inputs=columns(args.input) or None, time=args.time,
+                              engine=client, n_jobs=args.jobs,
+                              keep_models=False, models_dir=args.models_dir,
+                              method=args.method, **options)
+    finally:
+        if client is not None:
+            client.close()
+    seconds = time.perf_counter() - start
+    summary = models.summary
+    n_units, n_failed = len(models.units), len(models.errors)
+    where = (f"the cluster at {args.scheduler}" if args.scheduler else
+             "this process" if args.jobs == 1 else
+             f"{args.jobs or 'all'} local processes")
+    lines = [f"fit-many: {n_units} units of {args.data} (by {args.by!r}): "
+             f"{n_units - n_failed} fitted, {n_failed} failed, in {seconds:.1f} s "
+             f"({n_units / max(seconds, 1e-9):.3g} units/s) on {where}"]
+    for unit, message in list(models.errors.items())[:LISTED_ERRORS]:
+        lines.append(f"  unit {unit!r}: {message}")
+    if n_failed > LISTED_ERRORS:
+        lines.append(f"  ... and {n_failed - LISTED_ERRORS} more (see the summary's "
+                     "'error' column)")
+    report: dict[str, Any] = {"n_units": n_units, "n_fitted": n_units - n_failed,
+                              "n_failed": n_failed, "seconds": seconds,
+                              "errors": {str(unit): text for unit, text in
+                                         models.errors.items()}}
+    if args.out is not None:
+        write_summary(summary, Path(args.out))
+        report["summary"] = str(args.out)
+        lines.append(f"summary: {args.out} (one row per unit)")
+    if args.models_dir is not None:
+        report["models_dir"] = str(args.models_dir)
+        lines.append(f"models: {args.models_dir} (read them with ltvmodels.load_many)")
+    return report, lines
+
+
+def write_summary(summary: Any, path: Path) -> None:
+    """The summary as CSV, or Parquet for a .parquet/.pq path."""
+    try:
+        if path.suffix.lower() in PARQUET_SUFFIXES:
+            summary.to_parquet(path)
+        else:
+            summary.to_csv(path)
+    except (OSError, ImportError, ValueError) as exc:
+        raise CommandError(f"--out: cannot write {path} ({exc})") from None

@@ -1,0 +1,65 @@
+"""``ltvmodels fit-many`` on a CSV panel: the summary, the model files, the errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import ltvmodels as ltv
+from ltvmodels.cli import main
+
+pd = pytest.importorskip("pandas")
+
+from test_fit_many import STATE, panel, unit_frame  # noqa: E402
+
+
+@pytest.fixture
+def panel_csv(tmp_path):
+    frame = pd.concat([panel(4, T=60), unit_frame("short", 3, seed=9)], ignore_index=True)
+    frame["date"] = frame["date"].dt.strftime("%Y-%m-%d")  # dates as text, as in a CSV
+    path = tmp_path / "panel.csv"
+    frame.to_csv(path, index=False)
+    return path, frame
+
+
+def test_fit_many_writes_summary_and_models(panel_csv, tmp_path, capsys):
+    path, frame = panel_csv
+    status = main(["fit-many", str(path), "--by", "unit", "--time", "date", "--state",
+                   "x1,x2", "--input", "u", "--lam", "7", "--out", str(tmp_path / "s.csv"),
+                   "--models-dir", str(tmp_path / "models"), "--jobs", "2"])
+    out = capsys.readouterr().out
+    assert status == 0
+    assert "5 units" in out and "4 fitted, 1 failed" in out and "unit 'short'" in out
+    summary = pd.read_csv(tmp_path / "s.csv", index_col="unit")
+    assert list(summary.index) == list(pd.unique(frame["unit"]))
+    assert summary.loc["short", "status"] == "error"
+    assert "too few samples" in summary.loc["short", "error"]
+    models = ltv.load_many(tmp_path / "models")
+    rows = frame[frame["unit"] == "m2"].assign(date=lambda f: pd.to_datetime(f["date"]))
+    rows = rows.sort_values("date").set_index("date")
+    reference = ltv.fit(rows[STATE], rows[["u"]], lam=7.0)
+    np.testing.assert_array_equal(models["m2"].k, reference.k)
+    np.testing.assert_array_equal(models["m2"].time, reference.time)
+    assert summary.loc["m2", "loglik"] == pytest.approx(reference.loglik, rel=1e-15)
+
+
+def test_fit_many_json_parquet_and_segments(panel_csv, tmp_path, capsys):
+    pytest.importorskip("pyarrow")
+    path, _ = panel_csv
+    status = main(["fit-many", str(path), "--by", "unit", "--state", "x1,x2", "--input",
+                   "u", "--method", "segments", "--n-changes", "1", "--jobs", "1",
+                   "--out", str(tmp_path / "s.parquet"), "--json"])
+    report = json.loads(capsys.readouterr().out)
+    assert status == 0 and report["n_fitted"] == 4 and list(report["errors"]) == ["short"]
+    summary = pd.read_parquet(tmp_path / "s.parquet")
+    assert (summary["n_changes"].dropna() == 1).all()
+
+
+def test_fit_many_user_errors(panel_csv, capsys):
+    path, _ = panel_csv
+    assert main(["fit-many", str(path), "--by", "unit", "--state", "x1,x7"]) == 2
+    assert "state: column 'x7' is not in data" in capsys.readouterr().err
+    assert main(["fit-many", str(path) + ".missing", "--by", "unit", "--state", "x1"]) == 2
+    assert "no such file" in capsys.readouterr().err
