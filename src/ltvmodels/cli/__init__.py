@@ -16,6 +16,9 @@ Subcommands::
                   [--plot FIG] [--json]
     ltvmodels predict MODEL.npz DATA [--state COLS] [--input COLS] [--out PRED.csv]
                   [--plot FIG] [--json]
+    ltvmodels fit-many TABLE --by COL --state COLS [--input COLS] [--time COL]
+                  [--lam {VALUE,auto}] [--out SUMMARY.csv] [--models-dir DIR] [--jobs N]
+                  [--scheduler ADDRESS] [--json]
     ltvmodels demo {jump-linear,robot,chirp,rl,pendulum} [--seed S] [--out PATH] ...
 
 DATA is a CSV file (comma, semicolon or tab separated, detected from the first
@@ -33,7 +36,7 @@ errors. Without ``--input`` the system is autonomous. A model written by
 
 Modules: :mod:`.parser` (the options), :mod:`.data` (data files),
 :mod:`.commands` (the subcommands), :mod:`.messages` (one-line user errors),
-:mod:`.report` (report values and JSON), :mod:`.progress`; the demos are
+:mod:`.report` (report values and JSON), :mod:`.many` (``fit-many``); the demos are
 :mod:`ltvmodels.apps.demos`.
 
 User errors (unknown options or columns, bad values, a missing or unreadable

@@ -1,0 +1,167 @@
+"""Benchmark: many series — ``fit_many`` against a bare loop of ``fit`` and statsmodels.
+
+Data: ``--units`` jump-linear series (n = 2, m = 1) of ``--T`` samples, as a
+mapping {unit: (x, u)}. For each case (``sq`` with a fixed λ, ``sq`` with
+``lam="auto"``, ``group`` with a fixed λ) it prints units per second of
+
+* a bare loop of ``ltvmodels.fit`` in this process (the reference),
+* ``fit_many(n_jobs=1)`` (this process; its per-unit overhead over the bare
+  loop, target ≤ 20 %), ``fit_many(n_jobs=2)`` (a local process pool; the
+  speed-up over n_jobs=1, target ≥ 1.7× on 2 cores), and ``fit_many`` on a
+  2-worker ``dask.distributed.LocalCluster`` (``--no-cluster`` skips it),
+
+and, in the same run on the first ``--peer-units`` series, statsmodels' Kalman
+smoother of the same time-varying-parameter model at the same λ (case ``sq``)
+and statsmodels' maximum-likelihood fit of its variances (case ``auto``: the
+peer of ``lam="auto"``, whose criterion is the same marginal likelihood),
+with the ratio and the agreement of the smoothed coefficients / of λ.
+
+Run:  python benchmarks/bench_many.py [--units 10000] [--T 500] [--cases sq auto group]
+Peers: ``pip install ".[bench,dask]"``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+import ltvmodels as ltv
+
+LAM = 10.0
+GROUP_LAM = 5.0
+
+
+def make_units(n_units: int, T: int) -> dict:
+    return {unit: (d.x, d.u) for unit, d in enumerate(
+        ltv.systems.jump_linear(T=T, change_at=T // 2, seed=unit) for unit in range(n_units))}
+
+
+def timed(func):
+    start = time.perf_counter()
+    result = func()
+    return time.perf_counter() - start, result
+
+
+def statsmodels_tvp(x: np.ndarray, u: np.ndarray, lam: float | None):
+    """statsmodels' diffuse Kalman smoother of k_{t+1} = k_t + w_t, x[t+1] = (I ⊗ φ_tᵀ) k_t + e_t.
+
+    With ``lam`` the variances are σ_i² (obs) and σ_i²/λ² (drift) at a σ_i² whose
+    value does not change the smoothed mean; with ``lam=None`` the σ_i² and the
+    shared λ are estimated by maximum likelihood (statsmodels' ``fit``). Returns
+    (smoothed k (N, K), λ).
+    """
+    from statsmodels.tsa.statespace.kalman_smoother import KalmanSmoother
+    from statsmodels.tsa.statespace.mlemodel import MLEModel
+
+    phi = np.hstack([x[:-1], u[:-1]])
+    y = x[1:]
+    N, p = phi.shape
+    n = y.shape[1]
+    if lam is not None:  # the bare smoother (statsmodels' fastest path), σ² = 1
+        smoother = KalmanSmoother(k_endog=n, k_states=n * p, k_posdef=n * p)
+        smoother.bind(np.asfortranarray(y.T))
+        smoother["design"] = np.einsum("ij,ta->ijat", np.eye(n), phi).reshape(n, n * p, N)
+        smoother["obs_cov"] = np.eye(n)
+        smoother["transition"] = np.eye(n * p)
+        smoother["selection"] = np.eye(n * p)
+        smoother["state_cov"] = np.eye(n * p) / lam**2
+        smoother.initialize_diffuse()
+        return smoother.smooth().smoothed_state.T, lam
+
+    class TVP(MLEModel):
+        def __init__(self):
+            super().__init__(y, k_states=n * p, k_posdef=n * p, initialization="diffuse")
+            design = np.zeros((n, n * p, N))
+            for i in range(n):
+                design[i, i * p:(i + 1) * p, :] = phi.T
+            self["design"] = design
+            self["transition"] = np.eye(n * p)
+            self["selection"] = np.eye(n * p)
+
+        @property
+        def start_params(self):  # log σ_1², …, log σ_n², log λ
+            return np.r_[np.log(np.var(y, axis=0)), np.log(LAM)]
+
+        def update(self, params, **kwargs):
+            params = super().update(params, **kwargs)
+            var, lam_ = np.exp(params[:n]), np.exp(params[n])
+            self["obs_cov"] = np.diag(var)
+            self["state_cov"] = np.kron(np.diag(var), np.eye(p) / lam_**2)
+
+    result = TVP().fit(disp=False)
+    return result.smoothed_state.T, float(np.exp(result.params[n]))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--units", type=int, default=10000)
+    parser.add_argument("--T", type=int, default=500)
+    parser.add_argument("--cases", nargs="+", default=["sq", "auto", "group"],
+                        choices=["sq", "auto", "group"])
+    parser.add_argument("--peer-units", type=int, default=50)
+    parser.add_argument("--no-cluster", action="store_true")
+    args = parser.parse_args()
+
+    data = make_units(args.units, args.T)
+    cases = {"sq": dict(lam=LAM), "auto": dict(lam="auto"),
+             "group": dict(lam=GROUP_LAM, norm="group")}
+    for options in cases.values():  # compile the kernels before the fork and the timings
+        ltv.fit(*data[0], **options)
+    client = cluster = None
+    if not args.no_cluster:
+        from distributed import Client, LocalCluster
+        cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+        client = Client(cluster)
+        client.run(lambda: ltv.fit(*make_units(1, 100)[0], lam=1.0))  # warm the workers
+
+    print(f"{args.units} jump-linear units, T = {args.T}, n = 2, m = 1")
+    try:
+        for case in args.cases:
+            options = cases[case]
+            units = list(data.items())
+            bare, _ = timed(lambda: [ltv.fit(x, u, **options) for _, (x, u) in units])
+            one, _ = timed(lambda: ltv.fit_many(data, n_jobs=1, progress=False, **options))
+            two, ms = timed(lambda: ltv.fit_many(data, n_jobs=2, progress=False, **options))
+            rate = args.units
+            print(f"\n{case} {options}")
+            print(f"  bare fit loop       {rate / bare:9.0f} units/s  "
+                  f"({bare / rate * 1e3:.3f} ms per unit)")
+            print(f"  fit_many n_jobs=1   {rate / one:9.0f} units/s  "
+                  f"(overhead {100 * (one / bare - 1):+.1f} % of the fit time)")
+            print(f"  fit_many n_jobs=2   {rate / two:9.0f} units/s  "
+                  f"(speed-up {one / two:.2f}x over n_jobs=1)")
+            if client is not None:
+                dask_time, _ = timed(lambda: ltv.fit_many(data, engine=client, progress=False,
+                                                          **options))
+                print(f"  fit_many LocalCluster(2) {rate / dask_time:4.0f} units/s  "
+                      f"(speed-up {one / dask_time:.2f}x over n_jobs=1)")
+            assert not ms.errors, ms.errors
+            if case in ("sq", "auto"):
+                peer_units = units[:args.peer_units]
+                statsmodels_tvp(*units[0][1], LAM)  # import statsmodels outside the timing
+                ours, models = timed(lambda: [ltv.fit(x, u, **options)
+                                              for _, (x, u) in peer_units])
+                peer, results = timed(lambda: [
+                    statsmodels_tvp(x, u, None if case == "auto" else LAM)
+                    for _, (x, u) in peer_units])
+                dk = max(float(np.max(np.abs(m.k - k))) for m, (k, _) in zip(models, results))
+                what = "MLE fit" if case == "auto" else "smoother"
+                line = (f"  statsmodels {what} on {len(peer_units)} units: "
+                        f"{peer / len(peer_units) * 1e3:.2f} ms per unit vs ours "
+                        f"{ours / len(peer_units) * 1e3:.2f} ms: ratio {peer / ours:.1f}x; "
+                        f"max |Δk| {dk:.1e}")
+                if case == "auto":
+                    rel = max(abs(m.lam / lam - 1) for m, (_, lam) in zip(models, results))
+                    line += f"; λ agrees to {rel:.1e} (relative)"
+                print(line)
+    finally:
+        if client is not None:
+            client.close()
+            cluster.close()
+
+
+if __name__ == "__main__":
+    main()
