@@ -335,7 +335,10 @@ def fit_many(
           several trajectories per unit).
         * a dask DataFrame, laid out as the long DataFrame: it is shuffled by
           unit on the cluster and each partition is fitted where it lives (the
-          raw data never reach this process).
+          raw data never reach this process). Units come in the order of the
+          partitions; a partition whose worker dies is computed once more,
+          and if that fails too it is one entry ``"<partition i>"`` in
+          ``errors``.
     by : str
         The unit column (tables only).
     state : str or list of str
@@ -577,13 +580,28 @@ def fit_dask_frame(frame: Any, client: Any, *, by: Any, state: Any, inputs: Any,
              for index, part in enumerate(parts)]
     collected = Collector(len(tasks), by, keep_models, directory, progress,
                           unit="partitions")
+    from distributed import as_completed as dask_completed
+
     results: list[UnitResult] = []
     with collected.progress:
-        futures = client.compute(tasks)
-        from distributed import as_completed as dask_completed
-        for future in dask_completed(futures):
-            part_results = future.result()
-            results.extend(part_results)
+        futures = dict(zip(client.compute(tasks), enumerate(tasks)))
+        queue = dask_completed(list(futures))
+        retried = set()
+        for future in queue:
+            index, part_task = futures.pop(future)
+            try:
+                results.extend(future.result())
+            except Exception as exc:  # its worker died, after the scheduler's own retries
+                if index not in retried:  # once more, from the partition's source
+                    retried.add(index)
+                    again = client.compute(part_task)
+                    futures[again] = (index, part_task)
+                    queue.add(again)
+                    continue
+                unit = f"<partition {index}>"  # its units are unknown here
+                results.append(failed(UnitData(unit, index * PARTITION_STRIDE, None),
+                                      {"unit": unit, "T": None},
+                                      f"{engines.WORKER_DIED} ({type(exc).__name__}: {exc})"))
             collected.progress.advance(1)
     results.sort(key=lambda result: result.position)
     units = [UnitData(result.unit, result.position, None) for result in results]
