@@ -121,8 +121,12 @@ def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
     if n_failed > LISTED_ERRORS:
         lines.append(f"  ... and {n_failed - LISTED_ERRORS} more (see the summary's "
                      "'error' column)")
+    warned = int(summary["warnings"].notna().sum()) if "warnings" in summary else 0
+    if warned:
+        lines.append(f"  {warned} units fitted with warnings (see the summary's 'warnings' "
+                     "column)")
     report: dict[str, Any] = {"n_units": n_units, "n_fitted": n_units - n_failed,
-                              "n_failed": n_failed, "seconds": seconds,
+                              "n_failed": n_failed, "n_warned": warned, "seconds": seconds,
                               "errors": {str(unit): text for unit, text in
                                          models.errors.items()}}
     if args.out is not None:

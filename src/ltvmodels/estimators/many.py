@@ -100,8 +100,9 @@ def fit_unit(data: UnitData, spec: FitSpec) -> UnitResult:
             model = spec.estimator(data.x, data.u, **spec.options, **extra)
     except Exception as exc:  # one bad unit never stops the others
         return failed(data, record, f"{type(exc).__name__}: {exc}")
+    seconds = clock.perf_counter() - start
     record.update(model_record(model, data))
-    record["seconds"] = clock.perf_counter() - start
+    record["seconds"] = seconds
     record["warnings"] = "; ".join(sorted({f"{w.category.__name__}: {w.message}"
                                            for w in caught})) or None
     if spec.models_dir is not None:
