@@ -31,3 +31,15 @@ def die_once(x, u=None, *, marker: str, **options):
         Path(marker).touch()
         os.kill(os.getpid(), signal.SIGKILL)
     return ltv.fit(x, u, **options)
+
+
+def report_threads(x, u=None, **options):
+    """``fit``, recording in ``info`` the BLAS/OpenMP and numba threads it ran with."""
+    import numba
+    from threadpoolctl import threadpool_info
+
+    model = ltv.fit(x, u, **options)
+    model.info["blas_threads"] = max((pool["num_threads"] for pool in threadpool_info()),
+                                     default=1)
+    model.info["numba_threads"] = numba.get_num_threads()
+    return model

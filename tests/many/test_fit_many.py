@@ -297,10 +297,49 @@ def test_a_unit_that_kills_every_worker_is_an_error():
     assert_same_model(ms[4], ltv.fit(*data[4], lam=10.0))
 
 
+@pytest.mark.parametrize("n_jobs", [1, 2])
+def test_one_blas_and_numba_thread_per_worker_restored_after(n_jobs):
+    import numba
+    from threadpoolctl import threadpool_info
+
+    from many_methods import report_threads
+
+    def threads():
+        return {pool["filepath"]: pool["num_threads"] for pool in threadpool_info()}
+
+    ltv.fit(*marked_units(1, set())[0], lam=1.0)  # load the libraries a fit loads
+    before, numba_before = threads(), numba.get_num_threads()
+    ms = ltv.fit_many(marked_units(4, set()), method=report_threads, lam=10.0, n_jobs=n_jobs)
+    assert {ms[unit].info["blas_threads"] for unit in ms} == {1}
+    assert {ms[unit].info["numba_threads"] for unit in ms} == {1}
+    after = threads()  # (numba's threading layer may have loaded a library of its own)
+    assert {path: after[path] for path in before} == before
+    assert numba.get_num_threads() == numba_before
+
+
+class Terminal:
+    """A text stream that says it is a terminal."""
+
+    def __init__(self):
+        self.text = ""
+
+    def write(self, text):
+        self.text += text
+
+    def flush(self):
+        pass
+
+    def isatty(self):
+        return True
+
+
 def test_progress_line_has_rate_and_time_left():
     from ltvmodels.progress import Progress
 
-    bar = Progress("fit_many", total=10, unit="units")
-    bar._start -= 2.0  # two seconds have passed
-    bar.done = 5
-    assert "5/10" in bar.line() and "units/s" in bar.line() and "s left" in bar.line()
+    stream = Terminal()
+    with Progress("fit_many", total=10, unit="units", stream=stream, delay=0.0,
+                  interval=0.0, threaded=False) as bar:
+        bar._start -= 2.0  # two seconds have passed
+        bar.advance(5)
+        assert "5/10" in stream.text and "2.5 units/s, 2 s left" in stream.text
+    assert stream.text.endswith("\r")  # erased at the end
