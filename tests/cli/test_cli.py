@@ -12,6 +12,7 @@ from ltvmodels.apps.defaults import JUMP_LINEAR_LAM
 from ltvmodels.apps.demos import run_jump_linear_demo
 from ltvmodels.cli import main
 from ltvmodels.errors import OutputPathError
+from ltvmodels.estimators.selection import ML_GRID_SIZE
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -241,7 +242,7 @@ def test_segments_ar_select_lambda(workdir, capsys):
     assert code == 0, err
     report = json.loads(out)
     assert report["method"] == "ml" and report["lam"] > 0
-    assert len(report["candidates"]) == len(report["scores"]) == 30
+    assert len(report["candidates"]) == len(report["scores"]) == ML_GRID_SIZE
     assert _is_png(root / "sel.png")
     code, out, _ = _run(["select-lambda", root / "data.csv", "--state", "x1,x2", "--input",
                          "u", "--norm", "l0"], capsys)

@@ -6,7 +6,7 @@ import pytest
 import ltvmodels as ltv
 from dense_reference import best_lam, difference_matrix, lam_criterion, simulate_ltv
 from ltvmodels.core.problem import state_space_problem
-from ltvmodels.estimators.selection import criterion_fit, select_lambda
+from ltvmodels.estimators.selection import ML_GRID_SIZE, criterion_fit, select_lambda
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -97,7 +97,7 @@ def test_fit_lam_auto_records_the_choice():
     chosen = select_lambda(data.x, data.u, norm="sq", method="ml").lam
     assert model.lam == pytest.approx(chosen)
     assert model.info["lam_selection"]["method"] == "ml"
-    assert len(model.info["lam_selection"]["scores"]) == 30
+    assert len(model.info["lam_selection"]["scores"]) == ML_GRID_SIZE
 
 
 def test_fit_lam_auto_is_the_independent_marginal_likelihood_optimum():

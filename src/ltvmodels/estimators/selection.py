@@ -15,7 +15,9 @@ Every criterion scores a fit per candidate λ on one grid and keeps the best:
   grid point.
 * ``"ml"`` (norm="sq"): the log marginal likelihood of the Gaussian random
   walk (noise variance at its maximum-likelihood value for each λ) —
-  empirical Bayes; maximized on the grid, then by a bounded scalar search.
+  empirical Bayes; maximized on a grid of 12 candidates, then by a bounded
+  scalar search. Each candidate costs one banded factorization and forward
+  substitution (:mod:`ltvmodels.core.evidence`), not a fit.
 * ``"cv"`` (all norms): blocked cross-validation on time. The N steps are cut
   into 5·``n_folds`` contiguous blocks; fold f holds out blocks f, f + n_folds,
   …; the model is fitted without the held-out equations (their rows of y and
@@ -43,6 +45,7 @@ from scipy.interpolate import CubicSpline
 from scipy.optimize import minimize_scalar
 
 from ..core import identifiability
+from ..core.evidence import ScalarEvidence
 from ..core.problem import RegressionProblem, apply_difference
 from ..core.sparse import solve_sparse
 from ..core.sparse_common import lambda_max
@@ -71,6 +74,10 @@ METHODS = {
     "l0": ("bic", "aic"),
 }
 GRID_SIZE = 30
+# Maximum likelihood scores each candidate by one banded factorization
+# (:mod:`ltvmodels.core.evidence`) and refines the best by a scalar search, so a
+# coarser grid of the same range serves.
+ML_GRID_SIZE = 12
 # Robust cross-validation: the folds' solver limits (a score needs a few digits, not
 # the optimum to 1e-6), and the default grid's size (each candidate costs n_folds
 # robust fits).
@@ -98,8 +105,9 @@ def select_lambda(
     """Choose λ for :func:`ltvmodels.fit` (state-space data) by a documented criterion.
 
     See the module docstring for the criteria. The default grid has 30
-    log-spaced values: for "group"/"l1", λ_max·[1e-3, 1] (λ_max, the smallest
-    λ giving the LTI model, from the optimality conditions); for "sq",
+    log-spaced values (12 for "ml", which refines the best): for
+    "group"/"l1", λ_max·[1e-3, 1] (λ_max, the smallest λ giving the LTI
+    model, from the optimality conditions); for "sq",
     s·[0.1, 2·N^d] with s the root-mean-square norm of the regressors φ_t and
     d the degree of the difference operator (λ/s is then roughly the length,
     in samples, over which the coefficients are averaged, to the power d).
@@ -276,6 +284,24 @@ def select_for_problem(
         return finish(LambdaSelection(float(grid[np.argmin(scores)]), grid, scores, method,
                                       norm, loss=loss,
                                       huber_delta=None if delta is None else delta.tolist()))
+    if method == "ml":
+        evidence = ScalarEvidence(problem)
+
+        def loglik(lam: float) -> float:
+            """The fast evaluation, or the full fit where it does not apply."""
+            value = evidence.loglik(lam)
+            if value is None:
+                fit = attempt(lambda value: criterion_fit(problem, norm, value), lam)
+                return -np.inf if fit is None else fit["loglik"]
+            return value
+
+        if lams is None:  # a coarser grid: the scalar search below refines the best
+            grid = np.geomspace(grid[0], grid[-1], ML_GRID_SIZE)
+        scores = np.array([loglik(lam) for lam in scored(grid)])
+        _scores([None if score == -np.inf else 0.0 for score in scores], grid, skipped,
+                data_name, worst=0.0)
+        lam = _refine(grid, scores, lambda value: -loglik(value), maximize=True)
+        return finish(LambdaSelection(lam, grid, scores, method, norm))
     if method == "cv":
         values = [attempt(lambda lam: _cv_error(problem, norm, lam, n_folds), lam)
                   for lam in scored(grid)]
@@ -302,15 +328,6 @@ def select_for_problem(
         best = int(np.argmax(curvature))
         return finish(LambdaSelection(float(grid[best]), grid, curvature, method, norm,
                                       residual, penalty))
-    if method == "ml":
-        scores = np.array([f["loglik"] if f is not None else -np.inf for f in fits])
-
-        def negative_loglik(lam: float) -> float:
-            fit = attempt(lambda value: criterion_fit(problem, norm, value), lam)
-            return np.inf if fit is None else -fit["loglik"]
-
-        lam = _refine(grid, scores, negative_loglik, maximize=True)
-        return finish(LambdaSelection(lam, grid, scores, method, norm, residual, penalty))
     # gcv
     dof = np.array([f["dof"] if f is not None else np.nan for f in fits])
     scores = np.array([_gcv(problem, f["rss"], f["dof"]) if f is not None else np.inf
