@@ -202,7 +202,9 @@ class SquaredSolver:
         # Rows with the same weight and prior blocks share one factorization.
         row_sets: list[list[int]] = []
         keys: list[tuple[np.ndarray, np.ndarray]] = []
-        for i in range(n):
+        if prior_gram is None and self.W.ndim == 1 and np.all(self.W.reshape(n, p) == self.W[:p]):
+            row_sets, keys = [list(range(n))], [(np.diag(self.W[:p]), np.zeros((0, p, p)))]
+        for i in range(n if not row_sets else 0):
             sl = slice(i * p, (i + 1) * p)
             extra = np.zeros((0, p, p)) if prior_gram is None else prior_gram[:, sl, sl]
             key = (_block(self.W, sl), extra)
@@ -340,6 +342,18 @@ class SquaredSolver:
         N, n, p = pb.N, pb.n, pb.p
         d = pb.degree
         log_dd = 2.0 * (N - d) * float(np.log(abs(pb.coeffs[-1])))
+        if self.W.ndim == 1:  # diagonal weights (scalar or vector λ): all rows at once
+            weights = self.W.reshape(n, p) if self.separable else self.W[None, :]
+            varying = ~np.isinf(weights)
+            finite = np.where(varying, weights, 0.0)
+            tol = 10 * varying.sum(axis=1) * np.finfo(float).eps * np.maximum(
+                finite.max(axis=1, initial=0.0), 1e-300)
+            positive = varying & (finite > tol[:, None])
+            rank = positive.sum(axis=1)
+            log_weights = np.log(np.where(positive, finite, 1.0)).sum(axis=1)
+            log_pdet = rank * log_dd + (N - d) * log_weights
+            diffuse = N * varying.sum(axis=1) + (~varying).sum(axis=1) - (N - d) * rank
+            return log_pdet, diffuse.astype(float)
         blocks = [_block(self.W, slice(i * p, (i + 1) * p)) for i in range(n)] \
             if self.separable else [_block(self.W, slice(None))]
         log_pdet = np.zeros(len(blocks))

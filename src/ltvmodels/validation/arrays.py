@@ -73,21 +73,24 @@ def as_float_array(value: Any, name: str, *, missing: bool = False) -> np.ndarra
             )
         else:
             value = np.ma.getdata(value)
-    expected = f"{name}: expected an array of real numbers, received {describe(value)}"
+
+    def expected() -> str:  # formatted only for an error: it costs more than the checks
+        return f"{name}: expected an array of real numbers, received {describe(value)}"
+
     if isinstance(value, (str, bytes)):
-        raise TypeError(expected)
+        raise TypeError(expected())
     try:
         raw = np.asarray(value)
     except ValueError as exc:  # ragged nested sequences
-        raise TypeError(expected) from exc
+        raise TypeError(expected()) from exc
     if np.iscomplexobj(raw):  # checked before the cast, which would only warn
         raise TypeError(f"{name}: expected real numbers, received complex values")
     if raw.dtype.kind in "USV":  # text (even "1.5") or raw bytes are not numbers
-        raise TypeError(expected)
+        raise TypeError(expected())
     try:
         arr = np.array(raw, dtype=np.float64, copy=True)
     except (TypeError, ValueError) as exc:  # objects that are not numbers
-        raise TypeError(expected) from exc
+        raise TypeError(expected()) from exc
     bad_values = np.isinf(arr) if missing else ~np.isfinite(arr)
     if np.any(bad_values):
         bad = tuple(int(i) for i in np.argwhere(bad_values)[0])
