@@ -205,7 +205,17 @@ def diagonal_step(L, t, d, b, ref):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, inline="always")
 def _log_det_block(L, t, b):  # pragma: no cover - compiled
-    """This block's contribution to log det H = 2 Σ log diag(L_tt) (L[t, 0] holds 1/L_aa)."""
+    """This block's contribution to log det H = 2 Σ log diag(L_tt) (L[t, 0] holds 1/L_aa).
+
+    One logarithm of the pivots' product, not one per pivot (a logarithm costs
+    as much as the rest of a small block's step); one per pivot where the
+    product leaves the safe range of double precision.
+    """
+    product = 1.0
+    for a in range(b):
+        product *= L[t, 0, a, a]
+    if 1e-250 < product < 1e250:
+        return -2.0 * np.log(product)
     logdet = 0.0
     for a in range(b):
         logdet -= 2.0 * np.log(L[t, 0, a, a])
