@@ -7,8 +7,12 @@ mapping {unit: (x, u)}. For each case (``sq`` with a fixed λ, ``sq`` with
 * a bare loop of ``ltvmodels.fit`` in this process (the reference),
 * ``fit_many(n_jobs=1)`` (this process; its per-unit overhead over the bare
   loop, target ≤ 20 %), ``fit_many(n_jobs=2)`` (a local process pool; the
-  speed-up over n_jobs=1, target ≥ 1.7× on 2 cores), and ``fit_many`` on a
-  2-worker ``dask.distributed.LocalCluster`` (``--no-cluster`` skips it),
+  speed-up over n_jobs=1, target ≥ 1.7× on 2 cores) — with
+  ``keep_models=False`` as the bare loop, which drops its models, and again
+  with the models kept (10⁴ models of T = 500 are 0.6 GB) —
+  and ``fit_many`` on a 2-worker ``dask.distributed.LocalCluster``
+  (``--no-cluster`` skips it; it runs last, so that no scheduler thread is
+  alive in this process during the other timings),
 
 and, in the same run on the first ``--peer-units`` series, statsmodels' Kalman
 smoother of the same time-varying-parameter model at the same λ (case ``sq``)
@@ -105,62 +109,73 @@ def main() -> None:
     args = parser.parse_args()
 
     data = make_units(args.units, args.T)
-    cases = {"sq": dict(lam=LAM), "auto": dict(lam="auto"),
-             "group": dict(lam=GROUP_LAM, norm="group")}
+    units = list(data.items())
+    cases = {case: options for case, options in (
+        ("sq", dict(lam=LAM)), ("auto", dict(lam="auto")),
+        ("group", dict(lam=GROUP_LAM, norm="group"))) if case in args.cases}
     for options in cases.values():  # compile the kernels before the fork and the timings
         ltv.fit(*data[0], **options)
-    client = cluster = None
-    if not args.no_cluster:
-        from distributed import Client, LocalCluster
-        cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
-        client = Client(cluster)
-        client.run(lambda: ltv.fit(*make_units(1, 100)[0], lam=1.0))  # warm the workers
-
     print(f"{args.units} jump-linear units, T = {args.T}, n = 2, m = 1")
-    try:
-        for case in args.cases:
-            options = cases[case]
-            units = list(data.items())
-            bare, _ = timed(lambda: [ltv.fit(x, u, **options) for _, (x, u) in units])
-            one, _ = timed(lambda: ltv.fit_many(data, n_jobs=1, progress=False, **options))
-            two, ms = timed(lambda: ltv.fit_many(data, n_jobs=2, progress=False, **options))
-            rate = args.units
-            print(f"\n{case} {options}")
-            print(f"  bare fit loop       {rate / bare:9.0f} units/s  "
-                  f"({bare / rate * 1e3:.3f} ms per unit)")
-            print(f"  fit_many n_jobs=1   {rate / one:9.0f} units/s  "
-                  f"(overhead {100 * (one / bare - 1):+.1f} % of the fit time)")
-            print(f"  fit_many n_jobs=2   {rate / two:9.0f} units/s  "
-                  f"(speed-up {one / two:.2f}x over n_jobs=1)")
-            if client is not None:
-                dask_time, _ = timed(lambda: ltv.fit_many(data, engine=client, progress=False,
-                                                          **options))
-                print(f"  fit_many LocalCluster(2) {rate / dask_time:4.0f} units/s  "
-                      f"(speed-up {one / dask_time:.2f}x over n_jobs=1)")
+    # No cluster is alive while this process is timed alone: an in-process
+    # scheduler's threads take the interpreter lock from the fits (~40 % here).
+    single = {}
+    rate = args.units
+    for case, options in cases.items():
+        def bare_loop():  # the models are dropped, as with keep_models=False
+            for _, (x, u) in units:
+                ltv.fit(x, u, **options)
+
+        def many(n_jobs, keep_models):
+            ms = ltv.fit_many(data, n_jobs=n_jobs, keep_models=keep_models, progress=False,
+                              **options)
             assert not ms.errors, ms.errors
-            if case in ("sq", "auto"):
-                peer_units = units[:args.peer_units]
-                statsmodels_tvp(*units[0][1], LAM)  # import statsmodels outside the timing
-                ours, models = timed(lambda: [ltv.fit(x, u, **options)
-                                              for _, (x, u) in peer_units])
-                peer, results = timed(lambda: [
-                    statsmodels_tvp(x, u, None if case == "auto" else LAM)
-                    for _, (x, u) in peer_units])
-                dk = max(float(np.max(np.abs(m.k - k))) for m, (k, _) in zip(models, results))
-                what = "MLE fit" if case == "auto" else "smoother"
-                line = (f"  statsmodels {what} on {len(peer_units)} units: "
-                        f"{peer / len(peer_units) * 1e3:.2f} ms per unit vs ours "
-                        f"{ours / len(peer_units) * 1e3:.2f} ms: ratio {peer / ours:.1f}x; "
-                        f"max |Δk| {dk:.1e}")
-                if case == "auto":
-                    rel = max(abs(m.lam / lam - 1) for m, (_, lam) in zip(models, results))
-                    line += f"; λ agrees to {rel:.1e} (relative)"
-                print(line)
-    finally:
-        if client is not None:
-            client.close()
-            cluster.close()
+
+        bare, _ = timed(bare_loop)
+        one, _ = timed(lambda: many(1, False))
+        two, _ = timed(lambda: many(2, False))
+        one_kept, _ = timed(lambda: many(1, True))
+        two_kept, _ = timed(lambda: many(2, True))
+        single[case] = one
+        print(f"\n{case} {options}")
+        print(f"  bare fit loop            {rate / bare:7.0f} units/s  "
+              f"({bare / rate * 1e3:.3f} ms per unit)")
+        print(f"  fit_many n_jobs=1        {rate / one:7.0f} units/s  "
+              f"(overhead {100 * (one / bare - 1):+.1f} % of the fit time)")
+        print(f"  fit_many n_jobs=2        {rate / two:7.0f} units/s  "
+              f"(speed-up {one / two:.2f}x over n_jobs=1)")
+        print(f"  with the models kept:    {rate / one_kept:7.0f} and {rate / two_kept:.0f} "
+              f"units/s (speed-up {one_kept / two_kept:.2f}x)")
+        if case in ("sq", "auto"):
+            peer_units = units[:args.peer_units]
+            statsmodels_tvp(*units[0][1], LAM)  # import statsmodels outside the timing
+            ours, models = timed(lambda: [ltv.fit(x, u, **options)
+                                          for _, (x, u) in peer_units])
+            peer, results = timed(lambda: [
+                statsmodels_tvp(x, u, None if case == "auto" else LAM)
+                for _, (x, u) in peer_units])
+            dk = max(float(np.max(np.abs(m.k - k))) for m, (k, _) in zip(models, results))
+            what = "MLE fit" if case == "auto" else "smoother"
+            line = (f"  statsmodels {what} on {len(peer_units)} units: "
+                    f"{peer / len(peer_units) * 1e3:.2f} ms per unit vs ours "
+                    f"{ours / len(peer_units) * 1e3:.2f} ms: ratio {peer / ours:.1f}x; "
+                    f"max |Δk| {dk:.1e}")
+            if case == "auto":
+                rel = max(abs(m.lam / lam - 1) for m, (_, lam) in zip(models, results))
+                line += f"; λ agrees to {rel:.1e} (relative)"
+            print(line)
+    if args.no_cluster:
+        return
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        client.run(lambda: ltv.fit(*make_units(1, 100)[0], lam=1.0))  # warm the workers
+        print("\nfit_many on a LocalCluster of 2 worker processes")
+        for case, options in cases.items():
+            dask_time, _ = timed(lambda: ltv.fit_many(data, engine=client, progress=False,
+                                                      keep_models=False, **options))
+            print(f"  {case:6s} {args.units / dask_time:9.0f} units/s  "
+                  f"(speed-up {single[case] / dask_time:.2f}x over fit_many n_jobs=1)")
 
 
 if __name__ == "__main__":

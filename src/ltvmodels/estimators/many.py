@@ -416,13 +416,12 @@ def fit_many(
     keep_models = checks.flag(keep_models, "keep_models")
     if progress is not None:
         progress = checks.flag(progress, "progress")
-    directory = None
-    if models_dir is not None:
-        if not isinstance(models_dir, (str, os.PathLike)):
-            raise TypeError(f"models_dir: expected a directory path, received "
-                            f"{arrays.describe(models_dir)}")
-        directory = Path(models_dir)
-        directory.mkdir(parents=True, exist_ok=True)
+    n_jobs = engines.default_jobs() if n_jobs is None else checks.integer(
+        n_jobs, "n_jobs", minimum=1)
+    if models_dir is not None and not isinstance(models_dir, (str, os.PathLike)):
+        raise TypeError(f"models_dir: expected a directory path, received "
+                        f"{arrays.describe(models_dir)}")
+    directory = None if models_dir is None else Path(models_dir)
     client = dask_client(engine)
     weights = options.pop("weights", None)
     if is_dask_frame(data):
@@ -446,10 +445,10 @@ def fit_many(
             f"data: expected a long pandas DataFrame (with by=, state=), a mapping "
             f"{{unit: (x, u)}} or a dask DataFrame, received {arrays.describe(data)}"
         )
+    if directory is not None:
+        directory.mkdir(parents=True, exist_ok=True)
     spec = FitSpec(estimator, options, keep_models,
                    None if directory is None else str(directory))
-    n_jobs = engines.default_jobs() if n_jobs is None else checks.integer(
-        n_jobs, "n_jobs", minimum=1)
     collected = Collector(len(units), by_name, keep_models, directory, progress)
     task = partial(fit_units, spec=spec)
     with collected.progress:
@@ -460,8 +459,9 @@ def fit_many(
         elif n_jobs == 1 or len(units) <= 1:
             engines.run_here(task, [units], collected.add)
         else:
-            engines.run_processes(task, chunked(units, task_count(n_jobs, len(units))),
-                                  n_jobs, collected.add, collected.lose)
+            chunks = chunked(units, task_count(n_jobs, len(units)))
+            engines.run_processes(task, chunks, min(n_jobs, len(chunks)), collected.add,
+                                  collected.lose)
     return collected.model_set(units)
 
 
@@ -573,6 +573,8 @@ def fit_dask_frame(frame: Any, client: Any, *, by: Any, state: Any, inputs: Any,
         raise TypeError(f"by: expected the name of the unit column, received "
                         f"{arrays.describe(by)}")
     column_list(by, "by", frame.columns, required=True)
+    if directory is not None:
+        directory.mkdir(parents=True, exist_ok=True)
     shuffled = frame.shuffle(on=by)
     spec = FitSpec(estimator, options, keep_models,
                    None if directory is None else str(directory))
