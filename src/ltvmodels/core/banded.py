@@ -21,6 +21,7 @@ complement.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
@@ -33,12 +34,18 @@ from .problem import gram_bands
 # from means the system is singular to working precision.
 RELATIVE_PIVOT_TOL = 1e-12
 
-# From this many unknowns (N·b) on, use kernels compiled for the block size as
-# a constant: ~1.5x faster, but each block size compiles once (~5 s, then
-# cached on disk), which only long series repay.
+# Kernels compiled for the block size as a constant are faster (factor 1.2 at
+# b = 8 to 3 at b = 2 for the selected inversion) and compile in the same time
+# as the general version (about 3 s, then cached on disk), but once per block
+# size. Small blocks (the usual state-space models) always use them: a loop of
+# many small fits repeats one size; larger ones from this many unknowns (N·b)
+# on, which long series repay.
+FIXED_BLOCK_SMALL_B = 8
 FIXED_BLOCK_MIN_SIZE = 250_000
 # Beyond this block size unrolling bloats the compiled code more than it helps.
 FIXED_BLOCK_MAX_B = 16
+# The bands of DᵀD are kept for series up to this length (small fits repeat them).
+CACHED_BANDS_MAX_N = 20_000
 
 SINGULAR_ADVICE = (
     "Remedies: more excitation in the inputs, a larger lam, a prior "
@@ -84,12 +91,8 @@ class BlockSystem:
         return self.W.shape[0]
 
     def bands(self) -> np.ndarray:
-        """(d+1, N) diagonals of DᵀD, zero-padded."""
-        d = len(self.coeffs) - 1
-        out = np.zeros((d + 1, self.N))
-        for lag, band in enumerate(gram_bands(self.N, self.coeffs)):
-            out[lag, : band.size] = band
-        return out
+        """(d+1, N) diagonals of DᵀD, zero-padded (see :func:`difference_bands`)."""
+        return difference_bands(self.N, self.coeffs)
 
     def gram(self) -> np.ndarray:
         """The Gram blocks G_t as an (N, b, b) array."""
@@ -101,6 +104,31 @@ class BlockSystem:
         if self.extra.shape[0]:
             G += self.extra
         return G
+
+
+def difference_bands(N: int, coeffs: np.ndarray) -> np.ndarray:
+    """(d+1, N) diagonals of DᵀD, zero-padded: row lag holds (DᵀD)_{s+lag, s}.
+
+    For N <= ``CACHED_BANDS_MAX_N`` the array is shared between calls with the
+    same operator and length: read it, never write it. (It stays writeable: a
+    read-only array would compile the kernels once more.)
+    """
+    if N <= CACHED_BANDS_MAX_N:
+        return _cached_bands(N, tuple(float(c) for c in coeffs))
+    return _make_bands(N, coeffs)
+
+
+@lru_cache(maxsize=32)
+def _cached_bands(N: int, coeffs: tuple) -> np.ndarray:
+    return _make_bands(N, np.array(coeffs))
+
+
+def _make_bands(N: int, coeffs: np.ndarray) -> np.ndarray:
+    d = len(coeffs) - 1
+    out = np.zeros((d + 1, N))
+    for lag, band in enumerate(gram_bands(N, coeffs)):
+        out[lag, : band.size] = band
+    return out
 
 
 def phi_outer(phi: np.ndarray) -> np.ndarray:
@@ -140,12 +168,13 @@ def _check_pivots(worst: float, worst_t: int, what: str) -> None:
         )
 
 
-def _kernel_size(N: int, b: int) -> int | tuple:
+def kernel_size(N: int, b: int) -> int | tuple:
     """The block size as the kernels take it: an int, or a tuple of that length.
 
-    A tuple selects the kernels compiled for that block size as a constant.
+    A tuple selects the kernels compiled for that block size as a constant
+    (small blocks, or long series; see ``FIXED_BLOCK_SMALL_B``).
     """
-    if N * b >= FIXED_BLOCK_MIN_SIZE and b <= FIXED_BLOCK_MAX_B:
+    if b <= FIXED_BLOCK_SMALL_B or (N * b >= FIXED_BLOCK_MIN_SIZE and b <= FIXED_BLOCK_MAX_B):
         return (0,) * b
     return b
 
@@ -155,7 +184,7 @@ def _factor_forward(system: BlockSystem, rhs: np.ndarray, what: str):
     N, b = system.N, system.b
     d = len(system.coeffs) - 1
     L = np.empty((N, d + 1, b, b))
-    size = _kernel_size(N, b)  # a tuple selects the version compiled for this b
+    size = kernel_size(N, b)  # a tuple selects the version compiled for this b
     worst, worst_t, logdet = kernels.factor_forward(
         np.ascontiguousarray(system.phi), system.n_rep, float(system.data_scale),
         np.ascontiguousarray(system.extra), np.ascontiguousarray(system.W),
@@ -218,6 +247,17 @@ def solve_block_banded(
         theta, cov, logdet = _factor_solve(system, rhs, compute_cov, what)
         return BlockSolution(theta=theta, cov=cov, logdet=logdet)
     return _solve_bordered(system, rhs, const, compute_cov=compute_cov, what=what)
+
+
+def solve_varying(system: BlockSystem, rhs: np.ndarray, *, compute_cov: bool,
+                  what: str = "the normal equations") -> BlockSolution:
+    """:func:`solve_block_banded` for a system without constant coefficients (finite W).
+
+    ``rhs`` (N, b, r) is overwritten with the solution if it is C-contiguous float.
+    """
+    theta, cov, logdet = _factor_solve(system, np.ascontiguousarray(rhs, dtype=float),
+                                       compute_cov, what)
+    return BlockSolution(theta=theta, cov=cov, logdet=logdet)
 
 
 def _solve_bordered(system: BlockSystem, rhs, const, *, compute_cov, what) -> BlockSolution:

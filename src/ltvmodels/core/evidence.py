@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import blockkernels as kernels
-from .banded import RELATIVE_PIVOT_TOL, BlockSystem
+from .banded import RELATIVE_PIVOT_TOL, difference_bands, kernel_size
 from .problem import RegressionProblem
 
 LOG_2PI = float(np.log(2.0 * np.pi))
@@ -49,8 +49,8 @@ class ScalarEvidence:
         self.phi = np.ascontiguousarray(problem.phi)
         self.rhs = np.ascontiguousarray(problem.cross())  # (N, p, n)
         self.yy = np.einsum("tji,tji->i", problem.y, problem.y)  # ‖y_i‖² (n,)
-        self.bands = BlockSystem(self.phi, 1, 1.0, np.zeros((0, p, p)), np.eye(p),
-                                 problem.coeffs).bands()
+        self.bands = difference_bands(N, problem.coeffs)
+        self.size = kernel_size(N, p)
         self.n_eff = problem.n_observed - d * p  # observed rows less the diffuse directions
         self.log_cd = float(np.log(abs(problem.coeffs[-1])))
         self._L = np.empty((N, d + 1, p, p))
@@ -71,7 +71,7 @@ class ScalarEvidence:
         self._Z[...] = self.rhs
         worst, _, logdet = kernels.factor_forward(
             self.phi, 1, 1.0, self._extra, weight * np.eye(p), self.bands, self._Z,
-            self._L, p)
+            self._L, self.size)
         if worst < RELATIVE_PIVOT_TOL:
             return None
         cost = self.yy - np.einsum("tai,tai->i", self._Z, self._Z)  # RSS_i + penalty_i

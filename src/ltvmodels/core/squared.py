@@ -51,7 +51,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import PrecisionWarning, SingularProblemError
-from .banded import BlockSolution, BlockSystem, solve_block_banded
+from .banded import BlockSolution, BlockSystem, solve_block_banded, solve_varying
 from .blockkernels import rowwise_matvec
 from .covariance import CovarianceBlocks
 from .priorterms import PriorTerm
@@ -108,6 +108,68 @@ def _finite(W: np.ndarray) -> np.ndarray:
 def _block(W: np.ndarray, rows: slice) -> np.ndarray:
     """The square block of W (diagonal (K,) or matrix (K, K)) on ``rows``, as a matrix."""
     return np.diag(W[rows]) if W.ndim == 1 else W[rows, rows]
+
+
+def shared_row_weight(W: np.ndarray, n: int, p: int) -> np.ndarray | None:
+    """The (p,) diagonal weight every output row shares (a scalar λ), or None.
+
+    None for a matrix weight, rows with different weights, or constant (inf)
+    coefficients: those take the general path of :class:`SquaredSolver`.
+    """
+    if W.ndim != 1:
+        return None
+    row = W[:p]
+    if W[0] == W[-1] and (W == W[0]).all():  # a scalar λ: one comparison pass
+        return row if np.isfinite(W[0]) else None
+    if not np.isfinite(row).all() or (n > 1 and not (W.reshape(n, p) == row).all()):
+        return None
+    return row
+
+
+def _row_penalty_diagonal(theta: np.ndarray, coeffs: np.ndarray, weights: np.ndarray,
+                          n: int, p: int) -> np.ndarray:
+    """Σ_j w_j ‖(Dk)_j‖² per output row, shape (n,), for a diagonal weight (K,)."""
+    Dk = apply_difference(theta.reshape(theta.shape[0], -1), coeffs)
+    return (np.einsum("tk,tk->k", Dk, Dk) * weights).reshape(n, p).sum(axis=1)
+
+
+def _shared_normalizer(problem: RegressionProblem, row: np.ndarray
+                       ) -> tuple[float, float, float]:
+    """:meth:`SquaredSolver.log_penalty_normalizer` (per row) and :meth:`SquaredSolver.
+    digits_lost` for a diagonal weight ``row`` (p,) shared by every row, all finite.
+
+    Returns (log normalizer, diffuse directions, digits lost), the first two
+    the same for every output row.
+    """
+    N, p, d = problem.N, problem.p, problem.degree
+    largest = float(row.max())
+    tol = 10 * p * np.finfo(float).eps * max(largest, 1e-300)
+    positive = row > tol
+    rank = int(np.count_nonzero(positive))
+    log_dd = 2.0 * (N - d) * float(np.log(abs(problem.coeffs[-1])))
+    log_weights = float(np.log(row[positive]).sum()) if rank < p else float(np.log(row).sum())
+    log_pdet = rank * log_dd + (N - d) * log_weights
+    diffuse = float(N * p - (N - d) * rank)
+    penalty = largest * float(np.abs(problem.coeffs).sum()) ** 2
+    # mean Gram diagonal: Σ_t Σ_j ‖φ_tj‖² / (N p), one dot product
+    data = float(np.vdot(problem.phi, problem.phi)) / (N * p)
+    lost = 0.0 if penalty == 0.0 or data == 0.0 else max(0.0, float(np.log10(penalty / data)))
+    return log_pdet, diffuse, lost
+
+
+def _solve_shared(problem: RegressionProblem, row: np.ndarray, compute_cov: bool):
+    """:meth:`SquaredSolver.solve` (no priors, with the data) for a diagonal weight ``row``
+    (p,) shared by every output row: one factorization for all n right-hand sides.
+
+    Returns (theta (N, n, p), CovarianceBlocks | None, log det H of one row).
+    """
+    n, p = problem.n, problem.p
+    system = BlockSystem(problem.phi, 1, 1.0, np.zeros((0, p, p)), np.diag(row),
+                         problem.coeffs)
+    sol = solve_varying(system, problem.cross(), compute_cov=compute_cov)
+    theta = np.ascontiguousarray(np.swapaxes(sol.theta, 1, 2))
+    cov = None if sol.cov is None else CovarianceBlocks(sol.cov[None], np.zeros(n, dtype=int))
+    return theta, cov, sol.logdet
 
 
 @dataclass
@@ -295,11 +357,10 @@ class SquaredSolver:
         """The penalty of each output row, shape (n,) (rows decoupled)."""
         pb = self.problem
         n, p = pb.n, pb.p
-        Dk = apply_difference(theta.reshape(pb.N, -1), pb.coeffs)
         if self.diagonal:  # Σ_j w_j ‖(Dk)_j‖² per row
-            return (np.einsum("tk,tk->k", Dk, Dk) * self.W0_diagonal).reshape(n, p).sum(axis=1)
+            return _row_penalty_diagonal(theta, pb.coeffs, self.W0_diagonal, n, p)
         blocks = self.W0.reshape(n, p, n, p)[np.arange(n), :, np.arange(n), :]  # (n, p, p)
-        Dk = Dk.reshape(-1, n, p)
+        Dk = apply_difference(theta.reshape(pb.N, -1), pb.coeffs).reshape(-1, n, p)
         return np.einsum("tia,iab,tib->i", Dk, blocks, Dk)
 
     def prior_cost(self, theta: np.ndarray) -> float:
@@ -509,14 +570,24 @@ def fit_squared(
         prior alone does not determine the parameters.
     compute_cov : bool
     """
-    solver = SquaredSolver(problem, W, priors)
-    n = problem.n
+    n, p = problem.n, problem.p
     n_obs = problem.n_observed
-    row_log_pdet, row_diffuse = solver.log_penalty_normalizer()
+    # A scalar λ without priors (the common case): every row shares one diagonal
+    # weight, and the normalizer, precision estimate and solve have short forms.
+    shared = None if priors else shared_row_weight(W, n, p)
+    if shared is None:
+        solver = SquaredSolver(problem, W, priors)
+        row_log_pdet, row_diffuse = solver.log_penalty_normalizer()
+        per_row = solver.separable  # each output row its own problem and σ_i²
+        lost = solver.digits_lost()
+    else:
+        solver = None
+        log_pdet, diffuse, lost = _shared_normalizer(problem, shared)
+        row_log_pdet, row_diffuse = np.full(n, log_pdet), np.full(n, diffuse)
+        per_row = True
     n_eff = n_obs * n - float(row_diffuse.sum())
-    info: dict = {"row_separable": bool(solver.separable)}
+    info: dict = {"row_separable": bool(per_row)}
     estimated = noise_var is None
-    per_row = solver.separable  # each output row its own problem and σ_i²
     variances = None if noise_var is None else np.broadcast_to(
         np.asarray(noise_var, dtype=float), (n,)).copy()
     if variances is not None and not per_row and np.any(variances != variances[0]):
@@ -537,11 +608,15 @@ def fit_squared(
     else:
         prior_scale = variances if per_row else float(variances[0])
 
-    lost = solver.digits_lost()
     try:
-        theta, cov, logdet, n_fact, row_logdet = solver.solve(
-            prior_scale, compute_cov=compute_cov
-        )
+        if solver is None:
+            theta, cov, row_logdet_shared = _solve_shared(problem, shared, compute_cov)
+            logdet, n_fact = row_logdet_shared * n, 1
+            row_logdet = np.full(n, row_logdet_shared)
+        else:
+            theta, cov, logdet, n_fact, row_logdet = solver.solve(
+                prior_scale, compute_cov=compute_cov
+            )
     except SingularProblemError as exc:
         if lost > PRECISION_DIGITS_WARN:
             raise SingularProblemError(
@@ -563,9 +638,12 @@ def fit_squared(
     row_rss = problem.output_rss(theta)
     rss = float(row_rss.sum())
     # per row when the rows decouple (one differencing pass serves both)
-    row_pen = solver.row_penalty(theta) if per_row else None
+    if solver is None:
+        row_pen = _row_penalty_diagonal(theta, problem.coeffs, W, n, p)
+    else:
+        row_pen = solver.row_penalty(theta) if per_row else None
     pen = float(row_pen.sum()) if per_row else solver.penalty(theta)
-    row_prior = solver.row_prior_cost(theta)
+    row_prior = np.zeros(n) if solver is None else solver.row_prior_cost(theta)
     prior_cost = float(row_prior.sum())
 
     if priors:
