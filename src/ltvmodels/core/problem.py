@@ -60,14 +60,20 @@ class RegressionProblem:
         phi = np.asarray(self.phi, dtype=float)
         if y.ndim == 2:
             y, phi = y[:, None, :], phi[:, None, :]
-        observed = (np.ones(y.shape[:2], dtype=bool) if self.observed is None
-                    else np.asarray(self.observed, dtype=bool))
-        if not observed.all():  # an unobserved row must not add to any sum
+        if self.observed is None:
+            observed = np.ones(y.shape[:2], dtype=bool)
+            n_observed = observed.size
+        else:
+            observed = np.asarray(self.observed, dtype=bool)
+            n_observed = int(np.count_nonzero(observed))
+        if n_observed < observed.size:  # an unobserved row must not add to any sum
             y = np.where(observed[:, :, None], y, 0.0)
             phi = np.where(observed[:, :, None], phi, 0.0)
         object.__setattr__(self, "y", np.ascontiguousarray(y))
         object.__setattr__(self, "phi", np.ascontiguousarray(phi))
         object.__setattr__(self, "observed", observed)
+        # The count, kept: the likelihood, the checks and the reports each ask for it.
+        object.__setattr__(self, "_n_observed", n_observed)
         row_scale = (observed.astype(float) if self.row_scale is None
                      else np.where(observed, np.asarray(self.row_scale, dtype=float), 0.0))
         object.__setattr__(self, "row_scale", row_scale)
@@ -100,12 +106,12 @@ class RegressionProblem:
     @property
     def n_observed(self) -> int:
         """Number of observed rows (each with n outputs)."""
-        return int(self.observed.sum())
+        return self._n_observed
 
     @property
     def complete(self) -> bool:
         """One trajectory, every row observed: the paper's problem."""
-        return self.q == 1 and bool(self.observed.all())
+        return self.q == 1 and self._n_observed == self.observed.size
 
     def residuals(self, theta: np.ndarray) -> np.ndarray:
         """y_tj − Θ_t φ_tj for Θ of shape (N, n, p); returns (N, q, n), 0 where unobserved."""
@@ -147,6 +153,10 @@ def weighted_problem(
     A row enters the data term only if all of y_t and φ_t are finite (and its
     weight is > 0); it is scaled by √w so its squared residual counts w times.
     """
+    if weights is None and _all_finite(y) and _all_finite(phi):
+        # every row observed: the problem needs no mask (nor a count of it)
+        return RegressionProblem(y=np.swapaxes(y, 0, 1), phi=np.swapaxes(phi, 0, 1),
+                                 coeffs=coeffs)
     observed = _finite_rows(y) & _finite_rows(phi)
     scale = None
     if weights is not None:
@@ -157,6 +167,11 @@ def weighted_problem(
         y=np.swapaxes(y, 0, 1), phi=np.swapaxes(phi, 0, 1), coeffs=coeffs,
         observed=observed.T, row_scale=None if scale is None else scale.T,
     )
+
+
+def _all_finite(values: np.ndarray) -> bool:
+    """Whether every entry is finite, by one sum (an overflowing sum says no)."""
+    return bool(np.isfinite(values.sum()))
 
 
 def _finite_rows(values: np.ndarray) -> np.ndarray:

@@ -45,6 +45,7 @@ second banded factorization:
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass, field
 
@@ -58,6 +59,7 @@ from .priorterms import PriorTerm
 from .problem import RegressionProblem, apply_difference
 
 LOG_2PI = float(np.log(2.0 * np.pi))
+EPS = float(np.finfo(float).eps)
 # Warn when the penalty dominates the data by more than 1e10: results keep fewer
 # than about 6 correct digits.
 PRECISION_DIGITS_WARN = 10.0
@@ -142,18 +144,19 @@ def _shared_normalizer(problem: RegressionProblem, row: np.ndarray
     the same for every output row.
     """
     N, p, d = problem.N, problem.p, problem.degree
-    largest = float(row.max())
-    tol = 10 * p * np.finfo(float).eps * max(largest, 1e-300)
-    positive = row > tol
-    rank = int(np.count_nonzero(positive))
-    log_dd = 2.0 * (N - d) * float(np.log(abs(problem.coeffs[-1])))
-    log_weights = float(np.log(row[positive]).sum()) if rank < p else float(np.log(row).sum())
-    log_pdet = rank * log_dd + (N - d) * log_weights
+    weights = row.tolist()  # p numbers: Python's arithmetic beats numpy's call overhead
+    coeffs = problem.coeffs.tolist()
+    largest = max(weights)
+    tol = 10 * p * EPS * max(largest, 1e-300)
+    positive = [w for w in weights if w > tol]
+    rank = len(positive)
+    log_dd = 2.0 * (N - d) * math.log(abs(coeffs[-1]))
+    log_pdet = rank * log_dd + (N - d) * sum(math.log(w) for w in positive)
     diffuse = float(N * p - (N - d) * rank)
-    penalty = largest * float(np.abs(problem.coeffs).sum()) ** 2
+    penalty = largest * sum(abs(c) for c in coeffs) ** 2
     # mean Gram diagonal: Σ_t Σ_j ‖φ_tj‖² / (N p), one dot product
     data = float(np.vdot(problem.phi, problem.phi)) / (N * p)
-    lost = 0.0 if penalty == 0.0 or data == 0.0 else max(0.0, float(np.log10(penalty / data)))
+    lost = 0.0 if penalty == 0.0 or data == 0.0 else max(0.0, math.log10(penalty / data))
     return log_pdet, diffuse, lost
 
 
@@ -163,10 +166,16 @@ def _solve_shared(problem: RegressionProblem, row: np.ndarray, compute_cov: bool
 
     Returns (theta (N, n, p), CovarianceBlocks | None, log det H of one row).
     """
-    n, p = problem.n, problem.p
+    N, n, p = problem.N, problem.n, problem.p
+    if problem.q == 1:  # Σ_j φ_tj y_tjᵀ = φ_t y_tᵀ by the compiled product (numpy's
+        # broadcast product of (N, p, 1) and (N, 1, n) is ~10x slower at small p, n)
+        rhs = np.empty((N, p, n))
+        rowwise_matvec(problem.y.reshape(N, n, 1), problem.phi.reshape(N, p, 1), rhs)
+    else:
+        rhs = problem.cross()
     system = BlockSystem(problem.phi, 1, 1.0, np.zeros((0, p, p)), np.diag(row),
                          problem.coeffs)
-    sol = solve_varying(system, problem.cross(), compute_cov=compute_cov)
+    sol = solve_varying(system, rhs, compute_cov=compute_cov)
     theta = np.ascontiguousarray(np.swapaxes(sol.theta, 1, 2))
     cov = None if sol.cov is None else CovarianceBlocks(sol.cov[None], np.zeros(n, dtype=int))
     return theta, cov, sol.logdet
@@ -541,6 +550,83 @@ def _golden_section_max(f, lo: np.ndarray, hi: np.ndarray, tol: float) -> np.nda
     return np.where(fc >= fd, c, d)
 
 
+def _raise_if_precision_lost(lost: float, exc: SingularProblemError) -> None:
+    """A singular system because λ is too large for the data: say so."""
+    if lost > PRECISION_DIGITS_WARN:
+        raise SingularProblemError(
+            f"lam is too large for the scale of the data (the penalty exceeds the data "
+            f"term by about 1e{lost:.0f}), so the normal equations are singular to working "
+            "precision. For coefficients constant in time use lam=np.inf (an exact LTI "
+            "fit); otherwise use a smaller lam."
+        ) from exc
+
+
+def _warn_if_precision_lost(lost: float, info: dict, stacklevel: int) -> None:
+    """Warn (and record in ``info``) when a large λ costs more than 10 digits."""
+    if lost > PRECISION_DIGITS_WARN:
+        info["digits_lost"] = lost
+        warnings.warn(
+            f"lam is very large for the scale of the data: the normal equations lose about "
+            f"{lost:.0f} of 16 significant digits. For coefficients constant in time use "
+            "lam=np.inf (an exact LTI fit); otherwise use a smaller lam.",
+            PrecisionWarning,
+            stacklevel=stacklevel,
+        )
+
+
+def _fit_shared(problem: RegressionProblem, W: np.ndarray, row: np.ndarray, *,
+                noise_var: np.ndarray | float | None, compute_cov: bool) -> SquaredResult:
+    """:func:`fit_squared` without priors for a diagonal weight ``row`` (p,) that every
+    output row shares (``W`` (K,) its repetition; a scalar λ): the same results by
+    one factorization for all rows and the closed forms of the shared normalizer.
+    """
+    n = problem.n
+    n_obs = problem.n_observed
+    log_pdet, diffuse, lost = _shared_normalizer(problem, row)
+    variances = None if noise_var is None else np.broadcast_to(
+        np.asarray(noise_var, dtype=float), (n,)).copy()
+    try:
+        theta, cov, row_logdet = _solve_shared(problem, row, compute_cov)
+    except SingularProblemError as exc:
+        _raise_if_precision_lost(lost, exc)
+        raise
+    info: dict = {"row_separable": True}
+    _warn_if_precision_lost(lost, info, stacklevel=5)
+    row_rss = problem.output_rss(theta)
+    row_pen = _row_penalty_diagonal(theta, problem.coeffs, W, n, problem.p)
+    rss, pen = float(row_rss.sum()), float(row_pen.sum())
+    row_cost = row_rss + row_pen  # RSS_i + penalty_i
+    row_n_eff = n_obs - diffuse
+    if variances is None:
+        if row_n_eff <= 0:
+            raise SingularProblemError(
+                f"too few samples to estimate the noise variance: {n_obs} observed rows "
+                f"and {int(diffuse)} unpenalized directions per output; pass "
+                "noise_var or use more data"
+            )
+        variances = np.maximum(row_cost / row_n_eff, np.finfo(float).tiny)
+    loglik = float(np.sum(
+        -0.5 * row_n_eff * (LOG_2PI + np.log(variances))
+        + 0.5 * log_pdet
+        - 0.5 * row_logdet
+        - 0.5 * row_cost / variances
+    ))
+    return SquaredResult(
+        theta=theta,
+        cov=None if cov is None else cov.scale_rows(variances),
+        noise_var=variances,
+        noise_var_estimated=noise_var is None,
+        loglik=loglik,
+        objective=rss + pen + 0.0,
+        rss=rss,
+        penalty=pen,
+        prior_cost=0.0,
+        n_eff=float(n_obs * n - diffuse * n),
+        n_factorizations=1,
+        info=info,
+    )
+
+
 def fit_squared(
     problem: RegressionProblem,
     W: np.ndarray,
@@ -570,24 +656,19 @@ def fit_squared(
         prior alone does not determine the parameters.
     compute_cov : bool
     """
-    n, p = problem.n, problem.p
-    n_obs = problem.n_observed
     # A scalar λ without priors (the common case): every row shares one diagonal
     # weight, and the normalizer, precision estimate and solve have short forms.
-    shared = None if priors else shared_row_weight(W, n, p)
-    if shared is None:
-        solver = SquaredSolver(problem, W, priors)
-        row_log_pdet, row_diffuse = solver.log_penalty_normalizer()
-        per_row = solver.separable  # each output row its own problem and σ_i²
-        lost = solver.digits_lost()
-    else:
-        solver = None
-        log_pdet, diffuse, lost = _shared_normalizer(problem, shared)
-        row_log_pdet, row_diffuse = np.full(n, log_pdet), np.full(n, diffuse)
-        per_row = True
+    shared = None if priors else shared_row_weight(W, problem.n, problem.p)
+    if shared is not None:
+        return _fit_shared(problem, W, shared, noise_var=noise_var, compute_cov=compute_cov)
+    solver = SquaredSolver(problem, W, priors)
+    n = problem.n
+    n_obs = problem.n_observed
+    row_log_pdet, row_diffuse = solver.log_penalty_normalizer()
     n_eff = n_obs * n - float(row_diffuse.sum())
-    info: dict = {"row_separable": bool(per_row)}
+    info: dict = {"row_separable": bool(solver.separable)}
     estimated = noise_var is None
+    per_row = solver.separable  # each output row its own problem and σ_i²
     variances = None if noise_var is None else np.broadcast_to(
         np.asarray(noise_var, dtype=float), (n,)).copy()
     if variances is not None and not per_row and np.any(variances != variances[0]):
@@ -608,42 +689,21 @@ def fit_squared(
     else:
         prior_scale = variances if per_row else float(variances[0])
 
+    lost = solver.digits_lost()
     try:
-        if solver is None:
-            theta, cov, row_logdet_shared = _solve_shared(problem, shared, compute_cov)
-            logdet, n_fact = row_logdet_shared * n, 1
-            row_logdet = np.full(n, row_logdet_shared)
-        else:
-            theta, cov, logdet, n_fact, row_logdet = solver.solve(
-                prior_scale, compute_cov=compute_cov
-            )
-    except SingularProblemError as exc:
-        if lost > PRECISION_DIGITS_WARN:
-            raise SingularProblemError(
-                f"lam is too large for the scale of the data (the penalty exceeds the data "
-                f"term by about 1e{lost:.0f}), so the normal equations are singular to working "
-                "precision. For coefficients constant in time use lam=np.inf (an exact LTI "
-                "fit); otherwise use a smaller lam."
-            ) from exc
-        raise
-    if lost > PRECISION_DIGITS_WARN:
-        info["digits_lost"] = lost
-        warnings.warn(
-            f"lam is very large for the scale of the data: the normal equations lose about "
-            f"{lost:.0f} of 16 significant digits. For coefficients constant in time use "
-            "lam=np.inf (an exact LTI fit); otherwise use a smaller lam.",
-            PrecisionWarning,
-            stacklevel=3,
+        theta, cov, logdet, n_fact, row_logdet = solver.solve(
+            prior_scale, compute_cov=compute_cov
         )
+    except SingularProblemError as exc:
+        _raise_if_precision_lost(lost, exc)
+        raise
+    _warn_if_precision_lost(lost, info, stacklevel=4)
     row_rss = problem.output_rss(theta)
     rss = float(row_rss.sum())
     # per row when the rows decouple (one differencing pass serves both)
-    if solver is None:
-        row_pen = _row_penalty_diagonal(theta, problem.coeffs, W, n, p)
-    else:
-        row_pen = solver.row_penalty(theta) if per_row else None
+    row_pen = solver.row_penalty(theta) if per_row else None
     pen = float(row_pen.sum()) if per_row else solver.penalty(theta)
-    row_prior = np.zeros(n) if solver is None else solver.row_prior_cost(theta)
+    row_prior = solver.row_prior_cost(theta)
     prior_cost = float(row_prior.sum())
 
     if priors:

@@ -94,8 +94,11 @@ class RegressionModel:
         self.lam = fit.lam
         self._cov = fit.cov
         n = self._n_outputs
-        self.noise_var = None if fit.noise_var is None else np.broadcast_to(
-            np.asarray(fit.noise_var, dtype=float), (n,)).copy()
+        noise_var = None if fit.noise_var is None else np.asarray(fit.noise_var, dtype=float)
+        if noise_var is not None:  # (n,) as given, or a shared variance repeated
+            noise_var = noise_var.copy() if noise_var.shape == (n,) \
+                else np.broadcast_to(noise_var, (n,)).copy()
+        self.noise_var = noise_var
         self.noise_cov = fit.noise_cov
         # NaN: files written before None marked a missing likelihood
         self.loglik = None if fit.loglik is None or np.isnan(fit.loglik) else float(fit.loglik)

@@ -59,6 +59,12 @@ def as_float_array(value: Any, name: str, *, missing: bool = False) -> np.ndarra
     infinite entries, and for NaN unless ``missing`` (then NaN marks a missing
     sample, and the masked entries of a numpy masked array become NaN).
     """
+    if type(value) is np.ndarray and value.dtype.kind in "fiu":
+        # The common case, a plain numeric array: one copy and one pass when every
+        # value is finite (a finite sum); otherwise the checks below.
+        arr = value.astype(np.float64)  # a copy
+        if np.isfinite(arr.sum()):
+            return arr
     if value is None:
         raise TypeError(f"{name}: expected an array of numbers, received None")
     if hasattr(value, "to_numpy"):  # pandas DataFrame / Series
@@ -113,7 +119,11 @@ def as_time_series(
     A 1-d input of length T becomes (T, 1) when ``allow_1d``; with ``missing``
     NaN marks a missing sample.
     """
-    arr = as_float_array(value, name, missing=missing)
+    return _time_series_shape(as_float_array(value, name, missing=missing), name, allow_1d)
+
+
+def _time_series_shape(arr: np.ndarray, name: str, allow_1d: bool) -> np.ndarray:
+    """The shape checks of :func:`as_time_series` on a validated float64 array."""
     if arr.ndim == 1 and allow_1d:
         arr = arr[:, None]
     if arr.ndim != 2:
@@ -135,6 +145,15 @@ def trajectories(value: Any, name: str) -> np.ndarray:
     Accepted: (T,) and (T, d) (one trajectory), (R, T, d), or a list of R
     equal-length arrays or DataFrames of shape (T, d) or (T,).
     """
+    if type(value) is np.ndarray and value.dtype.kind in "fiu" and value.ndim in (1, 2) \
+            and value.size:
+        # The common case, a plain numeric array, in a few passes (many short series
+        # are fitted one after another); anything the checks below would reject
+        # (inf, magnitudes out of range) goes through them for their message.
+        arr = value.astype(np.float64)  # a copy: user data are never aliased
+        scale = column_scale(arr if arr.ndim == 2 else arr[:, None])
+        if all(not (v > LARGEST_DATA or 0 < v < SMALLEST_DATA) for v in scale.tolist()):
+            return _time_series_shape(arr, name, True)[None]  # NaN columns: missing data
     if isinstance(value, (list, tuple)) and value and all(
         hasattr(item, "shape") for item in value
     ):
@@ -159,7 +178,7 @@ def trajectories(value: Any, name: str) -> np.ndarray:
             ) from None
         raise
     if arr.ndim in (1, 2):
-        return representable(as_time_series(arr, name, missing=True)[None], name)
+        return representable(_time_series_shape(arr, name, True)[None], name)
     if arr.ndim != 3:
         raise ValueError(
             f"{name}: expected shape (T, d) with time on axis 0, or (R, T, d) for R "
@@ -185,6 +204,15 @@ LIGHTEST_WEIGHT = 1e-50
 HEAVIEST_WEIGHT = 1e50
 
 
+def column_scale(arr: np.ndarray) -> np.ndarray:
+    """The largest magnitude in each column (last axis) of a non-empty array, NaN ignored
+    (NaN for a column of NaN only)."""
+    # Reduced along contiguous rows of the transpose: numpy reduces a few long
+    # columns of a C-ordered array one short row at a time, ~10x slower.
+    columns = np.abs(arr).reshape(-1, arr.shape[-1]).T.copy()
+    return np.fmax.reduce(columns, axis=1)
+
+
 def representable(arr: np.ndarray, name: str, *, small: bool = True) -> np.ndarray:
     """Reject columns (last axis) whose magnitudes overflow or underflow when squared.
 
@@ -194,7 +222,7 @@ def representable(arr: np.ndarray, name: str, *, small: bool = True) -> np.ndarr
     """
     if arr.size == 0:
         return arr
-    scale = np.fmax.reduce(np.abs(arr).reshape(-1, arr.shape[-1]), axis=0)  # NaN ignored
+    scale = column_scale(arr)
     for bad, what, limit in ((scale > LARGEST_DATA, "large", LARGEST_DATA),
                              ((scale > 0) & (scale < SMALLEST_DATA) & small, "small",
                               SMALLEST_DATA)):

@@ -45,6 +45,8 @@ def is_auto(value: Any, name: str) -> bool:
 
 def integer(value: Any, name: str, minimum: int) -> int:
     """Validate an integer >= ``minimum`` (bools are rejected)."""
+    if type(value) is int and value >= minimum:  # the common case, without the ABC checks
+        return value
     if isinstance(value, bool) or not isinstance(value, Integral) or value < minimum:
         raise ValueError(f"{name}: expected an integer >= {minimum}, received {describe(value)}")
     return int(value)
@@ -189,6 +191,8 @@ def penalty_weight(lam: Any, K: int) -> np.ndarray:
     thousands) never form a K x K array. Infinite diagonal entries mark
     constant coefficients.
     """
+    if type(lam) in (float, int, np.float64) and 0 <= lam <= LARGEST_SQUARED_LAM:
+        return np.full(K, float(lam) * float(lam))  # a plain scalar λ: λ² I, at once
     arr = _lam_array(lam, K)
     if arr.ndim < 2:
         _square_fits(arr)
