@@ -269,10 +269,20 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, size):  # prag
         # Diagonal block G_t + β_0 W (lower triangle).
         beta = bands[0, t]
         Ltt = L[t, 0]
-        for i in range(b):
-            for j in range(i + 1):
-                Ltt[i, j] = _gram_entry(phi, n_rep, data_scale, extra, t, i, j) + beta * W[i, j]
-            ref[i] = Ltt[i, i]
+        if n_rep == 1 and phi.shape[1] == 1 and extra.shape[0] == 0:
+            # The common case (rows decoupled, one trajectory, no prior): b = p, so
+            # G_t = data_scale φ_t φ_tᵀ without the index arithmetic of the general entry.
+            for i in range(b):
+                scaled = data_scale * phi[t, 0, i]
+                for j in range(i + 1):
+                    Ltt[i, j] = scaled * phi[t, 0, j] + beta * W[i, j]
+                ref[i] = Ltt[i, i]
+        else:
+            for i in range(b):
+                for j in range(i + 1):
+                    Ltt[i, j] = (_gram_entry(phi, n_rep, data_scale, extra, t, i, j)
+                                 + beta * W[i, j])
+                ref[i] = Ltt[i, i]
         ratio = diagonal_step(L, t, d, b, ref)
         if ratio < worst:
             worst = ratio
