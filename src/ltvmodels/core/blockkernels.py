@@ -326,21 +326,25 @@ def backward(L, X, cov, size):  # pragma: no cover - compiled
             continue
         Ltt = L[t, 0]
         top = min(d, N - 1 - t)
+        # Window slots by addition, not by t % w per access (an integer division
+        # costs as much as a few multiply-adds of a small block).
+        slot_t = t % w
         for m in range(top, -1, -1):
-            i = t + m
+            slot_i = slot_t + m if slot_t + m < w else slot_t + m - w  # (t + m) % w
             # rhs = −Σ_k L_{k,t}ᵀ Σ_{k,i}
             for a in range(b):
                 for c in range(b):
                     rhs[a, c] = 0.0
             for q in range(1, top + 1):
                 Lkt = L[t + q, q]  # L_{t+q, t}
-                S = window[(t + q) % w, i % w]  # indices > t, or this step's mirror
+                slot_k = slot_t + q if slot_t + q < w else slot_t + q - w
+                S = window[slot_k, slot_i]  # indices > t, or this step's mirror
                 for e in range(b):
                     for a in range(b):
                         le = Lkt[e, a]
                         for c in range(b):
                             rhs[a, c] -= le * S[e, c]
-            dest = window[t % w, i % w]
+            dest = window[slot_t, slot_i]
             if m > 0:
                 # Back substitution L_ttᵀ Σ_{t,i} = rhs, all columns.
                 for c in range(b):
@@ -349,7 +353,7 @@ def backward(L, X, cov, size):  # pragma: no cover - compiled
                         for e in range(a + 1, b):
                             acc -= Ltt[e, a] * dest[e, c]
                         dest[a, c] = acc * Ltt[a, a]
-                mirror = window[i % w, t % w]
+                mirror = window[slot_i, slot_t]
                 for a in range(b):
                     for c in range(b):
                         mirror[c, a] = dest[a, c]
@@ -367,7 +371,7 @@ def backward(L, X, cov, size):  # pragma: no cover - compiled
                         dest[a, c] = dest[c, a]
         # A loop, not cov[t] = ...: numba compiles an array assignment with a
         # shape-mismatch error message that formats strings, ~2 s on first use.
-        Stt = window[t % w, t % w]
+        Stt = window[slot_t, slot_t]
         for a in range(b):
             for c in range(b):
                 cov[t, a, c] = Stt[a, c]
