@@ -114,7 +114,7 @@ def difference_bands(N: int, coeffs: np.ndarray) -> np.ndarray:
     read-only array would compile the kernels once more.)
     """
     if N <= CACHED_BANDS_MAX_N:
-        return _cached_bands(N, tuple(float(c) for c in coeffs))
+        return _cached_bands(N, tuple(np.asarray(coeffs, dtype=float).tolist()))
     return _make_bands(N, coeffs)
 
 

@@ -43,8 +43,8 @@ class Diagnosis:
 
 def scaled_min_eig(M: np.ndarray) -> tuple[float, np.ndarray]:
     """Smallest eigenvalue (and eigenvector) of M scaled to unit diagonal."""
-    diag = np.diag(M).copy()
-    if np.any(diag <= 0):
+    diag = M.diagonal().copy()
+    if diag.min() <= 0:
         v = np.zeros(M.shape[0])
         v[int(np.argmin(diag))] = 1.0
         return 0.0, v

@@ -7,6 +7,7 @@ checked in :mod:`ltvmodels.validation.arrays`.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from numbers import Integral, Real
 from typing import Any, Sequence
 
@@ -293,6 +294,15 @@ def scalar_lam(lam: Any) -> float:
     return positive_scalar(lam.item() if hasattr(lam, "item") else lam, "lam")
 
 
+@lru_cache(maxsize=16)
+def _difference_of_degree(d: int) -> np.ndarray:
+    """(c_0, …, c_d) of the d-th difference, kept: small fits ask for it every time."""
+    coeffs = np.array([1.0])
+    for _ in range(d):
+        coeffs = np.convolve(coeffs, [-1.0, 1.0])
+    return coeffs
+
+
 def difference_coefficients(order: Any, max_degree: int | None = None) -> np.ndarray:
     """Return the coefficients (c_0, ..., c_d) of the difference operator.
 
@@ -315,10 +325,7 @@ def difference_coefficients(order: Any, max_degree: int | None = None) -> np.nda
                 f"order: expected a degree of at most {max_degree} (a difference of degree "
                 f"d needs more than d + 1 samples), received {d}"
             )
-        coeffs = np.array([1.0])
-        for _ in range(d):
-            coeffs = np.convolve(coeffs, [-1.0, 1.0])
-        return coeffs
+        return _difference_of_degree(d).copy()  # a copy: the caller may modify it
     if isinstance(order, Real):
         raise TypeError(f"order: expected an integer >= 1 or a sequence of coefficients, "
                         f"received {describe(order)}")
