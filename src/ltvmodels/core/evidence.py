@@ -15,22 +15,35 @@ the bands of DᵀD) are computed once per problem.
 
 The subtraction loses digits when a row's fit is nearly exact (RSS_i + penalty_i
 ≪ ‖y_i‖²); there :meth:`ScalarEvidence.loglik` says so (returns None) and the
-caller evaluates the full fit instead.
+caller evaluates the full fit instead. It also loses digits when λ is large
+for the data (H ill-conditioned: ‖L⁻¹b_i‖² is then accurate to eps·κ(H) only,
+which moved the maximum of the criterion on some series); there the minimum is
+RSS_i + penalty_i of the solution (one back substitution more), as in the fit.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
 from . import blockkernels as kernels
 from .banded import RELATIVE_PIVOT_TOL, difference_bands, kernel_size
-from .problem import RegressionProblem
+from .problem import RegressionProblem, apply_difference
 
 LOG_2PI = float(np.log(2.0 * np.pi))
+TINY = float(np.finfo(float).tiny)
+EPS = float(np.finfo(float).eps)
 
 # Below this ratio of a row's minimum to ‖y_i‖², the subtraction would keep
 # fewer than about 8 significant digits of the minimum.
 CANCELLATION_LIMIT = 1e-8
+# ‖L⁻¹ b_i‖² carries a relative error of about eps·κ(H), and κ(H) grows like the
+# penalty's scale over the data's (λ²(Σ|c_j|)² / mean diag Σφφᵀ, the ratio of
+# SquaredSolver.digits_lost): measured, the log-likelihood's error is about 1e3
+# times eps times that ratio. Beyond this value of eps·ratio (errors above
+# ~1e-9) the minimum is computed from the solution instead, as the fit does.
+SUBTRACTION_LIMIT = 1e-12
 
 
 class ScalarEvidence:
@@ -56,6 +69,14 @@ class ScalarEvidence:
         self._L = np.empty((N, d + 1, p, p))
         self._Z = np.empty_like(self.rhs)
         self._extra = np.zeros((0, p, p))
+        self._no_cov = np.zeros((0, p, p))
+        self.problem = problem
+        # The ratio of SquaredSolver.digits_lost, less λ²: penalty scale over data scale.
+        data = float(np.vdot(problem.phi, problem.phi)) / (N * p)
+        self.conditioning = (float(np.abs(problem.coeffs).sum()) ** 2 / data
+                             if data > 0 else np.inf)
+        self._eye = np.eye(p)
+        self.yy_list = self.yy.tolist()
 
     def loglik(self, lam: float) -> float | None:
         """log p(y | λ) as :func:`.squared.fit_squared` defines it with ``noise_var=None``.
@@ -65,22 +86,43 @@ class ScalarEvidence:
         nearly exact fit (see the module docstring).
         """
         N, p, d = self.N, self.p, self.d
-        if self.n_eff <= 0 or not lam > 0:
+        n_eff = self.n_eff
+        if n_eff <= 0 or not lam > 0:
             return None
         weight = lam * lam
-        self._Z[...] = self.rhs
+        np.copyto(self._Z, self.rhs)
         worst, _, logdet = kernels.factor_forward(
-            self.phi, 1, 1.0, self._extra, weight * np.eye(p), self.bands, self._Z,
+            self.phi, 1, 1.0, self._extra, weight * self._eye, self.bands, self._Z,
             self._L, self.size)
         if worst < RELATIVE_PIVOT_TOL:
             return None
-        cost = self.yy - np.einsum("tai,tai->i", self._Z, self._Z)  # RSS_i + penalty_i
-        if np.any(cost < CANCELLATION_LIMIT * self.yy):
-            return None
-        variances = np.maximum(cost / self.n_eff, np.finfo(float).tiny)
+        if weight * self.conditioning * EPS > SUBTRACTION_LIMIT:
+            costs = self._solution_costs(weight)
+        else:
+            flat = self._Z.reshape(-1, self.n)
+            squares = np.einsum("ki,ki->i", flat, flat).tolist()  # ‖L⁻¹ b_i‖² per row
+            costs = [yy - square for yy, square in zip(self.yy_list, squares, strict=True)]
+            if any(cost < CANCELLATION_LIMIT * yy
+                   for cost, yy in zip(costs, self.yy_list, strict=True)):
+                return None
         # log pdet of the penalty as a prior (SquaredSolver.log_penalty_normalizer):
         # p directions per row, each with (N − d) differences of weight λ² / c_d².
-        log_pdet = p * (N - d) * (2.0 * self.log_cd + np.log(weight))
-        return float(np.sum(
-            -0.5 * self.n_eff * (LOG_2PI + np.log(variances))
-            + 0.5 * log_pdet - 0.5 * logdet - 0.5 * cost / variances))
+        log_pdet = p * (N - d) * (2.0 * self.log_cd + math.log(weight))
+        # The n rows' terms on Python numbers: a candidate λ is a few small vectors,
+        # for which numpy's per-call overhead would cost a third of the factorization.
+        total = 0.0
+        for cost in costs:  # RSS_i + penalty_i
+            variance = max(cost / n_eff, TINY)
+            total += (-0.5 * n_eff * (LOG_2PI + math.log(variance))
+                      + 0.5 * log_pdet - 0.5 * logdet - 0.5 * cost / variance)
+        return total
+
+    def _solution_costs(self, weight: float) -> list[float]:
+        """RSS_i + penalty_i of the solution, after :meth:`loglik`'s forward sweep."""
+        pb = self.problem
+        N, n, p = self.N, self.n, self.p
+        kernels.backward(self._L, self._Z, self._no_cov, self.size)  # Z ← Θ (N, p, n)
+        theta = np.ascontiguousarray(np.swapaxes(self._Z, 1, 2))
+        Dk = apply_difference(theta.reshape(N, n * p), pb.coeffs)
+        penalty = weight * np.einsum("tk,tk->k", Dk, Dk).reshape(n, p).sum(axis=1)
+        return (pb.output_rss(theta) + penalty).tolist()

@@ -15,9 +15,10 @@ Every criterion scores a fit per candidate λ on one grid and keeps the best:
   grid point.
 * ``"ml"`` (norm="sq"): the log marginal likelihood of the Gaussian random
   walk (noise variance at its maximum-likelihood value for each λ) —
-  empirical Bayes; maximized on a grid of 12 candidates, then by a bounded
-  scalar search. Each candidate costs one banded factorization and forward
-  substitution (:mod:`ltvmodels.core.evidence`), not a fit.
+  empirical Bayes; maximized on the grid, then by a bounded scalar search
+  between the best point's neighbours. Each candidate costs one banded
+  factorization and forward substitution (:mod:`ltvmodels.core.evidence`),
+  not a fit.
 * ``"cv"`` (all norms): blocked cross-validation on time. The N steps are cut
   into 5·``n_folds`` contiguous blocks; fold f holds out blocks f, f + n_folds,
   …; the model is fitted without the held-out equations (their rows of y and
@@ -75,9 +76,12 @@ METHODS = {
 }
 GRID_SIZE = 30
 # Maximum likelihood scores each candidate by one banded factorization
-# (:mod:`ltvmodels.core.evidence`) and refines the best by a scalar search, so a
-# coarser grid of the same range serves.
-ML_GRID_SIZE = 12
+# (:mod:`ltvmodels.core.evidence`). Its grid stays as fine as the others': the
+# criterion can have several local maxima (order 2 especially), and a coarser
+# grid refined by the scalar search found a lower one on some series.
+ML_GRID_SIZE = GRID_SIZE
+# The scalar search's tolerance on log λ for "ml" (its evaluations are cheap).
+ML_REFINE_XATOL = 1e-4
 # Robust cross-validation: the folds' solver limits (a score needs a few digits, not
 # the optimum to 1e-6), and the default grid's size (each candidate costs n_folds
 # robust fits).
@@ -105,8 +109,7 @@ def select_lambda(
     """Choose λ for :func:`ltvmodels.fit` (state-space data) by a documented criterion.
 
     See the module docstring for the criteria. The default grid has 30
-    log-spaced values (12 for "ml", which refines the best): for
-    "group"/"l1", λ_max·[1e-3, 1] (λ_max, the smallest λ giving the LTI
+    log-spaced values: for "group"/"l1", λ_max·[1e-3, 1] (λ_max, the smallest λ giving the LTI
     model, from the optimality conditions); for "sq",
     s·[0.1, 2·N^d] with s the root-mean-square norm of the regressors φ_t and
     d the degree of the difference operator (λ/s is then roughly the length,
@@ -295,12 +298,11 @@ def select_for_problem(
                 return -np.inf if fit is None else fit["loglik"]
             return value
 
-        if lams is None:  # a coarser grid: the scalar search below refines the best
-            grid = np.geomspace(grid[0], grid[-1], ML_GRID_SIZE)
         scores = np.array([loglik(lam) for lam in scored(grid)])
         _scores([None if score == -np.inf else 0.0 for score in scores], grid, skipped,
                 data_name, worst=0.0)
-        lam = _refine(grid, scores, lambda value: -loglik(value), maximize=True)
+        lam = _refine(grid, scores, lambda value: -loglik(value), maximize=True,
+                      xatol=ML_REFINE_XATOL)
         return finish(LambdaSelection(lam, grid, scores, method, norm))
     if method == "cv":
         values = [attempt(lambda lam: _cv_error(problem, norm, lam, n_folds), lam)
@@ -409,14 +411,16 @@ def _gcv_at(problem: RegressionProblem, lam: float) -> float:
     return _gcv(problem, f["rss"], f["dof"])
 
 
-def _refine(grid: np.ndarray, scores: np.ndarray, objective, *, maximize: bool) -> float:
-    """Bounded scalar search on log λ between the neighbours of the best grid point."""
+def _refine(grid: np.ndarray, scores: np.ndarray, objective, *, maximize: bool,
+            xatol: float = 1e-3) -> float:
+    """Bounded scalar search on log λ (to ``xatol``) between the neighbours of the best
+    grid point."""
     best = int(np.argmax(scores) if maximize else np.argmin(scores))
     if best in (0, len(grid) - 1):  # at the edge of the grid: keep the grid point
         return float(grid[best])
     lo, hi = np.log(grid[best - 1]), np.log(grid[best + 1])
     res = minimize_scalar(lambda v: objective(float(np.exp(v))), bounds=(lo, hi),
-                          method="bounded", options={"xatol": 1e-3})
+                          method="bounded", options={"xatol": xatol})
     value_best = -scores[best] if maximize else scores[best]
     return float(np.exp(res.x)) if res.fun <= value_best else float(grid[best])
 
