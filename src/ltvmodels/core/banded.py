@@ -118,7 +118,7 @@ def difference_bands(N: int, coeffs: np.ndarray) -> np.ndarray:
     return _make_bands(N, coeffs)
 
 
-@lru_cache(maxsize=32)
+@lru_cache(maxsize=16)  # at most 16 · 3 · 20 000 numbers (order 2)
 def _cached_bands(N: int, coeffs: tuple) -> np.ndarray:
     return _make_bands(N, np.array(coeffs))
 

@@ -170,8 +170,8 @@ def weighted_problem(
 
 
 def _all_finite(values: np.ndarray) -> bool:
-    """Whether every entry is finite, by one sum (an overflowing sum says no)."""
-    return bool(np.isfinite(values.sum()))
+    """Whether every entry is finite (not by a sum, which may warn of an overflow)."""
+    return bool(np.isfinite(values).all())
 
 
 def _finite_rows(values: np.ndarray) -> np.ndarray:

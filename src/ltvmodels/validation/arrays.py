@@ -61,9 +61,10 @@ def as_float_array(value: Any, name: str, *, missing: bool = False) -> np.ndarra
     """
     if type(value) is np.ndarray and value.dtype.kind in "fiu":
         # The common case, a plain numeric array: one copy and one pass when every
-        # value is finite (a finite sum); otherwise the checks below.
+        # value is finite; otherwise the checks below. (Not by a finite sum: it
+        # would warn of an overflow for large or infinite values.)
         arr = value.astype(np.float64)  # a copy
-        if np.isfinite(arr.sum()):
+        if np.isfinite(arr).all():
             return arr
     if value is None:
         raise TypeError(f"{name}: expected an array of numbers, received None")
