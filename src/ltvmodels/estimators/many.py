@@ -101,7 +101,7 @@ def fit_unit(data: UnitData, spec: FitSpec) -> UnitResult:
     except Exception as exc:  # one bad unit never stops the others
         return failed(data, record, f"{type(exc).__name__}: {exc}")
     seconds = clock.perf_counter() - start
-    record.update(model_record(model, data))
+    record.update(model_record(model, data, spec.options))
     record["seconds"] = seconds
     record["warnings"] = "; ".join(sorted({f"{w.category.__name__}: {w.message}"
                                            for w in caught})) or None
@@ -116,7 +116,7 @@ def failed(data: UnitData, record: dict, message: str) -> UnitResult:
     return UnitResult(data.position, data.unit, record, error=message)
 
 
-def model_record(model: Any, data: UnitData) -> dict:
+def model_record(model: Any, data: UnitData, options: dict) -> dict:
     """The summary entries of a fitted model (JSON-compatible values)."""
     record: dict[str, Any] = {}
     info = getattr(model, "info", {})
@@ -132,7 +132,7 @@ def model_record(model: Any, data: UnitData) -> dict:
         record.update({f"noise_var_{name}": float(value) for name, value in zip(names, noise)})
     loglik = getattr(model, "loglik", None)
     record["loglik"] = None if loglik is None else float(loglik)
-    record["rms"] = one_step_rms(model, data)
+    record["rms"] = one_step_rms(model, data, options)
     if getattr(model, "norm", "sq") != "sq" and hasattr(model, "changepoints"):
         times = model.changepoint_times
         points = model.changepoints if times is None else times
@@ -145,8 +145,15 @@ def model_record(model: Any, data: UnitData) -> dict:
     return record
 
 
-def one_step_rms(model: Any, data: UnitData) -> float | None:
+def one_step_rms(model: Any, data: UnitData, options: dict) -> float | None:
     """Root mean square of x[t+1] − x̂[t+1] over the transitions with data."""
+    info = getattr(model, "info", {})
+    unweighted = data.weights is None and options.get("weights") is None and \
+        options.get("loss", "squared") == "squared"
+    if unweighted and "rss" in info and "n_missing" in info and np.ndim(plain(data.x)) in (1, 2):
+        # The fit's residual sum of squares over its observed transitions: no recomputation.
+        rows = model.N - info["n_missing"]
+        return float(np.sqrt(info["rss"] / (rows * model.n_outputs))) if rows > 0 else None
     try:  # the estimator has validated the data: no need to check them again
         x = np.asarray(plain(data.x), dtype=np.float64)
         u = None if data.u is None else np.asarray(plain(data.u), dtype=np.float64)
