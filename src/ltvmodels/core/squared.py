@@ -596,21 +596,7 @@ def _fit_shared(problem: RegressionProblem, W: np.ndarray, row: np.ndarray, *,
     row_pen = _row_penalty_diagonal(theta, problem.coeffs, W, n, problem.p)
     rss, pen = float(row_rss.sum()), float(row_pen.sum())
     row_cost = row_rss + row_pen  # RSS_i + penalty_i
-    row_n_eff = n_obs - diffuse
-    if variances is None:
-        if row_n_eff <= 0:
-            raise SingularProblemError(
-                f"too few samples to estimate the noise variance: {n_obs} observed rows "
-                f"and {int(diffuse)} unpenalized directions per output; pass "
-                "noise_var or use more data"
-            )
-        variances = np.maximum(row_cost / row_n_eff, np.finfo(float).tiny)
-    loglik = float(np.sum(
-        -0.5 * row_n_eff * (LOG_2PI + np.log(variances))
-        + 0.5 * log_pdet
-        - 0.5 * row_logdet
-        - 0.5 * row_cost / variances
-    ))
+    variances, loglik = _rows_loglik(row_cost, n_obs, diffuse, log_pdet, row_logdet, variances)
     return SquaredResult(
         theta=theta,
         cov=None if cov is None else cov.scale_rows(variances),
@@ -719,21 +705,8 @@ def fit_squared(
             else float(variances[0]) * prior_cost
     elif per_row:
         row_cost = row_rss + row_pen  # RSS_i + penalty_i
-        row_n_eff = n_obs - row_diffuse
-        if variances is None:
-            if np.any(row_n_eff <= 0):
-                raise SingularProblemError(
-                    f"too few samples to estimate the noise variance: {n_obs} observed rows "
-                    f"and {int(row_diffuse.max())} unpenalized directions per output; pass "
-                    "noise_var or use more data"
-                )
-            variances = np.maximum(row_cost / row_n_eff, np.finfo(float).tiny)
-        loglik = float(np.sum(
-            -0.5 * row_n_eff * (LOG_2PI + np.log(variances))
-            + 0.5 * row_log_pdet
-            - 0.5 * row_logdet
-            - 0.5 * row_cost / variances
-        ))
+        variances, loglik = _rows_loglik(row_cost, n_obs, row_diffuse, row_log_pdet,
+                                         row_logdet, variances)
         weighted_prior = 0.0
     else:
         if variances is None:
@@ -766,3 +739,28 @@ def fit_squared(
         n_factorizations=n_fact,
         info=info,
     )
+
+
+def _rows_loglik(row_cost, n_obs: int, diffuse, log_pdet, row_logdet,
+                 variances: np.ndarray | None) -> tuple[np.ndarray, float]:
+    """Noise variances (their ML values when None) and the log-likelihood of decoupled rows.
+
+    ``row_cost`` is RSS_i + penalty_i per row; ``diffuse``, ``log_pdet`` and
+    ``row_logdet`` per row or shared (see :meth:`SquaredSolver.log_penalty_normalizer`).
+    """
+    row_n_eff = n_obs - np.asarray(diffuse, dtype=float)
+    if variances is None:
+        if np.any(row_n_eff <= 0):
+            raise SingularProblemError(
+                f"too few samples to estimate the noise variance: {n_obs} observed rows "
+                f"and {int(np.max(diffuse))} unpenalized directions per output; pass "
+                "noise_var or use more data"
+            )
+        variances = np.maximum(row_cost / row_n_eff, np.finfo(float).tiny)
+    loglik = float(np.sum(
+        -0.5 * row_n_eff * (LOG_2PI + np.log(variances))
+        + 0.5 * log_pdet
+        - 0.5 * row_logdet
+        - 0.5 * row_cost / variances
+    ))
+    return variances, loglik
