@@ -139,6 +139,7 @@ def test_bad_units_are_recorded_and_the_others_fitted():
     assert "no observed samples" in ms.errors["no data"]
     assert "duplicated time stamp 2021-01-05" in ms.errors["duplicated"]
     assert len(ms) == 3 and list(ms) == ["m0", "m1", "m2"]
+    assert "m0" in ms and "short" not in ms and "elsewhere" not in ms
     summary = ms.summary
     assert list(summary.index) == ms.units
     assert list(summary["status"]) == ["closed_form"] * 3 + ["error"] * 4

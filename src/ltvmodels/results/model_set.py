@@ -68,6 +68,7 @@ class ModelSet(Mapping):
         self.directory = None if directory is None else Path(directory)
         self._files = dict(files or {})
         self._summary: Any = None
+        self._fitted = {unit for unit in self.units if unit not in self.errors}
 
     # -- the mapping ----------------------------------------------------------------
     def __getitem__(self, unit: Any) -> Any:
@@ -77,7 +78,7 @@ class ModelSet(Mapping):
             raise KeyError(f"unit {unit!r} was not fitted: {self.errors[unit]}")
         if unit in self._files and self.directory is not None:
             return load(self.directory / self._files[unit])
-        if unit in self._files or unit in self.fitted_units():
+        if unit in self._fitted:
             raise KeyError(
                 f"unit {unit!r}: its model was not kept (fit_many(..., keep_models=False) "
                 "without models_dir); pass models_dir=DIRECTORY to keep the models on disk"
@@ -91,8 +92,7 @@ class ModelSet(Mapping):
         return len(self.units) - len(self.errors)
 
     def __contains__(self, unit: object) -> bool:
-        return unit in self._models or unit in self._files or (
-            unit in set(self.fitted_units()))
+        return unit in self._fitted
 
     def fitted_units(self) -> list:
         """The units that were fitted, in input order."""
