@@ -64,6 +64,9 @@ def test_dask_frame_bad_units_and_auto_lambda(client):
     ms = ltv.fit_many(dd.from_pandas(frame, npartitions=2), by="unit", state=STATE,
                       inputs=INPUT, time="date", engine=client, lam="auto")
     assert set(ms.errors) == {"short"} and "too few samples" in ms.errors["short"]
+    with pytest.raises(ValueError, match="state: column 'x9' is not in data"):
+        ltv.fit_many(dd.from_pandas(frame, npartitions=2), by="unit", state=["x1", "x9"],
+                     engine=client, lam=1.0)
     for unit in ms:
         assert_same_model(ms[unit], ltv.fit(*unit_rows(frame, unit), lam="auto"))
 

@@ -579,7 +579,16 @@ def fit_dask_frame(frame: Any, client: Any, *, by: Any, state: Any, inputs: Any,
     if not isinstance(by, str):
         raise TypeError(f"by: expected the name of the unit column, received "
                         f"{arrays.describe(by)}")
+    # The column names are known here: check them before any partition runs, so
+    # that a typo is an error naming the argument, not a failed partition.
     column_list(by, "by", frame.columns, required=True)
+    column_list(state, "state", frame.columns, required=True)
+    column_list(inputs, "inputs", frame.columns, required=False)
+    column_list(time, "time", frame.columns, required=False)
+    if weights is not None and not isinstance(weights, str):
+        raise TypeError(f"weights: expected the name of a column of weights, received "
+                        f"{arrays.describe(weights)}")
+    column_list(weights, "weights", frame.columns, required=False)
     if directory is not None:
         directory.mkdir(parents=True, exist_ok=True)
     shuffled = frame.shuffle(on=by)
