@@ -55,6 +55,7 @@ _API = {
     "select_lambda_regression": "estimators.selection",
     "Prior": "estimators.priors",
     "OutputPrior": "estimators.priors",
+    "GMMPrior": "estimators.mixture_prior",
     "kalman_filter": "estimators.kalman",
     "kalman_smoother": "estimators.kalman",
     "OnlineParameterFilter": "estimators.kalman",
