@@ -23,7 +23,8 @@ EXPECTED_OUTPUT = {
 }
 # Examples that need an optional dependency (skipped without it).
 REQUIRES = {
-    "gym_pendulum": "gymnasium",
+    "gym_pendulum": ("gymnasium", "sklearn"),
+    "rl_cartpole": ("sklearn",),
 }
 # Figures beside --out for examples that write several.
 EXTRA_FIGURES = {
@@ -50,8 +51,8 @@ def test_the_examples_are_found():
 
 @pytest.mark.parametrize("name", SCRIPTS)
 def test_example_runs_headless(name, tmp_path, capsys):
-    if name in REQUIRES:
-        pytest.importorskip(REQUIRES[name])
+    for module in REQUIRES.get(name, ()):
+        pytest.importorskip(module)
     out = tmp_path / f"{name}.png"
     assert load(name).main(["--out", str(out), *quick_args(name)]) == 0
     figures = EXTRA_FIGURES.get(name, [out.name])

@@ -258,6 +258,25 @@ def test_ltv_loop_swings_up_an_easy_initial_state(env):
     assert np.all(res.horizons[:-1] <= res.horizons[1:])  # the planning horizon only grows
 
 
+def test_learned_prior_arm_pools_the_earlier_iterations(env, monkeypatch):
+    pytest.importorskip("sklearn")
+    plain = learn_pendulum("ltv", seed=7, iterations=4, env=env)
+    mixtures = []
+    fit = gym_rl.fit_rollouts
+
+    def spy(model, x, u, lam, weights=None, learned=None, learned_samples=None):
+        mixtures.append(None if learned is None else learned.n_transitions)
+        return fit(model, x, u, lam, weights, learned, learned_samples)
+
+    monkeypatch.setattr(gym_rl, "fit_rollouts", spy)
+    res = learn_pendulum("learned", seed=7, iterations=4, env=env, learned_after=1)
+    # The first fit has no mixture yet: the first two iterations are the LTV loop's.
+    np.testing.assert_array_equal(res.batch_returns[:2], plain.batch_returns[:2])
+    # Then the mixture holds every earlier iteration's 8 rollouts of 200 transitions.
+    assert mixtures == [None, 8 * 200, 2 * 8 * 200]
+    assert not np.array_equal(res.batch_returns[2:], plain.batch_returns[2:])
+
+
 def test_learning_is_reproducible(env):
     a = learn_pendulum("lti", seed=3, iterations=4, env=env)
     b = learn_pendulum("lti", seed=3, iterations=4, env=env)
@@ -271,10 +290,10 @@ def test_each_iteration_fits_both_models_on_the_same_batch_of_rollouts(env, monk
     calls = []
     fit = gym_rl.fit_rollouts
 
-    def spy(model, x, u, lam, weights=None):
+    def spy(model, x, u, lam, weights=None, *learned):
         calls.append((model, np.array(x), np.array(u), None if weights is None
                       else np.array(weights)))
-        return fit(model, x, u, lam, weights)
+        return fit(model, x, u, lam, weights, *learned)
 
     monkeypatch.setattr(gym_rl, "fit_rollouts", spy)
     through = []
@@ -350,7 +369,7 @@ def test_experiment_table_and_plot():
     import matplotlib
 
     matplotlib.use("Agg")
-    result = run_pendulum_experiment(seeds=[7], iterations=3)
+    result = run_pendulum_experiment(seeds=[7], iterations=3, models=("ltv", "lti"))
     assert result.returns["ltv"].shape == result.returns["lti"].shape == (1, 3)
     assert set(result.swung_up_count()) == {"ltv", "lti"}
     text = result.table()

@@ -87,11 +87,11 @@ def test_learn_with_the_true_model_improves_and_respects_bounds():
 
 def test_quick_experiment_reproduces_the_paper_ordering():
     """Quick mode of Fig. 4: LTV beats LTI; the LTV model with prior reaches the optimum."""
-    result = rl.run_experiment(quick=True, seed=0)
+    result = rl.run_experiment(quick=True, seed=0, models=rl.PAPER_MODELS)
     assert result.runs == rl.QUICK_RUNS and result.iterations == rl.QUICK_ITERATIONS
     med = result.median()
     first = med["ltv"][0]
-    for m in rl.MODELS:
+    for m in rl.PAPER_MODELS:
         assert med[m][0] == pytest.approx(first)  # same initial controller and noise
     # LTV beats LTI after a few iterations (LTI stalls far above or diverges).
     assert np.all(med["ltv"][2:] < med["lti"][2:])
@@ -104,7 +104,24 @@ def test_quick_experiment_reproduces_the_paper_ordering():
     text = result.table()
     assert "LTV with prior" in text and "optimum" in text
     fig = rl.plot_experiment(result)
-    assert len(fig.axes[0].lines) == len(rl.MODELS) + 1
+    assert len(fig.axes[0].lines) == len(rl.PAPER_MODELS) + 1
+
+
+def test_learned_prior_arm_uses_the_earlier_rollouts_and_nothing_of_the_true_model(
+        monkeypatch):
+    pytest.importorskip("sklearn")
+    task = rl.cartpole_task(horizon=200)
+    plain = rl.learn(task, "ltv", iterations=5, seed=0)
+
+    def no_true_model(*args, **kwargs):
+        raise AssertionError("the learned-prior arm used the true Jacobians")
+
+    monkeypatch.setattr(rl.CartPole, "linearize", no_true_model)
+    learned = rl.learn(task, "learned", iterations=5, seed=0, learned_after=2)
+    # Fits 1 and 2 are the LTV arm's (the mixture holds < 2 rollouts): rollouts 1-3 agree.
+    np.testing.assert_array_equal(learned.costs[:3], plain.costs[:3])
+    assert not np.array_equal(learned.costs[3:], plain.costs[3:])
+    assert np.all(np.isfinite(learned.costs)) and learned.costs[-1] < learned.costs[0]
 
 
 def test_experiment_input_validation():

@@ -385,7 +385,7 @@ def run_rl_demo(
         raise ValueError(f"size: expected 'default', 'quick' or 'full', received {size!r}")
     runs, iterations = {"default": (None, None), "quick": (1, 4), "full": (20, 14)}[size]
     result = rl.run_experiment(quick=size != "full", runs=runs, iterations=iterations, seed=seed,
-                            progress=progress)
+                               models=rl.PAPER_MODELS, progress=progress)
     med = result.median()
     lines = [
         "ltvmodels demo: model-based reinforcement learning on a cart-pole "
@@ -450,7 +450,7 @@ def run_pendulum_demo(
     gym_rl.make_env().close()  # gymnasium is there (else ImportError) before the work
     runs, iterations = {"default": (2, 20), "quick": (1, 20), "full": (20, 40)}[size]
     result = gym_rl.run_pendulum_experiment(seeds=range(seed, seed + runs), iterations=iterations,
-                                     progress=progress)
+                                            models=("ltv", "lti"), progress=progress)
     lines = [
         "ltvmodels demo: model-based reinforcement learning on gymnasium's Pendulum-v1 "
         f"(swing-up from env.reset/env.step rollouts), seeds {seed}-{seed + runs - 1} "

@@ -115,6 +115,7 @@ import numpy as np
 from ..control import CostExpansion, LinearDynamics, ilqg
 from ..errors import ConvergenceWarning, IdentifiabilityWarning, SingularProblemError
 from ..estimators.fit import fit, fit_lti
+from ..estimators.mixture_prior import GMMPrior
 from ..plotting.figure import new_figure
 from ..validation import arrays, options
 from .learning import (
@@ -149,8 +150,10 @@ __all__ = [
 ENV_ID = "Pendulum-v1"
 EPISODE_STEPS = 200
 """Steps of a Pendulum-v1 episode (truncation by gymnasium's time limit)."""
-PENDULUM_MODELS = ("ltv", "lti")
-MODEL_LABELS = {"ltv": "LTV model", "lti": "LTI model"}
+PENDULUM_MODELS = ("ltv", "lti", "learned")
+LEARNED_AFTER = 3
+"""Iterations whose rollouts the mixture must hold before the learned prior is used."""
+MODEL_LABELS = {"ltv": "LTV model", "lti": "LTI model", "learned": "LTV + learned prior"}
 GOOD_RETURN = -150.0
 """gymnasium's usual good Pendulum-v1 return (a mean over random initial states)."""
 DEFAULT_ROLLOUTS = 8
@@ -177,6 +180,11 @@ def _gymnasium() -> Any:
 def make_env() -> Any:
     """A new ``gymnasium.make("Pendulum-v1")`` environment."""
     return _gymnasium().make(ENV_ID)
+
+
+def _padded(u: np.ndarray) -> np.ndarray:
+    """Inputs (R, N, m) with a missing last row: one per state sample, as recordings have."""
+    return np.concatenate([u, np.full((u.shape[0], 1, u.shape[2]), np.nan)], axis=1)
 
 
 def _wrap(angle: np.ndarray | float) -> np.ndarray | float:
@@ -480,7 +488,8 @@ def pendulum_rollouts(
 
 
 def fit_rollouts(model: str, x: Any, u: Any, lam: float,
-                 weights: Any = None) -> tuple[np.ndarray, np.ndarray]:
+                 weights: Any = None, learned: GMMPrior | None = None,
+                 learned_samples: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Jacobians A (N, n, n), B (N, n, m) of an affine model fitted on R time-aligned rollouts.
 
     "ltv": :func:`ltvmodels.fit` (``norm="sq"``, ``order=2``, λ = ``lam``);
@@ -491,7 +500,10 @@ def fit_rollouts(model: str, x: Any, u: Any, lam: float,
 
     Parameters
     ----------
-    model : {"ltv", "lti"}
+    model : {"ltv", "lti", "learned"}
+        "learned": the LTV fit with the prior ``learned.at(x, u, constant=True,
+        weights=weights, max_samples=learned_samples)`` (the plain LTV fit when
+        ``learned`` is None).
     x : array_like, shape (R, N + 1, n)
         States of the rollouts.
     u : array_like, shape (R, N, m)
@@ -500,6 +512,10 @@ def fit_rollouts(model: str, x: Any, u: Any, lam: float,
         λ of the LTV fit.
     weights : array_like, shape (R, N), optional
         Weights >= 0 of the transitions (default 1).
+    learned : GMMPrior, optional
+        The mixture of earlier transitions, for ``model="learned"``.
+    learned_samples : float, optional
+        ``max_samples`` of its prior.
 
     Returns
     -------
@@ -522,8 +538,12 @@ def fit_rollouts(model: str, x: Any, u: Any, lam: float,
         if model == "lti":
             fitted = fit_lti(xs, ua, constant=True, weights=weights)
         else:
+            prior = None
+            if model == "learned" and learned is not None:
+                prior = learned.at(xs, _padded(us), constant=True, weights=weights,
+                                   max_samples=learned_samples)
             fitted = fit(xs, ua, lam=lam, norm="sq", order=2, constant=True, compute_cov=False,
-                         weights=weights)
+                         weights=weights, prior=prior)
     return fitted.A, fitted.B
 
 
@@ -651,7 +671,9 @@ def locality_weights(x: Any, scale: float | None) -> np.ndarray | None:
     if xs.ndim != 3 or xs.shape[2] != 2:
         raise ValueError(f"x: expected shape (R, N + 1, 2), received {xs.shape}")
     d2 = np.sum((xs[:, :-1] - xs[0, :-1]) ** 2 / _STATE_SCALES**2, axis=2)
-    return np.exp(-0.5 * d2 / scale**2)
+    w = np.exp(-0.5 * d2 / scale**2)
+    # Beyond ~15 s the weight is negligible: 0, not a subnormal number fit would reject.
+    return np.where(w < 1e-50, 0.0, w)
 
 
 def learn_pendulum(
@@ -674,6 +696,8 @@ def learn_pendulum(
     feedback: str = "riccati",
     cost: PendulumCost | None = None,
     env: Any = None,
+    learned_samples: float | None = None,
+    learned_after: int = LEARNED_AFTER,
 ) -> PendulumLearningResult:
     """Learn to swing up gymnasium's Pendulum-v1 from batches of rollouts with an LTV or LTI model.
 
@@ -683,10 +707,13 @@ def learn_pendulum(
 
     Parameters
     ----------
-    model : {"ltv", "lti"}
+    model : {"ltv", "lti", "learned"}
         "ltv": :func:`ltvmodels.fit` (``norm="sq"``, ``order=2``, λ = ``lam``,
         ``constant=True``); "lti": :func:`ltvmodels.fit_lti` (``constant=True``);
-        both on the same batch of rollouts with the same weights (:func:`fit_rollouts`).
+        both on the same batch of rollouts with the same weights (:func:`fit_rollouts`);
+        "learned": the "ltv" fit with the prior of a Gaussian mixture of all
+        earlier iterations' rollouts (:class:`ltvmodels.GMMPrior`, updated after
+        every iteration, accepted or not), once it holds ``learned_after`` iterations.
     seed : int
         Seed (>= 0) of the initial state, the initial torques and the noise.
     iterations : int
@@ -736,6 +763,12 @@ def learn_pendulum(
         The surrogate optimized (default ``PendulumCost()``).
     env : gymnasium.Env, optional
         A Pendulum-v1 environment (default ``gymnasium.make("Pendulum-v1")``).
+    learned_samples : float or None
+        For ``model="learned"``: ``max_samples`` of the mixture's prior (None:
+        the components' own transition counts).
+    learned_after : int
+        For ``model="learned"``: iterations whose rollouts the mixture must hold
+        before its prior is used.
 
     Returns
     -------
@@ -766,6 +799,9 @@ def learn_pendulum(
     horizon_step = options.integer(horizon_step, "horizon_step", 0)
     tail = options.choice(tail, "tail", ("hold", "zero", "incumbent"))
     reject_worse = options.flag(reject_worse, "reject_worse")
+    if learned_samples is not None:
+        learned_samples = options.positive_scalar(learned_samples, "learned_samples")
+    learned_after = options.integer(learned_after, "learned_after", 1)
     feedback = options.choice(feedback, "feedback", ("riccati", "ilqg"))
     if cost is None:
         cost = PendulumCost()
@@ -789,6 +825,7 @@ def learn_pendulum(
     radii: list[float] = []
     horizons: list[int] = []
     predicted: list[float] = []
+    learned = None  # the mixture of the earlier iterations' rollouts (model "learned")
     inc = None  # the incumbent rollout (x, u, rewards)
     inc_batch = None  # the rollouts of the incumbent's iteration (x, u), the data of the fits
     plan_horizon = horizon
@@ -836,7 +873,8 @@ def learn_pendulum(
             warnings.simplefilter("ignore", ConvergenceWarning)
             try:
                 A, B = fit_rollouts(model, inc_batch[0], inc_batch[1], lam,
-                                    locality_weights(inc_batch[0], locality))
+                                    locality_weights(inc_batch[0], locality),
+                                    learned if i >= learned_after else None, learned_samples)
                 dyn = LinearDynamics.through(A[:H], B[:H], xi[:H + 1], ui[:H])
                 plan = ilqg(dyn, cost, xi[0], ui[:H], u_bounds=(-limit, limit),
                             trust_region=radius, reference=(xi[:H + 1], ui[:H]),
@@ -870,6 +908,9 @@ def learn_pendulum(
             K[H:] = gains[H - 1]
         radii.append(radius)
         horizons.append(H)
+        if model == "learned":  # this iteration's rollouts join the mixture for the next ones
+            learned = (GMMPrior(xb, _padded(ub), seed=seed) if learned is None
+                       else learned.update(xb, _padded(ub)))
     swung_arr = np.array(swung, dtype=bool)
     # Swung up for good: the start of the final stretch of swung-up incumbents. An
     # incumbent can be swung up and a later one, better over the planned H steps, fall
@@ -1117,7 +1158,7 @@ def run_pendulum_experiment(
     )
 
 
-_COLORS = {"ltv": "C0", "lti": "C1"}
+_COLORS = {"ltv": "C0", "lti": "C1", "learned": "C2"}
 
 
 def plot_pendulum_experiment(result: PendulumExperiment, *, axes: Any = None) -> "Figure":

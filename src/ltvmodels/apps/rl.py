@@ -46,6 +46,7 @@ import numba
 import numpy as np
 
 from ..control import ILQGResult, LinearDynamics, QuadraticCost, ilqg
+from ..estimators.mixture_prior import GMMPrior
 from ..estimators.priors import Prior
 from ..plotting.figure import new_axes
 from ..validation import arrays, options
@@ -72,13 +73,22 @@ __all__ = [
     "RLExperiment",
     "plot_experiment",
     "MODELS",
+    "PAPER_MODELS",
 ]
 
-MODELS = ("true", "ltv", "lti", "prior")
-"""Model kinds of the experiment, in the order of the paper's legend."""
+MODELS = ("true", "ltv", "lti", "prior", "learned")
+"""Model kinds of the experiment: the paper's four, in the order of its legend, and the
+LTV model with the prior learned from the earlier rollouts (needs scikit-learn)."""
+PAPER_MODELS = MODELS[:4]
+
+LEARNED_SAMPLES = None
+"""How many transitions the learned prior counts as at most (``GMMPrior.at``'s max_samples)."""
+
+LEARNED_AFTER = 3
+"""Rollouts the mixture must have seen before the learned prior is used."""
 
 MODEL_LABELS = {"true": "True model", "ltv": "LTV model", "lti": "LTI model",
-                "prior": "LTV with prior"}
+                "prior": "LTV with prior", "learned": "LTV + learned prior"}
 
 
 # -- the simulator --------------------------------------------------------------------
@@ -494,15 +504,21 @@ def _optional_positive(value: Any, name: str) -> float | None:
     return None if value is None else options.positive_scalar(value, name)
 
 
+def _padded(u: np.ndarray) -> np.ndarray:
+    """Inputs (N, m) with a missing last row: one per state sample, as recordings have."""
+    return np.vstack([u, np.full((1, u.shape[1]), np.nan)])
+
+
 def _fit_jacobians(kind: str, task: CartPoleTask, x: np.ndarray, u: np.ndarray, lam: float,
-                   prior_std: float, weak_prior_std: float | None
+                   prior_std: float, weak_prior_std: float | None,
+                   learned: GMMPrior | None = None, learned_samples: float | None = None,
                    ) -> tuple[np.ndarray, np.ndarray]:
     """Jacobians A (N, 4, 4), B (N, 4, 1) of the chosen model along the rollout (x, u)."""
     N = u.shape[0]
     if kind == "true":
         return task.system.linearize(x, u)
     priors = []
-    if kind == "ltv" and weak_prior_std is not None:  # the persistence model x_{t+1} = x_t
+    if kind in ("ltv", "learned") and weak_prior_std is not None:  # persistence x_{t+1} = x_t
         mean = np.hstack([np.eye(4), np.zeros((4, 2))]).ravel()
         priors.append(Prior(mean, weak_prior_std**2))
     if kind == "prior":  # the true model linearized along the rollout
@@ -510,7 +526,9 @@ def _fit_jacobians(kind: str, task: CartPoleTask, x: np.ndarray, u: np.ndarray, 
         c = x[1:] - np.einsum("tij,tj->ti", A, x[:-1]) - B[:, :, 0] * u
         mean = np.concatenate([A, B, c[:, :, None]], axis=2).reshape(N, -1)
         priors = [Prior(mean, prior_std**2)]
-    return fit_affine(kind, x, u, lam, priors)
+    if kind == "learned" and learned is not None:  # the mixture of the earlier rollouts
+        priors.append(learned.at(x, _padded(u), constant=True, max_samples=learned_samples))
+    return fit_affine("ltv" if kind == "learned" else kind, x, u, lam, priors)
 
 
 def learn(
@@ -526,6 +544,8 @@ def learn(
     noise_std: float = 0.3,
     prior_std: float = 0.01,
     weak_prior_std: float | None = 0.3,
+    learned_samples: float | None = LEARNED_SAMPLES,
+    learned_after: int = LEARNED_AFTER,
 ) -> LearningResult:
     """Model-based learning of the cart-pole task (paper Section VIII).
 
@@ -552,13 +572,16 @@ def learn(
     ----------
     task : CartPoleTask
         From :func:`cartpole_task`.
-    model : {"true", "ltv", "lti", "prior"}
+    model : {"true", "ltv", "lti", "prior", "learned"}
         "true": the simulator's Jacobians along the rollout; "ltv":
         :func:`ltvmodels.fit` with ``norm="sq"``, ``order=2`` (paper eq. smooth)
         and a constant input column; "lti": :func:`ltvmodels.fit_lti` with a
         constant input column; "prior": the LTV fit with the prior
         N(true linearization along the rollout, ``prior_std``² I) (paper eq.
-        prioropt).
+        prioropt); "learned": the "ltv" fit with, in addition, the prior of a
+        Gaussian mixture of the earlier rollouts' transitions
+        (:class:`ltvmodels.GMMPrior`, ``at(x, u, constant=True)``; nothing from the
+        true model), once the mixture holds ``learned_after`` rollouts.
     iterations : int
         Number of rollouts (the first uses the initial zero-force controller).
     seed : int, numpy.random.Generator or None
@@ -581,6 +604,14 @@ def learn(
         cart-position column of A_t is nearly collinear with the constant
         column; this prior settles such directions that neither the data nor
         the smoothness penalty determine. None: no prior.
+    learned_samples : float or None
+        For ``model="learned"``: ``max_samples`` of the mixture's prior (None:
+        the components' own transition counts).
+    learned_after : int
+        For ``model="learned"``: rollouts the mixture must hold before its
+        prior is used (the fits before are those of "ltv"). Fitted along one
+        or two falls, a component's Jacobians across the trajectory are
+        confounded with its curvature (see the README's Fig. 4 section).
 
     Returns
     -------
@@ -600,6 +631,8 @@ def learn(
     noise_std = options.nonnegative_scalar(noise_std, "noise_std")
     prior_std = options.positive_scalar(prior_std, "prior_std")
     weak_prior_std = _optional_positive(weak_prior_std, "weak_prior_std")
+    learned_samples = _optional_positive(learned_samples, "learned_samples")
+    learned_after = options.integer(learned_after, "learned_after", 1)
     rng = options.random_generator(seed)
     N = task.horizon
     wx = task.trust_weights[0]
@@ -611,6 +644,7 @@ def learn(
     radii: list[float] = []
     controller = None
     x_prev = None
+    learned = None
     for i in range(iterations):
         x, u = task.system.rollout(task.x0, x_nom, u_nom, K, noise_std=noise_std, seed=rng)
         costs.append(task.trajectory_cost(x, u))
@@ -621,7 +655,12 @@ def learn(
             moved = float(np.sqrt(np.max(np.sum((x - x_prev) ** 2 * wx, axis=1))))
             radius = adapt_radius(radius, rho, max_radius=max_radius, moved=moved)
         x_prev = x
-        A, B = _fit_jacobians(kind, task, x, u, lam, prior_std, weak_prior_std)
+        ready = learned if i >= learned_after else None
+        A, B = _fit_jacobians(kind, task, x, u, lam, prior_std, weak_prior_std, ready,
+                              learned_samples)
+        if kind == "learned":  # this rollout joins the mixture for the next iterations
+            learned = (GMMPrior(x, _padded(u), seed=0) if learned is None
+                       else learned.update(x, _padded(u)))
         dyn = LinearDynamics.through(A, B, x, u)
         # The controller's noise-free output at the visited states: the exploration noise
         # must not accumulate in the nominal controls from one iteration to the next.
@@ -793,7 +832,7 @@ def run_experiment(
                         elapsed=time.perf_counter() - start)
 
 
-_COLORS = {"ltv": "C0", "lti": "C1", "prior": "C2", "true": "0.35"}
+_COLORS = {"ltv": "C0", "lti": "C1", "prior": "C2", "learned": "C3", "true": "0.35"}
 
 
 def plot_experiment(result: RLExperiment, *, ax: Any = None) -> "Figure":
