@@ -1096,7 +1096,7 @@ def run_pendulum_experiment(
     ----------
     seeds : sequence of int, optional
         The runs' seeds; default ``range(20)``, or ``QUICK_SEEDS`` in quick mode.
-    models : sequence of {"ltv", "lti"}
+    models : sequence of {"ltv", "lti", "learned"}
     iterations : int, optional
         Learning iterations per run, each of R episodes (default 40, or 20 in
         quick mode).
