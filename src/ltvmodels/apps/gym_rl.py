@@ -123,6 +123,7 @@ from .learning import (
     draw_learning_curves,
     improvement_ratio,
     median_by_model,
+    padded_inputs,
     quartiles_by_model,
 )
 
@@ -180,11 +181,6 @@ def _gymnasium() -> Any:
 def make_env() -> Any:
     """A new ``gymnasium.make("Pendulum-v1")`` environment."""
     return _gymnasium().make(ENV_ID)
-
-
-def _padded(u: np.ndarray) -> np.ndarray:
-    """Inputs (R, N, m) with a missing last row: one per state sample, as recordings have."""
-    return np.concatenate([u, np.full((u.shape[0], 1, u.shape[2]), np.nan)], axis=1)
 
 
 def _wrap(angle: np.ndarray | float) -> np.ndarray | float:
@@ -540,7 +536,7 @@ def fit_rollouts(model: str, x: Any, u: Any, lam: float,
         else:
             prior = None
             if model == "learned" and learned is not None:
-                prior = learned.at(xs, _padded(us), constant=True, weights=weights,
+                prior = learned.at(xs, padded_inputs(us), constant=True, weights=weights,
                                    max_samples=learned_samples)
             fitted = fit(xs, ua, lam=lam, norm="sq", order=2, constant=True, compute_cov=False,
                          weights=weights, prior=prior)
@@ -909,8 +905,8 @@ def learn_pendulum(
         radii.append(radius)
         horizons.append(H)
         if model == "learned":  # this iteration's rollouts join the mixture for the next ones
-            learned = (GMMPrior(xb, _padded(ub), seed=seed) if learned is None
-                       else learned.update(xb, _padded(ub)))
+            learned = (GMMPrior(xb, padded_inputs(ub), seed=seed) if learned is None
+                       else learned.update(xb, padded_inputs(ub)))
     swung_arr = np.array(swung, dtype=bool)
     # Swung up for good: the start of the final stretch of swung-up incumbents. An
     # incumbent can be swung up and a later one, better over the planned H steps, fall

@@ -31,6 +31,13 @@ def _affine_inputs(u: np.ndarray) -> np.ndarray:
     return ua
 
 
+def padded_inputs(u: np.ndarray) -> np.ndarray:
+    """Inputs (N, m) or (R, N, m) with a missing (NaN) last row: one per state sample, as
+    recordings have (the last input is never used by a transition)."""
+    pad = np.full(u.shape[:-2] + (1, u.shape[-1]), np.nan)
+    return np.concatenate([u, pad], axis=-2)
+
+
 def fit_affine(kind: str, x: np.ndarray, u: np.ndarray, lam: float,
                priors: Sequence[Prior] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Jacobians A (N, n, n), B (N, n, m) of an affine model fitted along one trajectory.

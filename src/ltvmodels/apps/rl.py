@@ -56,6 +56,7 @@ from .learning import (
     fit_affine,
     improvement_ratio,
     median_by_model,
+    padded_inputs,
     quartiles_by_model,
 )
 
@@ -504,11 +505,6 @@ def _optional_positive(value: Any, name: str) -> float | None:
     return None if value is None else options.positive_scalar(value, name)
 
 
-def _padded(u: np.ndarray) -> np.ndarray:
-    """Inputs (N, m) with a missing last row: one per state sample, as recordings have."""
-    return np.vstack([u, np.full((1, u.shape[1]), np.nan)])
-
-
 def _fit_jacobians(kind: str, task: CartPoleTask, x: np.ndarray, u: np.ndarray, lam: float,
                    prior_std: float, weak_prior_std: float | None,
                    learned: GMMPrior | None = None, learned_samples: float | None = None,
@@ -527,7 +523,7 @@ def _fit_jacobians(kind: str, task: CartPoleTask, x: np.ndarray, u: np.ndarray, 
         mean = np.concatenate([A, B, c[:, :, None]], axis=2).reshape(N, -1)
         priors = [Prior(mean, prior_std**2)]
     if kind == "learned" and learned is not None:  # the mixture of the earlier rollouts
-        priors.append(learned.at(x, _padded(u), constant=True, max_samples=learned_samples))
+        priors.append(learned.at(x, padded_inputs(u), constant=True, max_samples=learned_samples))
     return fit_affine("ltv" if kind == "learned" else kind, x, u, lam, priors)
 
 
@@ -659,8 +655,8 @@ def learn(
         A, B = _fit_jacobians(kind, task, x, u, lam, prior_std, weak_prior_std, ready,
                               learned_samples)
         if kind == "learned":  # this rollout joins the mixture for the next iterations
-            learned = (GMMPrior(x, _padded(u), seed=0) if learned is None
-                       else learned.update(x, _padded(u)))
+            learned = (GMMPrior(x, padded_inputs(u), seed=0) if learned is None
+                       else learned.update(x, padded_inputs(u)))
         dyn = LinearDynamics.through(A, B, x, u)
         # The controller's noise-free output at the visited states: the exploration noise
         # must not accumulate in the nominal controls from one iteration to the next.

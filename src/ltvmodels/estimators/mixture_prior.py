@@ -75,8 +75,9 @@ def _joint_points(x: np.ndarray, u: np.ndarray) -> np.ndarray:
     return np.concatenate([x[:, :-1], u[:, :-1], x[:, 1:]], axis=2)
 
 
-def _complete(points: np.ndarray) -> np.ndarray:
-    """The rows of (R, N, d) ``points`` without a missing entry, shape (M, d)."""
+def _transitions(x: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """The complete transitions z_t of validated recordings (nothing missing), (M, 2n + m)."""
+    points = _joint_points(x, u)
     flat = points.reshape(-1, points.shape[2])
     return flat[~np.isnan(flat).any(axis=1)]
 
@@ -159,7 +160,7 @@ class GMMPrior:
         self._reg_covar = options.nonnegative_scalar(reg_covar, "reg_covar")
         self._max_iter = options.integer(max_iter, "max_iter", 1)
         self._rng = options.random_generator(seed)
-        points = self._transitions(x, u)
+        points = _transitions(x, u)
         dz = points.shape[1]
         if points.shape[0] <= dz:
             raise ValueError(
@@ -179,7 +180,7 @@ class GMMPrior:
         self._center = points.mean(axis=0)
         spread = points.std(axis=0)
         self._scale = np.where(spread > 0, spread, 1.0)
-        self._points = points
+        self._set_points(points)
         if self._fixed_count is not None:
             self.mixture = self._fit(self._fixed_count)
         else:
@@ -188,12 +189,11 @@ class GMMPrior:
         self._set_components()
 
     # -- fitting ---------------------------------------------------------------------
-    def _transitions(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """The complete transitions of validated recordings, shape (M, 2n + m)."""
-        return _complete(_joint_points(x, u))
-
-    def _standardized(self) -> np.ndarray:
-        return (self._points - self._center) / self._scale
+    def _set_points(self, points: np.ndarray) -> None:
+        """The pooled transitions and, once, their standardized coordinates (what EM and
+        BIC see)."""
+        self._points = points
+        self._standardized = (points - self._center) / self._scale
 
     def _largest_count(self) -> int:
         """The BIC candidates' upper end: at most one component per 2n + m + 1 points."""
@@ -201,7 +201,7 @@ class GMMPrior:
         return max(1, min(self._max_components, self._points.shape[0] // (dz + 1)))
 
     def _bic(self, mixture: Any) -> float:
-        return float(mixture.bic(self._standardized()))
+        return float(mixture.bic(self._standardized))
 
     def _fit(self, count: int, warm: Any = None) -> Any:
         """EM on the standardized transitions: ``count`` components from a seeded k-means
@@ -217,7 +217,7 @@ class GMMPrior:
             # scikit-learn's own warning is replaced by ours below, with a remedy.
             warnings.simplefilter("ignore")
             try:
-                mixture.fit(self._standardized())
+                mixture.fit(self._standardized)
             except ValueError as exc:  # a covariance that is not positive definite
                 raise SingularProblemError(
                     f"GMMPrior: the mixture's covariances are singular ({exc}); some entries "
@@ -250,13 +250,13 @@ class GMMPrior:
             ``self``, updated.
         """
         x, u = self._recordings(x, u)
-        new = self._transitions(x, u)
+        new = _transitions(x, u)
         if new.shape[0] == 0:
             raise ValueError(
                 "x: expected at least one complete transition (x_t, u_t, x_{t+1} all "
                 "observed), received none; nothing to learn from"
             )
-        self._points = np.concatenate([self._points, new])
+        self._set_points(np.concatenate([self._points, new]))
         count = self.n_components
         candidates = [self._fit(count, warm=self.mixture)]
         if self._fixed_count is None and count < self._largest_count():
