@@ -21,7 +21,7 @@ Usage::
                                     [--iterations 40]
 
 The default (20 initial states ``env.reset(seed=0…19)``, 40 iterations of 8
-episodes) takes about 70 s on two cores for the LTV and LTI models and 5 more
+episodes) takes about 70 s on two cores for the LTV and LTI models and 10 more
 minutes for the LTV model with the learned prior (a Gaussian mixture of all
 earlier iterations' rollouts, ``ltvmodels.GMMPrior``; needs scikit-learn,
 else it is left out); ``--quick`` runs 2 initial states for 20 iterations. Result of the default
@@ -30,15 +30,16 @@ else it is left out); ``--quick`` runs 2 initial states for 20 iterations. Resul
 =========================================  ==============  ==============  ==============
                                            LTV             LTI             LTV + learned
 =========================================  ==============  ==============  ==============
-seeds swung up at the end                  20/20           4/20            16/20
-median iterations to swing-up (for good)   7.5             19.5            10
+seeds swung up at the end                  20/20           4/20            20/20
+median iterations to swing-up (for good)   7.5             19.5            10.5
 median final return                        −123            −907            −124
-final return, 25 % / 75 % quantiles        −216 / −117     −1168 / −398    −389 / −118
-mean final return                          −128            −816            −286
+final return, 25 % / 75 % quantiles        −216 / −117     −1168 / −398    −224 / −118
+mean final return                          −128            −816            −159
 =========================================  ==============  ==============  ==============
 
 The LTV model swings up every initial state; the LTI model, fitted on the
-same rollouts, swings up 4; the learned prior, 16.
+same rollouts, swings up 4; with the learned prior the LTV model swings up
+all 20 too, but later.
 """
 
 from __future__ import annotations

@@ -152,8 +152,11 @@ ENV_ID = "Pendulum-v1"
 EPISODE_STEPS = 200
 """Steps of a Pendulum-v1 episode (truncation by gymnasium's time limit)."""
 PENDULUM_MODELS = ("ltv", "lti", "learned")
-LEARNED_AFTER = 3
+LEARNED_AFTER = 1
 """Iterations whose rollouts the mixture must hold before the learned prior is used."""
+LEARNED_SAMPLES = 5.0
+"""How many transitions the learned prior counts as at most per step (``max_samples``):
+the 8 rollouts of an iteration identify the Jacobians, the prior only settles the rest."""
 MODEL_LABELS = {"ltv": "LTV model", "lti": "LTI model", "learned": "LTV + learned prior"}
 GOOD_RETURN = -150.0
 """gymnasium's usual good Pendulum-v1 return (a mean over random initial states)."""
@@ -692,7 +695,7 @@ def learn_pendulum(
     feedback: str = "riccati",
     cost: PendulumCost | None = None,
     env: Any = None,
-    learned_samples: float | None = None,
+    learned_samples: float | None = LEARNED_SAMPLES,
     learned_after: int = LEARNED_AFTER,
 ) -> PendulumLearningResult:
     """Learn to swing up gymnasium's Pendulum-v1 from batches of rollouts with an LTV or LTI model.
