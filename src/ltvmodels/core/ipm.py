@@ -59,6 +59,16 @@ START_GAP_FRACTION = 0.1
 START_DUAL_NORM = 0.9
 START_DUAL_RANGE = (0.2, 0.95)
 START_TRIES = 6
+# A warm start (:func:`warm_dual`) begins at a smaller gap than a cold one: its k is
+# the previous λ's optimum. On the L-curve's grid of 29 jump-linear fits of order 1
+# (T = 2000 and 10⁴, tol 1e-4, λ increasing) 0.01 and 0.1 needed about the same
+# iterations (131–154 against 278–375 cold); a start's duals are kept this far
+# inside their cones. For order 2 the feasible quadratic-fit start is as good
+# (every third point of that grid, T = 2000, two seeds: group 196 warm against
+# 194 cold, l1 277 against 238), so warm starts are taken for order 1 only.
+WARM_GAP_FRACTION = 0.01
+WARM_MAX_DUAL_NORM = 0.99
+WARM_DEGREES = (1,)
 # Use the kernels compiled for a constant block size from this many unknowns on.
 FIXED_KERNEL_MIN_SIZE = 2_000
 
@@ -76,6 +86,10 @@ class InteriorPointResult:
     converged: bool
     polished: bool = False  # the active-set polish (:mod:`.polish`) gave the result
     stalled: bool = False  # stopped before the tolerance: no progress at working precision
+    # The cones' dual vectors z₁ (n_cones, g) and the weights solved for: a warm start
+    # of the next λ (:func:`warm_dual`).
+    dual: np.ndarray | None = None
+    weights: np.ndarray | None = None
 
 
 class _RowSystem:
@@ -321,6 +335,23 @@ def feasible_start(problem: RegressionProblem, cp: ConicProblem):
     return best
 
 
+def warm_dual(previous: InteriorPointResult, cp: ConicProblem) -> np.ndarray:
+    """The previous solution's cone duals z₁, rescaled to the new weights (n_cones, g).
+
+    Stationarity 2Φᵀ(Φk − y) = DᵀΛz₁ holds at the previous optimum k with the
+    previous weights; z₁·Λ_prev/Λ_new keeps it exact at the same k. With larger
+    weights (a path of increasing λ) every cone's dual stays inside its cone, so
+    the start is primal and dual feasible with only the gap to close; with
+    smaller ones a dual that leaves its cone is pulled back to the norm
+    WARM_MAX_DUAL_NORM (the step then also corrects the stationarity residual).
+    """
+    ratio = np.where(cp.w > 0, previous.weights / np.where(cp.w > 0, cp.w, 1.0), 0.0)
+    rows = cp.N - cp.degree
+    z1 = (previous.dual.reshape(rows, cp.K) * ratio).reshape(cp.n_cones, -1)
+    norms = np.sqrt(np.sum(z1**2, axis=1, keepdims=True))
+    return z1 * np.minimum(1.0, WARM_MAX_DUAL_NORM / np.maximum(norms, np.finfo(float).tiny))
+
+
 def fit_sparse_ipm(
     problem: RegressionProblem,
     weights: np.ndarray,
@@ -329,6 +360,7 @@ def fit_sparse_ipm(
     tol: float = 1e-8,
     max_iter: int = 100,
     k0: np.ndarray | None = None,
+    warm_start: InteriorPointResult | None = None,
 ) -> InteriorPointResult:
     """Minimize Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ(Dk)_t) by a primal-dual interior-point method.
 
@@ -345,6 +377,11 @@ def fit_sparse_ipm(
         Limit on the number of iterations.
     k0 : ndarray, shape (N, K), optional
         Starting coefficients (default: zeros).
+    warm_start : InteriorPointResult, optional
+        The solution of the same problem at other weights (a regularization
+        path): starts from its k and its duals rescaled by :func:`warm_dual`,
+        with a small gap. Taken for order 1 (see WARM_DEGREES) without constant
+        coefficients, ignored otherwise.
 
     Returns
     -------
@@ -355,8 +392,13 @@ def fit_sparse_ipm(
     t = np.zeros(n_cones)
     s, z = np.zeros(cp.cone_shape), np.zeros(cp.cone_shape)
     r_z, r_k = np.empty(cp.cone_shape), np.empty((N, K))
-    rho = None
-    if k0 is not None:
+    rho = z1 = None
+    warm = (warm_start is not None and warm_start.dual is not None and not cp.const.any()
+            and problem.degree in WARM_DEGREES)
+    if warm:
+        k = np.array(warm_start.theta.reshape(N, K))
+        z1 = warm_dual(warm_start, cp)
+    elif k0 is not None:
         k = np.array(k0, dtype=float)
     elif problem.degree in (1, 2) and not cp.const.any():
         k, rho = feasible_start(problem, cp)
@@ -365,13 +407,17 @@ def fit_sparse_ipm(
     loss, reg, *_ = cones.kkt_residuals(k, t, s, z, cp.y, cp.phi, cp.coeffs, cp.w, r_z, r_k)
     # Start: s = (‖s₁‖ + δ, ΛDk) with t = s₀, so the cone constraints hold, and
     # z = (1, −ρΛDk), stationary for the quadratic fit k (see feasible_start),
-    # or z = e, which makes the gap δ per cone, a fraction of the objective.
+    # the previous solution's duals (warm_dual), or z = e, which makes the gap δ
+    # per cone, a fraction of the objective.
     s[:, 1:] = -r_z[:, 1:]
-    delta = max(START_GAP_FRACTION * (loss + reg) / n_cones, 1e-12)
+    fraction = WARM_GAP_FRACTION if warm else START_GAP_FRACTION
+    delta = max(fraction * (loss + reg) / n_cones, 1e-12)
     s[:, 0] = np.sqrt(np.sum(s[:, 1:] ** 2, axis=1)) + delta
     t[:] = s[:, 0]
     z[:, 0] = 1.0
-    if rho is not None:
+    if z1 is not None:
+        z[:, 1:] = z1
+    elif rho is not None:
         z[:, 1:] = -rho * s[:, 1:]
     scale_k = stationarity_scale(problem)
     converged = stalled = False
@@ -436,4 +482,6 @@ def fit_sparse_ipm(
         theta=k.reshape(N, problem.n, problem.p), objective=objective, duality_gap=gap,
         primal_residual=primal_res, dual_residual=dual_res, iterations=iterations,
         converged=converged, polished=polished, stalled=stalled and not converged,
+        # a polished k comes with its own duals: the iterate's would not match it
+        dual=None if polished else z[:, 1:].copy(), weights=weights,
     )

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .admm import SparseResult, fit_sparse
-from .ipm import fit_sparse_ipm
+from .ipm import InteriorPointResult, fit_sparse_ipm
 from .problem import RegressionProblem
 from .sparse_common import lambda_max, null_space_fit
 
@@ -59,6 +59,9 @@ class SparseSolution:
         could not make progress at working precision.
     admm : SparseResult or None
         ADMM's state, for a warm start along a λ path.
+    ipm : InteriorPointResult or None
+        The interior-point method's result (with its duals), for a warm start
+        along a λ path.
     """
 
     theta: np.ndarray
@@ -73,6 +76,7 @@ class SparseSolution:
     polished: bool = False
     stalled: bool = False
     admm: SparseResult | None = None
+    ipm: InteriorPointResult | None = None
 
 
 def solve_sparse(
@@ -82,7 +86,7 @@ def solve_sparse(
     *,
     max_iter: int,
     tol: float,
-    warm_start: SparseResult | None = None,
+    warm_start: SparseSolution | None = None,
 ) -> SparseSolution:
     """Minimize Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ (Dk)_t) on validated inputs.
 
@@ -96,8 +100,10 @@ def solve_sparse(
         Iteration limit of the solver.
     tol : float
         Relative tolerance (duality gap and residuals; ADMM: residuals).
-    warm_start : SparseResult, optional
-        A previous ADMM state (used when ADMM is the solver).
+    warm_start : SparseSolution, optional
+        The solution of the same problem at other weights (a λ path): the
+        interior-point method starts from its primal-dual pair, ADMM from its
+        state, whichever solved both.
 
     Returns
     -------
@@ -119,14 +125,15 @@ def solve_sparse(
             details={"duality_gap": 0.0}, closed_form=True,
         )
     if K <= IPM_MAX_K and np.all(weights > 0):
-        ip = fit_sparse_ipm(problem, weights, norm, tol=tol, max_iter=max_iter)
+        ip = fit_sparse_ipm(problem, weights, norm, tol=tol, max_iter=max_iter,
+                            warm_start=None if warm_start is None else warm_start.ipm)
         return SparseSolution(
             theta=ip.theta, solver="interior point (block-banded Newton systems)",
             iterations=ip.iterations, converged=ip.converged, objective=ip.objective,
             rss=float(np.sum(problem.residuals(ip.theta) ** 2)), lambda_max=lam_max,
             details={"duality_gap": ip.duality_gap, "primal_residual": ip.primal_residual,
                      "dual_residual": ip.dual_residual, "polished": ip.polished},
-            polished=ip.polished, stalled=ip.stalled,
+            polished=ip.polished, stalled=ip.stalled, ipm=ip,
         )
     if np.isinf(weights).any():
         raise NotImplementedError(
@@ -134,7 +141,8 @@ def solve_sparse(
             f"weight > 0 and at most {IPM_MAX_K} parameters per time step, received "
             f"K = {K} and {int(np.sum(weights == 0))} zero weights"
         )
-    result = fit_sparse(problem, weights, norm, max_iter=max_iter, tol=tol, warm_start=warm_start)
+    result = fit_sparse(problem, weights, norm, max_iter=max_iter, tol=tol,
+                        warm_start=None if warm_start is None else warm_start.admm)
     return SparseSolution(
         theta=result.theta, solver="ADMM (banded k-update)", iterations=result.iterations,
         converged=result.converged, objective=result.objective,

@@ -313,9 +313,9 @@ def fit_path(
     """Fit one model per scalar λ in ``lams`` (a regularization path).
 
     Equivalent to ``[fit(x, u, lam=lam, norm=norm, order=order) for lam in lams]``,
-    but for the sparse norms the path is solved from the largest λ down; where
-    ADMM is the solver each run is warm-started from the previous solution (its
-    z, w and ρ).
+    but for the sparse norms the path is solved from the largest λ down, each
+    run warm-started from the previous solution (the interior-point method from
+    its primal-dual pair, ADMM from its z, w and ρ).
 
     Parameters
     ----------
@@ -356,7 +356,7 @@ def fit_path(
         weights = options.sparse_weights(lam, problem.K)
         solution = solve_sparse(problem, weights, norm, max_iter=max_iter, tol=tol,
                                 warm_start=warm)
-        warm = solution.admm
+        warm = solution
         model = sparse_model(problem, lam, norm, solution, factory)
         model.info["path_position"] = position
         models[index] = model
