@@ -12,7 +12,6 @@ from ltvmodels.apps.defaults import JUMP_LINEAR_LAM
 from ltvmodels.apps.demos import run_jump_linear_demo
 from ltvmodels.cli import main
 from ltvmodels.errors import OutputPathError
-from ltvmodels.estimators.selection import ML_GRID_SIZE
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -242,7 +241,7 @@ def test_segments_ar_select_lambda(workdir, capsys):
     assert code == 0, err
     report = json.loads(out)
     assert report["method"] == "ml" and report["lam"] > 0
-    assert len(report["candidates"]) == len(report["scores"]) == ML_GRID_SIZE
+    assert len(report["candidates"]) == len(report["scores"]) >= 8  # a coarse grid, refined
     assert _is_png(root / "sel.png")
     code, out, _ = _run(["select-lambda", root / "data.csv", "--state", "x1,x2", "--input",
                          "u", "--norm", "l0"], capsys)
@@ -630,7 +629,8 @@ def test_constant_on_fit_segments_select_lambda(workdir, tmp_path, capsys):
     without = ltvmodels.select_lambda(data.x, data.u)
     assert report["constant"] is True
     assert np.allclose(report["scores"], with_c.scores)
-    assert not np.allclose(report["scores"], without.scores)
+    assert (len(without.scores) != len(with_c.scores)  # the constant changes the criterion
+            or not np.allclose(with_c.scores, without.scores))
 
 
 def test_predict_and_simulate_include_the_constant(workdir, tmp_path, capsys):

@@ -113,10 +113,10 @@ def test_select_lambda_regression(data, kwargs):
 @fuzz_test(datasets(max_T=40, forms=False),
            options(norm=Opt(choice_of("sq", "group", "l1"), choice_of("l0")),
                    order=ORDER, constant=CONSTANT,
-                   refine=Opt(choice_of(False, True), choice_of(1))),
+                   refine=Opt(choice_of(False, True), choice_of(1)), progress=PROGRESS),
            examples=0.75, explicit=[(HUGE, {}), (HUGE, {"norm": "l1"})])
 def test_fit_lam_auto(data, kwargs):
-    """ltv.fit(lam="auto"): the selection inside a fit."""
+    """ltv.fit(lam="auto"): the selection inside a fit (with its progress callback)."""
     x, u = data.xu()
     kw = dict(kwargs)
     if kw.get("norm") in ("group", "l1"):

@@ -4,10 +4,11 @@ The marginal likelihood ("ml", noise variances at their ML value for each λ)
 and GCV are evaluated from the dense closed form (``dense_reference``: the
 diffuse likelihood as the κ → ∞ limit of a proper prior, the hat-matrix
 trace from a dense inverse) and optimized over log λ with scipy's bounded
-Brent search to 1e-7. The package searches its grid (30 points, ~25% apart)
-and then refines with a bounded search to 1e-3 in log λ, so the chosen λ must
-agree with the dense optimum to ~1e-3 relative; the best grid point alone is
-off by up to ~12% (measured 0.3–16% on these data).
+Brent search to 1e-7. The package searches a coarse grid (6 points, about a
+decade apart) and refines the maximum by parabolic steps until the parabola
+through its three best points puts it within 1e-3 in log λ of the best point,
+so the chosen λ must agree with the dense optimum to a few 1e-3 relative (the
+parabola's own error adds to the 1e-3: measured up to 2e-3 on these data).
 """
 
 from __future__ import annotations
@@ -18,8 +19,8 @@ import pytest
 import ltvmodels as ltv
 from dense_reference import best_lam, lam_criterion, simulate_ltv
 
-# The refinement stops at xatol = 1e-3 in log λ (measured: <= 1.7e-4 relative).
-LAM_RTOL = 1e-3
+# The refinement stops at xatol = 1e-3 in log λ (measured: <= 2e-3 relative).
+LAM_RTOL = 3e-3
 
 
 @pytest.mark.parametrize("method", ["ml", "gcv"])

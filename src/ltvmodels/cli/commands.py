@@ -359,11 +359,15 @@ def _cmd_fit(args: argparse.Namespace) -> Report:
     _check_coef_out(args)
     label, x, u, state_names, input_names = _state_space_data(args)
     what = "choosing lambda and fitting" if args.lam == "auto" else "fitting"
-    with Progress(f"ltvmodels fit: {what}"), user_errors():
+    with Progress(f"ltvmodels fit: {what}") as bar, user_errors():
+
+        def progress(done: int, total: int) -> None:  # the candidates of lam=auto
+            bar.total, bar.done = total, done
+
         model = fit(x, u, lam=args.lam, norm=args.norm, order=args.order, refine=args.refine,
                     max_iter=args.max_iter, tol=args.tol, constant=args.constant,
                     loss=args.loss, huber_delta=args.huber_delta, noise_var=args.noise_var,
-                    weights=args.transition_weights)
+                    weights=args.transition_weights, progress=progress)
     _record_columns(model, state_names, input_names, args.time_values)
     report, lines, changepoints = _state_space_report("fit", label, model, x, u, state_names,
                                                       input_names)
@@ -600,7 +604,7 @@ def _cmd_select_lambda(args: argparse.Namespace) -> Report:
         f"norm={selection.norm!r}" + ("" if is_l0 else f", order={args.order}")
         + (", with a constant term c_t" if args.constant else "")
         + f", criterion {selection.method!r} ({best} over {len(selection.lams)} candidates"
-        + ("" if is_l0 or selection.method in ("lcurve", "cv") else ", then refined") + ")",
+        + ("" if is_l0 else ": a coarse grid, refined where the criterion peaks") + ")",
     ]
     if any(counts.values()):
         lines.append(_missing_text(n_missing, N, counts, *missing_rule))
@@ -611,9 +615,12 @@ def _cmd_select_lambda(args: argparse.Namespace) -> Report:
     ]
     nearest = int(np.argmin(np.abs(selection.lams - selection.lam)))
     for i, (lam, score) in enumerate(zip(selection.lams, selection.scores, strict=True)):
-        lines.append(f"{fmt(float(lam)):>18}  {fmt(float(score))}"
-                     + ("   <- chosen" if i == nearest and (is_l0 or selection.method in
-                                                              ("lcurve", "cv")) else ""))
+        # not scored: a skipped candidate, or one off the L-curve (no bend, or λ >= λ_max)
+        shown = fmt(float(score)) if np.isfinite(score) else "-"
+        lines.append(f"{fmt(float(lam)):>18}  {shown}" + ("   <- chosen" if i == nearest else ""))
+    if not np.all(np.isfinite(selection.scores)):
+        lines.append("(-: not scored: a singular candidate, or for the L-curve one where it "
+                     "does not bend or the penalty is 0)")
     if plot is not None:
         _save_plot(plot_lambda_selection(selection).figure, plot, report, lines)
     return report, lines

@@ -25,11 +25,12 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from . import blockkernels as kernels
 from .banded import RELATIVE_PIVOT_TOL, difference_bands, kernel_size
-from .problem import RegressionProblem, apply_difference
+from .problem import RegressionProblem
 
 LOG_2PI = float(np.log(2.0 * np.pi))
 TINY = float(np.finfo(float).tiny)
@@ -76,6 +77,7 @@ class ScalarEvidence:
         self.conditioning = (float(np.abs(problem.coeffs).sum()) ** 2 / data
                              if data > 0 else np.inf)
         self._eye = np.eye(p)
+        self._logdet = 0.0
         self.yy_list = self.yy.tolist()
 
     def loglik(self, lam: float) -> float | None:
@@ -90,12 +92,9 @@ class ScalarEvidence:
         if n_eff <= 0 or not lam > 0:
             return None
         weight = lam * lam
-        np.copyto(self._Z, self.rhs)
-        worst, _, logdet = kernels.factor_forward(
-            self.phi, 1, 1.0, self._extra, weight * self._eye, self.bands, self._Z,
-            self._L, self.size)
-        if worst < RELATIVE_PIVOT_TOL:
+        if self._factor(weight) < RELATIVE_PIVOT_TOL:
             return None
+        logdet = self._logdet
         if weight * self.conditioning * EPS > SUBTRACTION_LIMIT:
             costs = self._solution_costs(weight)
         else:
@@ -117,12 +116,80 @@ class ScalarEvidence:
                       + 0.5 * log_pdet - 0.5 * logdet - 0.5 * cost / variance)
         return total
 
+    def solution(self, lam: float, *, dof: bool = False) -> dict | None:
+        """The numbers of the fit at λ that the criteria other than the likelihood need.
+
+        One factorization, forward and back substitution (with ``dof`` also the
+        diagonal blocks of H⁻¹ by selected inversion), without building a fit.
+
+        Returns
+        -------
+        dict or None
+            "rss" (Σ_i RSS_i), "penalty_norm" (‖Dk‖₂ over all coefficients)
+            and with ``dof`` the effective degrees of freedom
+            tr(Φ H⁻¹ Φᵀ) = n Σ_t Σ_j φ_tjᵀ (H⁻¹)_tt φ_tj (every output row has
+            the same H); None where H is singular to working precision.
+        """
+        if not lam > 0 or self._factor(lam * lam) < RELATIVE_PIVOT_TOL:
+            return None
+        cov = np.empty((self.N, self.p, self.p)) if dof else self._no_cov
+        kernels.backward(self._L, self._Z, cov, self.size)  # Z ← Θ (N, p, n)
+        rss, squares = self._residual_and_difference_squares()
+        out = {"rss": float(rss.sum()), "penalty_norm": float(np.sqrt(squares.sum()))}
+        if dof:
+            out["dof"] = self.n * float(np.einsum("tja,tab,tjb->", self.phi, cov, self.phi))
+        return out
+
+    def _factor(self, weight: float) -> float:
+        """Factor H at λ² = ``weight`` and forward-substitute; the worst relative pivot."""
+        np.copyto(self._Z, self.rhs)
+        worst, _, self._logdet = kernels.factor_forward(
+            self.phi, 1, 1.0, self._extra, weight * self._eye, self.bands, self._Z,
+            self._L, self.size)
+        return worst
+
+    def _residual_and_difference_squares(self) -> tuple[np.ndarray, np.ndarray]:
+        """RSS_i and ‖Dθ_i‖² (n,) of the solution Θ in ``_Z`` (after the back substitution)."""
+        rss, squares = np.empty(self.n), np.empty(self.n)
+        residual_and_difference_squares(self._Z, self.problem.y, self.phi,
+                                        self.problem.coeffs, rss, squares)
+        return rss, squares
+
     def _solution_costs(self, weight: float) -> list[float]:
         """RSS_i + penalty_i of the solution, after :meth:`loglik`'s forward sweep."""
-        pb = self.problem
-        N, n, p = self.N, self.n, self.p
         kernels.backward(self._L, self._Z, self._no_cov, self.size)  # Z ← Θ (N, p, n)
-        theta = np.ascontiguousarray(np.swapaxes(self._Z, 1, 2))
-        Dk = apply_difference(theta.reshape(N, n * p), pb.coeffs)
-        penalty = weight * np.einsum("tk,tk->k", Dk, Dk).reshape(n, p).sum(axis=1)
-        return (pb.output_rss(theta) + penalty).tolist()
+        rss, squares = self._residual_and_difference_squares()
+        return (rss + weight * squares).tolist()
+
+
+@numba.njit(cache=True)
+def residual_and_difference_squares(theta, y, phi, coeffs, rss, squares):  # pragma: no cover
+    """rss_i = Σ_tj (y_tji − θ_t[:, i]·φ_tj)² and squares_i = Σ_t ‖(Dθ[:, :, i])_t‖².
+
+    One pass over theta (N, p, n) as the solver leaves it (column i is output
+    row i's coefficients), y (N, q, n), phi (N, q, p), coeffs (d + 1,); rss and
+    squares (n,) are outputs. The fitted values are summed as
+    :func:`.blockkernels.rowwise_matvec` does, so a nearly exact fit's RSS has
+    the same rounding as the fit's.
+    """
+    N, p, n = theta.shape
+    q = y.shape[1]
+    d = coeffs.shape[0] - 1
+    for i in range(n):
+        rss[i] = 0.0
+        squares[i] = 0.0
+    for t in range(N):
+        for j in range(q):
+            for i in range(n):
+                fitted = 0.0
+                for a in range(p):
+                    fitted += theta[t, a, i] * phi[t, j, a]
+                e = y[t, j, i] - fitted
+                rss[i] += e * e
+        if t + d < N:
+            for i in range(n):
+                for a in range(p):
+                    difference = 0.0
+                    for lag in range(d + 1):
+                        difference += coeffs[lag] * theta[t + lag, a, i]
+                    squares[i] += difference * difference

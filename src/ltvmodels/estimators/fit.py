@@ -9,7 +9,7 @@ core :func:`.regression.fit_problem`.
 from __future__ import annotations
 
 from functools import partial
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -132,6 +132,7 @@ def fit(
     constant: bool = False,
     loss: str = "squared",
     huber_delta: Any = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> LTVModel:
     """Identify an LTV model x[t+1] = A_t x[t] + B_t u[t] (+ c_t) + v_t.
 
@@ -255,6 +256,10 @@ def fit(
         δ in the units of x, shared or one per state. Default: 1.345 × 1.4826
         · MAD of each state's squared-loss residuals (Huber's 95 % efficiency
         at Gaussian noise).
+    progress : callable, optional
+        With ``lam="auto"``: called as ``progress(done, total)`` after each
+        candidate λ is scored (see :func:`ltvmodels.select_lambda`), e.g. to
+        draw a progress bar.
 
     Returns
     -------
@@ -276,6 +281,7 @@ def fit(
             x, u, lam=lam, norm=norm, order=order, prior=prior, prior_mode=prior_mode,
             noise_var=noise_var, compute_cov=False, max_iter=max_iter, tol=tol,
             weights=weights, constant=constant, loss=loss, huber_delta=huber_delta,
+            progress=progress,
         )
         data = state_space_data(x, u, weights=weights, constant=constant)
         _, delta = options.loss_options(loss, huber_delta, data.n)
@@ -293,6 +299,7 @@ def fit(
         data_name="x",
         lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
         compute_cov=compute_cov, max_iter=max_iter, tol=tol, loss=loss, huber_delta=huber_delta,
+        progress=progress,
     )
     return data.describe(model)
 

@@ -164,6 +164,7 @@ def fit_problem(
     rows_note: str = "",
     loss: Any = "squared",
     huber_delta: Any = None,
+    progress: Any = None,
 ) -> RegressionModel:
     """The core shared by every front-end: a validated (y, φ) problem → model.
 
@@ -172,6 +173,8 @@ def fit_problem(
     as the argument), solves with the solver of ``norm`` and builds the model
     with ``factory(k, fit=FitRecord(...))``. ``rows_note`` is
     added to a too-few-samples message (e.g. how the rows relate to T).
+    ``progress`` follows the choice of λ for ``lam="auto"`` (see
+    :func:`ltvmodels.select_lambda`).
     """
     norm = options.norm_name(norm)
     prior_mode = options.choice(prior_mode, "prior_mode", ("exact", "posthoc"))
@@ -190,7 +193,8 @@ def fit_problem(
         identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
         method = DEFAULT_METHOD[norm] if loss == "squared" else "cv"
         selection = select_for_problem(problem, norm, method, None, loss=loss,
-                                       delta=huber_delta)
+                                       delta=huber_delta,
+                                       progress=options.callback(progress, "progress"))
         lam = selection.lam
         if selection.huber_delta is not None:  # the model has the loss λ was chosen for
             huber_delta = np.array(selection.huber_delta)
@@ -206,7 +210,7 @@ def fit_problem(
             "lams": selection.lams.tolist(),
             # None where there is no score (a skipped candidate, an L-curve without a bend)
             "scores": [float(v) if np.isfinite(v) else None for v in selection.scores],
-            "loss": selection.loss,
+            "loss": selection.loss, "n_fits": selection.n_fits,
         }
         if selection.skipped:
             model.info["lam_selection"]["skipped"] = [list(item) for item in selection.skipped]

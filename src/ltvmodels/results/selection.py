@@ -39,6 +39,9 @@ class LambdaSelection:
         Candidates left out because their problem is singular, with the reason
         (they score worst: -inf where the criterion is maximized, +inf where it
         is minimized; ``dof`` and the norms are NaN there).
+    n_fits : int or None
+        The fits the choice took: one per candidate (for "ml" one banded
+        factorization each; "cv": ``n_folds`` per candidate).
     """
 
     lam: float
@@ -52,6 +55,7 @@ class LambdaSelection:
     loss: str = "squared"
     huber_delta: list | None = None
     skipped: list | None = None
+    n_fits: int | None = None
 
     @property
     def maximize(self) -> bool:

@@ -35,6 +35,14 @@ def flag(value: Any, name: str) -> bool:
     return bool(value)
 
 
+def callback(value: Any, name: str) -> Any:
+    """Validate a function or None (e.g. ``progress(done, total)``)."""
+    if value is not None and not callable(value):
+        raise TypeError(f"{name}: expected a function {name}(done, total) or None, received "
+                        f"{describe(value)}")
+    return value
+
+
 def is_auto(value: Any, name: str) -> bool:
     """True for the string "auto"; any other string is a TypeError naming the argument."""
     if isinstance(value, str):
