@@ -175,21 +175,21 @@ def residual_and_difference_squares(theta, y, phi, coeffs, rss, squares):  # pra
     N, p, n = theta.shape
     q = y.shape[1]
     d = coeffs.shape[0] - 1
-    for i in range(n):
-        rss[i] = 0.0
-        squares[i] = 0.0
-    for t in range(N):
-        for j in range(q):
-            for i in range(n):
+    for i in range(n):  # one output at a time: the sums stay in registers
+        total = 0.0
+        for t in range(N):
+            for j in range(q):
                 fitted = 0.0
                 for a in range(p):
                     fitted += theta[t, a, i] * phi[t, j, a]
                 e = y[t, j, i] - fitted
-                rss[i] += e * e
-        if t + d < N:
-            for i in range(n):
-                for a in range(p):
-                    difference = 0.0
-                    for lag in range(d + 1):
-                        difference += coeffs[lag] * theta[t + lag, a, i]
-                    squares[i] += difference * difference
+                total += e * e
+        rss[i] = total
+        total = 0.0
+        for t in range(N - d):
+            for a in range(p):
+                difference = 0.0
+                for lag in range(d + 1):
+                    difference += coeffs[lag] * theta[t + lag, a, i]
+                total += difference * difference
+        squares[i] = total
