@@ -31,10 +31,11 @@ def cvxpy_solve(x, u, lam, norm, coeffs, solver):
 
     pb = state_space_problem(x, u, np.asarray(coeffs, float))
     N, n, p = pb.N, pb.n, pb.p
+    phi, y = pb.phi[:, 0], pb.y[:, 0]  # one trajectory: (N, p) and (N, n)
     start = time.perf_counter()
     theta = cp.Variable((N, n * p))
-    fitted = [cp.sum(cp.multiply(theta[:, i * p:(i + 1) * p], pb.phi), axis=1) for i in range(n)]
-    loss = sum(cp.sum_squares(pb.y[:, i] - fitted[i]) for i in range(n))
+    fitted = [cp.sum(cp.multiply(theta[:, i * p:(i + 1) * p], phi), axis=1) for i in range(n)]
+    loss = sum(cp.sum_squares(y[:, i] - fitted[i]) for i in range(n))
     d = len(coeffs) - 1
     Dk = sum(coeffs[j] * theta[j:N - d + j, :] for j in range(d + 1))
     reg = cp.sum(cp.norm(Dk, 2, axis=1)) if norm == "group" else cp.sum(cp.abs(Dk))

@@ -295,10 +295,12 @@ def _reduced_solve(problem, vertex, k, phi_op, diff_op, group):
         # the step changes once they do.
         toward = -np.sum(unit * (E @ step).reshape(-1, g), axis=1)
         crossed = toward >= e_norm
-        if crossed.any() and iteration > 1:
+        first = None
+        if crossed.any():
             at = e_norm[crossed] / toward[crossed]
             first = active[crossed][at <= SPLIT_TIES * at.min()]
-            return (B @ theta).reshape(N, K), first, iteration
+            if iteration > 1:
+                return (B @ theta).reshape(N, K), first, iteration
         alpha = 1.0
         for _ in range(MAX_HALVINGS):
             trial = objective(theta + alpha * step)
@@ -306,7 +308,10 @@ def _reduced_solve(problem, vertex, k, phi_op, diff_op, group):
                 break
             alpha *= 0.5
         else:
-            return (B @ theta).reshape(N, K), None, iteration
+            # No descent along the step: the kink of a cone it drives through its
+            # vertex is in the way (also in the first step, whose crossings are
+            # otherwise trusted only once confirmed): that cone belongs to V.
+            return (B @ theta).reshape(N, K), first, iteration
         theta = theta + alpha * step
         current = trial
     return None
