@@ -7,8 +7,13 @@ of ``--repeat`` runs, and prints times, iterations and the relative objective ga
 Clarabel's optimum, for order 1 and 2 and both norms. cvxpy runs up to
 ``--max-reference-T`` (default 10000; it needs minutes and gigabytes beyond).
 
+With ``--wide`` it instead times wider models — jump systems with n = 4, 5, 6
+states and m = 2, 2, 4 inputs (K = 24, 35, 60 parameters per step; A switches
+between two random stable matrices at T/2, σ = 0.2, λ = 5, order 1) at
+T = 1000 and 4000 — and prints the solver the dispatch chose.
+
 Run:  python benchmarks/bench_tv.py [--sizes 400 2000 10000 100000] [--scs]
-          [--norms group l1] [--orders 1 2] [--repeat 3]
+          [--norms group l1] [--orders 1 2] [--repeat 3] [--wide]
 """
 
 from __future__ import annotations
@@ -23,6 +28,66 @@ import ltvmodels as ltv
 from ltvmodels.core.problem import state_space_problem
 
 LAM = 17.0
+WIDE = [(4, 2), (5, 2), (6, 4)]  # (n, m) of --wide
+WIDE_LAM = 5.0
+
+
+def wide_jump(n: int, m: int, T: int, seed: int = 0):
+    """x (T, n), u (T, m): A switches between two random stable matrices at T/2."""
+    rng = np.random.default_rng(seed)
+
+    def stable():
+        A = rng.standard_normal((n, n))
+        return 0.9 * A / np.abs(np.linalg.eigvals(A)).max()
+
+    A1, A2, B = stable(), stable(), rng.standard_normal((n, m))
+    u = rng.standard_normal((T, m))
+    x = np.zeros((T, n))
+    for t in range(T - 1):
+        x[t + 1] = (A1 if t < T // 2 else A2) @ x[t] + B @ u[t] + 0.2 * rng.standard_normal(n)
+    return x, u
+
+
+def best_of(repeat: int, function):
+    """(best wall time over ``repeat`` calls, the last result)."""
+    times, result = [], None
+    for _ in range(repeat):
+        start = time.perf_counter()
+        result = function()
+        times.append(time.perf_counter() - start)
+    return min(times), result
+
+
+def wide(args) -> None:
+    """The --wide table."""
+    print(f"lam = {WIDE_LAM}, jump systems, order 1, tol = 1e-6")
+    header = (f"{'norm':>5} {'n':>2} {'m':>2} {'K':>3} {'T':>5} {'solver':>14} {'ours [s]':>9} "
+              f"{'iters':>6} {'Clarabel [s]':>12} {'ratio':>7} {'rel. gap':>9}")
+    print(header)
+    print("-" * len(header))
+    for norm in args.norms:
+        for n, m in WIDE:
+            for T in (1000, 4000):
+                x, u = wide_jump(n, m, T)
+
+                def ours():
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore", ltv.ConvergenceWarning)
+                        return ltv.fit(x, u, lam=WIDE_LAM, norm=norm, compute_cov=False,
+                                       max_iter=100_000)
+
+                ours()  # compile the kernels for this block size outside the timing
+                took, model = best_of(args.repeat, ours)
+                t_ref, (ref, _) = best_of(args.repeat, lambda: cvxpy_solve(
+                    x, u, WIDE_LAM, norm, [-1.0, 1.0], "CLARABEL"))
+                gap = (model.info["objective"] - ref) / abs(ref)
+                line = (f"{norm:>5} {n:>2} {m:>2} {n * (n + m):>3} {T:>5} "
+                        f"{model.info['solver'][:14]:>14} {took:>9.3f} "
+                        f"{model.info['iterations']:>6} {t_ref:>12.3f} {t_ref / took:>6.2f}x "
+                        f"{gap:>9.1e}")
+                if not model.info["converged"]:
+                    line += " (not converged)"
+                print(line, flush=True)
 
 
 def cvxpy_solve(x, u, lam, norm, coeffs, solver):
@@ -56,7 +121,12 @@ def main() -> None:
     parser.add_argument("--orders", nargs="+", type=int, default=[1, 2], choices=[1, 2])
     parser.add_argument("--max-reference-T", type=int, default=10000,
                         help="largest T at which cvxpy is run")
+    parser.add_argument("--wide", action="store_true",
+                        help="time wider models (K = 24, 35, 60) instead")
     args = parser.parse_args()
+    if args.wide:
+        wide(args)
+        return
 
     warm = ltv.systems.jump_linear(T=1000, change_at=500, seed=1)
     for norm in ("group", "l1"):  # compile the kernels outside the timings

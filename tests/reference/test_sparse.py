@@ -29,6 +29,7 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
+import ltvmodels.core.sparse as sparse_dispatch
 from dense_reference import (
     sparse_lower_bound,
     sparse_objective,
@@ -312,14 +313,23 @@ def strong_convexity(Phi, N, K):
     return min(float(np.linalg.eigvalsh(b.T @ b)[0]) for b in blocks)
 
 
+def route(monkeypatch, solver):
+    """Force ADMM (the route of "group" beyond 24 parameters per step and of zero weights)
+    for a comparison on the same data; "interior point" is the default at K = 24."""
+    if solver == "ADMM":
+        monkeypatch.setattr(sparse_dispatch, "ipm_suits", lambda norm, K: False)
+
+
+@pytest.mark.parametrize("solver", ["interior point", "ADMM"])
 @pytest.mark.parametrize("norm", ["group", "l1"])
 @pytest.mark.parametrize("order,coeffs", [(1, [-1.0, 1.0]), (2, [1.0, -2.0, 1.0])])
-def test_admm_state_space_matches_clarabel(norm, order, coeffs):
-    """K = 24 parameters per step (4 states, 2 inputs): ADMM, eight trajectories."""
+def test_wide_state_space_matches_clarabel(norm, order, coeffs, solver, monkeypatch):
+    """K = 24 parameters per step (4 states, 2 inputs), eight trajectories."""
+    route(monkeypatch, solver)
     x, u = jump_batches(0, R=8, T=50, n=4, m=2)
     lam = 0.2 * ltv.lambda_max(x, u, norm=norm, order=order)
     model = ltv.fit(x, u, lam=lam, norm=norm, order=order, tol=ADMM_TOL, max_iter=100_000)
-    assert model.K == 24 and model.info["solver"].startswith("ADMM")
+    assert model.K == 24 and model.info["solver"].startswith(solver)
     assert model.info["converged"]
     weights = np.full(model.K, lam)
     optimum, theta = clarabel_optimum(x, u, weights, norm, coeffs)
@@ -331,9 +341,11 @@ def test_admm_state_space_matches_clarabel(norm, order, coeffs):
                            mu=mu)
 
 
+@pytest.mark.parametrize("solver", ["interior point", "ADMM"])
 @pytest.mark.parametrize("norm", ["group", "l1"])
-def test_admm_regression_with_dropped_rows_matches_clarabel(norm):
+def test_wide_regression_with_dropped_rows_matches_clarabel(norm, solver, monkeypatch):
     """fit_regression, K = 3 × 8 = 24, ten series with weights (some 0) and missing rows."""
+    route(monkeypatch, solver)
     rng = np.random.default_rng(11)
     R, N, n, p = 10, 45, 3, 8
     phi = rng.standard_normal((R, N, p))
@@ -348,7 +360,7 @@ def test_admm_regression_with_dropped_rows_matches_clarabel(norm):
     lam = 0.1 * np.sqrt(float(np.nansum(y**2)))  # lambda_max is for the state-space form
     model = ltv.fit_regression(y, phi, lam=lam, norm=norm, weights=w, tol=ADMM_TOL,
                                max_iter=100_000)
-    assert model.info["solver"].startswith("ADMM") and model.info["converged"]
+    assert model.info["solver"].startswith(solver) and model.info["converged"]
     weights = np.full(n * p, lam)
     optimum, theta = clarabel_regression(y, phi, weights, norm, [-1.0, 1.0], row_weights=w)
     Phi, Y = sparse_regression(y, phi, w)
@@ -364,7 +376,7 @@ def test_admm_regression_with_dropped_rows_matches_clarabel(norm):
 @pytest.mark.parametrize("norm", ["group", "l1"])
 @pytest.mark.parametrize("order,coeffs", [(1, [-1.0, 1.0]), (2, [1.0, -2.0, 1.0])])
 def test_zero_coefficient_weights_use_admm_and_match_clarabel(norm, order, coeffs):
-    """λ_j = 0 leaves coefficient j free (K = 6 <= 20, but the interior point needs λ > 0)."""
+    """λ_j = 0 leaves coefficient j free (K = 6, but the interior point needs λ > 0)."""
     x, u = jump_batches(1, R=6, T=50, n=2, m=1)
     pattern = np.array([1.0, 0.0, 2.0, 0.5, 1.0, 0.0])  # B[0] and B[1] free
     weights = 0.3 * ltv.lambda_max(x, u, norm=norm, order=order) * pattern
@@ -377,3 +389,18 @@ def test_zero_coefficient_weights_use_admm_and_match_clarabel(norm, order, coeff
     check_against_clarabel(Phi, Y, model, weights, norm, coeffs, optimum, theta,
                            objective_rtol=ADMM_AGREEMENT, certificate_rtol=ADMM_AGREEMENT,
                            mu=mu)
+
+
+@pytest.mark.parametrize("norm", ["group", "l1"])
+def test_admm_warns_when_its_certificate_misses_the_tolerance(norm):
+    """ADMM stops on the duality-gap certificate; cut short, it says so."""
+    x, u = jump_batches(1, R=2, T=60, n=2, m=1)
+    weights = 0.3 * ltv.lambda_max(x, u, norm=norm) * np.array([1.0, 0.0, 2.0, 0.5, 1.0, 1.0])
+    with pytest.warns(ltv.ConvergenceWarning,
+                      match=r"ADMM did not converge .*relative duality gap"):
+        model = ltv.fit(x, u, lam=weights, norm=norm, max_iter=5)
+    assert not model.info["converged"] and model.info["duality_gap"] > 0
+    full = ltv.fit(x, u, lam=weights, norm=norm, tol=1e-8, max_iter=100_000)
+    assert full.info["converged"]
+    assert full.info["duality_gap"] <= 1e-8 * full.info["objective"]
+    assert full.info["stationarity"] <= 1e-8

@@ -76,10 +76,11 @@ def test_polished_fit_is_optimal_polished():
 
 
 def test_admm_status():
-    big = ltv.systems.random_walk_system(T=120, n=4, m=2, seed=1, drift_std=0.01)
+    big = ltv.systems.random_walk_system(T=120, n=5, m=2, seed=1, drift_std=0.01)  # K = 35
     model = ltv.fit(big.x, big.u, lam=5.0, norm="group")
     s = check(model, "optimal", "ADMM")
-    assert {"rho", "n_factorizations", "lambda_max"} <= set(s.details)
+    assert {"rho", "n_factorizations", "lambda_max", "duality_gap", "stationarity"} \
+        <= set(s.details)
     with pytest.warns(ltv.ConvergenceWarning):
         short = ltv.fit(big.x, big.u, lam=5.0, norm="group", max_iter=3)
     check(short, "max_iter", "ADMM")

@@ -145,7 +145,10 @@ def _operators(problem: RegressionProblem, weights: np.ndarray):
 
 
 def certificate(problem: RegressionProblem, weights: np.ndarray, k: np.ndarray, group: bool):
-    """Objective, duality gap, relative dual residual and ‖u_c‖ per cone of k (full problem)."""
+    """Objective, duality gap, relative dual residual and ‖u_c‖ per cone of k (full problem).
+
+    Any k (N, K) gets one; weights (K,) finite and >= 0.
+    """
     # scipy.signal takes ~0.4 s to import; only the polish needs it.
     from scipy.signal import lfilter
 
@@ -157,7 +160,9 @@ def certificate(problem: RegressionProblem, weights: np.ndarray, k: np.ndarray, 
     grad = -2.0 * np.einsum("tji,tja->tia", resid, problem.phi).reshape(N, K)
     # DᵀΛu = −grad: the rows t < R are the recurrence Σ_q c_q (Λu)_{t−q} = −grad_t.
     lam_u = lfilter([1.0], coeffs, -grad[:R], axis=0)
-    u = lam_u / weights
+    # A coefficient without penalty (weight 0) has no dual: its gradient must vanish,
+    # which the stationarity residual below measures.
+    u = np.divide(lam_u, weights, out=np.zeros_like(lam_u), where=weights > 0)
     e = apply_difference(k, coeffs) * weights
     if group:
         e_norm, u_norm = np.linalg.norm(e, axis=1), np.linalg.norm(u, axis=1)

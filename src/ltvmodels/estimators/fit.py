@@ -200,8 +200,9 @@ def fit(
         Compute posterior covariances (selected inversion, O(N)); False skips them.
     max_iter, tol : int, float
         For "group" and "l1" (unused for "sq"): the iteration limit and the
-        relative tolerance. With K <= 20 parameters per time step the solver is
-        a primal-dual interior-point method whose Newton systems are
+        relative tolerance. For "l1", and for "group" with K <= 24 parameters
+        per time step, the solver is a primal-dual interior-point method whose
+        Newton systems are
         block-banded (:mod:`ltvmodels.core.ipm`, 10–30 iterations): ``tol``
         bounds the duality gap relative to the objective
         (``info["duality_gap"]``) and the relative primal and dual residuals.
@@ -210,8 +211,10 @@ def fit(
         (:mod:`ltvmodels.core.polish`, orders 1 and 2) solves the problem
         with the zero differences fixed and certifies the result the same
         way; ``info["polished"]`` says so. Otherwise ADMM
-        (:mod:`ltvmodels.core.admm`): ``tol`` applies to the relative primal
-        and dual residuals.
+        (:mod:`ltvmodels.core.admm`) stops on the same certificate (the
+        duality gap relative to the objective and the relative stationarity
+        residual below ``tol``; ``info["duality_gap"]``,
+        ``info["stationarity"]``), or warns.
     refine : bool
         Two-step refinement (paper Section III-G): find the change points of
         this fit (:func:`ltvmodels.find_changepoints`, default rules) and refit
