@@ -203,3 +203,28 @@ def test_vector_lam_rows_sharing_a_factorization(pattern):
     assert relerr(model.cov_full(), full) < TOL
     assert relerr(model.std(), np.sqrt(np.diagonal(full, axis1=1, axis2=2))) < TOL
     assert model.cov_shared_by_rows == (pattern == "all-rows-equal")
+
+
+@pytest.mark.parametrize("compute_cov", [False, True])
+def test_squared_norm_equals_scipys_banded_cholesky(compute_cov):
+    """The normal equations H θ_i = Φᵀy_i, H = blkdiag φ_tφ_tᵀ + λ²DᵀD ⊗ I_p (order 1),
+    in LAPACK's banded storage, solved by scipy.linalg.cholesky_banded: the same θ."""
+    from scipy.linalg import cho_solve_banded, cholesky_banded
+
+    data = ltv.systems.random_walk_system(T=300, n=3, m=2, seed=4)
+    lam = 7.0
+    phi, y = np.hstack([data.x[:-1], data.u[:-1]]), data.x[1:]
+    N, p = phi.shape
+    dtd = np.full(N, 2.0)
+    dtd[[0, -1]] = 1.0
+    ab = np.zeros((p + 1, N * p))  # ab[a − b, t·p + b] = H[t·p + a, t·p + b]
+    for offset in range(p):
+        b = np.arange(p - offset)
+        ab[offset].reshape(N, p)[:, b] = phi[:, b + offset] * phi[:, b]
+    ab[0] += np.repeat(lam**2 * dtd, p)
+    ab[p, : (N - 1) * p] = -(lam**2)
+    rhs = (phi[:, :, None] * y[:, None, :]).reshape(N * p, -1)
+    theta = cho_solve_banded((cholesky_banded(ab, lower=True), True), rhs)
+    expected = theta.reshape(N, p, -1).transpose(0, 2, 1)  # (N, n, p)
+    model = ltv.fit(data.x, data.u, lam=lam, compute_cov=compute_cov)
+    np.testing.assert_allclose(model.k.reshape(N, 3, p), expected, rtol=1e-10, atol=1e-12)

@@ -402,6 +402,43 @@ def rowwise_matvec(theta, phi, out):  # pragma: no cover - compiled
                 out[t, r, i] = acc
 
 
+@numba.njit(cache=True)
+def residual_and_difference_squares(theta, y, phi, coeffs, weights, rss,
+                                    squares):  # pragma: no cover - compiled
+    """rss_i = Σ_tj (y_tji − Θ_t[i]·φ_tj)² and squares_i = Σ_t Σ_a w_a ((DΘ)_t[i, a])².
+
+    One pass per output row over Θ (N, n, p) (any memory layout), y (N, q, n),
+    φ (N, q, p), the difference coefficients (d + 1,) and the weights (p,);
+    rss and squares (n,) are outputs. The fitted values are summed as
+    :func:`rowwise_matvec` sums them.
+    """
+    N, n, p = theta.shape
+    q = y.shape[1]
+    d = coeffs.shape[0] - 1
+    for i in range(n):
+        rss[i] = 0.0
+        squares[i] = 0.0
+    # One pass over time (the arrays stream through the cache once); the n sums
+    # are small enough to stay in L1.
+    for t in range(N):
+        for j in range(q):
+            for i in range(n):
+                fitted = 0.0
+                for a in range(p):
+                    fitted += theta[t, i, a] * phi[t, j, a]
+                e = y[t, j, i] - fitted
+                rss[i] += e * e
+        if t + d < N:
+            for i in range(n):
+                total = 0.0
+                for a in range(p):
+                    difference = 0.0
+                    for lag in range(d + 1):
+                        difference += coeffs[lag] * theta[t + lag, i, a]
+                    total += weights[a] * difference * difference
+                squares[i] += total
+
+
 # The same kernels under the names of their constant-size use (a tuple ``size``).
 factor_forward_fixed = factor_forward
 backward_fixed = backward

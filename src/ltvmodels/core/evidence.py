@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
 from . import blockkernels as kernels
@@ -78,6 +77,7 @@ class ScalarEvidence:
                              if data > 0 else np.inf)
         self._eye = np.eye(p)
         self._logdet = 0.0
+        self._ones = np.ones(p)  # the penalty's weight per regressor (a scalar λ)
         self.yy_list = self.yy.tolist()
 
     def loglik(self, lam: float) -> float | None:
@@ -151,8 +151,9 @@ class ScalarEvidence:
     def _residual_and_difference_squares(self) -> tuple[np.ndarray, np.ndarray]:
         """RSS_i and ‖Dθ_i‖² (n,) of the solution Θ in ``_Z`` (after the back substitution)."""
         rss, squares = np.empty(self.n), np.empty(self.n)
-        residual_and_difference_squares(self._Z, self.problem.y, self.phi,
-                                        self.problem.coeffs, rss, squares)
+        kernels.residual_and_difference_squares(
+            np.swapaxes(self._Z, 1, 2), self.problem.y, self.phi, self.problem.coeffs,
+            self._ones, rss, squares)
         return rss, squares
 
     def _solution_costs(self, weight: float) -> list[float]:
@@ -160,36 +161,3 @@ class ScalarEvidence:
         kernels.backward(self._L, self._Z, self._no_cov, self.size)  # Z ← Θ (N, p, n)
         rss, squares = self._residual_and_difference_squares()
         return (rss + weight * squares).tolist()
-
-
-@numba.njit(cache=True)
-def residual_and_difference_squares(theta, y, phi, coeffs, rss, squares):  # pragma: no cover
-    """rss_i = Σ_tj (y_tji − θ_t[:, i]·φ_tj)² and squares_i = Σ_t ‖(Dθ[:, :, i])_t‖².
-
-    One pass over theta (N, p, n) as the solver leaves it (column i is output
-    row i's coefficients), y (N, q, n), phi (N, q, p), coeffs (d + 1,); rss and
-    squares (n,) are outputs. The fitted values are summed as
-    :func:`.blockkernels.rowwise_matvec` does, so a nearly exact fit's RSS has
-    the same rounding as the fit's.
-    """
-    N, p, n = theta.shape
-    q = y.shape[1]
-    d = coeffs.shape[0] - 1
-    for i in range(n):  # one output at a time: the sums stay in registers
-        total = 0.0
-        for t in range(N):
-            for j in range(q):
-                fitted = 0.0
-                for a in range(p):
-                    fitted += theta[t, a, i] * phi[t, j, a]
-                e = y[t, j, i] - fitted
-                total += e * e
-        rss[i] = total
-        total = 0.0
-        for t in range(N - d):
-            for a in range(p):
-                difference = 0.0
-                for lag in range(d + 1):
-                    difference += coeffs[lag] * theta[t + lag, a, i]
-                total += difference * difference
-        squares[i] = total

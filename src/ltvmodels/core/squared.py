@@ -53,7 +53,7 @@ import numpy as np
 
 from ..errors import PrecisionWarning, SingularProblemError
 from .banded import BlockSolution, BlockSystem, solve_block_banded, solve_varying
-from .blockkernels import rowwise_matvec
+from .blockkernels import residual_and_difference_squares, rowwise_matvec
 from .covariance import CovarianceBlocks
 from .priorterms import PriorTerm
 from .problem import RegressionProblem, apply_difference
@@ -592,8 +592,10 @@ def _fit_shared(problem: RegressionProblem, W: np.ndarray, row: np.ndarray, *,
         raise
     info: dict = {"row_separable": True}
     _warn_if_precision_lost(lost, info, stacklevel=5)
-    row_rss = problem.output_rss(theta)
-    row_pen = _row_penalty_diagonal(theta, problem.coeffs, W, n, problem.p)
+    # RSS_i and penalty_i in one compiled pass (a shared diagonal weight: row (p,))
+    row_rss, row_pen = np.empty(n), np.empty(n)
+    residual_and_difference_squares(theta, problem.y, problem.phi, problem.coeffs,
+                                    np.ascontiguousarray(row, dtype=float), row_rss, row_pen)
     rss, pen = float(row_rss.sum()), float(row_pen.sum())
     row_cost = row_rss + row_pen  # RSS_i + penalty_i
     variances, loglik = _rows_loglik(row_cost, n_obs, diffuse, log_pdet, row_logdet, variances)

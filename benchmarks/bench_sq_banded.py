@@ -1,0 +1,131 @@
+"""Benchmark: norm="sq" against scipy's banded Cholesky of the same normal equations.
+
+On the random-walk system (n = 3 states, m = 2 inputs: p = 5 regressors,
+K = 15 parameters per step; order 1, λ = 30) this times, in one process on
+the same data:
+
+* ``ltvmodels.fit(x, u, norm="sq", compute_cov=False)`` and with covariances
+  (from the raw arrays: validation, regressors, factorization, solution);
+* scipy: the normal equations H θ_i = Φᵀ y_i (H = blkdiag_t φ_tφ_tᵀ + λ²DᵀD ⊗ I_p,
+  one matrix for the n output rows) assembled in LAPACK's banded storage with
+  numpy from φ and y, then ``scipy.linalg.cholesky_banded`` and
+  ``cho_solve_banded`` — the time with the assembly, and of factor + solve
+  alone;
+
+and the time to stream the fit's arrays once through memory: the bytes of x
+and u read and of θ (and the covariance blocks) written, at the bandwidth of a
+large ``np.copyto`` measured here. Each time is the best of ``--repeat`` runs;
+max |Δθ| is the agreement of the two solutions.
+
+Run:  python benchmarks/bench_sq_banded.py [--sizes 1e4 1e5 1e6] [--repeat 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+from scipy.linalg import cho_solve_banded, cholesky_banded
+
+import ltvmodels as ltv
+from ltvmodels.systems import random_walk_system
+
+LAM = 30.0
+
+
+def best_time(function, repeat: int):
+    """(best wall time over ``repeat`` calls, the last result)."""
+    best, result = np.inf, None
+    for _ in range(repeat):
+        start = time.perf_counter()
+        result = function()
+        best = min(best, time.perf_counter() - start)
+    return best, result
+
+
+def banded_normal_equations(phi: np.ndarray, y: np.ndarray, lam: float):
+    """H in lower banded storage (p + 1, N·p) and the right-hand sides Φᵀy (N·p, n).
+
+    Order 1: (DᵀD)_tt = 1 at the ends and 2 inside, (DᵀD)_{t+1,t} = −1, so H's
+    diagonal block t is φ_tφ_tᵀ + λ²(DᵀD)_tt I and its off-diagonal block the
+    scaled identity −λ² I, at band offset p.
+    """
+    N, p = phi.shape
+    dtd = np.full(N, 2.0)
+    dtd[[0, -1]] = 1.0
+    ab = np.zeros((p + 1, N * p))
+    for offset in range(p):  # ab[a − b, t·p + b] = H[t·p + a, t·p + b], a >= b
+        b = np.arange(p - offset)
+        ab[offset].reshape(N, p)[:, b] = phi[:, b + offset] * phi[:, b]
+    ab[0] += np.repeat(lam**2 * dtd, p)
+    ab[p, : (N - 1) * p] = -(lam**2)
+    rhs = (phi[:, :, None] * y[:, None, :]).reshape(N * p, y.shape[1])
+    return ab, rhs
+
+
+def scipy_solve(phi, y, lam, ab=None, rhs=None):
+    """θ (N, n, p) by scipy's banded Cholesky (assembling H unless given)."""
+    if ab is None:
+        ab, rhs = banded_normal_equations(phi, y, lam)
+    factor = cholesky_banded(ab, lower=True)
+    theta = cho_solve_banded((factor, True), rhs)
+    N, p = phi.shape
+    return theta.reshape(N, p, -1).transpose(0, 2, 1)
+
+
+def factor_and_solve_time(phi: np.ndarray, y: np.ndarray, repeat: int) -> float:
+    """scipy's best time for the factorization and solve alone (H assembled before)."""
+    ab, rhs = banded_normal_equations(phi, y, LAM)
+    seconds, _ = best_time(lambda: scipy_solve(phi, y, LAM, ab, rhs), repeat)
+    return seconds
+
+
+def bandwidth(megabytes: int = 800) -> float:
+    """Bytes read and written per second by a large np.copyto (best of 3)."""
+    source = np.ones(megabytes * 2**20 // 8)
+    target = np.empty_like(source)
+    seconds, _ = best_time(lambda: np.copyto(target, source), 3)
+    return 2 * source.nbytes / seconds
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", nargs="+", type=float, default=[1e4, 1e5, 1e6])
+    parser.add_argument("--repeat", type=int, default=3)
+    args = parser.parse_args()
+    warm = random_walk_system(T=2000, n=3, m=2, seed=1)
+    ltv.fit(warm.x, warm.u, lam=LAM)  # compile the kernels outside the timings
+    ltv.fit(warm.x, warm.u, lam=LAM, compute_cov=False)
+    speed = bandwidth()
+    print(f"norm='sq', n=3, m=2 (p=5, K=15), order 1, lam={LAM}; memory copy "
+          f"{speed / 1e9:.1f} GB/s (read + write)")
+    header = (f"{'T':>8} {'ours [s]':>9} {'+cov [s]':>9} {'scipy [s]':>10} {'factor+solve':>12} "
+              f"{'ratio':>6} {'ratio f+s':>9} {'stream [s]':>10} {'/stream':>8} "
+              f"{'+cov/str.':>9} {'max|Δθ|':>8}")
+    print(header)
+    print("-" * len(header))
+    for size in args.sizes:
+        T = int(size)
+        data = random_walk_system(T=T, n=3, m=2, drift_std=1e-3, noise_std=0.1, seed=0)
+        x, u = data.x, data.u
+        ours, model = best_time(lambda: ltv.fit(x, u, lam=LAM, compute_cov=False), args.repeat)
+        theta = model.k.reshape(T - 1, 3, 5)
+        del model
+        with_cov, model = best_time(lambda: ltv.fit(x, u, lam=LAM), args.repeat)
+        cov_bytes = model.cov.nbytes  # the (N, n, p, p) blocks the model holds
+        del model
+        phi, y = np.hstack([x[:-1], u[:-1]]), x[1:]
+        peer, reference = best_time(lambda: scipy_solve(phi, y, LAM), args.repeat)
+        factor_solve = factor_and_solve_time(phi, y, args.repeat)
+        streamed = x.nbytes + u.nbytes + theta.nbytes
+        stream = streamed / speed  # each byte read or written once
+        stream_cov = (streamed + cov_bytes) / speed
+        print(f"{T:>8} {ours:>9.4f} {with_cov:>9.4f} {peer:>10.4f} {factor_solve:>12.4f} "
+              f"{peer / ours:>5.1f}x {factor_solve / ours:>8.1f}x {stream:>10.4f} "
+              f"{ours / stream:>7.0f}x {with_cov / stream_cov:>8.0f}x "
+              f"{np.abs(theta - reference).max():>8.1e}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
