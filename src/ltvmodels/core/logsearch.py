@@ -4,10 +4,10 @@ Choosing λ scores a fit (or one factorization) per candidate, so the number of
 candidates is the cost. A fine grid over many decades spends most of them far
 from the optimum. Instead :func:`maximize_on_log_scale` scores a coarse grid,
 which is there to find every basin (criteria such as the marginal likelihood
-can have several local maxima), and then refines each interior local maximum
-of the grid by safeguarded successive parabolic interpolation on log λ: the
-parabola through the best point and its two bracketing neighbours predicts
-the maximum, which is scored next and replaces a bracket end. On a smooth
+can have several local maxima), and then refines each local maximum of the
+grid by Brent's safeguarded parabolic search on log λ: the parabola through
+the three best points so far predicts the maximum, which is scored next,
+with a golden-section step where the parabola is not trusted. On a smooth
 criterion this converges superlinearly (order about 1.3), so a few candidates
 per basin reach the tolerance.
 """
@@ -184,8 +184,8 @@ def _parabola_vertex(a: float, b: float, c: float, fa: float, fb: float,
         return None
     p = (b - a) ** 2 * (fb - fc) - (b - c) ** 2 * (fb - fa)
     q = (b - a) * (fb - fc) - (b - c) * (fb - fa)
-    # q/((b − a)(c − b)) is the parabola's second divided difference, up to a factor:
-    # q > 0 for a concave parabola (one with a maximum)
+    # q = −f[a, b, c]·(b − a)(c − b)(c − a) with f[a, b, c] the second divided
+    # difference: q > 0 for a concave parabola (one with a maximum)
     if not q > 0.0:
         return None
     return b - 0.5 * p / q

@@ -86,11 +86,12 @@ METHODS = {
 # halving the spacing around its corner). The likelihood and GCV take 6 points over
 # the squared norm's 3–9 decades: on 72 test series (jump-linear and random-walk
 # systems, T = 60, 300, 2000, orders 1 and 2) the refined maximum of the
-# likelihood was as high as the best of 300 points refined (within 1e-4 for order
-# 1; for order 2 within 5e-3 but on one series, where 30 points miss the same
-# higher of two near-equal maxima), at 9–15 evaluations instead of the former 33–40
-# (30 points and a bounded scalar search). Cross-validation is noisier and the
-# sparse norms' L-curve has several bends: 8 points.
+# likelihood was as high as the best of 300 points refined to within 1e-4 for order
+# 1; for order 2 within 5e-3 on all but one series (1.6e-2 there, where the former
+# 30 points missed the higher of two near-equal maxima by 2.9e-2), at 10–11
+# evaluations on average (at most 18) instead of the former 33–40 (30 points and a
+# bounded scalar search). Cross-validation is noisier and the sparse norms'
+# L-curve has several bends: 8 points.
 COARSE_SIZE = {"ml": 6, "gcv": 6, "cv": 8, "lcurve": 8}
 # The tolerance on log λ of the refined maximum ("ml", "gcv"; the criterion is
 # smooth) and of cross-validation (a noisy criterion: 2 % in λ is enough).
@@ -167,7 +168,7 @@ def select_lambda(
     progress : callable, optional
         Called as ``progress(done, total)`` after each candidate is scored
         (e.g. to draw a progress bar). While the search refines, ``total`` is
-        its limit on the candidates; the last call has ``done == total``.
+        an estimate (at least ``done + 1``); the last call has ``done == total``.
     weights, constant
         As in :func:`ltvmodels.fit`.
     loss, huber_delta
@@ -500,11 +501,6 @@ def _effective_dof(problem: RegressionProblem, result: Any) -> float:
 def _gcv(problem: RegressionProblem, rss: float, dof: float) -> float:
     size = problem.n_observed * problem.n
     return size * rss / max(size - dof, 1e-12) ** 2
-
-
-def _gcv_at(problem: RegressionProblem, lam: float) -> float:
-    f = criterion_fit(problem, "sq", lam, compute_cov=True)
-    return _gcv(problem, f["rss"], f["dof"])
 
 
 def _lcurve_curvature(grid: np.ndarray, residual: np.ndarray, penalty: np.ndarray) -> np.ndarray:
