@@ -23,7 +23,6 @@ Run:  python benchmarks/bench_sq_banded.py [--sizes 1e4 1e5 1e6] [--repeat 3]
 from __future__ import annotations
 
 import argparse
-import time
 
 import numpy as np
 from scipy.linalg import cho_solve_banded, cholesky_banded
@@ -31,17 +30,9 @@ from scipy.linalg import cho_solve_banded, cholesky_banded
 import ltvmodels as ltv
 from ltvmodels.systems import random_walk_system
 
+from bench_sq import best_time
+
 LAM = 30.0
-
-
-def best_time(function, repeat: int):
-    """(best wall time over ``repeat`` calls, the last result)."""
-    best, result = np.inf, None
-    for _ in range(repeat):
-        start = time.perf_counter()
-        result = function()
-        best = min(best, time.perf_counter() - start)
-    return best, result
 
 
 def banded_normal_equations(phi: np.ndarray, y: np.ndarray, lam: float):

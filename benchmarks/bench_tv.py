@@ -27,6 +27,8 @@ import numpy as np
 import ltvmodels as ltv
 from ltvmodels.core.problem import state_space_problem
 
+from bench_sq import best_time
+
 LAM = 17.0
 WIDE = [(4, 2), (5, 2), (6, 4)]  # (n, m) of --wide
 WIDE_LAM = 5.0
@@ -48,16 +50,6 @@ def wide_jump(n: int, m: int, T: int, seed: int = 0):
     return x, u
 
 
-def best_of(repeat: int, function):
-    """(best wall time over ``repeat`` calls, the last result)."""
-    times, result = [], None
-    for _ in range(repeat):
-        start = time.perf_counter()
-        result = function()
-        times.append(time.perf_counter() - start)
-    return min(times), result
-
-
 def wide(args) -> None:
     """The --wide table."""
     print(f"lam = {WIDE_LAM}, jump systems, order 1, tol = 1e-6")
@@ -77,9 +69,9 @@ def wide(args) -> None:
                                        max_iter=100_000)
 
                 ours()  # compile the kernels for this block size outside the timing
-                took, model = best_of(args.repeat, ours)
-                t_ref, (ref, _) = best_of(args.repeat, lambda: cvxpy_solve(
-                    x, u, WIDE_LAM, norm, [-1.0, 1.0], "CLARABEL"))
+                took, model = best_time(ours, args.repeat)
+                t_ref, (ref, _) = best_time(lambda: cvxpy_solve(
+                    x, u, WIDE_LAM, norm, [-1.0, 1.0], "CLARABEL"), args.repeat)
                 gap = (model.info["objective"] - ref) / abs(ref)
                 line = (f"{norm:>5} {n:>2} {m:>2} {n * (n + m):>3} {T:>5} "
                         f"{model.info['solver'][:14]:>14} {took:>9.3f} "
