@@ -78,3 +78,12 @@ def test_progress_reports_a_fraction_that_ends_at_one():
     assert all(0 < done <= total for done, total in reports)
     assert dones[:-1] == list(range(1, search.n_evaluations + 1))
     assert reports[-1] == (search.n_evaluations, search.n_evaluations)
+
+
+def test_a_level_criterion_ends_the_refinement():
+    """Level values (e.g. cross-validation errors that do not depend on λ) tie the
+    bracket's ends with its best point: the search stops, it does not fail."""
+    search = maximize_on_log_scale(lambda lam: 1.0, GRID, xatol=1e-3)
+    assert search.values.max() == 1.0 and GRID[0] <= search.best <= GRID[-1]
+    step = maximize_on_log_scale(lambda lam: 1.0 if lam < 30.0 else 0.0, GRID, xatol=1e-3)
+    assert step.values.max() == 1.0

@@ -152,8 +152,10 @@ def _refine(evaluate: Callable[[float], float], points: tuple, values: tuple, xa
     xs, fs = list(points), list(values)
     steps = [math.inf, math.inf]  # the last two steps' lengths
     for _ in range(max_refine):
-        order = np.argsort(fs)[::-1]
+        order = np.argsort(-np.asarray(fs), kind="stable")  # the first of equal values first
         best = int(order[0])
+        if best in (0, len(xs) - 1):  # level with a bracket end: nothing to refine
+            return
         a, b, c = xs[best - 1], xs[best], xs[best + 1]
         if c - a <= 2.0 * xatol:
             return
