@@ -263,3 +263,14 @@ def test_the_sparse_lcurve_search_finds_the_single_change_like_a_fine_grid(norm)
     for choice in (search, fine):
         model = ltv.fit(data.x, data.u, lam=choice.lam, norm=norm, refine=True)
         np.testing.assert_array_equal(model.changepoints, [200])
+
+
+def test_lam_auto_on_data_that_leave_nothing_to_choose_blames_lam():
+    """A VAR(1) of 6 series with as many complete transitions as coefficients per output:
+    the LTI fit is exact, λ_max is at rounding level and every default candidate gives the
+    same fit. The error blames lam (found by fuzzing: it blamed lams, which fit_ar lacks)."""
+    y = np.random.default_rng(3).standard_normal((12, 6))
+    y[1:4, 4] = np.nan  # four transitions dropped, and the last: 6 left
+    y[-1] = np.nan
+    with pytest.raises(ValueError, match=r"^lam: the L-curve has no corner"):
+        ltv.fit_ar(y, na=1, lam="auto", norm="l1")

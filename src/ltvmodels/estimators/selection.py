@@ -318,7 +318,7 @@ def select_for_problem(
     if method == "lcurve":
         return finish(_lcurve_selection(problem, norm, coarse, attempt, skipped, data_name,
                                         rounds=LCURVE_ROUNDS if adaptive else 0,
-                                        progress=progress))
+                                        progress=progress, given=not adaptive))
     fits: dict[float, dict] = {}  # λ → the criterion fit's numbers (gcv)
     if method == "ml":
         evidence = ScalarEvidence(problem)
@@ -371,11 +371,13 @@ def select_for_problem(
                                                                  else 1), **extra))
 
 
-def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, rounds, progress):
+def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, rounds, progress,
+                      given):
     """The L-curve's corner (see :func:`_lcurve_curvature`): fits on ``grid``, then
     ``rounds`` times two more fits halving the spacing on either side of the corner
     so far.
 
+    ``given``: the candidates are the caller's (an error then blames ``lams``).
     The sparse norms' fits run up the grid, each warm-started from the fit at the
     next smaller λ (:func:`ltvmodels.core.ipm.warm_dual`), to the tolerance
     LCURVE_TOL. A candidate whose penalty is not resolved at that tolerance
@@ -416,12 +418,17 @@ def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, round
                                                     penalty[resolved])
         if not np.isfinite(curvature).any():
             ok = np.isfinite(residual)
+            same = (f"the L-curve has no corner: every candidate gives the same fit (residual "
+                    f"norm {residual[ok][0]:.6g})")
+            if given:
+                raise ValueError(
+                    f"lams: {same}, e.g. all at or above λ_max = "
+                    f"{lambda_max(problem, norm):.6g}; pass candidates below λ_max, or none for "
+                    "the default grid")
             raise ValueError(
-                "lams: the L-curve has no corner: every candidate gives the same fit "
-                f"(residual norm {residual[ok][0]:.6g}), e.g. all at or above λ_max = "
-                f"{lambda_max(problem, norm):.6g}; pass candidates below λ_max, or none for the "
-                "default grid"
-            )
+                f"{data_name}: {same} over the default range λ_max·[1e-3, 1] (λ_max = "
+                f"{lambda_max(problem, norm):.6g}: the data leave nothing to choose); pass a "
+                "number for lam")
         best = int(np.argmax(curvature))
         if round_ == rounds:
             break
