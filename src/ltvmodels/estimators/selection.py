@@ -104,8 +104,6 @@ MAX_REFINE = 12
 # corner's curvature needs a few digits of the residual and penalty norms).
 LCURVE_ROUNDS = 2
 LCURVE_TOL = 1e-4
-# The span of the default range (and the grid of a robust loss's cross-validation).
-GRID_SIZE = 30
 # Robust cross-validation: the folds' solver limits (a score needs a few digits, not
 # the optimum to 1e-6), and the default grid's size (each candidate costs n_folds
 # robust fits).
@@ -276,10 +274,13 @@ def select_for_problem(
     takes method "cv" with Huber thresholds ``delta`` (None: the default rule
     at the middle of the grid).
     """
-    grid = _grid(problem, norm, data_name) if lams is None \
-        else arrays.positive_grid(lams, "lams")
-    if lams is None and loss != "squared":  # the same range, fewer (costlier) candidates
-        grid = np.geomspace(grid[0], grid[-1], ROBUST_GRID_SIZE)
+    adaptive = lams is None  # the default range: a coarse grid, refined where it matters
+    if adaptive:
+        low, high = _default_range(problem, norm, data_name)
+        size = ROBUST_GRID_SIZE if loss != "squared" else COARSE_SIZE[method]
+        grid = np.geomspace(low, high, size)
+    else:
+        grid = arrays.positive_grid(lams, "lams")
 
     def scored(values):
         """Yield each candidate, reporting the ones done so far."""
@@ -313,10 +314,8 @@ def select_for_problem(
                                       norm, loss=loss,
                                       huber_delta=None if delta is None else delta.tolist(),
                                       n_fits=grid.size * n_folds))
-    adaptive = lams is None  # the default range: a coarse grid, refined where it matters
-    coarse = np.geomspace(grid[0], grid[-1], COARSE_SIZE[method]) if adaptive else grid
     if method == "lcurve":
-        return finish(_lcurve_selection(problem, norm, coarse, attempt, skipped, data_name,
+        return finish(_lcurve_selection(problem, norm, grid, attempt, skipped, data_name,
                                         rounds=LCURVE_ROUNDS if adaptive else 0,
                                         progress=progress, given=not adaptive))
     fits: dict[float, dict] = {}  # λ → the criterion fit's numbers (gcv)
@@ -350,7 +349,7 @@ def select_for_problem(
             return -np.inf if value is None else -value
 
         xatol, sign = CV_XATOL, -1.0
-    search = maximize_on_log_scale(criterion, coarse, xatol=xatol,
+    search = maximize_on_log_scale(criterion, grid, xatol=xatol,
                                    max_refine=MAX_REFINE if adaptive or method != "cv" else 0,
                                    progress=progress)
     _scores([None if v == -np.inf else 0.0 for v in search.values], search.lams, skipped,
@@ -358,7 +357,7 @@ def select_for_problem(
     # The candidates reported: every one scored, or the ones given (the choice may lie
     # between them, refined).
     lams_out, values = ((search.lams, search.values) if adaptive
-                        else (coarse, search.grid_values))
+                        else (grid, search.grid_values))
     extra = {}
     if method == "gcv":
         numbers = [fits.get(lam) for lam in lams_out]
@@ -570,13 +569,13 @@ def _robust_cv_error(problem: RegressionProblem, norm: str, lam: float, n_folds:
     return total / (problem.n_observed * problem.n)
 
 
-def _grid(problem: RegressionProblem, norm: str, data_name: str) -> np.ndarray:
-    """The default candidates (see :func:`select_lambda`)."""
+def _default_range(problem: RegressionProblem, norm: str,
+                   data_name: str) -> tuple[float, float]:
+    """The ends of the default range of λ (see :func:`select_lambda`)."""
     if norm == "sq":
         # root-mean-square ‖φ‖ of the observed rows
         scale = float(np.sqrt(np.sum(problem.phi**2) / max(problem.n_observed, 1)))
-        d = problem.degree
-        return scale * np.logspace(-1.0, np.log10(2.0 * problem.N**d), GRID_SIZE)
+        return 0.1 * scale, 2.0 * problem.N**problem.degree * scale
     lam_max = lambda_max(problem, norm)
     if not lam_max > 0:
         raise ValueError(
@@ -585,7 +584,7 @@ def _grid(problem: RegressionProblem, norm: str, data_name: str) -> np.ndarray:
             "fit the data exactly (λ_max = 0), so every λ > 0 gives that fit; pass a number "
             "for lam"
         )
-    return lam_max * np.logspace(-3.0, 0.0, GRID_SIZE)
+    return 1e-3 * lam_max, lam_max
 
 
 def _select_changes(data: StateSpaceData, method: str, lams: Any,
