@@ -11,7 +11,10 @@ computes (noise variance at its maximum-likelihood value per row) needs only
 the factorization and the forward substitution: no back substitution, no
 residuals, no differencing — the work of one factorization per λ, which is
 what a search over λ repeats. The λ-independent parts (right-hand sides, ‖y_i‖²,
-the bands of DᵀD) are computed once per problem.
+the bands of DᵀD) are computed once per problem. The same factorization with
+the back substitution (and, for the degrees of freedom, the selected inversion)
+gives the residual and penalty norms that GCV and the L-curve score
+(:meth:`ScalarEvidence.solution`), again without a fit.
 
 The subtraction loses digits when a row's fit is nearly exact (RSS_i + penalty_i
 ≪ ‖y_i‖²); there :meth:`ScalarEvidence.loglik` says so (returns None) and the
@@ -47,7 +50,8 @@ SUBTRACTION_LIMIT = 1e-12
 
 
 class ScalarEvidence:
-    """log p(y | λ) of the squared norm for many scalar λ on one problem (see the module).
+    """log p(y | λ), and the fit's norms, of the squared norm for many scalar λ on one
+    problem (see the module).
 
     Parameters
     ----------
