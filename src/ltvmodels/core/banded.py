@@ -260,6 +260,63 @@ def solve_varying(system: BlockSystem, rhs: np.ndarray, *, compute_cov: bool,
     return BlockSolution(theta=theta, cov=cov, logdet=logdet)
 
 
+@dataclass
+class RowsSolution:
+    """Solution of :func:`solve_shared_rows`.
+
+    Attributes
+    ----------
+    theta : ndarray, shape (N, n, p)
+        One solution per output row, in the layout of Θ.
+    cov : ndarray, shape (N, p, p) or None
+        Diagonal blocks of H⁻¹ (the same for every row).
+    logdet : float
+        log det H (of one row's system).
+    rss, squares : ndarray, shape (n,)
+        Σ_tj (y_tjc − Θ_t[c]·φ_tj)² and Σ_t Σ_a w_a ((DΘ)_t[c, a])² per row c.
+    gram_trace : float
+        Σ_t Σ_j ‖φ_tj‖², the trace of the data's part of H.
+    """
+
+    theta: np.ndarray
+    cov: np.ndarray | None
+    logdet: float
+    rss: np.ndarray
+    squares: np.ndarray
+    gram_trace: float
+
+
+def solve_shared_rows(phi: np.ndarray, y: np.ndarray, w: np.ndarray, coeffs: np.ndarray, *,
+                      compute_cov: bool, what: str = "the normal equations") -> RowsSolution:
+    """Solve H θ_c = Σ_j φ_tj y_tjc for every output row c with one factorization of
+    H = blkdiag_t(Σ_j φ_tj φ_tjᵀ) + DᵀD ⊗ diag(w) (rows sharing a finite diagonal weight).
+
+    Two compiled sweeps over the raw arrays (φ (N, q, p) and y (N, q, n),
+    C-contiguous float): no Gram blocks, right-hand sides, bands of DᵀD or
+    transposed copies are built, and the residual and penalty sums come out of
+    the back substitution.
+
+    Raises
+    ------
+    SingularProblemError
+        If H is singular to working precision.
+    """
+    N, _, p = phi.shape
+    n = y.shape[2]
+    coeffs = np.ascontiguousarray(coeffs, dtype=float)
+    w = np.ascontiguousarray(w, dtype=float)
+    theta = np.empty((N, n, p))
+    L = np.empty((N, len(coeffs), p, p))
+    size = kernel_size(N, p)
+    worst, worst_t, logdet, trace = kernels.rows_factor_forward(phi, y, w, coeffs, theta, L,
+                                                                size)
+    _check_pivots(worst, worst_t, what)
+    cov = np.empty((N if compute_cov else 0, p, p))
+    rss, squares = np.empty(n), np.empty(n)
+    kernels.rows_backward(L, theta, cov, phi, y, w, coeffs, rss, squares, size)
+    return RowsSolution(theta, cov if compute_cov else None, logdet, rss, squares, trace)
+
+
 def _solve_bordered(system: BlockSystem, rhs, const, *, compute_cov, what) -> BlockSolution:
     """Constant coefficients c shared by all t: the system [[A, E], [Eᵀ, G]].
 

@@ -52,8 +52,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import PrecisionWarning, SingularProblemError
-from .banded import BlockSolution, BlockSystem, solve_block_banded, solve_varying
-from .blockkernels import residual_and_difference_squares, rowwise_matvec
+from .banded import BlockSolution, BlockSystem, solve_block_banded, solve_shared_rows
+from .blockkernels import rowwise_matvec
 from .covariance import CovarianceBlocks
 from .priorterms import PriorTerm
 from .problem import RegressionProblem, apply_difference
@@ -137,11 +137,11 @@ def _row_penalty_diagonal(theta: np.ndarray, coeffs: np.ndarray, weights: np.nda
 
 def _shared_normalizer(problem: RegressionProblem, row: np.ndarray
                        ) -> tuple[float, float, float]:
-    """:meth:`SquaredSolver.log_penalty_normalizer` (per row) and :meth:`SquaredSolver.
-    digits_lost` for a diagonal weight ``row`` (p,) shared by every row, all finite.
+    """:meth:`SquaredSolver.log_penalty_normalizer` (per row) for a diagonal weight ``row``
+    (p,) shared by every row, all finite, and the penalty's scale for :func:`_digits_lost`.
 
-    Returns (log normalizer, diffuse directions, digits lost), the first two
-    the same for every output row.
+    Returns (log normalizer, diffuse directions, λ²_max (Σ_j |c_j|)²), the first
+    two the same for every output row.
     """
     N, p, d = problem.N, problem.p, problem.degree
     weights = row.tolist()  # p numbers: Python's arithmetic beats numpy's call overhead
@@ -154,31 +154,14 @@ def _shared_normalizer(problem: RegressionProblem, row: np.ndarray
     log_pdet = rank * log_dd + (N - d) * sum(math.log(w) for w in positive)
     diffuse = float(N * p - (N - d) * rank)
     penalty = largest * sum(abs(c) for c in coeffs) ** 2
-    # mean Gram diagonal: Σ_t Σ_j ‖φ_tj‖² / (N p), one dot product
-    data = float(np.vdot(problem.phi, problem.phi)) / (N * p)
-    lost = 0.0 if penalty == 0.0 or data == 0.0 else max(0.0, math.log10(penalty / data))
-    return log_pdet, diffuse, lost
+    return log_pdet, diffuse, penalty
 
 
-def _solve_shared(problem: RegressionProblem, row: np.ndarray, compute_cov: bool):
-    """:meth:`SquaredSolver.solve` (no priors, with the data) for a diagonal weight ``row``
-    (p,) shared by every output row: one factorization for all n right-hand sides.
-
-    Returns (theta (N, n, p), CovarianceBlocks | None, log det H of one row).
-    """
-    N, n, p = problem.N, problem.n, problem.p
-    if problem.q == 1:  # Σ_j φ_tj y_tjᵀ = φ_t y_tᵀ by the compiled product (numpy's
-        # broadcast product of (N, p, 1) and (N, 1, n) is ~10x slower at small p, n)
-        rhs = np.empty((N, p, n))
-        rowwise_matvec(problem.y.reshape(N, n, 1), problem.phi.reshape(N, p, 1), rhs)
-    else:
-        rhs = problem.cross()
-    system = BlockSystem(problem.phi, 1, 1.0, np.zeros((0, p, p)), np.diag(row),
-                         problem.coeffs)
-    sol = solve_varying(system, rhs, compute_cov=compute_cov)
-    theta = np.ascontiguousarray(np.swapaxes(sol.theta, 1, 2))
-    cov = None if sol.cov is None else CovarianceBlocks(sol.cov[None], np.zeros(n, dtype=int))
-    return theta, cov, sol.logdet
+def _digits_lost(penalty: float, gram_trace: float, problem: RegressionProblem) -> float:
+    """:meth:`SquaredSolver.digits_lost` for a shared diagonal weight: the penalty's
+    scale against the mean Gram diagonal Σ_t Σ_j ‖φ_tj‖² / (N p) (``gram_trace``)."""
+    data = gram_trace / (problem.N * problem.p)
+    return 0.0 if penalty == 0.0 or data == 0.0 else max(0.0, math.log10(penalty / data))
 
 
 @dataclass
@@ -582,20 +565,23 @@ def _fit_shared(problem: RegressionProblem, W: np.ndarray, row: np.ndarray, *,
     """
     n = problem.n
     n_obs = problem.n_observed
-    log_pdet, diffuse, lost = _shared_normalizer(problem, row)
+    log_pdet, diffuse, penalty_scale = _shared_normalizer(problem, row)
     variances = None if noise_var is None else np.broadcast_to(
         np.asarray(noise_var, dtype=float), (n,)).copy()
     try:
-        theta, cov, row_logdet = _solve_shared(problem, row, compute_cov)
+        # One factorization for the n rows, from the raw arrays; RSS_i and penalty_i
+        # (the weighted squares of DΘ_i) come out of its back substitution.
+        sol = solve_shared_rows(problem.phi, problem.y, row, problem.coeffs,
+                                compute_cov=compute_cov)
     except SingularProblemError as exc:
-        _raise_if_precision_lost(lost, exc)
+        gram_trace = float(np.vdot(problem.phi, problem.phi))
+        _raise_if_precision_lost(_digits_lost(penalty_scale, gram_trace, problem), exc)
         raise
+    theta, row_logdet, row_rss, row_pen = sol.theta, sol.logdet, sol.rss, sol.squares
+    cov = None if sol.cov is None else CovarianceBlocks(sol.cov[None], np.zeros(n, dtype=int))
     info: dict = {"row_separable": True}
-    _warn_if_precision_lost(lost, info, stacklevel=5)
-    # RSS_i and penalty_i in one compiled pass (a shared diagonal weight: row (p,))
-    row_rss, row_pen = np.empty(n), np.empty(n)
-    residual_and_difference_squares(theta, problem.y, problem.phi, problem.coeffs,
-                                    np.ascontiguousarray(row, dtype=float), row_rss, row_pen)
+    _warn_if_precision_lost(_digits_lost(penalty_scale, sol.gram_trace, problem), info,
+                            stacklevel=5)
     rss, pen = float(row_rss.sum()), float(row_pen.sum())
     row_cost = row_rss + row_pen  # RSS_i + penalty_i
     variances, loglik = _rows_loglik(row_cost, n_obs, diffuse, log_pdet, row_logdet, variances)
