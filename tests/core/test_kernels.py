@@ -37,3 +37,43 @@ def test_long_series_agrees_with_kalman_smoother():
         assert np.abs(model.k - smoothed.k).max() < 1e-8 * scale
         np.testing.assert_allclose(model.cov, smoothed.cov, rtol=1e-6, atol=1e-12)
         assert model.loglik == pytest.approx(smoothed.loglik, rel=1e-9)
+
+
+@pytest.mark.parametrize("coeffs", [[-1.0, 1.0], [1.0, -2.0, 1.0], [-1.0, 3.0, -3.0, 1.0]])
+@pytest.mark.parametrize("q, p", [(1, 5), (3, 4), (1, 10)])
+def test_shared_rows_solver_equals_the_general_block_solver(coeffs, q, p):
+    """solve_shared_rows (the fused sweeps of a scalar λ) against solve_block_banded on
+    the same system: the solution, covariances, log det and the residual and penalty
+    sums. p = 10 takes the kernels compiled for a run-time block size."""
+    rng = np.random.default_rng(3)
+    N, n = 80, 3
+    coeffs = np.array(coeffs)
+    phi = rng.standard_normal((N, q, p))
+    y = rng.standard_normal((N, q, n))
+    w = rng.uniform(0.5, 4.0, p)
+    shared = banded.solve_shared_rows(phi, y, w, coeffs, compute_cov=True)
+    system = banded.BlockSystem(phi, 1, 1.0, np.zeros((0, p, p)), np.diag(w), coeffs)
+    rhs = np.einsum("tja,tji->tai", phi, y)
+    general = banded.solve_block_banded(system, rhs, compute_cov=True)
+    theta = np.swapaxes(general.theta, 1, 2)  # (N, n, p)
+    np.testing.assert_allclose(shared.theta, theta, rtol=1e-12, atol=1e-13)
+    np.testing.assert_allclose(shared.cov, general.cov, rtol=1e-12, atol=1e-13)
+    assert shared.logdet == pytest.approx(general.logdet, rel=1e-13)
+    residuals = y - np.einsum("tia,tja->tji", theta, phi)
+    np.testing.assert_allclose(shared.rss, np.einsum("tji,tji->i", residuals, residuals),
+                               rtol=1e-12)
+    d = len(coeffs) - 1
+    differences = sum(c * theta[j:N - d + j] for j, c in enumerate(coeffs))
+    np.testing.assert_allclose(shared.squares, np.einsum("tia,a->i", differences**2, w),
+                               rtol=1e-12)
+    assert shared.gram_trace == pytest.approx(np.sum(phi**2), rel=1e-13)
+    without = banded.solve_shared_rows(phi, y, w, coeffs, compute_cov=False)
+    assert without.cov is None
+    np.testing.assert_array_equal(without.theta, shared.theta)
+
+
+def test_shared_rows_solver_reports_a_singular_system():
+    phi = np.zeros((30, 1, 2))  # no data: a first difference leaves H singular
+    with pytest.raises(ltv.SingularProblemError, match="singular"):
+        banded.solve_shared_rows(phi, np.zeros((30, 1, 1)), np.ones(2), np.array([-1.0, 1.0]),
+                                 compute_cov=False)
