@@ -249,17 +249,6 @@ def solve_block_banded(
     return _solve_bordered(system, rhs, const, compute_cov=compute_cov, what=what)
 
 
-def solve_varying(system: BlockSystem, rhs: np.ndarray, *, compute_cov: bool,
-                  what: str = "the normal equations") -> BlockSolution:
-    """:func:`solve_block_banded` for a system without constant coefficients (finite W).
-
-    ``rhs`` (N, b, r) is overwritten with the solution if it is C-contiguous float.
-    """
-    theta, cov, logdet = _factor_solve(system, np.ascontiguousarray(rhs, dtype=float),
-                                       compute_cov, what)
-    return BlockSolution(theta=theta, cov=cov, logdet=logdet)
-
-
 @dataclass
 class RowsSolution:
     """Solution of :func:`solve_shared_rows`.
