@@ -58,15 +58,16 @@ def main() -> None:
         ltv.fit(x[:200], u[:200], lam=lam, norm=norm, loss=loss)  # compile
         squared = best_time(lambda: ltv.fit(x, u, lam=lam, norm=norm), args.repeat)
         model = ltv.fit(x, u, lam=lam, norm=norm, loss=loss)
-        robust = best_time(lambda: ltv.fit(x, u, lam=lam, norm=norm, loss=loss),
-                           args.repeat)
+        robust = best_time(lambda: ltv.fit(x, u, lam=lam, norm=norm, loss=loss), args.repeat)
         inner = model.info.get("inner_iterations")
         outliers = model.info.get("n_outliers")
-        print(f"norm={norm} T = {T:7d}: squared {squared:7.3f} s, {loss} {robust:7.3f} s "
-              f"({model.status.iterations} steps"
-              + (f", {inner} inner iterations" if inner else "")
-              + (f", {outliers} outliers" if outliers is not None else "")
-              + f"), ratio {robust / squared:5.1f}x")
+        print(
+            f"norm={norm} T = {T:7d}: squared {squared:7.3f} s, {loss} {robust:7.3f} s "
+            f"({model.status.iterations} steps"
+            + (f", {inner} inner iterations" if inner else "")
+            + (f", {outliers} outliers" if outliers is not None else "")
+            + f"), ratio {robust / squared:5.1f}x"
+        )
 
 
 if __name__ == "__main__":

@@ -30,7 +30,8 @@ CASES = {
     "import ltvmodels": IMPORT_TIME.format(stmt="import ltvmodels"),
     "import ltvmodels + first fit": IMPORT_TIME.format(
         stmt="import numpy, ltvmodels; ltvmodels.fit(numpy.random.default_rng(0)"
-             ".standard_normal((50, 2)), lam=1.0)"),
+        ".standard_normal((50, 2)), lam=1.0)"
+    ),
 }
 
 
@@ -64,8 +65,10 @@ def main() -> None:
     for name, values in runs.items():
         median = statistics.median(values)
         print(f"{name:32} {median:>10.3f} {min(values):>11.3f} {median / reference:>11.2f}x")
-    print(f"({args.repeat} runs each, Python {sys.version.split()[0]}; 'ltvmodels --help' is the "
-          "whole process, the others the import statement in a fresh interpreter)")
+    print(
+        f"({args.repeat} runs each, Python {sys.version.split()[0]}; 'ltvmodels --help' is the "
+        "whole process, the others the import statement in a fresh interpreter)"
+    )
 
 
 if __name__ == "__main__":

@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 import ltvmodels as ltv
-from ltvmodels.core.problem import state_space_problem
 from ltvmodels.core import ipm
+from ltvmodels.core.problem import state_space_problem
 
 
 def main() -> None:
@@ -31,12 +31,14 @@ def main() -> None:
                     for lam in (3.0, 17.0, 60.0):
                         weights = np.full(pb.K, lam)
                         start = ipm.fit_sparse_ipm(pb, weights, norm, tol=1e-6)
-                        zero = ipm.fit_sparse_ipm(pb, weights, norm, tol=1e-6,
-                                                  k0=np.zeros((pb.N, pb.K)))
+                        zero = ipm.fit_sparse_ipm(
+                            pb, weights, norm, tol=1e-6, k0=np.zeros((pb.N, pb.K))
+                        )
                         counts["feasible"] += start.iterations
                         counts["zero"] += zero.iterations
-                        worst = max(worst, abs(start.objective - zero.objective)
-                                    / abs(zero.objective))
+                        worst = max(
+                            worst, abs(start.objective - zero.objective) / abs(zero.objective)
+                        )
                         fits += 1
         print(f"{order:>5} {fits:>5} {counts['feasible']:>15} {counts['zero']:>7} {worst:>14.1e}")
 

@@ -38,8 +38,12 @@ GROUP_LAM = 5.0
 
 
 def make_units(n_units: int, T: int) -> dict:
-    return {unit: (d.x, d.u) for unit, d in enumerate(
-        ltv.systems.jump_linear(T=T, change_at=T // 2, seed=unit) for unit in range(n_units))}
+    return {
+        unit: (d.x, d.u)
+        for unit, d in enumerate(
+            ltv.systems.jump_linear(T=T, change_at=T // 2, seed=unit) for unit in range(n_units)
+        )
+    }
 
 
 def timed(func):
@@ -79,7 +83,7 @@ def statsmodels_tvp(x: np.ndarray, u: np.ndarray, lam: float | None):
             super().__init__(y, k_states=n * p, k_posdef=n * p, initialization="diffuse")
             design = np.zeros((n, n * p, N))
             for i in range(n):
-                design[i, i * p:(i + 1) * p, :] = phi.T
+                design[i, i * p : (i + 1) * p, :] = phi.T
             self["design"] = design
             self["transition"] = np.eye(n * p)
             self["selection"] = np.eye(n * p)
@@ -102,17 +106,24 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--units", type=int, default=10000)
     parser.add_argument("--T", type=int, default=500)
-    parser.add_argument("--cases", nargs="+", default=["sq", "auto", "group"],
-                        choices=["sq", "auto", "group"])
+    parser.add_argument(
+        "--cases", nargs="+", default=["sq", "auto", "group"], choices=["sq", "auto", "group"]
+    )
     parser.add_argument("--peer-units", type=int, default=50)
     parser.add_argument("--no-cluster", action="store_true")
     args = parser.parse_args()
 
     data = make_units(args.units, args.T)
     units = list(data.items())
-    cases = {case: options for case, options in (
-        ("sq", dict(lam=LAM)), ("auto", dict(lam="auto")),
-        ("group", dict(lam=GROUP_LAM, norm="group"))) if case in args.cases}
+    cases = {
+        case: options
+        for case, options in (
+            ("sq", dict(lam=LAM)),
+            ("auto", dict(lam="auto")),
+            ("group", dict(lam=GROUP_LAM, norm="group")),
+        )
+        if case in args.cases
+    }
     for options in cases.values():  # compile the kernels before the fork and the timings
         ltv.fit(*data[0], **options)
     print(f"{args.units} jump-linear units, T = {args.T}, n = 2, m = 1")
@@ -121,13 +132,15 @@ def main() -> None:
     single = {}
     rate = args.units
     for case, options in cases.items():
+
         def bare_loop():  # the models are dropped, as with keep_models=False
             for _, (x, u) in units:
                 ltv.fit(x, u, **options)
 
         def many(n_jobs, keep_models):
-            ms = ltv.fit_many(data, n_jobs=n_jobs, keep_models=keep_models, progress=False,
-                              **options)
+            ms = ltv.fit_many(
+                data, n_jobs=n_jobs, keep_models=keep_models, progress=False, **options
+            )
             assert not ms.errors, ms.errors
 
         bare, _ = timed(bare_loop)
@@ -137,28 +150,40 @@ def main() -> None:
         two_kept, _ = timed(lambda: many(2, True))
         single[case] = one
         print(f"\n{case} {options}")
-        print(f"  bare fit loop            {rate / bare:7.0f} units/s  "
-              f"({bare / rate * 1e3:.3f} ms per unit)")
-        print(f"  fit_many n_jobs=1        {rate / one:7.0f} units/s  "
-              f"(overhead {100 * (one / bare - 1):+.1f} % of the fit time)")
-        print(f"  fit_many n_jobs=2        {rate / two:7.0f} units/s  "
-              f"(speed-up {one / two:.2f}x over n_jobs=1)")
-        print(f"  with the models kept:    {rate / one_kept:7.0f} and {rate / two_kept:.0f} "
-              f"units/s (speed-up {one_kept / two_kept:.2f}x)")
+        print(
+            f"  bare fit loop            {rate / bare:7.0f} units/s  "
+            f"({bare / rate * 1e3:.3f} ms per unit)"
+        )
+        print(
+            f"  fit_many n_jobs=1        {rate / one:7.0f} units/s  "
+            f"(overhead {100 * (one / bare - 1):+.1f} % of the fit time)"
+        )
+        print(
+            f"  fit_many n_jobs=2        {rate / two:7.0f} units/s  "
+            f"(speed-up {one / two:.2f}x over n_jobs=1)"
+        )
+        print(
+            f"  with the models kept:    {rate / one_kept:7.0f} and {rate / two_kept:.0f} "
+            f"units/s (speed-up {one_kept / two_kept:.2f}x)"
+        )
         if case in ("sq", "auto"):
-            peer_units = units[:args.peer_units]
+            peer_units = units[: args.peer_units]
             statsmodels_tvp(*units[0][1], LAM)  # import statsmodels outside the timing
-            ours, models = timed(lambda: [ltv.fit(x, u, **options)
-                                          for _, (x, u) in peer_units])
-            peer, results = timed(lambda: [
-                statsmodels_tvp(x, u, None if case == "auto" else LAM)
-                for _, (x, u) in peer_units])
+            ours, models = timed(lambda: [ltv.fit(x, u, **options) for _, (x, u) in peer_units])
+            peer, results = timed(
+                lambda: [
+                    statsmodels_tvp(x, u, None if case == "auto" else LAM)
+                    for _, (x, u) in peer_units
+                ]
+            )
             dk = max(float(np.max(np.abs(m.k - k))) for m, (k, _) in zip(models, results))
             what = "MLE fit" if case == "auto" else "smoother"
-            line = (f"  statsmodels {what} on {len(peer_units)} units: "
-                    f"{peer / len(peer_units) * 1e3:.2f} ms per unit vs ours "
-                    f"{ours / len(peer_units) * 1e3:.2f} ms: ratio {peer / ours:.1f}x; "
-                    f"max |Δk| {dk:.1e}")
+            line = (
+                f"  statsmodels {what} on {len(peer_units)} units: "
+                f"{peer / len(peer_units) * 1e3:.2f} ms per unit vs ours "
+                f"{ours / len(peer_units) * 1e3:.2f} ms: ratio {peer / ours:.1f}x; "
+                f"max |Δk| {dk:.1e}"
+            )
             if case == "auto":
                 rel = max(abs(m.lam / lam - 1) for m, (_, lam) in zip(models, results))
                 line += f"; λ agrees to {rel:.1e} (relative)"
@@ -167,15 +192,24 @@ def main() -> None:
         return
     from distributed import Client, LocalCluster
 
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
+    with (
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        Client(cluster) as client,
+    ):
         client.run(lambda: ltv.fit(*make_units(1, 100)[0], lam=1.0))  # warm the workers
         print("\nfit_many on a LocalCluster of 2 worker processes")
         for case, options in cases.items():
-            dask_time, _ = timed(lambda: ltv.fit_many(data, engine=client, progress=False,
-                                                      keep_models=False, **options))
-            print(f"  {case:6s} {args.units / dask_time:9.0f} units/s  "
-                  f"(speed-up {single[case] / dask_time:.2f}x over fit_many n_jobs=1)")
+            dask_time, _ = timed(
+                lambda: ltv.fit_many(
+                    data, engine=client, progress=False, keep_models=False, **options
+                )
+            )
+            print(
+                f"  {case:6s} {args.units / dask_time:9.0f} units/s  "
+                f"(speed-up {single[case] / dask_time:.2f}x over fit_many n_jobs=1)"
+            )
 
 
 if __name__ == "__main__":

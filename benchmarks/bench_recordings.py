@@ -50,9 +50,11 @@ def main() -> None:
     full = best_time(lambda: ltv.fit(x, u, lam=LAM), args.repeat)
     missing = best_time(lambda: ltv.fit(gaps, u, lam=LAM), args.repeat)
     left_out = ltv.fit(gaps, u, lam=LAM).info["n_missing"]
-    print(f"T = 1e5, n = 3, m = 2: complete {full:.3f} s, 10 % of samples missing "
-          f"({left_out} of {len(x) - 1} transitions left out) {missing:.3f} s: "
-          f"ratio {missing / full:.2f} (target <= 1.2)")
+    print(
+        f"T = 1e5, n = 3, m = 2: complete {full:.3f} s, 10 % of samples missing "
+        f"({left_out} of {len(x) - 1} transitions left out) {missing:.3f} s: "
+        f"ratio {missing / full:.2f} (target <= 1.2)"
+    )
 
     R, T = 10, 10_000
     runs = [random_walk_system(T=T, seed=s) for s in range(R)]
@@ -60,8 +62,10 @@ def main() -> None:
     ub = np.stack([r.u for r in runs])
     one = best_time(lambda: ltv.fit(xb[0], ub[0], lam=LAM), args.repeat)
     many = best_time(lambda: ltv.fit(xb, ub, lam=LAM), args.repeat)
-    print(f"R = {R} trajectories of T = 1e4: one {one:.4f} s, the batch {many:.4f} s: "
-          f"ratio {many / one:.2f} (target <= 3)")
+    print(
+        f"R = {R} trajectories of T = 1e4: one {one:.4f} s, the batch {many:.4f} s: "
+        f"ratio {many / one:.2f} (target <= 3)"
+    )
 
 
 if __name__ == "__main__":

@@ -116,8 +116,10 @@ def main() -> None:
     ltv.fit_segments(x, u, penalty="bic")
 
     print("single output (n = 1, m = 2, p = 3), min_size = 3, ruptures jump = 1 (exact)")
-    header = (f"{'method':8} {'T':>5} {'M':>2} {'ours s':>8} {'rupt. s':>8} {'ratio':>7}  "
-              f"{'cost ours':>12} {'cost rupt.':>12} {'rel.diff':>8}  breakpoints ours / ruptures")
+    header = (
+        f"{'method':8} {'T':>5} {'M':>2} {'ours s':>8} {'rupt. s':>8} {'ratio':>7}  "
+        f"{'cost ours':>12} {'cost rupt.':>12} {'rel.diff':>8}  breakpoints ours / ruptures"
+    )
     print(header)
     print("-" * len(header))
     for T, M in itertools.product(args.sizes, args.changes):
@@ -129,9 +131,11 @@ def main() -> None:
         if rpt is not None:
             t_r, bkps = once(partial(ruptures_dynp, signal, M))
             r_cost = ruptures_cost(signal, bkps)
-            row += (f"{t_r:8.2f} {t_r / t_ours:7.0f}  {ours_cost:12.6f} {r_cost:12.6f} "
-                    f"{abs(ours_cost - r_cost) / r_cost:8.1e}  "
-                    f"{short(model.changepoints)} / {short(bkps[:-1])}")
+            row += (
+                f"{t_r:8.2f} {t_r / t_ours:7.0f}  {ours_cost:12.6f} {r_cost:12.6f} "
+                f"{abs(ours_cost - r_cost) / r_cost:8.1e}  "
+                f"{short(model.changepoints)} / {short(bkps[:-1])}"
+            )
         else:
             row += f"{'-':>8} {'-':>7}  {ours_cost:12.6f}  {short(model.changepoints)}"
         print(row, f"(true {short(truth)})", flush=True)
@@ -143,9 +147,11 @@ def main() -> None:
         if rpt is not None:
             t_r, bkps = once(partial(ruptures_pelt, signal, beta))
             r_obj = ruptures_cost(signal, bkps) + beta * (len(bkps) - 1)
-            row += (f"{t_r:8.2f} {t_r / t_ours:7.0f}  {ours_obj:12.6f} {r_obj:12.6f} "
-                    f"{abs(ours_obj - r_obj) / r_obj:8.1e}  "
-                    f"{short(model.changepoints)} / {short(bkps[:-1])}")
+            row += (
+                f"{t_r:8.2f} {t_r / t_ours:7.0f}  {ours_obj:12.6f} {r_obj:12.6f} "
+                f"{abs(ours_obj - r_obj) / r_obj:8.1e}  "
+                f"{short(model.changepoints)} / {short(bkps[:-1])}"
+            )
         else:
             row += f"{'-':>8} {'-':>7}  {ours_obj:12.6f}  {short(model.changepoints)}"
         print(row, f"(β = {beta:.4g})", flush=True)
@@ -157,8 +163,11 @@ def main() -> None:
         x, u, truth = switching_system(T, 3, 2, M, seed=T + M)
         t_dp, dp = best_time(partial(ltv.fit_segments, x, u, n_changes=M), args.repeat)
         t_pelt, pelt = best_time(partial(ltv.fit_segments, x, u, penalty="bic"), args.repeat)
-        print(f"{T:6d} {M:2d} {t_dp:15.4f} {t_pelt:9.4f}  {short(dp.changepoints)} / "
-              f"{short(pelt.changepoints)} (true {short(truth)})", flush=True)
+        print(
+            f"{T:6d} {M:2d} {t_dp:15.4f} {t_pelt:9.4f}  {short(dp.changepoints)} / "
+            f"{short(pelt.changepoints)} (true {short(truth)})",
+            flush=True,
+        )
 
     if args.large:
         T = args.large

@@ -43,25 +43,33 @@ def main() -> None:
         ltv.fit(warm.x, warm.u, lam=17.0, norm=norm)
         for method in methods:
             ltv.select_lambda(warm.x, warm.u, norm=norm, method=method)
-    print(f"{'T':>6} {'norm':>5} {'method':>7} {'select [s]':>10} {'fits':>5} "
-          f"{'one fit [s]':>11} {'ratio':>6} {'fit+cov [s]':>11} {'ratio':>6} {'lam':>9}")
+    print(
+        f"{'T':>6} {'norm':>5} {'method':>7} {'select [s]':>10} {'fits':>5} "
+        f"{'one fit [s]':>11} {'ratio':>6} {'fit+cov [s]':>11} {'ratio':>6} {'lam':>9}"
+    )
     for T in args.sizes:
         data = ltv.systems.jump_linear(T=T, change_at=T // 2, seed=0)
         for norm, methods in CASES.items():
             lam = 30.0 if norm == "sq" else 17.0
-            one, _ = best_time(ltv.fit, data.x, data.u, lam=lam, norm=norm, compute_cov=False,
-                               repeat=args.repeat)
-            with_cov, _ = best_time(ltv.fit, data.x, data.u, lam=lam, norm=norm,
-                                    repeat=args.repeat)
+            one, _ = best_time(
+                ltv.fit, data.x, data.u, lam=lam, norm=norm, compute_cov=False, repeat=args.repeat
+            )
+            with_cov, _ = best_time(ltv.fit, data.x, data.u, lam=lam, norm=norm, repeat=args.repeat)
             for method in methods:
                 if T > 2000 and method == "cv" and norm != "sq":
                     continue  # n_folds times the L-curve's cost
-                took, choice = best_time(ltv.select_lambda, data.x, data.u, norm=norm,
-                                         method=method, repeat=args.repeat)
-                cov_columns = (f"{with_cov:>11.4f} {took / with_cov:>6.1f}" if norm == "sq"
-                               else f"{'':>11} {'':>6}")
-                print(f"{T:>6} {norm:>5} {method:>7} {took:>10.3f} {choice.n_fits:>5} "
-                      f"{one:>11.4f} {took / one:>6.1f} {cov_columns} {choice.lam:>9.3g}")
+                took, choice = best_time(
+                    ltv.select_lambda, data.x, data.u, norm=norm, method=method, repeat=args.repeat
+                )
+                cov_columns = (
+                    f"{with_cov:>11.4f} {took / with_cov:>6.1f}"
+                    if norm == "sq"
+                    else f"{'':>11} {'':>6}"
+                )
+                print(
+                    f"{T:>6} {norm:>5} {method:>7} {took:>10.3f} {choice.n_fits:>5} "
+                    f"{one:>11.4f} {took / one:>6.1f} {cov_columns} {choice.lam:>9.3g}"
+                )
 
 
 if __name__ == "__main__":

@@ -67,10 +67,12 @@ def pykalman_smoother(x: np.ndarray, u: np.ndarray):
     K = n * p
     design = np.einsum("ij,ta->tija", np.eye(n), phi).reshape(N, n, K)
     kf = KalmanFilter(
-        transition_matrices=np.eye(K), observation_matrices=design,
+        transition_matrices=np.eye(K),
+        observation_matrices=design,
         transition_covariance=NOISE_VAR / LAM**2 * np.eye(K),
         observation_covariance=NOISE_VAR * np.eye(n),
-        initial_state_mean=np.zeros(K), initial_state_covariance=1e6 * np.eye(K),
+        initial_state_mean=np.zeros(K),
+        initial_state_covariance=1e6 * np.eye(K),
     )
     return kf.smooth(x[1:])[0]
 
@@ -78,8 +80,9 @@ def pykalman_smoother(x: np.ndarray, u: np.ndarray):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", nargs="+", type=float, default=[1e4, 1e5, 1e6])
-    parser.add_argument("--peer-max", type=float, default=1e5,
-                        help="largest T at which peers run (default 1e5)")
+    parser.add_argument(
+        "--peer-max", type=float, default=1e5, help="largest T at which peers run (default 1e5)"
+    )
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--pykalman", action="store_true", help="also time pykalman (slow)")
     args = parser.parse_args()
@@ -89,8 +92,10 @@ def main() -> None:
         ltv.fit(warm.x, warm.u, lam=LAM, order=order, noise_var=NOISE_VAR)
 
     print(f"norm='sq', n=3, m=2 (K=15), lam={LAM}, noise_var={NOISE_VAR}, covariances on")
-    header = (f"{'T':>9} {'order':>5} {'ltvmodels [s]':>14} {'statsmodels [s]':>16} "
-              f"{'ratio':>7} {'max|Δk|':>9}")
+    header = (
+        f"{'T':>9} {'order':>5} {'ltvmodels [s]':>14} {'statsmodels [s]':>16} "
+        f"{'ratio':>7} {'max|Δk|':>9}"
+    )
     print(header)
     print("-" * len(header))
     for size in args.sizes:
@@ -113,8 +118,10 @@ def main() -> None:
             )
             if order == 1 and peer_time is not None:
                 diff = np.abs(model.k - peer_k).max()
-                print(f"{T:>9} {order:>5} {ours:>14.4f} {peer_time:>16.3f} "
-                      f"{peer_time / ours:>6.0f}x {diff:>9.1e}")
+                print(
+                    f"{T:>9} {order:>5} {ours:>14.4f} {peer_time:>16.3f} "
+                    f"{peer_time / ours:>6.0f}x {diff:>9.1e}"
+                )
             else:
                 print(f"{T:>9} {order:>5} {ours:>14.4f} {'-':>16} {'-':>7} {'-':>9}")
             del model

@@ -25,12 +25,11 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
+from bench_sq import best_time
 from scipy.linalg import cho_solve_banded, cholesky_banded
 
 import ltvmodels as ltv
 from ltvmodels.systems import random_walk_system
-
-from bench_sq import best_time
 
 LAM = 30.0
 
@@ -89,11 +88,15 @@ def main() -> None:
     ltv.fit(warm.x, warm.u, lam=LAM)  # compile the kernels outside the timings
     ltv.fit(warm.x, warm.u, lam=LAM, compute_cov=False)
     speed = bandwidth()
-    print(f"norm='sq', n=3, m=2 (p=5, K=15), order 1, lam={LAM}; memory copy "
-          f"{speed / 1e9:.1f} GB/s (read + write)")
-    header = (f"{'T':>8} {'ours [s]':>9} {'+cov [s]':>9} {'scipy [s]':>10} {'factor+solve':>12} "
-              f"{'ratio':>6} {'ratio f+s':>9} {'stream [s]':>10} {'/stream':>8} "
-              f"{'+cov/str.':>9} {'max|Δθ|':>8}")
+    print(
+        f"norm='sq', n=3, m=2 (p=5, K=15), order 1, lam={LAM}; memory copy "
+        f"{speed / 1e9:.1f} GB/s (read + write)"
+    )
+    header = (
+        f"{'T':>8} {'ours [s]':>9} {'+cov [s]':>9} {'scipy [s]':>10} {'factor+solve':>12} "
+        f"{'ratio':>6} {'ratio f+s':>9} {'stream [s]':>10} {'/stream':>8} "
+        f"{'+cov/str.':>9} {'max|Δθ|':>8}"
+    )
     print(header)
     print("-" * len(header))
     for size in args.sizes:
@@ -112,10 +115,13 @@ def main() -> None:
         streamed = x.nbytes + u.nbytes + theta.nbytes
         stream = streamed / speed  # each byte read or written once
         stream_cov = (streamed + cov_bytes) / speed
-        print(f"{T:>8} {ours:>9.4f} {with_cov:>9.4f} {peer:>10.4f} {factor_solve:>12.4f} "
-              f"{peer / ours:>5.1f}x {factor_solve / ours:>8.1f}x {stream:>10.4f} "
-              f"{ours / stream:>7.0f}x {with_cov / stream_cov:>8.0f}x "
-              f"{np.abs(theta - reference).max():>8.1e}", flush=True)
+        print(
+            f"{T:>8} {ours:>9.4f} {with_cov:>9.4f} {peer:>10.4f} {factor_solve:>12.4f} "
+            f"{peer / ours:>5.1f}x {factor_solve / ours:>8.1f}x {stream:>10.4f} "
+            f"{ours / stream:>7.0f}x {with_cov / stream_cov:>8.0f}x "
+            f"{np.abs(theta - reference).max():>8.1e}",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

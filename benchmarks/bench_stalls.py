@@ -18,15 +18,16 @@ import argparse
 import time
 import warnings
 
-import ltvmodels as ltv
-
 from bench_tv import cvxpy_solve
+
+import ltvmodels as ltv
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--clarabel", action="store_true",
-                        help="compare every objective with cvxpy + Clarabel")
+    parser.add_argument(
+        "--clarabel", action="store_true", help="compare every objective with cvxpy + Clarabel"
+    )
     args = parser.parse_args()
     counts = {"interior point": 0, "polished": 0, "warning": 0}
     worst_gap, ours_total, peer_total = 0.0, 0.0, 0.0
@@ -41,8 +42,9 @@ def main() -> None:
                     start = time.perf_counter()
                     with warnings.catch_warnings(record=True) as caught:
                         warnings.simplefilter("always", ltv.ConvergenceWarning)
-                        model = ltv.fit(data.x, data.u, lam=lam, norm=norm, order=2,
-                                        compute_cov=False)
+                        model = ltv.fit(
+                            data.x, data.u, lam=lam, norm=norm, order=2, compute_cov=False
+                        )
                     elapsed = time.perf_counter() - start
                     ours_total += elapsed
                     if caught:
@@ -54,19 +56,24 @@ def main() -> None:
                     counts[outcome] += 1
                     gap = ""
                     if args.clarabel:
-                        value, seconds = cvxpy_solve(data.x, data.u, lam, norm,
-                                                     [1.0, -2.0, 1.0], "CLARABEL")
+                        value, seconds = cvxpy_solve(
+                            data.x, data.u, lam, norm, [1.0, -2.0, 1.0], "CLARABEL"
+                        )
                         peer_total += seconds
                         relative = (model.info["objective"] - value) / value
                         worst_gap = max(worst_gap, relative)
                         gap = f" {relative:9.1e}"
                     if outcome != "interior point":
-                        print(f"{T:>5} {seed:>4} {fraction:>11} {norm:>5} {outcome:>10} "
-                              f"{elapsed:>8.3f}{gap}")
+                        print(
+                            f"{T:>5} {seed:>4} {fraction:>11} {norm:>5} {outcome:>10} "
+                            f"{elapsed:>8.3f}{gap}"
+                        )
     print(", ".join(f"{name}: {count}" for name, count in counts.items()))
     if args.clarabel:
-        print(f"largest relative objective gap to Clarabel: {worst_gap:.1e}; total time ours "
-              f"{ours_total:.2f} s, Clarabel {peer_total:.2f} s ({peer_total / ours_total:.1f}x)")
+        print(
+            f"largest relative objective gap to Clarabel: {worst_gap:.1e}; total time ours "
+            f"{ours_total:.2f} s, Clarabel {peer_total:.2f} s ({peer_total / ours_total:.1f}x)"
+        )
 
 
 if __name__ == "__main__":

@@ -23,11 +23,10 @@ import time
 import warnings
 
 import numpy as np
+from bench_sq import best_time
 
 import ltvmodels as ltv
 from ltvmodels.core.problem import state_space_problem
-
-from bench_sq import best_time
 
 LAM = 17.0
 WIDE = [(4, 2), (5, 2), (6, 4)]  # (n, m) of --wide
@@ -53,8 +52,10 @@ def wide_jump(n: int, m: int, T: int, seed: int = 0):
 def wide(args) -> None:
     """The --wide table."""
     print(f"lam = {WIDE_LAM}, jump systems, order 1, tol = 1e-6")
-    header = (f"{'norm':>5} {'n':>2} {'m':>2} {'K':>3} {'T':>5} {'solver':>14} {'ours [s]':>9} "
-              f"{'iters':>6} {'Clarabel [s]':>12} {'ratio':>7} {'rel. gap':>9}")
+    header = (
+        f"{'norm':>5} {'n':>2} {'m':>2} {'K':>3} {'T':>5} {'solver':>14} {'ours [s]':>9} "
+        f"{'iters':>6} {'Clarabel [s]':>12} {'ratio':>7} {'rel. gap':>9}"
+    )
     print(header)
     print("-" * len(header))
     for norm in args.norms:
@@ -65,18 +66,22 @@ def wide(args) -> None:
                 def ours():
                     with warnings.catch_warnings():
                         warnings.simplefilter("ignore", ltv.ConvergenceWarning)
-                        return ltv.fit(x, u, lam=WIDE_LAM, norm=norm, compute_cov=False,
-                                       max_iter=100_000)
+                        return ltv.fit(
+                            x, u, lam=WIDE_LAM, norm=norm, compute_cov=False, max_iter=100_000
+                        )
 
                 ours()  # compile the kernels for this block size outside the timing
                 took, model = best_time(ours, args.repeat)
-                t_ref, (ref, _) = best_time(lambda: cvxpy_solve(
-                    x, u, WIDE_LAM, norm, [-1.0, 1.0], "CLARABEL"), args.repeat)
+                t_ref, (ref, _) = best_time(
+                    lambda: cvxpy_solve(x, u, WIDE_LAM, norm, [-1.0, 1.0], "CLARABEL"), args.repeat
+                )
                 gap = (model.info["objective"] - ref) / abs(ref)
-                line = (f"{norm:>5} {n:>2} {m:>2} {n * (n + m):>3} {T:>5} "
-                        f"{model.info['solver'][:14]:>14} {took:>9.3f} "
-                        f"{model.info['iterations']:>6} {t_ref:>12.3f} {t_ref / took:>6.2f}x "
-                        f"{gap:>9.1e}")
+                line = (
+                    f"{norm:>5} {n:>2} {m:>2} {n * (n + m):>3} {T:>5} "
+                    f"{model.info['solver'][:14]:>14} {took:>9.3f} "
+                    f"{model.info['iterations']:>6} {t_ref:>12.3f} {t_ref / took:>6.2f}x "
+                    f"{gap:>9.1e}"
+                )
                 if not model.info["converged"]:
                     line += " (not converged)"
                 print(line, flush=True)
@@ -91,10 +96,10 @@ def cvxpy_solve(x, u, lam, norm, coeffs, solver):
     phi, y = pb.phi[:, 0], pb.y[:, 0]  # one trajectory: (N, p) and (N, n)
     start = time.perf_counter()
     theta = cp.Variable((N, n * p))
-    fitted = [cp.sum(cp.multiply(theta[:, i * p:(i + 1) * p], phi), axis=1) for i in range(n)]
+    fitted = [cp.sum(cp.multiply(theta[:, i * p : (i + 1) * p], phi), axis=1) for i in range(n)]
     loss = sum(cp.sum_squares(y[:, i] - fitted[i]) for i in range(n))
     d = len(coeffs) - 1
-    Dk = sum(coeffs[j] * theta[j:N - d + j, :] for j in range(d + 1))
+    Dk = sum(coeffs[j] * theta[j : N - d + j, :] for j in range(d + 1))
     reg = cp.sum(cp.norm(Dk, 2, axis=1)) if norm == "group" else cp.sum(cp.abs(Dk))
     problem = cp.Problem(cp.Minimize(loss + lam * reg))
     with warnings.catch_warnings():
@@ -107,14 +112,20 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", nargs="+", type=int, default=[400, 2000, 10000, 100000])
     parser.add_argument("--scs", action="store_true", help="also time SCS (slow)")
-    parser.add_argument("--repeat", type=int, default=3,
-                        help="runs of each solver (ours and Clarabel); the best counts")
+    parser.add_argument(
+        "--repeat",
+        type=int,
+        default=3,
+        help="runs of each solver (ours and Clarabel); the best counts",
+    )
     parser.add_argument("--norms", nargs="+", default=["group", "l1"], choices=["group", "l1"])
     parser.add_argument("--orders", nargs="+", type=int, default=[1, 2], choices=[1, 2])
-    parser.add_argument("--max-reference-T", type=int, default=10000,
-                        help="largest T at which cvxpy is run")
-    parser.add_argument("--wide", action="store_true",
-                        help="time wider models (K = 24, 35, 60) instead")
+    parser.add_argument(
+        "--max-reference-T", type=int, default=10000, help="largest T at which cvxpy is run"
+    )
+    parser.add_argument(
+        "--wide", action="store_true", help="time wider models (K = 24, 35, 60) instead"
+    )
     args = parser.parse_args()
     if args.wide:
         wide(args)
@@ -125,9 +136,10 @@ def main() -> None:
         for order in (1, 2):
             ltv.fit(warm.x, warm.u, lam=LAM, norm=norm, order=order)
 
-    header = (f"{'norm':>5} {'order':>5} {'T':>6} {'ours [s]':>9} {'iters':>6} "
-              f"{'Clarabel [s]':>12} {'ratio':>7} {'rel. gap':>9}"
-              + ("  SCS [s]" if args.scs else ""))
+    header = (
+        f"{'norm':>5} {'order':>5} {'T':>6} {'ours [s]':>9} {'iters':>6} "
+        f"{'Clarabel [s]':>12} {'ratio':>7} {'rel. gap':>9}" + ("  SCS [s]" if args.scs else "")
+    )
     print(f"lam = {LAM}, jump-linear system (n=2, m=1), tol = 1e-6")
     print(header)
     print("-" * len(header))
@@ -147,14 +159,18 @@ def main() -> None:
                 ref = t_ref = float("nan")
                 if T <= args.max_reference_T:
                     try:
-                        runs = [cvxpy_solve(data.x, data.u, LAM, norm, coeffs, "CLARABEL")
-                                for _ in range(args.repeat)]
+                        runs = [
+                            cvxpy_solve(data.x, data.u, LAM, norm, coeffs, "CLARABEL")
+                            for _ in range(args.repeat)
+                        ]
                         ref, t_ref = runs[0][0], min(t for _, t in runs)
                     except ImportError:
                         pass
                 gap = (model.info["objective"] - ref) / abs(ref)
-                line = (f"{norm:>5} {order:>5} {T:>6} {ours:>9.3f} {model.info['iterations']:>6} "
-                        f"{t_ref:>12.3f} {t_ref / ours:>6.2f}x {gap:>9.1e}")
+                line = (
+                    f"{norm:>5} {order:>5} {T:>6} {ours:>9.3f} {model.info['iterations']:>6} "
+                    f"{t_ref:>12.3f} {t_ref / ours:>6.2f}x {gap:>9.1e}"
+                )
                 if not model.info["converged"]:
                     line += " (not converged)"
                 if args.scs and T <= args.max_reference_T:

@@ -31,11 +31,15 @@ from ltvmodels.errors import OutputPathError
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="chirp_spectrogram.png",
-                        help="image file to write (default: chirp_spectrogram.png)")
+    parser.add_argument(
+        "--out",
+        default="chirp_spectrogram.png",
+        help="image file to write (default: chirp_spectrogram.png)",
+    )
     parser.add_argument("--seed", type=int, default=0, help="noise seed (default: 0)")
-    parser.add_argument("--quick", action="store_true",
-                        help="a shorter record (T = 2^12) for a fast check")
+    parser.add_argument(
+        "--quick", action="store_true", help="a shorter record (T = 2^12) for a fast check"
+    )
     args = parser.parse_args(argv)
     if args.seed < 0:
         parser.error(f"--seed: expected an integer >= 0, received {args.seed}")

@@ -58,16 +58,25 @@ from ltvmodels.apps.gym_rl import (
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="gym_pendulum.png",
-                        help="image file to write (default: gym_pendulum.png)")
-    parser.add_argument("--quick", action="store_true",
-                        help="quick mode: 2 initial states, 20 iterations")
-    parser.add_argument("--seeds", type=int, default=None,
-                        help="number of initial states: env.reset seeds 0 … SEEDS-1 "
-                             "(default 20; quick mode: seeds 7 and 19)")
-    parser.add_argument("--iterations", type=int, default=None,
-                        help="learning iterations per run, 8 episodes each (default 40, "
-                             "or 20 with --quick)")
+    parser.add_argument(
+        "--out", default="gym_pendulum.png", help="image file to write (default: gym_pendulum.png)"
+    )
+    parser.add_argument(
+        "--quick", action="store_true", help="quick mode: 2 initial states, 20 iterations"
+    )
+    parser.add_argument(
+        "--seeds",
+        type=int,
+        default=None,
+        help="number of initial states: env.reset seeds 0 … SEEDS-1 "
+        "(default 20; quick mode: seeds 7 and 19)",
+    )
+    parser.add_argument(
+        "--iterations",
+        type=int,
+        default=None,
+        help="learning iterations per run, 8 episodes each (default 40, or 20 with --quick)",
+    )
     args = parser.parse_args(argv)
     if args.seeds is not None and args.seeds < 1:
         parser.error(f"--seeds: expected an integer >= 1, received {args.seeds}")
@@ -80,20 +89,27 @@ def main(argv: list[str] | None = None) -> int:
     try:
         import gymnasium  # noqa: F401
     except ImportError:
-        print("error: this example needs gymnasium: install ltvmodels[rl] "
-              "(pip install 'ltvmodels[rl]')", file=sys.stderr)
+        print(
+            "error: this example needs gymnasium: install ltvmodels[rl] "
+            "(pip install 'ltvmodels[rl]')",
+            file=sys.stderr,
+        )
         return 2
     try:
         import sklearn  # noqa: F401
+
         models = PENDULUM_MODELS
     except ImportError:
         models = ("ltv", "lti")
-        print("scikit-learn is not installed: the arm with the learned prior is left out "
-              "(pip install 'ltvmodels[gmm]')")
+        print(
+            "scikit-learn is not installed: the arm with the learned prior is left out "
+            "(pip install 'ltvmodels[gmm]')"
+        )
     start = time.perf_counter()
     seeds = None if args.seeds is None else range(args.seeds)
-    result = run_pendulum_experiment(quick=args.quick, seeds=seeds, iterations=args.iterations,
-                                     models=models, progress=print)
+    result = run_pendulum_experiment(
+        quick=args.quick, seeds=seeds, iterations=args.iterations, models=models, progress=print
+    )
     print()
     print(result.table())
     fig = plot_pendulum_experiment(result)

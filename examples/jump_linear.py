@@ -24,11 +24,13 @@ from ltvmodels.errors import OutputPathError
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="jump_linear.png",
-                        help="image file to write (default: jump_linear.png)")
+    parser.add_argument(
+        "--out", default="jump_linear.png", help="image file to write (default: jump_linear.png)"
+    )
     parser.add_argument("--seed", type=int, default=0, help="simulation seed (default: 0)")
-    parser.add_argument("--lam", type=float, default=None,
-                        help="regularization lambda (default: 0.1·lambda_max)")
+    parser.add_argument(
+        "--lam", type=float, default=None, help="regularization lambda (default: 0.1·lambda_max)"
+    )
     args = parser.parse_args(argv)
     try:
         result = run_jump_linear_demo(seed=args.seed, norm="group", lam=args.lam, out=args.out)

@@ -23,11 +23,18 @@ from ltvmodels.errors import OutputPathError
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="jump_linear_sq.png",
-                        help="image file to write (default: jump_linear_sq.png)")
+    parser.add_argument(
+        "--out",
+        default="jump_linear_sq.png",
+        help="image file to write (default: jump_linear_sq.png)",
+    )
     parser.add_argument("--seed", type=int, default=0, help="simulation seed (default: 0)")
-    parser.add_argument("--lam", type=float, default=JUMP_LINEAR_LAM,
-                        help=f"regularization lambda (default: {JUMP_LINEAR_LAM:g})")
+    parser.add_argument(
+        "--lam",
+        type=float,
+        default=JUMP_LINEAR_LAM,
+        help=f"regularization lambda (default: {JUMP_LINEAR_LAM:g})",
+    )
     args = parser.parse_args(argv)
     try:
         run_jump_linear_demo(seed=args.seed, norm="sq", lam=args.lam, out=args.out)

@@ -34,13 +34,21 @@ from ltvmodels.apps.rl import MODELS, PAPER_MODELS, plot_experiment, run_experim
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="rl_cartpole.png",
-                        help="image file to write (default: rl_cartpole.png)")
-    parser.add_argument("--quick", action="store_true",
-                        help="quick mode: 3 runs of 8 iterations (unless --runs is given)")
+    parser.add_argument(
+        "--out", default="rl_cartpole.png", help="image file to write (default: rl_cartpole.png)"
+    )
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="quick mode: 3 runs of 8 iterations (unless --runs is given)",
+    )
     parser.add_argument("--seed", type=int, default=0, help="experiment seed (default: 0)")
-    parser.add_argument("--runs", type=int, default=None,
-                        help="Monte-Carlo runs (default: 8, or 3 with --quick; the paper: 20)")
+    parser.add_argument(
+        "--runs",
+        type=int,
+        default=None,
+        help="Monte-Carlo runs (default: 8, or 3 with --quick; the paper: 20)",
+    )
     args = parser.parse_args(argv)
     if args.seed < 0:
         parser.error(f"--seed: expected an integer >= 0, received {args.seed}")
@@ -54,19 +62,25 @@ def main(argv: list[str] | None = None) -> int:
     runs = args.runs if args.runs is not None or args.quick else 8
     try:
         import sklearn  # noqa: F401
+
         models = MODELS
     except ImportError:
         models = PAPER_MODELS
-        print("scikit-learn is not installed: the curve of the learned prior is left out "
-              "(pip install 'ltvmodels[gmm]')")
-    result = run_experiment(quick=args.quick, runs=runs, seed=args.seed, models=models,
-                            progress=print)
+        print(
+            "scikit-learn is not installed: the curve of the learned prior is left out "
+            "(pip install 'ltvmodels[gmm]')"
+        )
+    result = run_experiment(
+        quick=args.quick, runs=runs, seed=args.seed, models=models, progress=print
+    )
     print(f"\nMedian cost over {result.runs} runs (seed {result.seed}):")
     print(result.table())
     med = result.median()
     last = {m: med[m][-1] for m in result.models}
-    print("final / optimum: " + ", ".join(
-        f"{m} {last[m] / result.optimum:.3f}" for m in result.models))
+    print(
+        "final / optimum: "
+        + ", ".join(f"{m} {last[m] / result.optimum:.3f}" for m in result.models)
+    )
     fig = plot_experiment(result)
     fig.savefig(out, dpi=120)
     print(f"wrote {out} ({time.perf_counter() - start:.1f} s)")

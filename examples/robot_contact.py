@@ -25,11 +25,15 @@ from ltvmodels.apps.robot import plot_robot_experiment, robot_experiment
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="robot.png",
-                        help="base name of the figures, <stem>_train and <stem>_validation")
+    parser.add_argument(
+        "--out",
+        default="robot.png",
+        help="base name of the figures, <stem>_train and <stem>_validation",
+    )
     parser.add_argument("--seed", type=int, default=0, help="training noise seed (default: 0)")
-    parser.add_argument("--validation-seed", type=int, default=1,
-                        help="validation noise seed (default: 1)")
+    parser.add_argument(
+        "--validation-seed", type=int, default=1, help="validation noise seed (default: 1)"
+    )
     args = parser.parse_args(argv)
     result = robot_experiment(seed=args.seed, validation_seed=args.validation_seed)
     out = Path(args.out)
@@ -38,11 +42,15 @@ def main(argv: list[str] | None = None) -> int:
         plot_robot_experiment(result, which).savefig(path, dpi=110)
         print(f"wrote {path}")
     train, val = result.train, result.validation
-    print(f"training run: q̇₂ changes sign at {train.sign_change_index}, contact at "
-          f"{train.contact_index}; validation run: {val.sign_change_index}, {val.contact_index}")
+    print(
+        f"training run: q̇₂ changes sign at {train.sign_change_index}, contact at "
+        f"{train.contact_index}; validation run: {val.sign_change_index}, {val.contact_index}"
+    )
     print(f"detected change points {[int(c) for c in result.changepoints]}")
-    print(f"open-loop simulation RMS (normalized): training {result.rms_train:.3f}, "
-          f"validation {result.rms_validation:.3f}")
+    print(
+        f"open-loop simulation RMS (normalized): training {result.rms_train:.3f}, "
+        f"validation {result.rms_validation:.3f}"
+    )
     return 0
 
 

@@ -344,9 +344,15 @@ class DenseProblem:
         z = int(mask.sum())
         ld_Q_plus = self.logdet_prior_precision(kappa, noise_var)  # log det Q_κ + z log κ
         return float(
-            -0.5 * (np.sum(np.log(2 * np.pi * s_y)) + ld_H + self.y @ (self.y / s_y)
-                    - b @ np.linalg.solve(Hr, b))
-            + 0.5 * ld_Q_plus + 0.5 * z * np.log(2 * np.pi)
+            -0.5
+            * (
+                np.sum(np.log(2 * np.pi * s_y))
+                + ld_H
+                + self.y @ (self.y / s_y)
+                - b @ np.linalg.solve(Hr, b)
+            )
+            + 0.5 * ld_Q_plus
+            + 0.5 * z * np.log(2 * np.pi)
         )
 
     def _noise_scales(self, noise_var):
@@ -421,11 +427,12 @@ def sparse_regression(y, phi, row_weights=None):
     rows, targets = [], []
     for r in range(R):
         for t in range(N):
-            if not (np.all(np.isfinite(y[r, t])) and np.all(np.isfinite(phi[r, t]))
-                    and w[r, t] > 0):
+            if not (
+                np.all(np.isfinite(y[r, t])) and np.all(np.isfinite(phi[r, t])) and w[r, t] > 0
+            ):
                 continue
             block = np.zeros((n, N * K))
-            block[:, t * K:(t + 1) * K] = np.sqrt(w[r, t]) * np.kron(np.eye(n), phi[r, t])
+            block[:, t * K : (t + 1) * K] = np.sqrt(w[r, t]) * np.kron(np.eye(n), phi[r, t])
             rows.append(block)
             targets.append(np.sqrt(w[r, t]) * y[r, t])
     return np.vstack(rows), np.concatenate(targets)
@@ -490,7 +497,7 @@ def sparse_lower_bound(Phi, Y, k, weights, norm, coeffs) -> float:
     D = difference_matrix(N, coeffs)
     free, const = weights == 0, np.isinf(weights)
     pen = ~free & ~const
-    null = np.linalg.svd(D)[2][D.shape[0]:].T  # (N, d): orthonormal basis of null(D)
+    null = np.linalg.svd(D)[2][D.shape[0] :].T  # (N, d): orthonormal basis of null(D)
     blocks = []
     for j in range(K):
         basis = np.eye(N) if free[j] else (np.ones((N, 1)) if const[j] else null)
@@ -542,8 +549,11 @@ def best_lam(x, u, order, method: str, lo: float = 1e-2, hi: float = 1e5) -> flo
     values = [lam_criterion(x, u, order, lam, method) for lam in grid]
     best = int(np.argmin(values))
     assert 0 < best < len(grid) - 1, f"{method}: the optimum is not inside [{lo}, {hi}]"
-    res = minimize_scalar(lambda v: lam_criterion(x, u, order, float(np.exp(v)), method),
-                          bounds=(np.log(grid[best - 1]), np.log(grid[best + 1])),
-                          method="bounded", options={"xatol": 1e-7})
+    res = minimize_scalar(
+        lambda v: lam_criterion(x, u, order, float(np.exp(v)), method),
+        bounds=(np.log(grid[best - 1]), np.log(grid[best + 1])),
+        method="bounded",
+        options={"xatol": 1e-7},
+    )
     assert res.fun <= values[best]
     return float(np.exp(res.x))

@@ -39,7 +39,6 @@ def report_threads(x, u=None, **options):
     from threadpoolctl import threadpool_info
 
     model = ltv.fit(x, u, **options)
-    model.info["blas_threads"] = max((pool["num_threads"] for pool in threadpool_info()),
-                                     default=1)
+    model.info["blas_threads"] = max((pool["num_threads"] for pool in threadpool_info()), default=1)
     model.info["numba_threads"] = numba.get_num_threads()
     return model

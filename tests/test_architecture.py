@@ -126,8 +126,10 @@ def imports_of(module: str) -> tuple[list[Import], list[str]]:
     private_uses = [
         f"{module}:{node.lineno} uses {node.value.id}.{node.attr}"
         for node in ast.walk(tree)
-        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
-        and node.value.id in bound and node.attr.startswith("_")
+        if isinstance(node, ast.Attribute)
+        and isinstance(node.value, ast.Name)
+        and node.value.id in bound
+        and node.attr.startswith("_")
         and not node.attr.startswith("__")
     ]
     return found, private_uses
@@ -138,9 +140,12 @@ ALL_IMPORTS = {module: imports_of(module) for module in MODULES}
 
 def allowed_upward(imp: Import, target: str) -> bool:
     """A result's plot method importing the plotting layer (the one exception)."""
-    return (part(imp.importer) == "results" and part(target) == "plotting"
-            and imp.function is not None
-            and (imp.function == "plot" or imp.function.startswith("plot_")))
+    return (
+        part(imp.importer) == "results"
+        and part(target) == "plotting"
+        and imp.function is not None
+        and (imp.function == "plot" or imp.function.startswith("plot_"))
+    )
 
 
 def test_every_part_has_a_layer():
@@ -157,8 +162,10 @@ def test_imports_point_down_the_layers():
                 if part(target) == part(module) or allowed_upward(imp, target):
                     continue
                 if layer(target) >= layer(module):
-                    wrong.append(f"{module}:{imp.line} imports {target} "
-                                 f"(layer {layer(module)} -> {layer(target)})")
+                    wrong.append(
+                        f"{module}:{imp.line} imports {target} "
+                        f"(layer {layer(module)} -> {layer(target)})"
+                    )
     assert not wrong, "\n".join(wrong)
 
 
@@ -183,7 +190,7 @@ def test_no_import_cycles():
         path.append(module)
         for target in sorted(graph[module]):
             if state.get(target) == 1:
-                return path[path.index(target):] + [target]
+                return path[path.index(target) :] + [target]
             if target not in state:
                 cycle = visit(target)
                 if cycle:
@@ -201,8 +208,9 @@ def test_no_import_cycles():
 def test_no_private_names_across_modules():
     wrong = []
     for module, (found, private_uses) in ALL_IMPORTS.items():
-        wrong += [f"{module}:{imp.line} imports {', '.join(imp.private)}"
-                  for imp in found if imp.private]
+        wrong += [
+            f"{module}:{imp.line} imports {', '.join(imp.private)}" for imp in found if imp.private
+        ]
         wrong += private_uses
     assert not wrong, "\n".join(wrong)
 
@@ -216,27 +224,38 @@ def test_no_private_names_outside_the_package(folder):
         bound = set()
         for node in ast.walk(tree):
             if isinstance(node, (ast.Import, ast.ImportFrom)) and not getattr(node, "level", 0):
-                names = [a.name for a in node.names] if isinstance(node, ast.Import) \
+                names = (
+                    [a.name for a in node.names]
+                    if isinstance(node, ast.Import)
                     else [f"{node.module}.{a.name}" for a in node.names]
+                )
                 for alias, name in zip(node.names, names, strict=True):
                     if name.split(".")[0] != PACKAGE:
                         continue
-                    if any(piece.startswith("_") and not piece.startswith("__")
-                           for piece in name.split(".")):
+                    if any(
+                        piece.startswith("_") and not piece.startswith("__")
+                        for piece in name.split(".")
+                    ):
                         wrong.append(f"{path.name}:{node.lineno} imports {name}")
                     bound.add((alias.asname or alias.name).split(".")[0])
-        wrong += [f"{path.name}:{node.lineno} uses {node.value.id}.{node.attr}"
-                  for node in ast.walk(tree)
-                  if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
-                  and node.value.id in bound and node.attr.startswith("_")
-                  and not node.attr.startswith("__")]
+        wrong += [
+            f"{path.name}:{node.lineno} uses {node.value.id}.{node.attr}"
+            for node in ast.walk(tree)
+            if isinstance(node, ast.Attribute)
+            and isinstance(node.value, ast.Name)
+            and node.value.id in bound
+            and node.attr.startswith("_")
+            and not node.attr.startswith("__")
+        ]
     assert not wrong, "\n".join(wrong)
 
 
 def test_the_checks_catch_violations():
     """The parser sees function-level, relative and private imports (a check that can fail)."""
-    code = ("def f():\n    from ..estimators.fit import _refine\n    from .. import plotting\n"
-            "    return plotting._private\n")
+    code = (
+        "def f():\n    from ..estimators.fit import _refine\n    from .. import plotting\n"
+        "    return plotting._private\n"
+    )
     tree = ast.parse(code)
     node = tree.body[0].body[0]
     imp = Import("ltvmodels.core.sparse", node, "f")
@@ -244,23 +263,30 @@ def test_the_checks_catch_violations():
     assert layer(imp.targets[0]) > layer("ltvmodels.core.sparse")
     plot_import = Import("ltvmodels.results.statespace", tree.body[0].body[1], "plot")
     assert allowed_upward(plot_import, "ltvmodels.plotting")
-    assert not allowed_upward(Import("ltvmodels.results.statespace", tree.body[0].body[1], "f"),
-                              "ltvmodels.plotting")
+    assert not allowed_upward(
+        Import("ltvmodels.results.statespace", tree.body[0].body[1], "f"), "ltvmodels.plotting"
+    )
 
 
 def test_import_loads_neither_solvers_nor_plotting_nor_extras():
     """``import ltvmodels`` stays light: numba, matplotlib, pandas, gymnasium load on use."""
-    code = ("import sys, ltvmodels; heavy = [m for m in ('numba', 'matplotlib', 'pandas', "
-            "'gymnasium', 'scipy.optimize', 'ltvmodels.core', 'ltvmodels.apps') "
-            "if m in sys.modules]; print(heavy)")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout.strip()
+    code = (
+        "import sys, ltvmodels; heavy = [m for m in ('numba', 'matplotlib', 'pandas', "
+        "'gymnasium', 'scipy.optimize', 'ltvmodels.core', 'ltvmodels.apps') "
+        "if m in sys.modules]; print(heavy)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.strip()
     assert out == "[]"
 
 
 def test_help_does_not_load_the_solvers():
-    code = ("import sys; from ltvmodels.cli import build_parser; build_parser(); "
-            "print([m for m in ('numba', 'matplotlib', 'ltvmodels.core') if m in sys.modules])")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout.strip()
+    code = (
+        "import sys; from ltvmodels.cli import build_parser; build_parser(); "
+        "print([m for m in ('numba', 'matplotlib', 'ltvmodels.core') if m in sys.modules])"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.strip()
     assert out == "[]"

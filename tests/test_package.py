@@ -18,8 +18,9 @@ def test_unknown_names_raise_attribute_error():
         ltvmodels.fitt  # noqa: B018
 
 
-@pytest.mark.parametrize("old, new", [("rl", "ltvmodels.apps.rl"),
-                                      ("gym_rl", "ltvmodels.apps.gym_rl")])
+@pytest.mark.parametrize(
+    "old, new", [("rl", "ltvmodels.apps.rl"), ("gym_rl", "ltvmodels.apps.gym_rl")]
+)
 def test_moved_applications_warn_and_still_work(old, new):
     with pytest.warns(DeprecationWarning, match=f"moved to {new}"):
         module = getattr(ltvmodels, old)

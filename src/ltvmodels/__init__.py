@@ -24,8 +24,8 @@ from typing import Any
 
 from .errors import (
     ConvergenceWarning,
-    IdentifiabilityWarning,
     DivergenceWarning,
+    IdentifiabilityWarning,
     ModelFileError,
     ModelStructureWarning,
     OutputPathError,
@@ -102,8 +102,11 @@ def __getattr__(name: str) -> Any:
     elif name in _MODULES:
         value = importlib.import_module(f".{name}", __name__)
     elif name in _MOVED:
-        warnings.warn(f"ltvmodels.{name} moved to {_MOVED[name]}; import it from there",
-                      DeprecationWarning, stacklevel=2)
+        warnings.warn(
+            f"ltvmodels.{name} moved to {_MOVED[name]}; import it from there",
+            DeprecationWarning,
+            stacklevel=2,
+        )
         return importlib.import_module(_MOVED[name])
     else:
         raise AttributeError(f"module 'ltvmodels' has no attribute {name!r}")

@@ -44,8 +44,9 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable, Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numba
 import numpy as np
@@ -121,11 +122,12 @@ def _square_sequence(value: Any, name: str, N: int, d: int) -> np.ndarray:
         )
     if not np.allclose(arr, np.swapaxes(arr, 1, 2), rtol=1e-10, atol=1e-12):
         raise ValueError(f"{name}: expected a symmetric matrix, received a non-symmetric one")
-    if np.min(np.linalg.eigvalsh(arr[: 1] if arr.strides[0] == 0 else arr)) < -1e-10 * max(
+    if np.min(np.linalg.eigvalsh(arr[:1] if arr.strides[0] == 0 else arr)) < -1e-10 * max(
         1.0, float(np.max(np.abs(arr)))
     ):
-        raise ValueError(f"{name}: expected a positive semidefinite matrix, received an "
-                         "indefinite one")
+        raise ValueError(
+            f"{name}: expected a positive semidefinite matrix, received an indefinite one"
+        )
     return np.ascontiguousarray(arr)
 
 
@@ -190,8 +192,7 @@ class QuadraticCost:
         self.N, self.n, self.m = N, n, m
         self.Q = _square_sequence(Qa, "Q", N, n)
         self.R = _square_sequence(Ra, "R", N, m)
-        self.Qf = (self.Q[-1].copy() if Qf is None
-                   else _square_sequence(Qf, "Qf", 1, n)[0].copy())
+        self.Qf = self.Q[-1].copy() if Qf is None else _square_sequence(Qf, "Qf", 1, n)[0].copy()
         self.x_goal = _target_sequence(x_goal, "x_goal", N + 1, n)
         self.u_goal = _target_sequence(u_goal, "u_goal", N, m)
 
@@ -203,8 +204,9 @@ class QuadraticCost:
         dx = x - self.x_goal
         du = u - self.u_goal
         c = np.empty(self.N + 1)
-        c[:-1] = (np.einsum("ti,tij,tj->t", dx[:-1], self.Q, dx[:-1])
-                  + np.einsum("ti,tij,tj->t", du, self.R, du))
+        c[:-1] = np.einsum("ti,tij,tj->t", dx[:-1], self.Q, dx[:-1]) + np.einsum(
+            "ti,tij,tj->t", du, self.R, du
+        )
         c[-1] = dx[-1] @ self.Qf @ dx[-1]
         return c
 
@@ -219,8 +221,11 @@ class QuadraticCost:
         lxx[:-1] = 2.0 * self.Q
         lxx[-1] = 2.0 * self.Qf
         return CostExpansion(
-            lx=lx, lu=2.0 * np.einsum("tij,tj->ti", self.R, du), lxx=lxx,
-            luu=2.0 * self.R, lux=np.zeros((self.N, self.m, self.n)),
+            lx=lx,
+            lu=2.0 * np.einsum("tij,tj->ti", self.R, du),
+            lxx=lxx,
+            luu=2.0 * self.R,
+            lux=np.zeros((self.N, self.m, self.n)),
         )
 
 
@@ -249,7 +254,7 @@ class LinearDynamics(LinearTimeVarying):
         self.c = _target_sequence(c, "c", N, n)
 
     @classmethod
-    def through(cls, A: Any, B: Any, x: Any, u: Any) -> "LinearDynamics":
+    def through(cls, A: Any, B: Any, x: Any, u: Any) -> LinearDynamics:
         """Jacobians A_t, B_t with offsets that make a trajectory satisfy the model.
 
         c_t = x_{t+1} − A_t x_t − B_t u_t, so the model is the linearization
@@ -268,8 +273,9 @@ class LinearDynamics(LinearTimeVarying):
         dyn = cls(A, B)
         N, n, m = dyn.N, dyn.n, dyn.m
         xs, us = _trajectory(x, u, N, n, m, "x", "u")
-        dyn.c = xs[1:] - np.einsum("tij,tj->ti", dyn.A, xs[:-1]) - np.einsum(
-            "tij,tj->ti", dyn.B, us)
+        dyn.c = (
+            xs[1:] - np.einsum("tij,tj->ti", dyn.A, xs[:-1]) - np.einsum("tij,tj->ti", dyn.B, us)
+        )
         return dyn
 
     def simulate(self, x0: Any, u: Any) -> np.ndarray:
@@ -324,7 +330,7 @@ class _FunctionDynamics:
             u[t] = np.clip(u_nom[t] + alpha * k[t] + K[t] @ (x[t] - x_nom[t]), lo[t], hi[t])
             x[t + 1] = self.step(x[t], u[t], t)
             if not np.all(np.isfinite(x[t + 1])):
-                x[t + 2:] = np.nan
+                x[t + 2 :] = np.nan
                 return x, u
         return x, u
 
@@ -338,8 +344,9 @@ class _LinearAdapter:
         return self.dyn.A, self.dyn.B
 
     def forward(self, x0, x_nom, u_nom, k, K, alpha, lo, hi):
-        return _forward_linear(self.dyn.A, self.dyn.B, self.dyn.c, x0, x_nom, u_nom, k, K,
-                               alpha, lo, hi)
+        return _forward_linear(
+            self.dyn.A, self.dyn.B, self.dyn.c, x0, x_nom, u_nom, k, K, alpha, lo, hi
+        )
 
 
 # -- compiled kernels -----------------------------------------------------------------
@@ -558,8 +565,9 @@ def _trajectory_controls(u: Any, N: int, m: int, name: str) -> np.ndarray:
     return np.ascontiguousarray(arr[:N])
 
 
-def _trajectory(x: Any, u: Any, N: int, n: int, m: int, xname: str, uname: str
-                ) -> tuple[np.ndarray, np.ndarray]:
+def _trajectory(
+    x: Any, u: Any, N: int, n: int, m: int, xname: str, uname: str
+) -> tuple[np.ndarray, np.ndarray]:
     """A trajectory: states (N + 1, n) and controls (N, m)."""
     xs = arrays.as_float_array(x, xname)
     if xs.ndim == 1 and n == 1:
@@ -604,8 +612,7 @@ def _control_bounds(bounds: Any, N: int, m: int) -> tuple[np.ndarray, np.ndarray
             f"at step {t}, control {i}"
         )
     if np.any(lo == np.inf) or np.any(hi == -np.inf):
-        raise ValueError("u_bounds: expected lower < inf and upper > -inf, received an "
-                         "empty box")
+        raise ValueError("u_bounds: expected lower < inf and upper > -inf, received an empty box")
     return lo, hi
 
 
@@ -666,8 +673,13 @@ def _cost(cost: Any) -> Any:
 
 def _expansion(exp: Any, N: int, n: int, m: int) -> CostExpansion:
     """Check the shapes of a user cost's expansion; contiguous float64 copies."""
-    shapes = {"lx": (N + 1, n), "lu": (N, m), "lxx": (N + 1, n, n), "luu": (N, m, m),
-              "lux": (N, m, n)}
+    shapes = {
+        "lx": (N + 1, n),
+        "lu": (N, m),
+        "lxx": (N + 1, n, n),
+        "luu": (N, m, m),
+        "lux": (N, m, n),
+    }
     out = {}
     for name, shape in shapes.items():
         arr = np.array(getattr(exp, name), dtype=float, order="C")  # a copy: never aliased
@@ -743,9 +755,11 @@ class ILQGResult:
 
     def __repr__(self) -> str:
         N, m, n = self.K.shape
-        return (f"ILQGResult(N={N}, n={n}, m={m}, cost={self.cost:.6g}, "
-                f"iterations={self.iterations}, converged={self.converged}, "
-                f"eta={self.eta:.3g}, deviation={self.deviation:.3g})")
+        return (
+            f"ILQGResult(N={N}, n={n}, m={m}, cost={self.cost:.6g}, "
+            f"iterations={self.iterations}, converged={self.converged}, "
+            f"eta={self.eta:.3g}, deviation={self.deviation:.3g})"
+        )
 
 
 @dataclass
@@ -833,8 +847,9 @@ def _solve(problem: _Problem, dyn, x0, u_start, lo, hi, *, max_iter, tol, mu_ini
         A, B = dyn.linearize(x, u)
         e = problem.quadratize(x, u)
         while True:
-            k, K_new, dV, failed = _backward(A, B, e.lx, e.lu, e.lxx, e.luu, e.lux, u, lo, hi,
-                                             mu, k_warm)
+            k, K_new, dV, failed = _backward(
+                A, B, e.lx, e.lu, e.lxx, e.luu, e.lux, u, lo, hi, mu, k_warm
+            )
             if failed < 0:
                 break
             dmu = max(dmu * factor, factor)
@@ -874,14 +889,16 @@ def _solve(problem: _Problem, dyn, x0, u_start, lo, hi, *, max_iter, tol, mu_ini
     # Gains at the final trajectory (from the least regularization that works).
     A, B = dyn.linearize(x, u)
     e = problem.quadratize(x, u)
-    for mu_final in (0.0, mu, *(mu_min * 10.0 ** p for p in range(0, 17, 2))):
-        _, K_fin, _, failed = _backward(A, B, e.lx, e.lu, e.lxx, e.luu, e.lux, u, lo, hi,
-                                        mu_final, k_warm)
+    for mu_final in (0.0, mu, *(mu_min * 10.0**p for p in range(0, 17, 2))):
+        _, K_fin, _, failed = _backward(
+            A, B, e.lx, e.lu, e.lxx, e.luu, e.lux, u, lo, hi, mu_final, k_warm
+        )
         if failed < 0:
             K = K_fin
             break
-    return _Solve(x=x, u=u, K=K, objective=J, trace=trace, iterations=it,
-                  converged=converged, mu=mu)
+    return _Solve(
+        x=x, u=u, K=K, objective=J, trace=trace, iterations=it, converged=converged, mu=mu
+    )
 
 
 def ilqg(
@@ -959,8 +976,9 @@ def ilqg(
     """
     x0a = arrays.as_float_array(x0, "x0")
     if x0a.ndim != 1 or x0a.size == 0:
-        raise ValueError(f"x0: expected a 1-d state vector of shape (n,), received shape "
-                         f"{x0a.shape}")
+        raise ValueError(
+            f"x0: expected a 1-d state vector of shape (n,), received shape {x0a.shape}"
+        )
     arrays.representable(x0a, "x0", small=False)
     n = x0a.size
     if isinstance(dynamics, LinearDynamics) or (
@@ -968,8 +986,9 @@ def ilqg(
     ):
         N, nd, m = np.shape(dynamics.A)[0], np.shape(dynamics.A)[1], np.shape(dynamics.B)[2]
         if nd != n:
-            raise ValueError(f"x0: expected length {nd} (the dynamics' state dimension), "
-                             f"received length {n}")
+            raise ValueError(
+                f"x0: expected length {nd} (the dynamics' state dimension), received length {n}"
+            )
         u0 = _trajectory_controls(u_init, N, m, "u_init")
     else:
         ua = arrays.as_float_array(u_init, "u_init")
@@ -1005,8 +1024,9 @@ def ilqg(
                 "reference: expected a pair (x_ref (N + 1, n), u_ref (N, m)), received "
                 f"{arrays.describe(reference)}"
             )
-        x_ref, u_ref = _trajectory(reference[0], reference[1], N, n, m, "reference[0]",
-                                   "reference[1]")
+        x_ref, u_ref = _trajectory(
+            reference[0], reference[1], N, n, m, "reference[0]", "reference[1]"
+        )
     problem = _Problem(cost, N, n, m, x_ref, u_ref, wx, wu)
     opts = {"max_iter": max_iter, "tol": tol, "mu_init": 0.0}
 
@@ -1014,16 +1034,24 @@ def ilqg(
     solves, total_it = 1, sol.iterations
     eta = 0.0
     if radius is not None and problem.deviation(sol.x, sol.u) > radius:
-        sol, eta, solves, total_it = _trust_bisection(problem, dyn, x0a, u0, lo, hi, radius,
-                                                      sol, opts, total_it)
+        sol, eta, solves, total_it = _trust_bisection(
+            problem, dyn, x0a, u0, lo, hi, radius, sol, opts, total_it
+        )
     problem.eta = eta
     return ILQGResult(
-        x=sol.x, u=sol.u, K=sol.K, cost=problem.base_cost(sol.x, sol.u),
-        objective=sol.objective, cost_trace=np.array(sol.trace), iterations=sol.iterations,
-        converged=sol.converged, eta=eta, deviation=problem.deviation(sol.x, sol.u),
-        lower=lo, upper=hi,
-        info={"total_iterations": total_it, "solves": solves, "mu": sol.mu,
-              "trust_region": radius},
+        x=sol.x,
+        u=sol.u,
+        K=sol.K,
+        cost=problem.base_cost(sol.x, sol.u),
+        objective=sol.objective,
+        cost_trace=np.array(sol.trace),
+        iterations=sol.iterations,
+        converged=sol.converged,
+        eta=eta,
+        deviation=problem.deviation(sol.x, sol.u),
+        lower=lo,
+        upper=hi,
+        info={"total_iterations": total_it, "solves": solves, "mu": sol.mu, "trust_region": radius},
     )
 
 
@@ -1050,7 +1078,8 @@ def _trust_bisection(problem, dyn, x0, u0, lo, hi, radius, sol0, opts, total_it)
             f"ilqg: the trust region of radius {radius:g} could not be met (deviation "
             f"{problem.deviation(sol.x, sol.u):.3g} at eta={eta:.3g}); is the reference "
             "reachable from x0 under the dynamics?",
-            ConvergenceWarning, stacklevel=3,
+            ConvergenceWarning,
+            stacklevel=3,
         )
         return sol, eta, solves, total_it
     for _ in range(30):  # bisect (geometrically) on η

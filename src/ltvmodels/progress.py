@@ -37,9 +37,17 @@ class Progress:
     WIDTH = 24
     SPIN = "|/-\\"
 
-    def __init__(self, label: str, total: int | None = None, *, stream: Any = None,
-                 delay: float = 0.5, interval: float = 0.1, unit: str = "",
-                 threaded: bool = True) -> None:
+    def __init__(
+        self,
+        label: str,
+        total: int | None = None,
+        *,
+        stream: Any = None,
+        delay: float = 0.5,
+        interval: float = 0.1,
+        unit: str = "",
+        threaded: bool = True,
+    ) -> None:
         self.label = label
         self.threaded = threaded
         self._last_draw = 0.0

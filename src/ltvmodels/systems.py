@@ -100,8 +100,9 @@ class SimulatedData(LinearTimeVarying):
 # -- argument checks ---------------------------------------------------------------
 def _int_arg(value: Any, name: str, minimum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, Integral):
-        raise TypeError(f"{name}: expected an integer >= {minimum}, received {value!r} "
-                        f"({type(value).__name__})")
+        raise TypeError(
+            f"{name}: expected an integer >= {minimum}, received {value!r} ({type(value).__name__})"
+        )
     if value < minimum:
         raise ValueError(f"{name}: expected an integer >= {minimum}, received {value}")
     return int(value)
@@ -122,9 +123,7 @@ def _finish(
     u = rng.standard_normal((T, m))
     w = rng.standard_normal((N, n))
     w *= noise_std
-    x_true = simulate_affine(
-        np.ascontiguousarray(A), np.ascontiguousarray(B), w, np.zeros(n), u
-    )
+    x_true = simulate_affine(np.ascontiguousarray(A), np.ascontiguousarray(B), w, np.zeros(n), u)
     if measurement_std > 0:
         e = rng.standard_normal((T, n))
         e *= measurement_std
@@ -132,8 +131,15 @@ def _finish(
     else:
         x = x_true.copy()
     return SimulatedData(
-        x=x, u=u, A=A, B=B, x_true=x_true, noise_std=noise_std,
-        measurement_std=measurement_std, changepoints=changepoints, name=name,
+        x=x,
+        u=u,
+        A=A,
+        B=B,
+        x_true=x_true,
+        noise_std=noise_std,
+        measurement_std=measurement_std,
+        changepoints=changepoints,
+        name=name,
     )
 
 
@@ -196,11 +202,13 @@ def jump_linear(
     T = _int_arg(T, "T", 2)
     change_at = _int_arg(change_at, "change_at", 0)
     if change_at > T - 1:
-        raise ValueError(f"change_at: expected an integer in [0, T - 1] = [0, {T - 1}], "
-                         f"received {change_at}")
+        raise ValueError(
+            f"change_at: expected an integer in [0, T - 1] = [0, {T - 1}], received {change_at}"
+        )
     noise_std = options.nonnegative_scalar(noise_std, "noise_std")
     measurement_std = (
-        noise_std if measurement_std is None
+        noise_std
+        if measurement_std is None
         else options.nonnegative_scalar(measurement_std, "measurement_std")
     )
     rng = options.random_generator(seed)
@@ -210,8 +218,15 @@ def jump_linear(
     A[change_at:] = JUMP_LINEAR_A2
     B = np.broadcast_to(JUMP_LINEAR_B, (N, 2, 1)).copy()
     changepoints = np.array([change_at]) if 0 < change_at < N else np.zeros(0, dtype=int)
-    return _finish(rng, A, B, noise_std, measurement_std, changepoints,
-                   name=f"jump-linear (change at t={change_at})")
+    return _finish(
+        rng,
+        A,
+        B,
+        noise_std,
+        measurement_std,
+        changepoints,
+        name=f"jump-linear (change at t={change_at})",
+    )
 
 
 def random_walk_system(
@@ -292,8 +307,9 @@ def random_walk_system(
     measurement_std = options.nonnegative_scalar(measurement_std, "measurement_std")
     max_norm = options.positive_scalar(max_norm, "max_norm")
     if max_norm >= 1:
-        raise ValueError(f"max_norm: expected a number in (0, 1) for a stable system, "
-                         f"received {max_norm}")
+        raise ValueError(
+            f"max_norm: expected a number in (0, 1) for a stable system, received {max_norm}"
+        )
     rng = options.random_generator(seed)
     N = T - 1
 
@@ -312,8 +328,15 @@ def random_walk_system(
             steps += start
     fro = np.sqrt(np.einsum("tij,tij->t", A, A))
     A *= np.minimum(1.0, max_norm / np.maximum(fro, 1e-300))[:, None, None]
-    return _finish(rng, A, B, noise_std, measurement_std, None,
-                   name=f"random walk (n={n}, m={m}, drift_std={drift_std:g})")
+    return _finish(
+        rng,
+        A,
+        B,
+        noise_std,
+        measurement_std,
+        None,
+        name=f"random walk (n={n}, m={m}, drift_std={drift_std:g})",
+    )
 
 
 # -- test signals -------------------------------------------------------------------

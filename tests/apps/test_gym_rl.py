@@ -9,7 +9,6 @@ import pytest
 gym = pytest.importorskip("gymnasium")
 
 from ltvmodels.apps import gym_rl  # noqa: E402
-from ltvmodels.control import LinearDynamics, QuadraticCost, ilqg  # noqa: E402
 from ltvmodels.apps.gym_rl import (  # noqa: E402
     PendulumCost,
     fit_rollouts,
@@ -22,6 +21,7 @@ from ltvmodels.apps.gym_rl import (  # noqa: E402
     state_from_observations,
     swung_up,
 )
+from ltvmodels.control import LinearDynamics, QuadraticCost, ilqg  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -41,13 +41,19 @@ def _trajectory(N=12, seed=0):
 
 def test_cost_values_match_the_formula():
     x, u = _trajectory()
-    cost = PendulumCost(angle_weight=5.0, velocity_weight=0.1, torque_weight=0.001,
-                        terminal_angle_weight=10.0, terminal_velocity_weight=0.5)
+    cost = PendulumCost(
+        angle_weight=5.0,
+        velocity_weight=0.1,
+        torque_weight=0.001,
+        terminal_angle_weight=10.0,
+        terminal_velocity_weight=0.5,
+    )
     c = cost.stage_costs(x, u)
     th, w = x[:, 0], x[:, 1]
     assert c.shape == (x.shape[0],)
-    np.testing.assert_allclose(c[:-1], 5 * (1 - np.cos(th[:-1])) + 0.1 * w[:-1] ** 2
-                               + 0.001 * u[:, 0] ** 2)
+    np.testing.assert_allclose(
+        c[:-1], 5 * (1 - np.cos(th[:-1])) + 0.1 * w[:-1] ** 2 + 0.001 * u[:, 0] ** 2
+    )
     np.testing.assert_allclose(c[-1], 10 * (1 - np.cos(th[-1])) + 0.5 * w[-1] ** 2)
     # periodic in the angle, and zero only upright at rest
     shifted = x.copy()
@@ -71,10 +77,12 @@ def test_cost_gradient_and_hessian_against_finite_differences(hessian):
             g[idx] = (fun(arr + d) - fun(arr - d))[idx[0]] / (2 * h)
         return g
 
-    np.testing.assert_allclose(e.lx, grad_fd(lambda xx: cost.stage_costs(xx, u), x),
-                               rtol=1e-6, atol=1e-6)
-    np.testing.assert_allclose(e.lu, grad_fd(lambda uu: cost.stage_costs(x, uu), u),
-                               rtol=1e-6, atol=1e-8)
+    np.testing.assert_allclose(
+        e.lx, grad_fd(lambda xx: cost.stage_costs(xx, u), x), rtol=1e-6, atol=1e-6
+    )
+    np.testing.assert_allclose(
+        e.lu, grad_fd(lambda uu: cost.stage_costs(x, uu), u), rtol=1e-6, atol=1e-8
+    )
     # The exact second derivatives by finite differences of the gradient.
     exact = np.zeros_like(e.lxx)
     for i in range(2):
@@ -242,7 +250,7 @@ def test_ltv_loop_swings_up_an_easy_initial_state(env):
     assert swung_up(res.x)
     # swing_up_iteration: from there on the incumbent stays swung up, and not before.
     it = res.swing_up_iteration
-    assert np.all(res.swung_up[it - 1:])
+    assert np.all(res.swung_up[it - 1 :])
     assert it == 1 or not res.swung_up[it - 2]
     assert res.final_return > res.initial_return + 300
     assert res.final_return > -400
@@ -250,8 +258,7 @@ def test_ltv_loop_swings_up_an_easy_initial_state(env):
     changed = np.flatnonzero(np.diff(res.incumbent_returns) != 0) + 1
     assert np.all(res.accepted[changed])
     assert res.final_return in res.returns
-    np.testing.assert_allclose(res.incumbent_returns[res.accepted],
-                               res.returns[res.accepted])
+    np.testing.assert_allclose(res.incumbent_returns[res.accepted], res.returns[res.accepted])
     assert res.x.shape == (201, 2) and res.u.shape == (200, 1)
     assert np.all(np.abs(res.u) <= 2.0)
     assert np.isclose(res.rewards.sum(), res.final_return)
@@ -291,8 +298,9 @@ def test_each_iteration_fits_both_models_on_the_same_batch_of_rollouts(env, monk
     fit = gym_rl.fit_rollouts
 
     def spy(model, x, u, lam, weights=None, *learned):
-        calls.append((model, np.array(x), np.array(u), None if weights is None
-                      else np.array(weights)))
+        calls.append(
+            (model, np.array(x), np.array(u), None if weights is None else np.array(weights))
+        )
         return fit(model, x, u, lam, weights, *learned)
 
     monkeypatch.setattr(gym_rl, "fit_rollouts", spy)
@@ -305,10 +313,12 @@ def test_each_iteration_fits_both_models_on_the_same_batch_of_rollouts(env, monk
 
     monkeypatch.setattr(gym_rl.LinearDynamics, "through", classmethod(through_spy))
     R, iterations = 5, 3
-    res = {m: learn_pendulum(m, seed=7, iterations=iterations, rollouts_per_iteration=R,
-                             env=env) for m in ("ltv", "lti")}
+    res = {
+        m: learn_pendulum(m, seed=7, iterations=iterations, rollouts_per_iteration=R, env=env)
+        for m in ("ltv", "lti")
+    }
     assert [c[0] for c in calls] == ["ltv"] * (iterations - 1) + ["lti"] * (iterations - 1)
-    for model, x, u, w in calls:
+    for _model, x, u, w in calls:
         assert x.shape == (R, 201, 2) and u.shape == (R, 200, 1) and w.shape == (R, 200)
         np.testing.assert_array_equal(x[:, 0], np.broadcast_to(x[0, 0], (R, 2)))
         assert np.all(np.ptp(x[:, -1], axis=0) > 0)  # R different rollouts
@@ -326,7 +336,7 @@ def test_each_iteration_fits_both_models_on_the_same_batch_of_rollouts(env, monk
     assert len(through) == len(calls)
     for (_, x, u, _), (xl, ul) in zip(calls, through):
         H = ul.shape[0]
-        np.testing.assert_array_equal(xl, x[0, :H + 1])
+        np.testing.assert_array_equal(xl, x[0, : H + 1])
         np.testing.assert_array_equal(ul, u[0, :H])
 
 
@@ -336,8 +346,13 @@ def test_controller_after_the_planning_horizon(env, monkeypatch, tail):
     rollouts = gym_rl.pendulum_rollouts
 
     def spy(env_, seed, u_nom, x_nom=None, K=None, *, noise):
-        controllers.append((np.array(u_nom), None if x_nom is None else np.array(x_nom),
-                            None if K is None else np.array(K)))
+        controllers.append(
+            (
+                np.array(u_nom),
+                None if x_nom is None else np.array(x_nom),
+                None if K is None else np.array(K),
+            )
+        )
         return rollouts(env_, seed, u_nom, x_nom, K, noise=noise)
 
     monkeypatch.setattr(gym_rl, "pendulum_rollouts", spy)
@@ -348,7 +363,9 @@ def test_controller_after_the_planning_horizon(env, monkeypatch, tail):
     assert np.any(K[:H] != 0)
     if tail == "hold":  # the plan's last gains towards its last state
         np.testing.assert_array_equal(K[H:], np.broadcast_to(K[H - 1], K[H:].shape))
-        np.testing.assert_array_equal(x_nom[H + 1:], np.broadcast_to(x_nom[H], x_nom[H + 1:].shape))
+        np.testing.assert_array_equal(
+            x_nom[H + 1 :], np.broadcast_to(x_nom[H], x_nom[H + 1 :].shape)
+        )
         np.testing.assert_array_equal(u_nom[H:], 0.0)
     elif tail == "zero":
         np.testing.assert_array_equal(K[H:], 0.0)
@@ -373,8 +390,14 @@ def test_experiment_table_and_plot():
     assert result.returns["ltv"].shape == result.returns["lti"].shape == (1, 3)
     assert set(result.swung_up_count()) == {"ltv", "lti"}
     text = result.table()
-    for piece in ("LTV model", "LTI model", "seeds swung up", "median iterations to swing-up",
-                  "median final return", "-150"):
+    for piece in (
+        "LTV model",
+        "LTI model",
+        "seeds swung up",
+        "median iterations to swing-up",
+        "median final return",
+        "-150",
+    ):
         assert piece in text
     fig = plot_pendulum_experiment(result)
     assert len(fig.axes) == 2
@@ -392,24 +415,27 @@ def test_missing_gymnasium_says_how_to_install(monkeypatch):
 
 
 # -- invalid arguments --------------------------------------------------------------------------
-@pytest.mark.parametrize("kwargs, exc, name", [
-    ({"model": "true"}, ValueError, "model"),
-    ({"seed": -1}, ValueError, "seed"),
-    ({"iterations": 0}, ValueError, "iterations"),
-    ({"lam": 0.0}, ValueError, "lam"),
-    ({"noise_std": -0.1}, ValueError, "noise_std"),
-    ({"rollouts_per_iteration": 0}, ValueError, "rollouts_per_iteration"),
-    ({"locality": 0.0}, ValueError, "locality"),
-    ({"tail": "brake"}, ValueError, "tail"),
-    ({"initial_torque_std": "1"}, TypeError, "initial_torque_std"),
-    ({"trust_region": 5.0}, ValueError, "trust_region"),
-    ({"horizon_start": 201}, ValueError, "horizon_start"),
-    ({"horizon_step": -1}, ValueError, "horizon_step"),
-    ({"reject_worse": 1}, TypeError, "reject_worse"),
-    ({"feedback": "lqr"}, ValueError, "feedback"),
-    ({"cost": "quadratic"}, TypeError, "cost"),
-    ({"env": object()}, TypeError, "env"),
-])
+@pytest.mark.parametrize(
+    "kwargs, exc, name",
+    [
+        ({"model": "true"}, ValueError, "model"),
+        ({"seed": -1}, ValueError, "seed"),
+        ({"iterations": 0}, ValueError, "iterations"),
+        ({"lam": 0.0}, ValueError, "lam"),
+        ({"noise_std": -0.1}, ValueError, "noise_std"),
+        ({"rollouts_per_iteration": 0}, ValueError, "rollouts_per_iteration"),
+        ({"locality": 0.0}, ValueError, "locality"),
+        ({"tail": "brake"}, ValueError, "tail"),
+        ({"initial_torque_std": "1"}, TypeError, "initial_torque_std"),
+        ({"trust_region": 5.0}, ValueError, "trust_region"),
+        ({"horizon_start": 201}, ValueError, "horizon_start"),
+        ({"horizon_step": -1}, ValueError, "horizon_step"),
+        ({"reject_worse": 1}, TypeError, "reject_worse"),
+        ({"feedback": "lqr"}, ValueError, "feedback"),
+        ({"cost": "quadratic"}, TypeError, "cost"),
+        ({"env": object()}, TypeError, "env"),
+    ],
+)
 def test_learn_pendulum_rejects_invalid_arguments(kwargs, exc, name):
     with pytest.raises(exc, match=name):
         learn_pendulum(**kwargs)

@@ -19,14 +19,19 @@ def test_jacobian_matches_finite_differences():
         u = rng.uniform(-3, 3, 1)
         A, B = s.jacobian(x, u)
         eps = 1e-6
-        Afd = np.array([(s.step(x + eps * e, u) - s.step(x - eps * e, u)) / (2 * eps)
-                        for e in np.eye(4)]).T
+        Afd = np.array(
+            [(s.step(x + eps * e, u) - s.step(x - eps * e, u)) / (2 * eps) for e in np.eye(4)]
+        ).T
         Bfd = (s.step(x, u + eps) - s.step(x, u - eps)) / (2 * eps)
         np.testing.assert_allclose(A, Afd, atol=1e-8)
         np.testing.assert_allclose(B[:, 0], Bfd, atol=1e-8)
         J, b = s.continuous_jacobian(x, u)
-        Jfd = np.array([(s.derivative(x + eps * e, u) - s.derivative(x - eps * e, u)) / (2 * eps)
-                        for e in np.eye(4)]).T
+        Jfd = np.array(
+            [
+                (s.derivative(x + eps * e, u) - s.derivative(x - eps * e, u)) / (2 * eps)
+                for e in np.eye(4)
+            ]
+        ).T
         np.testing.assert_allclose(J, Jfd, atol=1e-7)
     N = 6
     xs = rng.standard_normal((N + 1, 4))
@@ -39,14 +44,17 @@ def test_rk4_matches_scipy_and_energy_of_the_free_pendulum():
     s = rl.CartPole(pole_damping=0.0)
     u = np.random.default_rng(1).uniform(-3, 3, (40, 1))
     x0 = [0.0, 0.0, np.pi - 0.3, 0.0]
-    np.testing.assert_allclose(s.simulate(x0, u), s.simulate(x0, u, method="scipy"),
-                               atol=1e-7)
+    np.testing.assert_allclose(s.simulate(x0, u), s.simulate(x0, u, method="scipy"), atol=1e-7)
     # Without force and friction the energy is conserved.
     x = s.simulate(x0, np.zeros((300, 1)))
     M, m, ell, g = s.cart_mass, s.pole_mass, s.length, s.gravity
     p, v, th, w = x.T
-    energy = (0.5 * (M + m) * v**2 + m * ell * v * w * np.cos(th) + 0.5 * m * ell**2 * w**2
-              - m * g * ell * np.cos(th))
+    energy = (
+        0.5 * (M + m) * v**2
+        + m * ell * v * w * np.cos(th)
+        + 0.5 * m * ell**2 * w**2
+        - m * g * ell * np.cos(th)
+    )
     assert np.ptp(energy) < 1e-6 * np.abs(energy).max()
 
 
@@ -107,8 +115,7 @@ def test_quick_experiment_reproduces_the_paper_ordering():
     assert len(fig.axes[0].lines) == len(rl.PAPER_MODELS) + 1
 
 
-def test_learned_prior_arm_uses_the_earlier_rollouts_and_nothing_of_the_true_model(
-        monkeypatch):
+def test_learned_prior_arm_uses_the_earlier_rollouts_and_nothing_of_the_true_model(monkeypatch):
     pytest.importorskip("sklearn")
     task = rl.cartpole_task(horizon=200)
     plain = rl.learn(task, "ltv", iterations=5, seed=0)

@@ -34,7 +34,7 @@ def test_simulation_respects_the_wall_and_has_the_paper_events():
     # The controller's friction compensation makes the torque jump there.
     jumps = np.abs(np.diff(run.u[:, 1]))
     window = slice(run.sign_change_index - 3, run.sign_change_index + 2)
-    assert jumps[window].max() > 5 * np.median(jumps[:run.contact_index])
+    assert jumps[window].max() > 5 * np.median(jumps[: run.contact_index])
 
 
 def test_same_seed_same_run_other_seed_other_contact_time():
@@ -49,7 +49,7 @@ def test_activation_peaks_at_the_friction_change_and_the_contact(experiment):
     for event in (train.sign_change_index, train.contact_index):
         assert np.min(np.abs(found - event)) <= 5
     a = experiment.model.activation()
-    contact_peak = a[train.contact_index - 6:train.contact_index + 5].max()
+    contact_peak = a[train.contact_index - 6 : train.contact_index + 5].max()
     assert contact_peak == a.max()
 
 

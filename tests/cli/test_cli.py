@@ -44,7 +44,10 @@ def test_demo_out_option(tmp_path, capsys):
 def test_demo_via_python_m(tmp_path):
     proc = subprocess.run(
         [sys.executable, "-m", "ltvmodels", "demo", "jump-linear"],
-        cwd=tmp_path, capture_output=True, text=True, timeout=300,
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert proc.returncode == 0, proc.stderr
     assert "LTVModel(" in proc.stdout and "coefficient RMS error" in proc.stdout
@@ -54,7 +57,10 @@ def test_demo_via_python_m(tmp_path):
 def test_bad_option_via_python_m(tmp_path):
     proc = subprocess.run(
         [sys.executable, "-m", "ltvmodels", "demo", "jump-linear", "--bogus"],
-        cwd=tmp_path, capture_output=True, text=True, timeout=300,
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert proc.returncode == 2
     assert proc.stdout == ""
@@ -133,8 +139,8 @@ import json  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ltvmodels import systems  # noqa: E402
-from ltvmodels.progress import Progress
 from ltvmodels.cli.report import jsonable  # noqa: E402
+from ltvmodels.progress import Progress  # noqa: E402
 
 
 def _read_csv(path):
@@ -152,8 +158,14 @@ def workdir(tmp_path_factory):
         writer = csv.writer(fh)
         writer.writerow(["time", "label", "x1", "x2", "u"])
         for t in range(data.T):
-            writer.writerow([t, "before" if t < 100 else "after",
-                             *(f"{v:.10g}" for v in data.x[t]), f"{data.u[t, 0]:.10g}"])
+            writer.writerow(
+                [
+                    t,
+                    "before" if t < 100 else "after",
+                    *(f"{v:.10g}" for v in data.x[t]),
+                    f"{data.u[t, 0]:.10g}",
+                ]
+            )
     return root, data
 
 
@@ -165,11 +177,29 @@ def _run(argv, capsys):
 
 def test_fit_model_file_then_simulate_and_predict(workdir, capsys):
     root, data = workdir
-    model_path, fig, sim_csv, pred_csv = (root / n for n in ("m.npz", "fit.png", "sim.csv",
-                                                             "pred.csv"))
-    code, out, err = _run(["fit", root / "data.csv", "--state", "x1,x2", "--input", "u",
-                           "--norm", "group", "--lam", "auto", "--refine",
-                           "--out", model_path, "--plot", fig], capsys)
+    model_path, fig, sim_csv, pred_csv = (
+        root / n for n in ("m.npz", "fit.png", "sim.csv", "pred.csv")
+    )
+    code, out, err = _run(
+        [
+            "fit",
+            root / "data.csv",
+            "--state",
+            "x1,x2",
+            "--input",
+            "u",
+            "--norm",
+            "group",
+            "--lam",
+            "auto",
+            "--refine",
+            "--out",
+            model_path,
+            "--plot",
+            fig,
+        ],
+        capsys,
+    )
     assert code == 0, err
     assert "fit: norm='group', order=1, lambda = " in out and "criterion 'lcurve'" in out
     assert "two-step refinement" in out
@@ -180,32 +210,49 @@ def test_fit_model_file_then_simulate_and_predict(workdir, capsys):
     assert model.info["data_columns"] == {"state": ["x1", "x2"], "input": ["u"]}
 
     # the model file records its columns: no --state/--input needed
-    code, out, err = _run(["simulate", model_path, root / "data.csv", "--out", sim_csv,
-                           "--plot", root / "sim.png"], capsys)
+    code, out, err = _run(
+        ["simulate", model_path, root / "data.csv", "--out", sim_csv, "--plot", root / "sim.png"],
+        capsys,
+    )
     assert code == 0, err
     assert "open-loop simulation of samples 0 to 199" in out and "RMS error" in out
     header, table = _read_csv(sim_csv)
     assert header == ["t", "x1", "x2"] and table.shape == (200, 3)
-    np.testing.assert_allclose(table[:, 1:], model.simulate(data.x[0], data.u), rtol=1e-9,
-                               atol=1e-9)
+    np.testing.assert_allclose(
+        table[:, 1:], model.simulate(data.x[0], data.u), rtol=1e-9, atol=1e-9
+    )
     assert _is_png(root / "sim.png")
 
-    code, out, err = _run(["predict", model_path, root / "data.csv", "--out", pred_csv,
-                           "--json"], capsys)
+    code, out, err = _run(
+        ["predict", model_path, root / "data.csv", "--out", pred_csv, "--json"], capsys
+    )
     assert code == 0, err
     report = json.loads(out)
     assert report["start"] == 1 and report["rows"] == 199 and report["columns"] == ["x1", "x2"]
     header, table = _read_csv(pred_csv)
     np.testing.assert_array_equal(table[:, 0], np.arange(1, 200))
-    np.testing.assert_allclose(table[:, 1:], model.predict(data.x, data.u), rtol=1e-9,
-                               atol=1e-9)
+    np.testing.assert_allclose(table[:, 1:], model.predict(data.x, data.u), rtol=1e-9, atol=1e-9)
     assert report["rms"] == pytest.approx(np.sqrt(np.mean((table[:, 1:] - data.x[1:]) ** 2)))
 
 
 def test_fit_json_is_strict_json(workdir, capsys):
     root, _ = workdir
-    code, out, err = _run(["fit", root / "data.csv", "--state", "2,3", "--input", "u",
-                           "--norm", "sq", "--lam", "30", "--json"], capsys)
+    code, out, err = _run(
+        [
+            "fit",
+            root / "data.csv",
+            "--state",
+            "2,3",
+            "--input",
+            "u",
+            "--norm",
+            "sq",
+            "--lam",
+            "30",
+            "--json",
+        ],
+        capsys,
+    )
     assert code == 0, err
     assert "NaN" not in out and "Infinity" not in out
     report = json.loads(out)
@@ -217,43 +264,102 @@ def test_fit_json_is_strict_json(workdir, capsys):
     assert set(report["rms"]) >= {"prediction", "simulation"}
     assert isinstance(report["loglik"], float) and report["warnings"] == []
     # group lasso: no likelihood (NaN) → null; auto λ records the criterion
-    code, out, _ = _run(["fit", root / "data.csv", "--state", "x1,x2", "--input", "u",
-                         "--norm", "l1", "--json"], capsys)
+    code, out, _ = _run(
+        ["fit", root / "data.csv", "--state", "x1,x2", "--input", "u", "--norm", "l1", "--json"],
+        capsys,
+    )
     report = json.loads(out)
     assert code == 0 and report["loglik"] is None and report["lam_method"] == "lcurve"
 
 
 def test_segments_ar_select_lambda(workdir, capsys):
     root, _ = workdir
-    code, out, err = _run(["segments", root / "data.csv", "--state", "x1,x2", "--input", "u",
-                           "--n-changes", "1", "--plot", root / "seg.png", "--out",
-                           root / "seg.npz"], capsys)
+    code, out, err = _run(
+        [
+            "segments",
+            root / "data.csv",
+            "--state",
+            "x1,x2",
+            "--input",
+            "u",
+            "--n-changes",
+            "1",
+            "--plot",
+            root / "seg.png",
+            "--out",
+            root / "seg.npz",
+        ],
+        capsys,
+    )
     assert code == 0, err
     assert "change points: [100]" in out and "dynamic programming" in out
     assert _is_png(root / "seg.png") and ltvmodels.load(root / "seg.npz").norm == "l0"
-    code, out, _ = _run(["segments", root / "data.csv", "--state", "x1,x2", "--input", "u",
-                         "--penalty", "bic", "--json"], capsys)
+    code, out, _ = _run(
+        [
+            "segments",
+            root / "data.csv",
+            "--state",
+            "x1,x2",
+            "--input",
+            "u",
+            "--penalty",
+            "bic",
+            "--json",
+        ],
+        capsys,
+    )
     report = json.loads(out)
     assert code == 0 and report["changepoints"] == [100] and report["penalty_rule"] == "bic"
 
-    code, out, err = _run(["select-lambda", root / "data.csv", "--state", "x1,x2", "--input",
-                           "u", "--plot", root / "sel.png", "--json"], capsys)
+    code, out, err = _run(
+        [
+            "select-lambda",
+            root / "data.csv",
+            "--state",
+            "x1,x2",
+            "--input",
+            "u",
+            "--plot",
+            root / "sel.png",
+            "--json",
+        ],
+        capsys,
+    )
     assert code == 0, err
     report = json.loads(out)
     assert report["method"] == "ml" and report["lam"] > 0
     assert len(report["candidates"]) == len(report["scores"]) >= 8  # a coarse grid, refined
     assert _is_png(root / "sel.png")
-    code, out, _ = _run(["select-lambda", root / "data.csv", "--state", "x1,x2", "--input",
-                         "u", "--norm", "l0"], capsys)
+    code, out, _ = _run(
+        ["select-lambda", root / "data.csv", "--state", "x1,x2", "--input", "u", "--norm", "l0"],
+        capsys,
+    )
     assert code == 0 and "chosen: number of changes 1" in out
 
 
 def test_ar_root_spectrogram_and_model_file(tmp_path, capsys):
     y, _ = ltvmodels.systems.chirp(2**11, seed=0)
     np.savetxt(tmp_path / "chirp.csv", y[:, None], header="y", comments="")
-    code, out, err = _run(["ar", tmp_path / "chirp.csv", "--column", "y", "--na", "4",
-                           "--fs", "16000", "--lam", "300", "--plot", tmp_path / "ar.png",
-                           "--out", tmp_path / "ar.npz", "--json"], capsys)
+    code, out, err = _run(
+        [
+            "ar",
+            tmp_path / "chirp.csv",
+            "--column",
+            "y",
+            "--na",
+            "4",
+            "--fs",
+            "16000",
+            "--lam",
+            "300",
+            "--plot",
+            tmp_path / "ar.png",
+            "--out",
+            tmp_path / "ar.npz",
+            "--json",
+        ],
+        capsys,
+    )
     assert code == 0, err
     report = json.loads(out)
     low, high = report["median_pole_frequencies"]
@@ -269,8 +375,9 @@ def test_headerless_csv_stdin_and_semicolons(tmp_path, monkeypatch, capsys):
     data = systems.jump_linear(T=60, change_at=30, seed=1)
     text = "\n".join(";".join(f"{v:.10g}" for v in row) for row in np.hstack([data.x, data.u]))
     monkeypatch.setattr(sys, "stdin", io.StringIO("# a comment\n" + text + "\n"))
-    code, out, err = _run(["fit", "-", "--state", "0,1", "--input", "2", "--lam", "10",
-                           "--json"], capsys)
+    code, out, err = _run(
+        ["fit", "-", "--state", "0,1", "--input", "2", "--lam", "10", "--json"], capsys
+    )
     assert code == 0, err
     report = json.loads(out)
     assert report["data"] == "standard input" and report["T"] == 60
@@ -282,11 +389,24 @@ def test_parquet_through_pandas(workdir, tmp_path, capsys):
     pd = pytest.importorskip("pandas")
     pytest.importorskip("pyarrow")
     _, data = workdir
-    frame = pd.DataFrame({"x1": data.x[:, 0], "x2": data.x[:, 1], "u": data.u[:, 0],
-                          "note": ["a"] * data.T})
+    frame = pd.DataFrame(
+        {"x1": data.x[:, 0], "x2": data.x[:, 1], "u": data.u[:, 0], "note": ["a"] * data.T}
+    )
     frame.to_parquet(tmp_path / "d.parquet")
-    code, out, err = _run(["fit", tmp_path / "d.parquet", "--state", "x1,x2", "--input", "u",
-                           "--lam", "30", "--json"], capsys)
+    code, out, err = _run(
+        [
+            "fit",
+            tmp_path / "d.parquet",
+            "--state",
+            "x1,x2",
+            "--input",
+            "u",
+            "--lam",
+            "30",
+            "--json",
+        ],
+        capsys,
+    )
     assert code == 0, err
     report = json.loads(out)
     assert report["T"] == data.T
@@ -313,8 +433,23 @@ def test_parquet_without_an_engine_says_what_to_install(workdir, tmp_path, capsy
 
 def test_warnings_are_one_line_each(workdir, capsys):
     root, _ = workdir
-    code, out, err = _run(["fit", root / "data.csv", "--state", "x1,x2", "--input", "u",
-                           "--norm", "group", "--lam", "3", "--max-iter", "1"], capsys)
+    code, out, err = _run(
+        [
+            "fit",
+            root / "data.csv",
+            "--state",
+            "x1,x2",
+            "--input",
+            "u",
+            "--norm",
+            "group",
+            "--lam",
+            "3",
+            "--max-iter",
+            "1",
+        ],
+        capsys,
+    )
     assert code == 0
     lines = err.strip().splitlines()
     assert lines and all(line.startswith("ltvmodels fit: warning: ") for line in lines), err
@@ -338,26 +473,43 @@ def test_warnings_are_one_line_each(workdir, capsys):
         (["fit", "{data}", "--state", "x1", "--plot", "{tmp}/no/f.png"], "--plot: cannot write"),
         (["fit", "{data}", "--state", "x1", "--plot", "{tmp}/f.nosuch"], "--plot: unsupported"),
         (["fit", "{data}", "--state", "x1", "--out", "{tmp}/no/m.npz"], "--out: cannot write"),
-        (["fit", "{bad}", "--state", "a,b"],
-         "bad.csv, line 3, column 'b': 'x' is not a number; expected a number, or an empty "
-         "cell, NA, N/A, NaN or null for a missing value"),
+        (
+            ["fit", "{bad}", "--state", "a,b"],
+            "bad.csv, line 3, column 'b': 'x' is not a number; expected a number, or an empty "
+            "cell, NA, N/A, NaN or null for a missing value",
+        ),
         (["fit", "{inf}", "--state", "b"], "inf.csv, line 3, column 'b': 'inf' is not finite"),
-        (["fit", "{inf}", "--state", "a"], "inf.csv, line 4, column 'a': '-Infinity' is not "
-         "finite; expected a finite number, or an empty cell"),
-        (["simulate", "{model}", "{gap}"], "--input: " "{gap}: input u is missing at sample 5; "
-         "an open-loop simulation needs every input"),
-        (["simulate", "{model}", "{gap0}"], "--state: " "{gap0}: the initial state must be "
-         "observed, received a missing value of x2 at sample 0"),
+        (
+            ["fit", "{inf}", "--state", "a"],
+            "inf.csv, line 4, column 'a': '-Infinity' is not "
+            "finite; expected a finite number, or an empty cell",
+        ),
+        (
+            ["simulate", "{model}", "{gap}"],
+            "--input: "
+            "{gap}: input u is missing at sample 5; "
+            "an open-loop simulation needs every input",
+        ),
+        (
+            ["simulate", "{model}", "{gap0}"],
+            "--state: "
+            "{gap0}: the initial state must be "
+            "observed, received a missing value of x2 at sample 0",
+        ),
         (["fit", "{data}", "--state", "x1", "--constant", "yes"], "unrecognized arguments: yes"),
         (["fit", "{ragged}", "--state", "a"], "ragged.csv, line 3: expected 2 fields"),
         (["fit", "{data}", "--state", "time,x1", "--lam", "0", "--order", "3"], "singular"),
         (["fit", "{tmp}/d.parquet", "--state", "a"], "d.parquet"),
-        (["segments", "{data}", "--state", "x1", "--n-changes", "1", "--penalty", "2"],
-         "not allowed with"),
+        (
+            ["segments", "{data}", "--state", "x1", "--n-changes", "1", "--penalty", "2"],
+            "not allowed with",
+        ),
         (["segments", "{data}", "--state", "x1", "--n-changes", "500"], "--n-changes: 500"),
         (["ar", "{data}", "--column", "x1", "--na", "500"], "--column data: the series is"),
-        (["select-lambda", "{data}", "--state", "x1", "--norm", "group", "--method", "ml"],
-         "--method: expected one of"),
+        (
+            ["select-lambda", "{data}", "--state", "x1", "--norm", "group", "--method", "ml"],
+            "--method: expected one of",
+        ),
         (["select-lambda", "{data}"], "--state: expected the state columns"),
         (["simulate", "{tmp}/none.npz", "{data}"], "none.npz: no such file"),
         (["simulate", "{data}", "{data}"], "not an ltvmodels model file"),
@@ -387,10 +539,17 @@ def test_data_commands_user_errors_exit_2(argv, needle, workdir, tmp_path, capsy
         fitted = ltvmodels.fit(data.x, data.u, lam=10.0)
         fitted.info["data_columns"] = {"state": ["x1", "x2"], "input": ["u"]}
         fitted.save(model)
-    subs = {"{tmp}": str(tmp_path), "{data}": str(root / "data.csv"), "{model}": str(model),
-            "{bad}": str(tmp_path / "bad.csv"), "{ragged}": str(tmp_path / "ragged.csv"),
-            "{short}": str(tmp_path / "short.csv"), "{inf}": str(tmp_path / "inf.csv"),
-            "{gap}": str(tmp_path / "gap.csv"), "{gap0}": str(tmp_path / "gap0.csv")}
+    subs = {
+        "{tmp}": str(tmp_path),
+        "{data}": str(root / "data.csv"),
+        "{model}": str(model),
+        "{bad}": str(tmp_path / "bad.csv"),
+        "{ragged}": str(tmp_path / "ragged.csv"),
+        "{short}": str(tmp_path / "short.csv"),
+        "{inf}": str(tmp_path / "inf.csv"),
+        "{gap}": str(tmp_path / "gap.csv"),
+        "{gap0}": str(tmp_path / "gap0.csv"),
+    }
     for key, value in subs.items():
         argv = [a.replace(key, value) for a in argv]
         needle = needle.replace(key, value)
@@ -407,11 +566,15 @@ def test_user_error_via_python_m_has_no_traceback(workdir):
     root, _ = workdir
     proc = subprocess.run(
         [sys.executable, "-m", "ltvmodels", "fit", str(root / "data.csv"), "--state", "nope"],
-        capture_output=True, text=True, timeout=300,
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert proc.returncode == 2 and proc.stdout == ""
-    assert proc.stderr.strip() == (f"ltvmodels fit: error: --state: no column 'nope' in "
-                                   f"{root / 'data.csv'} (columns: time, label, x1, x2, u)")
+    assert proc.stderr.strip() == (
+        f"ltvmodels fit: error: --state: no column 'nope' in "
+        f"{root / 'data.csv'} (columns: time, label, x1, x2, u)"
+    )
 
 
 @pytest.mark.parametrize(
@@ -458,10 +621,14 @@ def test_progress_only_on_a_terminal():
 
 
 def test_jsonable_converts_numpy_and_non_finite():
-    value = {"a": np.float64(np.nan), "b": np.array([1.0, np.inf]), "c": np.int64(3),
-             "d": (np.bool_(True), None), 4: float("-inf")}
-    assert jsonable(value) == {"a": None, "b": [1.0, None], "c": 3, "d": [True, None],
-                                "4": None}
+    value = {
+        "a": np.float64(np.nan),
+        "b": np.array([1.0, np.inf]),
+        "c": np.int64(3),
+        "d": (np.bool_(True), None),
+        4: float("-inf"),
+    }
+    assert jsonable(value) == {"a": None, "b": [1.0, None], "c": 3, "d": [True, None], "4": None}
     json.dumps(jsonable(value), allow_nan=False)
 
 
@@ -476,8 +643,14 @@ def test_help_lists_every_subcommand(capsys):
 
 
 # -- missing values, --constant, autonomous systems ------------------------------------
-MISSING_CELLS = {(10, 0): "", (50, 2): "NA", (120, 1): "NaN", (150, 0): "n/a", (170, 1): "nan",
-                 (30, 2): "null"}
+MISSING_CELLS = {
+    (10, 0): "",
+    (50, 2): "NA",
+    (120, 1): "NaN",
+    (150, 0): "n/a",
+    (170, 1): "nan",
+    (30, 2): "null",
+}
 """(row, column) of x1, x2, u → the text of a missing cell in missing.csv."""
 
 
@@ -506,12 +679,26 @@ def test_fit_with_missing_values_matches_the_api(missing_csv, tmp_path, capsys):
     path, x, u = missing_csv
     n_missing = int(np.sum(~_complete_transitions(x, u)))
     assert n_missing == 10  # x1: 2 + 2 transitions, x2: 2 + 2, u: 1 + 1
-    code, out, err = _run(["fit", path, "--state", "x1,x2", "--input", "u", "--lam", "10",
-                           "--out", tmp_path / "m.npz"], capsys)
+    code, out, err = _run(
+        [
+            "fit",
+            path,
+            "--state",
+            "x1,x2",
+            "--input",
+            "u",
+            "--lam",
+            "10",
+            "--out",
+            tmp_path / "m.npz",
+        ],
+        capsys,
+    )
     assert code == 0, err
-    assert (f"missing: {n_missing} of 199 transitions left out (missing values: x1 2, x2 2, "
-            "u 2; a transition enters the fit only if x[t], u[t] and x[t+1] are observed)"
-            ) in out
+    assert (
+        f"missing: {n_missing} of 199 transitions left out (missing values: x1 2, x2 2, "
+        "u 2; a transition enters the fit only if x[t], u[t] and x[t+1] are observed)"
+    ) in out
     assert "one-step prediction RMS: " in out and "observed samples only" in out
     assert "open-loop simulation: not computed (input u is missing at sample 30" in out
     saved = ltvmodels.load(tmp_path / "m.npz")
@@ -519,8 +706,9 @@ def test_fit_with_missing_values_matches_the_api(missing_csv, tmp_path, capsys):
     assert api.info["n_missing"] == n_missing
     assert np.all(np.isfinite(saved.k)) and np.allclose(saved.k, api.k)
 
-    code, out, err = _run(["fit", path, "--state", "x1,x2", "--input", "u", "--lam", "10",
-                           "--json"], capsys)
+    code, out, err = _run(
+        ["fit", path, "--state", "x1,x2", "--input", "u", "--lam", "10", "--json"], capsys
+    )
     report = json.loads(out)
     assert code == 0 and report["n_missing"] == n_missing
     assert report["missing_values"] == {"x1": 2, "x2": 2, "u": 2}
@@ -529,14 +717,14 @@ def test_fit_with_missing_values_matches_the_api(missing_csv, tmp_path, capsys):
     assert np.count_nonzero(~valid) == 2 * 6 + 4  # 6 rows not computed, 4 targets missing
     expected = np.sqrt(np.mean((pred - x[1:])[valid] ** 2))
     assert report["rms"]["prediction"] == pytest.approx(expected)
-    assert report["rms"]["simulation"] is None and "input u" in report["rms"][
-        "simulation_skipped"]
+    assert report["rms"]["simulation"] is None and "input u" in report["rms"]["simulation_skipped"]
 
 
 def test_segments_ar_select_lambda_with_missing_values(missing_csv, capsys):
     path, x, u = missing_csv
-    code, out, err = _run(["segments", path, "--state", "x1,x2", "--input", "u",
-                           "--n-changes", "1", "--json"], capsys)
+    code, out, err = _run(
+        ["segments", path, "--state", "x1,x2", "--input", "u", "--n-changes", "1", "--json"], capsys
+    )
     assert code == 0, err
     report = json.loads(out)
     api = ltvmodels.fit_segments(x, u, n_changes=1)
@@ -547,21 +735,23 @@ def test_segments_ar_select_lambda_with_missing_values(missing_csv, capsys):
     code, out, err = _run(["ar", path, "--column", "x1", "--na", "2", "--lam", "10"], capsys)
     assert code == 0, err
     assert "missing: 6 of 198 time steps left out (missing values: x1 2;" in out
-    code, out, err = _run(["ar", path, "--column", "x1", "--na", "2", "--constant",
-                           "--json"], capsys)
+    code, out, err = _run(
+        ["ar", path, "--column", "x1", "--na", "2", "--constant", "--json"], capsys
+    )
     ar = json.loads(out)
     assert code == 0 and ar["n_missing"] == 6 and ar["constant"] is True
-    assert ar["lam"] == pytest.approx(ltvmodels.fit_ar(x[:, 0], 2, lam="auto",
-                                                       constant=True).lam)
+    assert ar["lam"] == pytest.approx(ltvmodels.fit_ar(x[:, 0], 2, lam="auto", constant=True).lam)
     assert ar["lam"] != pytest.approx(ltvmodels.fit_ar(x[:, 0], 2, lam="auto").lam)
     # select-lambda leaves out the same AR rows: the same choice as ar --lam auto
-    code, out, err = _run(["select-lambda", path, "--column", "x1", "--na", "2", "--constant",
-                           "--json"], capsys)
+    code, out, err = _run(
+        ["select-lambda", path, "--column", "x1", "--na", "2", "--constant", "--json"], capsys
+    )
     assert code == 0, err
     sel = json.loads(out)
     assert sel["n_missing"] == 6 and sel["lam"] == pytest.approx(ar["lam"])
-    code, out, err = _run(["select-lambda", path, "--state", "x1,x2", "--input", "u",
-                           "--json"], capsys)
+    code, out, err = _run(
+        ["select-lambda", path, "--state", "x1,x2", "--input", "u", "--json"], capsys
+    )
     assert code == 0, err
     sel = json.loads(out)
     assert sel["n_missing"] == 10
@@ -574,8 +764,9 @@ def test_predict_with_missing_values(missing_csv, workdir, tmp_path, capsys):
     model = ltvmodels.fit(data.x, data.u, lam=10.0)
     model.info["data_columns"] = {"state": ["x1", "x2"], "input": ["u"]}
     model.save(tmp_path / "m.npz")
-    code, out, err = _run(["predict", tmp_path / "m.npz", path, "--out", tmp_path / "p.csv"],
-                          capsys)
+    code, out, err = _run(
+        ["predict", tmp_path / "m.npz", path, "--out", tmp_path / "p.csv"], capsys
+    )
     assert code == 0, err
     # x[t] or u[t] missing at t = 10, 30, 50, 120, 150, 170
     assert "6 not computed (they need a missing sample)" in out
@@ -594,8 +785,9 @@ def test_headerless_csv_with_a_missing_first_cell(tmp_path, monkeypatch, capsys)
     rows[0] = "NA," + rows[0].split(",", 1)[1]
     rows[1] = "," + rows[1].split(",", 1)[1]
     monkeypatch.setattr(sys, "stdin", io.StringIO("\n".join(rows) + "\n"))
-    code, out, err = _run(["fit", "-", "--state", "0,1", "--input", "2", "--lam", "10",
-                           "--json"], capsys)
+    code, out, err = _run(
+        ["fit", "-", "--state", "0,1", "--input", "2", "--lam", "10", "--json"], capsys
+    )
     assert code == 0, err
     report = json.loads(out)
     assert report["T"] == 60 and report["missing_values"] == {"0": 2, "1": 0, "2": 0}
@@ -613,8 +805,9 @@ def test_constant_on_fit_segments_select_lambda(workdir, tmp_path, capsys):
     assert saved.constant and saved.k.shape == (199, 2 * (2 + 1 + 1))
     assert np.allclose(saved.k, api.k) and np.allclose(saved.c, api.c)
 
-    code, out, err = _run(["segments", *common, "--n-changes", "1", "--out",
-                           tmp_path / "s.npz", "--json"], capsys)
+    code, out, err = _run(
+        ["segments", *common, "--n-changes", "1", "--out", tmp_path / "s.npz", "--json"], capsys
+    )
     assert code == 0, err
     assert json.loads(out)["constant"] is True
     saved = ltvmodels.load(tmp_path / "s.npz")
@@ -629,21 +822,41 @@ def test_constant_on_fit_segments_select_lambda(workdir, tmp_path, capsys):
     without = ltvmodels.select_lambda(data.x, data.u)
     assert report["constant"] is True
     assert np.allclose(report["scores"], with_c.scores)
-    assert (len(without.scores) != len(with_c.scores)  # the constant changes the criterion
-            or not np.allclose(with_c.scores, without.scores))
+    assert (
+        len(without.scores) != len(with_c.scores)  # the constant changes the criterion
+        or not np.allclose(with_c.scores, without.scores)
+    )
 
 
 def test_predict_and_simulate_include_the_constant(workdir, tmp_path, capsys):
     root, data = workdir
-    code, _, err = _run(["fit", root / "data.csv", "--state", "x1,x2", "--input", "u",
-                         "--lam", "10", "--constant", "--out", tmp_path / "c.npz"], capsys)
+    code, _, err = _run(
+        [
+            "fit",
+            root / "data.csv",
+            "--state",
+            "x1,x2",
+            "--input",
+            "u",
+            "--lam",
+            "10",
+            "--constant",
+            "--out",
+            tmp_path / "c.npz",
+        ],
+        capsys,
+    )
     assert code == 0, err
     model = ltvmodels.load(tmp_path / "c.npz")
     assert np.any(model.c != 0)
-    for command, expected in (("predict", model.predict(data.x, data.u)),
-                              ("simulate", model.simulate(data.x[0], data.u))):
-        code, out, err = _run([command, tmp_path / "c.npz", root / "data.csv", "--out",
-                               tmp_path / f"{command}.csv"], capsys)
+    for command, expected in (
+        ("predict", model.predict(data.x, data.u)),
+        ("simulate", model.simulate(data.x[0], data.u)),
+    ):
+        code, out, err = _run(
+            [command, tmp_path / "c.npz", root / "data.csv", "--out", tmp_path / f"{command}.csv"],
+            capsys,
+        )
         assert code == 0 and "constant=True" in out, err
         _, table = _read_csv(tmp_path / f"{command}.csv")
         np.testing.assert_allclose(table[:, 1:], expected, rtol=1e-9, atol=1e-9)
@@ -661,9 +874,11 @@ def autonomous(workdir):
 def test_commands_without_input(command, autonomous, tmp_path, capsys):
     path, x = autonomous
     name, *norm = command.split()
-    extra = {"fit": ["--lam", "10", "--out", tmp_path / "m.npz"],
-             "segments": ["--n-changes", "1", "--out", tmp_path / "m.npz"],
-             "select-lambda": ["--norm", *norm] if norm else []}[name]
+    extra = {
+        "fit": ["--lam", "10", "--out", tmp_path / "m.npz"],
+        "segments": ["--n-changes", "1", "--out", tmp_path / "m.npz"],
+        "select-lambda": ["--norm", *norm] if norm else [],
+    }[name]
     code, out, err = _run([name, path, "--state", "x1,x2", *extra, "--json"], capsys)
     assert code == 0, err
     report = json.loads(out)
@@ -688,8 +903,7 @@ def test_predict_simulate_without_input(command, autonomous, tmp_path, capsys):
     model = ltvmodels.fit(x, None, lam=10.0, constant=True)
     model.info["data_columns"] = {"state": ["x1", "x2"], "input": []}
     model.save(tmp_path / "m.npz")
-    code, out, err = _run([command, tmp_path / "m.npz", path, "--out", tmp_path / "r.csv"],
-                          capsys)
+    code, out, err = _run([command, tmp_path / "m.npz", path, "--out", tmp_path / "r.csv"], capsys)
     assert code == 0, err
     assert "inputs (none)" in out
     _, table = _read_csv(tmp_path / "r.csv")
@@ -702,21 +916,26 @@ def test_predict_simulate_without_input(command, autonomous, tmp_path, capsys):
 
 def test_noise_variance_per_state_in_reports(workdir, capsys):
     root, data = workdir
-    code, out, err = _run(["fit", root / "data.csv", "--state", "x1,x2", "--input", "u",
-                           "--lam", "10"], capsys)
+    code, out, err = _run(
+        ["fit", root / "data.csv", "--state", "x1,x2", "--input", "u", "--lam", "10"], capsys
+    )
     assert code == 0, err
     api = ltvmodels.fit(data.x, data.u, lam=10.0)
     assert api.noise_var.shape == (2,)
     v1, v2 = (f"{v:.4g}" for v in api.noise_var)
     assert f"noise variance: x1 {v1}, x2 {v2}" in out
-    code, out, _ = _run(["fit", root / "data.csv", "--state", "x1,x2", "--input", "u",
-                         "--lam", "10", "--json"], capsys)
+    code, out, _ = _run(
+        ["fit", root / "data.csv", "--state", "x1,x2", "--input", "u", "--lam", "10", "--json"],
+        capsys,
+    )
     assert json.loads(out)["noise_var"] == pytest.approx(list(api.noise_var))
-    code, out, _ = _run(["ar", root / "data.csv", "--column", "x1", "--na", "2", "--lam", "10",
-                         "--json"], capsys)
+    code, out, _ = _run(
+        ["ar", root / "data.csv", "--column", "x1", "--na", "2", "--lam", "10", "--json"], capsys
+    )
     report = json.loads(out)
     assert report["noise_var"] == pytest.approx(
-        list(ltvmodels.fit_ar(data.x[:, 0], 2, lam=10.0).noise_var))
+        list(ltvmodels.fit_ar(data.x[:, 0], 2, lam=10.0).noise_var)
+    )
     assert len(report["noise_var"]) == 1
 
 
@@ -728,14 +947,31 @@ def test_parquet_missing_values_and_inf(workdir, tmp_path, capsys):
     x1 = data.x[:, 0].copy()
     x1[[7, 8]] = np.nan
     frames = {
-        "ok": pd.DataFrame({"x1": x1, "x2": data.x[:, 1],
-                            "u": pd.array([1] * 20 + [None] + [0] * 179, dtype="Int64")}),
+        "ok": pd.DataFrame(
+            {
+                "x1": x1,
+                "x2": data.x[:, 1],
+                "u": pd.array([1] * 20 + [None] + [0] * 179, dtype="Int64"),
+            }
+        ),
         "inf": pd.DataFrame({"x1": np.where(np.arange(data.T) == 3, np.inf, x1)}),
     }
     for name, frame in frames.items():
         frame.to_parquet(tmp_path / f"{name}.parquet")
-    code, out, err = _run(["fit", tmp_path / "ok.parquet", "--state", "x1,x2", "--input", "u",
-                           "--lam", "30", "--json"], capsys)
+    code, out, err = _run(
+        [
+            "fit",
+            tmp_path / "ok.parquet",
+            "--state",
+            "x1,x2",
+            "--input",
+            "u",
+            "--lam",
+            "30",
+            "--json",
+        ],
+        capsys,
+    )
     assert code == 0, err
     report = json.loads(out)
     assert report["missing_values"] == {"x1": 2, "x2": 0, "u": 1}
@@ -751,8 +987,19 @@ def test_model_out_must_be_an_npz_archive(command, tmp_path, capsys):
     path = tmp_path / "data.csv"
     np.savetxt(path, np.c_[data.x, data.u], delimiter=",", header="x1,x2,u1", comments="")
     extra = ["--lam", "5"] if command == "fit" else ["--n-changes", "1"]
-    code = main([command, str(path), "--state", "x1,x2", "--input", "u1", *extra,
-                 "--out", str(tmp_path / "coef.csv")])
+    code = main(
+        [
+            command,
+            str(path),
+            "--state",
+            "x1,x2",
+            "--input",
+            "u1",
+            *extra,
+            "--out",
+            str(tmp_path / "coef.csv"),
+        ]
+    )
     err = capsys.readouterr().err
     assert code == 2 and "out: a model file is an .npz archive" in err
     assert "'" + str(tmp_path / "coef.csv") + "'" in err
@@ -765,12 +1012,42 @@ def test_forecast_command_matches_the_model_forecast(tmp_path, capsys):
     np.savetxt(path, np.c_[data.x, data.u], delimiter=",", header="x1,x2,u1", comments="")
     future = np.random.default_rng(1).standard_normal((12, 1))
     np.savetxt(tmp_path / "future.csv", future, delimiter=",", header="u1", comments="")
-    assert main(["fit", str(path), "--state", "x1,x2", "--input", "u1", "--lam", "10",
-                 "--out", str(tmp_path / "m.npz")]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                str(path),
+                "--state",
+                "x1,x2",
+                "--input",
+                "u1",
+                "--lam",
+                "10",
+                "--out",
+                str(tmp_path / "m.npz"),
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
-    code = main(["forecast", str(tmp_path / "m.npz"), str(path), "--steps", "6",
-                 "--future-input", str(tmp_path / "future.csv"), "--level", "0.8", "--json",
-                 "--out", str(tmp_path / "fc.csv"), "--plot", str(tmp_path / "fc.png")])
+    code = main(
+        [
+            "forecast",
+            str(tmp_path / "m.npz"),
+            str(path),
+            "--steps",
+            "6",
+            "--future-input",
+            str(tmp_path / "future.csv"),
+            "--level",
+            "0.8",
+            "--json",
+            "--out",
+            str(tmp_path / "fc.csv"),
+            "--plot",
+            str(tmp_path / "fc.png"),
+        ]
+    )
     report = __import__("json").loads(capsys.readouterr().out)
     assert code == 0 and report["steps"] == 6 and report["columns"] == ["x1", "x2"]
     model = ltvmodels.load(tmp_path / "m.npz")
@@ -793,15 +1070,32 @@ def test_forecast_command_of_an_ar_model(tmp_path, capsys):
         y[t] = 1.2 * y[t - 1] - 0.5 * y[t - 2] + 0.1 * rng.standard_normal()
     path = tmp_path / "series.csv"
     np.savetxt(path, y[:, None], delimiter=",", header="y", comments="")
-    assert main(["ar", str(path), "--column", "y", "--na", "2", "--lam", "30",
-                 "--out", str(tmp_path / "ar.npz")]) == 0
+    assert (
+        main(
+            [
+                "ar",
+                str(path),
+                "--column",
+                "y",
+                "--na",
+                "2",
+                "--lam",
+                "30",
+                "--out",
+                str(tmp_path / "ar.npz"),
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     assert main(["forecast", str(tmp_path / "ar.npz"), str(path), "--steps", "4", "--json"]) == 0
     report = __import__("json").loads(capsys.readouterr().out)
     expected = ltvmodels.load(tmp_path / "ar.npz").forecast(y[-2:], steps=4)
     np.testing.assert_allclose(report["mean"], expected.mean)
-    assert main(["forecast", str(tmp_path / "ar.npz"), str(path), "--steps", "4",
-                 "--level", "1.5"]) == 2
+    assert (
+        main(["forecast", str(tmp_path / "ar.npz"), str(path), "--steps", "4", "--level", "1.5"])
+        == 2
+    )
     assert "--level" in capsys.readouterr().err
 
 
@@ -811,12 +1105,25 @@ def test_fit_options_match_the_python_api(tmp_path, capsys):
     data = ltvmodels.systems.jump_linear(T=120, change_at=60, seed=3)
     w = np.random.default_rng(0).uniform(0.5, 2.0, 120)
     path = tmp_path / "data.csv"
-    np.savetxt(path, np.c_[data.x, data.u, w], delimiter=",", header="x1,x2,u1,w",
-               comments="")
+    np.savetxt(path, np.c_[data.x, data.u, w], delimiter=",", header="x1,x2,u1,w", comments="")
     base = ["fit", str(path), "--state", "x1,x2", "--input", "u1", "--lam", "5"]
-    assert main([*base, "--weights", "w", "--noise-var", "0.04,0.05", "--json",
-                 "--out", str(tmp_path / "m.npz"), "--coef-out",
-                 str(tmp_path / "coef.csv")]) == 0
+    assert (
+        main(
+            [
+                *base,
+                "--weights",
+                "w",
+                "--noise-var",
+                "0.04,0.05",
+                "--json",
+                "--out",
+                str(tmp_path / "m.npz"),
+                "--coef-out",
+                str(tmp_path / "coef.csv"),
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     expected = ltvmodels.fit(data.x, data.u, lam=5.0, weights=w[1:], noise_var=[0.04, 0.05])
     model = ltvmodels.load(tmp_path / "m.npz")
@@ -825,15 +1132,34 @@ def test_fit_options_match_the_python_api(tmp_path, capsys):
     frame = __import__("pandas").read_csv(tmp_path / "coef.csv", index_col="t")
     np.testing.assert_allclose(frame.iloc[:, :6].to_numpy(), expected.k, atol=1e-10)
     assert frame.columns[0] == "A[x1,x1]" and frame.columns[6] == "A[x1,x1] std"
-    code = main(["select-lambda", str(path), "--state", "x1,x2", "--input", "u1", "--norm",
-                 "group", "--loss", "huber", "--weights", "w", "--json"])
+    code = main(
+        [
+            "select-lambda",
+            str(path),
+            "--state",
+            "x1,x2",
+            "--input",
+            "u1",
+            "--norm",
+            "group",
+            "--loss",
+            "huber",
+            "--weights",
+            "w",
+            "--json",
+        ]
+    )
     report = __import__("json").loads(capsys.readouterr().out)
-    selection = ltvmodels.select_lambda(data.x, data.u, norm="group", loss="huber",
-                                        weights=w[1:])
+    selection = ltvmodels.select_lambda(data.x, data.u, norm="group", loss="huber", weights=w[1:])
     assert code == 0 and report["method"] == "cv"
     assert report["lam"] == pytest.approx(selection.lam)
-    np.savetxt(path, np.c_[data.x, data.u, np.r_[w[:50], np.nan, w[51:]]], delimiter=",",
-               header="x1,x2,u1,w", comments="")
+    np.savetxt(
+        path,
+        np.c_[data.x, data.u, np.r_[w[:50], np.nan, w[51:]]],
+        delimiter=",",
+        header="x1,x2,u1,w",
+        comments="",
+    )
     assert main([*base, "--weights", "w"]) == 2
     assert "--weights: the weights must be observed" in capsys.readouterr().err
     assert main([*base, "--noise-var", "-1"]) == 2
@@ -846,11 +1172,32 @@ def test_time_column_dates_the_change_points(tmp_path, capsys):
     data = ltvmodels.systems.jump_linear(seed=0)
     days = np.arange("2020-01-01", "2021-02-04", dtype="datetime64[D]")[:400]
     path = tmp_path / "dated.csv"
-    path.write_text("date,x1,x2,u1\n" + "".join(
-        f"{days[t]},{data.x[t, 0]:.17g},{data.x[t, 1]:.17g},{data.u[t, 0]:.17g}\n"
-        for t in range(400)))
-    code = main(["fit", str(path), "--state", "x1,x2", "--input", "u1", "--norm", "group",
-                 "--lam", "30", "--time", "date", "--json", "--out", str(tmp_path / "m.npz")])
+    path.write_text(
+        "date,x1,x2,u1\n"
+        + "".join(
+            f"{days[t]},{data.x[t, 0]:.17g},{data.x[t, 1]:.17g},{data.u[t, 0]:.17g}\n"
+            for t in range(400)
+        )
+    )
+    code = main(
+        [
+            "fit",
+            str(path),
+            "--state",
+            "x1,x2",
+            "--input",
+            "u1",
+            "--norm",
+            "group",
+            "--lam",
+            "30",
+            "--time",
+            "date",
+            "--json",
+            "--out",
+            str(tmp_path / "m.npz"),
+        ]
+    )
     report = __import__("json").loads(capsys.readouterr().out)
     assert code == 0 and report["changepoints"] == [200]
     assert report["changepoint_times"] == ["2020-07-19"]
@@ -876,9 +1223,29 @@ def _weighted_ar_series(path, T, seed, name):
 def test_ar_command_takes_weights_noise_var_and_coef_out(tmp_path, capsys):
     path = tmp_path / "series.csv"
     y, w = _weighted_ar_series(path, 200, 4, "level")
-    assert main(["ar", str(path), "--column", "level", "--na", "2", "--lam", "30",
-                 "--weights", "w", "--noise-var", "0.01", "--out", str(tmp_path / "ar.npz"),
-                 "--coef-out", str(tmp_path / "coef.csv")]) == 0
+    assert (
+        main(
+            [
+                "ar",
+                str(path),
+                "--column",
+                "level",
+                "--na",
+                "2",
+                "--lam",
+                "30",
+                "--weights",
+                "w",
+                "--noise-var",
+                "0.01",
+                "--out",
+                str(tmp_path / "ar.npz"),
+                "--coef-out",
+                str(tmp_path / "coef.csv"),
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     expected = ltvmodels.fit_ar(y, 2, lam=30.0, weights=w[2:], noise_var=0.01)
     model = ltvmodels.load(tmp_path / "ar.npz")
@@ -890,9 +1257,10 @@ def test_ar_command_takes_weights_noise_var_and_coef_out(tmp_path, capsys):
 def test_select_lambda_of_an_ar_column_takes_weights(tmp_path, capsys):
     path = tmp_path / "series.csv"
     y, w = _weighted_ar_series(path, 150, 5, "y")
-    assert main(["select-lambda", str(path), "--column", "y", "--na", "2", "--weights", "w",
-                 "--json"]) == 0
+    assert (
+        main(["select-lambda", str(path), "--column", "y", "--na", "2", "--weights", "w", "--json"])
+        == 0
+    )
     report = __import__("json").loads(capsys.readouterr().out)
-    expected = ltvmodels.select_lambda_regression(*ltvmodels.ar_regressors(y, 2),
-                                                  weights=w[2:])
+    expected = ltvmodels.select_lambda_regression(*ltvmodels.ar_regressors(y, 2), weights=w[2:])
     assert report["lam"] == pytest.approx(expected.lam)

@@ -73,8 +73,7 @@ def test_ltvmodel_input_matches_riccati_on_its_coefficients():
     res = ilqg(model, QuadraticCost(Q, R, model.N), x0, np.zeros((model.N, m)))
     K, _ = riccati(model.A, model.B, Q, R, Q)
     assert np.max(np.abs(res.K - K)) <= 1e-8 * np.max(np.abs(K))
-    np.testing.assert_allclose(res.x, model.simulate(x0, np.vstack([res.u, [[0.0]]])),
-                               atol=1e-10)
+    np.testing.assert_allclose(res.x, model.simulate(x0, np.vstack([res.u, [[0.0]]])), atol=1e-10)
 
 
 def test_tracking_cost_and_offsets_match_lifted_riccati():
@@ -84,8 +83,9 @@ def test_tracking_cost_and_offsets_match_lifted_riccati():
     rng = np.random.default_rng(5)
     c = 0.3 * rng.standard_normal((N, n))
     g = rng.standard_normal(n)
-    res = ilqg(LinearDynamics(A, B, c), QuadraticCost(Q, R, N, Qf=Qf, x_goal=g), x0,
-               np.zeros((N, m)))
+    res = ilqg(
+        LinearDynamics(A, B, c), QuadraticCost(Q, R, N, Qf=Qf, x_goal=g), x0, np.zeros((N, m))
+    )
     # Lifted state z = [x; 1]: z' = [[A, c], [0, 1]] z + [B; 0] u, cost (Ez)ᵀQ(Ez), E = [I, −g].
     Az = np.zeros((N, n + 1, n + 1))
     Az[:, :n, :n], Az[:, :n, n], Az[:, n, n] = A, c, 1.0
@@ -109,10 +109,10 @@ def dense_box_qp(A, B, c, Q, R, Qf, x0, lo, hi):
     Fx[:n] = Phi
     for t in range(N):
         rows = slice((t + 1) * n, (t + 2) * n)
-        Fx[rows] = A[t] @ Fx[t * n:(t + 1) * n]
-        Gu[rows] = A[t] @ Gu[t * n:(t + 1) * n]
-        Gu[rows, t * m:(t + 1) * m] = B[t]
-        hc = A[t] @ h[t * n:(t + 1) * n] + c[t]
+        Fx[rows] = A[t] @ Fx[t * n : (t + 1) * n]
+        Gu[rows] = A[t] @ Gu[t * n : (t + 1) * n]
+        Gu[rows, t * m : (t + 1) * m] = B[t]
+        hc = A[t] @ h[t * n : (t + 1) * n] + c[t]
         h[rows] = hc
     Qbig = np.kron(np.eye(N + 1), Q)
     Qbig[-n:, -n:] = Qf
@@ -121,8 +121,10 @@ def dense_box_qp(A, B, c, Q, R, Qf, x0, lo, hi):
     f = Gu.T @ Qbig @ (Fx @ x0 + h)
     const = (Fx @ x0 + h) @ Qbig @ (Fx @ x0 + h)
     uvar = cp.Variable(N * m)
-    prob = cp.Problem(cp.Minimize(cp.quad_form(uvar, cp.psd_wrap(H)) + 2 * f @ uvar),
-                      [uvar >= lo.ravel(), uvar <= hi.ravel()])
+    prob = cp.Problem(
+        cp.Minimize(cp.quad_form(uvar, cp.psd_wrap(H)) + 2 * f @ uvar),
+        [uvar >= lo.ravel(), uvar <= hi.ravel()],
+    )
     prob.solve(solver=cp.CLARABEL, tol_gap_abs=1e-12, tol_gap_rel=1e-12, tol_feas=1e-12)
     return uvar.value.reshape(N, m), prob.value + const
 
@@ -132,15 +134,17 @@ def test_box_bounds_respected_and_match_a_qp_solver():
     N = A.shape[0]
     x0 = 5.0 * x0
     lo, hi = np.array([-0.5, -0.2]), np.array([0.5, 0.3])
-    res = ilqg(LinearDynamics(A, B), QuadraticCost(Q, R, N, Qf=Qf), x0, np.zeros((N, 2)),
-               u_bounds=(lo, hi))
+    res = ilqg(
+        LinearDynamics(A, B), QuadraticCost(Q, R, N, Qf=Qf), x0, np.zeros((N, 2)), u_bounds=(lo, hi)
+    )
     assert np.all(res.u >= lo) and np.all(res.u <= hi)
     active = np.isclose(res.u, lo) | np.isclose(res.u, hi)
     assert active.any()
     # Clamped controls get zero feedback gain.
     assert np.all(res.K[active] == 0.0)
-    u_ref, J_ref = dense_box_qp(A, B, np.zeros((N, 3)), Q, R, Qf, x0, np.tile(lo, (N, 1)),
-                                np.tile(hi, (N, 1)))
+    u_ref, J_ref = dense_box_qp(
+        A, B, np.zeros((N, 3)), Q, R, Qf, x0, np.tile(lo, (N, 1)), np.tile(hi, (N, 1))
+    )
     np.testing.assert_allclose(res.u, u_ref, atol=1e-5)
     assert res.cost == pytest.approx(J_ref, rel=1e-7)
     # The feedback law never leaves the box either.
@@ -159,8 +163,16 @@ def test_trust_region_respected_and_active(radius):
     x_ref = dyn.simulate(x0, u_ref)
     weights = (np.array([1.0, 2.0, 0.5]), np.array([4.0]))
     free = ilqg(dyn, QuadraticCost(Q, R, N, Qf=Qf), x0, u_ref)
-    res = ilqg(dyn, QuadraticCost(Q, R, N, Qf=Qf), x0, u_ref, trust_region=radius,
-               reference=(x_ref, u_ref), trust_weights=weights, u_bounds=(-1.0, 1.0))
+    res = ilqg(
+        dyn,
+        QuadraticCost(Q, R, N, Qf=Qf),
+        x0,
+        u_ref,
+        trust_region=radius,
+        reference=(x_ref, u_ref),
+        trust_weights=weights,
+        u_bounds=(-1.0, 1.0),
+    )
     d2 = np.sum((res.x - x_ref) ** 2 * weights[0], axis=1)
     d2[:-1] += np.sum((res.u - u_ref) ** 2 * weights[1], axis=1)
     assert np.sqrt(d2.max()) <= radius * (1 + 1e-12)
@@ -177,8 +189,15 @@ def test_unreachable_trust_region_warns():
     u_ref = np.full((N, 1), 3.0)  # outside the bounds: the reference cannot be reached
     x_ref = LinearDynamics(A, B).simulate(x0, u_ref)
     with pytest.warns(ltv.ConvergenceWarning, match="trust region of radius 0.1 could not"):
-        res = ilqg(LinearDynamics(A, B), QuadraticCost(Q, R, N, Qf=Qf), x0, u_ref,
-                   trust_region=0.1, reference=(x_ref, u_ref), u_bounds=(-1.0, 1.0))
+        res = ilqg(
+            LinearDynamics(A, B),
+            QuadraticCost(Q, R, N, Qf=Qf),
+            x0,
+            u_ref,
+            trust_region=0.1,
+            reference=(x_ref, u_ref),
+            u_bounds=(-1.0, 1.0),
+        )
     assert np.all(np.abs(res.u) <= 1.0)
 
 
@@ -186,8 +205,13 @@ def test_trust_region_inactive_when_optimum_inside():
     A, B, Q, R, Qf, x0 = random_system(9, N=20, n=2, m=1)
     N = A.shape[0]
     free = ilqg(LinearDynamics(A, B), QuadraticCost(Q, R, N, Qf=Qf), x0, np.zeros((N, 1)))
-    res = ilqg(LinearDynamics(A, B), QuadraticCost(Q, R, N, Qf=Qf), x0, np.zeros((N, 1)),
-               trust_region=10 * free.deviation)
+    res = ilqg(
+        LinearDynamics(A, B),
+        QuadraticCost(Q, R, N, Qf=Qf),
+        x0,
+        np.zeros((N, 1)),
+        trust_region=10 * free.deviation,
+    )
     assert res.eta == 0.0
     np.testing.assert_allclose(res.u, free.u)
 
@@ -206,8 +230,9 @@ def test_nonlinear_cost_decreases_monotonically_and_bounds_hold():
     """Swing-up of a torque-limited pendulum: the line search only accepts decreases."""
     f, jac = pendulum()
     N = 80
-    cost = QuadraticCost(np.diag([1.0, 0.1]), [[0.01]], N, Qf=np.diag([100.0, 10.0]),
-                         x_goal=[np.pi, 0.0])
+    cost = QuadraticCost(
+        np.diag([1.0, 0.1]), [[0.01]], N, Qf=np.diag([100.0, 10.0]), x_goal=[np.pi, 0.0]
+    )
     res = ilqg(f, cost, [0.0, 0.0], np.full((N, 1), 0.1), jacobian=jac, u_bounds=(-4.0, 4.0))
     assert res.iterations > 3
     assert np.all(np.diff(res.cost_trace) < 0)
@@ -238,19 +263,18 @@ class QuarticCost:
         lx[:, 0] += 4 * self.rho * x[:, 0] ** 3
         lxx = np.tile(2 * np.eye(n), (N + 1, 1, 1))
         lxx[:, 0, 0] += 12 * self.rho * x[:, 0] ** 2
-        return CostExpansion(lx=lx, lu=2 * u, lxx=lxx, luu=np.tile(2 * np.eye(m), (N, 1, 1)),
-                             lux=np.zeros((N, m, n)))
+        return CostExpansion(
+            lx=lx, lu=2 * u, lxx=lxx, luu=np.tile(2 * np.eye(m), (N, 1, 1)), lux=np.zeros((N, m, n))
+        )
 
 
 def test_general_cost_protocol_reaches_a_stationary_point():
     A, B, _, _, _, x0 = random_system(10, N=30, n=3, m=1)
     N = A.shape[0]
-    quad = ilqg(LinearDynamics(A, B), QuadraticCost(np.eye(3), np.eye(1), N), x0,
-                np.zeros((N, 1)))
+    quad = ilqg(LinearDynamics(A, B), QuadraticCost(np.eye(3), np.eye(1), N), x0, np.zeros((N, 1)))
     same = ilqg(LinearDynamics(A, B), QuarticCost(N, 3, 1, 0.0), x0, np.zeros((N, 1)))
     np.testing.assert_allclose(same.u, quad.u, atol=1e-10)
-    res = ilqg(LinearDynamics(A, B), QuarticCost(N, 3, 1, 5.0), x0, np.zeros((N, 1)),
-               tol=1e-12)
+    res = ilqg(LinearDynamics(A, B), QuarticCost(N, 3, 1, 5.0), x0, np.zeros((N, 1)), tol=1e-12)
     assert res.converged
     # Stationarity: the gradient of J(u) by finite differences vanishes.
     cost = QuarticCost(N, 3, 1, 5.0)
@@ -260,8 +284,10 @@ def test_general_cost_protocol_reaches_a_stationary_point():
         return cost.stage_costs(dyn.simulate(x0, u), u).sum()
 
     eps = 1e-6
-    grad = [(J(res.u + eps * e) - J(res.u - eps * e)) / (2 * eps)
-            for e in np.eye(N)[:, :, None][[0, N // 2, N - 1]]]
+    grad = [
+        (J(res.u + eps * e) - J(res.u - eps * e)) / (2 * eps)
+        for e in np.eye(N)[:, :, None][[0, N // 2, N - 1]]
+    ]
     assert np.max(np.abs(grad)) < 1e-5 * max(1.0, res.cost)
 
 
@@ -282,8 +308,14 @@ def test_inputs_not_mutated_and_result_fields():
     A, B, Q, R, Qf, x0 = random_system(12, N=10, n=2, m=1)
     u0 = np.ones((10, 1))
     copies = [a.copy() for a in (A, B, Q, R, x0, u0)]
-    res = ilqg(LinearDynamics(A, B), QuadraticCost(Q, R, 10), x0, u0, u_bounds=(-0.5, 0.5),
-               trust_region=1.0)
+    res = ilqg(
+        LinearDynamics(A, B),
+        QuadraticCost(Q, R, 10),
+        x0,
+        u0,
+        u_bounds=(-0.5, 0.5),
+        trust_region=1.0,
+    )
     for a, b in zip((A, B, Q, R, x0, u0), copies, strict=True):
         np.testing.assert_array_equal(a, b)
     assert isinstance(res, ILQGResult)
@@ -302,11 +334,17 @@ def test_inputs_not_mutated_and_result_fields():
         ({"u_bounds": 1.0}, TypeError, "u_bounds: expected a pair"),
         ({"u_bounds": ([0, 0], 1.0)}, ValueError, "u_bounds lower: expected a scalar or shape"),
         ({"trust_region": -1.0}, ValueError, "trust_region: expected a finite real number > 0"),
-        ({"trust_region": 1.0, "trust_weights": ([1, 1], [-1])}, ValueError,
-         "trust_weights.1.: expected nonnegative"),
+        (
+            {"trust_region": 1.0, "trust_weights": ([1, 1], [-1])},
+            ValueError,
+            "trust_weights.1.: expected nonnegative",
+        ),
         ({"reference": np.zeros(3)}, TypeError, "reference: expected a pair"),
-        ({"reference": (np.zeros((10, 2)), np.zeros((10, 1)))}, ValueError,
-         r"reference\[0\]: expected shape \(11, 2\)"),
+        (
+            {"reference": (np.zeros((10, 2)), np.zeros((10, 1)))},
+            ValueError,
+            r"reference\[0\]: expected shape \(11, 2\)",
+        ),
         ({"max_iter": 0}, ValueError, "max_iter: expected an integer >= 1"),
         ({"tol": 0.0}, ValueError, "tol: expected a real number > 0"),
         ({"cost": "quadratic"}, TypeError, "cost: expected a QuadraticCost"),
@@ -316,8 +354,12 @@ def test_inputs_not_mutated_and_result_fields():
 )
 def test_invalid_input_names_the_argument(kwargs, exc, match):
     A, B, Q, R, _, _ = random_system(13, N=10, n=2, m=1)
-    args = {"dynamics": LinearDynamics(A, B), "cost": QuadraticCost(Q, R, 10),
-            "x0": np.zeros(2), "u_init": np.zeros((10, 1))}
+    args = {
+        "dynamics": LinearDynamics(A, B),
+        "cost": QuadraticCost(Q, R, 10),
+        "x0": np.zeros(2),
+        "u_init": np.zeros((10, 1)),
+    }
     extra = {k: v for k, v in kwargs.items() if k not in args}
     args.update({k: v for k, v in kwargs.items() if k in args})
     with pytest.raises(exc, match=match):
@@ -340,5 +382,10 @@ def test_cost_and_dynamics_validation():
         ilqg(LinearDynamics(A, B), QuadraticCost(Q, R, 9), np.zeros(2), np.zeros((10, 1)))
     f, jac = pendulum()
     with pytest.raises(ValueError, match="jacobian: expected"):
-        ilqg(f, QuadraticCost(np.eye(2), [[1.0]], 5), np.zeros(2), np.zeros((5, 1)),
-             jacobian=lambda x, u, t: (np.eye(3), np.zeros((3, 1))))
+        ilqg(
+            f,
+            QuadraticCost(np.eye(2), [[1.0]], 5),
+            np.zeros(2),
+            np.zeros((5, 1)),
+            jacobian=lambda x, u, t: (np.eye(3), np.zeros((3, 1))),
+        )

@@ -35,8 +35,9 @@ def test_declines_where_it_cannot_answer():
     evidence = ScalarEvidence(problem)
     assert evidence.loglik(0.001) is None  # the subtraction would cancel: fit instead
     # a larger λ takes the minimum from the solution, without the subtraction
-    assert evidence.loglik(10.0) == pytest.approx(criterion_fit(problem, "sq", 10.0)["loglik"],
-                                                  rel=1e-12)
+    assert evidence.loglik(10.0) == pytest.approx(
+        criterion_fit(problem, "sq", 10.0)["loglik"], rel=1e-12
+    )
     few = ScalarEvidence(state_space_data(d.x[:3], d.u[:3]).problem)
     assert few.loglik(1.0) is None  # no degrees of freedom left for the noise variance
     assert ScalarEvidence(state_space_data(d.x, d.u).problem).loglik(0.0) is None

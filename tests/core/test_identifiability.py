@@ -16,17 +16,20 @@ import warnings
 
 import numpy as np
 import pytest
+from dense_reference import DenseProblem, random_data, relerr
 
 import ltvmodels as ltv
-from dense_reference import DenseProblem, random_data, relerr
 
 
 def test_identical_inputs_raise_proposition_2():
     x, _ = random_data(81, 40, 2, 0)
     w = np.random.default_rng(82).standard_normal(40)
     u = np.column_stack([w, w])
-    for call in (lambda: ltv.fit(x, u, lam=1.0), lambda: ltv.fit(x, u, lam=1.0, order=2),
-                 lambda: ltv.fit_lti(x, u)):
+    for call in (
+        lambda: ltv.fit(x, u, lam=1.0),
+        lambda: ltv.fit(x, u, lam=1.0, order=2),
+        lambda: ltv.fit_lti(x, u),
+    ):
         with pytest.raises(ltv.SingularProblemError, match="Proposition 2") as info:
             call()
         message = str(info.value)

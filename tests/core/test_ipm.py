@@ -2,12 +2,12 @@
 
 import numpy as np
 import pytest
+from dense_reference import difference_matrix
 
 import ltvmodels as ltv
-from dense_reference import difference_matrix
-from ltvmodels.core.problem import state_space_problem
 from ltvmodels.core import conekernels as cones
 from ltvmodels.core import ipm
+from ltvmodels.core.problem import state_space_problem
 
 
 def interior_points(rng, n_cones, g):
@@ -97,8 +97,9 @@ def test_newton_direction_solves_the_linearized_kkt_system(norm, coeffs):
     np.testing.assert_allclose(dz[:, 0], 1.0 - z[:, 0], atol=1e-10)
     adj = Dt.T @ (dz[:, 1:].reshape(-1, K) * weights)
     theta = dk.reshape(N, pb.n, pb.p)
-    data_term = 2.0 * (np.einsum("tij,tj->ti", theta, pb.phi[:, 0])[:, :, None]
-                       * pb.phi[:, 0, None, :]).reshape(N, K)
+    data_term = 2.0 * (
+        np.einsum("tij,tj->ti", theta, pb.phi[:, 0])[:, :, None] * pb.phi[:, 0, None, :]
+    ).reshape(N, K)
     np.testing.assert_allclose(data_term - adj, -r_k, atol=1e-7 * np.abs(r_k).max())
     # λ ∘ (WΔz + W⁻¹Δs) = target.
     W, W_inv = cone_matrices(newton.v, newton.eta, 1.0), cone_matrices(newton.v, newton.eta, -1.0)
@@ -172,8 +173,9 @@ def test_warm_start_along_a_path_reaches_the_cold_optimum_in_fewer_iterations(no
             z = np.zeros(cp.cone_shape)
             z[:, 1:] = z1
             k = previous.theta.reshape(pb.N, pb.K)
-            cones.kkt_residuals(k, np.zeros(cp.n_cones), s, z, cp.y, cp.phi, cp.coeffs, cp.w,
-                                r_z, r_k)
+            cones.kkt_residuals(
+                k, np.zeros(cp.n_cones), s, z, cp.y, cp.phi, cp.coeffs, cp.w, r_z, r_k
+            )
             # stationary up to the previous solve's residual
             assert np.abs(r_k).max() < 1e-5 * np.abs(2.0 * pb.phi[:, 0].T @ pb.y[:, 0]).max()
         cold = ipm.fit_sparse_ipm(pb, weights, norm, tol=1e-8)

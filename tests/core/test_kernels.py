@@ -60,12 +60,12 @@ def test_shared_rows_solver_equals_the_general_block_solver(coeffs, q, p):
     np.testing.assert_allclose(shared.cov, general.cov, rtol=1e-12, atol=1e-13)
     assert shared.logdet == pytest.approx(general.logdet, rel=1e-13)
     residuals = y - np.einsum("tia,tja->tji", theta, phi)
-    np.testing.assert_allclose(shared.rss, np.einsum("tji,tji->i", residuals, residuals),
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        shared.rss, np.einsum("tji,tji->i", residuals, residuals), rtol=1e-12
+    )
     d = len(coeffs) - 1
-    differences = sum(c * theta[j:N - d + j] for j, c in enumerate(coeffs))
-    np.testing.assert_allclose(shared.squares, np.einsum("tia,a->i", differences**2, w),
-                               rtol=1e-12)
+    differences = sum(c * theta[j : N - d + j] for j, c in enumerate(coeffs))
+    np.testing.assert_allclose(shared.squares, np.einsum("tia,a->i", differences**2, w), rtol=1e-12)
     assert shared.gram_trace == pytest.approx(np.sum(phi**2), rel=1e-13)
     without = banded.solve_shared_rows(phi, y, w, coeffs, compute_cov=False)
     assert without.cov is None
@@ -75,5 +75,6 @@ def test_shared_rows_solver_equals_the_general_block_solver(coeffs, q, p):
 def test_shared_rows_solver_reports_a_singular_system():
     phi = np.zeros((30, 1, 2))  # no data: a first difference leaves H singular
     with pytest.raises(ltv.SingularProblemError, match="singular"):
-        banded.solve_shared_rows(phi, np.zeros((30, 1, 1)), np.ones(2), np.array([-1.0, 1.0]),
-                                 compute_cov=False)
+        banded.solve_shared_rows(
+            phi, np.zeros((30, 1, 1)), np.ones(2), np.array([-1.0, 1.0]), compute_cov=False
+        )

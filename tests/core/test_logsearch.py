@@ -24,7 +24,8 @@ def counted(function):
 @pytest.mark.parametrize("peak", [0.05, 1.234, 5.0])
 def test_a_smooth_maximum_is_found_to_the_tolerance_in_few_evaluations(peak):
     criterion, calls = counted(
-        lambda lam: -(math.log(lam) - peak) ** 2 + 0.3 * math.sin(math.log(lam)))
+        lambda lam: -((math.log(lam) - peak) ** 2) + 0.3 * math.sin(math.log(lam))
+    )
     dense = np.geomspace(GRID[0], GRID[-1], 200_001)  # brute force
     expected = dense[np.argmax([criterion(v) for v in dense])]
     calls.clear()
@@ -37,9 +38,10 @@ def test_a_smooth_maximum_is_found_to_the_tolerance_in_few_evaluations(peak):
 def test_every_local_maximum_of_the_grid_is_refined():
     """Two basins, the higher one off the grid's best point: both are refined and the
     higher wins."""
+
     def criterion(lam):
         v = math.log10(lam)
-        return math.exp(-((v - 0.3) / 0.8) ** 2) + 1.05 * math.exp(-((v - 3.1) / 0.6) ** 2)
+        return math.exp(-(((v - 0.3) / 0.8) ** 2)) + 1.05 * math.exp(-(((v - 3.1) / 0.6) ** 2))
 
     values = [criterion(v) for v in GRID]
     assert np.argmax(values) != np.argmin(np.abs(np.log10(GRID) - 3.1))  # the grid misleads
@@ -53,7 +55,7 @@ def test_a_maximum_at_the_end_of_the_grid_stays_there_or_is_refined_inside():
     search = maximize_on_log_scale(criterion, GRID, xatol=1e-3)
     assert search.best == GRID[-1] and len(calls) == GRID.size + 1  # the midpoint is lower
     peak = 0.6 * math.log(GRID[-1]) + 0.4 * math.log(GRID[-2])  # inside the last interval
-    search = maximize_on_log_scale(lambda lam: -(math.log(lam) - peak) ** 2, GRID, xatol=1e-4)
+    search = maximize_on_log_scale(lambda lam: -((math.log(lam) - peak) ** 2), GRID, xatol=1e-4)
     assert math.log(search.best) == pytest.approx(peak, abs=2e-4)
 
 
@@ -61,7 +63,7 @@ def test_unavailable_values_and_the_grid_values_as_given():
     def criterion(lam):
         if lam < 1.0:
             return -math.inf
-        return math.nan if lam > 1e3 else -(math.log10(lam) - 2.0) ** 2
+        return math.nan if lam > 1e3 else -((math.log10(lam) - 2.0) ** 2)
 
     search = maximize_on_log_scale(criterion, GRID, xatol=1e-3)
     assert math.log10(search.best) == pytest.approx(2.0, abs=1e-3)
@@ -72,8 +74,12 @@ def test_unavailable_values_and_the_grid_values_as_given():
 
 def test_progress_reports_a_fraction_that_ends_at_one():
     reports = []
-    search = maximize_on_log_scale(lambda lam: -(math.log(lam) - 1.0) ** 2, GRID, xatol=1e-3,
-                                   progress=lambda done, total: reports.append((done, total)))
+    search = maximize_on_log_scale(
+        lambda lam: -((math.log(lam) - 1.0) ** 2),
+        GRID,
+        xatol=1e-3,
+        progress=lambda done, total: reports.append((done, total)),
+    )
     dones = [done for done, _ in reports]
     assert all(0 < done <= total for done, total in reports)
     assert dones[:-1] == list(range(1, search.n_evaluations + 1))

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
-from ltvmodels.core.problem import apply_difference, state_space_problem
 from ltvmodels.core import conekernels as cones
 from ltvmodels.core import ipm, polish
+from ltvmodels.core.problem import apply_difference, state_space_problem
 from ltvmodels.core.sparse_common import lambda_max, null_space_fit
 
 COEFFS = {1: np.array([-1.0, 1.0]), 2: np.array([1.0, -2.0, 1.0])}
@@ -63,11 +63,13 @@ def test_certificate_agrees_with_lambda_max(norm):
     pb, _ = problem_and_weights(5, 1, 1.0)
     k = null_space_fit(pb).reshape(pb.N, pb.K)
     lam_max = lambda_max(pb, norm, np.ones(pb.K), null_space_fit(pb))
-    _, gap, residual, u_norm = polish.certificate(pb, np.full(pb.K, 1.01 * lam_max), k,
-                                                   norm == "group")
+    _, gap, residual, u_norm = polish.certificate(
+        pb, np.full(pb.K, 1.01 * lam_max), k, norm == "group"
+    )
     assert gap == pytest.approx(0.0, abs=1e-9) and residual < 1e-12 and u_norm.max() <= 1.0
-    _, _, residual, u_norm = polish.certificate(pb, np.full(pb.K, 0.5 * lam_max), k,
-                                                 norm == "group")
+    _, _, residual, u_norm = polish.certificate(
+        pb, np.full(pb.K, 0.5 * lam_max), k, norm == "group"
+    )
     assert u_norm.max() > 1.5 and residual > 1e-3
 
 
@@ -91,8 +93,10 @@ def test_stalled_order2_fit_is_certified_by_the_polish():
     assert model.info["duality_gap"] <= 1e-9 * model.info["objective"]
     pb = state_space_problem(d.x, d.u, COEFFS[2])
     theta = cp.Variable((pb.N, pb.K))
-    fitted = [cp.sum(cp.multiply(theta[:, i * pb.p:(i + 1) * pb.p], pb.phi[:, 0]), axis=1)
-              for i in range(pb.n)]
+    fitted = [
+        cp.sum(cp.multiply(theta[:, i * pb.p : (i + 1) * pb.p], pb.phi[:, 0]), axis=1)
+        for i in range(pb.n)
+    ]
     loss = sum(cp.sum_squares(pb.y[:, 0, i] - fitted[i]) for i in range(pb.n))
     reg = cp.sum(cp.norm(theta[:-2] - 2 * theta[1:-1] + theta[2:], 2, axis=1))
     reference = cp.Problem(cp.Minimize(loss + lam * reg))

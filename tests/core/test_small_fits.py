@@ -41,8 +41,9 @@ def _both(problem, lam, **kwargs):
 
 
 @pytest.mark.parametrize("order", [1, 2, [1.0, -3.0, 3.0, -1.0]])
-@pytest.mark.parametrize("R, missing, weights", [(1, False, False), (1, True, True),
-                                                 (3, True, False)])
+@pytest.mark.parametrize(
+    "R, missing, weights", [(1, False, False), (1, True, True), (3, True, False)]
+)
 @pytest.mark.parametrize("noise_var", [None, 0.3, [0.2, 0.5]])
 def test_shared_weight_equals_general(order, R, missing, weights, noise_var):
     x, u, w = _data(R, missing, weights)
@@ -50,12 +51,18 @@ def test_shared_weight_equals_general(order, R, missing, weights, noise_var):
     short, general = _both(problem, 3.0, noise_var=noise_var, compute_cov=True)
     np.testing.assert_allclose(short.theta, general.theta, rtol=1e-12, atol=1e-13)
     n, p = problem.n, problem.p
-    np.testing.assert_allclose(short.cov.full(n, p), general.cov.full(n, p), rtol=1e-11,
-                               atol=1e-15)
+    np.testing.assert_allclose(short.cov.full(n, p), general.cov.full(n, p), rtol=1e-11, atol=1e-15)
     np.testing.assert_allclose(short.noise_var, general.noise_var, rtol=1e-12)
     assert short.loglik == pytest.approx(general.loglik, rel=1e-12)
-    for name in ("rss", "penalty", "objective", "prior_cost", "n_eff", "n_factorizations",
-                 "noise_var_estimated"):
+    for name in (
+        "rss",
+        "penalty",
+        "objective",
+        "prior_cost",
+        "n_eff",
+        "n_factorizations",
+        "noise_var_estimated",
+    ):
         assert getattr(short, name) == pytest.approx(getattr(general, name), rel=1e-12), name
     assert short.info == general.info
     no_cov, _ = _both(problem, 3.0, noise_var=noise_var, compute_cov=False)

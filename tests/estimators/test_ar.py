@@ -8,16 +8,15 @@ analytic instantaneous frequency of a chirp.
 from __future__ import annotations
 
 import importlib.util
-from pathlib import Path
-
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import ltvmodels as ltv
-from ltvmodels.systems import chirp
 from ltvmodels.estimators.segments import segment_regression
+from ltvmodels.systems import chirp
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
@@ -104,8 +103,9 @@ def test_fit_regression_matches_dense_reference(n, p, order):
     y = rng.standard_normal((N, n))
     coeffs = np.array([-1.0, 1.0]) if order == 1 else np.array([1.0, -2.0, 1.0])
     model = ltv.fit_regression(y[:, 0] if n == 1 else y, phi, lam=1.7, order=order)
-    np.testing.assert_allclose(model.theta, _dense_regression(y, phi, 1.7, coeffs),
-                               rtol=1e-8, atol=1e-10)
+    np.testing.assert_allclose(
+        model.theta, _dense_regression(y, phi, 1.7, coeffs), rtol=1e-8, atol=1e-10
+    )
     # one noise variance per output: the rows share a (N, p, p) covariance only when n = 1,
     # else each row has its own (N, n, p, p), the diagonal blocks of cov_full()
     assert model.cov.shape == ((N, p, p) if n == 1 else (N, n, p, p))
@@ -145,8 +145,9 @@ def test_regressors_layout():
     L = 3  # max(na, nk + nb − 1)
     np.testing.assert_array_equal(y_out[:, 0], y[L:])
     t = np.arange(L, 10)
-    np.testing.assert_array_equal(phi, np.column_stack(
-        [y[t - 1], y[t - 2], u[t - 2], u[t - 3], np.ones(t.size)]))
+    np.testing.assert_array_equal(
+        phi, np.column_stack([y[t - 1], y[t - 2], u[t - 2], u[t - 3], np.ones(t.size)])
+    )
     y_out, phi = ltv.ar_regressors(np.column_stack([y, -y]), na=2)
     np.testing.assert_array_equal(phi[0], [1, -1, 0, 0])  # [y[1]; y[0]] at t = 2
     _, phi = ltv.arx_regressors(y, u, na=0, nb=1, nk=0)  # FIR with feedthrough: φ_t = u[t]
@@ -202,8 +203,9 @@ def test_lti_limit_equals_least_squares_and_autoreg():
         lstsq = np.linalg.lstsq(phi, y_out[:, 0], rcond=None)[0]
         np.testing.assert_allclose(lstsq, ref, rtol=1e-10)
         exact = ltv.fit_ar(y, 3, lam=np.inf, constant=constant)  # constant coefficients
-        np.testing.assert_allclose(exact.theta[:, 0, :], np.broadcast_to(ref, (T - 3, ref.size)),
-                                   rtol=1e-8, atol=1e-10)
+        np.testing.assert_allclose(
+            exact.theta[:, 0, :], np.broadcast_to(ref, (T - 3, ref.size)), rtol=1e-8, atol=1e-10
+        )
         large = ltv.fit_ar(y, 3, lam=1e4, constant=constant, compute_cov=False)
         np.testing.assert_allclose(large.theta[:, 0, :], exact.theta[:, 0, :], atol=1e-4)
         group = ltv.fit_ar(y, 3, lam=1e6, norm="group", constant=constant)
@@ -219,10 +221,12 @@ def test_varx_equals_state_space_fit_and_eigenvalues():
     assert model.a.shape == (299, 2, 2) and model.b.shape == (299, 2, 1)
     np.testing.assert_allclose(model.a, ss.A, rtol=1e-12)
     eig = np.linalg.eigvals(ss.A)
-    np.testing.assert_allclose(np.sort_complex(model.poles()), np.sort_complex(eig),
-                               rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(model.predict(data.x, data.u), ss.predict(data.x, data.u),
-                               rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(
+        np.sort_complex(model.poles()), np.sort_complex(eig), rtol=1e-9, atol=1e-12
+    )
+    np.testing.assert_allclose(
+        model.predict(data.x, data.u), ss.predict(data.x, data.u), rtol=1e-9, atol=1e-12
+    )
 
 
 def test_var2_coefficients_are_recovered():
@@ -309,8 +313,12 @@ def test_ar_regressors_with_exact_segmentation_and_group_norm():
     seg = segment_regression(y_out, phi, n_changes=1)
     assert seg.changepoints.tolist() == [c - 2]  # regression row of y[c]
     model = ltv.fit_ar(y, 2, lam=5.0, norm="group")
-    assert abs(int(model.changepoints[np.argmax(model.activation()[model.changepoints - 1])])
-               - (c - 2)) <= 2
+    assert (
+        abs(
+            int(model.changepoints[np.argmax(model.activation()[model.changepoints - 1])]) - (c - 2)
+        )
+        <= 2
+    )
     assert abs(int(ltv.find_changepoints(model, max_changes=1)[0]) - (c - 2)) <= 2
 
 
@@ -330,8 +338,13 @@ def test_predict_and_simulate_against_explicit_loops():
     pred = np.zeros((N, 2))
     for j in range(N):
         t = L + j
-        pred[j] = (A[j, :, 0] @ y[t - 1] + A[j, :, 1] @ y[t - 2] + B[j, :, 0] @ u[t]
-                   + B[j, :, 1] @ u[t - 1] + model.c[j])
+        pred[j] = (
+            A[j, :, 0] @ y[t - 1]
+            + A[j, :, 1] @ y[t - 2]
+            + B[j, :, 0] @ u[t]
+            + B[j, :, 1] @ u[t - 1]
+            + model.c[j]
+        )
     np.testing.assert_allclose(model.predict(y, u), pred, rtol=1e-12, atol=1e-12)
     # simulating with the one-step residuals as noise reproduces the data
     resid = y[L:] - pred
@@ -341,8 +354,13 @@ def test_predict_and_simulate_against_explicit_loops():
     ref = y.copy()
     for j in range(N):
         t = L + j
-        ref[t] = (A[j, :, 0] @ ref[t - 1] + A[j, :, 1] @ ref[t - 2] + B[j, :, 0] @ u[t]
-                  + B[j, :, 1] @ u[t - 1] + model.c[j])
+        ref[t] = (
+            A[j, :, 0] @ ref[t - 1]
+            + A[j, :, 1] @ ref[t - 2]
+            + B[j, :, 0] @ u[t]
+            + B[j, :, 1] @ u[t - 1]
+            + model.c[j]
+        )
     np.testing.assert_allclose(sim, ref, rtol=1e-9, atol=1e-12)
 
 
@@ -378,8 +396,7 @@ def test_save_load_round_trip(tmp_path, kind):
     if isinstance(model, ltv.ARXModel):
         for name in ("na", "nb", "nk", "constant", "n_inputs", "lag"):
             assert getattr(loaded, name) == getattr(model, name)
-        np.testing.assert_array_equal(loaded.root_spectrogram(10.0),
-                                      model.root_spectrogram(10.0))
+        np.testing.assert_array_equal(loaded.root_spectrogram(10.0), model.root_spectrogram(10.0))
 
 
 def test_load_reads_files_without_model_type(tmp_path, ltv_data):
@@ -466,8 +483,9 @@ def test_ar_arx_errors():
 
 
 def test_chirp_example_runs_quick(tmp_path, capsys):
-    spec = importlib.util.spec_from_file_location("chirp_spectrogram",
-                                                  EXAMPLES / "chirp_spectrogram.py")
+    spec = importlib.util.spec_from_file_location(
+        "chirp_spectrogram", EXAMPLES / "chirp_spectrogram.py"
+    )
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     out = tmp_path / "chirp.png"
@@ -481,8 +499,11 @@ def test_an_ar_model_without_intercept_on_a_series_with_a_level_warns():
     """statsmodels' yearly sunspots: mean 49.7, 1.2 standard deviations from 0."""
     sm = pytest.importorskip("statsmodels.api")
     sunspots = sm.datasets.sunspots.load_pandas().data["SUNACTIVITY"].to_numpy()
-    with pytest.warns(ltv.errors.ModelStructureWarning, match=r"^y has mean 49.75, 1.2 "
-                      r"standard deviations from 0, .* pass constant=True"):
+    with pytest.warns(
+        ltv.errors.ModelStructureWarning,
+        match=r"^y has mean 49.75, 1.2 "
+        r"standard deviations from 0, .* pass constant=True",
+    ):
         ltv.fit_ar(sunspots, 2, lam=10.0)
     with warnings.catch_warnings():
         warnings.simplefilter("error", ltv.errors.ModelStructureWarning)
@@ -505,8 +526,9 @@ def test_fit_regression_refine_refits_each_segment_by_least_squares():
     np.testing.assert_array_equal(model.info["first_step_k"], first.k)
     for start, stop in model.info["segments"]:  # independent: lstsq per segment
         expected, *_ = np.linalg.lstsq(phi[start:stop], y[start:stop], rcond=None)
-        np.testing.assert_allclose(model.theta[start:stop, 0], np.tile(expected,
-                                   (stop - start, 1)), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(
+            model.theta[start:stop, 0], np.tile(expected, (stop - start, 1)), rtol=0, atol=1e-12
+        )
     assert model.std() is not None  # the refit's covariance
     robust = ltv.fit_regression(y, phi, lam=5.0, norm="group", refine=True, loss="huber")
     assert robust.info["loss"] == "huber" and robust.changepoints.tolist() == [120]
@@ -520,8 +542,7 @@ def test_ar_models_keep_the_name_and_index_of_their_series():
     sm = pytest.importorskip("statsmodels.api")
     pd = pytest.importorskip("pandas")
     table = sm.datasets.sunspots.load_pandas().data
-    y = pd.Series(table["SUNACTIVITY"].to_numpy(), index=table["YEAR"].to_numpy(),
-                  name="sunspots")
+    y = pd.Series(table["SUNACTIVITY"].to_numpy(), index=table["YEAR"].to_numpy(), name="sunspots")
     model = ltv.fit_ar(y, 2, lam=10.0, constant=True, norm="group")
     assert model.regressor_names == ["sunspots[t-1]", "sunspots[t-2]", "1"]
     c = int(model.changepoints[0])

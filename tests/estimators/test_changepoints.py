@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
-from ltvmodels.estimators.changepoints import detection_level
 from ltvmodels.core.problem import apply_difference
+from ltvmodels.estimators.changepoints import detection_level
 
 
 def difference(order: int) -> np.ndarray:
@@ -86,8 +86,10 @@ def test_noise_floor_rejects_the_background():
     assert ltv.find_changepoints(with_change).tolist() == [201]
     assert ltv.find_changepoints(with_change, noise_factor=20.0).size == 0
     level = detection_level(with_change, 0.0, 8.0)
-    assert level == pytest.approx(np.median(with_change) + 8 * 1.4826 * np.median(
-        np.abs(with_change - np.median(with_change))))
+    assert level == pytest.approx(
+        np.median(with_change)
+        + 8 * 1.4826 * np.median(np.abs(with_change - np.median(with_change)))
+    )
 
 
 def test_sparse_activation_has_zero_floor():

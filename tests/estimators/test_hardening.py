@@ -24,8 +24,9 @@ def test_masked_entries_are_missing_samples(data):
     with_nan[50, 0] = np.nan
     np.testing.assert_array_equal(ltv.fit(masked, u, lam=5.0).k, ltv.fit(with_nan, u, lam=5.0).k)
     seg = ltv.fit_segments(masked, u, n_changes=1)
-    np.testing.assert_array_equal(seg.changepoints, ltv.fit_segments(with_nan, u, n_changes=1)
-                                  .changepoints)
+    np.testing.assert_array_equal(
+        seg.changepoints, ltv.fit_segments(with_nan, u, n_changes=1).changepoints
+    )
     y = np.ma.masked_array(spoiled[:, 0], mask=masked.mask[:, 0])
     ar_masked, ar_nan = ltv.fit_ar(y, 2, lam=10.0), ltv.fit_ar(with_nan[:, 0], 2, lam=10.0)
     np.testing.assert_array_equal(ar_masked.k, ar_nan.k)
@@ -78,8 +79,9 @@ def _saved(tmp_path, data):
     return path
 
 
-@pytest.mark.parametrize("damage", ["csv", "truncated", "garbage-zip", "nan-k", "bad-json",
-                                    "wrong-shape", "missing-k"])
+@pytest.mark.parametrize(
+    "damage", ["csv", "truncated", "garbage-zip", "nan-k", "bad-json", "wrong-shape", "missing-k"]
+)
 def test_load_names_the_file_for_every_damage(tmp_path, data, damage):
     import json
     import zipfile
@@ -99,8 +101,9 @@ def test_load_names_the_file_for_every_damage(tmp_path, data, damage):
             content = {key: f[key] for key in f.files}
         meta = json.loads(str(content["meta"]))
         if damage == "nan-k":
-            content["k"] = np.where(np.arange(content["k"].size).reshape(content["k"].shape)
-                                    == 3, np.nan, content["k"])
+            content["k"] = np.where(
+                np.arange(content["k"].size).reshape(content["k"].shape) == 3, np.nan, content["k"]
+            )
         elif damage == "bad-json":
             content["meta"] = np.array("{not json")
         elif damage == "wrong-shape":
@@ -120,12 +123,15 @@ def test_load_says_plainly_that_a_file_is_not_a_model(tmp_path, data):
     model = ltv.fit(*data, lam=10.0)
     model.save(tmp_path / "model.npz")
     whole = (tmp_path / "model.npz").read_bytes()
-    files = {"data.csv": b"a,b\n1,2\n", "garbage.npz": b"\x00\x01 not a model",
-             "empty.npz": b"", "truncated.npz": whole[: len(whole) // 2]}
+    files = {
+        "data.csv": b"a,b\n1,2\n",
+        "garbage.npz": b"\x00\x01 not a model",
+        "empty.npz": b"",
+        "truncated.npz": whole[: len(whole) // 2],
+    }
     for name, content in files.items():
         (tmp_path / name).write_bytes(content)
-    np.savez(tmp_path / "objects.npz", meta=np.array([{"k": 1}], dtype=object),
-             k=np.ones((3, 6)))
+    np.savez(tmp_path / "objects.npz", meta=np.array([{"k": 1}], dtype=object), k=np.ones((3, 6)))
     for name in [*files, "objects.npz"]:
         with pytest.raises(ltv.ModelFileError) as info:
             ltv.load(tmp_path / name)
@@ -152,8 +158,9 @@ def test_ragged_lam_is_named_and_huge_sparse_lam_is_the_null_space_fit():
         ltv.fit(d.x, d.u, lam=[[1, 2], [3]])
     # λ is not squared for the sparse norms: 1e200 is above λ_max, the exact null-space fit
     huge = ltv.fit(d.x, d.u, lam=1e200, norm="group", order=2)
-    at_max = ltv.fit(d.x, d.u, lam=ltv.lambda_max(d.x, d.u, norm="group", order=2),
-                     norm="group", order=2)
+    at_max = ltv.fit(
+        d.x, d.u, lam=ltv.lambda_max(d.x, d.u, norm="group", order=2), norm="group", order=2
+    )
     assert huge.status.status == "closed_form"
     np.testing.assert_allclose(huge.k, at_max.k, rtol=1e-10, atol=1e-12)
 
@@ -281,10 +288,15 @@ def test_more_inputs_found_by_fuzzing(data, tmp_path):
         ltv.noise_variance_estimate(np.zeros(3), np.ones((3, 3)))
 
 
-@pytest.mark.parametrize("member, value", [
-    ("changepoints", np.array([-3, 10**6])), ("coeffs", np.zeros((2, 2))),
-    ("cov_blocks", np.zeros((3, 3))), ("noise_cov", np.array([[1.0, np.nan], [np.nan, 1.0]])),
-])
+@pytest.mark.parametrize(
+    "member, value",
+    [
+        ("changepoints", np.array([-3, 10**6])),
+        ("coeffs", np.zeros((2, 2))),
+        ("cov_blocks", np.zeros((3, 3))),
+        ("noise_cov", np.array([[1.0, np.nan], [np.nan, 1.0]])),
+    ],
+)
 def test_load_checks_every_member(data, tmp_path, member, value):
     x, u = data
     path = tmp_path / "model.npz"
@@ -314,8 +326,7 @@ def test_inputs_found_by_the_long_fuzzing_profile(data):
     with pytest.raises(ValueError, match=r"^x_t: column 0 has values .* too large"):
         online.update(x[0] * 1e292, u[0], x[1])
     with pytest.raises(ValueError, match=r"^lams: every candidate exceeds"):
-        ltv.select_lambda(rng.standard_normal((13, 6)), norm="l0", lams=[4, 2, 3],
-                          constant=True)
+        ltv.select_lambda(rng.standard_normal((13, 6)), norm="l0", lams=[4, 2, 3], constant=True)
     with pytest.raises(TypeError, match=r"^progress: expected a function"):
         ltv.select_lambda(x, u, progress="bar")
     with pytest.raises(ValueError, match=r"^n_states: expected an integer"):

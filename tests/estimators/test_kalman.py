@@ -273,13 +273,22 @@ def test_inputs_are_not_mutated():
         (dict(lam=1.0, noise_var=-1.0), ValueError, "noise_var"),
         (dict(lam=1.0, order=0), ValueError, "order"),
         (dict(lam=1.0, init_mean=np.zeros(6)), ValueError, "init_cov: expected a covariance"),
-        (dict(lam=1.0, init_cov=np.eye(4)), ValueError,
-         r"init_cov: expected a scalar or a \(3, 3\)"),
+        (
+            dict(lam=1.0, init_cov=np.eye(4)),
+            ValueError,
+            r"init_cov: expected a scalar or a \(3, 3\)",
+        ),
         (dict(lam=1.0, init_cov=-np.eye(3)), ValueError, "positive definite"),
-        (dict(lam=1.0, init_cov=1.0, init_mean=np.zeros(5)), ValueError,
-         "init_mean: expected shape"),
-        (dict(lam=1.0, order=2, init_cov=1.0, init_mean=np.zeros(6)), ValueError,
-         r"init_mean: expected shape \(2, 6\)"),
+        (
+            dict(lam=1.0, init_cov=1.0, init_mean=np.zeros(5)),
+            ValueError,
+            "init_mean: expected shape",
+        ),
+        (
+            dict(lam=1.0, order=2, init_cov=1.0, init_mean=np.zeros(6)),
+            ValueError,
+            r"init_mean: expected shape \(2, 6\)",
+        ),
     ],
 )
 def test_bad_arguments(kwargs, exc, text):

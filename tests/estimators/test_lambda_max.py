@@ -39,11 +39,14 @@ def test_autonomous_system_and_lists():
     assert value == ltv.fit(DATA.x, None, lam=1.0, norm="l1").info["lambda_max"]
 
 
-@pytest.mark.parametrize("kwargs, error, pattern", [
-    ({"norm": "sq"}, ValueError, "norm: expected one of \\('group', 'l1'\\)"),
-    ({"norm": "group", "order": 0}, ValueError, "order"),
-    ({"norm": "group", "order": 400}, ValueError, "order"),
-])
+@pytest.mark.parametrize(
+    "kwargs, error, pattern",
+    [
+        ({"norm": "sq"}, ValueError, "norm: expected one of \\('group', 'l1'\\)"),
+        ({"norm": "group", "order": 0}, ValueError, "order"),
+        ({"norm": "group", "order": 400}, ValueError, "order"),
+    ],
+)
 def test_invalid_options(kwargs, error, pattern):
     with pytest.raises(error, match=pattern):
         ltv.lambda_max(DATA.x, DATA.u, **kwargs)

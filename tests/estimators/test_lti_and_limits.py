@@ -12,10 +12,10 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from dense_reference import random_data, relerr, simulate_ltv
 from scipy.stats import multivariate_normal
 
 import ltvmodels as ltv
-from dense_reference import random_data, relerr, simulate_ltv
 
 
 @pytest.mark.parametrize("n, m", [(2, 1), (3, 0), (1, 2)])
@@ -110,7 +110,6 @@ def test_very_large_lam_warns_about_precision_and_points_to_inf():
         ltv.fit(x, u, lam=1e8 * s, order=1)
     exact = ltv.fit(x, u, lam=np.inf, order=1)
     assert relerr(exact.A, lti.A) < 1e-12
-
 
 
 def test_large_lam_second_order_gives_linear_trend_least_squares():

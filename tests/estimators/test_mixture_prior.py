@@ -73,8 +73,9 @@ def test_one_component_is_the_least_squares_lti_model_with_its_covariance(layout
     keep = [0, 1, 2, 4, 5, 6]
     at0 = prior.at(x, u)
     np.testing.assert_allclose(at0.mean, lti.k[:, keep], rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(at0.cov, lti.cov[:, keep][:, :, keep], rtol=1e-8,
-                               atol=1e-14 * np.abs(lti.cov).max())
+    np.testing.assert_allclose(
+        at0.cov, lti.cov[:, keep][:, :, keep], rtol=1e-8, atol=1e-14 * np.abs(lti.cov).max()
+    )
     theta = lti.k[0].reshape(2, 4)  # rows of [A B c]
     np.testing.assert_allclose(prior.A[0], theta[:, :2], rtol=1e-9)
     np.testing.assert_allclose(prior.B[0], theta[:, 2:3], rtol=1e-9)
@@ -124,8 +125,9 @@ def hand_moments(prior, x, u, constant, weights=None, max_samples=None):
         noise = S[d:, d:] - W @ S[:d, d:]
         count = prior.weights[c] * prior.n_transitions
         noise_u = noise * count / (count - (d + 1))
-        second = np.block([[S[:d, :d] + np.outer(mu[:d], mu[:d]), mu[:d, None]],
-                           [mu[None, :d], np.ones((1, 1))]])
+        second = np.block(
+            [[S[:d, :d] + np.outer(mu[:d], mu[:d]), mu[:d, None]], [mu[None, :d], np.ones((1, 1))]]
+        )
         strength = count if max_samples is None else min(count, max_samples)
         V = np.kron(noise_u, np.linalg.inv(strength * second))
         theta = np.hstack([W, b[:, None]]).ravel()
@@ -145,15 +147,24 @@ def hand_moments(prior, x, u, constant, weights=None, max_samples=None):
             seen = ~np.isnan(z[r, t])
             if not seen.any():
                 continue
-            dens = np.array([prior.weights[c] * stats.multivariate_normal.pdf(
-                z[r, t, seen], prior.means[c, seen],
-                prior.covariances[c][np.ix_(seen, seen)]) for c in range(C)])
+            dens = np.array(
+                [
+                    prior.weights[c]
+                    * stats.multivariate_normal.pdf(
+                        z[r, t, seen],
+                        prior.means[c, seen],
+                        prior.covariances[c][np.ix_(seen, seen)],
+                    )
+                    for c in range(C)
+                ]
+            )
             rho += w[r, t] * dens / dens.sum()
             total += w[r, t]
         rho = rho / total if total > 0 else prior.weights
         mean[t] = sum(rho[c] * thetas[c] for c in range(C))
-        cov[t] = sum(rho[c] * (Vs[c] + np.outer(thetas[c] - mean[t], thetas[c] - mean[t]))
-                     for c in range(C))
+        cov[t] = sum(
+            rho[c] * (Vs[c] + np.outer(thetas[c] - mean[t], thetas[c] - mean[t])) for c in range(C)
+        )
     return mean, cov
 
 
@@ -177,8 +188,9 @@ def test_prior_and_its_effect_on_fit_equal_the_moments_built_by_hand(constant):
     np.testing.assert_allclose(at.mean, mean, rtol=1e-7, atol=1e-9)
     np.testing.assert_allclose(at.cov, cov, rtol=1e-6, atol=1e-10 * np.abs(cov).max())
     model = ltv.fit(xb, ub, lam=5.0, constant=constant, weights=weights, prior=at)
-    by_hand = ltv.fit(xb, ub, lam=5.0, constant=constant, weights=weights,
-                      prior=ltv.Prior(mean, cov))
+    by_hand = ltv.fit(
+        xb, ub, lam=5.0, constant=constant, weights=weights, prior=ltv.Prior(mean, cov)
+    )
     np.testing.assert_allclose(model.k, by_hand.k, rtol=1e-6, atol=1e-8)
     # The prior moves the fit: without it the estimate differs.
     plain = ltv.fit(xb, ub, lam=5.0, constant=constant, weights=weights)

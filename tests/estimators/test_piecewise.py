@@ -17,9 +17,9 @@ import warnings
 import numpy as np
 import pytest
 import scipy.linalg
+from dense_reference import difference_matrix, random_data, stacked_regressor
 
 import ltvmodels as ltv
-from dense_reference import difference_matrix, random_data, stacked_regressor
 from ltvmodels.errors import SingularProblemError
 
 
@@ -43,7 +43,7 @@ def constrained_reference(x, u, changepoints, order):
     M_inv = np.linalg.inv(PQ.T @ PQ)
     G = Q @ M_inv @ PQ.T
     cov = G @ np.kron(np.eye(N), noise_cov) @ G.T
-    blocks = np.stack([cov[t * K:(t + 1) * K, t * K:(t + 1) * K] for t in range(N)])
+    blocks = np.stack([cov[t * K : (t + 1) * K, t * K : (t + 1) * K] for t in range(N)])
     return k, noise_cov, blocks
 
 
@@ -159,8 +159,8 @@ def test_order2_is_linear_on_segments_and_continuous_at_knots():
     knots = [0, *cps, 78]
     for a, b in itertools.pairwise(knots):
         t = np.arange(a, b + 1)
-        slope, intercept = np.polyfit(t, k[a:b + 1], 1)
-        np.testing.assert_allclose(slope * t[:, None] + intercept, k[a:b + 1], atol=1e-10)
+        slope, intercept = np.polyfit(t, k[a : b + 1], 1)
+        np.testing.assert_allclose(slope * t[:, None] + intercept, k[a : b + 1], atol=1e-10)
     np.testing.assert_array_equal(ltv.find_changepoints(model), cps)
 
 
@@ -251,7 +251,13 @@ BAD = [
     ("short-segment", [20, 21], 1, ValueError, CP + r"segment 1 = \[20, 21\) has 1 transition"),
     ("short-first", [2], 1, ValueError, CP + r"segment 0 = \[0, 2\) has 2 transition"),
     ("knot-unidentified", [2], 2, SingularProblemError, CP + r"the coefficients at the knot t = 0"),
-    ("too-many-knots", list(range(2, 48, 3)), 2, ValueError, CP + r"49 transitions \(with data\) cannot"),
+    (
+        "too-many-knots",
+        list(range(2, 48, 3)),
+        2,
+        ValueError,
+        CP + r"49 transitions \(with data\) cannot",
+    ),
 ]
 
 

@@ -15,13 +15,12 @@ import warnings
 
 import numpy as np
 import pytest
+from dense_reference import DenseProblem, diag_blocks, random_spd, relerr, simulate_ltv
 
 import ltvmodels as ltv
-from dense_reference import DenseProblem, diag_blocks, random_spd, relerr, simulate_ltv
 
 TOL = 1e-8
 SIGMA2 = 0.05
-
 
 
 @pytest.fixture(scope="module")
@@ -30,7 +29,11 @@ def system():
     rng = np.random.default_rng(42)
     N, K = k_true.shape
     return dict(
-        x=x, u=u, k_true=k_true, N=N, K=K,
+        x=x,
+        u=u,
+        k_true=k_true,
+        N=N,
+        K=K,
         mu=k_true + 0.05 * rng.standard_normal(k_true.shape),
         cov_t=np.stack([random_spd(rng, K, 0.1) for _ in range(N)]),
         cov_m=random_spd(rng, K, 0.3),
@@ -56,10 +59,12 @@ def test_exact_prior_equals_dense_map(system, cov_kind, mean_kind, order, lam):
     if lam == "vector":
         lam = np.random.default_rng(0).uniform(1.0, 3.0, system["K"])
     mean, cov = _prior(system, mean_kind, cov_kind)
-    model = ltv.fit(system["x"], system["u"], lam=lam, order=order,
-                    prior=ltv.Prior(mean, cov), noise_var=SIGMA2)
-    ref = DenseProblem(system["x"], system["u"], order, lam, sigma2=SIGMA2,
-                       param_priors=[(mean, cov)])
+    model = ltv.fit(
+        system["x"], system["u"], lam=lam, order=order, prior=ltv.Prior(mean, cov), noise_var=SIGMA2
+    )
+    ref = DenseProblem(
+        system["x"], system["u"], order, lam, sigma2=SIGMA2, param_priors=[(mean, cov)]
+    )
     k, H_inv = ref.solve()
     assert relerr(model.k, k) < TOL
     assert relerr(model.cov_full(), SIGMA2 * diag_blocks(H_inv, system["N"], system["K"])) < TOL
@@ -72,8 +77,9 @@ def test_exact_prior_time_varying_cov_with_model_mean(system):
     x, u = system["x"], system["u"]
     mean_model = ltv.fit(x, u, lam=5.0)
     model = ltv.fit(x, u, lam=2.0, prior=ltv.Prior(mean_model, system["cov_t"]), noise_var=SIGMA2)
-    ref = DenseProblem(x, u, 1, 2.0, sigma2=SIGMA2,
-                       param_priors=[(np.array(mean_model.k), system["cov_t"])])
+    ref = DenseProblem(
+        x, u, 1, 2.0, sigma2=SIGMA2, param_priors=[(np.array(mean_model.k), system["cov_t"])]
+    )
     k, H_inv = ref.solve()
     assert relerr(model.k, k) < TOL
     assert relerr(model.cov_full(), SIGMA2 * diag_blocks(H_inv, system["N"], system["K"])) < TOL
@@ -83,11 +89,13 @@ def test_prior_mean_as_model_equals_its_k(system):
     x, u = system["x"], system["u"]
     mean_model = ltv.fit(x, u, lam=5.0, order=2)
     a = ltv.fit(x, u, lam=2.0, prior=ltv.Prior(mean_model, system["cov_m"]), noise_var=SIGMA2)
-    b = ltv.fit(x, u, lam=2.0, prior=ltv.Prior(np.array(mean_model.k), system["cov_m"]),
-                noise_var=SIGMA2)
+    b = ltv.fit(
+        x, u, lam=2.0, prior=ltv.Prior(np.array(mean_model.k), system["cov_m"]), noise_var=SIGMA2
+    )
     np.testing.assert_array_equal(a.k, b.k)
-    ref = DenseProblem(x, u, 1, 2.0, sigma2=SIGMA2,
-                       param_priors=[(np.array(mean_model.k), system["cov_m"])])
+    ref = DenseProblem(
+        x, u, 1, 2.0, sigma2=SIGMA2, param_priors=[(np.array(mean_model.k), system["cov_m"])]
+    )
     assert relerr(a.k, ref.solve()[0]) < TOL
 
 
@@ -111,8 +119,15 @@ def test_parameter_and_output_priors_together(system):
         ltv.OutputPrior(system["ybar"], system["S_t"]),
     ]
     model = ltv.fit(x, u, lam=2.0, order=2, prior=priors, noise_var=SIGMA2)
-    ref = DenseProblem(x, u, 2, 2.0, sigma2=SIGMA2, param_priors=[(system["mu"], system["cov_m"])],
-                       output_priors=[(system["ybar"], system["S_t"])])
+    ref = DenseProblem(
+        x,
+        u,
+        2,
+        2.0,
+        sigma2=SIGMA2,
+        param_priors=[(system["mu"], system["cov_m"])],
+        output_priors=[(system["ybar"], system["S_t"])],
+    )
     k, H_inv = ref.solve()
     assert relerr(model.k, k) < TOL
     assert relerr(model.cov_full(), SIGMA2 * diag_blocks(H_inv, system["N"], system["K"])) < TOL
@@ -157,14 +172,22 @@ def test_posthoc_equals_paper_correction(system, cov_kind, order):
     cov = system["cov_m"] if cov_kind == "K,K" else system["cov_t"]
     base = ltv.fit(x, u, lam=2.0, order=order, noise_var=SIGMA2)
     k_ref, P_ref = _posthoc_by_hand(np.array(base.k), base.cov_full(), system["mu"], cov)
-    model = ltv.fit(x, u, lam=2.0, order=order, prior=ltv.Prior(system["mu"], cov),
-                    prior_mode="posthoc", noise_var=SIGMA2)
+    model = ltv.fit(
+        x,
+        u,
+        lam=2.0,
+        order=order,
+        prior=ltv.Prior(system["mu"], cov),
+        prior_mode="posthoc",
+        noise_var=SIGMA2,
+    )
     assert relerr(model.k, k_ref) < TOL
     assert relerr(model.cov_full(), P_ref) < TOL
     assert model.loglik is None and "posthoc" in model.info["loglik_note"]
     # posthoc is a different estimator than the exact MAP
-    exact = ltv.fit(x, u, lam=2.0, order=order, prior=ltv.Prior(system["mu"], system["cov_m"]),
-                    noise_var=SIGMA2)
+    exact = ltv.fit(
+        x, u, lam=2.0, order=order, prior=ltv.Prior(system["mu"], system["cov_m"]), noise_var=SIGMA2
+    )
     if cov_kind == "K,K":
         assert relerr(model.k, exact.k) > 1e-4
 
@@ -177,9 +200,17 @@ def test_posthoc_two_priors_applied_in_sequence(system):
     M_out = np.stack([np.kron(np.eye(2), phi[t]) for t in range(N)])  # I_n ⊗ φ_tᵀ
     k1, P1 = _posthoc_by_hand(np.array(base.k), base.cov_full(), system["mu"], system["cov_m"])
     k2, P2 = _posthoc_by_hand(k1, P1, system["ybar"], system["S_t"], M=M_out)
-    model = ltv.fit(x, u, lam=2.0, noise_var=SIGMA2, prior_mode="posthoc",
-                    prior=[ltv.Prior(system["mu"], system["cov_m"]),
-                           ltv.OutputPrior(system["ybar"], system["S_t"])])
+    model = ltv.fit(
+        x,
+        u,
+        lam=2.0,
+        noise_var=SIGMA2,
+        prior_mode="posthoc",
+        prior=[
+            ltv.Prior(system["mu"], system["cov_m"]),
+            ltv.OutputPrior(system["ybar"], system["S_t"]),
+        ],
+    )
     assert relerr(model.k, k2) < TOL
     assert relerr(model.cov_full(), P2) < TOL
 
@@ -187,8 +218,9 @@ def test_posthoc_two_priors_applied_in_sequence(system):
 def test_posthoc_noise_var_is_the_prior_free_estimate(system):
     x, u = system["x"], system["u"]
     base = ltv.fit(x, u, lam=2.0)
-    model = ltv.fit(x, u, lam=2.0, prior=ltv.Prior(system["mu"], system["cov_m"]),
-                    prior_mode="posthoc")
+    model = ltv.fit(
+        x, u, lam=2.0, prior=ltv.Prior(system["mu"], system["cov_m"]), prior_mode="posthoc"
+    )
     assert model.noise_var == pytest.approx(base.noise_var, rel=1e-12)
     k_ref, P_ref = _posthoc_by_hand(
         np.array(base.k), base.cov_full(), system["mu"], system["cov_m"]
@@ -238,8 +270,9 @@ def test_unexcited_input_with_prior_warns_and_uses_prior():
 def test_well_excited_data_with_prior_do_not_warn(system):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        ltv.fit(system["x"], system["u"], lam=2.0, prior=ltv.Prior(system["mu"], 0.1),
-                noise_var=SIGMA2)
+        ltv.fit(
+            system["x"], system["u"], lam=2.0, prior=ltv.Prior(system["mu"], 0.1), noise_var=SIGMA2
+        )
 
 
 @pytest.mark.parametrize("order", [1, 2])

@@ -11,9 +11,9 @@ import tracemalloc
 
 import numpy as np
 import pytest
+from dense_reference import coefficients, difference_matrix, relerr
 
 import ltvmodels as ltv
-from dense_reference import coefficients, difference_matrix, relerr
 
 ORDERS = [1, 2, [-1, 3, -3, 1]]
 ORDER_IDS = ["order1", "order2", "cubic"]
@@ -53,7 +53,7 @@ def dense_fit(x, u, lam, coeffs, weights=None, constant=False):
                 continue
             for i in range(n):
                 row = np.zeros(N * K)
-                row[t * K + i * p:t * K + (i + 1) * p] = np.sqrt(w[r, t]) * phi[r, t]
+                row[t * K + i * p : t * K + (i + 1) * p] = np.sqrt(w[r, t]) * phi[r, t]
                 rows.append(row)
                 rhs.append(np.sqrt(w[r, t]) * y[r, t, i])
     Phi, Y = np.array(rows), np.array(rhs)
@@ -83,7 +83,7 @@ def test_missing_samples_equal_dense_fit_with_rows_removed(order):
     k, H_inv = dense_fit(x, u, 3.0, coeffs)
     assert relerr(model.k, k) < 1e-8
     N, K = k.shape
-    blocks = np.stack([H_inv[t * K:(t + 1) * K, t * K:(t + 1) * K] for t in range(N)])
+    blocks = np.stack([H_inv[t * K : (t + 1) * K, t * K : (t + 1) * K] for t in range(N)])
     assert relerr(model.cov_full(), 0.5 * blocks) < 1e-7
     assert model.info["n_missing"] > 0
 
@@ -101,8 +101,7 @@ def test_trajectories_and_weights_equal_dense_fit(order):
     listed = ltv.fit(list(x), list(u), lam=2.0, order=order, weights=w)
     np.testing.assert_array_equal(listed.k, model.k)
     shared = ltv.fit(x, u, lam=2.0, order=order, weights=w[0])
-    assert relerr(shared.k, dense_fit(x, u, 2.0, coeffs, weights=np.tile(w[0], (3, 1)))[0]) \
-        < 1e-8
+    assert relerr(shared.k, dense_fit(x, u, 2.0, coeffs, weights=np.tile(w[0], (3, 1)))[0]) < 1e-8
 
 
 def test_zero_weight_equals_missing_and_batch_equals_summed_gram():
@@ -120,13 +119,13 @@ def test_zero_weight_equals_missing_and_batch_equals_summed_gram():
 def test_gaps_are_bridged_and_covariance_grows_there(gap):
     x, u = batch(7, R=1, T=160)
     x, u = x[0].copy(), u[0]
-    x[60:60 + gap] = np.nan
+    x[60 : 60 + gap] = np.nan
     model = ltv.fit(x, u, lam=5.0)
     k, _ = dense_fit(x, u, 5.0, coefficients(1))
     assert relerr(model.k, k) < 1e-8
     assert np.all(np.isfinite(model.k))
     std = model.std()[:, 0]
-    inside = std[60:59 + gap].max() if gap > 1 else std[59]
+    inside = std[60 : 59 + gap].max() if gap > 1 else std[59]
     assert inside > 1.2 * np.median(std[:40])
     assert model.info["n_missing"] == gap + 1
 
@@ -282,8 +281,9 @@ def test_every_estimator_takes_u_none():
     assert ltv.lambda_max(x, None, norm="group") > 0
     filt = ltv.kalman_filter(x, None, lam=5.0)
     smooth = ltv.kalman_smoother(x, None, lam=5.0)
-    np.testing.assert_allclose(smooth.k, ltv.fit(x, None, lam=5.0, noise_var=1.0).k,
-                               rtol=1e-8, atol=1e-10)
+    np.testing.assert_allclose(
+        smooth.k, ltv.fit(x, None, lam=5.0, noise_var=1.0).k, rtol=1e-8, atol=1e-10
+    )
     assert filt.k.shape == (T - 1, n_params)
     online = ltv.OnlineParameterFilter(2, 0, lam=5.0)
     for t in range(T - 1):
@@ -328,7 +328,8 @@ def test_segments_and_selection_on_batches_with_gaps():
     keep = np.isfinite(y) & np.isfinite(phi)
     a = np.sum(phi[keep] * y[keep]) / np.sum(phi[keep] ** 2)
     assert seg.info["costs_by_n_changes"][0] == pytest.approx(
-        np.sum((y[keep] - a * phi[keep]) ** 2), rel=1e-10)
+        np.sum((y[keep] - a * phi[keep]) ** 2), rel=1e-10
+    )
     for method in ("ml", "gcv", "cv"):
         assert ltv.select_lambda(x, None, method=method).lam > 0
     assert ltv.fit(x, None, lam="auto", norm="group").info["lam_selection"]["lam"] > 0
@@ -374,8 +375,9 @@ def test_simulation_ignores_the_unused_last_input():
     model = ltv.fit(x[0], u[0], lam=3.0)
     last_missing = u[0].copy()
     last_missing[-1] = np.nan
-    np.testing.assert_array_equal(model.simulate(x[0, 0], last_missing),
-                                  model.simulate(x[0, 0], u[0]))
+    np.testing.assert_array_equal(
+        model.simulate(x[0, 0], last_missing), model.simulate(x[0, 0], u[0])
+    )
     with pytest.raises(ValueError, match="u: expected finite inputs"):
         model.simulate(x[0, 0], np.where(np.arange(40)[:, None] == 5, np.nan, u[0]))
 
@@ -387,9 +389,13 @@ def test_dataframe_column_names_name_the_model(tmp_path):
     data = ltv.systems.jump_linear(T=120, change_at=60, seed=0)
     x = pd.DataFrame(data.x, columns=["position", "velocity"])
     u = pd.DataFrame(data.u, columns=["force"])
-    for model in (ltv.fit(x, u, lam=10.0), ltv.fit(x, u, lam=1.0, norm="group", refine=True),
-                  ltv.fit_lti(x, u), ltv.fit_piecewise(x, u, [60]),
-                  ltv.fit_segments(x, u, n_changes=1)):
+    for model in (
+        ltv.fit(x, u, lam=10.0),
+        ltv.fit(x, u, lam=1.0, norm="group", refine=True),
+        ltv.fit_lti(x, u),
+        ltv.fit_piecewise(x, u, [60]),
+        ltv.fit_segments(x, u, n_changes=1),
+    ):
         assert model.state_names == ["position", "velocity"]
         assert model.input_names == ["force"]
     model = ltv.fit(x, u["force"], lam=10.0)  # a named Series
@@ -435,16 +441,16 @@ def test_a_forecast_continues_a_regular_time_index():
     matplotlib.use("Agg")
     data = ltv.systems.jump_linear(T=120, change_at=60, seed=0)
     days = pd.date_range("2021-01-01", periods=120, freq="D")
-    model = ltv.fit(pd.DataFrame(data.x, index=days), pd.DataFrame(data.u, index=days),
-                    lam=10.0)
+    model = ltv.fit(pd.DataFrame(data.x, index=days), pd.DataFrame(data.u, index=days), lam=10.0)
     forecast = model.forecast(data.x[-1], np.zeros(3))
     expected = (days[-1] + pd.to_timedelta([1, 2, 3], unit="D")).to_numpy()
     np.testing.assert_array_equal(forecast.time, expected)
     fig = forecast.plot(history=data.x[-10:])
     assert fig.axes[-1].get_xlabel() == "time"
     irregular = days.delete(5).append(pd.DatetimeIndex(["2021-06-01"]))
-    model = ltv.fit(pd.DataFrame(data.x, index=irregular), pd.DataFrame(data.u, index=irregular),
-                    lam=10.0)
+    model = ltv.fit(
+        pd.DataFrame(data.x, index=irregular), pd.DataFrame(data.u, index=irregular), lam=10.0
+    )
     np.testing.assert_array_equal(model.forecast(data.x[-1], np.zeros(2)).time, [120, 121])
 
 
@@ -453,8 +459,9 @@ def test_xarray_dataarrays_name_and_time_the_model():
     pd = pytest.importorskip("pandas")
     data = ltv.systems.jump_linear(T=120, change_at=60, seed=0)
     days = pd.date_range("2021-03-01", periods=120, freq="D")
-    x = xr.DataArray(data.x, dims=("time", "state"),
-                     coords={"time": days, "state": ["position", "velocity"]})
+    x = xr.DataArray(
+        data.x, dims=("time", "state"), coords={"time": days, "state": ["position", "velocity"]}
+    )
     u = xr.DataArray(data.u[:, 0], dims=("time",), coords={"time": days}, name="force")
     model = ltv.fit(x, u, lam=30.0, norm="group")
     assert model.state_names == ["position", "velocity"] and model.input_names == ["force"]

@@ -213,7 +213,7 @@ def test_pelt_exact_with_infeasible_stretches():
         N, min_size = int(rng.integers(40, 80)), int(rng.integers(2, 6))
         x, u = switching_system(seed, N + 1, 1, 1, changes=(N // 2,), noise=0.3)
         start = int(rng.integers(0, N - 10))
-        u[start:start + int(rng.integers(3, 15))] = 0.0
+        u[start : start + int(rng.integers(3, 15))] = 0.0
         y, phi = x[1:], np.hstack([x[:-1], u[:-1]])
         M_max = N // min_size - 1
         dp = segment_regression(y, phi, n_changes=M_max, min_size=min_size)

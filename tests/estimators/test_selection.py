@@ -2,9 +2,9 @@
 
 import numpy as np
 import pytest
+from dense_reference import best_lam, difference_matrix, lam_criterion, simulate_ltv
 
 import ltvmodels as ltv
-from dense_reference import best_lam, difference_matrix, lam_criterion, simulate_ltv
 from ltvmodels.core.problem import state_space_problem
 from ltvmodels.estimators.selection import criterion_fit, select_lambda
 
@@ -13,8 +13,9 @@ from ltvmodels.estimators.selection import criterion_fit, select_lambda
 @pytest.mark.parametrize("method", ["ml", "gcv", "cv"])
 def test_recovers_the_random_walk_ratio(seed, method):
     """λ = σ_noise / σ_drift is the generative value of the squared-norm model."""
-    data = ltv.systems.random_walk_system(T=2000, n=2, m=1, drift_std=1e-2, noise_std=0.1,
-                                          seed=seed)
+    data = ltv.systems.random_walk_system(
+        T=2000, n=2, m=1, drift_std=1e-2, noise_std=0.1, seed=seed
+    )
     chosen = select_lambda(data.x, data.u, norm="sq", method=method).lam
     assert 10.0 / 2 <= chosen <= 10.0 * 2
 
@@ -26,11 +27,12 @@ def test_gcv_degrees_of_freedom_equal_the_dense_hat_trace():
     lam = 2.5
     Phi = np.zeros((N * n, N * K))
     for t in range(N):
-        Phi[t * n:(t + 1) * n, t * K:(t + 1) * K] = np.kron(np.eye(n), pb.phi[t, 0])
+        Phi[t * n : (t + 1) * n, t * K : (t + 1) * K] = np.kron(np.eye(n), pb.phi[t, 0])
     D = np.kron(difference_matrix(N, pb.coeffs), np.eye(K))
     hat = Phi @ np.linalg.solve(Phi.T @ Phi + lam**2 * D.T @ D, Phi.T)
-    assert criterion_fit(pb, "sq", lam, compute_cov=True)["dof"] == pytest.approx(np.trace(hat),
-                                                                                 rel=1e-9)
+    assert criterion_fit(pb, "sq", lam, compute_cov=True)["dof"] == pytest.approx(
+        np.trace(hat), rel=1e-9
+    )
 
 
 @pytest.mark.parametrize("norm,power", [("sq", 1), ("group", 2), ("l1", 2)])
@@ -150,8 +152,13 @@ def test_regression_front_end_matches_fit_ar_auto():
 def test_progress_is_reported_per_candidate():
     data = ltv.systems.jump_linear(T=120, change_at=60, seed=7)
     calls = []
-    select_lambda(data.x, data.u, lams=[1.0, 10.0, 100.0], method="lcurve",
-                  progress=lambda done, total: calls.append((done, total)))
+    select_lambda(
+        data.x,
+        data.u,
+        lams=[1.0, 10.0, 100.0],
+        method="lcurve",
+        progress=lambda done, total: calls.append((done, total)),
+    )
     assert calls == [(1, 3), (2, 3), (3, 3)]
 
 
@@ -167,8 +174,11 @@ def test_lam_auto_skips_a_singular_grid_point_and_records_it():
     assert model.lam not in skipped
     assert all("singular" in why for _, why in selection["skipped"])
     # the skipped candidates have no score in the model's record (None)
-    assert all(score is None for lam, score in zip(selection["lams"], selection["scores"])
-               if lam in skipped)
+    assert all(
+        score is None
+        for lam, score in zip(selection["lams"], selection["scores"])
+        if lam in skipped
+    )
 
 
 def test_select_lambda_fails_only_when_every_candidate_is_singular(monkeypatch):
@@ -183,8 +193,10 @@ def test_select_lambda_fails_only_when_every_candidate_is_singular(monkeypatch):
     monkeypatch.setattr(selection_module, "criterion_fit", singular)
     # the factorization-only route declines (as where H is singular): the fit decides
     monkeypatch.setattr(selection_module.ScalarEvidence, "solution", lambda *a, **k: None)
-    with pytest.raises(ltv.SingularProblemError,
-                       match=r"^x: every candidate λ .* gives a singular problem; at λ = "):
+    with pytest.raises(
+        ltv.SingularProblemError,
+        match=r"^x: every candidate λ .* gives a singular problem; at λ = ",
+    ):
         ltv.select_lambda(data.x, data.u, lams=[1.0, 2.0], method="gcv")
 
 
@@ -217,15 +229,21 @@ def test_the_default_search_reaches_the_maximum_of_a_fine_grid(order, seed):
     chosen = select_lambda(data.x, data.u, order=order, method="gcv")
     assert gcv(chosen.lam) <= min(gcv(lam) for lam in fine) * (1 + 1e-4)  # the same plateau
     assert chosen.scores[np.argmin(np.abs(chosen.lams - chosen.lam))] == pytest.approx(
-        gcv(chosen.lam), rel=1e-12)
+        gcv(chosen.lam), rel=1e-12
+    )
 
 
 def test_fit_lam_auto_reports_progress_and_the_number_of_fits():
     data = ltv.systems.jump_linear(T=300, change_at=150, seed=3)
     for norm in ("sq", "group"):
         reports = []
-        model = ltv.fit(data.x, data.u, lam="auto", norm=norm,
-                        progress=lambda done, total: reports.append((done, total)))
+        model = ltv.fit(
+            data.x,
+            data.u,
+            lam="auto",
+            norm=norm,
+            progress=lambda done, total, reports=reports: reports.append((done, total)),
+        )
         record = model.info["lam_selection"]
         n_fits = record["n_fits"]
         assert n_fits == len(record["lams"])
@@ -244,8 +262,9 @@ def test_the_lcurve_leaves_out_candidates_without_a_resolved_penalty(norm):
     data = ltv.systems.jump_linear(T=300, change_at=150, seed=1)
     lam_max = ltv.lambda_max(data.x, data.u, norm=norm)
     below = lam_max * np.logspace(-3, -0.05, 20)
-    with_max = select_lambda(data.x, data.u, norm=norm, method="lcurve",
-                             lams=np.append(below, [lam_max, 2 * lam_max]))
+    with_max = select_lambda(
+        data.x, data.u, norm=norm, method="lcurve", lams=np.append(below, [lam_max, 2 * lam_max])
+    )
     without = select_lambda(data.x, data.u, norm=norm, method="lcurve", lams=below)
     assert with_max.lam == without.lam
     assert np.all(with_max.scores[-2:] == -np.inf)  # never the choice

@@ -13,9 +13,9 @@ import time
 import numpy as np
 import pandas as pd
 import pytest
+from dense_reference import random_data
 
 import ltvmodels as ltv
-from dense_reference import random_data
 
 T, n, m = 30, 2, 1
 N, K = T - 1, n * (n + m)
@@ -59,14 +59,26 @@ BAD_FIT_INPUTS = [
     ("x-none", dict(x=lambda x, u: None), TypeError, r"^x:"),
     ("x-ragged", dict(x=lambda x, u: [[1.0, 2.0], [3.0]] * 15), TypeError, r"^x:"),
     ("x-complex", dict(x=lambda x, u: x + 1j), TypeError, r"^x:"),
-    ("x-no-columns", dict(x=lambda x, u: np.zeros((T, 0)), u=lambda x, u: None), ValueError,
-     r"^x:"),
+    (
+        "x-no-columns",
+        dict(x=lambda x, u: np.zeros((T, 0)), u=lambda x, u: None),
+        ValueError,
+        r"^x:",
+    ),
     ("x-one-sample", dict(x=lambda x, u: x[:1], u=lambda x, u: None), ValueError, r"^x:"),
     ("x-empty", dict(x=lambda x, u: np.zeros((0, 2)), u=lambda x, u: None), ValueError, r"^x:"),
-    ("too-few-samples", dict(x=lambda x, u: x[:3], u=lambda x, u: u[:3]), ValueError,
-     r"^x: too few samples"),
-    ("too-few-samples-order2", dict(x=lambda x, u: x[:6], u=lambda x, u: u[:6], order=2),
-     ValueError, r"^x: too few samples"),
+    (
+        "too-few-samples",
+        dict(x=lambda x, u: x[:3], u=lambda x, u: u[:3]),
+        ValueError,
+        r"^x: too few samples",
+    ),
+    (
+        "too-few-samples-order2",
+        dict(x=lambda x, u: x[:6], u=lambda x, u: u[:6], order=2),
+        ValueError,
+        r"^x: too few samples",
+    ),
     ("order-too-high-for-data", dict(order=20), ValueError, r"^x: too few samples"),
     ("order-exceeds-samples", dict(order=100), ValueError, r"^order:.*at most 30"),
     ("lam-negative", dict(lam=-1.0), ValueError, r"^lam:"),
@@ -123,32 +135,79 @@ BAD_FIT_INPUTS = [
     ("prior-str", dict(prior="abc"), TypeError, r"^prior:"),
     ("prior-dict", dict(prior={"mean": 0}), TypeError, r"^prior:"),
     ("prior-list-junk", dict(prior=[ltv.Prior(np.zeros(K), 1.0), 1.0]), TypeError, r"^prior:"),
-    ("prior-mean-length", dict(prior=ltv.Prior(np.zeros(K - 1), 1.0)), ValueError,
-     r"^prior\.mean:.*\(6,\)"),
-    ("prior-mean-rows", dict(prior=ltv.Prior(np.zeros((N + 1, K)), 1.0)), ValueError,
-     r"^prior\.mean:.*\(29, 6\)"),
-    ("prior-cov-shape", dict(prior=ltv.Prior(np.zeros(K), np.eye(K - 1))), ValueError,
-     r"^prior\.cov:"),
-    ("prior-cov-rows", dict(prior=ltv.Prior(np.zeros(K), np.ones((N + 1, K, K)))), ValueError,
-     r"^prior\.cov:"),
-    ("prior-cov-indefinite", dict(prior=ltv.Prior(np.zeros(K), INDEF)), ValueError,
-     r"^prior\.cov:.*positive definite"),
-    ("prior-cov-singular", dict(prior=ltv.Prior(np.zeros(K), np.diag([1.0, 1, 1, 1, 1, 0]))),
-     ValueError, r"^prior\.cov:.*positive definite"),
-    ("prior-cov-asymmetric", dict(prior=ltv.Prior(np.zeros(K), ASYM)), ValueError,
-     r"^prior\.cov:.*symmetric"),
+    (
+        "prior-mean-length",
+        dict(prior=ltv.Prior(np.zeros(K - 1), 1.0)),
+        ValueError,
+        r"^prior\.mean:.*\(6,\)",
+    ),
+    (
+        "prior-mean-rows",
+        dict(prior=ltv.Prior(np.zeros((N + 1, K)), 1.0)),
+        ValueError,
+        r"^prior\.mean:.*\(29, 6\)",
+    ),
+    (
+        "prior-cov-shape",
+        dict(prior=ltv.Prior(np.zeros(K), np.eye(K - 1))),
+        ValueError,
+        r"^prior\.cov:",
+    ),
+    (
+        "prior-cov-rows",
+        dict(prior=ltv.Prior(np.zeros(K), np.ones((N + 1, K, K)))),
+        ValueError,
+        r"^prior\.cov:",
+    ),
+    (
+        "prior-cov-indefinite",
+        dict(prior=ltv.Prior(np.zeros(K), INDEF)),
+        ValueError,
+        r"^prior\.cov:.*positive definite",
+    ),
+    (
+        "prior-cov-singular",
+        dict(prior=ltv.Prior(np.zeros(K), np.diag([1.0, 1, 1, 1, 1, 0]))),
+        ValueError,
+        r"^prior\.cov:.*positive definite",
+    ),
+    (
+        "prior-cov-asymmetric",
+        dict(prior=ltv.Prior(np.zeros(K), ASYM)),
+        ValueError,
+        r"^prior\.cov:.*symmetric",
+    ),
     ("prior-cov-negative", dict(prior=ltv.Prior(np.zeros(K), -1.0)), ValueError, r"^prior\.cov:"),
     ("prior-cov-zero", dict(prior=ltv.Prior(np.zeros(K), 0.0)), ValueError, r"^prior\.cov:"),
-    ("prior-cov-time-indefinite",
-     dict(prior=ltv.Prior(np.zeros(K), np.concatenate([np.broadcast_to(np.eye(K), (N - 1, K, K)),
-                                                        INDEF[None]]))),
-     ValueError, r"^prior\.cov:.*positive definite"),
-    ("output-prior-mean", dict(prior=ltv.OutputPrior(np.zeros(3), 1.0)), ValueError,
-     r"output prior mean"),
-    ("output-prior-cov", dict(prior=ltv.OutputPrior(np.zeros(2), -np.eye(2))), ValueError,
-     r"output prior cov"),
-    ("output-prior-cov-shape", dict(prior=ltv.OutputPrior(np.zeros(2), np.eye(3))), ValueError,
-     r"output prior cov"),
+    (
+        "prior-cov-time-indefinite",
+        dict(
+            prior=ltv.Prior(
+                np.zeros(K),
+                np.concatenate([np.broadcast_to(np.eye(K), (N - 1, K, K)), INDEF[None]]),
+            )
+        ),
+        ValueError,
+        r"^prior\.cov:.*positive definite",
+    ),
+    (
+        "output-prior-mean",
+        dict(prior=ltv.OutputPrior(np.zeros(3), 1.0)),
+        ValueError,
+        r"output prior mean",
+    ),
+    (
+        "output-prior-cov",
+        dict(prior=ltv.OutputPrior(np.zeros(2), -np.eye(2))),
+        ValueError,
+        r"output prior cov",
+    ),
+    (
+        "output-prior-cov-shape",
+        dict(prior=ltv.OutputPrior(np.zeros(2), np.eye(3))),
+        ValueError,
+        r"output prior cov",
+    ),
 ]
 
 
@@ -297,8 +356,7 @@ def test_prior_inputs_as_lists_and_dataframes(data):
     cov = _spd(K) / 10
     a = ltv.fit(x, u, lam=1.0, prior=ltv.Prior(mean, cov), noise_var=0.5)
     b = ltv.fit(x, u, lam=1.0, prior=ltv.Prior(mean.tolist(), cov.tolist()), noise_var=0.5)
-    c = ltv.fit(x, u, lam=1.0, prior=ltv.Prior(pd.Series(mean), pd.DataFrame(cov)),
-                noise_var=0.5)
+    c = ltv.fit(x, u, lam=1.0, prior=ltv.Prior(pd.Series(mean), pd.DataFrame(cov)), noise_var=0.5)
     np.testing.assert_array_equal(b.k, a.k)
     np.testing.assert_array_equal(c.k, a.k)
 
@@ -307,8 +365,14 @@ def test_prior_inputs_as_lists_and_dataframes(data):
 
 
 def _model_arrays(model):
-    out = {"k": model.k, "A": model.A, "B": model.B, "theta": model.theta,
-           "noise_cov": model.noise_cov, "lam": np.asarray(model.lam)}
+    out = {
+        "k": model.k,
+        "A": model.A,
+        "B": model.B,
+        "theta": model.theta,
+        "noise_cov": model.noise_cov,
+        "lam": np.asarray(model.lam),
+    }
     if model.cov is not None:
         out.update(cov=model.cov, cov_full=model.cov_full(), std=model.std())
     if model.coeffs is not None:
@@ -327,11 +391,23 @@ def test_inputs_are_not_mutated_nor_aliased(data, mode):
     ybar, S = x[1:].copy(), 0.1 * np.eye(n)
     prior = ltv.Prior(mean, cov)
     oprior = ltv.OutputPrior(ybar, S)
-    inputs = dict(x=x, u=u, lam=lam, order=order, mean=mean, cov=cov, ybar=ybar, S=S,
-                  prior_mean=prior.mean, prior_cov=prior.cov, oprior_mean=oprior.mean)
+    inputs = dict(
+        x=x,
+        u=u,
+        lam=lam,
+        order=order,
+        mean=mean,
+        cov=cov,
+        ybar=ybar,
+        S=S,
+        prior_mean=prior.mean,
+        prior_cov=prior.cov,
+        oprior_mean=oprior.mean,
+    )
     before = {key: value.copy() for key, value in inputs.items()}
-    model = ltv.fit(x, u, lam=lam, order=order, prior=[prior, oprior], prior_mode=mode,
-                    noise_var=0.3)
+    model = ltv.fit(
+        x, u, lam=lam, order=order, prior=[prior, oprior], prior_mode=mode, noise_var=0.3
+    )
     for key, value in inputs.items():
         np.testing.assert_array_equal(value, before[key], err_msg=key)
     arrays = _model_arrays(model)

@@ -39,9 +39,13 @@ _COMMON = dict(
     derandomize=True,
     database=None,
     print_blob=False,
-    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
-                           HealthCheck.filter_too_much, HealthCheck.large_base_example,
-                           HealthCheck.differing_executors],
+    suppress_health_check=[
+        HealthCheck.too_slow,
+        HealthCheck.data_too_large,
+        HealthCheck.filter_too_much,
+        HealthCheck.large_base_example,
+        HealthCheck.differing_executors,
+    ],
 )
 # No shrinking by default: a failing example of an expensive call (λ selection, the
 # command line) can take hypothesis minutes to shrink. FUZZ_SHRINK=1 turns it on to
@@ -49,10 +53,12 @@ _COMMON = dict(
 _SHRINK = os.environ.get("FUZZ_SHRINK", "") not in ("", "0") and not SURVEY
 _PHASES = (Phase.explicit, Phase.reuse, Phase.generate) + ((Phase.shrink,) if _SHRINK else ())
 
-settings.register_profile("fast", max_examples=int(os.environ.get("FUZZ_EXAMPLES_FAST", "25")),
-                          phases=_PHASES, **_COMMON)
-settings.register_profile("long", max_examples=int(os.environ.get("FUZZ_EXAMPLES_LONG", "200")),
-                          phases=_PHASES, **_COMMON)
+settings.register_profile(
+    "fast", max_examples=int(os.environ.get("FUZZ_EXAMPLES_FAST", "25")), phases=_PHASES, **_COMMON
+)
+settings.register_profile(
+    "long", max_examples=int(os.environ.get("FUZZ_EXAMPLES_LONG", "200")), phases=_PHASES, **_COMMON
+)
 
 
 def pytest_terminal_summary(terminalreporter, exitstatus, config):  # noqa: ARG001
@@ -75,7 +81,8 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):  # noqa: ARG0
         f"{sum(EXAMPLES.values())} examples in {len(EXAMPLES)} tests made "
         f"{total} accepted calls: {totals['finite']} finite results, {totals['finite+None']} "
         f"finite results with documented None fields, {totals['library error']} documented "
-        f"library errors (failing calls are not counted)")
+        f"library errors (failing calls are not counted)"
+    )
     if SURVEY_FAILURES:
         rep.write_sep("=", "ltvmodels fuzzing: distinct failures (FUZZ_SURVEY)")
         for test, found in SURVEY_FAILURES.items():

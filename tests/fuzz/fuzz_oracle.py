@@ -80,25 +80,65 @@ LIBRARY_ERRORS = (ltv.SingularProblemError, ltv.ModelFileError, ltv.OutputPathEr
 PLAIN_ERRORS = (ValueError, TypeError, NotImplementedError)
 """Exception types accepted when raised exactly (not a foreign subclass)."""
 
-LIBRARY_WARNINGS = (ltv.IdentifiabilityWarning, ltv.PrecisionWarning, ltv.ConvergenceWarning,
-                    ltv.DivergenceWarning, ltv.ModelStructureWarning)
+LIBRARY_WARNINGS = (
+    ltv.IdentifiabilityWarning,
+    ltv.PrecisionWarning,
+    ltv.ConvergenceWarning,
+    ltv.DivergenceWarning,
+    ltv.ModelStructureWarning,
+)
 """The warning classes a call may issue."""
 
 FOREIGN_MESSAGES = (
-    "setting an array element with a sequence", "could not broadcast", "operands could not be",
-    "index out of bounds", "out of bounds for axis", "eigenvalues did not converge",
-    "svd did not converge", "unsupported operand", "object of type", "'nonetype'",
-    "division by zero", "could not convert", "invalid literal for", "cannot reshape",
-    "too many indices", "not enough values to unpack", "too many values to unpack",
-    "is not subscriptable", "has no len()", "unhashable type", "not supported between",
-    "only integer scalar arrays", "only length-1 arrays", "can't multiply sequence",
-    "argument must be a string or a", "zero-size array to reduction", "ufunc",
-    "matrix is not positive definite", "singular matrix", "nopython", "numba",
-    "non-broadcastable", "inhomogeneous shape", "object arrays are not supported",
-    "cannot cast", "must be real number", "is not iterable", "takes from", "positional argument",
-    "keyword argument", "cannot be safely cast", "array must not contain infs or nans",
-    "expected square matrix", "last 2 dimensions", "mismatch in its core dimension",
-    "is not callable", "blockfactor", "unexpected array size", "leading minor",
+    "setting an array element with a sequence",
+    "could not broadcast",
+    "operands could not be",
+    "index out of bounds",
+    "out of bounds for axis",
+    "eigenvalues did not converge",
+    "svd did not converge",
+    "unsupported operand",
+    "object of type",
+    "'nonetype'",
+    "division by zero",
+    "could not convert",
+    "invalid literal for",
+    "cannot reshape",
+    "too many indices",
+    "not enough values to unpack",
+    "too many values to unpack",
+    "is not subscriptable",
+    "has no len()",
+    "unhashable type",
+    "not supported between",
+    "only integer scalar arrays",
+    "only length-1 arrays",
+    "can't multiply sequence",
+    "argument must be a string or a",
+    "zero-size array to reduction",
+    "ufunc",
+    "matrix is not positive definite",
+    "singular matrix",
+    "nopython",
+    "numba",
+    "non-broadcastable",
+    "inhomogeneous shape",
+    "object arrays are not supported",
+    "cannot cast",
+    "must be real number",
+    "is not iterable",
+    "takes from",
+    "positional argument",
+    "keyword argument",
+    "cannot be safely cast",
+    "array must not contain infs or nans",
+    "expected square matrix",
+    "last 2 dimensions",
+    "mismatch in its core dimension",
+    "is not callable",
+    "blockfactor",
+    "unexpected array size",
+    "leading minor",
 )
 """Fragments of numpy/scipy/Python/numba messages that must not reach the user unexplained."""
 
@@ -109,7 +149,9 @@ DOCUMENTED_OS_ERRORS = (FileNotFoundError, IsADirectoryError, PermissionError, N
 # the parts of an argument (a Prior's mean/cov, a list's items x[0]...).
 ARGUMENT_PARTS = {
     "prior": ("mean", "cov", "prior"),
-    "x": ("x",), "u": ("u",), "y": ("y",),
+    "x": ("x",),
+    "u": ("u",),
+    "y": ("y",),
 }
 
 SURVEY = os.environ.get("FUZZ_SURVEY", "") not in ("", "0")
@@ -145,6 +187,7 @@ def _normalize(text: str) -> str:
 
 # ---------------------------------------------------------------------------- the call
 
+
 @dataclass
 class Call:
     """One fuzzed call: what ran and what came back (filled in by :func:`check_call`)."""
@@ -157,8 +200,9 @@ class Call:
     warnings: list = field(default_factory=list)
 
     def describe(self) -> str:
-        parts = [_short(a) for a in self.args] + [f"{k}={_short(v)}" for k, v in
-                                                   self.kwargs.items()]
+        parts = [_short(a) for a in self.args] + [
+            f"{k}={_short(v)}" for k, v in self.kwargs.items()
+        ]
         return f"{self.label}({', '.join(parts)})"
 
 
@@ -199,9 +243,15 @@ def _parameters(fn: Callable) -> set:
         return set()
 
 
-def check_call(fn: Callable, *args: Any, label: str | None = None,
-               allow: tuple = (), inspector: Callable | None = None,
-               context: dict | None = None, **kwargs: Any) -> Any:
+def check_call(
+    fn: Callable,
+    *args: Any,
+    label: str | None = None,
+    allow: tuple = (),
+    inspector: Callable | None = None,
+    context: dict | None = None,
+    **kwargs: Any,
+) -> Any:
     """Run ``fn(*args, **kwargs)`` and check its outcome; returns the result or None on error.
 
     Parameters
@@ -225,8 +275,10 @@ def check_call(fn: Callable, *args: Any, label: str | None = None,
     call = Call(label or _label(fn), fn, args, kwargs)
     call.passed = _passed_names(fn, args, kwargs)
     context = dict(context or {})
-    with warnings.catch_warnings(record=True) as caught, \
-            np.errstate(over="warn", invalid="warn", divide="warn"):
+    with (
+        warnings.catch_warnings(record=True) as caught,
+        np.errstate(over="warn", invalid="warn", divide="warn"),
+    ):
         warnings.simplefilter("always")
         call.warnings = caught  # live: inspectors see the warnings of the call
         try:
@@ -243,8 +295,12 @@ def check_call(fn: Callable, *args: Any, label: str | None = None,
         except FuzzFailure:
             raise
         except Exception as exc:  # noqa: BLE001 - a returned result must be usable
-            raise FuzzFailure(call.label, f"using the result raised {type(exc).__name__}",
-                              str(exc)[:150] + _origin(exc), call.describe()) from exc
+            raise FuzzFailure(
+                call.label,
+                f"using the result raised {type(exc).__name__}",
+                str(exc)[:150] + _origin(exc),
+                call.describe(),
+            ) from exc
         finally:
             call.warnings = list(caught)
         _check_warnings(call)
@@ -270,9 +326,12 @@ def _check_warnings(call: Call) -> None:
             continue
         if issubclass(category, DeprecationWarning) and "ltvmodels" in str(record.message):
             continue
-        raise FuzzFailure(call.label, f"foreign warning {category.__name__}",
-                          f"{record.message} (at {_where(record.filename, record.lineno)})",
-                          call.describe())
+        raise FuzzFailure(
+            call.label,
+            f"foreign warning {category.__name__}",
+            f"{record.message} (at {_where(record.filename, record.lineno)})",
+            call.describe(),
+        )
 
 
 _SRC_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(ltv.__file__)))
@@ -311,34 +370,59 @@ def _check_exception(call: Call, exc: BaseException, allow: tuple) -> None:
         return
     accepted = isinstance(exc, LIBRARY_ERRORS) or type(exc) in PLAIN_ERRORS
     if not accepted:
-        raise FuzzFailure(call.label, f"foreign exception {type(exc).__name__}",
-                          message[:150] + origin, call.describe())
+        raise FuzzFailure(
+            call.label,
+            f"foreign exception {type(exc).__name__}",
+            message[:150] + origin,
+            call.describe(),
+        )
     if not message.strip():
-        raise FuzzFailure(call.label, f"{type(exc).__name__} without a message", origin,
-                          call.describe())
+        raise FuzzFailure(
+            call.label, f"{type(exc).__name__} without a message", origin, call.describe()
+        )
     lowered = message.lower()
     # load() wraps what it cannot diagnose in a ModelFileError naming the file (documented)
     foreign = () if isinstance(exc, ltv.ModelFileError) else FOREIGN_MESSAGES
     for fragment in foreign:
         if fragment in lowered:
-            raise FuzzFailure(call.label, f"{type(exc).__name__} with an internal message",
-                              message[:150] + origin, call.describe())
+            raise FuzzFailure(
+                call.label,
+                f"{type(exc).__name__} with an internal message",
+                message[:150] + origin,
+                call.describe(),
+            )
     if not _in_library(_raising_frame(exc)) and not isinstance(exc, LIBRARY_ERRORS):
-        raise FuzzFailure(call.label, f"{type(exc).__name__} raised outside ltvmodels",
-                          message[:150] + origin, call.describe())
+        raise FuzzFailure(
+            call.label,
+            f"{type(exc).__name__} raised outside ltvmodels",
+            message[:150] + origin,
+            call.describe(),
+        )
     lam = call.kwargs.get("lam")
     if isinstance(lam, str) and lam.strip().lower() == "auto" and "lam is too large" in lowered:
-        raise FuzzFailure(call.label, "the λ chosen by lam='auto' is rejected by the fit",
-                          message[:150], call.describe())
+        raise FuzzFailure(
+            call.label,
+            "the λ chosen by lam='auto' is rejected by the fit",
+            message[:150],
+            call.describe(),
+        )
     blamed = re.match(r"^([A-Za-z_][A-Za-z_0-9]*)(\[\d+\])?: ", message)
     if blamed and _parameters(call.fn):
         name = blamed.group(1)
         if name not in _parameters(call.fn) and name not in call.passed:
-            raise FuzzFailure(call.label, "error names an argument the function does not take",
-                              f"{name!r}: {message[:150]}", call.describe())
+            raise FuzzFailure(
+                call.label,
+                "error names an argument the function does not take",
+                f"{name!r}: {message[:150]}",
+                call.describe(),
+            )
         if name not in call.passed and "received None" not in message:
-            raise FuzzFailure(call.label, "error blames an argument the caller did not pass",
-                              f"{name!r}: {message[:150]}", call.describe())
+            raise FuzzFailure(
+                call.label,
+                "error blames an argument the caller did not pass",
+                f"{name!r}: {message[:150]}",
+                call.describe(),
+            )
 
 
 # ---------------------------------------------------------------------------- inspection
@@ -348,9 +432,9 @@ DOCUMENTED_NONE = {
     "std()": "None when cov is None",
     "cov_full()": "None when cov is None",
     "loglik": "None where no likelihood exists (sparse norms, posthoc prior, exact fit, given "
-              "coefficients), with the reason in info['loglik_note']",
+    "coefficients), with the reason in info['loglik_note']",
     "noise_var/noise_cov/lam": "None for coefficients given to the constructor (and where an "
-                               "older model file holds NaN)",
+    "older model file holds NaN)",
 }
 """Attributes that may be None, and when (checked in :func:`inspect_model`)."""
 
@@ -362,7 +446,7 @@ DOCUMENTED_NONFINITE = {
     "simulate()": "inf/NaN after the step a DivergenceWarning names",
     "LambdaSelection.scores": "-inf (lcurve: no bend) or +inf (l0: exact fit), never chosen",
     "LambdaSelection (skipped)": "a candidate whose problem is singular scores worst (-inf "
-                                 "maximized, +inf minimized), its norms and dof NaN",
+    "maximized, +inf minimized), its norms and dof NaN",
 }
 """Non-finite values the documentation promises."""
 
@@ -431,10 +515,14 @@ def _check_info(call: Call, info: Any, prefix: str = "info") -> None:
         if key in ("lam",):
             continue  # λ (possibly inf) is checked with the model's lam
         if isinstance(value, (float, np.floating)) or (
-                isinstance(value, np.ndarray) and value.dtype.kind in "fc"):
+            isinstance(value, np.ndarray) and value.dtype.kind in "fc"
+        ):
             require_finite(call, name, value)
-        elif isinstance(value, (list, tuple)) and value and all(
-                isinstance(v, (int, float, np.number)) for v in value):
+        elif (
+            isinstance(value, (list, tuple))
+            and value
+            and all(isinstance(v, (int, float, np.number)) for v in value)
+        ):
             require_finite(call, name, np.asarray(value, dtype=float))
 
 
@@ -480,8 +568,11 @@ def inspect_model(model: Any, call: Call, context: dict) -> str:
         # documented: no likelihood for the sparse norms, a posthoc prior, an exact fit, ...
         # with the reason in info["loglik_note"]
         if not (sparse or given or model.info.get("loglik_note")):
-            _fail(call, "unexpected None", f"loglik is None for norm={model.norm!r} without "
-                                           "info['loglik_note']")
+            _fail(
+                call,
+                "unexpected None",
+                f"loglik is None for norm={model.norm!r} without info['loglik_note']",
+            )
         outcome = "finite+None"
     else:
         require_finite(call, "loglik", model.loglik)
@@ -513,8 +604,9 @@ def inspect_model(model: Any, call: Call, context: dict) -> str:
     require_finite(call, "activation()", act)
     cps = np.asarray(model.changepoints)
     if cps.size and (cps.dtype.kind not in "iu" or cps.min() < 1 or cps.max() > model.N - 1):
-        _fail(call, "invalid value", f"changepoints {cps.tolist()} outside [1, N - 1 = "
-                                     f"{model.N - 1}]")
+        _fail(
+            call, "invalid value", f"changepoints {cps.tolist()} outside [1, N - 1 = {model.N - 1}]"
+        )
     _check_text(call, "repr(model)", repr(model))
     _check_text(call, "model.summary()", model.summary())
     if isinstance(model, ltv.ARXModel):
@@ -586,8 +678,9 @@ def inspect_selection(sel: Any, call: Call, context: dict) -> str:
     require_finite(call, "selection.lams", sel.lams)
     scores = np.asarray(sel.scores, dtype=float)
     # documented: skipped (singular) candidates score worst and have NaN norms
-    skipped = np.isin(np.asarray(sel.lams, dtype=float),
-                      [lam for lam, _ in (getattr(sel, "skipped", None) or [])])
+    skipped = np.isin(
+        np.asarray(sel.lams, dtype=float), [lam for lam, _ in (getattr(sel, "skipped", None) or [])]
+    )
     worst = -np.inf if sel.maximize else np.inf
     if np.any(scores[skipped] != worst):
         _fail(call, "invalid value", f"skipped candidates score {_short(scores[skipped])}")
@@ -679,6 +772,7 @@ def inspect_result(result: Any, call: Call, context: dict) -> str:
 
 # ---------------------------------------------------------------------------- survey support
 
+
 def run_example(test_name: str, body: Callable[[], None]) -> None:
     """Run one example body; in survey mode record a failure instead of raising it."""
     EXAMPLES[test_name] += 1
@@ -686,17 +780,21 @@ def run_example(test_name: str, body: Callable[[], None]) -> None:
         body()
         return
     drawn = ", ".join(repr(a) for a in getattr(body, "args", ())) + "".join(
-        f", {k}={v!r}" for k, v in getattr(body, "keywords", {}).items())
+        f", {k}={v!r}" for k, v in getattr(body, "keywords", {}).items()
+    )
     try:
         body()
     except FuzzFailure as failure:
-        SURVEY_FAILURES[test_name].setdefault(failure.signature,
-                                              f"{failure}\n    drawn: {drawn[:600]}")
+        SURVEY_FAILURES[test_name].setdefault(
+            failure.signature, f"{failure}\n    drawn: {drawn[:600]}"
+        )
     except Exception as exc:  # noqa: BLE001 - e.g. a test's own assertion
         signature = (test_name, type(exc).__name__, _normalize(str(exc)))
         SURVEY_FAILURES[test_name].setdefault(
-            signature, f"[{test_name}] {type(exc).__name__}: {str(exc)[:300]}{_origin(exc)}"
-                       f"\n    drawn: {drawn[:600]}")
+            signature,
+            f"[{test_name}] {type(exc).__name__}: {str(exc)[:300]}{_origin(exc)}"
+            f"\n    drawn: {drawn[:600]}",
+        )
 
 
 def survey_verdict(test_name: str) -> None:
@@ -708,8 +806,10 @@ def survey_verdict(test_name: str) -> None:
 
 def strict_json(text: str) -> Any:
     """Parse JSON that must not contain NaN or Infinity."""
+
     def reject(token: str) -> None:
         raise ValueError(f"non-finite JSON constant {token}")
+
     return json.loads(text, parse_constant=reject)
 
 
@@ -718,9 +818,23 @@ def tmpdir() -> tempfile.TemporaryDirectory:
 
 
 __all__ = [
-    "EXAMPLES", "OUTCOMES", "SURVEY", "SURVEY_FAILURES", "FuzzFailure", "check_call",
-    "diverged", "expect",
-    "fail_result", "inspect_kalman", "inspect_model", "inspect_result", "inspect_segmentation",
-    "inspect_selection", "require_finite", "run_example", "strict_json", "survey_verdict",
+    "EXAMPLES",
+    "OUTCOMES",
+    "SURVEY",
+    "SURVEY_FAILURES",
+    "FuzzFailure",
+    "check_call",
+    "diverged",
+    "expect",
+    "fail_result",
+    "inspect_kalman",
+    "inspect_model",
+    "inspect_result",
+    "inspect_segmentation",
+    "inspect_selection",
+    "require_finite",
+    "run_example",
+    "strict_json",
+    "survey_verdict",
     "tmpdir",
 ]

@@ -44,20 +44,24 @@ from typing import Any
 
 import numpy as np
 import pytest
+from fuzz_oracle import run_example, survey_verdict
 from hypothesis import example as hypothesis_example
 from hypothesis import given, seed, settings
 from hypothesis import strategies as st
 
 import ltvmodels as ltv
 
-from fuzz_oracle import run_example, survey_verdict
-
 PROFILES = pytest.mark.parametrize(
-    "profile", ["fast", pytest.param("long", marks=pytest.mark.slow)])
+    "profile", ["fast", pytest.param("long", marks=pytest.mark.slow)]
+)
 
 
-def fuzz_test(*strategies: st.SearchStrategy, examples: float = 1.0,
-              valid: tuple | None = None, explicit: tuple = ()) -> Callable:
+def fuzz_test(
+    *strategies: st.SearchStrategy,
+    examples: float = 1.0,
+    valid: tuple | None = None,
+    explicit: tuple = (),
+) -> Callable:
     """Make ``body(*drawn)`` a hypothesis test run under the fast and the long profile.
 
     ``examples`` scales the profile's ``max_examples`` (for expensive bodies).
@@ -69,6 +73,7 @@ def fuzz_test(*strategies: st.SearchStrategy, examples: float = 1.0,
     ``explicit`` lists argument tuples that every run tries first (known edge
     cases, e.g. data scaled by 1e300), in both profiles and variants.
     """
+
     def decorate(body: Callable) -> Callable:
         name = body.__name__
 
@@ -85,7 +90,8 @@ def fuzz_test(*strategies: st.SearchStrategy, examples: float = 1.0,
             for args in reversed(explicit):
                 example = hypothesis_example(*args)(example)
             run = seed(zlib.crc32(f"{name}:{inputs}".encode()))(
-                settings(base, max_examples=count)(given(*drawn_from)(example)))
+                settings(base, max_examples=count)(given(*drawn_from)(example))
+            )
             run()
             survey_verdict(name)
 
@@ -101,19 +107,59 @@ def fuzz_test(*strategies: st.SearchStrategy, examples: float = 1.0,
 # ---------------------------------------------------------------------------- data recipes
 
 FORMS = ["float64"] * 10 + [
-    "list", "float32", "int", "bool", "complex", "object", "str", "masked", "masked", "1d",
-    "transposed", "pandas", "none", "scalar", "empty", "nested_ragged", "float16",
-    "complex_real", "bytes", "dict",
+    "list",
+    "float32",
+    "int",
+    "bool",
+    "complex",
+    "object",
+    "str",
+    "masked",
+    "masked",
+    "1d",
+    "transposed",
+    "pandas",
+    "none",
+    "scalar",
+    "empty",
+    "nested_ragged",
+    "float16",
+    "complex_real",
+    "bytes",
+    "dict",
 ]
 """How the x array reaches the library (``float64`` is a plain (T, n) array)."""
 
-BATCH_FORMS = ["array3d"] * 3 + ["list_of_arrays", "list_of_arrays", "ragged_list",
-                                 "list_of_lists", "masked3d", "list_with_none"]
+BATCH_FORMS = ["array3d"] * 3 + [
+    "list_of_arrays",
+    "list_of_arrays",
+    "ragged_list",
+    "list_of_lists",
+    "masked3d",
+    "list_with_none",
+]
 
 DEFECTS = [
-    "nan_block", "nan_block", "nan_row", "all_nan", "inf", "neg_inf", "const_col", "dup_col",
-    "zero", "huge_entry", "tiny_col", "u_nan", "u_inf", "u_zero", "u_const", "u_len",
-    "u_huge", "nan_first", "nan_last", "step_change",
+    "nan_block",
+    "nan_block",
+    "nan_row",
+    "all_nan",
+    "inf",
+    "neg_inf",
+    "const_col",
+    "dup_col",
+    "zero",
+    "huge_entry",
+    "tiny_col",
+    "u_nan",
+    "u_inf",
+    "u_zero",
+    "u_const",
+    "u_len",
+    "u_huge",
+    "nan_first",
+    "nan_last",
+    "step_change",
 ]
 """Modifications of the float64 data before the form is applied."""
 
@@ -184,7 +230,7 @@ class Data:
             if not T:
                 break
             if defect == "nan_block":
-                x[:, t0:t0 + 1 + T // 5, j] = np.nan
+                x[:, t0 : t0 + 1 + T // 5, j] = np.nan
             elif defect == "nan_row":
                 x[:, t0] = np.nan
             elif defect == "all_nan":
@@ -239,12 +285,14 @@ class Data:
         x, u = self._defective()
         y = x[:, 1:]
         T = x.shape[1]
-        parts = [x[:, :-1]] + ([u[:, :T - 1]] if u is not None else [])
+        parts = [x[:, :-1]] + ([u[:, : T - 1]] if u is not None else [])
         phi = np.concatenate(parts, axis=2) if T else np.zeros((x.shape[0], 0, 1))
         if phi.shape[1] and "u_len" in self.defects:  # one row short
             phi = phi[:, 1:]
-        return (_apply_form(y, self.form, batch=bool(self.R)),
-                _apply_form(phi, self.u_form, batch=bool(self.R)))
+        return (
+            _apply_form(y, self.form, batch=bool(self.R)),
+            _apply_form(phi, self.u_form, batch=bool(self.R)),
+        )
 
     def clean(self) -> tuple[np.ndarray, np.ndarray | None]:
         """float64 (T, n)/(R, T, n) arrays of the recipe (defects applied, no form)."""
@@ -256,8 +304,7 @@ class Data:
 
 def _truthy(value: Any) -> bool:
     try:
-        return bool(value) if isinstance(value, (bool, int, float, np.bool_, np.integer)) \
-            else False
+        return bool(value) if isinstance(value, (bool, int, float, np.bool_, np.integer)) else False
     except (TypeError, ValueError):
         return False
 
@@ -320,6 +367,7 @@ def _apply_form(a: np.ndarray, form: str, *, batch: bool) -> Any:
             return a.T
         if form == "pandas":
             import pandas as pd
+
             return pd.DataFrame(a, columns=[f"c{j}" for j in range(a.shape[1])])
         if form == "none":
             return None
@@ -340,16 +388,38 @@ ASPECTS = ["clean", "clean", "clean", "scale", "defect", "defect", "form", "form
 
 
 @st.composite
-def datasets(draw: Callable, *, inputs: bool = True, batch: bool = True, edge: bool = True,
-             min_T: int = 0, max_T: int = 60, max_n: int = 4, forms: bool = True) -> Data:
+def datasets(
+    draw: Callable,
+    *,
+    inputs: bool = True,
+    batch: bool = True,
+    edge: bool = True,
+    min_T: int = 0,
+    max_T: int = 60,
+    max_n: int = 4,
+    forms: bool = True,
+) -> Data:
     """A :class:`Data` recipe; ``edge=False`` keeps the data clean (no defects, float64)."""
     if edge:
         usual = st.integers(max(min_T, 12), max_T)
-        T = draw(st.one_of(usual, usual, usual, usual,
-                           st.sampled_from([v for v in (0, 1, 2, 3, 4, 5, 6, max_T)
-                                            if v >= min_T])))
-        n = draw(st.one_of(st.integers(1, max_n), st.integers(1, max_n), st.integers(1, 2),
-                           st.integers(1, 2), st.just(6)))
+        T = draw(
+            st.one_of(
+                usual,
+                usual,
+                usual,
+                usual,
+                st.sampled_from([v for v in (0, 1, 2, 3, 4, 5, 6, max_T) if v >= min_T]),
+            )
+        )
+        n = draw(
+            st.one_of(
+                st.integers(1, max_n),
+                st.integers(1, max_n),
+                st.integers(1, 2),
+                st.integers(1, 2),
+                st.just(6),
+            )
+        )
     else:
         T = draw(st.integers(max(min_T, 15), max_T))
         n = draw(st.integers(1, min(max_n, 3)))
@@ -367,8 +437,9 @@ def datasets(draw: Callable, *, inputs: bool = True, batch: bool = True, edge: b
         scale = draw(st.sampled_from(SCALES)) if which != "u" else 1.0
         u_scale = draw(st.sampled_from(SCALES)) if which != "x" else 1.0
     if aspect in ("defect", "mixed"):
-        defects = tuple(draw(st.lists(st.sampled_from(DEFECTS), min_size=1, max_size=2,
-                                      unique=True)))
+        defects = tuple(
+            draw(st.lists(st.sampled_from(DEFECTS), min_size=1, max_size=2, unique=True))
+        )
     if aspect in ("form", "mixed") and forms:
         form = draw(st.sampled_from(BATCH_FORMS if R else FORMS))
         u_form = draw(st.sampled_from(["float64"] * 6 + (BATCH_FORMS if R else FORMS)))
@@ -418,49 +489,157 @@ def options(draw: Callable, required: tuple = (), max_bad: int = 2, **spec: Opt)
 
 
 def special_floats() -> st.SearchStrategy:
-    return choice_of(0.0, -1.0, np.inf, -np.inf, np.nan, 1e300, 1e150, 1e-300, -0.0,
-                   np.float32(2.0), np.int64(3), True, "1.0", "abc", None, 1j)
+    return choice_of(
+        0.0,
+        -1.0,
+        np.inf,
+        -np.inf,
+        np.nan,
+        1e300,
+        1e150,
+        1e-300,
+        -0.0,
+        np.float32(2.0),
+        np.int64(3),
+        True,
+        "1.0",
+        "abc",
+        None,
+        1j,
+    )
 
 
 LAM = Opt(
-    st.one_of(st.floats(0.05, 300.0), st.floats(0.05, 300.0),
-              choice_of("auto", "@vecK", "@vecK_inf", "@vecK_zero", "@matK", 0.0, np.inf,
-                      np.float32(2.0), np.int64(3), 1e-300, 1e150, [3.0])),
-    choice_of(-1.0, -np.inf, np.nan, 1e300, "abc", None, True, 1j, "@vecK_neg", "@vecK_nan",
-            "@vecK-1", "@vecK+1", "@matK_nonpsd", "@matK_nonsym", "@matK_nan", "@matK_wrong",
-            "@masked", "@ragged", "@empty", "@column", "@vecK_huge", "1.0", "AUTO", "", "ml"))
+    st.one_of(
+        st.floats(0.05, 300.0),
+        st.floats(0.05, 300.0),
+        choice_of(
+            "auto",
+            "@vecK",
+            "@vecK_inf",
+            "@vecK_zero",
+            "@matK",
+            0.0,
+            np.inf,
+            np.float32(2.0),
+            np.int64(3),
+            1e-300,
+            1e150,
+            [3.0],
+        ),
+    ),
+    choice_of(
+        -1.0,
+        -np.inf,
+        np.nan,
+        1e300,
+        "abc",
+        None,
+        True,
+        1j,
+        "@vecK_neg",
+        "@vecK_nan",
+        "@vecK-1",
+        "@vecK+1",
+        "@matK_nonpsd",
+        "@matK_nonsym",
+        "@matK_nan",
+        "@matK_wrong",
+        "@masked",
+        "@ragged",
+        "@empty",
+        "@column",
+        "@vecK_huge",
+        "1.0",
+        "AUTO",
+        "",
+        "ml",
+    ),
+)
 SPARSE_LAM = Opt(
-    st.one_of(st.floats(0.05, 30.0), st.floats(0.05, 30.0),
-              choice_of("auto", "@vecK", "@vecK_inf", np.inf, 1e-300, 1e200)),
-    LAM.invalid)
-ORDER = Opt(choice_of(1, 1, 2, 2, 3, [-1, 1], [1, -2, 1], np.int64(2), [-1, 3, -3, 1],
-                    [0.5, -1.5, 1.0], np.array([-1.0, 1.0])),
-            choice_of(0, -1, 1.5, "1", True, False, None, [1, 1], [], [[1, -1]], 10, [np.nan, 1.0],
-                    "2", [-1e300, 1e300], [1e-300, -1e-300], 2.0))
-NORM = Opt(choice_of("sq", "sq", "group", "l1"),
-           choice_of("SQ", "l2", "", None, 1, "l0", "piecewise", " group", ["sq"]))
-WEIGHTS = Opt(choice_of(None, "@ones", "@some_zero", "@huge", "@tiny", "@RN", "@ones"),
-              choice_of("@zeros", "@neg", "@nan", "@inf", "@len+1", "@2d", "@str", "@scalar",
-                      "@w_masked"))
+    st.one_of(
+        st.floats(0.05, 30.0),
+        st.floats(0.05, 30.0),
+        choice_of("auto", "@vecK", "@vecK_inf", np.inf, 1e-300, 1e200),
+    ),
+    LAM.invalid,
+)
+ORDER = Opt(
+    choice_of(
+        1,
+        1,
+        2,
+        2,
+        3,
+        [-1, 1],
+        [1, -2, 1],
+        np.int64(2),
+        [-1, 3, -3, 1],
+        [0.5, -1.5, 1.0],
+        np.array([-1.0, 1.0]),
+    ),
+    choice_of(
+        0,
+        -1,
+        1.5,
+        "1",
+        True,
+        False,
+        None,
+        [1, 1],
+        [],
+        [[1, -1]],
+        10,
+        [np.nan, 1.0],
+        "2",
+        [-1e300, 1e300],
+        [1e-300, -1e-300],
+        2.0,
+    ),
+)
+NORM = Opt(
+    choice_of("sq", "sq", "group", "l1"),
+    choice_of("SQ", "l2", "", None, 1, "l0", "piecewise", " group", ["sq"]),
+)
+WEIGHTS = Opt(
+    choice_of(None, "@ones", "@some_zero", "@huge", "@tiny", "@RN", "@ones"),
+    choice_of("@zeros", "@neg", "@nan", "@inf", "@len+1", "@2d", "@str", "@scalar", "@w_masked"),
+)
 CONSTANT = Opt(choice_of(False, True, np.bool_(True)), choice_of(1, 0, "yes", None, 2, 1.0))
-NOISE_VAR = Opt(choice_of(None, 1.0, 0.5, 1e-300, "@vec_n"),
-                choice_of(0.0, -1.0, np.nan, np.inf, 1e300, "@vec_wrong", "abc", [1.0]))
+NOISE_VAR = Opt(
+    choice_of(None, 1.0, 0.5, 1e-300, "@vec_n"),
+    choice_of(0.0, -1.0, np.nan, np.inf, 1e300, "@vec_wrong", "abc", [1.0]),
+)
 BOOL = Opt(choice_of(True, False), choice_of(None, "no", 1, 0, np.bool_(False), 2.0))
-PRIOR = Opt(choice_of(None, "@prior_ok", "@prior_NK", "@prior_NKK", "@output_prior",
-                    "@prior_list", "@prior_tiny_cov", "@prior_huge"),
-            choice_of("@prior_wrong_K", "@output_prior_bad", "@not_prior", "prior", 3.0))
+PRIOR = Opt(
+    choice_of(
+        None,
+        "@prior_ok",
+        "@prior_NK",
+        "@prior_NKK",
+        "@output_prior",
+        "@prior_list",
+        "@prior_tiny_cov",
+        "@prior_huge",
+    ),
+    choice_of("@prior_wrong_K", "@output_prior_bad", "@not_prior", "prior", 3.0),
+)
 PRIOR_MODE = Opt(choice_of("exact", "posthoc"), choice_of("bogus", None, "EXACT", 1))
 MAX_ITER = Opt(st.integers(1, 50), choice_of(0, -1, 1.5, "10", None, np.nan, 10**12))
 TOL = Opt(choice_of(1e-6, 1e-3, 0.5, 1e-12), choice_of(0.0, -1.0, np.nan, np.inf, "x", 1e-300, 2.0))
 LOSS = Opt(choice_of("squared", "huber", "laplace"), choice_of("cauchy", None, 1, "HUBER"))
-HUBER_DELTA = Opt(choice_of(None, 0.5, 1e-3, 10.0, "@vec_n"),
-                  choice_of(0.0, -1.0, np.nan, np.inf, "x", 1e300, "@vec_wrong"))
+HUBER_DELTA = Opt(
+    choice_of(None, 0.5, 1e-3, 10.0, "@vec_n"),
+    choice_of(0.0, -1.0, np.nan, np.inf, "x", 1e300, "@vec_wrong"),
+)
 
 
 def counts(low: int, high: int) -> Opt:
     """A nonnegative count option (n_changes, min_size, na, ...)."""
-    return Opt(st.integers(low, high),
-               choice_of(-1, 1.5, "2", None, 10**9, True, np.float64(3.0), np.nan, low - 1))
+    return Opt(
+        st.integers(low, high),
+        choice_of(-1, 1.5, "2", None, 10**9, True, np.float64(3.0), np.nan, low - 1),
+    )
 
 
 def resolve(value: Any, *, K: int, n: int, N: int, R: int = 0, p: int | None = None) -> Any:
@@ -573,8 +752,9 @@ def resolve(value: Any, *, K: int, n: int, N: int, R: int = 0, p: int | None = N
         "prior_neg": lambda: ltv.Prior(np.zeros(K), -np.eye(K)),
         "prior_wrong_K": lambda: ltv.Prior(np.zeros(K + 1), 1.0),
         "prior_NK": lambda: ltv.Prior(np.zeros((max(N, 1), K)), 0.5),
-        "prior_NKK": lambda: ltv.Prior(np.zeros((max(N, 1), K)),
-                                       np.broadcast_to(np.eye(K), (max(N, 1), K, K)).copy()),
+        "prior_NKK": lambda: ltv.Prior(
+            np.zeros((max(N, 1), K)), np.broadcast_to(np.eye(K), (max(N, 1), K, K)).copy()
+        ),
         "prior_huge": lambda: ltv.Prior(np.full(K, 1e300), 1.0),
         "prior_tiny_cov": lambda: ltv.Prior(np.zeros(K), 1e-300),
         "output_prior": lambda: ltv.OutputPrior(np.zeros(n), 1.0),
@@ -592,7 +772,8 @@ def resolve(value: Any, *, K: int, n: int, N: int, R: int = 0, p: int | None = N
 
 # ---------------------------------------------------------------------------- fitted models
 
-@functools.lru_cache(maxsize=None)
+
+@functools.cache
 def fitted(kind: str):
     """One model of each kind, fitted on clean data (cached for the session)."""
     with warnings.catch_warnings():
@@ -624,34 +805,122 @@ def fitted(kind: str):
 
 # ---------------------------------------------------------------------------- file contents
 
-MODEL_KINDS = ["sq", "sq_constant", "group", "autonomous", "lti", "segments", "ar", "var", "arx",
-               "regression"]
+MODEL_KINDS = [
+    "sq",
+    "sq_constant",
+    "group",
+    "autonomous",
+    "lti",
+    "segments",
+    "ar",
+    "var",
+    "arx",
+    "regression",
+]
 
 MEMBER_EDITS = [
-    "none", "none", "drop:k", "drop:meta", "drop:noise_cov", "drop:lam", "drop:coeffs",
-    "drop:cov_blocks", "drop:cov_row_group", "drop:changepoints", "k_nan", "k_inf", "k_1d",
-    "k_wrong_K", "k_str", "k_empty", "k_int", "k_complex", "k_3d", "k_huge", "noise_cov_nan",
-    "noise_cov_shape", "noise_cov_str", "lam_nan", "lam_str", "lam_neg", "lam_shape",
-    "cov_blocks_nan", "cov_blocks_shape", "cov_blocks_neg", "cov_row_group_bad",
-    "cov_row_group_float", "cov_row_scale_nan", "coeffs_nan", "coeffs_empty", "coeffs_2d",
-    "changepoints_out", "changepoints_float", "changepoints_2d", "info_nan", "extra_member",
-    "meta_bytes", "meta_2d",
+    "none",
+    "none",
+    "drop:k",
+    "drop:meta",
+    "drop:noise_cov",
+    "drop:lam",
+    "drop:coeffs",
+    "drop:cov_blocks",
+    "drop:cov_row_group",
+    "drop:changepoints",
+    "k_nan",
+    "k_inf",
+    "k_1d",
+    "k_wrong_K",
+    "k_str",
+    "k_empty",
+    "k_int",
+    "k_complex",
+    "k_3d",
+    "k_huge",
+    "noise_cov_nan",
+    "noise_cov_shape",
+    "noise_cov_str",
+    "lam_nan",
+    "lam_str",
+    "lam_neg",
+    "lam_shape",
+    "cov_blocks_nan",
+    "cov_blocks_shape",
+    "cov_blocks_neg",
+    "cov_row_group_bad",
+    "cov_row_group_float",
+    "cov_row_scale_nan",
+    "coeffs_nan",
+    "coeffs_empty",
+    "coeffs_2d",
+    "changepoints_out",
+    "changepoints_float",
+    "changepoints_2d",
+    "info_nan",
+    "extra_member",
+    "meta_bytes",
+    "meta_2d",
 ]
 """Edits of the arrays inside a saved model archive."""
 
 META_EDITS = [
-    "none", "none", "none", "not_json", "list", "version_3", "version_str", "version_none",
-    "no_version", "type_unknown", "type_int", "type_regression_for_ltv", "n_states_str",
-    "n_states_neg", "n_states_huge", "n_states_float", "n_inputs_wrong", "constant_str",
-    "noise_var_nan", "noise_var_len", "noise_var_str", "noise_var_null", "loglik_str",
-    "loglik_nan", "loglik_inf", "info_list", "info_missing", "status_bad", "status_keys",
-    "status_objective_str", "status_list", "norm_int", "na_neg", "na_huge", "drop_structure",
-    "empty_object", "status_iterations_float", "nested_info_nan",
+    "none",
+    "none",
+    "none",
+    "not_json",
+    "list",
+    "version_3",
+    "version_str",
+    "version_none",
+    "no_version",
+    "type_unknown",
+    "type_int",
+    "type_regression_for_ltv",
+    "n_states_str",
+    "n_states_neg",
+    "n_states_huge",
+    "n_states_float",
+    "n_inputs_wrong",
+    "constant_str",
+    "noise_var_nan",
+    "noise_var_len",
+    "noise_var_str",
+    "noise_var_null",
+    "loglik_str",
+    "loglik_nan",
+    "loglik_inf",
+    "info_list",
+    "info_missing",
+    "status_bad",
+    "status_keys",
+    "status_objective_str",
+    "status_list",
+    "norm_int",
+    "na_neg",
+    "na_huge",
+    "drop_structure",
+    "empty_object",
+    "status_iterations_float",
+    "nested_info_nan",
 ]
 """Edits of the JSON ``meta`` member."""
 
-FILE_EDITS = ["none", "none", "none", "truncate", "flip_byte", "append_garbage", "empty",
-              "random_bytes", "text", "gzip", "zip_of_text", "npy_not_npz"]
+FILE_EDITS = [
+    "none",
+    "none",
+    "none",
+    "truncate",
+    "flip_byte",
+    "append_garbage",
+    "empty",
+    "random_bytes",
+    "text",
+    "gzip",
+    "zip_of_text",
+    "npy_not_npz",
+]
 
 
 @dataclass(frozen=True)
@@ -704,6 +973,7 @@ class ModelFile:
             return b"t,x1,x2\n0,1,2\n"
         if self.file_edit == "gzip":
             import gzip
+
             return gzip.compress(raw)
         if self.file_edit == "zip_of_text":
             out = io.BytesIO()
@@ -727,23 +997,30 @@ def _edit_members(members: dict, edit: str) -> dict:
     if edit == "none" or k is None:
         return m
     table = {
-        "k_nan": lambda: {"k": k * np.nan}, "k_inf": lambda: {"k": k + np.inf},
-        "k_1d": lambda: {"k": k.ravel()}, "k_wrong_K": lambda: {"k": k[:, :-1]},
-        "k_str": lambda: {"k": k.astype(str)}, "k_empty": lambda: {"k": k[:0]},
+        "k_nan": lambda: {"k": k * np.nan},
+        "k_inf": lambda: {"k": k + np.inf},
+        "k_1d": lambda: {"k": k.ravel()},
+        "k_wrong_K": lambda: {"k": k[:, :-1]},
+        "k_str": lambda: {"k": k.astype(str)},
+        "k_empty": lambda: {"k": k[:0]},
         "k_int": lambda: {"k": np.ones(k.shape, dtype=np.int64)},
-        "k_complex": lambda: {"k": k + 1j}, "k_3d": lambda: {"k": k[None]},
+        "k_complex": lambda: {"k": k + 1j},
+        "k_3d": lambda: {"k": k[None]},
         "k_huge": lambda: {"k": k * 1e308},
         "noise_cov_nan": lambda: {"noise_cov": np.full_like(m["noise_cov"], np.nan)},
         "noise_cov_shape": lambda: {"noise_cov": np.ones((7, 3))},
         "noise_cov_str": lambda: {"noise_cov": np.array("abc")},
-        "lam_nan": lambda: {"lam": np.array(np.nan)}, "lam_str": lambda: {"lam": np.array("x")},
+        "lam_nan": lambda: {"lam": np.array(np.nan)},
+        "lam_str": lambda: {"lam": np.array("x")},
         "lam_neg": lambda: {"lam": np.array(-1.0)},
         "lam_shape": lambda: {"lam": np.ones((2, 3, 4))},
-        "cov_blocks_nan": lambda: {"cov_blocks": m["cov_blocks"] * np.nan}
-        if "cov_blocks" in m else {},
+        "cov_blocks_nan": lambda: (
+            {"cov_blocks": m["cov_blocks"] * np.nan} if "cov_blocks" in m else {}
+        ),
         "cov_blocks_shape": lambda: {"cov_blocks": np.ones((2, 3))},
-        "cov_blocks_neg": lambda: {"cov_blocks": -np.abs(m["cov_blocks"])}
-        if "cov_blocks" in m else {},
+        "cov_blocks_neg": lambda: (
+            {"cov_blocks": -np.abs(m["cov_blocks"])} if "cov_blocks" in m else {}
+        ),
         "cov_row_group_bad": lambda: {"cov_row_group": np.array([5, 9, 11])},
         "cov_row_group_float": lambda: {"cov_row_group": np.array([0.5])},
         "cov_row_scale_nan": lambda: {"cov_row_scale": np.array([np.nan, np.nan])},
@@ -764,6 +1041,7 @@ def _edit_members(members: dict, edit: str) -> dict:
 
 def _edit_meta(meta: dict, edit: str) -> Any:
     import copy
+
     meta = copy.deepcopy(meta)
     if edit == "none":
         return meta
@@ -773,21 +1051,41 @@ def _edit_meta(meta: dict, edit: str) -> Any:
         return [1, 2, 3]
     if edit == "empty_object":
         return {}
-    structure_keys = ("n_states", "n_inputs", "constant", "n_outputs", "n_regressors", "na",
-                      "nb", "nk")
+    structure_keys = (
+        "n_states",
+        "n_inputs",
+        "constant",
+        "n_outputs",
+        "n_regressors",
+        "na",
+        "nb",
+        "nk",
+    )
     setters = {
-        "version_3": ("format_version", 3), "version_str": ("format_version", "2"),
-        "version_none": ("format_version", None), "type_unknown": ("model_type", "Foo"),
-        "type_int": ("model_type", 3), "type_regression_for_ltv": ("model_type", "ARModel"),
-        "n_states_str": ("n_states", "2"), "n_states_neg": ("n_states", -1),
-        "n_states_huge": ("n_states", 10**9), "n_states_float": ("n_states", 1.5),
-        "n_inputs_wrong": ("n_inputs", 5), "constant_str": ("constant", "yes"),
+        "version_3": ("format_version", 3),
+        "version_str": ("format_version", "2"),
+        "version_none": ("format_version", None),
+        "type_unknown": ("model_type", "Foo"),
+        "type_int": ("model_type", 3),
+        "type_regression_for_ltv": ("model_type", "ARModel"),
+        "n_states_str": ("n_states", "2"),
+        "n_states_neg": ("n_states", -1),
+        "n_states_huge": ("n_states", 10**9),
+        "n_states_float": ("n_states", 1.5),
+        "n_inputs_wrong": ("n_inputs", 5),
+        "constant_str": ("constant", "yes"),
         "noise_var_nan": ("noise_var", [float("nan")] * 2),
-        "noise_var_len": ("noise_var", [1.0] * 7), "noise_var_str": ("noise_var", "abc"),
-        "noise_var_null": ("noise_var", None), "loglik_str": ("loglik", "high"),
-        "loglik_nan": ("loglik", float("nan")), "loglik_inf": ("loglik", float("inf")),
-        "info_list": ("info", [1]), "status_bad": ("status", {"status": "great"}),
-        "status_list": ("status", [1, 2]), "norm_int": ("norm", 5), "na_neg": ("na", -2),
+        "noise_var_len": ("noise_var", [1.0] * 7),
+        "noise_var_str": ("noise_var", "abc"),
+        "noise_var_null": ("noise_var", None),
+        "loglik_str": ("loglik", "high"),
+        "loglik_nan": ("loglik", float("nan")),
+        "loglik_inf": ("loglik", float("inf")),
+        "info_list": ("info", [1]),
+        "status_bad": ("status", {"status": "great"}),
+        "status_list": ("status", [1, 2]),
+        "norm_int": ("norm", 5),
+        "na_neg": ("na", -2),
         "na_huge": ("na", 10**6),
     }
     if edit in setters:
@@ -819,13 +1117,36 @@ def model_files(draw: Callable, *, max_edits: int = 1) -> ModelFile:
     member = draw(st.sampled_from(MEMBER_EDITS)) if where in ("member", "mixed") else "none"
     meta = draw(st.sampled_from(META_EDITS)) if where in ("meta", "mixed") else "none"
     file_edit = draw(st.sampled_from(FILE_EDITS)) if where in ("file", "mixed") else "none"
-    return ModelFile(kind, member, meta, file_edit, draw(st.floats(0.0, 1.0)),
-                     draw(st.integers(0, 1000)))
+    return ModelFile(
+        kind, member, meta, file_edit, draw(st.floats(0.0, 1.0)), draw(st.integers(0, 1000))
+    )
 
 
 __all__ = [
-    "Data", "datasets", "options", "Opt", "OMIT", "resolve", "fuzz_test", "special_floats",
-    "PROFILES", "choice_of", "LAM", "SPARSE_LAM", "ORDER", "NORM", "WEIGHTS", "CONSTANT",
-    "NOISE_VAR", "BOOL", "PRIOR", "PRIOR_MODE", "MAX_ITER", "TOL", "counts", "fitted",
-    "ModelFile", "model_files",
+    "Data",
+    "datasets",
+    "options",
+    "Opt",
+    "OMIT",
+    "resolve",
+    "fuzz_test",
+    "special_floats",
+    "PROFILES",
+    "choice_of",
+    "LAM",
+    "SPARSE_LAM",
+    "ORDER",
+    "NORM",
+    "WEIGHTS",
+    "CONSTANT",
+    "NOISE_VAR",
+    "BOOL",
+    "PRIOR",
+    "PRIOR_MODE",
+    "MAX_ITER",
+    "TOL",
+    "counts",
+    "fitted",
+    "ModelFile",
+    "model_files",
 ]

@@ -38,18 +38,37 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from fuzz_oracle import OUTCOMES, FuzzFailure, check_call, strict_json, tmpdir
+from fuzz_strategies import Data, ModelFile, datasets, fuzz_test, model_files
 from hypothesis import strategies as st
 
 import ltvmodels as ltv
 
-from fuzz_oracle import OUTCOMES, FuzzFailure, check_call, strict_json, tmpdir
-from fuzz_strategies import Data, ModelFile, datasets, fuzz_test, model_files
-
 CSV_STYLES = ["plain"] * 6 + [
-    "no_header", "semicolon", "tab", "missing_tokens", "inf_token", "word", "ragged",
-    "comments", "bom", "crlf", "blank_lines", "quoted", "dup_names", "random_text",
-    "random_bytes", "empty", "header_only", "spaces", "extra_text_column", "numeric_header",
-    "latin1", "huge_numbers", "hex_floats", "nan_tokens_only",
+    "no_header",
+    "semicolon",
+    "tab",
+    "missing_tokens",
+    "inf_token",
+    "word",
+    "ragged",
+    "comments",
+    "bom",
+    "crlf",
+    "blank_lines",
+    "quoted",
+    "dup_names",
+    "random_text",
+    "random_bytes",
+    "empty",
+    "header_only",
+    "spaces",
+    "extra_text_column",
+    "numeric_header",
+    "latin1",
+    "huge_numbers",
+    "hex_floats",
+    "nan_tokens_only",
 ]
 
 
@@ -63,8 +82,7 @@ class CsvFile:
 
     @property
     def names(self) -> list[str]:
-        return [f"x{i + 1}" for i in range(self.data.n)] + \
-               [f"u{j + 1}" for j in range(self.data.m)]
+        return [f"x{i + 1}" for i in range(self.data.n)] + [f"u{j + 1}" for j in range(self.data.m)]
 
     def content(self) -> bytes:
         rng = np.random.default_rng(self.seed)
@@ -76,15 +94,23 @@ class CsvFile:
         x, u = self.data.clean()
         if x.ndim == 3:
             x, u = x[0], (None if u is None else u[0])
-        cols = x if u is None else np.column_stack([x, u[:len(x)]] if len(u) == len(x)
-                                                   else [x, np.resize(u, (len(x), u.shape[1]))])
+        cols = (
+            x
+            if u is None
+            else np.column_stack(
+                [x, u[: len(x)]] if len(u) == len(x) else [x, np.resize(u, (len(x), u.shape[1]))]
+            )
+        )
         names = self.names
         sep = {"semicolon": ";", "tab": "\t"}.get(style, ",")
 
         def fmt(v: float) -> str:
             if np.isnan(v):
-                return ["", "NA", "nan", "null", "N/A"][int(rng.integers(0, 5))] \
-                    if style in ("missing_tokens", "nan_tokens_only") else "nan"
+                return (
+                    ["", "NA", "nan", "null", "N/A"][int(rng.integers(0, 5))]
+                    if style in ("missing_tokens", "nan_tokens_only")
+                    else "nan"
+                )
             if np.isinf(v):
                 return "inf" if v > 0 else "-inf"
             if style == "hex_floats":
@@ -143,29 +169,56 @@ class CsvFile:
 def csv_files(draw, *, T=None, n=None, m=None) -> CsvFile:
     data = draw(datasets(batch=False, forms=False, max_T=50, max_n=3))
     if T is not None or n is not None or m is not None:
-        data = Data(T if T is not None else data.T, n if n is not None else data.n,
-                    m if m is not None else data.m, data.seed, 0, data.scale, data.u_scale,
-                    data.defects)
+        data = Data(
+            T if T is not None else data.T,
+            n if n is not None else data.n,
+            m if m is not None else data.m,
+            data.seed,
+            0,
+            data.scale,
+            data.u_scale,
+            data.defects,
+        )
     return CsvFile(data, draw(st.sampled_from(CSV_STYLES)), draw(st.integers(0, 1000)))
 
 
 # ---------------------------------------------------------------------------- arguments
 
+
 def _columns(draw, names: list[str], picked: list[int], *, valid: bool) -> str:
     """A --state/--input value: the ``picked`` columns by name or index, or a bad one."""
     if valid:
         how = draw(st.sampled_from(["names", "indices", "mixed"]))
-        return ",".join(names[i] if how == "names" or (how == "mixed" and i % 2) else str(i)
-                        for i in picked)
-    return draw(st.sampled_from(["", ",", "x1,,x2", "nope", "99", "-1", "x1,x1", "0,0", "1.5",
-                                 " ", "x1;x2", "0,1,2,3,4,5,6,7"]))
+        return ",".join(
+            names[i] if how == "names" or (how == "mixed" and i % 2) else str(i) for i in picked
+        )
+    return draw(
+        st.sampled_from(
+            [
+                "",
+                ",",
+                "x1,,x2",
+                "nope",
+                "99",
+                "-1",
+                "x1,x1",
+                "0,0",
+                "1.5",
+                " ",
+                "x1;x2",
+                "0,1,2,3,4,5,6,7",
+            ]
+        )
+    )
 
 
 OPTION_VALUES = {
     "--norm": (["sq", "group", "l1"], ["L2", "", "l0", "SQ"]),
     "--order": (["1", "2", "3"], ["0", "-1", "1.5", "two", ""]),
-    "--lam": (["auto", "1", "10.5", "0.1", "AUTO", "1e3"], ["-1", "nan", "inf", "x", "1e400",
-                                                           "", "0x10"]),
+    "--lam": (
+        ["auto", "1", "10.5", "0.1", "AUTO", "1e3"],
+        ["-1", "nan", "inf", "x", "1e400", "", "0x10"],
+    ),
     "--max-iter": (["50", "200"], ["0", "-5", "1.5", "many"]),
     "--tol": (["1e-6", "1e-3"], ["0", "-1", "nan", "inf", "tiny"]),
     "--n-changes": (["0", "1", "2"], ["-1", "1.5", "many", "1000000"]),
@@ -175,15 +228,21 @@ OPTION_VALUES = {
     "--fs": (["1", "16000", "0.5"], ["0", "-1", "nan", "inf", "fast"]),
     "--method": (["ml", "gcv", "lcurve", "cv", "bic", "aic"], ["ML", "", "best", "None"]),
 }
-FLAGS = {"fit": ["--refine", "--constant", "--json"], "segments": ["--constant", "--json"],
-         "ar": ["--constant", "--json"], "select-lambda": ["--constant", "--json"],
-         "simulate": ["--json"], "predict": ["--json"]}
+FLAGS = {
+    "fit": ["--refine", "--constant", "--json"],
+    "segments": ["--constant", "--json"],
+    "ar": ["--constant", "--json"],
+    "select-lambda": ["--constant", "--json"],
+    "simulate": ["--json"],
+    "predict": ["--json"],
+}
 COMMAND_OPTIONS = {
     "fit": ["--norm", "--order", "--lam", "--max-iter", "--tol"],
     "segments": ["--n-changes", "--penalty", "--min-size"],
     "ar": ["--norm", "--order", "--lam", "--max-iter", "--tol", "--fs"],
     "select-lambda": ["--norm", "--order", "--method"],
-    "simulate": [], "predict": [],
+    "simulate": [],
+    "predict": [],
 }
 
 
@@ -202,14 +261,30 @@ class CliCase:
 @st.composite
 def cli_cases(draw, *, valid: bool = False) -> CliCase:
     if not valid and draw(st.integers(0, 15)) == 0:  # no command, help, version, nonsense
-        argv = draw(st.sampled_from([(), ("--help",), ("--version",), ("fit", "--help"),
-                                     ("bogus",), ("-h",), ("fit",), ("simulate", "@DATA"),
-                                     ("--", "fit"), ("FIT", "@DATA")]))
+        argv = draw(
+            st.sampled_from(
+                [
+                    (),
+                    ("--help",),
+                    ("--version",),
+                    ("fit", "--help"),
+                    ("bogus",),
+                    ("-h",),
+                    ("fit",),
+                    ("simulate", "@DATA"),
+                    ("--", "fit"),
+                    ("FIT", "@DATA"),
+                ]
+            )
+        )
         return CliCase(tuple(argv), CsvFile(Data(10, 1, 0)), None)
-    command = draw(st.sampled_from(["fit", "fit", "segments", "ar", "select-lambda",
-                                    "simulate", "predict", "demo"] if not valid else
-                                   ["fit", "fit", "segments", "ar", "select-lambda",
-                                    "simulate", "predict"]))
+    command = draw(
+        st.sampled_from(
+            ["fit", "fit", "segments", "ar", "select-lambda", "simulate", "predict", "demo"]
+            if not valid
+            else ["fit", "fit", "segments", "ar", "select-lambda", "simulate", "predict"]
+        )
+    )
     bad_budget = 0 if valid else draw(st.sampled_from([0, 0, 1, 1, 2]))
     if command in ("simulate", "predict"):
         model_kind = draw(st.sampled_from(["cli_fit", "cli_fit", "cli_ar", "cli_fit_constant"]))
@@ -218,33 +293,50 @@ def cli_cases(draw, *, valid: bool = False) -> CliCase:
         else:
             model = model_kind
         T = 31 if model_kind != "cli_ar" else 32
-        csv = draw(csv_files(T=draw(st.sampled_from([T, T, T, T - 1, 5])) if not valid else T,
-                             n=2 if model_kind != "cli_ar" else 1,
-                             m=1 if model_kind != "cli_ar" else 0))
+        csv = draw(
+            csv_files(
+                T=draw(st.sampled_from([T, T, T, T - 1, 5])) if not valid else T,
+                n=2 if model_kind != "cli_ar" else 1,
+                m=1 if model_kind != "cli_ar" else 0,
+            )
+        )
         if valid:
             csv = CsvFile(csv.data, "plain", csv.seed)
     else:
         model = None
         csv = draw(csv_files())
         if valid:
-            csv = CsvFile(Data(csv.data.T, csv.data.n, csv.data.m, csv.data.seed), "plain",
-                          csv.seed)
+            csv = CsvFile(
+                Data(csv.data.T, csv.data.n, csv.data.m, csv.data.seed), "plain", csv.seed
+            )
     names = csv.names
     n, m = csv.data.n, csv.data.m
     args: list[str] = [command]
     if command == "demo":
         # only option combinations that must be rejected before any work
         system = draw(st.sampled_from(["robot", "chirp", "jump-linear", "rl", "bogus"]))
-        args += [system, *draw(st.sampled_from([["--quick", "--full"], ["--norm", "sq"],
-                                                ["--lam", "1"], ["--seed", "-1"],
-                                                ["--bogus-option"]]))]
+        args += [
+            system,
+            *draw(
+                st.sampled_from(
+                    [
+                        ["--quick", "--full"],
+                        ["--norm", "sq"],
+                        ["--lam", "1"],
+                        ["--seed", "-1"],
+                        ["--bogus-option"],
+                    ]
+                )
+            ),
+        ]
         if system == "jump-linear":
             args += ["--quick"]
         return CliCase(tuple(args), csv, None)
     if command in ("simulate", "predict"):
         args.append("@MODEL")
-    data_arg = draw(st.sampled_from(["@DATA"] * 8 + ["-", "@MISSING", "@DIR"])) \
-        if not valid else "@DATA"
+    data_arg = (
+        draw(st.sampled_from(["@DATA"] * 8 + ["-", "@MISSING", "@DIR"])) if not valid else "@DATA"
+    )
     args.append(data_arg)
 
     def bad() -> bool:
@@ -259,8 +351,12 @@ def cli_cases(draw, *, valid: bool = False) -> CliCase:
         if m and draw(st.booleans()):
             args += ["--input", _columns(draw, names, list(range(n, n + m)), valid=not bad())]
     elif command in ("ar", "select-lambda"):
-        args += ["--column", draw(st.sampled_from([names[0], "0"])) if not bad() else
-                 draw(st.sampled_from(["", "zz", "99", "x1,x1"]))]
+        args += [
+            "--column",
+            draw(st.sampled_from([names[0], "0"]))
+            if not bad()
+            else draw(st.sampled_from(["", "zz", "99", "x1,x1"])),
+        ]
         na = draw(st.sampled_from(OPTION_VALUES["--na"][1 if bad() else 0]))
         args += ["--na", na]
     elif command in ("simulate", "predict") and draw(st.booleans()):
@@ -274,8 +370,12 @@ def cli_cases(draw, *, valid: bool = False) -> CliCase:
             continue
         if command == "select-lambda" and option == "--method":
             norm = args[args.index("--norm") + 1] if "--norm" in args else "sq"
-            good = {"sq": ["ml", "gcv", "lcurve", "cv"], "group": ["lcurve", "cv"],
-                    "l1": ["lcurve", "cv"], "l0": ["bic", "aic"]}.get(norm, ["ml"])
+            good = {
+                "sq": ["ml", "gcv", "lcurve", "cv"],
+                "group": ["lcurve", "cv"],
+                "l1": ["lcurve", "cv"],
+                "l0": ["bic", "aic"],
+            }.get(norm, ["ml"])
             args += [option, draw(st.sampled_from(OPTION_VALUES[option][1] if bad() else good))]
             continue
         if command == "select-lambda" and option == "--norm":
@@ -286,19 +386,27 @@ def cli_cases(draw, *, valid: bool = False) -> CliCase:
     for flag in FLAGS[command]:
         if draw(st.integers(0, 3)) == 0:
             args.append(flag)
-    if command in ("fit", "segments", "ar", "simulate", "predict") and \
-            draw(st.integers(0, 3)) == 0:
-        target = draw(st.sampled_from(["@OUT.npz", "@OUT.npz", "@OUT.csv", "@NODIR/x.npz",
-                                       "@DIR"] if not bad() else ["@NODIR/x.npz", "@DIR", ""]))
+    if command in ("fit", "segments", "ar", "simulate", "predict") and draw(st.integers(0, 3)) == 0:
+        target = draw(
+            st.sampled_from(
+                ["@OUT.npz", "@OUT.npz", "@OUT.csv", "@NODIR/x.npz", "@DIR"]
+                if not bad()
+                else ["@NODIR/x.npz", "@DIR", ""]
+            )
+        )
         if command in ("simulate", "predict") and target == "@OUT.npz":
             target = "@OUT.csv"
         args += ["--out", target]
     if draw(st.integers(0, 23)) == 0:
-        args += ["--plot", draw(st.sampled_from(["@OUT.png", "@OUT.png", "@OUT.xyz",
-                                                 "@NODIR/p.png"]))]
+        args += [
+            "--plot",
+            draw(st.sampled_from(["@OUT.png", "@OUT.png", "@OUT.xyz", "@NODIR/p.png"])),
+        ]
     if bad():
-        args.insert(draw(st.integers(1, len(args))),
-                    draw(st.sampled_from(["--bogus", "--lam", "-x", "--state", "--", "extra"])))
+        args.insert(
+            draw(st.integers(1, len(args))),
+            draw(st.sampled_from(["--bogus", "--lam", "-x", "--state", "--", "extra"])),
+        )
     return CliCase(tuple(args), csv, model)
 
 
@@ -311,8 +419,12 @@ def _cli_model(kind: str) -> bytes:
     """Bytes of a model file written by the command line itself (cached)."""
     if kind not in _MODEL_CACHE:
         with tmpdir() as d:
-            data = Data(31 if kind != "cli_ar" else 32, 2 if kind != "cli_ar" else 1,
-                        1 if kind != "cli_ar" else 0, seed=5)
+            data = Data(
+                31 if kind != "cli_ar" else 32,
+                2 if kind != "cli_ar" else 1,
+                1 if kind != "cli_ar" else 0,
+                seed=5,
+            )
             csv = os.path.join(d, "train.csv")
             with open(csv, "wb") as fh:
                 fh.write(CsvFile(data).content())
@@ -320,10 +432,22 @@ def _cli_model(kind: str) -> bytes:
             if kind == "cli_ar":
                 argv = ["ar", csv, "--column", "x1", "--na", "1", "--lam", "5", "--out", out]
             else:
-                argv = ["fit", csv, "--state", "x1,x2", "--input", "u1", "--lam", "5",
-                        "--out", out] + (["--constant"] if kind == "cli_fit_constant" else [])
-            with contextlib.redirect_stdout(io.StringIO()), \
-                    contextlib.redirect_stderr(io.StringIO()):
+                argv = [
+                    "fit",
+                    csv,
+                    "--state",
+                    "x1,x2",
+                    "--input",
+                    "u1",
+                    "--lam",
+                    "5",
+                    "--out",
+                    out,
+                ] + (["--constant"] if kind == "cli_fit_constant" else [])
+            with (
+                contextlib.redirect_stdout(io.StringIO()),
+                contextlib.redirect_stderr(io.StringIO()),
+            ):
                 rc = _main()(argv)
             assert rc == 0, f"could not write the {kind} model"
             with open(out, "rb") as fh:
@@ -333,11 +457,11 @@ def _cli_model(kind: str) -> bytes:
 
 def _main():
     from ltvmodels.cli import main
+
     return main
 
 
-NONFINITE_TOKEN = re.compile(r"(?<![A-Za-z_])(nan|inf|-inf|infinity)(?![A-Za-z_])",
-                             re.IGNORECASE)
+NONFINITE_TOKEN = re.compile(r"(?<![A-Za-z_])(nan|inf|-inf|infinity)(?![A-Za-z_])", re.IGNORECASE)
 
 
 def check_cli(case: CliCase) -> None:
@@ -352,15 +476,24 @@ def check_cli(case: CliCase) -> None:
         model_path = os.path.join(d, "model.npz")
         if case.model is not None:
             with open(model_path, "wb") as fh:
-                fh.write(case.model.content() if isinstance(case.model, ModelFile)
-                         else _cli_model(case.model))
+                fh.write(
+                    case.model.content()
+                    if isinstance(case.model, ModelFile)
+                    else _cli_model(case.model)
+                )
         os.mkdir(os.path.join(d, "adir"))
-        subst = {"@DATA": data_path, "@MODEL": model_path,
-                 "@MISSING": os.path.join(d, "missing.csv"), "@DIR": os.path.join(d, "adir"),
-                 "@OUT.npz": os.path.join(d, "out.npz"), "@OUT.csv": os.path.join(d, "out.csv"),
-                 "@OUT.png": os.path.join(d, "out.png"), "@OUT.xyz": os.path.join(d, "out.xyz"),
-                 "@NODIR/x.npz": os.path.join(d, "no", "x.npz"),
-                 "@NODIR/p.png": os.path.join(d, "no", "p.png")}
+        subst = {
+            "@DATA": data_path,
+            "@MODEL": model_path,
+            "@MISSING": os.path.join(d, "missing.csv"),
+            "@DIR": os.path.join(d, "adir"),
+            "@OUT.npz": os.path.join(d, "out.npz"),
+            "@OUT.csv": os.path.join(d, "out.csv"),
+            "@OUT.png": os.path.join(d, "out.png"),
+            "@OUT.xyz": os.path.join(d, "out.xyz"),
+            "@NODIR/x.npz": os.path.join(d, "no", "x.npz"),
+            "@NODIR/p.png": os.path.join(d, "no", "p.png"),
+        }
         argv = [subst.get(a, a) for a in case.argv]
         out, err = io.StringIO(), io.StringIO()
         stdin = io.StringIO(content.decode("utf-8", errors="replace"))  # for DATA "-"
@@ -375,8 +508,12 @@ def check_cli(case: CliCase) -> None:
                 except SystemExit as exc:
                     rc = exc.code
                 except BaseException as exc:  # noqa: BLE001
-                    raise FuzzFailure(label, f"exception {type(exc).__name__} escaped main()",
-                                      f"{str(exc)[:150]}", " ".join(case.argv)) from exc
+                    raise FuzzFailure(
+                        label,
+                        f"exception {type(exc).__name__} escaped main()",
+                        f"{str(exc)[:150]}",
+                        " ".join(case.argv),
+                    ) from exc
         finally:
             sys.stdin = old_stdin
             os.chdir(old_cwd)
@@ -384,8 +521,10 @@ def check_cli(case: CliCase) -> None:
         shown = " ".join(case.argv)
         if os.environ.get("FUZZ_LOG"):
             with open(os.environ["FUZZ_LOG"], "a", encoding="utf-8") as fh:
-                fh.write(f"{label}\trc={rc} {time.perf_counter() - started:.2f}s\t{shown}\t"
-                         f"{stderr.strip()[:200]}\t{case.csv!r}\n")
+                fh.write(
+                    f"{label}\trc={rc} {time.perf_counter() - started:.2f}s\t{shown}\t"
+                    f"{stderr.strip()[:200]}\t{case.csv!r}\n"
+                )
 
         def fail(kind: str, detail: str) -> None:
             raise FuzzFailure(label, kind, detail, shown)
@@ -393,27 +532,46 @@ def check_cli(case: CliCase) -> None:
         if "Traceback" in stdout + stderr:
             fail("traceback printed", stderr[-300:])
         for line in stderr.splitlines():
-            if "warning:" in line and re.search(r"warning: (RuntimeWarning|UserWarning|"
-                                                r"FutureWarning|DeprecationWarning|"
-                                                r"NumbaWarning|LinAlgWarning)", line):
+            if "warning:" in line and re.search(
+                r"warning: (RuntimeWarning|UserWarning|"
+                r"FutureWarning|DeprecationWarning|"
+                r"NumbaWarning|LinAlgWarning)",
+                line,
+            ):
                 fail("foreign warning reported", line[:200])
         if rc in (1, 2):
             errors = [line for line in stderr.splitlines() if "error:" in line]
             if len(errors) != 1:
                 fail(f"exit {rc} without exactly one error line", stderr[-300:] or "(empty)")
             wrapped = "model file" in errors[0]  # load's documented catch-all
-            if not wrapped and re.search(r"(IndexError|KeyError|AttributeError|ZeroDivisionError|"
-                         r"OverflowError|LinAlgError|BadZipFile|JSONDecodeError|"
-                         r"UnboundLocalError|NameError)", errors[0]):
+            if not wrapped and re.search(
+                r"(IndexError|KeyError|AttributeError|ZeroDivisionError|"
+                r"OverflowError|LinAlgError|BadZipFile|JSONDecodeError|"
+                r"UnboundLocalError|NameError)",
+                errors[0],
+            ):
                 fail("internal exception shown as a user error", errors[0][:200])
-            for fragment in ("setting an array element", "could not broadcast",
-                             "index out of bounds", "unsupported operand", "'NoneType'",
-                             "object of type", "division by zero", "did not converge"):
+            for fragment in (
+                "setting an array element",
+                "could not broadcast",
+                "index out of bounds",
+                "unsupported operand",
+                "'NoneType'",
+                "object of type",
+                "division by zero",
+                "did not converge",
+            ):
                 if fragment in errors[0] and not wrapped:
                     fail("internal message shown as a user error", errors[0][:200])
             lam_at = argv.index("--lam") + 1 if "--lam" in argv else None
-            auto = bool(case.argv) and case.argv[0] in ("fit", "ar") and (
-                lam_at is None or (lam_at < len(argv) and argv[lam_at].strip().lower() == "auto"))
+            auto = (
+                bool(case.argv)
+                and case.argv[0] in ("fit", "ar")
+                and (
+                    lam_at is None
+                    or (lam_at < len(argv) and argv[lam_at].strip().lower() == "auto")
+                )
+            )
             if auto and "lam is too large" in errors[0]:
                 fail("the λ chosen by --lam auto is rejected by the fit", errors[0][:200])
             OUTCOMES[(label, "library error")] += 1
@@ -438,8 +596,12 @@ def check_cli(case: CliCase) -> None:
                 fail("no report on success", "(empty stdout)")
             for line in stdout.splitlines():
                 match = NONFINITE_TOKEN.search(line)
-                if match and not divergence and "lam=inf" not in line.replace(" ", "") \
-                        and "lambda = inf" not in line:
+                if (
+                    match
+                    and not divergence
+                    and "lam=inf" not in line.replace(" ", "")
+                    and "lambda = inf" not in line
+                ):
                     fail("non-finite number in the report", line.strip()[:200])
         if "--out" in argv:
             target = argv[argv.index("--out") + 1]
@@ -467,12 +629,35 @@ SMALL_CSV = CsvFile(Data(8, 2, 1, seed=1))
 EXPLICIT_CASES = [
     (CliCase(("fit", "@DATA", "--state", "x1,x2", "--input", "u1"), HUGE_CSV),),
     (CliCase(("select-lambda", "@DATA", "--state", "x1,x2", "--input", "u1"), HUGE_CSV),),
-    (CliCase(("segments", "@DATA", "--state", "x1,x2", "--input", "u1", "--penalty", "0"),
-             SMALL_CSV),),
-    (CliCase(("fit", "@DATA", "--state", "x1,x2", "--input", "u1", "--norm", "group",
-              "--lam", "1", "--json"), CsvFile(Data(30, 2, 1, seed=1))),),
-    (CliCase(("ar", "@DATA", "--column", "x1", "--na", "2", "--lam", "1"),
-             CsvFile(Data(30, 1, 0, seed=1, scale=1e300))),),
+    (
+        CliCase(
+            ("segments", "@DATA", "--state", "x1,x2", "--input", "u1", "--penalty", "0"), SMALL_CSV
+        ),
+    ),
+    (
+        CliCase(
+            (
+                "fit",
+                "@DATA",
+                "--state",
+                "x1,x2",
+                "--input",
+                "u1",
+                "--norm",
+                "group",
+                "--lam",
+                "1",
+                "--json",
+            ),
+            CsvFile(Data(30, 2, 1, seed=1)),
+        ),
+    ),
+    (
+        CliCase(
+            ("ar", "@DATA", "--column", "x1", "--na", "2", "--lam", "1"),
+            CsvFile(Data(30, 1, 0, seed=1, scale=1e300)),
+        ),
+    ),
 ]
 
 

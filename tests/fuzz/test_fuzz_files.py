@@ -25,12 +25,11 @@ import os
 import pathlib
 
 import numpy as np
+from fuzz_oracle import DOCUMENTED_OS_ERRORS, check_call, expect, tmpdir
+from fuzz_strategies import fitted, fuzz_test, model_files
 from hypothesis import strategies as st
 
 import ltvmodels as ltv
-
-from fuzz_oracle import DOCUMENTED_OS_ERRORS, check_call, expect, tmpdir
-from fuzz_strategies import fitted, fuzz_test, model_files
 
 
 @fuzz_test(model_files(), examples=3.0)
@@ -41,17 +40,40 @@ def test_load_edited_files(recipe):
         path = os.path.join(d, "model.npz")
         with open(path, "wb") as fh:
             fh.write(content)
-        model = check_call(ltv.load, path, label="load", allow=DOCUMENTED_OS_ERRORS,
-                           context={"loaded": True})
-        if model is not None and recipe.member_edit == "none" and recipe.meta_edit == "none" \
-                and recipe.file_edit == "none":
-            expect(np.array_equal(model.k, fitted(recipe.kind).k), "load", "round trip",
-                   f"the unedited {recipe.kind} model did not load back identical")
+        model = check_call(
+            ltv.load, path, label="load", allow=DOCUMENTED_OS_ERRORS, context={"loaded": True}
+        )
+        if (
+            model is not None
+            and recipe.member_edit == "none"
+            and recipe.meta_edit == "none"
+            and recipe.file_edit == "none"
+        ):
+            expect(
+                np.array_equal(model.k, fitted(recipe.kind).k),
+                "load",
+                "round trip",
+                f"the unedited {recipe.kind} model did not load back identical",
+            )
 
 
-@fuzz_test(st.sampled_from(["directory", "missing", "int", "none", "bytes_path", "list",
-                            "pathlike_missing", "empty_string", "fifo_like_dir_npz",
-                            "symlink_loop", "no_permission"]))
+@fuzz_test(
+    st.sampled_from(
+        [
+            "directory",
+            "missing",
+            "int",
+            "none",
+            "bytes_path",
+            "list",
+            "pathlike_missing",
+            "empty_string",
+            "fifo_like_dir_npz",
+            "symlink_loop",
+            "no_permission",
+        ]
+    )
+)
 def test_load_paths(kind):
     """ltv.load on paths that are not model files."""
     with tmpdir() as d:

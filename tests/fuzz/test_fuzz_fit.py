@@ -13,10 +13,6 @@ documented.
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import strategies as st
-
-import ltvmodels as ltv
-
 from fuzz_oracle import check_call, expect, fail_result
 from fuzz_strategies import (
     BOOL,
@@ -43,6 +39,9 @@ from fuzz_strategies import (
     resolve,
     special_floats,
 )
+from hypothesis import strategies as st
+
+import ltvmodels as ltv
 
 
 def resolved(data, kw: dict) -> dict:
@@ -57,14 +56,36 @@ FIT_OPTIONS = dict(order=ORDER, weights=WEIGHTS, constant=CONSTANT, refine=BOOL)
 
 def fit_options(max_bad: int = 2) -> st.SearchStrategy:
     """Options of ltv.fit: the squared norm with priors, or a sparse norm with its solver."""
-    sq = options(required=("lam",), max_bad=max_bad, lam=LAM, norm=NORM, noise_var=NOISE_VAR,
-                 compute_cov=BOOL, prior=PRIOR, prior_mode=PRIOR_MODE, **FIT_OPTIONS)
-    sparse = options(required=("lam", "norm", "max_iter"), max_bad=max_bad, lam=SPARSE_LAM,
-                     norm=SPARSE_NORM, max_iter=Opt(st.integers(1, 300), MAX_ITER.invalid),
-                     tol=TOL, **FIT_OPTIONS)
-    huber = options(required=("lam", "loss"), max_bad=max_bad, lam=LAM, loss=LOSS,
-                    huber_delta=HUBER_DELTA, max_iter=Opt(st.integers(1, 300), MAX_ITER.invalid),
-                    tol=TOL, **FIT_OPTIONS)
+    sq = options(
+        required=("lam",),
+        max_bad=max_bad,
+        lam=LAM,
+        norm=NORM,
+        noise_var=NOISE_VAR,
+        compute_cov=BOOL,
+        prior=PRIOR,
+        prior_mode=PRIOR_MODE,
+        **FIT_OPTIONS,
+    )
+    sparse = options(
+        required=("lam", "norm", "max_iter"),
+        max_bad=max_bad,
+        lam=SPARSE_LAM,
+        norm=SPARSE_NORM,
+        max_iter=Opt(st.integers(1, 300), MAX_ITER.invalid),
+        tol=TOL,
+        **FIT_OPTIONS,
+    )
+    huber = options(
+        required=("lam", "loss"),
+        max_bad=max_bad,
+        lam=LAM,
+        loss=LOSS,
+        huber_delta=HUBER_DELTA,
+        max_iter=Opt(st.integers(1, 300), MAX_ITER.invalid),
+        tol=TOL,
+        **FIT_OPTIONS,
+    )
     return st.one_of(sq, sparse, huber)
 
 
@@ -75,16 +96,25 @@ TINY = Data(30, 2, 1, seed=1, scale=1e-300)
 PLAIN = Data(30, 2, 1, seed=1)
 
 
-@fuzz_test(datasets(), fit_options(), examples=2.0,
-           valid=(datasets(forms=False), fit_options(0)),
-           explicit=[(HUGE, {"lam": 1.0}), (HUGE3, {"lam": 1.0}), (TINY, {"lam": 1.0}),
-                     (HUGE, {"lam": "auto"}),
-                     (PLAIN, {"lam": 1.0, "norm": "group", "max_iter": 100}),
-                     (PLAIN, {"lam": 1.0, "norm": "l1", "max_iter": 100}),
-                     (HUGE, {"lam": 1.0, "norm": "group", "max_iter": 100}),
-                     (Data(2, 1, 0), {"lam": 1.0}), (Data(0, 1, 0), {"lam": 1.0}),
-                     (PLAIN, {"lam": 1.0, "prior": "@prior_ok", "prior_mode": "posthoc"}),
-                     (Data(30, 2, 1, defects=("nan_block",)), {"lam": 1.0, "refine": True})])
+@fuzz_test(
+    datasets(),
+    fit_options(),
+    examples=2.0,
+    valid=(datasets(forms=False), fit_options(0)),
+    explicit=[
+        (HUGE, {"lam": 1.0}),
+        (HUGE3, {"lam": 1.0}),
+        (TINY, {"lam": 1.0}),
+        (HUGE, {"lam": "auto"}),
+        (PLAIN, {"lam": 1.0, "norm": "group", "max_iter": 100}),
+        (PLAIN, {"lam": 1.0, "norm": "l1", "max_iter": 100}),
+        (HUGE, {"lam": 1.0, "norm": "group", "max_iter": 100}),
+        (Data(2, 1, 0), {"lam": 1.0}),
+        (Data(0, 1, 0), {"lam": 1.0}),
+        (PLAIN, {"lam": 1.0, "prior": "@prior_ok", "prior_mode": "posthoc"}),
+        (Data(30, 2, 1, defects=("nan_block",)), {"lam": 1.0, "refine": True}),
+    ],
+)
 def test_fit(data, kwargs):
     """ltv.fit over every norm, order, λ form, prior, weight and data defect."""
     x, u = data.xu()
@@ -94,10 +124,18 @@ def test_fit(data, kwargs):
 LTI_OPTIONS = dict(weights=WEIGHTS, constant=CONSTANT, loss=LOSS, huber_delta=HUBER_DELTA)
 
 
-@fuzz_test(datasets(), options(**LTI_OPTIONS),
-           explicit=[(HUGE, {}), (HUGE3, {}), (TINY, {}), (Data(5, 2, 1), {"constant": True}),
-                     (PLAIN, {"loss": "huber"})],
-           valid=(datasets(forms=False), options(max_bad=0, **LTI_OPTIONS)))
+@fuzz_test(
+    datasets(),
+    options(**LTI_OPTIONS),
+    explicit=[
+        (HUGE, {}),
+        (HUGE3, {}),
+        (TINY, {}),
+        (Data(5, 2, 1), {"constant": True}),
+        (PLAIN, {"loss": "huber"}),
+    ],
+    valid=(datasets(forms=False), options(max_bad=0, **LTI_OPTIONS)),
+)
 def test_fit_lti(data, kwargs):
     """ltv.fit_lti: least squares over edge-case data, weights and intercepts."""
     x, u = data.xu()
@@ -106,77 +144,164 @@ def test_fit_lti(data, kwargs):
 
 LAM_LISTS = Opt(
     st.lists(st.floats(0.05, 100.0), min_size=1, max_size=4),
-    choice_of([], [0.0], [-1.0, 2.0], [np.inf], [np.nan], [1e300], "abc", 3.0, None,
-            [[1.0], [2.0, 3.0]], ["1", "2"]))
+    choice_of(
+        [],
+        [0.0],
+        [-1.0, 2.0],
+        [np.inf],
+        [np.nan],
+        [1e300],
+        "abc",
+        3.0,
+        None,
+        [[1.0], [2.0, 3.0]],
+        ["1", "2"],
+    ),
+)
 
 
-@fuzz_test(datasets(max_T=40),
-           options(required=("lams", "max_iter"), lams=LAM_LISTS, norm=NORM, order=ORDER,
-                   constant=CONSTANT, weights=WEIGHTS,
-                   max_iter=Opt(st.integers(1, 200), MAX_ITER.invalid)), examples=1.5)
+@fuzz_test(
+    datasets(max_T=40),
+    options(
+        required=("lams", "max_iter"),
+        lams=LAM_LISTS,
+        norm=NORM,
+        order=ORDER,
+        constant=CONSTANT,
+        weights=WEIGHTS,
+        max_iter=Opt(st.integers(1, 200), MAX_ITER.invalid),
+    ),
+    examples=1.5,
+)
 def test_fit_path(data, kwargs):
     """ltv.fit_path: warm-started paths over λ lists of every kind."""
     x, u = data.xu()
     check_call(ltv.fit_path, x, u, **resolved(data, kwargs))
 
 
-@fuzz_test(datasets(), options(required=("norm",), norm=SPARSE_NORM, order=ORDER,
-                               weights=WEIGHTS, constant=CONSTANT),
-           explicit=[(HUGE, {"norm": "group"}), (TINY, {"norm": "l1"})])
+@fuzz_test(
+    datasets(),
+    options(required=("norm",), norm=SPARSE_NORM, order=ORDER, weights=WEIGHTS, constant=CONSTANT),
+    explicit=[(HUGE, {"norm": "group"}), (TINY, {"norm": "l1"})],
+)
 def test_lambda_max(data, kwargs):
     """ltv.lambda_max: a finite λ >= 0 or a documented error."""
     x, u = data.xu()
     result = check_call(ltv.lambda_max, x, u, **resolved(data, kwargs))
     if result is not None:
-        expect(np.ndim(result) == 0 and float(result) >= 0.0, "lambda_max", "invalid value",
-               f"lambda_max returned {result!r}")
+        expect(
+            np.ndim(result) == 0 and float(result) >= 0.0,
+            "lambda_max",
+            "invalid value",
+            f"lambda_max returned {result!r}",
+        )
 
 
 CHANGEPOINTS = Opt(
-    st.one_of(st.lists(st.integers(1, 58), max_size=3, unique=True).map(sorted),
-              st.lists(st.integers(5, 30), max_size=1)),
-    st.one_of(st.lists(st.integers(-2, 62), min_size=1, max_size=4),
-              choice_of(None, [1.5], ["3"], [np.nan], np.array([[5]]), [5, 5], [10, 5], 7,
-                      np.array([3.0, 9.0]), [True])))
+    st.one_of(
+        st.lists(st.integers(1, 58), max_size=3, unique=True).map(sorted),
+        st.lists(st.integers(5, 30), max_size=1),
+    ),
+    st.one_of(
+        st.lists(st.integers(-2, 62), min_size=1, max_size=4),
+        choice_of(
+            None,
+            [1.5],
+            ["3"],
+            [np.nan],
+            np.array([[5]]),
+            [5, 5],
+            [10, 5],
+            7,
+            np.array([3.0, 9.0]),
+            [True],
+        ),
+    ),
+)
 
 
-@fuzz_test(datasets(), options(required=("changepoints",), changepoints=CHANGEPOINTS,
-                               order=Opt(choice_of(1, 2), choice_of(3, 0, "1", 1.5, None)),
-                               compute_cov=BOOL, weights=WEIGHTS, constant=CONSTANT),
-           explicit=[(HUGE, {"changepoints": [10]}), (Data(7, 2, 1), {"changepoints": [3]}),
-                     (Data(8, 2, 1), {"changepoints": [3], "order": 2})])
+@fuzz_test(
+    datasets(),
+    options(
+        required=("changepoints",),
+        changepoints=CHANGEPOINTS,
+        order=Opt(choice_of(1, 2), choice_of(3, 0, "1", 1.5, None)),
+        compute_cov=BOOL,
+        weights=WEIGHTS,
+        constant=CONSTANT,
+    ),
+    explicit=[
+        (HUGE, {"changepoints": [10]}),
+        (Data(7, 2, 1), {"changepoints": [3]}),
+        (Data(8, 2, 1), {"changepoints": [3], "order": 2}),
+    ],
+)
 def test_fit_piecewise(data, kwargs):
     """ltv.fit_piecewise: change points valid, out of range, unsorted, non-integer."""
     x, u = data.xu()
     check_call(ltv.fit_piecewise, x, u, **resolved(data, kwargs))
 
 
-PENALTY = Opt(st.one_of(st.floats(0.0, 50.0), choice_of("bic", "aic", 0.0, 0, 1e-300)),
-              choice_of("BIC", "hq", "", -1.0, np.inf, np.nan, 1e300, None, True))
+PENALTY = Opt(
+    st.one_of(st.floats(0.0, 50.0), choice_of("bic", "aic", 0.0, 0, 1e-300)),
+    choice_of("BIC", "hq", "", -1.0, np.inf, np.nan, 1e300, None, True),
+)
 
 
-@fuzz_test(datasets(max_T=50),
-           st.one_of(options(n_changes=counts(0, 4), min_size=counts(1, 10), compute_cov=BOOL,
-                             weights=WEIGHTS, constant=CONSTANT),
-                     options(penalty=PENALTY, min_size=counts(1, 10), compute_cov=BOOL,
-                             weights=WEIGHTS, constant=CONSTANT),
-                     options(n_changes=counts(0, 4), penalty=PENALTY)),
-           examples=1.5,
-           explicit=[(Data(8, 2, 1), {"penalty": 0.0}), (PLAIN, {"penalty": 0.0}),
-                     (HUGE, {}), (TINY, {"n_changes": 1}), (Data(8, 2, 1), {"n_changes": 1})])
+@fuzz_test(
+    datasets(max_T=50),
+    st.one_of(
+        options(
+            n_changes=counts(0, 4),
+            min_size=counts(1, 10),
+            compute_cov=BOOL,
+            weights=WEIGHTS,
+            constant=CONSTANT,
+        ),
+        options(
+            penalty=PENALTY,
+            min_size=counts(1, 10),
+            compute_cov=BOOL,
+            weights=WEIGHTS,
+            constant=CONSTANT,
+        ),
+        options(n_changes=counts(0, 4), penalty=PENALTY),
+    ),
+    examples=1.5,
+    explicit=[
+        (Data(8, 2, 1), {"penalty": 0.0}),
+        (PLAIN, {"penalty": 0.0}),
+        (HUGE, {}),
+        (TINY, {"n_changes": 1}),
+        (Data(8, 2, 1), {"n_changes": 1}),
+    ],
+)
 def test_fit_segments(data, kwargs):
     """ltv.fit_segments: dynamic programming and PELT with fuzzed counts and penalties."""
     x, u = data.xu()
     check_call(ltv.fit_segments, x, u, **resolved(data, kwargs))
 
 
-KALMAN_LAM = Opt(st.floats(0.05, 300.0), st.one_of(special_floats(),
-                                                    choice_of("auto", [1.0, 2.0], "@vecK")))
-INIT = Opt(choice_of("@zerosK+eye", "@dK+eye", "@none"),
-           choice_of("@nanK", "@wrongK", "@eye_wrong", "@cov0", "@cov_neg", "@cov_nan",
-                   "@cov_inf", "@cov_huge", "@mean_only"))
-KALMAN_NOISE = Opt(choice_of(1.0, 0.5, 1e-3), choice_of(0.0, -1.0, np.nan, np.inf, 1e-300, 1e300,
-                                                    "1", None))
+KALMAN_LAM = Opt(
+    st.floats(0.05, 300.0), st.one_of(special_floats(), choice_of("auto", [1.0, 2.0], "@vecK"))
+)
+INIT = Opt(
+    choice_of("@zerosK+eye", "@dK+eye", "@none"),
+    choice_of(
+        "@nanK",
+        "@wrongK",
+        "@eye_wrong",
+        "@cov0",
+        "@cov_neg",
+        "@cov_nan",
+        "@cov_inf",
+        "@cov_huge",
+        "@mean_only",
+    ),
+)
+KALMAN_NOISE = Opt(
+    choice_of(1.0, 0.5, 1e-3), choice_of(0.0, -1.0, np.nan, np.inf, 1e-300, 1e300, "1", None)
+)
 
 
 def _kalman_kwargs(kwargs: dict, data) -> dict:
@@ -191,10 +316,15 @@ def _kalman_kwargs(kwargs: dict, data) -> dict:
     table = {
         "@zerosK+eye": (np.zeros(K), np.eye(p) if d == 1 else np.eye(d * p)),
         "@dK+eye": (np.zeros((d, K)), np.eye(d * p)),
-        "@nanK": (np.full(K, np.nan), 1.0), "@wrongK": (np.zeros(K + 1), 1.0),
-        "@eye_wrong": (None, np.eye(d * p + 1)), "@cov0": (None, 0.0),
-        "@cov_neg": (None, -1.0), "@cov_nan": (None, np.nan), "@cov_inf": (None, np.inf),
-        "@cov_huge": (None, 1e300), "@mean_only": (np.zeros(K), None),
+        "@nanK": (np.full(K, np.nan), 1.0),
+        "@wrongK": (np.zeros(K + 1), 1.0),
+        "@eye_wrong": (None, np.eye(d * p + 1)),
+        "@cov0": (None, 0.0),
+        "@cov_neg": (None, -1.0),
+        "@cov_nan": (None, np.nan),
+        "@cov_inf": (None, np.inf),
+        "@cov_huge": (None, 1e300),
+        "@mean_only": (np.zeros(K), None),
     }
     if token in table:
         mean, cov = table[token]
@@ -205,13 +335,17 @@ def _kalman_kwargs(kwargs: dict, data) -> dict:
     return out
 
 
-KALMAN_OPTIONS = options(required=("lam",), lam=KALMAN_LAM, order=ORDER, noise_var=KALMAN_NOISE,
-                         init=INIT)
+KALMAN_OPTIONS = options(
+    required=("lam",), lam=KALMAN_LAM, order=ORDER, noise_var=KALMAN_NOISE, init=INIT
+)
 
 
-@fuzz_test(datasets(batch=False), KALMAN_OPTIONS, st.booleans(),
-           explicit=[(HUGE, {"lam": 1.0}, False), (HUGE, {"lam": 1.0}, True),
-                     (TINY, {"lam": 1.0}, True)])
+@fuzz_test(
+    datasets(batch=False),
+    KALMAN_OPTIONS,
+    st.booleans(),
+    explicit=[(HUGE, {"lam": 1.0}, False), (HUGE, {"lam": 1.0}, True), (TINY, {"lam": 1.0}, True)],
+)
 def test_kalman(data, kwargs, smoother):
     """ltv.kalman_filter / kalman_smoother: NaN only before first_identified (documented)."""
     x, u = data.xu()
@@ -219,8 +353,9 @@ def test_kalman(data, kwargs, smoother):
     check_call(fn, x, u, **_kalman_kwargs(kwargs, data))
 
 
-FEEDS = choice_of("ok", "ok", "ok", "ok", "wrong_n", "wrong_m", "nan", "inf", "list", "none_u",
-                "huge")
+FEEDS = choice_of(
+    "ok", "ok", "ok", "ok", "wrong_n", "wrong_m", "nan", "inf", "list", "none_u", "huge"
+)
 
 
 @fuzz_test(datasets(batch=False, forms=False), KALMAN_OPTIONS, FEEDS)
@@ -247,13 +382,23 @@ def test_online_filter(data, kwargs, feed):
             ut = None
         elif feed == "huge":
             xt, xn = xt * 1e300, xn * 1e300
-        k = check_call(filt.update, xt, ut, xn, label="OnlineParameterFilter.update",
-                       inspector=_online_inspector)
+        k = check_call(
+            filt.update,
+            xt,
+            ut,
+            xn,
+            label="OnlineParameterFilter.update",
+            inspector=_online_inspector,
+        )
         if k is None:
             break
         finite = bool(np.all(np.isfinite(k)))
-        expect(finite or not identified, "OnlineParameterFilter.update", "non-finite value",
-               f"the estimate became non-finite at t={t} after being identified: {k}")
+        expect(
+            finite or not identified,
+            "OnlineParameterFilter.update",
+            "non-finite value",
+            f"the estimate became non-finite at t={t} after being identified: {k}",
+        )
         identified = identified or finite
 
 
@@ -267,20 +412,41 @@ def _online_inspector(result, call, context):
 
 ACTIVATION = st.one_of(
     st.lists(st.floats(0.0, 10.0), max_size=40).map(np.array),
-    choice_of([], [np.nan, 1.0], [np.inf, 1.0], [-1.0, 2.0], [[1.0, 2.0]], "abc", None,
-            np.zeros(30), np.ones(30), [1e300] * 5, [1e-300] * 5, [0.0, 1e308, 1e308]),
-    st.just("@model"), st.just("@model"))
+    choice_of(
+        [],
+        [np.nan, 1.0],
+        [np.inf, 1.0],
+        [-1.0, 2.0],
+        [[1.0, 2.0]],
+        "abc",
+        None,
+        np.zeros(30),
+        np.ones(30),
+        [1e300] * 5,
+        [1e-300] * 5,
+        [0.0, 1e308, 1e308],
+    ),
+    st.just("@model"),
+    st.just("@model"),
+)
 
 
-@fuzz_test(ACTIVATION, datasets(edge=False),
-           options(threshold=Opt(choice_of(0.25, 0.0, 1.0, 0.5),
-                                 choice_of(-0.1, 1.5, np.nan, np.inf, "0.5", None)),
-                   noise_factor=Opt(choice_of(8.0, None, 0.0, 3.0),
-                                    choice_of(-1.0, np.nan, np.inf, 1e300, "8")),
-                   min_distance=counts(1, 20), max_changes=counts(0, 5),
-                   degree=Opt(choice_of(1, 2, 3), choice_of(0, -1, 1.5, "1")),
-                   min_level=Opt(choice_of(None, 0.0, 1e-12, 0.1),
-                                 choice_of(-1.0, np.nan, np.inf, "0"))))
+@fuzz_test(
+    ACTIVATION,
+    datasets(edge=False),
+    options(
+        threshold=Opt(
+            choice_of(0.25, 0.0, 1.0, 0.5), choice_of(-0.1, 1.5, np.nan, np.inf, "0.5", None)
+        ),
+        noise_factor=Opt(
+            choice_of(8.0, None, 0.0, 3.0), choice_of(-1.0, np.nan, np.inf, 1e300, "8")
+        ),
+        min_distance=counts(1, 20),
+        max_changes=counts(0, 5),
+        degree=Opt(choice_of(1, 2, 3), choice_of(0, -1, 1.5, "1")),
+        min_level=Opt(choice_of(None, 0.0, 1e-12, 0.1), choice_of(-1.0, np.nan, np.inf, "0")),
+    ),
+)
 def test_find_changepoints(activation, data, kwargs):
     """ltv.find_changepoints on fuzzed activations and on fitted models."""
     if isinstance(activation, str) and activation == "@model":
@@ -290,5 +456,9 @@ def test_find_changepoints(activation, data, kwargs):
     result = check_call(ltv.find_changepoints, activation, **kwargs)
     if result is not None:
         arr = np.asarray(result)
-        expect(arr.ndim == 1 and arr.dtype.kind in "iu" and bool(np.all(np.diff(arr) > 0)),
-               "find_changepoints", "invalid value", f"returned {arr!r}")
+        expect(
+            arr.ndim == 1 and arr.dtype.kind in "iu" and bool(np.all(np.diff(arr) > 0)),
+            "find_changepoints",
+            "invalid value",
+            f"returned {arr!r}",
+        )

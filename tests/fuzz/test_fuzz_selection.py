@@ -12,10 +12,6 @@ examples than the other tests.
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import strategies as st
-
-import ltvmodels as ltv
-
 from fuzz_oracle import check_call
 from fuzz_strategies import (
     CONSTANT,
@@ -30,17 +26,40 @@ from fuzz_strategies import (
     options,
     resolve,
 )
+from hypothesis import strategies as st
 
-METHODS = {"sq": ["ml", "gcv", "lcurve", "cv"], "group": ["lcurve", "cv"],
-           "l1": ["lcurve", "cv"], "l0": ["bic", "aic"]}
+import ltvmodels as ltv
+
+METHODS = {
+    "sq": ["ml", "gcv", "lcurve", "cv"],
+    "group": ["lcurve", "cv"],
+    "l1": ["lcurve", "cv"],
+    "l0": ["bic", "aic"],
+}
 
 INVALID_METHOD = choice_of("ML", "bic", "gcv", "", "aic", None, 3, "lcurve ")
-GRID = Opt(st.one_of(st.lists(st.floats(0.1, 100.0), min_size=2, max_size=6, unique=True),
-                     choice_of([1.0, 10.0, 100.0], np.logspace(-1, 2, 5))),
-           choice_of([], [0.0, 1.0], [-1.0, 1.0], [np.nan, 1.0], [np.inf, 1.0], "abc", 5.0,
-                   [[1.0, 2.0]], [1e300, 1e-300], [1.0, 1.0]))
-COUNT_GRID = Opt(st.lists(st.integers(0, 4), min_size=1, max_size=4, unique=True),
-                 choice_of([], [-1], [1.5], ["2"], [10**6], 3))
+GRID = Opt(
+    st.one_of(
+        st.lists(st.floats(0.1, 100.0), min_size=2, max_size=6, unique=True),
+        choice_of([1.0, 10.0, 100.0], np.logspace(-1, 2, 5)),
+    ),
+    choice_of(
+        [],
+        [0.0, 1.0],
+        [-1.0, 1.0],
+        [np.nan, 1.0],
+        [np.inf, 1.0],
+        "abc",
+        5.0,
+        [[1.0, 2.0]],
+        [1e300, 1e-300],
+        [1.0, 1.0],
+    ),
+)
+COUNT_GRID = Opt(
+    st.lists(st.integers(0, 4), min_size=1, max_size=4, unique=True),
+    choice_of([], [-1], [1.5], ["2"], [10**6], 3),
+)
 
 
 def _progress(done, total):
@@ -59,10 +78,15 @@ def selection_options(draw, max_bad: int = 2):
     if norm == "l0":
         kw = draw(options(max_bad=max_bad, lams=COUNT_GRID, max_changes=counts(0, 4), **common))
     else:
-        kw = draw(options(max_bad=max_bad, lams=GRID, order=ORDER,
-                          n_folds=Opt(st.integers(2, 5),
-                                      choice_of(1, 0, -1, 1.5, "3", None, 10**6)),
-                          **common))
+        kw = draw(
+            options(
+                max_bad=max_bad,
+                lams=GRID,
+                order=ORDER,
+                n_folds=Opt(st.integers(2, 5), choice_of(1, 0, -1, 1.5, "3", None, 10**6)),
+                **common,
+            )
+        )
     if "progress" in kw and norm == "l0":
         kw.pop("progress")
     if draw(st.booleans()) or max_bad == 0:
@@ -76,15 +100,26 @@ HUGE = Data(30, 2, 1, seed=1, scale=1e300)
 TINY = Data(30, 2, 1, seed=1, scale=1e-300)
 
 
-@fuzz_test(datasets(max_T=40), selection_options(), examples=0.75,
-           valid=(datasets(max_T=40, forms=False), selection_options(0)),
-           explicit=[(HUGE, {"norm": "sq"}), (HUGE, {"norm": "group"}), (TINY, {"norm": "sq"}),
-                     (HUGE, {"norm": "l0"}), (Data(30, 2, 1, seed=1), {"norm": "l0"})])
+@fuzz_test(
+    datasets(max_T=40),
+    selection_options(),
+    examples=0.75,
+    valid=(datasets(max_T=40, forms=False), selection_options(0)),
+    explicit=[
+        (HUGE, {"norm": "sq"}),
+        (HUGE, {"norm": "group"}),
+        (TINY, {"norm": "sq"}),
+        (HUGE, {"norm": "l0"}),
+        (Data(30, 2, 1, seed=1), {"norm": "l0"}),
+    ],
+)
 def test_select_lambda(data, kwargs):
     """ltv.select_lambda on state-space data."""
     x, u = data.xu()
-    kw = {k: resolve(v, K=data.K(kwargs.get("constant", False)), n=data.n, N=data.N, R=data.R)
-          for k, v in kwargs.items()}
+    kw = {
+        k: resolve(v, K=data.K(kwargs.get("constant", False)), n=data.n, N=data.N, R=data.R)
+        for k, v in kwargs.items()
+    }
     check_call(ltv.select_lambda, x, u, **kw)
 
 
@@ -100,9 +135,13 @@ def regression_selection_options(draw, max_bad: int = 2):
     return kw
 
 
-@fuzz_test(datasets(max_T=40), regression_selection_options(), examples=0.5,
-           valid=(datasets(max_T=40, forms=False), regression_selection_options(0)),
-           explicit=[(HUGE, {"norm": "sq"}), (TINY, {"norm": "group"})])
+@fuzz_test(
+    datasets(max_T=40),
+    regression_selection_options(),
+    examples=0.5,
+    valid=(datasets(max_T=40, forms=False), regression_selection_options(0)),
+    explicit=[(HUGE, {"norm": "sq"}), (TINY, {"norm": "group"})],
+)
 def test_select_lambda_regression(data, kwargs):
     """ltv.select_lambda_regression on (y, phi)."""
     y, phi = data.regression()
@@ -110,11 +149,18 @@ def test_select_lambda_regression(data, kwargs):
     check_call(ltv.select_lambda_regression, y, phi, **kw)
 
 
-@fuzz_test(datasets(max_T=40, forms=False),
-           options(norm=Opt(choice_of("sq", "group", "l1"), choice_of("l0")),
-                   order=ORDER, constant=CONSTANT,
-                   refine=Opt(choice_of(False, True), choice_of(1)), progress=PROGRESS),
-           examples=0.75, explicit=[(HUGE, {}), (HUGE, {"norm": "l1"})])
+@fuzz_test(
+    datasets(max_T=40, forms=False),
+    options(
+        norm=Opt(choice_of("sq", "group", "l1"), choice_of("l0")),
+        order=ORDER,
+        constant=CONSTANT,
+        refine=Opt(choice_of(False, True), choice_of(1)),
+        progress=PROGRESS,
+    ),
+    examples=0.75,
+    explicit=[(HUGE, {}), (HUGE, {"norm": "l1"})],
+)
 def test_fit_lam_auto(data, kwargs):
     """ltv.fit(lam="auto"): the selection inside a fit (with its progress callback)."""
     x, u = data.xu()

@@ -20,16 +20,23 @@ STATE, INPUT = ["x1", "x2"], ["u"]
 
 
 def unit_frame(unit, T, seed, *, change_at=None, start="2021-01-01"):
-    d = ltv.systems.jump_linear(T=T, change_at=T // 2 if change_at is None else change_at,
-                                seed=seed)
-    return pd.DataFrame({"unit": unit, "date": pd.date_range(start, periods=T, freq="D"),
-                         "x1": d.x[:, 0], "x2": d.x[:, 1], "u": d.u[:, 0]})
+    d = ltv.systems.jump_linear(
+        T=T, change_at=T // 2 if change_at is None else change_at, seed=seed
+    )
+    return pd.DataFrame(
+        {
+            "unit": unit,
+            "date": pd.date_range(start, periods=T, freq="D"),
+            "x1": d.x[:, 0],
+            "x2": d.x[:, 1],
+            "u": d.u[:, 0],
+        }
+    )
 
 
 def panel(n_units, T=80, *, shuffle=True):
     """A long table of jump-linear units with dates, rows shuffled across units."""
-    frame = pd.concat([unit_frame(f"m{i}", T, seed=i) for i in range(n_units)],
-                      ignore_index=True)
+    frame = pd.concat([unit_frame(f"m{i}", T, seed=i) for i in range(n_units)], ignore_index=True)
     return frame.sample(frac=1.0, random_state=0) if shuffle else frame
 
 
@@ -63,8 +70,9 @@ def assert_same_model(a, b):
 @pytest.mark.parametrize("n_jobs", [1, 2])
 def test_table_input_equals_a_loop_of_fit(n_jobs):
     frame = panel(6)
-    ms = ltv.fit_many(frame, by="unit", state=STATE, inputs="u", time="date", lam=10.0,
-                      n_jobs=n_jobs)
+    ms = ltv.fit_many(
+        frame, by="unit", state=STATE, inputs="u", time="date", lam=10.0, n_jobs=n_jobs
+    )
     assert ms.units == [f"m{i}" for i in pd.unique(frame["unit"].str[1:].astype(int))]
     assert len(ms) == 6 and ms.errors == {}
     for unit in ms:
@@ -74,45 +82,53 @@ def test_table_input_equals_a_loop_of_fit(n_jobs):
     assert ms["m0"].state_names == STATE
 
 
-@pytest.mark.parametrize("options", [
-    {"lam": "auto"},
-    {"lam": 3.0, "norm": "group", "refine": True},
-    {"lam": 10.0, "order": 2, "constant": True},
-    {"lam": 10.0, "loss": "huber"},
-])
+@pytest.mark.parametrize(
+    "options",
+    [
+        {"lam": "auto"},
+        {"lam": 3.0, "norm": "group", "refine": True},
+        {"lam": 10.0, "order": 2, "constant": True},
+        {"lam": 10.0, "loss": "huber"},
+    ],
+)
 def test_options_reach_fit(options):
     frame = panel(3, T=60)
-    ms = ltv.fit_many(frame, by="unit", state=STATE, inputs=INPUT, time="date", n_jobs=1,
-                      **options)
+    ms = ltv.fit_many(frame, by="unit", state=STATE, inputs=INPUT, time="date", n_jobs=1, **options)
     for unit in ms:
         assert_same_model(ms[unit], ltv.fit(*unit_rows(frame, unit), **options))
     if options.get("lam") == "auto":
         assert set(ms.summary["lam_method"]) == {"ml"}
-        assert ms.summary["lam"].to_numpy() == pytest.approx(
-            [ms[unit].lam for unit in ms.units])
+        assert ms.summary["lam"].to_numpy() == pytest.approx([ms[unit].lam for unit in ms.units])
 
 
-@pytest.mark.parametrize("method, options, reference", [
-    ("segments", {"n_changes": 1}, ltv.fit_segments),
-    ("lti", {}, ltv.fit_lti),
-])
+@pytest.mark.parametrize(
+    "method, options, reference",
+    [
+        ("segments", {"n_changes": 1}, ltv.fit_segments),
+        ("lti", {}, ltv.fit_lti),
+    ],
+)
 def test_other_estimators(method, options, reference):
     data = {seed: ltv.systems.jump_linear(T=60, change_at=30, seed=seed) for seed in range(3)}
-    ms = ltv.fit_many({seed: (d.x, d.u) for seed, d in data.items()}, method=method,
-                      n_jobs=2, **options)
+    ms = ltv.fit_many(
+        {seed: (d.x, d.u) for seed, d in data.items()}, method=method, n_jobs=2, **options
+    )
     for seed, d in data.items():
         assert_same_model(ms[seed], reference(d.x, d.u, **options))
     if method == "segments":
         assert list(ms.summary["n_changes"]) == [1, 1, 1]
-        assert list(ms.summary["change_times"]) == [ms[seed].changepoints.tolist()
-                                                    for seed in data]
+        assert list(ms.summary["change_times"]) == [ms[seed].changepoints.tolist() for seed in data]
 
 
 def test_mapping_input_equals_a_loop_of_fit():
     d = ltv.systems.jump_linear(T=50, change_at=25, seed=1)
     frame = pd.DataFrame(d.x, columns=["a", "b"], index=pd.RangeIndex(100, 150))
-    data = {"plain": d.x, "pair": (d.x, d.u), "frame": (frame, d.u),
-            "two runs": (np.stack([d.x, d.x[::-1]]), np.stack([d.u, d.u[::-1]]))}
+    data = {
+        "plain": d.x,
+        "pair": (d.x, d.u),
+        "frame": (frame, d.u),
+        "two runs": (np.stack([d.x, d.x[::-1]]), np.stack([d.u, d.u[::-1]])),
+    }
     ms = ltv.fit_many(data, lam=5.0, n_jobs=2)
     assert ms.units == list(data) and ms.errors == {}
     for unit, value in data.items():
@@ -130,12 +146,12 @@ def test_bad_units_are_recorded_and_the_others_fitted():
     dup = unit_frame("duplicated", 60, seed=8)
     dup.loc[5, "date"] = dup.loc[4, "date"]
     frame = pd.concat([frame, short, constant, empty, dup], ignore_index=True)
-    ms = ltv.fit_many(frame, by="unit", state=STATE, inputs="u", time="date", lam=10.0,
-                      n_jobs=2)
+    ms = ltv.fit_many(frame, by="unit", state=STATE, inputs="u", time="date", lam=10.0, n_jobs=2)
     assert set(ms.errors) == {"short", "constant input", "no data", "duplicated"}
     assert "too few samples" in ms.errors["short"]
-    assert "SingularProblemError" in ms.errors["constant input"] and \
-        "u" in ms.errors["constant input"]
+    assert (
+        "SingularProblemError" in ms.errors["constant input"] and "u" in ms.errors["constant input"]
+    )
     assert "no observed samples" in ms.errors["no data"]
     assert "duplicated time stamp 2021-01-05" in ms.errors["duplicated"]
     assert len(ms) == 3 and list(ms) == ["m0", "m1", "m2"]
@@ -143,28 +159,28 @@ def test_bad_units_are_recorded_and_the_others_fitted():
     summary = ms.summary
     assert list(summary.index) == ms.units
     assert list(summary["status"]) == ["closed_form"] * 3 + ["error"] * 4
-    assert summary.loc["short", "T"] == 2 and summary.loc["short", "error"] == \
-        ms.errors["short"]
+    assert summary.loc["short", "T"] == 2 and summary.loc["short", "error"] == ms.errors["short"]
     with pytest.raises(KeyError, match="was not fitted: .*too few samples"):
         ms["short"]
 
 
 def test_summary_columns():
     frame = panel(2, T=100)
-    ms = ltv.fit_many(frame, by="unit", state=STATE, inputs="u", time="date", lam=2.0,
-                      norm="group", n_jobs=1)
+    ms = ltv.fit_many(
+        frame, by="unit", state=STATE, inputs="u", time="date", lam=2.0, norm="group", n_jobs=1
+    )
     row = ms.summary.loc["m0"]
     model = ms["m0"]
     x, u = unit_rows(frame, "m0")
     error = x.to_numpy()[1:] - model.predict(x.to_numpy(), u.to_numpy())
     assert row["T"] == 100 and row["missing"] == 0
     assert row["lam"] == 2.0 and row["lam_method"] == "given"
-    assert row["noise_var_x1"] == model.noise_var[0] and row["noise_var_x2"] == \
-        model.noise_var[1]
+    assert row["noise_var_x1"] == model.noise_var[0] and row["noise_var_x2"] == model.noise_var[1]
     assert row["rms"] == pytest.approx(np.sqrt(np.mean(error**2)), rel=1e-12)
     assert row["n_changes"] == len(model.changepoints) >= 1
-    assert row["change_times"] == [str(t) for t in np.datetime_as_string(
-        model.changepoint_times, unit="auto")]
+    assert row["change_times"] == [
+        str(t) for t in np.datetime_as_string(model.changepoint_times, unit="auto")
+    ]
     assert row["status"] == "optimal" and row["seconds"] > 0
     assert ms.summary.index.name == "unit"
 
@@ -173,11 +189,11 @@ def test_weights_column_and_missing_samples():
     frame = panel(2, T=60, shuffle=False)
     frame["w"] = np.linspace(0.5, 2.0, len(frame))
     frame.loc[10, "x1"] = np.nan
-    ms = ltv.fit_many(frame, by="unit", state=STATE, inputs="u", time="date",
-                      weights="w", lam=10.0, n_jobs=1)
+    ms = ltv.fit_many(
+        frame, by="unit", state=STATE, inputs="u", time="date", weights="w", lam=10.0, n_jobs=1
+    )
     rows = frame[frame["unit"] == "m0"].set_index("date")
-    reference = ltv.fit(rows[STATE], rows[INPUT], lam=10.0,
-                        weights=rows["w"].to_numpy()[:-1])
+    reference = ltv.fit(rows[STATE], rows[INPUT], lam=10.0, weights=rows["w"].to_numpy()[:-1])
     assert_same_model(ms["m0"], reference)
     assert ms.summary.loc["m0", "missing"] == 2  # the NaN leaves out two transitions
 
@@ -207,8 +223,7 @@ def test_invalid_arguments_name_the_argument():
 def test_save_and_load_many(tmp_path):
     frame = panel(3, T=40)
     frame.loc[frame.index[:3], "unit"] = "short"  # three rows of their own: too short
-    ms = ltv.fit_many(frame, by="unit", state=STATE, inputs="u", time="date", lam=10.0,
-                      n_jobs=1)
+    ms = ltv.fit_many(frame, by="unit", state=STATE, inputs="u", time="date", lam=10.0, n_jobs=1)
     ms.save(tmp_path / "set")
     back = ltv.load_many(tmp_path / "set")
     assert back.units == ms.units and back.errors == ms.errors and list(back) == list(ms)
@@ -221,10 +236,20 @@ def test_save_and_load_many(tmp_path):
 
 def test_keep_models_false_writes_models_as_they_finish(tmp_path):
     frame = panel(4, T=40)
-    ms = ltv.fit_many(frame, by="unit", state=STATE, inputs="u", time="date", lam=10.0,
-                      keep_models=False, models_dir=tmp_path / "models", n_jobs=2)
-    assert sorted(p.name for p in (tmp_path / "models").iterdir()) == [
-        "manifest.json"] + [f"unit-{i:06d}.npz" for i in range(4)]
+    ms = ltv.fit_many(
+        frame,
+        by="unit",
+        state=STATE,
+        inputs="u",
+        time="date",
+        lam=10.0,
+        keep_models=False,
+        models_dir=tmp_path / "models",
+        n_jobs=2,
+    )
+    assert sorted(p.name for p in (tmp_path / "models").iterdir()) == ["manifest.json"] + [
+        f"unit-{i:06d}.npz" for i in range(4)
+    ]
     for unit in ms:  # read back from the directory
         assert_same_model(ms[unit], ltv.fit(*unit_rows(frame, unit), lam=10.0))
     bare = ltv.fit_many(frame, by="unit", state=STATE, lam=10.0, keep_models=False, n_jobs=1)
@@ -249,8 +274,12 @@ def retained_and_peak_bytes(data, **options):
 def test_keep_models_false_memory_stays_flat():
     """Memory measured (not timed): without models, growing the units 4× adds only their
     summary records; with models, every unit keeps its model."""
-    data = {unit: (d.x, d.u) for unit, d in enumerate(
-        ltv.systems.jump_linear(T=200, change_at=100, seed=seed) for seed in range(400))}
+    data = {
+        unit: (d.x, d.u)
+        for unit, d in enumerate(
+            ltv.systems.jump_linear(T=200, change_at=100, seed=seed) for seed in range(400)
+        )
+    }
     small = dict(list(data.items())[:100])
     kept_small, _ = retained_and_peak_bytes(small)
     kept_large, _ = retained_and_peak_bytes(data)
@@ -279,8 +308,7 @@ def test_a_killed_pool_worker_loses_nothing(tmp_path):
     from many_methods import die_once
 
     data = marked_units(40, {7})
-    ms = ltv.fit_many(data, method=die_once, marker=str(tmp_path / "killed"), lam=10.0,
-                      n_jobs=2)
+    ms = ltv.fit_many(data, method=die_once, marker=str(tmp_path / "killed"), lam=10.0, n_jobs=2)
     assert (tmp_path / "killed").exists()  # a worker was killed during the run
     assert ms.errors == {} and len(ms) == 40
     for unit, (x, u) in data.items():
@@ -301,9 +329,8 @@ def test_a_unit_that_kills_every_worker_is_an_error():
 @pytest.mark.parametrize("n_jobs", [1, 2])
 def test_one_blas_and_numba_thread_per_worker_restored_after(n_jobs):
     import numba
-    from threadpoolctl import threadpool_info
-
     from many_methods import report_threads
+    from threadpoolctl import threadpool_info
 
     def threads():
         return {pool["filepath"]: pool["num_threads"] for pool in threadpool_info()}
@@ -338,8 +365,9 @@ def test_progress_line_has_rate_and_time_left():
     from ltvmodels.progress import Progress
 
     stream = Terminal()
-    with Progress("fit_many", total=10, unit="units", stream=stream, delay=0.0,
-                  interval=0.0, threaded=False) as bar:
+    with Progress(
+        "fit_many", total=10, unit="units", stream=stream, delay=0.0, interval=0.0, threaded=False
+    ) as bar:
         bar._start -= 2.0  # two seconds have passed
         bar.advance(5)
         assert "5/10" in stream.text and "2.5 units/s, 2 s left" in stream.text

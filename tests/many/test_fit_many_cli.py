@@ -26,9 +26,28 @@ def panel_csv(tmp_path):
 
 def test_fit_many_writes_summary_and_models(panel_csv, tmp_path, capsys):
     path, frame = panel_csv
-    status = main(["fit-many", str(path), "--by", "unit", "--time", "date", "--state",
-                   "x1,x2", "--input", "u", "--lam", "7", "--out", str(tmp_path / "s.csv"),
-                   "--models-dir", str(tmp_path / "models"), "--jobs", "2"])
+    status = main(
+        [
+            "fit-many",
+            str(path),
+            "--by",
+            "unit",
+            "--time",
+            "date",
+            "--state",
+            "x1,x2",
+            "--input",
+            "u",
+            "--lam",
+            "7",
+            "--out",
+            str(tmp_path / "s.csv"),
+            "--models-dir",
+            str(tmp_path / "models"),
+            "--jobs",
+            "2",
+        ]
+    )
     out = capsys.readouterr().out
     assert status == 0
     assert "5 units" in out and "4 fitted, 1 failed" in out and "unit 'short'" in out
@@ -48,9 +67,27 @@ def test_fit_many_writes_summary_and_models(panel_csv, tmp_path, capsys):
 def test_fit_many_json_parquet_and_segments(panel_csv, tmp_path, capsys):
     pytest.importorskip("pyarrow")
     path, _ = panel_csv
-    status = main(["fit-many", str(path), "--by", "unit", "--state", "x1,x2", "--input",
-                   "u", "--method", "segments", "--n-changes", "1", "--jobs", "1",
-                   "--out", str(tmp_path / "s.parquet"), "--json"])
+    status = main(
+        [
+            "fit-many",
+            str(path),
+            "--by",
+            "unit",
+            "--state",
+            "x1,x2",
+            "--input",
+            "u",
+            "--method",
+            "segments",
+            "--n-changes",
+            "1",
+            "--jobs",
+            "1",
+            "--out",
+            str(tmp_path / "s.parquet"),
+            "--json",
+        ]
+    )
     report = json.loads(capsys.readouterr().out)
     assert status == 0 and report["n_fitted"] == 4 and list(report["errors"]) == ["short"]
     summary = pd.read_parquet(tmp_path / "s.parquet")

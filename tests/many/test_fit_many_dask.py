@@ -30,8 +30,9 @@ from test_fit_many import (  # noqa: E402
 @pytest.fixture(scope="module")
 def client():
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
-        cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                           dashboard_address=None)
+        cluster = distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        )
     with cluster, distributed.Client(cluster) as dask_client:
         yield dask_client
 
@@ -39,13 +40,24 @@ def client():
 def test_table_mapping_and_dask_frame_equal_a_loop_of_fit(client):
     frame = panel(8, T=60)
     options = dict(lam=10.0)
-    on_table = ltv.fit_many(frame, by="unit", state=STATE, inputs="u", time="date",
-                            engine=client, **options)
-    on_frame = ltv.fit_many(dd.from_pandas(frame, npartitions=3), by="unit", state=STATE,
-                            inputs="u", time="date", engine=client, **options)
+    on_table = ltv.fit_many(
+        frame, by="unit", state=STATE, inputs="u", time="date", engine=client, **options
+    )
+    on_frame = ltv.fit_many(
+        dd.from_pandas(frame, npartitions=3),
+        by="unit",
+        state=STATE,
+        inputs="u",
+        time="date",
+        engine=client,
+        **options,
+    )
     units = {unit: unit_rows(frame, unit) for unit in pd.unique(frame["unit"])}
-    on_mapping = ltv.fit_many({unit: (x.to_numpy(), u.to_numpy())
-                               for unit, (x, u) in units.items()}, engine=client, **options)
+    on_mapping = ltv.fit_many(
+        {unit: (x.to_numpy(), u.to_numpy()) for unit, (x, u) in units.items()},
+        engine=client,
+        **options,
+    )
     assert on_table.units == list(units)
     assert sorted(on_frame.units) == sorted(units) and on_frame.errors == {}
     for unit, (x, u) in units.items():
@@ -53,20 +65,46 @@ def test_table_mapping_and_dask_frame_equal_a_loop_of_fit(client):
         assert_same_model(on_table[unit], reference)
         assert_same_model(on_frame[unit], reference)
         assert_same_model(on_mapping[unit], ltv.fit(x.to_numpy(), u.to_numpy(), **options))
-    assert on_frame.summary.loc[on_table.units, "loglik"].tolist() == \
-        on_table.summary["loglik"].tolist()
+    assert (
+        on_frame.summary.loc[on_table.units, "loglik"].tolist()
+        == on_table.summary["loglik"].tolist()
+    )
 
 
 def test_dask_frame_bad_units_and_auto_lambda(client):
-    frame = pd.concat([panel(4, T=60), pd.DataFrame({
-        "unit": "short", "date": pd.date_range("2021", periods=2), "x1": [1.0, 2.0],
-        "x2": [0.0, 1.0], "u": [1.0, 0.0]})], ignore_index=True)
-    ms = ltv.fit_many(dd.from_pandas(frame, npartitions=2), by="unit", state=STATE,
-                      inputs=INPUT, time="date", engine=client, lam="auto")
+    frame = pd.concat(
+        [
+            panel(4, T=60),
+            pd.DataFrame(
+                {
+                    "unit": "short",
+                    "date": pd.date_range("2021", periods=2),
+                    "x1": [1.0, 2.0],
+                    "x2": [0.0, 1.0],
+                    "u": [1.0, 0.0],
+                }
+            ),
+        ],
+        ignore_index=True,
+    )
+    ms = ltv.fit_many(
+        dd.from_pandas(frame, npartitions=2),
+        by="unit",
+        state=STATE,
+        inputs=INPUT,
+        time="date",
+        engine=client,
+        lam="auto",
+    )
     assert set(ms.errors) == {"short"} and "too few samples" in ms.errors["short"]
     with pytest.raises(ValueError, match="state: column 'x9' is not in data"):
-        ltv.fit_many(dd.from_pandas(frame, npartitions=2), by="unit", state=["x1", "x9"],
-                     engine=client, lam=1.0)
+        ltv.fit_many(
+            dd.from_pandas(frame, npartitions=2),
+            by="unit",
+            state=["x1", "x9"],
+            engine=client,
+            lam=1.0,
+        )
     for unit in ms:
         assert_same_model(ms[unit], ltv.fit(*unit_rows(frame, unit), lam="auto"))
 
@@ -75,8 +113,9 @@ def test_a_killed_dask_worker_loses_nothing(client, tmp_path):
     from many_methods import die_once
 
     data = marked_units(24, {5})
-    ms = ltv.fit_many(data, method=die_once, marker=str(tmp_path / "killed"), lam=10.0,
-                      engine=client)
+    ms = ltv.fit_many(
+        data, method=die_once, marker=str(tmp_path / "killed"), lam=10.0, engine=client
+    )
     assert (tmp_path / "killed").exists()  # a worker process was killed during the run
     assert ms.errors == {} and len(ms) == 24
     for unit, (x, u) in data.items():
@@ -99,10 +138,28 @@ def test_cli_on_a_scheduler(client, tmp_path, capsys):
     frame = panel(3, T=50)
     frame.to_csv(tmp_path / "panel.csv", index=False)
     address = client.scheduler.address
-    status = main(["fit-many", str(tmp_path / "panel.csv"), "--by", "unit", "--time", "date",
-                   "--state", "x1,x2", "--input", "u", "--lam", "5", "--scheduler", address,
-                   "--out", str(tmp_path / "s.csv")])
+    status = main(
+        [
+            "fit-many",
+            str(tmp_path / "panel.csv"),
+            "--by",
+            "unit",
+            "--time",
+            "date",
+            "--state",
+            "x1,x2",
+            "--input",
+            "u",
+            "--lam",
+            "5",
+            "--scheduler",
+            address,
+            "--out",
+            str(tmp_path / "s.csv"),
+        ]
+    )
     assert status == 0 and f"on the cluster at {address}" in capsys.readouterr().out
     summary = pd.read_csv(tmp_path / "s.csv", index_col="unit")
     assert summary.loc["m1", "loglik"] == pytest.approx(
-        ltv.fit(*unit_rows(frame, "m1"), lam=5.0).loglik, rel=1e-15)
+        ltv.fit(*unit_rows(frame, "m1"), lam=5.0).loglik, rel=1e-15
+    )

@@ -224,9 +224,10 @@ def test_every_model_kind_plots():
     assert [ax.get_title() for ax in fig.axes] == ["y:y[t-1]", "y:y[t-2]"]
     ax = plotting.plot_poles(ar)
     assert ax.get_title() == "Poles of the AR model"
-    np.testing.assert_allclose(np.sort_complex(ax.collections[0].get_offsets()[:2] @
-                                               np.array([1, 1j])),
-                               np.sort_complex(ar.poles()[0]))
+    np.testing.assert_allclose(
+        np.sort_complex(ax.collections[0].get_offsets()[:2] @ np.array([1, 1j])),
+        np.sort_complex(ar.poles()[0]),
+    )
     with pytest.raises(TypeError, match=r"^model: expected a model with coefficients"):
         plotting.plot_coefficients(object())
     # overviews: a regression has no dynamics panel, an AR model shows its pole magnitudes
@@ -243,13 +244,13 @@ def test_root_spectrogram_takes_its_units_from_the_time_index():
     y = np.zeros(300)
     for t in range(2, 300):
         y[t] = 1.5 * y[t - 1] - 0.9 * y[t - 2] + 0.1 * rng.standard_normal()
-    yearly = ltv.fit_ar(pd.Series(y, index=1700.0 + np.arange(300), name="level"), 2,
-                        lam=30.0)
+    yearly = ltv.fit_ar(pd.Series(y, index=1700.0 + np.arange(300), name="level"), 2, lam=30.0)
     ax = yearly.plot()
     assert ax.get_ylabel() == "frequency (cycles per unit of time)"
     assert ax.get_xlabel() == "time" and ax.lines[0].get_xdata()[0] == 1702.0
-    daily = ltv.fit_ar(pd.Series(y, index=pd.date_range("2020-01-01", periods=300,
-                                                        freq="2D")), 2, lam=30.0)
+    daily = ltv.fit_ar(
+        pd.Series(y, index=pd.date_range("2020-01-01", periods=300, freq="2D")), 2, lam=30.0
+    )
     ax = daily.plot()
     assert ax.get_ylabel() == "frequency (cycles per day)" and ax.get_ylim()[1] == 0.25
     ax = yearly.plot(fs=100.0)  # an explicit sampling frequency keeps seconds and Hz

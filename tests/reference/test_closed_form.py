@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from dense_reference import DenseProblem, diag_blocks, random_data, relerr, row_scale
 
 import ltvmodels as ltv
-from dense_reference import DenseProblem, diag_blocks, random_data, relerr, row_scale
 
 ORDERS = [1, 2, [-1, 3, -3, 1]]
 ORDER_IDS = ["order1", "order2", "poly3"]
@@ -72,15 +72,16 @@ def test_scalar_lam_covariance_is_compact_and_shared_by_rows():
     ref = DenseProblem(x, u, 1, 2.0)
     _, H_inv = ref.solve()
     np.testing.assert_allclose(own.noise_var, ref.ml_noise_var(), rtol=1e-10)
-    assert relerr(own.cov_full(), row_scale(ref.ml_noise_var(), n, p)
-                  * diag_blocks(H_inv, N, n * p)) < TOL
+    assert (
+        relerr(own.cov_full(), row_scale(ref.ml_noise_var(), n, p) * diag_blocks(H_inv, N, n * p))
+        < TOL
+    )
     full = 0.3 * diag_blocks(H_inv, N, n * p)
     for i in range(n):  # every output row has the same p × p block, rows independent
         sl = slice(i * p, (i + 1) * p)
         assert relerr(model.cov, full[:, sl, sl]) < TOL
     assert np.abs(full[:, :p, p:]).max() < 1e-12 * np.abs(full).max()
-    np.testing.assert_allclose(model.std(), np.sqrt(np.diagonal(full, axis1=1, axis2=2)),
-                               rtol=1e-8)
+    np.testing.assert_allclose(model.std(), np.sqrt(np.diagonal(full, axis1=1, axis2=2)), rtol=1e-8)
 
 
 def test_given_noise_var_scales_covariance_only():
@@ -106,9 +107,7 @@ def test_compute_cov_false_gives_same_estimate_without_cov():
 
 
 @pytest.mark.parametrize("order", [1, 2, [-1, 3, -3, 1]], ids=ORDER_IDS)
-@pytest.mark.parametrize(
-    "const_idx", [[1], [2, 5], [2, 5, 8]], ids=["one", "two", "whole-column"]
-)
+@pytest.mark.parametrize("const_idx", [[1], [2, 5], [2, 5, 8]], ids=["one", "two", "whole-column"])
 def test_constant_coefficients_equal_shared_unknown_reference(order, const_idx):
     """λ_j = inf: coefficient j is one unknown shared by every time step."""
     n, m, T = 3, 0, 30

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from dense_reference import coefficients, difference_matrix, random_spd, relerr, simulate_ltv
 
 import ltvmodels as ltv
-from dense_reference import coefficients, difference_matrix, random_spd, relerr, simulate_ltv
 
 cp = pytest.importorskip("cvxpy")
 if "CLARABEL" not in cp.installed_solvers():  # pragma: no cover
@@ -31,8 +31,12 @@ def cvxpy_solution(x, u, order, W_sqrt, *, priors=(), output_priors=(), sigma2=1
     k = cp.Variable((N, K))
     # Row i of Θ_t is k_t[i p:(i+1) p]; prediction (N, n).
     pred = cp.hstack(
-        [cp.reshape(cp.sum(cp.multiply(k[:, i * p:(i + 1) * p], phi), axis=1), (N, 1), order="C")
-         for i in range(n)]
+        [
+            cp.reshape(
+                cp.sum(cp.multiply(k[:, i * p : (i + 1) * p], phi), axis=1), (N, 1), order="C"
+            )
+            for i in range(n)
+        ]
     )
     obj = cp.sum_squares(y - pred) + cp.sum_squares((D @ k) @ W_sqrt)
     for mean, cov in priors:
@@ -77,11 +81,20 @@ def test_matrix_lam_with_parameter_and_output_priors_matches_cvxpy():
     S1 = random_spd(rng, 2, 0.1)
     sigma2 = 0.3
     k_ref, value = cvxpy_solution(
-        x, u, 1, np.linalg.cholesky(Lam), priors=[(mu, S0)], output_priors=[(ybar, S1)],
+        x,
+        u,
+        1,
+        np.linalg.cholesky(Lam),
+        priors=[(mu, S0)],
+        output_priors=[(ybar, S1)],
         sigma2=sigma2,
     )
     model = ltv.fit(
-        x, u, lam=Lam, order=1, prior=[ltv.Prior(mu, S0), ltv.OutputPrior(ybar, S1)],
+        x,
+        u,
+        lam=Lam,
+        order=1,
+        prior=[ltv.Prior(mu, S0), ltv.OutputPrior(ybar, S1)],
         noise_var=sigma2,
     )
     assert relerr(model.k, k_ref) < 1e-6

@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from dense_reference import best_lam, lam_criterion, simulate_ltv
 
 import ltvmodels as ltv
-from dense_reference import best_lam, lam_criterion, simulate_ltv
 
 # The refinement stops at xatol = 1e-3 in log λ (measured: <= 2e-3 relative).
 LAM_RTOL = 3e-3
@@ -31,7 +31,8 @@ def test_selected_lam_is_the_dense_optimum(seed, order, method):
     choice = ltv.select_lambda(x, u, norm="sq", order=order, method=method)
     expected = best_lam(x, u, order, method)
     assert choice.lam == pytest.approx(expected, rel=LAM_RTOL), (
-        f"{method}: selected λ = {choice.lam:.6g}, the dense optimum is {expected:.6g}")
+        f"{method}: selected λ = {choice.lam:.6g}, the dense optimum is {expected:.6g}"
+    )
     # ... and the criterion there is the optimal value (it is flat at the optimum,
     # so this is the weaker check; it catches a wrong criterion, not a wrong λ)
     at_choice = lam_criterion(x, u, order, choice.lam, method)

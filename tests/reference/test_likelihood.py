@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from dense_reference import DenseProblem, random_data, random_spd, simulate_ltv
 from scipy.optimize import minimize, minimize_scalar
 
 import ltvmodels as ltv
-from dense_reference import DenseProblem, random_data, random_spd, simulate_ltv
 
 ORDERS = [1, 2, [-1, 3, -3, 1], [0.5, -1.5, 1.0], [1.0, -3.0, 2.0]]
 ORDER_IDS = ["order1", "order2", "poly3", "(z-1)(z-.5)", "(z-1)(2z-1)"]
@@ -99,13 +99,20 @@ def test_noise_var_none_is_the_ml_estimate(order, kind):
     ref = DenseProblem(x, u, order, lam)
     if kind == "matrix" and np.any(np.abs(np.asarray(lam)) * ~np.eye(len(lam), dtype=bool)):
         assert s2[0] == s2[1]
-        res = minimize(lambda v: -ref.loglik_kappa(np.inf, np.exp(v[0])),
-                       np.log(s2[:1]) + 0.3, method="Nelder-Mead",
-                       options={"xatol": 1e-10, "fatol": 1e-13})
+        res = minimize(
+            lambda v: -ref.loglik_kappa(np.inf, np.exp(v[0])),
+            np.log(s2[:1]) + 0.3,
+            method="Nelder-Mead",
+            options={"xatol": 1e-10, "fatol": 1e-13},
+        )
     else:
         assert s2[0] != s2[1]
-        res = minimize(lambda v: -ref.loglik_kappa(np.inf, np.exp(v)), np.log(s2) + 0.3,
-                       method="Nelder-Mead", options={"xatol": 1e-10, "fatol": 1e-13})
+        res = minimize(
+            lambda v: -ref.loglik_kappa(np.inf, np.exp(v)),
+            np.log(s2) + 0.3,
+            method="Nelder-Mead",
+            options={"xatol": 1e-10, "fatol": 1e-13},
+        )
     # The likelihood is flat at its maximum (a relative change δ in σ² costs
     # ~N·δ²/2), so the optimizer's argmax is only good to ~1e-5 relative:
     # compare the likelihood values, which are good to ~1e-11.
@@ -129,7 +136,10 @@ def prior_system():
     rng = np.random.default_rng(58)
     N, K = k_true.shape
     return dict(
-        x=x, u=u, N=N, K=K,
+        x=x,
+        u=u,
+        N=N,
+        K=K,
         mu=k_true + 0.05 * rng.standard_normal(k_true.shape),
         S=random_spd(rng, K, 0.2),
         ybar=x[1:] + 0.1 * rng.standard_normal((N, 2)),
@@ -166,11 +176,13 @@ def test_noise_var_none_with_prior_is_the_ml_estimate(prior_system):
         assert ltv.fit(s["x"], s["u"], lam=2.0, prior=prior, noise_var=f * s2).loglik < model.loglik
 
     def neg(v):
-        return -DenseProblem(s["x"], s["u"], 1, 2.0, sigma2=np.exp(v),
-                             param_priors=[(s["mu"], s["S"])]).loglik_with_prior()
+        return -DenseProblem(
+            s["x"], s["u"], 1, 2.0, sigma2=np.exp(v), param_priors=[(s["mu"], s["S"])]
+        ).loglik_with_prior()
 
-    res = minimize_scalar(neg, bounds=(np.log(s2) - 3, np.log(s2) + 3), method="bounded",
-                          options={"xatol": 1e-9})
+    res = minimize_scalar(
+        neg, bounds=(np.log(s2) - 3, np.log(s2) + 3), method="bounded", options={"xatol": 1e-9}
+    )
     assert np.exp(res.x) == pytest.approx(s2, rel=1e-4)
     assert model.loglik == pytest.approx(-res.fun, abs=1e-6)
 
@@ -198,7 +210,8 @@ def test_per_output_noise_with_priors_that_do_not_couple_rows(prior_system, kind
     def neg(v):
         return -DenseProblem(s["x"], s["u"], 1, 2.0, sigma2=np.exp(v), **dense).loglik_with_prior()
 
-    res = minimize(neg, np.log(s2) + 0.2, method="Nelder-Mead",
-                   options={"xatol": 1e-9, "fatol": 1e-12})
+    res = minimize(
+        neg, np.log(s2) + 0.2, method="Nelder-Mead", options={"xatol": 1e-9, "fatol": 1e-12}
+    )
     np.testing.assert_allclose(np.exp(res.x), s2, rtol=1e-3)
     assert model.loglik >= -res.fun - 1e-7

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from dense_reference import DenseProblem, diag_blocks, random_data, random_spd, relerr, row_scale
 
 import ltvmodels as ltv
-from dense_reference import DenseProblem, diag_blocks, random_data, random_spd, relerr, row_scale
 
 hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import given, settings  # noqa: E402
@@ -60,8 +60,7 @@ def test_exact_prior_equals_dense_map(problem, sigma2, prior_var):
     n = x.shape[1]
     K = n * (n + (0 if u is None else u.shape[1]))
     mean = np.random.default_rng(N).standard_normal(K)
-    model = ltv.fit(x, u, lam=lam, order=order, prior=ltv.Prior(mean, prior_var),
-                    noise_var=sigma2)
+    model = ltv.fit(x, u, lam=lam, order=order, prior=ltv.Prior(mean, prior_var), noise_var=sigma2)
     ref = DenseProblem(x, u, order, lam, sigma2=sigma2, param_priors=[(mean, prior_var)])
     k, H_inv = ref.solve()
     assert relerr(model.k, k) < 1e-7

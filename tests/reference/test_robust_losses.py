@@ -53,8 +53,11 @@ def _cvxpy_reference(x, u, weights, lam, coeffs, *, norm, loss, delta=None):
     for r in range(R):
         for t in range(N):
             phi = np.concatenate([x[r, t], u[r, t]])
-            if weights[r, t] == 0 or not np.all(np.isfinite(phi)) \
-                    or not np.all(np.isfinite(x[r, t + 1])):
+            if (
+                weights[r, t] == 0
+                or not np.all(np.isfinite(phi))
+                or not np.all(np.isfinite(x[r, t + 1]))
+            ):
                 continue
             rows.append(t)
             targets.append(x[r, t + 1])
@@ -64,12 +67,12 @@ def _cvxpy_reference(x, u, weights, lam, coeffs, *, norm, loss, delta=None):
     row_weights = np.array(row_weights)
     terms = []
     for i in range(n):
-        fitted = cp.sum(cp.multiply(phis, k[rows, i * p:(i + 1) * p]), axis=1)
+        fitted = cp.sum(cp.multiply(phis, k[rows, i * p : (i + 1) * p]), axis=1)
         resid = targets[:, i] - fitted
         entry = cp.huber(resid, delta[i]) if loss == "huber" else cp.abs(resid)
         terms.append(row_weights @ entry)
     d = len(coeffs) - 1
-    Dk = sum(c * k[j:N - d + j] for j, c in enumerate(coeffs))
+    Dk = sum(c * k[j : N - d + j] for j, c in enumerate(coeffs))
     constraints = []
     if norm == "sq" and not np.all(np.isfinite(lam)):
         constraints = [k[1:] == k[:-1]]  # LTI
@@ -80,8 +83,9 @@ def _cvxpy_reference(x, u, weights, lam, coeffs, *, norm, loss, delta=None):
         held = ~np.isfinite(weights)  # coefficients constant in time
         constraints = [k[1:, j] == k[:-1, j] for j in np.flatnonzero(held)]
         scaled = cp.multiply(Dk[:, ~held], np.tile(weights[~held], (N - d, 1)))
-        terms.append(cp.sum(cp.norm(scaled, 2, axis=1)) if norm == "group"
-                     else cp.sum(cp.abs(scaled)))
+        terms.append(
+            cp.sum(cp.norm(scaled, 2, axis=1)) if norm == "group" else cp.sum(cp.abs(scaled))
+        )
     problem = cp.Problem(cp.Minimize(sum(terms)), constraints)
     problem.solve(solver=cp.CLARABEL, tol_gap_abs=1e-9, tol_gap_rel=1e-9, tol_feas=1e-9)
     return problem.value, k.value
@@ -91,15 +95,17 @@ def _cvxpy_reference(x, u, weights, lam, coeffs, *, norm, loss, delta=None):
 def test_huber_matches_clarabel_with_missing_samples_and_weights(order, coeffs):
     x, u, w = _data(order)
     delta = np.array([0.15, 0.25])
-    model = ltv.fit(x, u, lam=3.0, order=order, weights=w, loss="huber", huber_delta=delta,
-                    tol=1e-11)
+    model = ltv.fit(
+        x, u, lam=3.0, order=order, weights=w, loss="huber", huber_delta=delta, tol=1e-11
+    )
     optimum, k = _cvxpy_huber(x, u, w, 3.0, np.array(coeffs), delta)
     assert model.status.success and model.info["kkt_residual"] <= 1e-11
     assert model.info["objective"] == pytest.approx(optimum, rel=1e-8)
     np.testing.assert_allclose(model.k, k, atol=1e-6)
     # the outliers reported are the residuals beyond δ, in the units of x
-    resid = x[:, 1:] - np.einsum("tij,rtj->rti", model.theta,
-                                 np.concatenate([x[:, :-1], u[:, :-1]], axis=2))
+    resid = x[:, 1:] - np.einsum(
+        "tij,rtj->rti", model.theta, np.concatenate([x[:, :-1], u[:, :-1]], axis=2)
+    )
     observed = np.isfinite(resid) & (w > 0)[:, :, None]
     expected = observed & (np.abs(np.nan_to_num(resid)) > delta)
     np.testing.assert_array_equal(model.outliers, expected)
@@ -130,8 +136,7 @@ def test_regression_and_ar_front_ends_use_per_output_thresholds():
     phi = rng.standard_normal((80, 2))
     y = phi @ np.array([[1.0, -0.5], [0.3, 0.8]]).T + 0.05 * rng.standard_normal((80, 2))
     y[10] += [2.0, -3.0]
-    model = ltv.fit_regression(y, phi, lam=10.0, loss="huber", huber_delta=[0.1, 0.2],
-                               tol=1e-11)
+    model = ltv.fit_regression(y, phi, lam=10.0, loss="huber", huber_delta=[0.1, 0.2], tol=1e-11)
     assert model.outliers.shape == (80, 2) and model.outliers[10].all()
     assert model.info["huber_delta"] == [0.1, 0.2]
     ar = ltv.fit_ar(y[:, 0], 2, lam=10.0, loss="huber")
@@ -153,9 +158,10 @@ def test_huber_resists_gross_outliers_on_the_jump_linear_system():
     hit = rng.choice(x.shape[0], size=x.shape[0] // 20, replace=False)
     state = rng.integers(0, 2, size=hit.size)
     x[hit, state] += 5 * np.std(data.x, axis=0)[state]
-    errors = {loss: np.sqrt(np.mean((ltv.fit(x, data.u, lam=30.0, loss=loss).theta - clean)
-                                    ** 2))
-              for loss in ("squared", "huber")}
+    errors = {
+        loss: np.sqrt(np.mean((ltv.fit(x, data.u, lam=30.0, loss=loss).theta - clean) ** 2))
+        for loss in ("squared", "huber")
+    }
     assert errors["huber"] < 0.7 * errors["squared"], errors
 
 
@@ -168,9 +174,12 @@ def test_huber_discounts_output_outliers_of_a_regression():
     spoiled = y.copy()
     hit = rng.choice(400, size=20, replace=False)
     spoiled[hit] += 5.0 * np.std(y)
-    errors = {loss: np.sqrt(np.mean((ltv.fit_regression(spoiled, phi, lam=30.0, loss=loss)
-                                     .theta - clean) ** 2))
-              for loss in ("squared", "huber")}
+    errors = {
+        loss: np.sqrt(
+            np.mean((ltv.fit_regression(spoiled, phi, lam=30.0, loss=loss).theta - clean) ** 2)
+        )
+        for loss in ("squared", "huber")
+    }
     assert errors["huber"] < 0.5 * errors["squared"], errors  # measured 0.055 vs 0.144
 
 
@@ -206,8 +215,23 @@ def test_segments_keep_the_squared_loss_and_the_cli_takes_huber(tmp_path, capsys
 
     path = tmp_path / "data.csv"
     np.savetxt(path, np.c_[x[1], u[1]], delimiter=",", header="x1,x2,u1", comments="")
-    code = main(["fit", str(path), "--state", "x1,x2", "--input", "u1", "--lam", "3",
-                 "--loss", "huber", "--huber-delta", "0.2", "--json"])
+    code = main(
+        [
+            "fit",
+            str(path),
+            "--state",
+            "x1,x2",
+            "--input",
+            "u1",
+            "--lam",
+            "3",
+            "--loss",
+            "huber",
+            "--huber-delta",
+            "0.2",
+            "--json",
+        ]
+    )
     report = __import__("json").loads(capsys.readouterr().out)
     assert code == 0 and report["loss"] == "huber" and report["huber_delta"] == [0.2, 0.2]
     assert report["n_outliers"] >= 1  # the planted -4 in x2
@@ -218,10 +242,12 @@ def test_segments_keep_the_squared_loss_and_the_cli_takes_huber(tmp_path, capsys
 def test_sparse_huber_matches_clarabel(norm, order, coeffs):
     x, u, w = _data(10 + order)
     delta = np.array([0.15, 0.25])
-    model = ltv.fit(x, u, lam=0.5, norm=norm, order=order, weights=w, loss="huber",
-                    huber_delta=delta, tol=1e-10)
-    optimum, k = _cvxpy_reference(x, u, w, 0.5, np.array(coeffs), norm=norm, loss="huber",
-                                  delta=delta)
+    model = ltv.fit(
+        x, u, lam=0.5, norm=norm, order=order, weights=w, loss="huber", huber_delta=delta, tol=1e-10
+    )
+    optimum, k = _cvxpy_reference(
+        x, u, w, 0.5, np.array(coeffs), norm=norm, loss="huber", delta=delta
+    )
     assert model.status.success and model.info["kkt_residual"] <= 1e-10
     assert model.info["objective"] == pytest.approx(optimum, rel=1e-7)
     np.testing.assert_allclose(model.k, k, atol=1e-4)
@@ -233,8 +259,7 @@ def test_sparse_huber_matches_clarabel(norm, order, coeffs):
 def test_sparse_huber_with_delta_beyond_every_residual_is_the_squared_loss_fit(norm):
     x, u, w = _data(12)
     squared = ltv.fit(x, u, lam=0.5, norm=norm, weights=w, tol=1e-10)
-    huber = ltv.fit(x, u, lam=0.5, norm=norm, weights=w, loss="huber", huber_delta=1e6,
-                    tol=1e-10)
+    huber = ltv.fit(x, u, lam=0.5, norm=norm, weights=w, loss="huber", huber_delta=1e6, tol=1e-10)
     # both solved to the tolerance: the same optimum
     assert huber.info["objective"] == pytest.approx(squared.info["objective"], rel=1e-9)
     np.testing.assert_allclose(huber.k, squared.k, rtol=0, atol=1e-5)
@@ -261,8 +286,7 @@ def test_laplace_matches_clarabel_and_its_certificate_holds(norm, lam, order, co
 def test_laplace_lti_matches_clarabel():
     x, u, w = _data(23)
     model = ltv.fit_lti(x, u, weights=w, loss="laplace")
-    optimum, k = _cvxpy_reference(x, u, w, np.inf, np.array([-1.0, 1.0]), norm="sq",
-                                  loss="laplace")
+    optimum, k = _cvxpy_reference(x, u, w, np.inf, np.array([-1.0, 1.0]), norm="sq", loss="laplace")
     assert model.info["objective"] == pytest.approx(optimum, rel=1e-8)
     assert np.ptp(model.k, axis=0).max() == 0.0
 
@@ -306,14 +330,13 @@ def _cvxpy_piecewise(x, u, changepoints, order, loss, delta=None):
         basis = np.stack([(t >= a) & (t < b) for a, b in zip(bounds[:-1], bounds[1:])], 1)
     else:
         knots = np.concatenate([[0], changepoints, [N - 1]])
-        basis = np.stack([np.interp(t, knots, np.eye(len(knots))[j])
-                          for j in range(len(knots))], 1)
+        basis = np.stack([np.interp(t, knots, np.eye(len(knots))[j]) for j in range(len(knots))], 1)
     gamma = cp.Variable((basis.shape[1], n * p))
     k = basis.astype(float) @ gamma
     phi = np.concatenate([x[:-1], u[:-1]], axis=1)
     terms = []
     for i in range(n):
-        resid = x[1:, i] - cp.sum(cp.multiply(phi, k[:, i * p:(i + 1) * p]), axis=1)
+        resid = x[1:, i] - cp.sum(cp.multiply(phi, k[:, i * p : (i + 1) * p]), axis=1)
         terms.append(cp.sum(cp.huber(resid, delta[i]) if loss == "huber" else cp.abs(resid)))
     problem = cp.Problem(cp.Minimize(sum(terms)))
     problem.solve(solver=cp.CLARABEL, tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10)
@@ -369,12 +392,26 @@ def test_cli_fits_the_laplacian_loss(tmp_path, capsys):
     x, u, _ = _data(24)
     path = tmp_path / "data.csv"
     np.savetxt(path, np.c_[x[0], u[0]], delimiter=",", header="x1,x2,u1", comments="")
-    code = main(["fit", str(path), "--state", "x1,x2", "--input", "u1", "--lam", "1",
-                 "--loss", "laplace", "--json"])
+    code = main(
+        [
+            "fit",
+            str(path),
+            "--state",
+            "x1,x2",
+            "--input",
+            "u1",
+            "--lam",
+            "1",
+            "--loss",
+            "laplace",
+            "--json",
+        ]
+    )
     report = __import__("json").loads(capsys.readouterr().out)
     assert code == 0 and report["loss"] == "laplace" and report["duality_gap"] <= 1e-6
-    code = main(["fit", str(path), "--state", "x1,x2", "--input", "u1", "--lam", "1",
-                 "--loss", "laplace"])
+    code = main(
+        ["fit", str(path), "--state", "x1,x2", "--input", "u1", "--lam", "1", "--loss", "laplace"]
+    )
     assert code == 0 and "loss: laplace (absolute residuals)" in capsys.readouterr().out
 
 
@@ -388,8 +425,9 @@ def test_sparse_robust_losses_with_a_coefficient_held_constant(loss, norm):
     delta = np.array([0.15, 0.25]) if loss == "huber" else None
     tol = 1e-9 if loss == "huber" else 1e-5  # smoothing: certified to about 1e-6
     model = ltv.fit(x, u, lam=lam, norm=norm, weights=w, loss=loss, huber_delta=delta, tol=tol)
-    optimum, _ = _cvxpy_reference(x, u, w, lam, np.array([-1.0, 1.0]), norm=norm, loss=loss,
-                                  delta=delta)
+    optimum, _ = _cvxpy_reference(
+        x, u, w, lam, np.array([-1.0, 1.0]), norm=norm, loss=loss, delta=delta
+    )
     assert "residual cones" not in model.status.solver.split("; ")[0]
     assert np.ptp(model.k[:, 2]) == pytest.approx(0.0, abs=1e-12)
     assert model.info["objective"] == pytest.approx(optimum, rel=10 * tol)
@@ -406,13 +444,23 @@ def test_huber_with_a_parameter_prior_matches_clarabel():
     mean = np.array([0.5, 0.1, 0.3, -0.1, 0.4, 0.2])
     cov = np.diag([0.5, 0.5, 1.0, 0.2, 0.2, 1.0])
     sigma2 = np.array([0.01, 0.02])
-    model = ltv.fit(x, u, lam=3.0, weights=w, loss="huber", huber_delta=delta,
-                    prior=ltv.Prior(mean, cov), noise_var=sigma2, tol=1e-11)
+    model = ltv.fit(
+        x,
+        u,
+        lam=3.0,
+        weights=w,
+        loss="huber",
+        huber_delta=delta,
+        prior=ltv.Prior(mean, cov),
+        noise_var=sigma2,
+        tol=1e-11,
+    )
     R, T, n = x.shape
     p, N = n + u.shape[2], T - 1
     k = cp.Variable((N, n * p))
-    value, _ = _cvxpy_reference(x, u, w, 3.0, np.array([-1.0, 1.0]), norm="sq", loss="huber",
-                                delta=delta)
+    value, _ = _cvxpy_reference(
+        x, u, w, 3.0, np.array([-1.0, 1.0]), norm="sq", loss="huber", delta=delta
+    )
     # the same problem plus the prior, built directly
     terms = []
     precision = np.linalg.inv(cov)
@@ -422,8 +470,9 @@ def test_huber_with_a_parameter_prior_matches_clarabel():
             if w[r, t] == 0 or not np.all(np.isfinite(phi)) or not np.all(np.isfinite(x[r, t + 1])):
                 continue
             for i in range(n):
-                terms.append(w[r, t] * cp.huber(x[r, t + 1, i] - phi @ k[t, i * p:(i + 1) * p],
-                                                delta[i]))
+                terms.append(
+                    w[r, t] * cp.huber(x[r, t + 1, i] - phi @ k[t, i * p : (i + 1) * p], delta[i])
+                )
     terms.append(9.0 * cp.sum_squares(k[1:] - k[:-1]))
     scale = np.repeat(sigma2, p)  # output i's rows weighted by σ_i²
     root = np.linalg.cholesky(precision).T * np.sqrt(scale)[None, :]
@@ -434,8 +483,9 @@ def test_huber_with_a_parameter_prior_matches_clarabel():
     assert model.info["objective"] == pytest.approx(problem.value, rel=1e-7)
     assert model.info["objective"] > value  # the prior pulls away from the prior-free optimum
     np.testing.assert_array_equal(model.noise_var, sigma2)
-    default = ltv.fit(x, u, lam=3.0, weights=w, loss="huber", huber_delta=delta,
-                      prior=ltv.Prior(mean, cov))
+    default = ltv.fit(
+        x, u, lam=3.0, weights=w, loss="huber", huber_delta=delta, prior=ltv.Prior(mean, cov)
+    )
     assert default.info["prior_scale"] == pytest.approx((delta / 1.345) ** 2)
     with pytest.raises(NotImplementedError, match=r"^prior: not available with loss='laplace'"):
         ltv.fit(x, u, lam=3.0, loss="laplace", prior=ltv.Prior(mean, cov))

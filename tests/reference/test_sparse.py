@@ -27,15 +27,15 @@ import warnings
 
 import numpy as np
 import pytest
-
-import ltvmodels as ltv
-import ltvmodels.core.sparse as sparse_dispatch
 from dense_reference import (
     sparse_lower_bound,
     sparse_objective,
     sparse_regression,
     state_space_regression,
 )
+
+import ltvmodels as ltv
+import ltvmodels.core.sparse as sparse_dispatch
 from ltvmodels.core.problem import state_space_problem
 from ltvmodels.core.sparse_common import lambda_max
 
@@ -65,10 +65,10 @@ def clarabel_regression(y, phi, weights, norm, coeffs, *, row_weights=None):
         obs = np.all(np.isfinite(phi[r]), axis=1) & np.all(np.isfinite(y[r]), axis=1)
         obs &= w[r] > 0
         for i in range(n):
-            fitted = cp.sum(cp.multiply(theta[obs, i * p:(i + 1) * p], phi[r][obs]), axis=1)
+            fitted = cp.sum(cp.multiply(theta[obs, i * p : (i + 1) * p], phi[r][obs]), axis=1)
             loss = loss + cp.sum(cp.multiply(w[r][obs], cp.square(y[r][obs, i] - fitted)))
     d = len(coeffs) - 1
-    Dk = sum(coeffs[j] * theta[j:N - d + j, :] for j in range(d + 1))
+    Dk = sum(coeffs[j] * theta[j : N - d + j, :] for j in range(d + 1))
     Z = cp.multiply(Dk, np.tile(weights, (N - d, 1)))
     reg = cp.sum(cp.norm(Z, 2, axis=1)) if norm == "group" else cp.sum(cp.abs(Z))
     problem = cp.Problem(cp.Minimize(loss + reg))
@@ -90,12 +90,25 @@ def clarabel_optimum(x, u, weights, norm, coeffs, *, row_weights=None, constant=
     R, T, _ = x.shape
     u = np.zeros((R, T, 0)) if u is None else np.asarray(u, float).reshape(R, T, -1)
     cols = [x[:, :-1], u[:, :-1]] + ([np.ones((R, T - 1, 1))] if constant else [])
-    return clarabel_regression(x[:, 1:], np.concatenate(cols, axis=2), weights, norm, coeffs,
-                               row_weights=row_weights)
+    return clarabel_regression(
+        x[:, 1:], np.concatenate(cols, axis=2), weights, norm, coeffs, row_weights=row_weights
+    )
 
 
-def check_against_clarabel(Phi, Y, model, weights, norm, coeffs, optimum, theta, *,
-                           objective_rtol, certificate_rtol, mu=None):
+def check_against_clarabel(
+    Phi,
+    Y,
+    model,
+    weights,
+    norm,
+    coeffs,
+    optimum,
+    theta,
+    *,
+    objective_rtol,
+    certificate_rtol,
+    mu=None,
+):
     """The checks shared by the comparisons: objective, certificate and (given μ) coefficients.
 
     Returns the relative suboptimality certified for the model's k.
@@ -112,12 +125,14 @@ def check_against_clarabel(Phi, Y, model, weights, norm, coeffs, optimum, theta,
     assert model.info["objective"] == pytest.approx(P, rel=1e-12), "info['objective']"
     assert P - optimum <= objective_rtol * optimum, (
         f"objective {P!r} vs Clarabel {optimum!r}: relative {(P - optimum) / optimum:.1e} "
-        f"> {objective_rtol:.0e}")
+        f"> {objective_rtol:.0e}"
+    )
     # below Clarabel's value by no more than Clarabel's own certified suboptimality
     assert optimum - P <= gap_ref + 1e-12 * optimum, "below the certified optimum"
     gap = P - bound
     assert gap <= certificate_rtol * P, (
-        f"certified suboptimality {gap / P:.1e} > {certificate_rtol:.0e}")
+        f"certified suboptimality {gap / P:.1e} > {certificate_rtol:.0e}"
+    )
     # fitted values are unique: ‖Φ̃(k − k*)‖² <= P(k) − P* (no conditioning needed)
     fit_bound = np.sqrt(max(gap, 0.0)) + np.sqrt(max(gap_ref, 0.0))
     fit_error = np.linalg.norm(Phi @ (model.k - theta).ravel())
@@ -146,8 +161,18 @@ def test_matches_clarabel(norm, order, coeffs, seed, frac):
     assert model.info["converged"] and model.info["solver"].startswith("interior point")
     assert model.info["duality_gap"] <= IPM_TOL * model.info["objective"]
     Phi, Y = state_space_regression(x, u)
-    check_against_clarabel(Phi, Y, model, weights, norm, coeffs, optimum, theta,
-                           objective_rtol=IPM_TOL, certificate_rtol=2 * IPM_TOL)
+    check_against_clarabel(
+        Phi,
+        Y,
+        model,
+        weights,
+        norm,
+        coeffs,
+        optimum,
+        theta,
+        objective_rtol=IPM_TOL,
+        certificate_rtol=2 * IPM_TOL,
+    )
     # One trajectory: k is not unique in every direction, but on these data
     # the solutions agree to ~1e-6 (measured <= 1.3e-6 at tol 1e-9).
     assert np.abs(model.k - theta).max() <= 1e-5 * np.abs(theta).max()
@@ -163,8 +188,18 @@ def test_without_inputs_and_with_weight_vector(norm):
     assert model.info["solver"].startswith("interior point")
     optimum, theta = clarabel_optimum(x, None, lam * weights, norm, [-1.0, 1.0])
     Phi, Y = state_space_regression(x)
-    check_against_clarabel(Phi, Y, model, lam * weights, norm, [-1.0, 1.0], optimum, theta,
-                           objective_rtol=IPM_TOL, certificate_rtol=2 * IPM_TOL)
+    check_against_clarabel(
+        Phi,
+        Y,
+        model,
+        lam * weights,
+        norm,
+        [-1.0, 1.0],
+        optimum,
+        theta,
+        objective_rtol=IPM_TOL,
+        certificate_rtol=2 * IPM_TOL,
+    )
 
 
 @pytest.mark.parametrize("norm", ["group", "l1"])
@@ -235,10 +270,10 @@ def test_constant_coefficients_match_clarabel(norm, order, coeffs):
 
     theta = cp.Variable((N, n * p))
     phi = pb.phi[:, 0]  # one complete trajectory
-    fitted = [cp.sum(cp.multiply(theta[:, i * p:(i + 1) * p], phi), axis=1) for i in range(n)]
+    fitted = [cp.sum(cp.multiply(theta[:, i * p : (i + 1) * p], phi), axis=1) for i in range(n)]
     loss = sum(cp.sum_squares(pb.y[:, 0, i] - fitted[i]) for i in range(n))
     d = len(coeffs) - 1
-    Dk = sum(coeffs[j] * theta[j:N - d + j, :] for j in range(d + 1))
+    Dk = sum(coeffs[j] * theta[j : N - d + j, :] for j in range(d + 1))
     finite = np.where(np.isinf(weights), 0.0, weights)
     Z = cp.multiply(Dk, np.tile(finite, (N - d, 1)))
     reg = cp.sum(cp.norm(Z, 2, axis=1)) if norm == "group" else cp.sum(cp.abs(Z))
@@ -249,8 +284,18 @@ def test_constant_coefficients_match_clarabel(norm, order, coeffs):
         problem.solve(solver=cp.CLARABEL, tol_gap_abs=1e-12, tol_gap_rel=1e-12, tol_feas=1e-12)
     # ("optimal_inaccurate" at these tolerances; the certificate below checks it)
     Phi, Y = state_space_regression(x, u)
-    check_against_clarabel(Phi, Y, model, weights, norm, coeffs, problem.value, theta.value,
-                           objective_rtol=IPM_TOL, certificate_rtol=2 * IPM_TOL)
+    check_against_clarabel(
+        Phi,
+        Y,
+        model,
+        weights,
+        norm,
+        coeffs,
+        problem.value,
+        theta.value,
+        objective_rtol=IPM_TOL,
+        certificate_rtol=2 * IPM_TOL,
+    )
     assert np.abs(model.k - theta.value).max() <= 1e-5 * np.abs(theta.value).max()
 
 
@@ -273,14 +318,23 @@ def test_missing_samples_batches_and_weights_match_clarabel(norm, order, coeffs)
     u[2, 12] = np.nan
     w = rng.uniform(0.5, 2.0, (3, 39))
     lam = 0.2 * ltv.lambda_max(x, u, norm=norm, order=order, weights=w, constant=True)
-    model = ltv.fit(x, u, lam=lam, norm=norm, order=order, weights=w, constant=True,
-                    tol=IPM_TOL)
+    model = ltv.fit(x, u, lam=lam, norm=norm, order=order, weights=w, constant=True, tol=IPM_TOL)
     assert model.info["solver"].startswith("interior point")
     weights = np.full(model.K, lam)
     optimum, theta = clarabel_optimum(x, u, weights, norm, coeffs, row_weights=w, constant=True)
     Phi, Y = state_space_regression(x, u, w, constant=True)
-    check_against_clarabel(Phi, Y, model, weights, norm, coeffs, optimum, theta,
-                           objective_rtol=IPM_TOL, certificate_rtol=2 * IPM_TOL)
+    check_against_clarabel(
+        Phi,
+        Y,
+        model,
+        weights,
+        norm,
+        coeffs,
+        optimum,
+        theta,
+        objective_rtol=IPM_TOL,
+        certificate_rtol=2 * IPM_TOL,
+    )
     np.testing.assert_allclose(model.k, theta, atol=1e-5 * np.abs(theta).max())
 
 
@@ -309,7 +363,7 @@ def jump_batches(seed, R, T, n, m, noise=0.1):
 
 def strong_convexity(Phi, N, K):
     """μ = λ_min(Φ̃ᵀΦ̃): Φ̃ᵀΦ̃ is block diagonal with one K × K block per time step."""
-    blocks = [Phi[:, t * K:(t + 1) * K] for t in range(N)]
+    blocks = [Phi[:, t * K : (t + 1) * K] for t in range(N)]
     return min(float(np.linalg.eigvalsh(b.T @ b)[0]) for b in blocks)
 
 
@@ -336,9 +390,19 @@ def test_wide_state_space_matches_clarabel(norm, order, coeffs, solver, monkeypa
     Phi, Y = state_space_regression(x, u)
     mu = strong_convexity(Phi, model.N, model.K)
     assert mu > 1e-3
-    check_against_clarabel(Phi, Y, model, weights, norm, coeffs, optimum, theta,
-                           objective_rtol=ADMM_AGREEMENT, certificate_rtol=ADMM_AGREEMENT,
-                           mu=mu)
+    check_against_clarabel(
+        Phi,
+        Y,
+        model,
+        weights,
+        norm,
+        coeffs,
+        optimum,
+        theta,
+        objective_rtol=ADMM_AGREEMENT,
+        certificate_rtol=ADMM_AGREEMENT,
+        mu=mu,
+    )
 
 
 @pytest.mark.parametrize("solver", ["interior point", "ADMM"])
@@ -349,8 +413,9 @@ def test_wide_regression_with_dropped_rows_matches_clarabel(norm, solver, monkey
     rng = np.random.default_rng(11)
     R, N, n, p = 10, 45, 3, 8
     phi = rng.standard_normal((R, N, p))
-    theta_true = np.where(np.arange(N)[:, None, None] < 20, 1.0, -0.5) \
-        * rng.standard_normal((1, n, p))
+    theta_true = np.where(np.arange(N)[:, None, None] < 20, 1.0, -0.5) * rng.standard_normal(
+        (1, n, p)
+    )
     y = np.einsum("tip,rtp->rti", theta_true, phi) + 0.1 * rng.standard_normal((R, N, n))
     w = rng.uniform(0.5, 2.0, (R, N))
     w[0, 3:9] = 0.0  # dropped transitions
@@ -358,17 +423,28 @@ def test_wide_regression_with_dropped_rows_matches_clarabel(norm, solver, monkey
     y[2, 17, 1] = np.nan  # a missing output drops its row
     phi[7, 40, 0] = np.nan
     lam = 0.1 * np.sqrt(float(np.nansum(y**2)))  # lambda_max is for the state-space form
-    model = ltv.fit_regression(y, phi, lam=lam, norm=norm, weights=w, tol=ADMM_TOL,
-                               max_iter=100_000)
+    model = ltv.fit_regression(
+        y, phi, lam=lam, norm=norm, weights=w, tol=ADMM_TOL, max_iter=100_000
+    )
     assert model.info["solver"].startswith(solver) and model.info["converged"]
     weights = np.full(n * p, lam)
     optimum, theta = clarabel_regression(y, phi, weights, norm, [-1.0, 1.0], row_weights=w)
     Phi, Y = sparse_regression(y, phi, w)
     mu = strong_convexity(Phi, N, n * p)
     assert mu > 1e-3
-    gap = check_against_clarabel(Phi, Y, model, weights, norm, [-1.0, 1.0], optimum, theta,
-                                 objective_rtol=ADMM_AGREEMENT,
-                                 certificate_rtol=ADMM_AGREEMENT, mu=mu)
+    gap = check_against_clarabel(
+        Phi,
+        Y,
+        model,
+        weights,
+        norm,
+        [-1.0, 1.0],
+        optimum,
+        theta,
+        objective_rtol=ADMM_AGREEMENT,
+        certificate_rtol=ADMM_AGREEMENT,
+        mu=mu,
+    )
     assert gap >= 0.0
     assert model.activation().max() > 0  # λ below λ_max: the coefficients do change
 
@@ -386,9 +462,19 @@ def test_zero_coefficient_weights_use_admm_and_match_clarabel(norm, order, coeff
     Phi, Y = state_space_regression(x, u)
     mu = strong_convexity(Phi, model.N, model.K)
     assert mu > 1e-3
-    check_against_clarabel(Phi, Y, model, weights, norm, coeffs, optimum, theta,
-                           objective_rtol=ADMM_AGREEMENT, certificate_rtol=ADMM_AGREEMENT,
-                           mu=mu)
+    check_against_clarabel(
+        Phi,
+        Y,
+        model,
+        weights,
+        norm,
+        coeffs,
+        optimum,
+        theta,
+        objective_rtol=ADMM_AGREEMENT,
+        certificate_rtol=ADMM_AGREEMENT,
+        mu=mu,
+    )
 
 
 @pytest.mark.parametrize("norm", ["group", "l1"])
@@ -396,8 +482,9 @@ def test_admm_warns_when_its_certificate_misses_the_tolerance(norm):
     """ADMM stops on the duality-gap certificate; cut short, it says so."""
     x, u = jump_batches(1, R=2, T=60, n=2, m=1)
     weights = 0.3 * ltv.lambda_max(x, u, norm=norm) * np.array([1.0, 0.0, 2.0, 0.5, 1.0, 1.0])
-    with pytest.warns(ltv.ConvergenceWarning,
-                      match=r"ADMM did not converge .*relative duality gap"):
+    with pytest.warns(
+        ltv.ConvergenceWarning, match=r"ADMM did not converge .*relative duality gap"
+    ):
         model = ltv.fit(x, u, lam=weights, norm=norm, max_iter=5)
     assert not model.info["converged"] and model.info["duality_gap"] > 0
     full = ltv.fit(x, u, lam=weights, norm=norm, tol=1e-8, max_iter=100_000)

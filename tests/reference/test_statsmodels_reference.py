@@ -132,8 +132,9 @@ def test_missing_samples_match_statsmodels_nan_observations():
     y = xs[1:].copy()
     gone = ~(np.all(np.isfinite(x[1:]), axis=1) & np.all(np.isfinite(x[:-1]), axis=1))
     y[gone] = np.nan
-    k_sm, cov_sm, llf, q = statsmodels_smoother_y(y, np.hstack([xs[:-1], u[:-1, None]]),
-                                                   10.0, noise_var)
+    k_sm, cov_sm, llf, q = statsmodels_smoother_y(
+        y, np.hstack([xs[:-1], u[:-1, None]]), 10.0, noise_var
+    )
     assert rel(model.k, k_sm) < 1e-8
     assert rel(model.cov_full(), cov_sm) < 1e-6
     assert llf == pytest.approx(model.loglik - 0.5 * q * LOG_2PI, rel=1e-9, abs=1e-6)
@@ -147,12 +148,16 @@ def statsmodels_smoother_y(y, phi, lam, noise_var):
     mod = MLEModel(y, k_states=n * p, k_posdef=n * p, initialization="diffuse")
     design = np.zeros((n, n * p, N))
     for i in range(n):
-        design[i, i * p:(i + 1) * p, :] = phi.T
+        design[i, i * p : (i + 1) * p, :] = phi.T
     mod["design"] = design
     mod["transition"] = np.eye(n * p)
     mod["selection"] = np.eye(n * p)
     mod["state_cov"] = np.kron(np.diag(noise_var), np.eye(p) / lam**2)
     mod["obs_cov"] = np.diag(noise_var)
     res = mod.ssm.smooth()
-    return (res.smoothed_state.T, res.smoothed_state_cov.transpose(2, 0, 1),
-            float(mod.ssm.loglike()), n * p)
+    return (
+        res.smoothed_state.T,
+        res.smoothed_state_cov.transpose(2, 0, 1),
+        float(mod.ssm.loglike()),
+        n * p,
+    )

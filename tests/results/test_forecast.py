@@ -12,9 +12,9 @@ import dataclasses
 
 import numpy as np
 import pytest
+from dense_reference import simulate_ltv, weight_matrix
 
 import ltvmodels as ltv
-from dense_reference import simulate_ltv, weight_matrix
 
 # -- data -------------------------------------------------------------------------------------
 
@@ -30,8 +30,9 @@ def random_walk_system(seed: int, T: int, H: int, lam: float, sigma=SIGMA):
     """
     rng = np.random.default_rng(seed)
     n, m = 2, 1
-    theta = np.hstack([0.5 * np.eye(n) + 0.1 * rng.standard_normal((n, n)),
-                       rng.standard_normal((n, m))])
+    theta = np.hstack(
+        [0.5 * np.eye(n) + 0.1 * rng.standard_normal((n, n)), rng.standard_normal((n, m))]
+    )
     x = np.zeros((T + H, n))
     u = rng.standard_normal((T + H, m))
     x[0] = rng.standard_normal(n)
@@ -61,9 +62,16 @@ def closed_form_step(model, x0, u0, W=None):
 
 # -- the first step: exact --------------------------------------------------------------------
 
-@pytest.mark.parametrize("lam, constant", [
-    (3.0, False), (3.0, True), (np.array([1.0, 2.0, np.inf, 1.5, 0.7, 3.0]), False),
-    (np.eye(6) * 4.0 + 0.5, False)])
+
+@pytest.mark.parametrize(
+    "lam, constant",
+    [
+        (3.0, False),
+        (3.0, True),
+        (np.array([1.0, 2.0, np.inf, 1.5, 0.7, 3.0]), False),
+        (np.eye(6) * 4.0 + 0.5, False),
+    ],
+)
 def test_first_step_is_the_closed_form(data, lam, constant):
     x, u = data
     noise_var = 0.02 if np.ndim(lam) == 2 else np.array([0.01, 0.04])
@@ -108,8 +116,9 @@ def test_monte_carlo_steps_agree_with_an_independent_simulation(data):
     for s in range(3):
         k = k + drift_sd * rng.standard_normal((S, n * p))
         phi = np.concatenate([state, np.broadcast_to(u_future[s], (S, 1))], axis=1)
-        state = np.einsum("sij,sj->si", k.reshape(S, n, p), phi) \
-            + rng.standard_normal((S, n)) @ noise.T
+        state = (
+            np.einsum("sij,sj->si", k.reshape(S, n, p), phi) + rng.standard_normal((S, n)) @ noise.T
+        )
         paths.append(state)
     paths = np.array(paths)
     sd = paths.std(axis=1)
@@ -135,8 +144,13 @@ def coverage(seeds, *, n_samples, drift=True):
             model = ltv.LTVModel(model.k, 2, 1, dataclasses.replace(model.record, norm="lti"))
         future = x[CAL_T:]
         for level, found in hits.items():
-            f = model.forecast(x[CAL_T - 1], u[CAL_T - 1:CAL_T - 1 + CAL_H], level=level,
-                               n_samples=n_samples, seed=seed)
+            f = model.forecast(
+                x[CAL_T - 1],
+                u[CAL_T - 1 : CAL_T - 1 + CAL_H],
+                level=level,
+                n_samples=n_samples,
+                seed=seed,
+            )
             found.append((f.lower <= future) & (future <= f.upper))
     return {level: np.mean(found, axis=(0, 2)) for level, found in hits.items()}
 
@@ -165,6 +179,7 @@ def test_intervals_are_calibrated_many_systems():
 
 
 # -- the continued coefficients and the exact path --------------------------------------------
+
 
 def test_order_2_continues_the_trend(data):
     x, u = data
@@ -214,7 +229,7 @@ def test_inputs_and_intercept_follow_the_models_simulation():
     u = rng.standard_normal((N + steps, m))
     x = long.simulate(rng.standard_normal(n), u)  # (N + steps + 1, n)
     f = short.forecast(x[N], u[N:], noise_cov=np.zeros((n, n)))
-    np.testing.assert_allclose(f.mean, x[N + 1:], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(f.mean, x[N + 1 :], rtol=1e-12, atol=1e-12)
     np.testing.assert_array_equal(f.time, np.arange(N + 1, N + 1 + steps))
     assert f.names == ["x0", "x1", "x2"]
     np.testing.assert_array_equal(f.lower, f.mean)
@@ -226,8 +241,7 @@ def test_fitted_intercept_enters_the_forecast(data):
     x, u = data
     model = ltv.fit(x + 2.0, u, lam=5.0, constant=True)
     f = model.forecast(x[-1] + 2.0, [[0.1]])
-    mean, cov = closed_form_step(model, x[-1] + 2.0, 0.1,
-                                 weight_matrix(5.0, model.K))
+    mean, cov = closed_form_step(model, x[-1] + 2.0, 0.1, weight_matrix(5.0, model.K))
     np.testing.assert_allclose(f.mean[0], mean, rtol=1e-12)
     np.testing.assert_allclose(f.cov[0], cov, rtol=1e-10)
     assert f.coefficients.shape == (1, 2, 4)
@@ -264,23 +278,39 @@ def test_seeded_reproducible_and_inputs_untouched(data):
 
 # -- input validation -------------------------------------------------------------------------
 
-@pytest.mark.parametrize("kwargs, error, pattern", [
-    ({"steps": 0}, ValueError, r"steps: expected an integer >= 1, received 0"),
-    ({"steps": 2}, ValueError, r"steps: expected 3 \(the number of future inputs"),
-    ({"level": 1.5}, ValueError, r"level: expected a probability in \(0, 1\).*received 1.5"),
-    ({"level": 0.0}, ValueError, r"level: expected a probability in \(0, 1\)"),
-    ({"level": "high"}, TypeError, r"level: expected a probability"),
-    ({"n_samples": 1}, ValueError, r"n_samples: expected an integer >= 2, received 1"),
-    ({"seed": -1}, TypeError, r"seed: expected a non-negative integer"),
-    ({"noise_cov": np.ones((3, 3))}, ValueError, r"noise_cov: expected a \(2, 2\)"),
-    ({"noise_cov": [[1.0, 0.0], [0.0, -1.0]]}, ValueError, r"noise_cov: .*positive semidef"),
-    ({"x0": [1.0, 2.0, 3.0]}, ValueError, r"x0: expected .* shape \(2,\), received shape \(3,\)"),
-    ({"x0": [1.0, np.nan]}, ValueError, r"x0: expected finite values"),
-    ({"u": None}, TypeError, r"u: expected the future inputs, shape \(steps, 1\).*received None"),
-    ({"u": np.ones((3, 2))}, ValueError, r"u: expected .*shape \(steps, 1\) or \(steps,\), "
-                                         r"received shape \(3, 2\)"),
-    ({"u": np.ones((0, 1))}, ValueError, r"u: expected at least one future input"),
-])
+
+@pytest.mark.parametrize(
+    "kwargs, error, pattern",
+    [
+        ({"steps": 0}, ValueError, r"steps: expected an integer >= 1, received 0"),
+        ({"steps": 2}, ValueError, r"steps: expected 3 \(the number of future inputs"),
+        ({"level": 1.5}, ValueError, r"level: expected a probability in \(0, 1\).*received 1.5"),
+        ({"level": 0.0}, ValueError, r"level: expected a probability in \(0, 1\)"),
+        ({"level": "high"}, TypeError, r"level: expected a probability"),
+        ({"n_samples": 1}, ValueError, r"n_samples: expected an integer >= 2, received 1"),
+        ({"seed": -1}, TypeError, r"seed: expected a non-negative integer"),
+        ({"noise_cov": np.ones((3, 3))}, ValueError, r"noise_cov: expected a \(2, 2\)"),
+        ({"noise_cov": [[1.0, 0.0], [0.0, -1.0]]}, ValueError, r"noise_cov: .*positive semidef"),
+        (
+            {"x0": [1.0, 2.0, 3.0]},
+            ValueError,
+            r"x0: expected .* shape \(2,\), received shape \(3,\)",
+        ),
+        ({"x0": [1.0, np.nan]}, ValueError, r"x0: expected finite values"),
+        (
+            {"u": None},
+            TypeError,
+            r"u: expected the future inputs, shape \(steps, 1\).*received None",
+        ),
+        (
+            {"u": np.ones((3, 2))},
+            ValueError,
+            r"u: expected .*shape \(steps, 1\) or \(steps,\), "
+            r"received shape \(3, 2\)",
+        ),
+        ({"u": np.ones((0, 1))}, ValueError, r"u: expected at least one future input"),
+    ],
+)
 def test_forecast_validates_its_inputs(data, kwargs, error, pattern):
     x, u = data
     model = ltv.fit(x, u, lam=5.0)
@@ -300,13 +330,18 @@ def test_forecast_validation_of_the_model(data):
     with pytest.raises(ValueError, match=r"noise_cov: the model has no noise covariance"):
         given.forecast(x[-1], steps=2)
     fitted = ltv.fit(x, u, lam=1.0)  # as if fitted with coefficient 1 free in time:
-    free = ltv.LTVModel(fitted.k, 2, 1, dataclasses.replace(
-        fitted.record, lam=np.array([1.0, 0.0, 1.0, 1.0, 1.0, 1.0])))
+    free = ltv.LTVModel(
+        fitted.k,
+        2,
+        1,
+        dataclasses.replace(fitted.record, lam=np.array([1.0, 0.0, 1.0, 1.0, 1.0, 1.0])),
+    )
     with pytest.raises(ValueError, match=r"lam: .*λ = 0 for coefficient 1.*unbounded"):
         free.forecast(x[-1], [[0.0]])
 
 
 # -- AR/ARX -----------------------------------------------------------------------------------
+
 
 def test_ar_forecast_first_step_and_trend():
     rng = np.random.default_rng(2)
@@ -337,20 +372,19 @@ def test_arx_forecast_follows_the_models_simulation():
     theta = 0.3 * rng.standard_normal((n, p))
     N, steps = 15, 4
     L = max(na, nk + nb - 1)
-    long = ltv.ARXModel(np.broadcast_to(theta.ravel(), (N + steps, n * p)), n, m, na, nb, nk,
-                        True)
+    long = ltv.ARXModel(np.broadcast_to(theta.ravel(), (N + steps, n * p)), n, m, na, nb, nk, True)
     short = ltv.ARXModel(np.broadcast_to(theta.ravel(), (N, n * p)), n, m, na, nb, nk, True)
     u = rng.standard_normal((N + steps + L, m))
     y = long.simulate(rng.standard_normal((L, n)), u)  # (L + N + steps, n)
     T = N + L
-    f = short.forecast(y[T - L:T], u[T - L:], noise_cov=np.zeros((n, n)))
+    f = short.forecast(y[T - L : T], u[T - L :], noise_cov=np.zeros((n, n)))
     assert f.method == "gaussian" and f.mean.shape == (steps, n)
     np.testing.assert_allclose(f.mean, y[T:], rtol=1e-12, atol=1e-12)
     np.testing.assert_array_equal(f.time, np.arange(T, T + steps))
     with pytest.raises(ValueError, match=r"steps: expected 4"):
-        short.forecast(y[T - L:T], u[T - L:], steps=3, noise_cov=np.eye(n))
+        short.forecast(y[T - L : T], u[T - L :], steps=3, noise_cov=np.eye(n))
     with pytest.raises(TypeError, match=r"u: expected the inputs at the 2 samples of y_last"):
-        short.forecast(y[T - L:T], None, steps=3, noise_cov=np.eye(n))
+        short.forecast(y[T - L : T], None, steps=3, noise_cov=np.eye(n))
 
 
 def test_fitted_arx_forecast_has_intervals():
@@ -369,6 +403,7 @@ def test_fitted_arx_forecast_has_intervals():
 
 
 # -- the figure -------------------------------------------------------------------------------
+
 
 def test_forecast_plot_draws_mean_and_band(data):
     import matplotlib

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from dense_reference import random_data, simulate_ltv
 
 import ltvmodels as ltv
-from dense_reference import random_data, simulate_ltv
 
 
 def _models():
@@ -116,8 +116,9 @@ def test_shapes(name):
         np.testing.assert_allclose(full, np.swapaxes(full, 1, 2), atol=1e-14)
         assert np.all(np.linalg.eigvalsh(full) > -1e-12)
         assert model.std().shape == (N, K)
-        np.testing.assert_allclose(model.std(), np.sqrt(np.diagonal(full, axis1=1, axis2=2)),
-                                   rtol=1e-12)
+        np.testing.assert_allclose(
+            model.std(), np.sqrt(np.diagonal(full, axis1=1, axis2=2)), rtol=1e-12
+        )
     d = 1 if model.coeffs is None else len(model.coeffs) - 1
     assert model.activation().shape == (N - d,)
 
@@ -137,9 +138,9 @@ def test_predict_equals_manual(name):
     uu = u if model.n_inputs else None
     pred = model.predict(x, uu)
     assert pred.shape == (39, 2)
-    manual = np.array([
-        model.A[t] @ x[t] + (model.B[t] @ u[t] if model.n_inputs else 0.0) for t in range(39)
-    ])
+    manual = np.array(
+        [model.A[t] @ x[t] + (model.B[t] @ u[t] if model.n_inputs else 0.0) for t in range(39)]
+    )
     np.testing.assert_allclose(pred, manual, rtol=1e-13, atol=1e-14)
 
 
@@ -226,5 +227,12 @@ def test_info_contents():
         assert key in model.info
     assert model.info["objective"] == pytest.approx(model.info["rss"] + model.info["penalty"])
     assert model.info["rss"] == pytest.approx(
-        np.sum((model.predict(*simulate_ltv(71, T=40, n=2, m=1)[:2])
-                - simulate_ltv(71, T=40, n=2, m=1)[0][1:]) ** 2), rel=1e-10)
+        np.sum(
+            (
+                model.predict(*simulate_ltv(71, T=40, n=2, m=1)[:2])
+                - simulate_ltv(71, T=40, n=2, m=1)[0][1:]
+            )
+            ** 2
+        ),
+        rel=1e-10,
+    )

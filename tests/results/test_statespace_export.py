@@ -50,6 +50,7 @@ def _simulate_statespace(systems, x0, u):
 
 # -- to_statespace: the matrices ---------------------------------------------------------------
 
+
 @pytest.mark.parametrize("t", [0, 1, 199, 200, 398, -1, -2, -199, -399])
 def test_matrices_are_the_model_at_step_t(control, fitted, t):
     sys_t = fitted.to_statespace(t)
@@ -92,6 +93,7 @@ def test_system_is_a_copy(control, fitted):
 
 # -- to_statespace: python-control agrees with the model ---------------------------------------
 
+
 @pytest.mark.parametrize("t", [0, 100, 250, -1])
 def test_poles_are_the_eigenvalues_of_A_t(control, fitted, t):
     poles = np.sort_complex(np.asarray(fitted.to_statespace(t).poles(), dtype=complex))
@@ -107,17 +109,21 @@ def test_forced_response_equals_the_simulation_of_a_constant_segment(control, fi
     u = np.random.default_rng(1).standard_normal((31, 1))
     x0 = np.array([0.5, -1.0])
     response = control.forced_response(fitted.to_statespace(t), T=np.arange(31), U=u.T, X0=x0)
-    np.testing.assert_allclose(response.states.T, frozen.simulate(x0, u), rtol=1e-12,
-                               atol=1e-12)
-    np.testing.assert_allclose(response.outputs.T, frozen.simulate(x0, u), rtol=1e-12,
-                               atol=1e-12)  # C = I: the outputs are the states
+    np.testing.assert_allclose(response.states.T, frozen.simulate(x0, u), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        response.outputs.T, frozen.simulate(x0, u), rtol=1e-12, atol=1e-12
+    )  # C = I: the outputs are the states
 
 
 def test_stepping_the_systems_equals_the_simulation(control, fitted, data):
     systems = [fitted.to_statespace(t) for t in range(fitted.N)]
     x0 = data.x[0]
-    np.testing.assert_allclose(_simulate_statespace(systems, x0, data.u),
-                               fitted.simulate(x0, data.u), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        _simulate_statespace(systems, x0, data.u),
+        fitted.simulate(x0, data.u),
+        rtol=1e-12,
+        atol=1e-12,
+    )
 
 
 def test_intercept_is_a_last_input_held_at_one(control, data):
@@ -128,13 +134,17 @@ def test_intercept_is_a_last_input_held_at_one(control, data):
     np.testing.assert_array_equal(sys_t.D, np.zeros((2, 2)))
     systems = [model.to_statespace(t) for t in range(model.N)]
     augmented = np.column_stack([data.u, np.ones(len(data.u))])
-    np.testing.assert_allclose(_simulate_statespace(systems, data.x[0], augmented),
-                               model.simulate(data.x[0], data.u), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        _simulate_statespace(systems, data.x[0], augmented),
+        model.simulate(data.x[0], data.u),
+        rtol=1e-12,
+        atol=1e-12,
+    )
     frozen = ltv.LTVModel.from_arrays(model.A[7], model.B[7], c=model.c[7], steps=20)
-    response = control.forced_response(sys_t, T=np.arange(21), U=augmented[:21].T,
-                                       X0=data.x[0])
-    np.testing.assert_allclose(response.states.T, frozen.simulate(data.x[0], data.u[:21]),
-                               rtol=1e-12, atol=1e-12)
+    response = control.forced_response(sys_t, T=np.arange(21), U=augmented[:21].T, X0=data.x[0])
+    np.testing.assert_allclose(
+        response.states.T, frozen.simulate(data.x[0], data.u[:21]), rtol=1e-12, atol=1e-12
+    )
 
 
 def test_labels_are_the_data_column_names(control, data):
@@ -155,8 +165,9 @@ def test_model_without_inputs_gives_a_system_without_inputs(control, data):
     np.testing.assert_array_equal(sys_t.A, model.A[-1])
     frozen = ltv.LTVModel.from_arrays(model.A[-1], steps=10)
     response = control.forced_response(sys_t, T=np.arange(11), X0=[1.0, 2.0])
-    np.testing.assert_allclose(response.states.T, frozen.simulate([1.0, 2.0]), rtol=1e-12,
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        response.states.T, frozen.simulate([1.0, 2.0]), rtol=1e-12, atol=1e-12
+    )
 
 
 def test_model_with_only_an_intercept_has_one_input(control, data):
@@ -168,10 +179,14 @@ def test_model_with_only_an_intercept_has_one_input(control, data):
 
 # -- to_statespace: errors ---------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("t", [399, 1000, -400])
 def test_step_out_of_range(fitted, t):
-    with pytest.raises(ValueError, match=r"^t: expected a model step in \[-399, 398\].*N = 399.*"
-                                         rf"received {t}$"):
+    with pytest.raises(
+        ValueError,
+        match=r"^t: expected a model step in \[-399, 398\].*N = 399.*"
+        rf"received {t}$",
+    ):
         fitted.to_statespace(t)
 
 
@@ -186,9 +201,17 @@ def test_numpy_integer_steps(control, fitted):
     np.testing.assert_array_equal(fitted.to_statespace(np.uint8(3)).A, fitted.A[3])
 
 
-@pytest.mark.parametrize("dt, error", [(0, ValueError), (-1.0, ValueError),
-                                       (np.nan, ValueError), (np.inf, ValueError),
-                                       ("1", TypeError), (True, TypeError)])
+@pytest.mark.parametrize(
+    "dt, error",
+    [
+        (0, ValueError),
+        (-1.0, ValueError),
+        (np.nan, ValueError),
+        (np.inf, ValueError),
+        ("1", TypeError),
+        (True, TypeError),
+    ],
+)
 def test_invalid_sampling_period(fitted, dt, error):
     with pytest.raises(error, match="^dt: expected"):
         fitted.to_statespace(dt=dt)
@@ -199,8 +222,9 @@ def test_dt_is_keyword_only(fitted):
         fitted.to_statespace(0, 1.0)
 
 
-@pytest.mark.parametrize("module", [None, types.ModuleType("control")],
-                         ids=["not-installed", "not-python-control"])
+@pytest.mark.parametrize(
+    "module", [None, types.ModuleType("control")], ids=["not-installed", "not-python-control"]
+)
 def test_missing_python_control_says_how_to_install_it(fitted, monkeypatch, module):
     monkeypatch.setitem(sys.modules, "control", module)
     with pytest.raises(ImportError, match=r"pip install 'ltvmodels\[control\]'"):
@@ -215,13 +239,15 @@ def test_arguments_are_checked_before_the_import(fitted, monkeypatch):
 
 # -- from_arrays: round trips ------------------------------------------------------------------
 
+
 def test_coefficients_of_a_fitted_model_give_the_same_model(fitted, data):
     given = ltv.LTVModel.from_arrays(fitted.A, fitted.B)
     assert isinstance(given, ltv.LTVModel)
     np.testing.assert_array_equal(given.k, fitted.k)
     assert (given.N, given.n_states, given.n_inputs, given.constant) == (399, 2, 1, False)
-    np.testing.assert_array_equal(given.simulate(data.x[0], data.u),
-                                  fitted.simulate(data.x[0], data.u))
+    np.testing.assert_array_equal(
+        given.simulate(data.x[0], data.u), fitted.simulate(data.x[0], data.u)
+    )
     np.testing.assert_array_equal(given.predict(data.x, data.u), fitted.predict(data.x, data.u))
     batch = np.stack([data.x[0], -data.x[0]])
     np.testing.assert_array_equal(given.simulate(batch, data.u), fitted.simulate(batch, data.u))
@@ -250,8 +276,9 @@ def test_intercept_round_trip(data):
     given = ltv.LTVModel.from_arrays(model.A, model.B, c=model.c)
     assert given.constant
     np.testing.assert_array_equal(given.k, model.k)
-    np.testing.assert_array_equal(given.simulate(data.x[0], data.u),
-                                  model.simulate(data.x[0], data.u))
+    np.testing.assert_array_equal(
+        given.simulate(data.x[0], data.u), model.simulate(data.x[0], data.u)
+    )
 
 
 def test_zero_intercept_still_makes_a_constant_model():
@@ -293,8 +320,9 @@ def test_model_without_inputs(data):
 
 
 def test_save_and_load_keep_the_model(fitted, data, tmp_path):
-    given = ltv.LTVModel.from_arrays(fitted.A, fitted.B, c=np.full(2, 0.01),
-                                     noise_cov=[[0.04, 0.01], [0.01, 0.09]], order=2)
+    given = ltv.LTVModel.from_arrays(
+        fitted.A, fitted.B, c=np.full(2, 0.01), noise_cov=[[0.04, 0.01], [0.01, 0.09]], order=2
+    )
     path = tmp_path / "given.npz"
     given.save(path)
     loaded = ltv.load(path)
@@ -306,8 +334,9 @@ def test_save_and_load_keep_the_model(fitted, data, tmp_path):
     np.testing.assert_array_equal(loaded.coeffs, [1.0, -2.0, 1.0])
     for name in ("norm", "lam", "cov", "loglik", "status"):
         assert getattr(loaded, name) is None, name
-    np.testing.assert_array_equal(loaded.simulate(data.x[0], data.u),
-                                  given.simulate(data.x[0], data.u))
+    np.testing.assert_array_equal(
+        loaded.simulate(data.x[0], data.u), given.simulate(data.x[0], data.u)
+    )
     u_future = np.ones((4, 1))
     a, b = loaded.forecast(data.x[-1], u_future), given.forecast(data.x[-1], u_future)
     np.testing.assert_array_equal(a.mean, b.mean)
@@ -323,6 +352,7 @@ def test_save_and_load_a_model_of_one_step(tmp_path):
 
 
 # -- from_arrays: forecasts, priors, plots -----------------------------------------------------
+
 
 def test_forecast_needs_a_noise_covariance(fitted, data):
     given = ltv.LTVModel.from_arrays(fitted.A, fitted.B)
@@ -342,8 +372,9 @@ def test_forecast_of_known_coefficients_is_exact(fitted, data):
     assert forecast.method == "gaussian"  # no coefficient uncertainty, nothing sampled
     # the mean is the noise-free simulation with the last coefficients (order 1: constant)
     frozen = ltv.LTVModel.from_arrays(fitted.A[-1], fitted.B[-1], steps=6)
-    np.testing.assert_allclose(forecast.mean, frozen.simulate(data.x[-1], u_future)[1:],
-                               rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        forecast.mean, frozen.simulate(data.x[-1], u_future)[1:], rtol=1e-12, atol=1e-12
+    )
     # covariance: P_{j+1} = A P_j Aᵀ + Q, P_0 = Q
     A, Q = fitted.A[-1], np.diag(noise)
     P = Q.copy()
@@ -385,17 +416,21 @@ def test_plot(fitted):
 
 # -- from_arrays: errors -----------------------------------------------------------------------
 
-@pytest.mark.parametrize("A, match", [
-    (np.ones(3), r"^A: expected shape \(N, n, n\) or \(n, n\).*received shape \(3,\)"),
-    (np.ones((2, 3)), r"^A: expected shape \(N, n, n\).*received shape \(2, 3\)"),
-    (np.ones((4, 2, 3)), r"^A: expected shape \(N, n, n\).*received shape \(4, 2, 3\)"),
-    (np.ones((1, 1, 2, 2)), r"^A: expected shape \(N, n, n\)"),
-    (np.ones((4, 0, 0)), r"^A: expected shape \(N, n, n\) or \(n, n\) with n >= 1"),
-    (np.ones((0, 2, 2)), r"^A: expected at least one time step, received shape \(0, 2, 2\)"),
-    (np.array([[np.nan, 0], [0, 1]]), r"^A: expected finite values, received NaN or inf"),
-    (np.array([[np.inf, 0], [0, 1]]), r"^A: expected finite values, received NaN or inf"),
-    (np.array([[1e101, 0], [0, 1]]), r"^A: expected finite values of magnitude up to 1e\+100"),
-])
+
+@pytest.mark.parametrize(
+    "A, match",
+    [
+        (np.ones(3), r"^A: expected shape \(N, n, n\) or \(n, n\).*received shape \(3,\)"),
+        (np.ones((2, 3)), r"^A: expected shape \(N, n, n\).*received shape \(2, 3\)"),
+        (np.ones((4, 2, 3)), r"^A: expected shape \(N, n, n\).*received shape \(4, 2, 3\)"),
+        (np.ones((1, 1, 2, 2)), r"^A: expected shape \(N, n, n\)"),
+        (np.ones((4, 0, 0)), r"^A: expected shape \(N, n, n\) or \(n, n\) with n >= 1"),
+        (np.ones((0, 2, 2)), r"^A: expected at least one time step, received shape \(0, 2, 2\)"),
+        (np.array([[np.nan, 0], [0, 1]]), r"^A: expected finite values, received NaN or inf"),
+        (np.array([[np.inf, 0], [0, 1]]), r"^A: expected finite values, received NaN or inf"),
+        (np.array([[1e101, 0], [0, 1]]), r"^A: expected finite values of magnitude up to 1e\+100"),
+    ],
+)
 def test_invalid_A(A, match):
     with pytest.raises(ValueError, match=match):
         ltv.LTVModel.from_arrays(A, steps=4)
@@ -418,14 +453,17 @@ def test_steps():
             ltv.LTVModel.from_arrays(np.eye(2), steps=steps)
 
 
-@pytest.mark.parametrize("B, match", [
-    (np.ones((3, 1)), r"^B: expected shape \(5, 2, m\) or \(2, m\) .*received shape \(3, 1\)"),
-    (np.ones(2), r"^B: expected shape \(5, 2, m\) or \(2, m\)"),
-    (np.ones((4, 2, 1)), r"^B: expected shape \(5, 2, m\).*received shape \(4, 2, 1\)"),
-    (np.ones((5, 3, 1)), r"^B: expected shape \(5, 2, m\)"),
-    (np.full((2, 1), np.nan), r"^B: expected finite values"),
-    (np.full((2, 1), 1e200), r"^B: expected finite values of magnitude up to 1e\+100"),
-])
+@pytest.mark.parametrize(
+    "B, match",
+    [
+        (np.ones((3, 1)), r"^B: expected shape \(5, 2, m\) or \(2, m\) .*received shape \(3, 1\)"),
+        (np.ones(2), r"^B: expected shape \(5, 2, m\) or \(2, m\)"),
+        (np.ones((4, 2, 1)), r"^B: expected shape \(5, 2, m\).*received shape \(4, 2, 1\)"),
+        (np.ones((5, 3, 1)), r"^B: expected shape \(5, 2, m\)"),
+        (np.full((2, 1), np.nan), r"^B: expected finite values"),
+        (np.full((2, 1), 1e200), r"^B: expected finite values of magnitude up to 1e\+100"),
+    ],
+)
 def test_invalid_B(B, match):
     with pytest.raises(ValueError, match=match):
         ltv.LTVModel.from_arrays(np.ones((5, 2, 2)), B)
@@ -436,35 +474,44 @@ def test_B_without_columns_is_a_model_without_inputs():
     assert given.n_inputs == 0
 
 
-@pytest.mark.parametrize("c, match", [
-    (np.ones(3), r"^c: expected shape \(5, 2\) or \(2,\) .*received shape \(3,\)"),
-    (np.ones((4, 2)), r"^c: expected shape \(5, 2\) or \(2,\)"),
-    (np.ones((5, 2, 1)), r"^c: expected shape \(5, 2\) or \(2,\)"),
-    (np.array([0.0, np.inf]), r"^c: expected finite values"),
-])
+@pytest.mark.parametrize(
+    "c, match",
+    [
+        (np.ones(3), r"^c: expected shape \(5, 2\) or \(2,\) .*received shape \(3,\)"),
+        (np.ones((4, 2)), r"^c: expected shape \(5, 2\) or \(2,\)"),
+        (np.ones((5, 2, 1)), r"^c: expected shape \(5, 2\) or \(2,\)"),
+        (np.array([0.0, np.inf]), r"^c: expected finite values"),
+    ],
+)
 def test_invalid_c(c, match):
     with pytest.raises(ValueError, match=match):
         ltv.LTVModel.from_arrays(np.ones((5, 2, 2)), c=c)
 
 
-@pytest.mark.parametrize("noise_cov, match", [
-    (np.ones(3), r"^noise_cov: expected a \(2, 2\) covariance matrix"),
-    ([[1.0, 0.5], [0.0, 1.0]], r"^noise_cov: expected a symmetric matrix"),
-    ([[1.0, 2.0], [2.0, 1.0]], r"^noise_cov: expected a positive semidefinite matrix"),
-    (np.nan, r"^noise_cov: expected finite values"),
-])
+@pytest.mark.parametrize(
+    "noise_cov, match",
+    [
+        (np.ones(3), r"^noise_cov: expected a \(2, 2\) covariance matrix"),
+        ([[1.0, 0.5], [0.0, 1.0]], r"^noise_cov: expected a symmetric matrix"),
+        ([[1.0, 2.0], [2.0, 1.0]], r"^noise_cov: expected a positive semidefinite matrix"),
+        (np.nan, r"^noise_cov: expected finite values"),
+    ],
+)
 def test_invalid_noise_cov(noise_cov, match):
     with pytest.raises(ValueError, match=match):
         ltv.LTVModel.from_arrays(np.ones((5, 2, 2)), noise_cov=noise_cov)
 
 
-@pytest.mark.parametrize("order, error, match", [
-    (0, ValueError, r"^order: expected an integer >= 1"),
-    (5, ValueError, r"^order: expected a degree of at most 4"),
-    ([1.0, 1.0], ValueError, r"^order: polynomial coefficients must sum to zero"),
-    ([-1.0, 0.0, 0.0, 0.0, 0.0, 1.0], ValueError, r"^order: expected at most 5 coefficients"),
-    (1.5, TypeError, r"^order: expected an integer >= 1 or a sequence"),
-])
+@pytest.mark.parametrize(
+    "order, error, match",
+    [
+        (0, ValueError, r"^order: expected an integer >= 1"),
+        (5, ValueError, r"^order: expected a degree of at most 4"),
+        ([1.0, 1.0], ValueError, r"^order: polynomial coefficients must sum to zero"),
+        ([-1.0, 0.0, 0.0, 0.0, 0.0, 1.0], ValueError, r"^order: expected at most 5 coefficients"),
+        (1.5, TypeError, r"^order: expected an integer >= 1 or a sequence"),
+    ],
+)
 def test_invalid_order(order, error, match):
     with pytest.raises(error, match=match):
         ltv.LTVModel.from_arrays(np.ones((5, 2, 2)), order=order)

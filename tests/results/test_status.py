@@ -79,8 +79,9 @@ def test_admm_status():
     big = ltv.systems.random_walk_system(T=120, n=5, m=2, seed=1, drift_std=0.01)  # K = 35
     model = ltv.fit(big.x, big.u, lam=5.0, norm="group")
     s = check(model, "optimal", "ADMM")
-    assert {"rho", "n_factorizations", "lambda_max", "duality_gap", "stationarity"} \
-        <= set(s.details)
+    assert {"rho", "n_factorizations", "lambda_max", "duality_gap", "stationarity"} <= set(
+        s.details
+    )
     with pytest.warns(ltv.ConvergenceWarning):
         short = ltv.fit(big.x, big.u, lam=5.0, norm="group", max_iter=3)
     check(short, "max_iter", "ADMM")
@@ -95,8 +96,11 @@ def test_segmentation_is_optimal():
 
 def test_regression_ar_and_refined_fits_have_a_status():
     check(ltv.fit_ar(X[:, 0], na=2, lam=10.0), "closed_form", "Cholesky")
-    check(ltv.fit_regression(X[1:], np.hstack([X[:-1], U[:-1]]), lam=5.0, norm="l1"),
-          "optimal", "interior point")
+    check(
+        ltv.fit_regression(X[1:], np.hstack([X[:-1], U[:-1]]), lam=5.0, norm="l1"),
+        "optimal",
+        "interior point",
+    )
     refined = ltv.fit(X, U, lam=5.0, norm="group", refine=True)
     check(refined, "closed_form", "piecewise")
     assert refined.info["first_step"]["converged"] is True

@@ -51,8 +51,13 @@ def test_regression_keeps_the_names_and_dates_of_its_data(tmp_path):
     months = pd.date_range("2000-01-01", periods=100, freq="MS")
     phi = pd.DataFrame(rng.standard_normal((100, 2)), columns=["gdp", "rate"], index=months)
     slope = np.where(np.arange(100) < 60, 1.0, -1.0)
-    y = pd.Series(slope * phi["gdp"].to_numpy() + 2.0 * phi["rate"].to_numpy()
-                  + 0.05 * rng.standard_normal(100), name="inflation", index=months)
+    y = pd.Series(
+        slope * phi["gdp"].to_numpy()
+        + 2.0 * phi["rate"].to_numpy()
+        + 0.05 * rng.standard_normal(100),
+        name="inflation",
+        index=months,
+    )
     model = ltv.fit_regression(y, phi, lam=5.0, norm="group")
     assert model.output_names == ["inflation"] and model.regressor_names == ["gdp", "rate"]
     assert model.changepoints.tolist() == [60]
@@ -78,21 +83,22 @@ def test_a_sparse_fit_forecasts_with_its_last_segments_uncertainty(tmp_path):
     u0 = np.array([0.3])
     forecast = model.forecast(data.x[-1], u0[None, :])
     z = np.r_[data.x[-1], u0]
-    expected = np.diag(model.noise_var * (1.0 + z @ unit @ z)) + model.noise_cov \
-        - np.diag(model.noise_var)
+    expected = (
+        np.diag(model.noise_var * (1.0 + z @ unit @ z)) + model.noise_cov - np.diag(model.noise_var)
+    )
     np.testing.assert_allclose(forecast.cov[0], expected, rtol=1e-10)
     model.save(tmp_path / "m.npz")
     loaded = ltv.load(tmp_path / "m.npz")
-    np.testing.assert_allclose(loaded.forecast(data.x[-1], u0[None, :]).cov[0], expected,
-                               rtol=1e-10)
+    np.testing.assert_allclose(
+        loaded.forecast(data.x[-1], u0[None, :]).cov[0], expected, rtol=1e-10
+    )
 
 
 def test_to_statespace_takes_dt_from_the_time_index():
     pytest.importorskip("control.statesp")
     data = ltv.systems.jump_linear(T=60, change_at=30, seed=0)
     hours = pd.date_range("2024-01-01", periods=60, freq="h")
-    model = ltv.fit(pd.DataFrame(data.x, index=hours), pd.DataFrame(data.u, index=hours),
-                    lam=10.0)
+    model = ltv.fit(pd.DataFrame(data.x, index=hours), pd.DataFrame(data.u, index=hours), lam=10.0)
     assert model.to_statespace().dt == 3600.0
     yearly = ltv.fit(pd.DataFrame(data.x, index=2000.0 + 0.5 * np.arange(60)), lam=10.0)
     assert yearly.to_statespace().dt == 0.5

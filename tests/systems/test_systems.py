@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 
@@ -57,8 +56,9 @@ def test_jump_linear_noise_levels_and_recursion():
     # measurement noise σ = 0.2 on the recorded states
     assert 0.18 < np.std(data.x - data.x_true) < 0.22
     # process noise σ = 0.2 in the state recursion
-    w = data.x_true[1:] - np.einsum("tij,tj->ti", data.theta,
-                                    np.hstack([data.x_true[:-1], data.u[:-1]]))
+    w = data.x_true[1:] - np.einsum(
+        "tij,tj->ti", data.theta, np.hstack([data.x_true[:-1], data.u[:-1]])
+    )
     assert 0.18 < np.std(w) < 0.22
     assert 0.95 < np.std(data.u) < 1.05
     assert data.x_true[0].tolist() == [0.0, 0.0]

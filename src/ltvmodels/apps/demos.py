@@ -13,8 +13,9 @@ from __future__ import annotations
 import os
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable, TextIO
+from typing import Any, TextIO
 
 import numpy as np
 
@@ -47,8 +48,9 @@ def _optional_output_path(out: Any) -> tuple[Path | None, str | None]:
     return image_file(out) if out is not None else (None, None)
 
 
-def _report(lines: list[str], stream: TextIO, fig: Any, path: Path | None,
-            fmt: str | None, dpi: int = 150) -> None:
+def _report(
+    lines: list[str], stream: TextIO, fig: Any, path: Path | None, fmt: str | None, dpi: int = 150
+) -> None:
     """Write ``fig`` to ``path`` (if any), then print the demo's report."""
     if path is not None:
         save_figure(fig, path, fmt, dpi=dpi)
@@ -149,8 +151,10 @@ def run_jump_linear_demo(
         "",
     ]
     for t in (before, after):
-        lines.append(f"A_t at t = {t}: estimate {np.round(model.A[t], 3).tolist()}, "
-                     f"true {np.round(data.A[t], 3).tolist()}")
+        lines.append(
+            f"A_t at t = {t}: estimate {np.round(model.A[t], 3).tolist()}, "
+            f"true {np.round(data.A[t], 3).tolist()}"
+        )
     lines += [
         "",
         "                           LTV fit   LTI least squares   true coefficients",
@@ -165,8 +169,10 @@ def run_jump_linear_demo(
         for ax, first_step in zip(fig.axes, first_k.T, strict=False):
             ax.plot(first_step, color="tab:orange", lw=0.9, alpha=0.8, label="first step")
         fig.axes[0].legend(fontsize=7, loc="lower left")
-        title = (f"Jump-linear system (paper Fig. 1): group lasso, λ = {lam:.3g}, refined\n"
-                 "±2σ band, first step orange, truth dashed")
+        title = (
+            f"Jump-linear system (paper Fig. 1): group lasso, λ = {lam:.3g}, refined\n"
+            "±2σ band, first step orange, truth dashed"
+        )
     else:
         title = f"Jump-linear system: norm='sq', order=1, λ = {lam:g}\n±2σ band, truth dashed"
     fig.suptitle(title, fontsize="medium")
@@ -251,9 +257,14 @@ def run_robot_demo(
             written.append(path)
             lines.append(f"wrote {path}")
     print("\n".join(lines), file=stream)
-    return {"experiment": result, "changepoints": result.changepoints,
-            "rms_train": result.rms_train, "rms_validation": result.rms_validation,
-            "figures": figures, "out": written}
+    return {
+        "experiment": result,
+        "changepoints": result.changepoints,
+        "rms_train": result.rms_train,
+        "rms_validation": result.rms_validation,
+        "figures": figures,
+        "out": written,
+    }
 
 
 CHIRP_FS = 16000.0
@@ -313,8 +324,10 @@ def run_chirp_demo(
     fig = new_figure((10.0, 4.0))
     axes = fig.subplots(1, 2, sharey=True)
     models, errors, times = {}, {}, {}
-    lines = [f"ltvmodels demo: root spectrogram of a two-component chirp, fs = {CHIRP_FS:g} Hz, "
-             f"T = {T} samples, seed {seed}; AR(6), norm='sq', lambda^2 = 1e5"]
+    lines = [
+        f"ltvmodels demo: root spectrogram of a two-component chirp, fs = {CHIRP_FS:g} Hz, "
+        f"T = {T} samples, seed {seed}; AR(6), norm='sq', lambda^2 = 1e5"
+    ]
     for ax, order in zip(axes, (1, 2), strict=True):
         start = time.perf_counter()
         model = fit_ar(y, na=6, lam=CHIRP_LAM, norm="sq", order=order)
@@ -323,19 +336,26 @@ def run_chirp_demo(
         target = inst[model.sample_index]
         errors[order] = float(np.mean(np.nanmin(np.abs(freq - target[:, None]), axis=1)))
         models[order] = model
-        lines.append(f"order {order}: mean error {errors[order]:.2f} Hz between the "
-                     "instantaneous frequency and the nearest pole track; fit of "
-                     f"T = {T} samples in {times[order]:.3f} s")
+        lines.append(
+            f"order {order}: mean error {errors[order]:.2f} Hz between the "
+            "instantaneous frequency and the nearest pole track; fit of "
+            f"T = {T} samples in {times[order]:.3f} s"
+        )
         plotting.plot_spectrogram(y, CHIRP_FS, ax=ax)
         plotting.plot_root_spectrogram(model, CHIRP_FS, ax=ax)
-        ax.plot(np.arange(T) / CHIRP_FS, inst, color="C3", linestyle="--", linewidth=1.0,
-                label="instantaneous frequency")
+        ax.plot(
+            np.arange(T) / CHIRP_FS,
+            inst,
+            color="C3",
+            linestyle="--",
+            linewidth=1.0,
+            label="instantaneous frequency",
+        )
         ax.set_title(f"AR(6), order {order}, λ² = 1e5: mean error {errors[order]:.1f} Hz")
         ax.legend(loc="upper left", fontsize="small", markerscale=6)
     axes[1].set_ylabel("")
     _report(lines, stream, fig, path, fmt)
-    return {"y": y, "models": models, "errors": errors, "times": times, "figure": fig,
-            "out": path}
+    return {"y": y, "models": models, "errors": errors, "times": times, "figure": fig, "out": path}
 
 
 def run_rl_demo(
@@ -384,8 +404,14 @@ def run_rl_demo(
     if size not in ("default", "quick", "full"):
         raise ValueError(f"size: expected 'default', 'quick' or 'full', received {size!r}")
     runs, iterations = {"default": (None, None), "quick": (1, 4), "full": (20, 14)}[size]
-    result = rl.run_experiment(quick=size != "full", runs=runs, iterations=iterations, seed=seed,
-                               models=rl.PAPER_MODELS, progress=progress)
+    result = rl.run_experiment(
+        quick=size != "full",
+        runs=runs,
+        iterations=iterations,
+        seed=seed,
+        models=rl.PAPER_MODELS,
+        progress=progress,
+    )
     med = result.median()
     lines = [
         "ltvmodels demo: model-based reinforcement learning on a cart-pole "
@@ -393,8 +419,8 @@ def run_rl_demo(
         f"median cost over {result.runs} Monte-Carlo runs of {result.iterations} learning "
         f"iterations ({result.elapsed:.1f} s):",
         result.table(),
-        "final / optimum: " + ", ".join(f"{m} {med[m][-1] / result.optimum:.3f}"
-                                        for m in result.models),
+        "final / optimum: "
+        + ", ".join(f"{m} {med[m][-1] / result.optimum:.3f}" for m in result.models),
     ]
     fig = rl.plot_experiment(result)
     _report(lines, stream, fig, path, fmt)
@@ -449,8 +475,12 @@ def run_pendulum_demo(
         raise ValueError(f"size: expected 'default', 'quick' or 'full', received {size!r}")
     gym_rl.make_env().close()  # gymnasium is there (else ImportError) before the work
     runs, iterations = {"default": (2, 20), "quick": (1, 20), "full": (20, 40)}[size]
-    result = gym_rl.run_pendulum_experiment(seeds=range(seed, seed + runs), iterations=iterations,
-                                            models=("ltv", "lti"), progress=progress)
+    result = gym_rl.run_pendulum_experiment(
+        seeds=range(seed, seed + runs),
+        iterations=iterations,
+        models=("ltv", "lti"),
+        progress=progress,
+    )
     lines = [
         "ltvmodels demo: model-based reinforcement learning on gymnasium's Pendulum-v1 "
         f"(swing-up from env.reset/env.step rollouts), seeds {seed}-{seed + runs - 1} "

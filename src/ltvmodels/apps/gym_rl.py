@@ -107,8 +107,9 @@ from __future__ import annotations
 import math
 import time
 import warnings
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Callable, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -234,8 +235,9 @@ def swung_up(x: Any, *, angle: float = SWING_UP_ANGLE, steps: int = SWING_UP_STE
     angle = options.positive_scalar(angle, "angle")
     steps = options.integer(steps, "steps", 1)
     if steps > xs.shape[0]:
-        raise ValueError(f"steps: expected at most {xs.shape[0]} (the length of x), "
-                         f"received {steps}")
+        raise ValueError(
+            f"steps: expected at most {xs.shape[0]} (the length of x), received {steps}"
+        )
     return bool(np.all(np.abs(_wrap(xs[-steps:, 0])) < angle))
 
 
@@ -285,15 +287,19 @@ class PendulumCost:
         self.velocity_weight = options.nonnegative_scalar(velocity_weight, "velocity_weight")
         self.torque_weight = options.positive_scalar(torque_weight, "torque_weight")
         self.terminal_angle_weight = options.nonnegative_scalar(
-            terminal_angle_weight, "terminal_angle_weight")
+            terminal_angle_weight, "terminal_angle_weight"
+        )
         self.terminal_velocity_weight = options.nonnegative_scalar(
-            terminal_velocity_weight, "terminal_velocity_weight")
+            terminal_velocity_weight, "terminal_velocity_weight"
+        )
         self.hessian = options.choice(hessian, "hessian", ("clipped", "gauss-newton"))
 
     def __repr__(self) -> str:
-        return (f"PendulumCost(angle_weight={self.angle_weight:g}, "
-                f"velocity_weight={self.velocity_weight:g}, "
-                f"torque_weight={self.torque_weight:g}, hessian={self.hessian!r})")
+        return (
+            f"PendulumCost(angle_weight={self.angle_weight:g}, "
+            f"velocity_weight={self.velocity_weight:g}, "
+            f"torque_weight={self.torque_weight:g}, hessian={self.hessian!r})"
+        )
 
     def _weights(self, T: int) -> tuple[np.ndarray, np.ndarray]:
         wa = np.full(T, self.angle_weight)
@@ -331,8 +337,11 @@ class PendulumCost:
         lxx[:, 0, 0] = wa * curvature
         lxx[:, 1, 1] = 2.0 * wv
         return CostExpansion(
-            lx=lx, lu=2.0 * self.torque_weight * us, lxx=lxx,
-            luu=np.full((N, 1, 1), 2.0 * self.torque_weight), lux=np.zeros((N, 1, 2)),
+            lx=lx,
+            lu=2.0 * self.torque_weight * us,
+            lxx=lxx,
+            luu=np.full((N, 1, 1), 2.0 * self.torque_weight),
+            lux=np.zeros((N, 1, 2)),
         )
 
     def total(self, x: Any, u: Any) -> float:
@@ -345,8 +354,10 @@ def _check_env(env: Any) -> Any:
     if env is None:
         return make_env()
     if not (callable(getattr(env, "reset", None)) and callable(getattr(env, "step", None))):
-        raise TypeError(f"env: expected a gymnasium environment (with reset and step), "
-                        f"received {arrays.describe(env)}")
+        raise TypeError(
+            f"env: expected a gymnasium environment (with reset and step), "
+            f"received {arrays.describe(env)}"
+        )
     return env
 
 
@@ -429,8 +440,7 @@ def pendulum_rollout(
     theta = math.atan2(float(obs[1]), float(obs[0]))
     x[0] = theta, float(obs[2])
     for t in range(N):
-        v = (us[t, 0] + Ka[t, 0, 0] * _wrap(x[t, 0] - xn[t, 0])
-             + Ka[t, 0, 1] * (x[t, 1] - xn[t, 1]))
+        v = us[t, 0] + Ka[t, 0, 0] * _wrap(x[t, 0] - xn[t, 0]) + Ka[t, 0, 1] * (x[t, 1] - xn[t, 1])
         v = min(max(v, -limit), limit) + e[t]
         # Reflected at the bounds rather than clipped: noise on a saturated torque would
         # otherwise vanish, and with it the excitation of B_t along a bang-bang swing.
@@ -446,8 +456,9 @@ def pendulum_rollout(
         x[t + 1] = theta, float(obs[2])
         rewards[t] = float(reward)
         if (terminated or truncated) and t < N - 1:
-            raise ValueError(f"u_nom: the episode ended after {t + 1} steps, before the "
-                             f"{N} steps of u_nom")
+            raise ValueError(
+                f"u_nom: the episode ended after {t + 1} steps, before the {N} steps of u_nom"
+            )
     return x, u, rewards
 
 
@@ -486,9 +497,15 @@ def pendulum_rollouts(
     return tuple(np.stack(parts) for parts in zip(*runs))  # type: ignore[return-value]
 
 
-def fit_rollouts(model: str, x: Any, u: Any, lam: float,
-                 weights: Any = None, learned: GMMPrior | None = None,
-                 learned_samples: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+def fit_rollouts(
+    model: str,
+    x: Any,
+    u: Any,
+    lam: float,
+    weights: Any = None,
+    learned: GMMPrior | None = None,
+    learned_samples: float | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Jacobians A (N, n, n), B (N, n, m) of an affine model fitted on R time-aligned rollouts.
 
     "ltv": :func:`ltvmodels.fit` (``norm="sq"``, ``order=2``, λ = ``lam``);
@@ -525,8 +542,9 @@ def fit_rollouts(model: str, x: Any, u: Any, lam: float,
     xs = arrays.as_float_array(x, "x")
     us = arrays.as_float_array(u, "u")
     if xs.ndim != 3 or us.ndim != 3 or us.shape[:2] != (xs.shape[0], xs.shape[1] - 1):
-        raise ValueError(f"x, u: expected shapes (R, N + 1, n) and (R, N, m), received "
-                         f"{xs.shape} and {us.shape}")
+        raise ValueError(
+            f"x, u: expected shapes (R, N + 1, n) and (R, N, m), received {xs.shape} and {us.shape}"
+        )
     # fit's data convention has one input row per state sample; the last is never used.
     ua = np.concatenate([us, np.zeros((us.shape[0], 1, us.shape[2]))], axis=1)
     with warnings.catch_warnings():
@@ -539,10 +557,24 @@ def fit_rollouts(model: str, x: Any, u: Any, lam: float,
         else:
             prior = None
             if model == "learned" and learned is not None:
-                prior = learned.at(xs, padded_inputs(us), constant=True, weights=weights,
-                                   max_samples=learned_samples)
-            fitted = fit(xs, ua, lam=lam, norm="sq", order=2, constant=True, compute_cov=False,
-                         weights=weights, prior=prior)
+                prior = learned.at(
+                    xs,
+                    padded_inputs(us),
+                    constant=True,
+                    weights=weights,
+                    max_samples=learned_samples,
+                )
+            fitted = fit(
+                xs,
+                ua,
+                lam=lam,
+                norm="sq",
+                order=2,
+                constant=True,
+                compute_cov=False,
+                weights=weights,
+                prior=prior,
+            )
     return fitted.A, fitted.B
 
 
@@ -610,11 +642,13 @@ class PendulumLearningResult:
         return int(self.batch_returns.shape[1])
 
     def __repr__(self) -> str:
-        return (f"PendulumLearningResult(model={self.model!r}, seed={self.seed}, "
-                f"iterations={self.returns.size}, "
-                f"rollouts_per_iteration={self.rollouts_per_iteration}, "
-                f"swing_up_iteration={self.swing_up_iteration}, "
-                f"final_return={self.final_return:.1f})")
+        return (
+            f"PendulumLearningResult(model={self.model!r}, seed={self.seed}, "
+            f"iterations={self.returns.size}, "
+            f"rollouts_per_iteration={self.rollouts_per_iteration}, "
+            f"swing_up_iteration={self.swing_up_iteration}, "
+            f"final_return={self.final_return:.1f})"
+        )
 
 
 def _model_name(model: Any) -> str:
@@ -793,8 +827,9 @@ def learn_pendulum(
         )
     horizon = options.integer(horizon_start, "horizon_start", 2)
     if horizon > EPISODE_STEPS:
-        raise ValueError(f"horizon_start: expected at most {EPISODE_STEPS} (the episode), "
-                         f"received {horizon}")
+        raise ValueError(
+            f"horizon_start: expected at most {EPISODE_STEPS} (the episode), received {horizon}"
+        )
     horizon_step = options.integer(horizon_step, "horizon_step", 0)
     tail = options.choice(tail, "tail", ("hold", "zero", "incumbent"))
     reject_worse = options.flag(reject_worse, "reject_worse")
@@ -842,14 +877,16 @@ def learn_pendulum(
             take = True
         else:
             H = plan_horizon
-            J_inc = cost.total(inc[0][:H + 1], inc[1][:H])
-            J_new = cost.total(x[:H + 1], u[:H])
+            J_inc = cost.total(inc[0][: H + 1], inc[1][:H])
+            J_new = cost.total(x[: H + 1], u[:H])
             rho = improvement_ratio(J_inc, J_new, predicted[-1])
             # The realized change of the states over the planned steps (rl.learn's d).
-            moved = float(np.sqrt(np.max(np.sum(
-                (x[:H + 1] - inc[0][:H + 1]) ** 2 * weights[0], axis=1))))
-            radius = adapt_radius(radius, rho, max_radius=max_radius, moved=moved,
-                                   min_radius=min_radius)
+            moved = float(
+                np.sqrt(np.max(np.sum((x[: H + 1] - inc[0][: H + 1]) ** 2 * weights[0], axis=1)))
+            )
+            radius = adapt_radius(
+                radius, rho, max_radius=max_radius, moved=moved, min_radius=min_radius
+            )
             take = J_new <= J_inc or not reject_worse
             if take or radius <= min_radius:
                 horizon = min(horizon + horizon_step, N)
@@ -871,15 +908,31 @@ def learn_pendulum(
             # rejection test handles the consequences.
             warnings.simplefilter("ignore", ConvergenceWarning)
             try:
-                A, B = fit_rollouts(model, inc_batch[0], inc_batch[1], lam,
-                                    locality_weights(inc_batch[0], locality),
-                                    learned if i >= learned_after else None, learned_samples)
-                dyn = LinearDynamics.through(A[:H], B[:H], xi[:H + 1], ui[:H])
-                plan = ilqg(dyn, cost, xi[0], ui[:H], u_bounds=(-limit, limit),
-                            trust_region=radius, reference=(xi[:H + 1], ui[:H]),
-                            trust_weights=weights)
-                gains = (riccati_gains(dyn.A, dyn.B, cost.quadratize(plan.x, plan.u))
-                         if feedback == "riccati" else plan.K)
+                A, B = fit_rollouts(
+                    model,
+                    inc_batch[0],
+                    inc_batch[1],
+                    lam,
+                    locality_weights(inc_batch[0], locality),
+                    learned if i >= learned_after else None,
+                    learned_samples,
+                )
+                dyn = LinearDynamics.through(A[:H], B[:H], xi[: H + 1], ui[:H])
+                plan = ilqg(
+                    dyn,
+                    cost,
+                    xi[0],
+                    ui[:H],
+                    u_bounds=(-limit, limit),
+                    trust_region=radius,
+                    reference=(xi[: H + 1], ui[:H]),
+                    trust_weights=weights,
+                )
+                gains = (
+                    riccati_gains(dyn.A, dyn.B, cost.quadratize(plan.x, plan.u))
+                    if feedback == "riccati"
+                    else plan.K
+                )
                 if not (np.isfinite(plan.cost) and np.all(np.isfinite(gains))):
                     plan = None
             except (np.linalg.LinAlgError, SingularProblemError):  # no usable model
@@ -888,9 +941,9 @@ def learn_pendulum(
         u_nom = ui.copy()
         K = np.zeros((N, 1, 2))
         if plan is None:  # replay the incumbent; its rollout then decides the radius
-            predicted.append(cost.total(xi[:H + 1], ui[:H]))
+            predicted.append(cost.total(xi[: H + 1], ui[:H]))
         else:
-            x_nom[:H + 1] = plan.x
+            x_nom[: H + 1] = plan.x
             u_nom[:H] = plan.u
             K[:H] = gains
             predicted.append(plan.cost)
@@ -903,13 +956,16 @@ def learn_pendulum(
         if tail != "incumbent":
             u_nom[H:] = 0.0
         if tail == "hold" and plan is not None:
-            x_nom[H + 1:] = plan.x[H]
+            x_nom[H + 1 :] = plan.x[H]
             K[H:] = gains[H - 1]
         radii.append(radius)
         horizons.append(H)
         if model == "learned":  # this iteration's rollouts join the mixture for the next ones
-            learned = (GMMPrior(xb, padded_inputs(ub), seed=seed) if learned is None
-                       else learned.update(xb, padded_inputs(ub)))
+            learned = (
+                GMMPrior(xb, padded_inputs(ub), seed=seed)
+                if learned is None
+                else learned.update(xb, padded_inputs(ub))
+            )
     swung_arr = np.array(swung, dtype=bool)
     # Swung up for good: the start of the final stretch of swung-up incumbents. An
     # incumbent can be swung up and a later one, better over the planned H steps, fall
@@ -919,11 +975,22 @@ def learn_pendulum(
         down = np.flatnonzero(~swung_arr)
         first = int(down[-1]) + 2 if down.size else 1
     return PendulumLearningResult(
-        model=model, seed=seed, returns=np.array(returns), batch_returns=np.array(batch_returns),
-        incumbent_returns=np.array(incumbent_returns), accepted=np.array(accepted, dtype=bool),
-        swung_up=swung_arr, swing_up_iteration=first, final_return=incumbent_returns[-1],
-        initial_return=returns[0], radii=np.array(radii), horizons=np.array(horizons),
-        predicted=np.array(predicted), x=inc[0], u=inc[1], rewards=inc[2],
+        model=model,
+        seed=seed,
+        returns=np.array(returns),
+        batch_returns=np.array(batch_returns),
+        incumbent_returns=np.array(incumbent_returns),
+        accepted=np.array(accepted, dtype=bool),
+        swung_up=swung_arr,
+        swing_up_iteration=first,
+        final_return=incumbent_returns[-1],
+        initial_return=returns[0],
+        radii=np.array(radii),
+        horizons=np.array(horizons),
+        predicted=np.array(predicted),
+        x=inc[0],
+        u=inc[1],
+        rewards=inc[2],
         elapsed=time.perf_counter() - start,
     )
 
@@ -1019,50 +1086,65 @@ class PendulumExperiment:
         med, quart = self.median(), self.quartiles()
         width, label = 22, 30
         R = self.rollouts_per_iteration
-        lines = [f"{ENV_ID}: {self.runs} initial states (seeds), {self.iterations} iterations "
-                 f"of {R} episode{'s' if R > 1 else ''} each (one without exploration noise: "
-                 "the controller's return below)",
-                 "episode return of the learned controller, median [25 %, 75 %]:",
-                 f"{'iteration':<{label}}" + "".join(f"{MODEL_LABELS[m]:>{width}}"
-                                                    for m in self.models)]
+        lines = [
+            f"{ENV_ID}: {self.runs} initial states (seeds), {self.iterations} iterations "
+            f"of {R} episode{'s' if R > 1 else ''} each (one without exploration noise: "
+            "the controller's return below)",
+            "episode return of the learned controller, median [25 %, 75 %]:",
+            f"{'iteration':<{label}}" + "".join(f"{MODEL_LABELS[m]:>{width}}" for m in self.models),
+        ]
         shown = sorted({0, self.iterations - 1, *range(every - 1, self.iterations, every)})
         for i in shown:
             cells = "".join(
                 f"{f'{med[m][i]:.0f} [{quart[m][0, i]:.0f}, {quart[m][1, i]:.0f}]':>{width}}"
-                for m in self.models)
+                for m in self.models
+            )
             lines.append(f"{i + 1:<{label}d}{cells}")
         count, its = self.swung_up_count(), self.median_swing_up_iteration()
         rows = [
             ("seeds swung up at the end", {m: f"{count[m]}/{self.runs}" for m in self.models}),
-            ("median iterations to swing-up",
-             {m: "-" if its[m] is None else f"{its[m]:g}" for m in self.models}),
+            (
+                "median iterations to swing-up",
+                {m: "-" if its[m] is None else f"{its[m]:g}" for m in self.models},
+            ),
             ("median final return", {m: f"{np.median(self.final[m]):.0f}" for m in self.models}),
-            ("final return [25 %, 75 %]",
-             {m: "[{:.0f}, {:.0f}]".format(*np.quantile(self.final[m], [0.25, 0.75]))
-              for m in self.models}),
+            (
+                "final return [25 %, 75 %]",
+                {
+                    m: "[{:.0f}, {:.0f}]".format(*np.quantile(self.final[m], [0.25, 0.75]))
+                    for m in self.models
+                },
+            ),
             # gymnasium's good return is a mean: this is the number to compare with it.
             ("mean final return", {m: f"{np.mean(self.final[m]):.0f}" for m in self.models}),
         ]
         for name, cells in rows:
-            lines.append(f"{name:<{label}}" + "".join(f"{cells[m]:>{width}}"
-                                                       for m in self.models))
-        lines.append(f"(swung up: |θ| < {SWING_UP_ANGLE:g} rad over the last {SWING_UP_STEPS} "
-                     "steps of the final incumbent; iterations to swing-up: from which on the "
-                     "incumbent stays swung up, over the seeds swung up at the end)")
-        lines.append(f"gymnasium's usual good return: about {GOOD_RETURN:.0f} (a mean over "
-                     "random initial states)")
+            lines.append(f"{name:<{label}}" + "".join(f"{cells[m]:>{width}}" for m in self.models))
+        lines.append(
+            f"(swung up: |θ| < {SWING_UP_ANGLE:g} rad over the last {SWING_UP_STEPS} "
+            "steps of the final incumbent; iterations to swing-up: from which on the "
+            "incumbent stays swung up, over the seeds swung up at the end)"
+        )
+        lines.append(
+            f"gymnasium's usual good return: about {GOOD_RETURN:.0f} (a mean over "
+            "random initial states)"
+        )
         return "\n".join(lines)
 
     def __repr__(self) -> str:
-        return (f"PendulumExperiment(models={self.models}, runs={self.runs}, "
-                f"iterations={self.iterations}, swung_up={self.swung_up_count()}, "
-                f"elapsed={self.elapsed:.1f}s)")
+        return (
+            f"PendulumExperiment(models={self.models}, runs={self.runs}, "
+            f"iterations={self.iterations}, swung_up={self.swung_up_count()}, "
+            f"elapsed={self.elapsed:.1f}s)"
+        )
 
 
 def _model_names(models: Any) -> tuple[str, ...]:
     if isinstance(models, str) or not isinstance(models, Sequence) or len(models) == 0:
-        raise TypeError(f"models: expected a non-empty sequence of names from "
-                        f"{PENDULUM_MODELS}, received {arrays.describe(models)}")
+        raise TypeError(
+            f"models: expected a non-empty sequence of names from "
+            f"{PENDULUM_MODELS}, received {arrays.describe(models)}"
+        )
     out = tuple(_model_name(m) for m in models)
     if len(set(out)) != len(out):
         raise ValueError(f"models: expected distinct names, received {list(models)}")
@@ -1070,10 +1152,15 @@ def _model_names(models: Any) -> tuple[str, ...]:
 
 
 def _seed_list(seeds: Any) -> tuple[int, ...]:
-    if isinstance(seeds, (str, bytes)) or not isinstance(seeds, (Sequence, range)) \
-            or len(seeds) == 0:
-        raise TypeError(f"seeds: expected a non-empty sequence of integers >= 0, received "
-                        f"{arrays.describe(seeds)}")
+    if (
+        isinstance(seeds, (str, bytes))
+        or not isinstance(seeds, (Sequence, range))
+        or len(seeds) == 0
+    ):
+        raise TypeError(
+            f"seeds: expected a non-empty sequence of integers >= 0, received "
+            f"{arrays.describe(seeds)}"
+        )
     return tuple(options.integer(s, "seeds", 0) for s in seeds)
 
 
@@ -1114,11 +1201,15 @@ def run_pendulum_experiment(
     quick = options.flag(quick, "quick")
     seeds = _seed_list((QUICK_SEEDS if quick else range(FULL_SEEDS)) if seeds is None else seeds)
     models = _model_names(models)
-    iterations = ((QUICK_ITERATIONS if quick else FULL_ITERATIONS) if iterations is None
-                  else options.integer(iterations, "iterations", 1))
+    iterations = (
+        (QUICK_ITERATIONS if quick else FULL_ITERATIONS)
+        if iterations is None
+        else options.integer(iterations, "iterations", 1)
+    )
     if progress is not None and not callable(progress):
-        raise TypeError(f"progress: expected a function or None, received "
-                        f"{arrays.describe(progress)}")
+        raise TypeError(
+            f"progress: expected a function or None, received {arrays.describe(progress)}"
+        )
     for name in ("model", "seed", "env"):
         if name in learn_options:
             raise TypeError(f"{name}: not an option of run_pendulum_experiment (set by it)")
@@ -1144,15 +1235,25 @@ def run_pendulum_experiment(
             text = ", ".join(
                 f"{m} {final[m][r]:.0f}"
                 + ("" if swing_up[m][-1] is None else f" (up at {swing_up[m][-1]})")
-                for m in models)
-            progress(f"seed {s} ({r + 1}/{runs}): final return {text} "
-                     f"({time.perf_counter() - start:.0f} s)")
+                for m in models
+            )
+            progress(
+                f"seed {s} ({r + 1}/{runs}): final return {text} "
+                f"({time.perf_counter() - start:.0f} s)"
+            )
     env.close()
     return PendulumExperiment(
-        returns=returns, rollout_returns=rollout_returns, swing_up=swing_up, swung=swung,
+        returns=returns,
+        rollout_returns=rollout_returns,
+        swing_up=swing_up,
+        swung=swung,
         final=final,
-        models=models, seeds=seeds, iterations=iterations, quick=quick,
-        elapsed=time.perf_counter() - start, settings=dict(learn_options),
+        models=models,
+        seeds=seeds,
+        iterations=iterations,
+        quick=quick,
+        elapsed=time.perf_counter() - start,
+        settings=dict(learn_options),
         rollouts_per_iteration=rollouts,
     )
 
@@ -1160,7 +1261,7 @@ def run_pendulum_experiment(
 _COLORS = {"ltv": "C0", "lti": "C1", "learned": "C2"}
 
 
-def plot_pendulum_experiment(result: PendulumExperiment, *, axes: Any = None) -> "Figure":
+def plot_pendulum_experiment(result: PendulumExperiment, *, axes: Any = None) -> Figure:
     """Learning curves: the median return with its inter-quartile band, and the swung-up share.
 
     The top panel shows the learned controller's episode return per iteration
@@ -1179,8 +1280,9 @@ def plot_pendulum_experiment(result: PendulumExperiment, *, axes: Any = None) ->
     matplotlib.figure.Figure
     """
     if not isinstance(result, PendulumExperiment):
-        raise TypeError(f"result: expected a PendulumExperiment, received "
-                        f"{arrays.describe(result)}")
+        raise TypeError(
+            f"result: expected a PendulumExperiment, received {arrays.describe(result)}"
+        )
     from matplotlib.ticker import MaxNLocator
 
     if axes is None:
@@ -1188,24 +1290,38 @@ def plot_pendulum_experiment(result: PendulumExperiment, *, axes: Any = None) ->
         ax, ax2 = fig.subplots(2, 1, sharex=True, height_ratios=[2.2, 1.0])
     else:
         if not isinstance(axes, (tuple, list)) or len(axes) != 2:
-            raise TypeError(f"axes: expected a pair of matplotlib Axes, received "
-                            f"{arrays.describe(axes)}")
+            raise TypeError(
+                f"axes: expected a pair of matplotlib Axes, received {arrays.describe(axes)}"
+            )
         ax, ax2 = axes
         fig = ax.figure
     it = np.arange(1, result.iterations + 1)
     count = result.swung_up_count()
     draw_learning_curves(
-        ax, result.returns, result.models, _COLORS,
+        ax,
+        result.returns,
+        result.models,
+        _COLORS,
         {m: f"{MODEL_LABELS[m]} (swung up {count[m]}/{result.runs})" for m in result.models},
     )
     for m in result.models:
-        ax2.step(it, result.swung[m].mean(axis=0), where="post", color=_COLORS[m], lw=2,
-                 label=MODEL_LABELS[m])
-    ax.axhline(GOOD_RETURN, color="k", ls="--", lw=1.2,
-               label=f"gymnasium's usual good return ({GOOD_RETURN:.0f})")
+        ax2.step(
+            it,
+            result.swung[m].mean(axis=0),
+            where="post",
+            color=_COLORS[m],
+            lw=2,
+            label=MODEL_LABELS[m],
+        )
+    ax.axhline(
+        GOOD_RETURN,
+        color="k",
+        ls="--",
+        lw=1.2,
+        label=f"gymnasium's usual good return ({GOOD_RETURN:.0f})",
+    )
     ax.set_ylabel("Episode return")
-    ax.set_title(f"{ENV_ID}: median over {result.runs} initial states "
-                 "(band: inter-quartile range)")
+    ax.set_title(f"{ENV_ID}: median over {result.runs} initial states (band: inter-quartile range)")
     ax.legend(fontsize="small", loc="lower right")
     ax2.set_ylim(-0.03, 1.03)
     ax2.set_xlim(1, max(result.iterations, 2))

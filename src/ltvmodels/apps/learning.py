@@ -7,7 +7,8 @@ gymnasium Pendulum-v1 experiment (:mod:`.gym_rl`).
 from __future__ import annotations
 
 import warnings
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -38,8 +39,9 @@ def padded_inputs(u: np.ndarray) -> np.ndarray:
     return np.concatenate([u, pad], axis=-2)
 
 
-def fit_affine(kind: str, x: np.ndarray, u: np.ndarray, lam: float,
-               priors: Sequence[Prior] | None = None) -> tuple[np.ndarray, np.ndarray]:
+def fit_affine(
+    kind: str, x: np.ndarray, u: np.ndarray, lam: float, priors: Sequence[Prior] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Jacobians A (N, n, n), B (N, n, m) of an affine model fitted along one trajectory.
 
     ``kind`` "lti": :func:`ltvmodels.fit_lti`; otherwise :func:`ltvmodels.fit` with
@@ -54,8 +56,15 @@ def fit_affine(kind: str, x: np.ndarray, u: np.ndarray, lam: float,
         if kind == "lti":
             model = fit_lti(x, ua)
         else:
-            model = fit(x, ua, lam=lam, norm="sq", order=2, prior=list(priors or ()) or None,
-                        compute_cov=False)
+            model = fit(
+                x,
+                ua,
+                lam=lam,
+                norm="sq",
+                order=2,
+                prior=list(priors or ()) or None,
+                compute_cov=False,
+            )
     return model.A, model.B[:, :, :m]
 
 
@@ -65,8 +74,14 @@ def improvement_ratio(previous_cost: float, cost: float, predicted: float) -> fl
     return (previous_cost - cost) / promised if promised > 0 else 0.0
 
 
-def adapt_radius(radius: float, rho: float, *, max_radius: float, moved: float | None = None,
-                  min_radius: float = 0.0) -> float:
+def adapt_radius(
+    radius: float,
+    rho: float,
+    *,
+    max_radius: float,
+    moved: float | None = None,
+    min_radius: float = 0.0,
+) -> float:
     """The trust-region rule of the learning loops: the next radius, at least ``min_radius``.
 
     ρ < 0.1 (the model over-promised) halves the radius; otherwise a realized
@@ -96,8 +111,9 @@ def quartiles_by_model(values: dict) -> dict:
     return {m: np.quantile(v, [0.25, 0.75], axis=0) for m, v in values.items()}
 
 
-def draw_learning_curves(ax: Any, values: dict, models: Sequence[str], colors: dict,
-                         labels: dict) -> None:
+def draw_learning_curves(
+    ax: Any, values: dict, models: Sequence[str], colors: dict, labels: dict
+) -> None:
     """The median per learning iteration with its inter-quartile band, one curve per model.
 
     ``values[m]`` has shape (runs, iterations); iterations are numbered from 1.

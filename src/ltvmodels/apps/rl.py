@@ -39,8 +39,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Callable, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numba
 import numpy as np
@@ -88,8 +89,13 @@ LEARNED_SAMPLES = None
 LEARNED_AFTER = 3
 """Rollouts the mixture must have seen before the learned prior is used."""
 
-MODEL_LABELS = {"true": "True model", "ltv": "LTV model", "lti": "LTI model",
-                "prior": "LTV with prior", "learned": "LTV + learned prior"}
+MODEL_LABELS = {
+    "true": "True model",
+    "ltv": "LTV model",
+    "lti": "LTI model",
+    "prior": "LTV with prior",
+    "learned": "LTV + learned prior",
+}
 
 
 # -- the simulator --------------------------------------------------------------------
@@ -242,8 +248,17 @@ class CartPole:
 
     @property
     def _par(self) -> np.ndarray:
-        return np.array([self.cart_mass, self.pole_mass, self.length, self.gravity,
-                         self.cart_friction, self.pole_damping], dtype=float)
+        return np.array(
+            [
+                self.cart_mass,
+                self.pole_mass,
+                self.length,
+                self.gravity,
+                self.cart_friction,
+                self.pole_damping,
+            ],
+            dtype=float,
+        )
 
     def _state(self, x: Any, name: str = "x") -> np.ndarray:
         return arrays.vector(x, name, 4)
@@ -251,8 +266,9 @@ class CartPole:
     def _force(self, u: Any, name: str = "u") -> float:
         arr = arrays.as_float_array(u, name)
         if arr.size != 1:
-            raise ValueError(f"{name}: expected one force (a scalar or shape (1,)), received "
-                             f"shape {arr.shape}")
+            raise ValueError(
+                f"{name}: expected one force (a scalar or shape (1,)), received shape {arr.shape}"
+            )
         return float(arr.reshape(()))
 
     def derivative(self, x: Any, u: Any) -> np.ndarray:
@@ -267,13 +283,15 @@ class CartPole:
 
     def step(self, x: Any, u: Any) -> np.ndarray:
         """The state one sampling interval later, shape (4,) (the force is not clipped)."""
-        return _rk4_step(self._state(x), self._force(u), self._par, float(self.dt),
-                         int(self.substeps))
+        return _rk4_step(
+            self._state(x), self._force(u), self._par, float(self.dt), int(self.substeps)
+        )
 
     def jacobian(self, x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
         """Exact Jacobians (A (4, 4), B (4, 1)) of :meth:`step` at (x, u)."""
-        _, Phi, Gam = _rk4_jacobian(self._state(x), self._force(u), self._par,
-                                    float(self.dt), int(self.substeps))
+        _, Phi, Gam = _rk4_jacobian(
+            self._state(x), self._force(u), self._par, float(self.dt), int(self.substeps)
+        )
         return Phi, Gam[:, None]
 
     def linearize(self, x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -315,8 +333,14 @@ class CartPole:
         par = self._par
         for t in range(us.shape[0]):
             F = float(us[t, 0])
-            sol = solve_ivp(lambda _s, y, F=F: _deriv(y, F, par)[0], (0.0, float(self.dt)),
-                            out[t], method="DOP853", rtol=1e-10, atol=1e-12)
+            sol = solve_ivp(
+                lambda _s, y, F=F: _deriv(y, F, par)[0],
+                (0.0, float(self.dt)),
+                out[t],
+                method="DOP853",
+                rtol=1e-10,
+                atol=1e-12,
+            )
             out[t + 1] = sol.y[:, -1]
         return out
 
@@ -367,8 +391,9 @@ class CartPole:
         rng = options.random_generator(seed)
         noise = sigma * rng.standard_normal(N) if sigma > 0 else np.zeros(N)
         lim = float(self.force_limit)
-        return _closed_loop(x0, xn, us, Ka, noise, -lim, lim, self._par, float(self.dt),
-                            int(self.substeps))
+        return _closed_loop(
+            x0, xn, us, Ka, noise, -lim, lim, self._par, float(self.dt), int(self.substeps)
+        )
 
 
 # -- the task ---------------------------------------------------------------------------
@@ -448,8 +473,7 @@ def cartpole_task(
     wx = 1.0 / scales**2
     wu = np.array([1.0 / float(system.force_limit) ** 2])
     x0 = np.array([0.0, 0.0, float(theta0), 0.0])
-    return CartPoleTask(system=system, x0=x0, cost=cost, horizon=horizon,
-                        trust_weights=(wx, wu))
+    return CartPoleTask(system=system, x0=x0, cost=cost, horizon=horizon, trust_weights=(wx, wu))
 
 
 # -- learning -------------------------------------------------------------------------------
@@ -505,10 +529,17 @@ def _optional_positive(value: Any, name: str) -> float | None:
     return None if value is None else options.positive_scalar(value, name)
 
 
-def _fit_jacobians(kind: str, task: CartPoleTask, x: np.ndarray, u: np.ndarray, lam: float,
-                   prior_std: float, weak_prior_std: float | None,
-                   learned: GMMPrior | None = None, learned_samples: float | None = None,
-                   ) -> tuple[np.ndarray, np.ndarray]:
+def _fit_jacobians(
+    kind: str,
+    task: CartPoleTask,
+    x: np.ndarray,
+    u: np.ndarray,
+    lam: float,
+    prior_std: float,
+    weak_prior_std: float | None,
+    learned: GMMPrior | None = None,
+    learned_samples: float | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Jacobians A (N, 4, 4), B (N, 4, 1) of the chosen model along the rollout (x, u)."""
     N = u.shape[0]
     if kind == "true":
@@ -622,8 +653,10 @@ def learn(
     radius = options.positive_scalar(trust_region, "trust_region")
     max_radius = options.positive_scalar(max_trust_region, "max_trust_region")
     if not isinstance(adapt_trust_region, bool):
-        raise TypeError(f"adapt_trust_region: expected True or False, received "
-                        f"{arrays.describe(adapt_trust_region)}")
+        raise TypeError(
+            f"adapt_trust_region: expected True or False, received "
+            f"{arrays.describe(adapt_trust_region)}"
+        )
     noise_std = options.nonnegative_scalar(noise_std, "noise_std")
     prior_std = options.positive_scalar(prior_std, "prior_std")
     weak_prior_std = _optional_positive(weak_prior_std, "weak_prior_std")
@@ -652,30 +685,46 @@ def learn(
             radius = adapt_radius(radius, rho, max_radius=max_radius, moved=moved)
         x_prev = x
         ready = learned if i >= learned_after else None
-        A, B = _fit_jacobians(kind, task, x, u, lam, prior_std, weak_prior_std, ready,
-                              learned_samples)
+        A, B = _fit_jacobians(
+            kind, task, x, u, lam, prior_std, weak_prior_std, ready, learned_samples
+        )
         if kind == "learned":  # this rollout joins the mixture for the next iterations
-            learned = (GMMPrior(x, padded_inputs(u), seed=0) if learned is None
-                       else learned.update(x, padded_inputs(u)))
+            learned = (
+                GMMPrior(x, padded_inputs(u), seed=0)
+                if learned is None
+                else learned.update(x, padded_inputs(u))
+            )
         dyn = LinearDynamics.through(A, B, x, u)
         # The controller's noise-free output at the visited states: the exploration noise
         # must not accumulate in the nominal controls from one iteration to the next.
-        u_clean = np.clip(u_nom + np.einsum("tij,tj->ti", K, x[:-1] - x_nom[:-1]),
-                          *task.bounds)
+        u_clean = np.clip(u_nom + np.einsum("tij,tj->ti", K, x[:-1] - x_nom[:-1]), *task.bounds)
         # Under the model these controls reproduce the rollout only up to the effect of the
         # noise; the radius never goes below twice that distance (else it cannot be met).
-        noise_gap = float(np.sqrt(np.max(np.sum(
-            (dyn.simulate(x[0], u_clean) - x) ** 2 * wx, axis=1))))
+        noise_gap = float(
+            np.sqrt(np.max(np.sum((dyn.simulate(x[0], u_clean) - x) ** 2 * wx, axis=1)))
+        )
         radius = max(radius, 2.0 * noise_gap)
         controller = ilqg(
-            dyn, task.cost, x[0], u_clean, u_bounds=task.bounds, trust_region=radius,
-            reference=(x, u_clean), trust_weights=task.trust_weights,
+            dyn,
+            task.cost,
+            x[0],
+            u_clean,
+            u_bounds=task.bounds,
+            trust_region=radius,
+            reference=(x, u_clean),
+            trust_weights=task.trust_weights,
         )
         predicted.append(controller.cost)
         radii.append(radius)
         x_nom, u_nom, K = controller.x, controller.u, controller.K
-    return LearningResult(costs=np.array(costs), predicted=np.array(predicted),
-                          radii=np.array(radii), controller=controller, x=x, u=u)
+    return LearningResult(
+        costs=np.array(costs),
+        predicted=np.array(predicted),
+        radii=np.array(radii),
+        controller=controller,
+        x=x,
+        u=u,
+    )
 
 
 def optimal_control(task: CartPoleTask) -> ILQGResult:
@@ -695,8 +744,14 @@ def optimal_control(task: CartPoleTask) -> ILQGResult:
         _, Phi, Gam = _rk4_jacobian(x, float(u[0]), par, h, sub)
         return Phi, Gam[:, None]
 
-    return ilqg(step, task.cost, task.x0, np.zeros((task.horizon, 1)), jacobian=jacobian,
-                u_bounds=task.bounds)
+    return ilqg(
+        step,
+        task.cost,
+        task.x0,
+        np.zeros((task.horizon, 1)),
+        jacobian=jacobian,
+        u_bounds=task.bounds,
+    )
 
 
 # -- the Monte-Carlo experiment -------------------------------------------------------------
@@ -753,9 +808,11 @@ class RLExperiment:
         return "\n".join(lines)
 
     def __repr__(self) -> str:
-        return (f"RLExperiment(models={self.models}, runs={self.runs}, "
-                f"iterations={self.iterations}, optimum={self.optimum:.4g}, "
-                f"elapsed={self.elapsed:.1f}s)")
+        return (
+            f"RLExperiment(models={self.models}, runs={self.runs}, "
+            f"iterations={self.iterations}, optimum={self.optimum:.4g}, "
+            f"elapsed={self.elapsed:.1f}s)"
+        )
 
 
 def run_experiment(
@@ -800,8 +857,11 @@ def run_experiment(
     if not isinstance(quick, bool):
         raise TypeError(f"quick: expected True or False, received {arrays.describe(quick)}")
     runs = (QUICK_RUNS if quick else 20) if runs is None else options.integer(runs, "runs", 1)
-    iterations = ((QUICK_ITERATIONS if quick else 14) if iterations is None
-                  else options.integer(iterations, "iterations", 1))
+    iterations = (
+        (QUICK_ITERATIONS if quick else 14)
+        if iterations is None
+        else options.integer(iterations, "iterations", 1)
+    )
     seed = options.integer(seed, "seed", 0)
     models = _model_list(models)
     if task is None:
@@ -809,29 +869,39 @@ def run_experiment(
     elif not isinstance(task, CartPoleTask):
         raise TypeError(f"task: expected a CartPoleTask, received {arrays.describe(task)}")
     if progress is not None and not callable(progress):
-        raise TypeError(f"progress: expected a function or None, received "
-                        f"{arrays.describe(progress)}")
+        raise TypeError(
+            f"progress: expected a function or None, received {arrays.describe(progress)}"
+        )
     start = time.perf_counter()
     optimum = optimal_control(task).cost
     children = np.random.SeedSequence(seed).spawn(runs)
     costs = {m: np.empty((runs, iterations)) for m in models}
     for r, child in enumerate(children):
         for m in models:
-            costs[m][r] = learn(task, m, iterations=iterations,
-                                seed=np.random.default_rng(child)).costs
+            costs[m][r] = learn(
+                task, m, iterations=iterations, seed=np.random.default_rng(child)
+            ).costs
         if progress is not None:
             last = ", ".join(f"{m} {costs[m][r, -1]:.1f}" for m in models)
-            progress(f"run {r + 1}/{runs}: final costs {last} "
-                     f"({time.perf_counter() - start:.0f} s)")
-    return RLExperiment(costs=costs, optimum=float(optimum), models=models, runs=runs,
-                        iterations=iterations, seed=seed, quick=quick,
-                        elapsed=time.perf_counter() - start)
+            progress(
+                f"run {r + 1}/{runs}: final costs {last} ({time.perf_counter() - start:.0f} s)"
+            )
+    return RLExperiment(
+        costs=costs,
+        optimum=float(optimum),
+        models=models,
+        runs=runs,
+        iterations=iterations,
+        seed=seed,
+        quick=quick,
+        elapsed=time.perf_counter() - start,
+    )
 
 
 _COLORS = {"ltv": "C0", "lti": "C1", "prior": "C2", "learned": "C3", "true": "0.35"}
 
 
-def plot_experiment(result: RLExperiment, *, ax: Any = None) -> "Figure":
+def plot_experiment(result: RLExperiment, *, ax: Any = None) -> Figure:
     """Median cost per learning iteration with the inter-quartile band (paper Fig. 4).
 
     Parameters
@@ -846,8 +916,7 @@ def plot_experiment(result: RLExperiment, *, ax: Any = None) -> "Figure":
     matplotlib.figure.Figure
     """
     if not isinstance(result, RLExperiment):
-        raise TypeError(f"result: expected an RLExperiment, received "
-                        f"{arrays.describe(result)}")
+        raise TypeError(f"result: expected an RLExperiment, received {arrays.describe(result)}")
     if ax is None:
         ax = new_axes((7.0, 4.2))
     fig = ax.figure

@@ -37,7 +37,11 @@ from ..plotting.figure import new_figure
 from ..validation import options
 
 __all__ = [
-    "RobotData", "RobotExperiment", "plot_robot_experiment", "robot_experiment", "two_link_robot",
+    "RobotData",
+    "RobotExperiment",
+    "plot_robot_experiment",
+    "robot_experiment",
+    "two_link_robot",
 ]
 
 LINK = 1.0  # both link lengths [m]
@@ -103,8 +107,7 @@ def _bias(q: np.ndarray, qd: np.ndarray) -> np.ndarray:
 
 def hand_position(q: np.ndarray) -> np.ndarray:
     """Position (horizontal, vertical) of the arm's tip at joint angles q (2,)."""
-    return LINK * np.array([np.cos(q[0]) + np.cos(q[0] + q[1]),
-                            np.sin(q[0]) + np.sin(q[0] + q[1])])
+    return LINK * np.array([np.cos(q[0]) + np.cos(q[0] + q[1]), np.sin(q[0]) + np.sin(q[0] + q[1])])
 
 
 def _jacobian(q: np.ndarray) -> np.ndarray:
@@ -116,8 +119,12 @@ def _jacobian(q: np.ndarray) -> np.ndarray:
 def _jacobian_rate(q: np.ndarray, qd: np.ndarray) -> np.ndarray:
     """J̇(q, q̇) q̇."""
     w1, w12 = qd[0], qd[0] + qd[1]
-    return -LINK * np.array([np.cos(q[0]) * w1**2 + np.cos(q[0] + q[1]) * w12**2,
-                             np.sin(q[0]) * w1**2 + np.sin(q[0] + q[1]) * w12**2])
+    return -LINK * np.array(
+        [
+            np.cos(q[0]) * w1**2 + np.cos(q[0] + q[1]) * w12**2,
+            np.sin(q[0]) * w1**2 + np.sin(q[0] + q[1]) * w12**2,
+        ]
+    )
 
 
 def _inverse(p: np.ndarray) -> np.ndarray:
@@ -131,8 +138,11 @@ def _inverse(p: np.ndarray) -> np.ndarray:
 def _reference(t: float, duration: float):
     """Joint position, velocity and acceleration along the end-effector line."""
     tau = min(max(t / duration, 0.0), 1.0)
-    s, sd, sdd = 3 * tau**2 - 2 * tau**3, (6 * tau - 6 * tau**2) / duration, \
-        (6 - 12 * tau) / duration**2
+    s, sd, sdd = (
+        3 * tau**2 - 2 * tau**3,
+        (6 * tau - 6 * tau**2) / duration,
+        (6 - 12 * tau) / duration**2,
+    )
     p, pd, pdd = START + s * (END - START), sd * (END - START), sdd * (END - START)
     q = _inverse(p)
     J = _jacobian(q)
@@ -208,7 +218,11 @@ def two_link_robot(
     moving = np.flatnonzero(np.abs(x[:, 3]) > 1e-3)  # ignore the start from rest
     flips = moving[1:][np.diff(np.sign(x[moving, 3])) != 0]
     return RobotData(
-        x=x, u=u, time=h * np.arange(T), end_effector=pos, in_contact=in_contact,
+        x=x,
+        u=u,
+        time=h * np.arange(T),
+        end_effector=pos,
+        in_contact=in_contact,
         contact_index=int(first[0]) if first.size else None,
         sign_change_index=int(flips[0]) if flips.size else None,
         wall_height=wall_height,
@@ -226,21 +240,23 @@ def _step(q, qd, torque, h, contact, wall_height):
     state = np.concatenate([q, qd])
     while h - t0 > 1e-12:
         if contact:
+
             def rhs(_t, s):
                 return np.concatenate([s[2:], _wall_force(s[:2], s[2:], torque)[0]])
 
             def event(_t, s):  # the wall force crosses 0 upwards: it would pull
                 return _wall_force(s[:2], s[2:], torque)[1]
         else:
+
             def rhs(_t, s):
                 acc = np.linalg.solve(_mass_matrix(s[:2]), torque - _bias(s[:2], s[2:]))
                 return np.concatenate([s[2:], acc])
 
             def event(_t, s):  # the end effector reaches the wall
                 return hand_position(s[:2])[1] - wall_height
+
         event.terminal, event.direction = True, 1.0
-        sol = solve_ivp(rhs, (t0, h), state, method="LSODA", events=event, rtol=1e-7,
-                        atol=1e-9)
+        sol = solve_ivp(rhs, (t0, h), state, method="LSODA", events=event, rtol=1e-7, atol=1e-9)
         state, t0 = sol.y[:, -1], sol.t[-1]
         if sol.status == 1:  # the event ended the piece
             contact = not contact
@@ -339,10 +355,16 @@ def robot_experiment(
     model = fit(xt, ut, lam=lam_fraction * lam_max, norm="group", order=1)
     sim_t, sim_v = model.simulate(xt[0], ut), model.simulate(xv[0], uv)
     return RobotExperiment(
-        train=train, validation=validation, x_train=xt, u_train=ut, x_validation=xv,
-        u_validation=uv, model=model,
+        train=train,
+        validation=validation,
+        x_train=xt,
+        u_train=ut,
+        x_validation=xv,
+        u_validation=uv,
+        model=model,
         changepoints=find_changepoints(model, threshold=0.01),
-        simulation_train=sim_t, simulation_validation=sim_v,
+        simulation_train=sim_t,
+        simulation_validation=sim_v,
         rms_train=float(np.sqrt(np.mean((sim_t - xt) ** 2))),
         rms_validation=float(np.sqrt(np.mean((sim_v - xv) ** 2))),
     )
@@ -383,7 +405,9 @@ def plot_robot_experiment(experiment: RobotExperiment, which: str = "train"):
                 if event is not None:
                     ax.axvline(event, color="C3", ls=":", lw=0.8)
     axes[0].legend(loc="best")
-    fig.suptitle(f"two-link arm, {which} run: open-loop simulation RMS {rms:.3f} (normalized)\n"
-                 "dashed: sign change of q̇₂ and contact in the training run"
-                 + ("; dotted: in this run" if which == "validation" else ""))
+    fig.suptitle(
+        f"two-link arm, {which} run: open-loop simulation RMS {rms:.3f} (normalized)\n"
+        "dashed: sign change of q̇₂ and contact in the training run"
+        + ("; dotted: in this run" if which == "validation" else "")
+    )
     return fig

@@ -54,7 +54,7 @@ import contextlib
 import json
 import os
 import sys
-from typing import Sequence
+from collections.abc import Sequence
 
 from ..errors import OutputPathError
 from .messages import CommandError, DataError, UsageError, collect_warnings, one_line
@@ -83,8 +83,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         args, extras = parser.parse_known_args(None if argv is None else list(argv))
         if extras:  # reported by the subcommand, whose options the user is typing
             prog = f"{parser.prog} {args.command}"
-            raise UsageError(f"{prog}: error: unrecognized arguments: {' '.join(extras)} "
-                              f"(see '{prog} --help')")
+            raise UsageError(
+                f"{prog}: error: unrecognized arguments: {' '.join(extras)} (see '{prog} --help')"
+            )
     except UsageError as exc:
         print(exc, file=sys.stderr)
         return 2

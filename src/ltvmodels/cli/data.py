@@ -15,9 +15,10 @@ from __future__ import annotations
 import csv
 import math
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -73,13 +74,17 @@ def _open_parquet(path: Path) -> _Source:
     try:
         import pandas as pd
     except ImportError:
-        raise DataError(f"{path}: reading Parquet needs pandas with pyarrow or fastparquet "
-                        "(pip install pandas pyarrow), or convert the data to CSV") from None
+        raise DataError(
+            f"{path}: reading Parquet needs pandas with pyarrow or fastparquet "
+            "(pip install pandas pyarrow), or convert the data to CSV"
+        ) from None
     try:
         frame = pd.read_parquet(path)
     except ImportError:
-        raise DataError(f"{path}: reading Parquet needs pyarrow or fastparquet (pip install "
-                        "pyarrow), or convert the data to CSV") from None
+        raise DataError(
+            f"{path}: reading Parquet needs pyarrow or fastparquet (pip install "
+            "pyarrow), or convert the data to CSV"
+        ) from None
     except Exception as exc:  # pyarrow raises its own error types on corrupt files
         raise DataError(f"{path}: cannot read as Parquet: {one_line(exc)}") from None
     names = [str(c) for c in frame.columns]
@@ -91,20 +96,25 @@ def _open_parquet(path: Path) -> _Source:
             try:  # nulls (None, pd.NA, NaT) are missing values: NaN
                 out[:, j] = column.to_numpy(dtype=float, na_value=np.nan)
             except (TypeError, ValueError):
-                raise DataError(f"{path}: column {names[i]!r} is not numeric "
-                                f"(dtype {column.dtype})") from None
+                raise DataError(
+                    f"{path}: column {names[i]!r} is not numeric (dtype {column.dtype})"
+                ) from None
             bad = np.isinf(out[:, j])
             if bad.any():
                 row = int(np.flatnonzero(bad)[0])
-                raise DataError(f"{path}: row {row}, column {names[i]!r}: value "
-                                f"{float(out[row, j])} is not finite; expected a finite number, "
-                                "or a null or NaN for a missing value")
+                raise DataError(
+                    f"{path}: row {row}, column {names[i]!r}: value "
+                    f"{float(out[row, j])} is not finite; expected a finite number, "
+                    "or a null or NaN for a missing value"
+                )
         return out
 
     def text(index: int) -> list[str]:
         column = frame.iloc[:, index]
-        return ["" if value is None or (isinstance(value, float) and math.isnan(value))
-                else str(value) for value in column.astype(object).where(column.notna(), None)]
+        return [
+            "" if value is None or (isinstance(value, float) and math.isnan(value)) else str(value)
+            for value in column.astype(object).where(column.notna(), None)
+        ]
 
     return _Source(str(path), names, read, text)
 
@@ -128,8 +138,11 @@ def _is_number(text: str) -> bool:
 def _parse_csv(text: str, label: str) -> _Source:
     """Split CSV text into rows (lazily converted per column) and find the header."""
     lines = text.splitlines()
-    numbered = [(i + 1, line) for i, line in enumerate(lines)
-                if line.strip() and not line.lstrip().startswith("#")]
+    numbered = [
+        (i + 1, line)
+        for i, line in enumerate(lines)
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
     if not numbered:
         raise DataError(f"{label}: empty file (no header and no data rows)")
     first = numbered[0][1]
@@ -153,8 +166,10 @@ def _parse_csv(text: str, label: str) -> _Source:
     width = len(names)
     for row, line in zip(data_rows, line_numbers, strict=True):
         if len(row) != width:
-            raise DataError(f"{label}, line {line}: expected {width} fields (as the "
-                            f"{'header' if has_header else 'first row'}), received {len(row)}")
+            raise DataError(
+                f"{label}, line {line}: expected {width} fields (as the "
+                f"{'header' if has_header else 'first row'}), received {len(row)}"
+            )
 
     def read(indices: list[int]) -> np.ndarray:
         out = np.empty((len(data_rows), len(indices)))
@@ -167,13 +182,17 @@ def _parse_csv(text: str, label: str) -> _Source:
                 try:
                     value = float(field)
                 except ValueError:
-                    raise DataError(f"{label}, line {line_numbers[r]}, column {names[i]!r}: "
-                                    f"{field!r} is not a number; expected a number, or "
-                                    f"{MISSING_HELP} for a missing value") from None
+                    raise DataError(
+                        f"{label}, line {line_numbers[r]}, column {names[i]!r}: "
+                        f"{field!r} is not a number; expected a number, or "
+                        f"{MISSING_HELP} for a missing value"
+                    ) from None
                 if math.isinf(value):
-                    raise DataError(f"{label}, line {line_numbers[r]}, column {names[i]!r}: "
-                                    f"{field!r} is not finite; expected a finite number, or "
-                                    f"{MISSING_HELP} for a missing value")
+                    raise DataError(
+                        f"{label}, line {line_numbers[r]}, column {names[i]!r}: "
+                        f"{field!r} is not finite; expected a finite number, or "
+                        f"{MISSING_HELP} for a missing value"
+                    )
                 out[r, j] = value  # float() also reads 'nan', '-nan': missing
         return out
 
@@ -187,14 +206,17 @@ def _resolve(source: _Source, spec: str, option: str) -> list[int]:
     """Column indices of a comma-separated list of names or 0-based indices."""
     tokens = [token.strip() for token in spec.split(",")]
     if not spec.strip() or any(token == "" for token in tokens):
-        raise DataError(f"{option}: expected comma-separated column names or 0-based "
-                        f"indices, received {spec!r}")
+        raise DataError(
+            f"{option}: expected comma-separated column names or 0-based indices, received {spec!r}"
+        )
     indices = []
     for token in tokens:
         matches = [i for i, name in enumerate(source.names) if name == token]
         if len(matches) > 1:
-            raise DataError(f"{option}: column name {token!r} appears {len(matches)} times in "
-                            f"{source.label}; select it by index")
+            raise DataError(
+                f"{option}: column name {token!r} appears {len(matches)} times in "
+                f"{source.label}; select it by index"
+            )
         if matches:
             indices.append(matches[0])
         elif token.isdigit() and int(token) < len(source.names):
@@ -202,8 +224,7 @@ def _resolve(source: _Source, spec: str, option: str) -> list[int]:
         else:
             shown = ", ".join(source.names[:20]) + (", ..." if len(source.names) > 20 else "")
             what = "index" if token.isdigit() else "column"
-            raise DataError(f"{option}: no {what} {token!r} in {source.label} (columns: "
-                            f"{shown})")
+            raise DataError(f"{option}: no {what} {token!r} in {source.label} (columns: {shown})")
     if len(set(indices)) != len(indices):
         raise DataError(f"{option}: a column is selected twice in {spec!r}")
     return indices
@@ -228,8 +249,9 @@ def read_columns(path: Any, **selections: str | None) -> tuple[int, str, dict[st
         indices = _resolve(source, spec, option)
         for i in indices:
             if i in seen:
-                raise DataError(f"{option}: column {source.names[i]!r} is also selected by "
-                                f"{seen[i]}")
+                raise DataError(
+                    f"{option}: column {source.names[i]!r} is also selected by {seen[i]}"
+                )
             seen[i] = option
         resolved[key] = indices
     columns: dict[str, Any] = {}
@@ -241,8 +263,7 @@ def read_columns(path: Any, **selections: str | None) -> tuple[int, str, dict[st
         if key == "time":  # dates or numbers, see parse_times
             if len(indices) != 1:
                 raise DataError(f"--time: expected one column, received {selections[key]!r}")
-            values = parse_times(source.text(indices[0]), source.label,
-                                 source.names[indices[0]])
+            values = parse_times(source.text(indices[0]), source.label, source.names[indices[0]])
         else:
             values = source.read(indices)
         T = values.shape[0]
@@ -257,8 +278,10 @@ def parse_times(fields: list[str], label: str, name: str) -> np.ndarray:
     """
     if "" in fields:
         row = fields.index("")
-        raise DataError(f"{label}, column {name!r}: the time of row {row} is missing; every "
-                        "sample needs its time")
+        raise DataError(
+            f"{label}, column {name!r}: the time of row {row} is missing; every "
+            "sample needs its time"
+        )
     try:
         return np.array([float(field) for field in fields])
     except ValueError:
@@ -266,12 +289,15 @@ def parse_times(fields: list[str], label: str, name: str) -> np.ndarray:
     try:
         return np.array([np.datetime64(field) for field in fields]).astype("datetime64[ns]")
     except ValueError as exc:
-        raise DataError(f"{label}, column {name!r}: {one_line(exc)}; expected numbers or ISO "
-                        "8601 dates and times (YYYY-MM-DD, YYYY-MM-DDTHH:MM:SS)") from None
+        raise DataError(
+            f"{label}, column {name!r}: {one_line(exc)}; expected numbers or ISO "
+            "8601 dates and times (YYYY-MM-DD, YYYY-MM-DDTHH:MM:SS)"
+        ) from None
 
 
-def write_csv(path: Path, names: list[str], columns: np.ndarray, option: str,
-              index: list[str] | None = None) -> None:
+def write_csv(
+    path: Path, names: list[str], columns: np.ndarray, option: str, index: list[str] | None = None
+) -> None:
     """Write a header and rows of numbers (12 significant digits) as CSV; with ``index``
     (one text per row, e.g. dates) as the first column."""
     try:
@@ -282,5 +308,6 @@ def write_csv(path: Path, names: list[str], columns: np.ndarray, option: str,
                 cells = [f"{v:.12g}" for v in row]
                 writer.writerow(cells if index is None else [index[r], *cells])
     except OSError as exc:
-        raise OutputPathError(f"{option}: cannot write {str(path)!r}: "
-                              f"{exc.strerror or exc}") from exc
+        raise OutputPathError(
+            f"{option}: cannot write {str(path)!r}: {exc.strerror or exc}"
+        ) from exc

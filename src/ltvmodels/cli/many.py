@@ -44,8 +44,13 @@ def read_table(path: str) -> Any:
             first = text.lstrip("\ufeff").split("\n", 1)[0]
         separator = max(",;\t", key=first.count)  # as the other commands detect it
         source = io.StringIO(text) if text is not None else path
-        return pd.read_csv(source, sep=separator, comment="#", encoding="utf-8-sig",
-                           na_values=["NA", "N/A", "NaN", "null", "na", "n/a", "nan"])
+        return pd.read_csv(
+            source,
+            sep=separator,
+            comment="#",
+            encoding="utf-8-sig",
+            na_values=["NA", "N/A", "NaN", "null", "na", "n/a", "nan"],
+        )
     except (ValueError, OSError, ImportError) as exc:
         raise DataError(f"{path}: cannot read it as a table ({exc})") from None
 
@@ -63,8 +68,10 @@ def parse_time_column(frame: Any, name: str | None) -> None:
     try:
         frame[name] = pd.to_datetime(frame[name])
     except (ValueError, TypeError):
-        raise CommandError(f"--time: column {name!r} holds neither numbers nor dates "
-                           f"(first value {frame[name].iloc[0]!r})") from None
+        raise CommandError(
+            f"--time: column {name!r} holds neither numbers nor dates "
+            f"(first value {frame[name].iloc[0]!r})"
+        ) from None
 
 
 def connect(address: str | None) -> Any:
@@ -74,13 +81,16 @@ def connect(address: str | None) -> Any:
     try:
         from distributed import Client
     except ImportError:
-        raise CommandError("--scheduler needs dask.distributed: pip install "
-                           "'ltvmodels[dask]'") from None
+        raise CommandError(
+            "--scheduler needs dask.distributed: pip install 'ltvmodels[dask]'"
+        ) from None
     try:
         return Client(address, timeout="20s")
     except (OSError, TimeoutError) as exc:
-        raise CommandError(f"--scheduler: cannot connect to {address} ({exc}); start one "
-                           "with 'dask scheduler' and 'dask worker ADDRESS'") from None
+        raise CommandError(
+            f"--scheduler: cannot connect to {address} ({exc}); start one "
+            "with 'dask scheduler' and 'dask worker ADDRESS'"
+        ) from None
 
 
 def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
@@ -89,8 +99,9 @@ def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
     parse_time_column(frame, args.time)
     options: dict[str, Any] = {"constant": args.constant}
     if args.method == "fit":
-        options.update(lam=args.lam, norm=args.norm, order=args.order, refine=args.refine,
-                       loss=args.loss)
+        options.update(
+            lam=args.lam, norm=args.norm, order=args.order, refine=args.refine, loss=args.loss
+        )
     elif args.method == "segments" and args.n_changes is not None:
         options["n_changes"] = args.n_changes
     if args.weights is not None:
@@ -99,36 +110,54 @@ def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
     start = time.perf_counter()
     try:
         with user_errors():
-            models = fit_many(frame, by=args.by, state=columns(args.state),
-                              inputs=columns(args.input) or None, time=args.time,
-                              engine=client, n_jobs=args.jobs,
-                              keep_models=False, models_dir=args.models_dir,
-                              method=args.method, **options)
+            models = fit_many(
+                frame,
+                by=args.by,
+                state=columns(args.state),
+                inputs=columns(args.input) or None,
+                time=args.time,
+                engine=client,
+                n_jobs=args.jobs,
+                keep_models=False,
+                models_dir=args.models_dir,
+                method=args.method,
+                **options,
+            )
     finally:
         if client is not None:
             client.close()
     seconds = time.perf_counter() - start
     summary = models.summary
     n_units, n_failed = len(models.units), len(models.errors)
-    where = (f"the cluster at {args.scheduler}" if args.scheduler else
-             "this process" if args.jobs == 1 else
-             f"{args.jobs or 'all'} local processes")
-    lines = [f"fit-many: {n_units} units of {args.data} (by {args.by!r}): "
-             f"{n_units - n_failed} fitted, {n_failed} failed, in {seconds:.1f} s "
-             f"({n_units / max(seconds, 1e-9):.3g} units/s) on {where}"]
+    where = (
+        f"the cluster at {args.scheduler}"
+        if args.scheduler
+        else "this process"
+        if args.jobs == 1
+        else f"{args.jobs or 'all'} local processes"
+    )
+    lines = [
+        f"fit-many: {n_units} units of {args.data} (by {args.by!r}): "
+        f"{n_units - n_failed} fitted, {n_failed} failed, in {seconds:.1f} s "
+        f"({n_units / max(seconds, 1e-9):.3g} units/s) on {where}"
+    ]
     for unit, message in list(models.errors.items())[:LISTED_ERRORS]:
         lines.append(f"  unit {unit!r}: {message}")
     if n_failed > LISTED_ERRORS:
-        lines.append(f"  ... and {n_failed - LISTED_ERRORS} more (see the summary's "
-                     "'error' column)")
+        lines.append(
+            f"  ... and {n_failed - LISTED_ERRORS} more (see the summary's 'error' column)"
+        )
     warned = int(summary["warnings"].notna().sum()) if "warnings" in summary else 0
     if warned:
-        lines.append(f"  {warned} units fitted with warnings (see the summary's 'warnings' "
-                     "column)")
-    report: dict[str, Any] = {"n_units": n_units, "n_fitted": n_units - n_failed,
-                              "n_failed": n_failed, "n_warned": warned, "seconds": seconds,
-                              "errors": {str(unit): text for unit, text in
-                                         models.errors.items()}}
+        lines.append(f"  {warned} units fitted with warnings (see the summary's 'warnings' column)")
+    report: dict[str, Any] = {
+        "n_units": n_units,
+        "n_fitted": n_units - n_failed,
+        "n_failed": n_failed,
+        "n_warned": warned,
+        "seconds": seconds,
+        "errors": {str(unit): text for unit, text in models.errors.items()},
+    }
     if args.out is not None:
         write_summary(summary, Path(args.out))
         report["summary"] = str(args.out)

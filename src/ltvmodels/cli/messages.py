@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import contextlib
 import warnings
-from typing import Any, Iterator
+from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 
@@ -34,11 +35,25 @@ class CommandError(Exception):
 
 # Library argument names → what the user typed on the command line.
 OPTION_NAMES = {
-    "x": "--state data", "u": "--input data", "y": "--column data", "lam": "--lam",
-    "order": "--order", "max_iter": "--max-iter", "tol": "--tol", "n_changes": "--n-changes",
-    "penalty": "--penalty", "min_size": "--min-size", "na": "--na", "fs": "--fs",
-    "method": "--method", "x0": "--state data", "y0": "--column data", "loss": "--loss",
-    "huber_delta": "--huber-delta", "noise_var": "--noise-var", "weights": "--weights",
+    "x": "--state data",
+    "u": "--input data",
+    "y": "--column data",
+    "lam": "--lam",
+    "order": "--order",
+    "max_iter": "--max-iter",
+    "tol": "--tol",
+    "n_changes": "--n-changes",
+    "penalty": "--penalty",
+    "min_size": "--min-size",
+    "na": "--na",
+    "fs": "--fs",
+    "method": "--method",
+    "x0": "--state data",
+    "y0": "--column data",
+    "loss": "--loss",
+    "huber_delta": "--huber-delta",
+    "noise_var": "--noise-var",
+    "weights": "--weights",
 }
 
 
@@ -49,8 +64,13 @@ def user_errors(context: str = "") -> Iterator[None]:
         yield
     except (DataError, OutputPathError):
         raise
-    except (ValueError, TypeError, NotImplementedError, SingularProblemError,
-            np.linalg.LinAlgError) as exc:
+    except (
+        ValueError,
+        TypeError,
+        NotImplementedError,
+        SingularProblemError,
+        np.linalg.LinAlgError,
+    ) as exc:
         text = one_line(exc)
         name, sep, rest = text.partition(":")
         if sep and name in OPTION_NAMES:

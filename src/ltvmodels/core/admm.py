@@ -149,8 +149,9 @@ def fit_sparse(
         s_scale = rho * np.linalg.norm(apply_difference_adjoint(w * weights, problem.coeffs, N))
         s_rel = s / max(s_scale, dual_floor, 1e-300)
         if r_rel <= residual_tol and s_rel <= residual_tol:
-            value, gap, stationarity, _ = certificate(problem, weights, theta.reshape(N, K),
-                                                      norm == "group")
+            value, gap, stationarity, _ = certificate(
+                problem, weights, theta.reshape(N, K), norm == "group"
+            )
             gap_rel = gap / max(value, 1e-300)
             if gap_rel <= tol and stationarity <= tol:
                 converged = True
@@ -169,8 +170,9 @@ def fit_sparse(
             n_fact += 1
     if not converged:
         if not np.isfinite(gap_rel):
-            value, gap, stationarity, _ = certificate(problem, weights, theta.reshape(N, K),
-                                                      norm == "group")
+            value, gap, stationarity, _ = certificate(
+                problem, weights, theta.reshape(N, K), norm == "group"
+            )
             gap_rel = gap / max(value, 1e-300)
         warnings.warn(
             f"ADMM did not converge in {max_iter} iterations (relative duality gap "
@@ -181,8 +183,16 @@ def fit_sparse(
             stacklevel=3,
         )
     return SparseResult(
-        theta=theta, objective=objective(problem, theta, weights, norm), iterations=it,
-        converged=converged, primal_residual=float(r_rel), dual_residual=float(s_rel),
-        duality_gap=float(gap), stationarity=float(stationarity),
-        rho=float(rho), n_factorizations=n_fact, z=z, w=w,
+        theta=theta,
+        objective=objective(problem, theta, weights, norm),
+        iterations=it,
+        converged=converged,
+        primal_residual=float(r_rel),
+        dual_residual=float(s_rel),
+        duality_gap=float(gap),
+        stationarity=float(stationarity),
+        rho=float(rho),
+        n_factorizations=n_fact,
+        z=z,
+        w=w,
     )

@@ -186,9 +186,15 @@ def _factor_forward(system: BlockSystem, rhs: np.ndarray, what: str):
     L = np.empty((N, d + 1, b, b))
     size = kernel_size(N, b)  # a tuple selects the version compiled for this b
     worst, worst_t, logdet = kernels.factor_forward(
-        np.ascontiguousarray(system.phi), system.n_rep, float(system.data_scale),
-        np.ascontiguousarray(system.extra), np.ascontiguousarray(system.W),
-        system.bands(), rhs, L, size,
+        np.ascontiguousarray(system.phi),
+        system.n_rep,
+        float(system.data_scale),
+        np.ascontiguousarray(system.extra),
+        np.ascontiguousarray(system.W),
+        system.bands(),
+        rhs,
+        L,
+        size,
     )
     _check_pivots(worst, worst_t, what)
     return L, logdet, size
@@ -275,8 +281,15 @@ class RowsSolution:
     gram_trace: float
 
 
-def solve_shared_rows(phi: np.ndarray, y: np.ndarray, w: np.ndarray, coeffs: np.ndarray, *,
-                      compute_cov: bool, what: str = "the normal equations") -> RowsSolution:
+def solve_shared_rows(
+    phi: np.ndarray,
+    y: np.ndarray,
+    w: np.ndarray,
+    coeffs: np.ndarray,
+    *,
+    compute_cov: bool,
+    what: str = "the normal equations",
+) -> RowsSolution:
     """Solve H θ_c = Σ_j φ_tj y_tjc for every output row c with one factorization of
     H = blkdiag_t(Σ_j φ_tj φ_tjᵀ) + DᵀD ⊗ diag(w) (rows sharing a finite diagonal weight).
 
@@ -297,8 +310,7 @@ def solve_shared_rows(phi: np.ndarray, y: np.ndarray, w: np.ndarray, coeffs: np.
     theta = np.empty((N, n, p))
     L = np.empty((N, len(coeffs), p, p))
     size = kernel_size(N, p)
-    worst, worst_t, logdet, trace = kernels.rows_factor_forward(phi, y, w, coeffs, theta, L,
-                                                                size)
+    worst, worst_t, logdet, trace = kernels.rows_factor_forward(phi, y, w, coeffs, theta, L, size)
     _check_pivots(worst, worst_t, what)
     cov = np.empty((N if compute_cov else 0, p, p))
     rss, squares = np.empty(n), np.empty(n)
@@ -322,8 +334,12 @@ def _solve_bordered(system: BlockSystem, rhs, const, *, compute_cov, what) -> Bl
     rhs_C = rhs[:, C, :].sum(axis=0)  # (|C|, r)
     if V.size:
         varying = BlockSystem(
-            phi=system.phi, n_rep=1, data_scale=0.0, extra=gram[:, V][:, :, V],
-            W=system.W[np.ix_(V, V)], coeffs=system.coeffs,
+            phi=system.phi,
+            n_rep=1,
+            data_scale=0.0,
+            extra=gram[:, V][:, :, V],
+            W=system.W[np.ix_(V, V)],
+            coeffs=system.coeffs,
         )
         X, cov_A, logdet_A = _factor_solve(
             varying, np.concatenate([rhs[:, V, :], E], axis=2), compute_cov, what

@@ -280,8 +280,7 @@ def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, size):  # prag
         else:
             for i in range(b):
                 for j in range(i + 1):
-                    Ltt[i, j] = (_gram_entry(phi, n_rep, data_scale, extra, t, i, j)
-                                 + beta * W[i, j])
+                    Ltt[i, j] = _gram_entry(phi, n_rep, data_scale, extra, t, i, j) + beta * W[i, j]
                 ref[i] = Ltt[i, i]
         ratio = diagonal_step(L, t, d, b, ref)
         if ratio < worst:
@@ -415,8 +414,9 @@ def rowwise_matvec(theta, phi, out):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def residual_and_difference_squares(theta, y, phi, coeffs, weights, rss,
-                                    squares):  # pragma: no cover - compiled
+def residual_and_difference_squares(
+    theta, y, phi, coeffs, weights, rss, squares
+):  # pragma: no cover - compiled
     """rss_i = Σ_tj (y_tji − Θ_t[i]·φ_tj)² and squares_i = Σ_t Σ_a w_a ((DΘ)_t[i, a])².
 
     One pass per output row over Θ (N, n, p) (any memory layout), y (N, q, n),

@@ -46,14 +46,16 @@ class CovarianceBlocks:
     @property
     def shared(self) -> bool:
         """Every row has the same (N, p, p) covariance."""
-        return (self.row_group is not None and self.blocks.shape[0] == 1
-                and (self.row_scale is None or bool(np.all(self.row_scale == self.row_scale[0]))))
+        return (
+            self.row_group is not None
+            and self.blocks.shape[0] == 1
+            and (self.row_scale is None or bool(np.all(self.row_scale == self.row_scale[0])))
+        )
 
     def rows(self, n: int) -> np.ndarray:
         """The (N, n, p, p) covariances of the rows of Θ_t (rowwise form only)."""
         scales = self.scales(n)
-        return np.stack([scales[i] * self.blocks[g] for i, g in enumerate(self.row_group)],
-                        axis=1)
+        return np.stack([scales[i] * self.blocks[g] for i, g in enumerate(self.row_group)], axis=1)
 
     def full(self, n: int, p: int) -> np.ndarray:
         """The (N, K, K) covariance, K = n·p (rows independent in rowwise form)."""

@@ -77,8 +77,7 @@ class ScalarEvidence:
         self.problem = problem
         # The ratio of SquaredSolver.digits_lost, less λ²: penalty scale over data scale.
         data = float(np.vdot(problem.phi, problem.phi)) / (N * p)
-        self.conditioning = (float(np.abs(problem.coeffs).sum()) ** 2 / data
-                             if data > 0 else np.inf)
+        self.conditioning = float(np.abs(problem.coeffs).sum()) ** 2 / data if data > 0 else np.inf
         self._eye = np.eye(p)
         self._logdet = 0.0
         self._ones = np.ones(p)  # the penalty's weight per regressor (a scalar λ)
@@ -105,8 +104,9 @@ class ScalarEvidence:
             flat = self._Z.reshape(-1, self.n)
             squares = np.einsum("ki,ki->i", flat, flat).tolist()  # ‖L⁻¹ b_i‖² per row
             costs = [yy - square for yy, square in zip(self.yy_list, squares, strict=True)]
-            if any(cost < CANCELLATION_LIMIT * yy
-                   for cost, yy in zip(costs, self.yy_list, strict=True)):
+            if any(
+                cost < CANCELLATION_LIMIT * yy for cost, yy in zip(costs, self.yy_list, strict=True)
+            ):
                 return None
         # log pdet of the penalty as a prior (SquaredSolver.log_penalty_normalizer):
         # p directions per row, each with (N − d) differences of weight λ² / c_d².
@@ -116,8 +116,12 @@ class ScalarEvidence:
         total = 0.0
         for cost in costs:  # RSS_i + penalty_i
             variance = max(cost / n_eff, TINY)
-            total += (-0.5 * n_eff * (LOG_2PI + math.log(variance))
-                      + 0.5 * log_pdet - 0.5 * logdet - 0.5 * cost / variance)
+            total += (
+                -0.5 * n_eff * (LOG_2PI + math.log(variance))
+                + 0.5 * log_pdet
+                - 0.5 * logdet
+                - 0.5 * cost / variance
+            )
         return total
 
     def solution(self, lam: float, *, dof: bool = False) -> dict | None:
@@ -148,16 +152,30 @@ class ScalarEvidence:
         """Factor H at λ² = ``weight`` and forward-substitute; the worst relative pivot."""
         np.copyto(self._Z, self.rhs)
         worst, _, self._logdet = kernels.factor_forward(
-            self.phi, 1, 1.0, self._extra, weight * self._eye, self.bands, self._Z,
-            self._L, self.size)
+            self.phi,
+            1,
+            1.0,
+            self._extra,
+            weight * self._eye,
+            self.bands,
+            self._Z,
+            self._L,
+            self.size,
+        )
         return worst
 
     def _residual_and_difference_squares(self) -> tuple[np.ndarray, np.ndarray]:
         """RSS_i and ‖Dθ_i‖² (n,) of the solution Θ in ``_Z`` (after the back substitution)."""
         rss, squares = np.empty(self.n), np.empty(self.n)
         kernels.residual_and_difference_squares(
-            np.swapaxes(self._Z, 1, 2), self.problem.y, self.phi, self.problem.coeffs,
-            self._ones, rss, squares)
+            np.swapaxes(self._Z, 1, 2),
+            self.problem.y,
+            self.phi,
+            self.problem.coeffs,
+            self._ones,
+            rss,
+            squares,
+        )
         return rss, squares
 
     def _solution_costs(self, weight: float) -> list[float]:

@@ -33,7 +33,6 @@ from .priorterms import PriorTerm
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 from .squared import SquaredSolver
 
-
 # τ of the Newton steps (see _reweighted_fit) and the step halvings tried before falling
 # back to the majorize-minimize step.
 NEWTON_DAMPING = 1e-2
@@ -104,9 +103,17 @@ def fit_huber(
     # the squared-loss fit starts the iteration
     theta = penalty.solve(1.0)[0] if start is None else start.copy()
     outputs = [_output_problem(problem, i) for i in range(n)]
-    quadratics = [_OutputQuadratic(problem, W, penalty.W0, i, priors or [],
-                                   1.0 if prior_scale is None else float(prior_scale[i]))
-                  for i in range(n)]
+    quadratics = [
+        _OutputQuadratic(
+            problem,
+            W,
+            penalty.W0,
+            i,
+            priors or [],
+            1.0 if prior_scale is None else float(prior_scale[i]),
+        )
+        for i in range(n)
+    ]
     damping = np.full(n, NEWTON_DAMPING)
     kkt, iterations, stalled = np.full(n, np.inf), 0, False
     for iterations in range(max_iter + 1):
@@ -117,22 +124,33 @@ def fit_huber(
         progress = False
         for i in np.flatnonzero(kkt > tol):  # the outputs are independent problems
             theta[:, i, :], damping[i], decreased = _newton_step(
-                outputs[i], quadratics[i], theta[:, i, :], r[:, :, i], thresholds[:, :, i],
-                damping[i])
+                outputs[i],
+                quadratics[i],
+                theta[:, i, :],
+                r[:, :, i],
+                thresholds[:, :, i],
+                damping[i],
+            )
             progress |= decreased
         if not progress:  # F is flat to rounding: the tolerance is beyond working precision
             iterations += 1
-            kkt = _kkt_residuals(problem, theta, problem.residuals(theta), thresholds,
-                                 quadratics)
+            kkt = _kkt_residuals(problem, theta, problem.residuals(theta), thresholds, quadratics)
             stalled = bool(kkt.max() > tol)
             break
     r = problem.residuals(theta)
-    objective = float(huber_loss(r, thresholds).sum()
-                      + sum(quad.value(theta[:, i, :]) for i, quad in enumerate(quadratics)))
-    return HuberFit(theta=theta, objective=objective, iterations=iterations,
-                    converged=bool(kkt.max() <= tol), kkt_residual=float(kkt.max()),
-                    outliers=(np.abs(r) > thresholds) & problem.observed[:, :, None],
-                    stalled=stalled)
+    objective = float(
+        huber_loss(r, thresholds).sum()
+        + sum(quad.value(theta[:, i, :]) for i, quad in enumerate(quadratics))
+    )
+    return HuberFit(
+        theta=theta,
+        objective=objective,
+        iterations=iterations,
+        converged=bool(kkt.max() <= tol),
+        kkt_residual=float(kkt.max()),
+        outliers=(np.abs(r) > thresholds) & problem.observed[:, :, None],
+        stalled=stalled,
+    )
 
 
 class _OutputQuadratic:
@@ -143,8 +161,15 @@ class _OutputQuadratic:
     infinite entries contribute nothing, the coefficient is held by the solver).
     """
 
-    def __init__(self, problem: RegressionProblem, W: np.ndarray, W0: np.ndarray, i: int,
-                 priors: list[PriorTerm], scale: float):
+    def __init__(
+        self,
+        problem: RegressionProblem,
+        W: np.ndarray,
+        W0: np.ndarray,
+        i: int,
+        priors: list[PriorTerm],
+        scale: float,
+    ):
         p = problem.p
         rows = slice(i * p, (i + 1) * p)
         self.coeffs, self.N = problem.coeffs, problem.N
@@ -160,8 +185,7 @@ class _OutputQuadratic:
         total = float(np.sum(weighted * Dk))
         for term in self.priors:
             e = theta - term.mean
-            total += self.scale * float(np.einsum("ta,tab,tb->", e, term.precision_at(self.N),
-                                                  e))
+            total += self.scale * float(np.einsum("ta,tab,tb->", e, term.precision_at(self.N), e))
         return total
 
     def gradient(self, theta: np.ndarray) -> np.ndarray:
@@ -170,8 +194,11 @@ class _OutputQuadratic:
         weighted = Dk * self.W0 if self.W0.ndim == 1 else Dk @ self.W0
         grad = 2.0 * apply_difference_adjoint(weighted, self.coeffs, self.N)
         for term in self.priors:
-            grad += 2.0 * self.scale * np.einsum("tab,tb->ta", term.precision_at(self.N),
-                                                 theta - term.mean)
+            grad += (
+                2.0
+                * self.scale
+                * np.einsum("tab,tb->ta", term.precision_at(self.N), theta - term.mean)
+            )
         return grad
 
     def line(self, current: np.ndarray, direction: np.ndarray) -> tuple[float, float]:
@@ -194,16 +221,23 @@ class _OutputQuadratic:
 def _output_prior(term: PriorTerm, rows: slice, n: int, p: int) -> PriorTerm:
     """Output i's block of a parameter prior (it must not couple the outputs)."""
     if term.on != "parameters":
-        raise NotImplementedError("prior: an OutputPrior is not available with loss='huber'; "
-                                  "use a Prior on the coefficients")
+        raise NotImplementedError(
+            "prior: an OutputPrior is not available with loss='huber'; "
+            "use a Prior on the coefficients"
+        )
     precision = term.precision
     coupling = precision.copy()
     coupling[..., rows, rows] = 0.0
     if n > 1 and np.any(coupling[..., rows, :] != 0):
-        raise NotImplementedError("prior: with loss='huber' the prior must not couple the "
-                                  "outputs (a block-diagonal precision)")
-    return PriorTerm("parameters", np.ascontiguousarray(precision[..., rows, rows]),
-                     np.ascontiguousarray(term.mean[:, rows]))
+        raise NotImplementedError(
+            "prior: with loss='huber' the prior must not couple the "
+            "outputs (a block-diagonal precision)"
+        )
+    return PriorTerm(
+        "parameters",
+        np.ascontiguousarray(precision[..., rows, rows]),
+        np.ascontiguousarray(term.mean[:, rows]),
+    )
 
 
 def _newton_step(output, quadratic, current, r, thresholds, damping):
@@ -227,7 +261,8 @@ def _newton_step(output, quadratic, current, r, thresholds, damping):
         decreased = _output_objective(output, quadratic, step, thresholds) < value
         return step, NEWTON_DAMPING, decreased
     kept = alpha == 1.0 and np.array_equal(
-        np.abs(r - fitted_direction) > thresholds, np.abs(r) > thresholds)
+        np.abs(r - fitted_direction) > thresholds, np.abs(r) > thresholds
+    )
     damping = max(damping * 0.1, MIN_DAMPING) if kept else NEWTON_DAMPING
     return trial, damping, trial_value < value
 
@@ -282,8 +317,12 @@ def _reweighted_fit(output, quadratic, r, thresholds, damping) -> np.ndarray:
     """
     sqrt_a, y_hat = newton_model(output.y[:, :, 0], r, thresholds, damping)
     scale = sqrt_a[:, :, None]
-    weighted = RegressionProblem(y=y_hat[:, :, None] * scale, phi=output.phi * scale,
-                                 coeffs=output.coeffs, observed=output.observed)
+    weighted = RegressionProblem(
+        y=y_hat[:, :, None] * scale,
+        phi=output.phi * scale,
+        coeffs=output.coeffs,
+        observed=output.observed,
+    )
     return quadratic.solve(weighted)
 
 
@@ -309,8 +348,12 @@ def _output_objective(output, quadratic, theta, thresholds) -> float:
 
 def _output_problem(problem: RegressionProblem, i: int) -> RegressionProblem:
     """The problem of output row i alone (its y column, the shared regressors)."""
-    return RegressionProblem(y=problem.y[:, :, i : i + 1], phi=problem.phi,
-                             coeffs=problem.coeffs, observed=problem.observed)
+    return RegressionProblem(
+        y=problem.y[:, :, i : i + 1],
+        phi=problem.phi,
+        coeffs=problem.coeffs,
+        observed=problem.observed,
+    )
 
 
 def _kkt_residuals(problem, theta, r, thresholds, quadratics) -> np.ndarray:
@@ -332,13 +375,14 @@ def _kkt_residuals(problem, theta, r, thresholds, quadratics) -> np.ndarray:
         grad = quad.gradient(theta[:, i, :])
         free, fixed = ~quad.const, quad.const
         if free.any():
-            scale = max(float(np.abs(data[:, i, free]).max()), float(np.abs(grad[:, free]).max()),
-                        tiny)
+            scale = max(
+                float(np.abs(data[:, i, free]).max()), float(np.abs(grad[:, free]).max()), tiny
+            )
             residuals[i] = float(np.abs(data[:, i, free] + grad[:, free]).max()) / scale
         if fixed.any():
             sums = np.abs((data[:, i, fixed] + grad[:, fixed]).sum(axis=0))
-            sizes = 2.0 * np.einsum("tj,tjk->k", np.abs(psi[:, :, i]),
-                                    np.abs(problem.phi[:, :, fixed])) \
-                + np.abs(grad[:, fixed]).sum(axis=0)
+            sizes = 2.0 * np.einsum(
+                "tj,tjk->k", np.abs(psi[:, :, i]), np.abs(problem.phi[:, :, fixed])
+            ) + np.abs(grad[:, fixed]).sum(axis=0)
             residuals[i] = max(residuals[i], float((sums / np.maximum(sizes, tiny)).max()))
     return residuals

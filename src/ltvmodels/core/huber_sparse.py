@@ -93,21 +93,37 @@ def fit_huber_sparse(
     theta = start.copy()
     objective, steps, inner, kkt_worst, all_converged, solvers = 0.0, 0, 0, 0.0, True, []
     stalled = False
-    for part, part_weights, part_thresholds, index in sparse_parts(problem, weights, norm,
-                                                                   thresholds):
+    for part, part_weights, part_thresholds, index in sparse_parts(
+        problem, weights, norm, thresholds
+    ):
         k = theta[:, index, :].reshape(N, -1)
         if ipm_applies(part_weights):
             with warnings.catch_warnings():  # judged by the caller from `converged`
                 warnings.simplefilter("ignore", ConvergenceWarning)
-                ip = fit_robust_ipm(part, part_weights, norm, "huber", 2.0 * part_thresholds,
-                                    tol=tol, max_iter=max_iter, start=k)
-            result = _PartResult(k=ip.k, objective=ip.objective, steps=ip.iterations,
-                                 inner_iterations=0, converged=ip.converged,
-                                 kkt=max(ip.dual_residual, ip.duality_gap),
-                                 solver=IPM_SOLVER, stalled=ip.stalled)
+                ip = fit_robust_ipm(
+                    part,
+                    part_weights,
+                    norm,
+                    "huber",
+                    2.0 * part_thresholds,
+                    tol=tol,
+                    max_iter=max_iter,
+                    start=k,
+                )
+            result = _PartResult(
+                k=ip.k,
+                objective=ip.objective,
+                steps=ip.iterations,
+                inner_iterations=0,
+                converged=ip.converged,
+                kkt=max(ip.dual_residual, ip.duality_gap),
+                solver=IPM_SOLVER,
+                stalled=ip.stalled,
+            )
         else:
-            result = _proximal_newton(part, part_weights, norm, part_thresholds, k,
-                                      max_iter=max_iter, tol=tol)
+            result = _proximal_newton(
+                part, part_weights, norm, part_thresholds, k, max_iter=max_iter, tol=tol
+            )
         theta[:, index, :] = result.k.reshape(N, -1, p)
         objective += result.objective
         steps += result.steps
@@ -119,22 +135,25 @@ def fit_huber_sparse(
             solvers.append(result.solver)
     r = problem.residuals(theta)
     return SparseHuberFit(
-        theta=theta, objective=objective, iterations=steps, inner_iterations=inner,
-        converged=all_converged, kkt_residual=kkt_worst,
+        theta=theta,
+        objective=objective,
+        iterations=steps,
+        inner_iterations=inner,
+        converged=all_converged,
+        kkt_residual=kkt_worst,
         outliers=(np.abs(r) > thresholds) & problem.observed[:, :, None],
-        solver="; ".join(solvers), stalled=stalled and not all_converged,
+        solver="; ".join(solvers),
+        stalled=stalled and not all_converged,
     )
 
 
 def ipm_applies(weights: np.ndarray) -> bool:
     """Whether :func:`.robust_ipm.fit_robust_ipm` takes a part with these weights: all
     finite and positive, at most IPM_MAX_K coefficients per step."""
-    return bool(np.all(np.isfinite(weights)) and np.all(weights > 0)
-                and weights.size <= IPM_MAX_K)
+    return bool(np.all(np.isfinite(weights)) and np.all(weights > 0) and weights.size <= IPM_MAX_K)
 
 
-def sparse_parts(problem: RegressionProblem, weights: np.ndarray, norm: str,
-                 per_entry: np.ndarray):
+def sparse_parts(problem: RegressionProblem, weights: np.ndarray, norm: str, per_entry: np.ndarray):
     """The independent single-output parts of a sparse-norm problem with a robust loss.
 
     Yields (problem, its weights, its values of ``per_entry`` (N, q'), the output
@@ -145,9 +164,13 @@ def sparse_parts(problem: RegressionProblem, weights: np.ndarray, norm: str,
     n, p = problem.n, problem.p
     if norm == "l1" or n == 1:
         for i in range(n):
-            part = RegressionProblem(y=problem.y[:, :, i : i + 1], phi=problem.phi,
-                                     coeffs=problem.coeffs, observed=problem.observed,
-                                     row_scale=problem.row_scale)
+            part = RegressionProblem(
+                y=problem.y[:, :, i : i + 1],
+                phi=problem.phi,
+                coeffs=problem.coeffs,
+                observed=problem.observed,
+                row_scale=problem.row_scale,
+            )
             yield part, weights[i * p : (i + 1) * p], per_entry[:, :, i], slice(i, i + 1)
         return
     # group over several outputs: one output with regressors e_i ⊗ φ_tj (rows j·n + i)
@@ -156,7 +179,9 @@ def sparse_parts(problem: RegressionProblem, weights: np.ndarray, norm: str,
     for i in range(n):
         phi[:, :, i, i, :] = problem.phi
     lifted = RegressionProblem(
-        y=problem.y.reshape(N, q * n, 1), phi=phi.reshape(N, q * n, K), coeffs=problem.coeffs,
+        y=problem.y.reshape(N, q * n, 1),
+        phi=phi.reshape(N, q * n, K),
+        coeffs=problem.coeffs,
         observed=np.repeat(problem.observed, n, axis=1),
         row_scale=np.repeat(problem.row_scale, n, axis=1),
     )
@@ -186,17 +211,21 @@ def _proximal_newton(part, weights, norm, thresholds, k, *, max_iter, tol) -> _P
     while steps < max_iter:
         r = y - _fitted(part, k)
         sqrt_a, y_hat = newton_model(y, r, thresholds, damping)
-        model = RegressionProblem(y=(y_hat * sqrt_a)[:, :, None],
-                                  phi=part.phi * sqrt_a[:, :, None], coeffs=part.coeffs,
-                                  observed=part.observed)
+        model = RegressionProblem(
+            y=(y_hat * sqrt_a)[:, :, None],
+            phi=part.phi * sqrt_a[:, :, None],
+            coeffs=part.coeffs,
+            observed=part.observed,
+        )
         # The model's rows beyond δ̃ carry the large constant Σ δ̃|r|/τ: the inner
         # solver's relative tolerances are tightened by the inflation so that its
         # answer is accurate to tol on F's scale.
         scale = _gradient_scale(np.clip(r, -thresholds, thresholds), phi_norm)
         model_scale = 1.0 + 2.0 * float(np.linalg.norm(model.y)) * float(np.linalg.norm(model.phi))
         model_value = float(np.sum((sqrt_a * r) ** 2 * np.where(sqrt_a < 1, damping**-2, 1.0)))
-        inner_tol = max(tol * min(1.0, scale / model_scale, value / max(model_value, 1e-300)),
-                        INNER_TOL_FLOOR)
+        inner_tol = max(
+            tol * min(1.0, scale / model_scale, value / max(model_value, 1e-300)), INNER_TOL_FLOOR
+        )
         with warnings.catch_warnings():  # judged below by the certificate
             warnings.simplefilter("ignore", ConvergenceWarning)
             solution = solve_sparse(model, weights, norm, max_iter=max_iter, tol=inner_tol)
@@ -242,8 +271,16 @@ def _proximal_newton(part, weights, norm, thresholds, k, *, max_iter, tol) -> _P
         else:  # no decrease along the direction: k is optimal to working precision
             stalled = True
             break
-    return _PartResult(k=k, objective=value, steps=steps, inner_iterations=inner,
-                       converged=converged, kkt=kkt, solver=solver, stalled=stalled)
+    return _PartResult(
+        k=k,
+        objective=value,
+        steps=steps,
+        inner_iterations=inner,
+        converged=converged,
+        kkt=kkt,
+        solver=solver,
+        stalled=stalled,
+    )
 
 
 def _gradient_scale(psi: np.ndarray, phi_norm: float) -> float:

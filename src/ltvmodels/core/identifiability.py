@@ -127,7 +127,8 @@ def check(
         return diag
     if has_prior:
         warnings.warn(
-            message + " The prior determines these directions.", IdentifiabilityWarning,
+            message + " The prior determines these directions.",
+            IdentifiabilityWarning,
             stacklevel=3,
         )
         return diag

@@ -128,8 +128,18 @@ class _RowSystem:
         f, f_c = self._split(f)
         Z = f[:, :, None] if not self.const.size else np.concatenate([f[:, :, None], self.G], 2)
         Z = np.ascontiguousarray(Z)
-        args = (cp.phi, cp.n_rep, newton.v, newton.eta, newton.s_coef, cp.w, cp.coeffs,
-                self.offset, self.pinned, self.L)
+        args = (
+            cp.phi,
+            cp.n_rep,
+            newton.v,
+            newton.eta,
+            newton.s_coef,
+            cp.w,
+            cp.coeffs,
+            self.offset,
+            self.pinned,
+            self.L,
+        )
         if self.fixed is not None:
             worst, worst_t = cones.factor_newton_fixed(*args, self.fixed)
         else:
@@ -252,8 +262,19 @@ class NewtonSystem:
         self.lam_sq = np.empty_like(s)
         self.u_rz = np.empty_like(s)  # W⁻² r_z, shared by both directions
         try:
-            cones.prepare_newton(s, z, r_z, self.v, self.eta, self.lam, self.lam_sq,
-                                 self.u_rz, self.alpha, self.beta, self.s_coef)
+            cones.prepare_newton(
+                s,
+                z,
+                r_z,
+                self.v,
+                self.eta,
+                self.lam,
+                self.lam_sq,
+                self.u_rz,
+                self.alpha,
+                self.beta,
+                self.s_coef,
+            )
         except ZeroDivisionError:  # a cone's s or z reached its boundary in rounding
             raise SingularProblemError(
                 "the interior-point iterate reached the boundary of a cone at working "
@@ -277,8 +298,19 @@ class NewtonSystem:
         work = np.empty_like(target)
         rhs = np.empty((cp.N, cp.K))
         cones.direction_rhs(
-            target, self.lam, self.v, self.eta, self.u_rz, self.z, self.alpha, self.beta,
-            self.r_k, cp.coeffs, cp.w, work, rhs,
+            target,
+            self.lam,
+            self.v,
+            self.eta,
+            self.u_rz,
+            self.z,
+            self.alpha,
+            self.beta,
+            self.r_k,
+            cp.coeffs,
+            cp.w,
+            work,
+            rhs,
         )
         return work, rhs
 
@@ -287,8 +319,21 @@ class NewtonSystem:
         cp = self.cp
         dt, ds, dz = np.empty(cp.n_cones), np.empty_like(work), np.empty_like(work)
         steps = cones.direction_finish(
-            dk, work, self.s, self.r_z, self.z, self.alpha, self.beta, self.v, self.eta,
-            self.s_coef, cp.coeffs, cp.w, dt, ds, dz,
+            dk,
+            work,
+            self.s,
+            self.r_z,
+            self.z,
+            self.alpha,
+            self.beta,
+            self.v,
+            self.eta,
+            self.s_coef,
+            cp.coeffs,
+            cp.w,
+            dt,
+            ds,
+            dz,
         )
         return dk, dt, ds, dz, min(steps)
 
@@ -393,8 +438,12 @@ def fit_sparse_ipm(
     s, z = np.zeros(cp.cone_shape), np.zeros(cp.cone_shape)
     r_z, r_k = np.empty(cp.cone_shape), np.empty((N, K))
     rho = z1 = None
-    warm = (warm_start is not None and warm_start.dual is not None and not cp.const.any()
-            and problem.degree in WARM_DEGREES)
+    warm = (
+        warm_start is not None
+        and warm_start.dual is not None
+        and not cp.const.any()
+        and problem.degree in WARM_DEGREES
+    )
     if warm:
         k = np.array(warm_start.theta.reshape(N, K))
         z1 = warm_dual(warm_start, cp)
@@ -469,8 +518,11 @@ def fit_sparse_ipm(
             primal_res, dual_res = 0.0, result.dual_residual
             converged = polished = True
     if not converged:
-        reason = ("stalled at the limit of working precision" if stalled
-                  else f"did not converge in {max_iter} iterations")
+        reason = (
+            "stalled at the limit of working precision"
+            if stalled
+            else f"did not converge in {max_iter} iterations"
+        )
         warnings.warn(
             f"the interior-point method {reason} (relative gap "
             f"{gap / max(objective, 1e-300):.1e}, relative residuals {primal_res:.1e} and "
@@ -479,9 +531,16 @@ def fit_sparse_ipm(
             stacklevel=3,
         )
     return InteriorPointResult(
-        theta=k.reshape(N, problem.n, problem.p), objective=objective, duality_gap=gap,
-        primal_residual=primal_res, dual_residual=dual_res, iterations=iterations,
-        converged=converged, polished=polished, stalled=stalled and not converged,
+        theta=k.reshape(N, problem.n, problem.p),
+        objective=objective,
+        duality_gap=gap,
+        primal_residual=primal_res,
+        dual_residual=dual_res,
+        iterations=iterations,
+        converged=converged,
+        polished=polished,
+        stalled=stalled and not converged,
         # a polished k comes with its own duals: the iterate's would not match it
-        dual=None if polished else z[:, 1:].copy(), weights=weights,
+        dual=None if polished else z[:, 1:].copy(),
+        weights=weights,
     )

@@ -139,7 +139,11 @@ def realize(coeffs: np.ndarray, p: int, lam: float, noise_var: float) -> Paramet
     G[:p] = eye
     q = noise_var / (lam**2 * coeffs[d] ** 2)
     return ParameterStateSpace(
-        F=np.kron(C, eye), F_inv=np.kron(C_inv, eye), G=G, Q=q * eye, R=float(noise_var),
+        F=np.kron(C, eye),
+        F_inv=np.kron(C_inv, eye),
+        G=G,
+        Q=q * eye,
+        R=float(noise_var),
         coeffs=coeffs.copy(),
     )
 
@@ -364,8 +368,26 @@ def _cov_update(P, m, ell, phi_t, y_t, r):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _filter_steps(mat, vec, ell, info, predict_first, phi, y, observed, F, F_inv, F_invT, q, r,
-                  log_abs_det_F, tol, vecs, mats, in_info):  # pragma: no cover - compiled
+def _filter_steps(
+    mat,
+    vec,
+    ell,
+    info,
+    predict_first,
+    phi,
+    y,
+    observed,
+    F,
+    F_inv,
+    F_invT,
+    q,
+    r,
+    log_abs_det_F,
+    tol,
+    vecs,
+    mats,
+    in_info,
+):  # pragma: no cover - compiled
     """The filter over the time steps of φ (N, q, p), y (N, q, n), observed (N, q).
 
     Starts from the state (mat, vec, info) (see above), predicts before every
@@ -408,8 +430,9 @@ def _filter_steps(mat, vec, ell, info, predict_first, phi, y, observed, F, F_inv
     return mat, vec, info
 
 
-def step(mat, vec, ell, info, predict, phi_t, y_t, obs_t, F, F_inv, F_invT, q, r,
-         log_abs_det_F, tol):
+def step(
+    mat, vec, ell, info, predict, phi_t, y_t, obs_t, F, F_inv, F_invT, q, r, log_abs_det_F, tol
+):
     """One time step: predict from t−1 (unless ``predict`` is False), then update.
 
     The measurements of step t are the rows j of φ_t (q, p), y_t (q, n) with
@@ -418,10 +441,24 @@ def step(mat, vec, ell, info, predict, phi_t, y_t, obs_t, F, F_inv, F_invT, q, r
     """
     D, n = vec.shape
     mat, vec, info = _filter_steps(
-        mat, vec, ell, bool(info), bool(predict), np.ascontiguousarray(phi_t[None], float),
-        np.ascontiguousarray(y_t[None], float), np.ascontiguousarray(obs_t[None], bool), F,
-        F_inv, F_invT, float(q), float(r), float(log_abs_det_F), float(tol),
-        np.empty((1, D, n)), np.empty((1, D, D)), np.empty(1, bool),
+        mat,
+        vec,
+        ell,
+        bool(info),
+        bool(predict),
+        np.ascontiguousarray(phi_t[None], float),
+        np.ascontiguousarray(y_t[None], float),
+        np.ascontiguousarray(obs_t[None], bool),
+        F,
+        F_inv,
+        F_invT,
+        float(q),
+        float(r),
+        float(log_abs_det_F),
+        float(tol),
+        np.empty((1, D, n)),
+        np.empty((1, D, D)),
+        np.empty(1, bool),
     )
     return mat, vec, info
 
@@ -440,11 +477,24 @@ def filter_kernel(phi, y, observed, F, F_inv, q, r, log_abs_det_F, diffuse, m0, 
     else:
         mat, vec = np.array(P0, float), np.array(m0, float)
     _filter_steps(
-        mat, vec, ell, bool(diffuse), False, np.ascontiguousarray(phi, float),
-        np.ascontiguousarray(y, float), np.ascontiguousarray(observed, bool),
-        np.ascontiguousarray(F, float), np.ascontiguousarray(F_inv, float),
-        np.ascontiguousarray(F_inv.T, float), float(q), float(r), float(log_abs_det_F),
-        float(tol), vecs, mats, in_info,
+        mat,
+        vec,
+        ell,
+        bool(diffuse),
+        False,
+        np.ascontiguousarray(phi, float),
+        np.ascontiguousarray(y, float),
+        np.ascontiguousarray(observed, bool),
+        np.ascontiguousarray(F, float),
+        np.ascontiguousarray(F_inv, float),
+        np.ascontiguousarray(F_inv.T, float),
+        float(q),
+        float(r),
+        float(log_abs_det_F),
+        float(tol),
+        vecs,
+        mats,
+        in_info,
     )
     return vecs, mats, in_info, ell
 

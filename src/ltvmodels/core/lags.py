@@ -39,9 +39,17 @@ def lagged_regressors(
     return y[..., L:, :].copy(), np.ascontiguousarray(phi)
 
 
-def lag_regressor_names(n: int, m: int, na: int, nb: int, nk: int, constant: bool, *,
-                        output_names: list[str] | None = None,
-                        input_names: list[str] | None = None) -> list[str]:
+def lag_regressor_names(
+    n: int,
+    m: int,
+    na: int,
+    nb: int,
+    nk: int,
+    constant: bool,
+    *,
+    output_names: list[str] | None = None,
+    input_names: list[str] | None = None,
+) -> list[str]:
     """Names of the regressors of :func:`lagged_regressors`, in their order:
     y[t-1] (y0[t-1], y1[t-1], … for several outputs), …, u[t-nk], …, 1 — with the
     signals' own names when given."""

@@ -36,16 +36,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import ConvergenceWarning, SingularProblemError
 from .huber import fit_huber
 from .huber_sparse import fit_huber_sparse, ipm_applies, sparse_parts
-from .robust_ipm import fit_robust_ipm, fit_robust_ipm_squared
-from ..errors import ConvergenceWarning, SingularProblemError
 from .problem import (
     RegressionProblem,
     apply_difference,
     apply_difference_adjoint,
     null_space_basis,
 )
+from .robust_ipm import fit_robust_ipm, fit_robust_ipm_squared
 from .sparse_common import difference_preimage
 from .squared import SquaredSolver, weight_diagonal
 
@@ -118,10 +118,11 @@ def fit_laplace(
     costs = np.repeat(problem.row_scale[:, :, None], problem.n, 2)
     if norm == "sq":
         # each output alone, by the interior-point method where the weights are finite
-        if not SquaredSolver(problem, penalty, []).separable or \
-                np.isinf(weight_diagonal(penalty)).any():
-            return _smoothed(problem, penalty, norm, delta, max_iter=max_iter, tol=tol,
-                             start=start)
+        if (
+            not SquaredSolver(problem, penalty, []).separable
+            or np.isinf(weight_diagonal(penalty)).any()
+        ):
+            return _smoothed(problem, penalty, norm, delta, max_iter=max_iter, tol=tol, start=start)
         parts = sparse_parts(problem, weight_diagonal(penalty), "l1", costs)
     else:  # the sparse norms part by part: the interior-point method where it applies
         parts = sparse_parts(problem, penalty, norm, costs)
@@ -139,17 +140,33 @@ def fit_laplace(
                 if norm == "sq":
                     rows = slice(index.start * p, index.stop * p)
                     block = penalty[rows] if penalty.ndim == 1 else penalty[rows, rows]
-                    ip = fit_robust_ipm_squared(part, block, "laplace", part_costs, tol=tol,
-                                                max_iter=max_iter, start=k0)
+                    ip = fit_robust_ipm_squared(
+                        part, block, "laplace", part_costs, tol=tol, max_iter=max_iter, start=k0
+                    )
                 else:
-                    ip = fit_robust_ipm(part, weights, norm, "laplace", part_costs, tol=tol,
-                                        max_iter=max_iter, start=k0)
+                    ip = fit_robust_ipm(
+                        part,
+                        weights,
+                        norm,
+                        "laplace",
+                        part_costs,
+                        tol=tol,
+                        max_iter=max_iter,
+                        start=k0,
+                    )
             k, pairing = ip.k, ip.psi / np.where(part_costs > 0, part_costs, 1.0)
             iterations, kkt = iterations + ip.iterations, max(kkt, ip.dual_residual)
             stalled |= ip.stalled
         else:
-            smoothed = _smoothed(part, weights, norm, delta, max_iter=max_iter, tol=tol,
-                                 start=theta[:, index, :].reshape(N, 1, -1))
+            smoothed = _smoothed(
+                part,
+                weights,
+                norm,
+                delta,
+                max_iter=max_iter,
+                tol=tol,
+                start=theta[:, index, :].reshape(N, 1, -1),
+            )
             k, pairing = smoothed.theta.reshape(N, -1), smoothed.psi[:, :, 0]
             iterations, kkt = iterations + smoothed.iterations, max(kkt, smoothed.kkt_residual)
             stages, smoothing = max(stages, smoothed.stages), smoothed.smoothing
@@ -158,10 +175,20 @@ def fit_laplace(
         psi[:, :, index] = pairing.reshape(N, problem.q, -1)
     objective = _objective(problem, theta, penalty, norm)
     gap, rigorous = relative_gap(problem, theta, objective, psi, penalty, norm)
-    return LaplaceFit(theta=theta, objective=objective, duality_gap=gap, rigorous=rigorous,
-                      kkt_residual=kkt, iterations=iterations, stages=stages,
-                      smoothing=smoothing, converged=gap <= tol, stalled=stalled and gap > tol,
-                      psi=psi, method="; ".join(methods))
+    return LaplaceFit(
+        theta=theta,
+        objective=objective,
+        duality_gap=gap,
+        rigorous=rigorous,
+        kkt_residual=kkt,
+        iterations=iterations,
+        stages=stages,
+        smoothing=smoothing,
+        converged=gap <= tol,
+        stalled=stalled and gap > tol,
+        psi=psi,
+        method="; ".join(methods),
+    )
 
 
 def _smoothed(problem, penalty, norm, delta, *, max_iter, tol, start) -> LaplaceFit:
@@ -170,8 +197,15 @@ def _smoothed(problem, penalty, norm, delta, *, max_iter, tol, start) -> Laplace
     theta = start.copy()
     smoothing = float(np.min(delta))  # one δ: the penalty is scaled by 2δ
     # the best certified point so far: (gap, Θ, objective, KKT residual, rigorous, polished, ψ)
-    best = (np.inf, theta, _objective(problem, theta, penalty, norm), np.inf, True, False,
-            np.zeros_like(problem.y))
+    best = (
+        np.inf,
+        theta,
+        _objective(problem, theta, penalty, norm),
+        np.inf,
+        True,
+        False,
+        np.zeros_like(problem.y),
+    )
     steps, stage, reduction, retries, stalled = 0, 0, 1.0, 0, False
     # the dual point inherits the stages' stationarity error, amplified by the
     # difference operator's inverse: the stages are solved more tightly
@@ -182,11 +216,19 @@ def _smoothed(problem, penalty, norm, delta, *, max_iter, tol, start) -> Laplace
         scaled = 2.0 * smoothing * penalty
         try:
             if norm == "sq":
-                fit = fit_huber(problem, scaled, thresholds, max_iter=stage_steps,
-                                tol=stage_tol, start=theta)
+                fit = fit_huber(
+                    problem, scaled, thresholds, max_iter=stage_steps, tol=stage_tol, start=theta
+                )
             else:
-                fit = fit_huber_sparse(problem, scaled, norm, thresholds, max_iter=stage_steps,
-                                       tol=stage_tol, start=theta)
+                fit = fit_huber_sparse(
+                    problem,
+                    scaled,
+                    norm,
+                    thresholds,
+                    max_iter=stage_steps,
+                    tol=stage_tol,
+                    start=theta,
+                )
         except SingularProblemError:
             # too little smoothing for working precision: retry nearer the last stage
             if stage == 1:
@@ -210,9 +252,19 @@ def _smoothed(problem, penalty, norm, delta, *, max_iter, tol, start) -> Laplace
             if polished is not None:
                 polished_objective = _objective(problem, polished[0], penalty, norm)
                 polished_gap, polished_rigorous = relative_gap(
-                    problem, polished[0], polished_objective, polished[1], penalty, norm)
-                candidates.append((polished_gap, polished[0], polished_objective, polished[2],
-                                   polished_rigorous, True, polished[1]))
+                    problem, polished[0], polished_objective, polished[1], penalty, norm
+                )
+                candidates.append(
+                    (
+                        polished_gap,
+                        polished[0],
+                        polished_objective,
+                        polished[2],
+                        polished_rigorous,
+                        True,
+                        polished[1],
+                    )
+                )
         for candidate in candidates:
             if candidate[0] < best[0] and (candidate[4] or fit.converged or candidate[5]):
                 best = candidate
@@ -225,14 +277,27 @@ def _smoothed(problem, penalty, norm, delta, *, max_iter, tol, start) -> Laplace
         smoothing *= reduction
     gap, theta, objective, kkt, rigorous, polished, psi = best
     converged = gap <= tol
-    return LaplaceFit(theta=theta, objective=objective, duality_gap=gap, rigorous=rigorous,
-                      kkt_residual=kkt, iterations=steps, stages=stage, smoothing=smoothing,
-                      converged=converged, polished=polished, stalled=stalled and not converged,
-                      psi=psi)
+    return LaplaceFit(
+        theta=theta,
+        objective=objective,
+        duality_gap=gap,
+        rigorous=rigorous,
+        kkt_residual=kkt,
+        iterations=steps,
+        stages=stage,
+        smoothing=smoothing,
+        converged=converged,
+        polished=polished,
+        stalled=stalled and not converged,
+        psi=psi,
+    )
 
 
 def polish_squared(
-    problem: RegressionProblem, W: np.ndarray, theta: np.ndarray, smoothing: float,
+    problem: RegressionProblem,
+    W: np.ndarray,
+    theta: np.ndarray,
+    smoothing: float,
 ) -> tuple[np.ndarray, np.ndarray, float] | None:
     """The exact optimum from the zero residuals Z (|r| <= δ) and the signs of the others:
     (Θ, its dual point ψ (N, q, n), relative KKT residual), or None.
@@ -296,8 +361,14 @@ def _equality_qp(problem, W, zero, linear) -> tuple[np.ndarray, np.ndarray] | No
     return None
 
 
-def relative_gap(problem: RegressionProblem, theta: np.ndarray, objective: float,
-                 psi: np.ndarray, penalty: np.ndarray, norm: str) -> tuple[float, bool]:
+def relative_gap(
+    problem: RegressionProblem,
+    theta: np.ndarray,
+    objective: float,
+    psi: np.ndarray,
+    penalty: np.ndarray,
+    norm: str,
+) -> tuple[float, bool]:
     """((F(k) − dual)/F(k), rigorous) at Θ (N, n, p) and the dual point ψ (N, q, n).
 
     Rigorous: the dual point made feasible (:func:`dual_bound`). Where no such
@@ -313,8 +384,9 @@ def relative_gap(problem: RegressionProblem, theta: np.ndarray, objective: float
     return max(gap, 0.0) / max(objective, tiny), False
 
 
-def dual_bound(problem: RegressionProblem, psi: np.ndarray, penalty: np.ndarray,
-               norm: str) -> float | None:
+def dual_bound(
+    problem: RegressionProblem, psi: np.ndarray, penalty: np.ndarray, norm: str
+) -> float | None:
     """A lower bound on min F: Laplace's dual at a feasible point made from ψ (N, q, n).
 
     The dual is max_{|ψ|<=1} Σ sψỹ − P*(v), v = Σ_j s ψ φ̃ (N, K). P* is finite
@@ -338,8 +410,10 @@ def dual_bound(problem: RegressionProblem, psi: np.ndarray, penalty: np.ndarray,
     psi = psi.copy()
     for i in range(n):
         # columns Σ_t U_tl s_tj φ̃_tja: ψ_i ⊥ them ⇔ v_i ⊥ null(D) (constants: ⊥ 1)
-        columns = [(ones if const[i, a] else basis)[:, None, :]
-                   * (s * problem.phi[:, :, a])[:, :, None] for a in range(p)]
+        columns = [
+            (ones if const[i, a] else basis)[:, None, :] * (s * problem.phi[:, :, a])[:, :, None]
+            for a in range(p)
+        ]
         Z = np.concatenate(columns, axis=2).reshape(-1, sum(c.shape[2] for c in columns))
         target = psi[:, :, i].reshape(-1)
         coef, *_ = np.linalg.lstsq(Z, target, rcond=None)
@@ -359,8 +433,9 @@ def dual_bound(problem: RegressionProblem, psi: np.ndarray, penalty: np.ndarray,
             conjugate = 0.25 * float(np.sum(mu[:, finite] ** 2 / weights[finite]))
         else:
             block = penalty[np.ix_(finite, finite)]
-            conjugate = 0.25 * float(np.sum(mu[:, finite] * np.linalg.solve(
-                block, mu[:, finite].T).T))
+            conjugate = 0.25 * float(
+                np.sum(mu[:, finite] * np.linalg.solve(block, mu[:, finite].T).T)
+            )
     value = float(np.einsum("tj,tji,tji->", s, psi, problem.y)) / worst
     return value - conjugate
 
@@ -381,8 +456,11 @@ def _weighted_fit(problem, row_weight, pseudo, W) -> np.ndarray | None:
     theta = np.empty((problem.N, n, problem.p))
     for i in range(n):
         scale = np.sqrt(row_weight[:, :, i])
-        part = RegressionProblem(y=(pseudo[:, :, i] * scale)[:, :, None],
-                                 phi=problem.phi * scale[:, :, None], coeffs=problem.coeffs)
+        part = RegressionProblem(
+            y=(pseudo[:, :, i] * scale)[:, :, None],
+            phi=problem.phi * scale[:, :, None],
+            coeffs=problem.coeffs,
+        )
         rows = slice(i * problem.p, (i + 1) * problem.p)
         block = W[rows] if W.ndim == 1 else W[rows, rows]
         try:
@@ -402,15 +480,12 @@ def _laplace_kkt(problem, theta, W, weighted_psi) -> float:
     terms = np.einsum("tji,tjk->tik", np.abs(weighted_psi), np.abs(problem.phi)).reshape(N, K)
     W0 = SquaredSolver(problem, W, []).W0
     Dk = apply_difference(theta.reshape(N, K), problem.coeffs)
-    pen = 2.0 * apply_difference_adjoint(Dk * W0 if W0.ndim == 1 else Dk @ W0,
-                                         problem.coeffs, N)
+    pen = 2.0 * apply_difference_adjoint(Dk * W0 if W0.ndim == 1 else Dk @ W0, problem.coeffs, N)
     const = np.isinf(np.diag(W) if W.ndim == 2 else W)
     total = pen - data
     residual = np.concatenate([total[:, ~const].ravel(), total[:, const].sum(axis=0)])
-    size = np.concatenate([(np.abs(pen) + terms)[:, ~const].ravel(),
-                           terms[:, const].sum(axis=0)])
-    return float(np.linalg.norm(residual)) / max(float(np.linalg.norm(size)),
-                                                  np.finfo(float).tiny)
+    size = np.concatenate([(np.abs(pen) + terms)[:, ~const].ravel(), terms[:, const].sum(axis=0)])
+    return float(np.linalg.norm(residual)) / max(float(np.linalg.norm(size)), np.finfo(float).tiny)
 
 
 def laplace_loss(problem: RegressionProblem, theta: np.ndarray) -> float:

@@ -15,8 +15,8 @@ per basin reach the tolerance.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -93,8 +93,9 @@ def maximize_on_log_scale(
         value = value if value == value else -math.inf  # NaN: not available
         scored[log_lam] = (lam, value)
         if progress is not None:
-            progress(len(scored), max(grid.size + min(max_refine, EXPECTED_REFINE),
-                                      len(scored) + 1))
+            progress(
+                len(scored), max(grid.size + min(max_refine, EXPECTED_REFINE), len(scored) + 1)
+            )
         return value
 
     grid = np.asarray(grid, dtype=float)
@@ -102,9 +103,14 @@ def maximize_on_log_scale(
     values = [evaluate(float(v), float(lam)) for v, lam in zip(logs, grid, strict=True)]
     for i in range(1, len(logs) - 1):
         if values[i] > -math.inf and values[i] >= values[i - 1] and values[i] >= values[i + 1]:
-            _refine(evaluate, (logs[i - 1], logs[i], logs[i + 1]),
-                    (values[i - 1], values[i], values[i + 1]), xatol, max_refine,
-                    _cubic_maximum(logs, np.array(values), i))
+            _refine(
+                evaluate,
+                (logs[i - 1], logs[i], logs[i + 1]),
+                (values[i - 1], values[i], values[i + 1]),
+                xatol,
+                max_refine,
+                _cubic_maximum(logs, np.array(values), i),
+            )
     for end, neighbour in ((0, 1), (len(logs) - 1, len(logs) - 2)):
         # A maximum at an end of the grid may still lie inside the last interval: the
         # midpoint decides, and if it is higher, it brackets a maximum to refine.
@@ -114,13 +120,23 @@ def maximize_on_log_scale(
         value = evaluate(middle)
         if value > values[end]:
             low, high = sorted((end, neighbour))
-            _refine(evaluate, (logs[low], middle, logs[high]), (values[low], value, values[high]),
-                    xatol, max_refine - 1)
+            _refine(
+                evaluate,
+                (logs[low], middle, logs[high]),
+                (values[low], value, values[high]),
+                xatol,
+                max_refine - 1,
+            )
     lams, out = (np.array(column) for column in zip(*(scored[v] for v in sorted(scored))))
     if progress is not None:
         progress(len(scored), len(scored))
-    return LogSearch(lams=lams, values=out, best=float(lams[np.argmax(out)]),
-                     n_evaluations=len(scored), grid_values=np.array(values))
+    return LogSearch(
+        lams=lams,
+        values=out,
+        best=float(lams[np.argmax(out)]),
+        n_evaluations=len(scored),
+        grid_values=np.array(values),
+    )
 
 
 def _cubic_maximum(logs: np.ndarray, values: np.ndarray, i: int) -> float | None:
@@ -128,16 +144,22 @@ def _cubic_maximum(logs: np.ndarray, values: np.ndarray, i: int) -> float | None
     around i (a better first step than the parabola: it sees the bracket's skew), or
     None where there are not four finite values."""
     start = i - 2 if i + 2 >= len(logs) or (i >= 2 and values[i - 1] > values[i + 1]) else i - 1
-    if start < 0 or start + 4 > len(logs) or not np.all(np.isfinite(values[start:start + 4])):
+    if start < 0 or start + 4 > len(logs) or not np.all(np.isfinite(values[start : start + 4])):
         return None
-    x = logs[start:start + 4] - logs[i]  # centred: a well-conditioned fit
-    coefficients = np.polyfit(x, values[start:start + 4], 3)
+    x = logs[start : start + 4] - logs[i]  # centred: a well-conditioned fit
+    coefficients = np.polyfit(x, values[start : start + 4], 3)
     fine = np.linspace(logs[i - 1] - logs[i], logs[i + 1] - logs[i], CUBIC_SAMPLES)
     return float(logs[i] + fine[np.argmax(np.polyval(coefficients, fine))])
 
 
-def _refine(evaluate: Callable[[float], float], points: tuple, values: tuple, xatol: float,
-            max_refine: int, first: float | None = None) -> None:
+def _refine(
+    evaluate: Callable[[float], float],
+    points: tuple,
+    values: tuple,
+    xatol: float,
+    max_refine: int,
+    first: float | None = None,
+) -> None:
     """Brent's parabolic search for the maximum in the bracket a < b < c, f(b) ≥ f(a), f(c).
 
     Each step fits the parabola through the three best points so far (not
@@ -164,8 +186,11 @@ def _refine(evaluate: Callable[[float], float], points: tuple, values: tuple, xa
         else:
             three = sorted(order[:3])
             vertex = _parabola_vertex(*(xs[k] for k in three), *(fs[k] for k in three))
-        if (vertex is None or not a + xatol <= vertex <= c - xatol
-                or abs(vertex - b) > 0.5 * steps[-2]):
+        if (
+            vertex is None
+            or not a + xatol <= vertex <= c - xatol
+            or abs(vertex - b) > 0.5 * steps[-2]
+        ):
             u = b + GOLDEN * (c - b) if c - b > b - a else b - GOLDEN * (b - a)
         else:
             u = vertex
@@ -178,8 +203,7 @@ def _refine(evaluate: Callable[[float], float], points: tuple, values: tuple, xa
         fs.insert(position, fu)
 
 
-def _parabola_vertex(a: float, b: float, c: float, fa: float, fb: float,
-                     fc: float) -> float | None:
+def _parabola_vertex(a: float, b: float, c: float, fa: float, fb: float, fc: float) -> float | None:
     """The abscissa of the maximum of the parabola through three points a < b < c, or
     None if it has none."""
     if not (math.isfinite(fa) and math.isfinite(fc)):

@@ -128,11 +128,14 @@ def _operators(problem: RegressionProblem, weights: np.ndarray):
     N, q, n, p, K = problem.N, problem.q, problem.n, problem.p, problem.K
     coeffs = np.asarray(problem.coeffs, float)
     d = len(coeffs) - 1
-    t, row, i, a = np.meshgrid(np.arange(N), np.arange(q), np.arange(n), np.arange(p),
-                               indexing="ij")
+    t, row, i, a = np.meshgrid(
+        np.arange(N), np.arange(q), np.arange(n), np.arange(p), indexing="ij"
+    )
     phi_op = sp.csr_matrix(
-        (problem.phi[t, row, a].ravel(),
-         (((t * q + row) * n + i).ravel(), (t * K + i * p + a).ravel())),
+        (
+            problem.phi[t, row, a].ravel(),
+            (((t * q + row) * n + i).ravel(), (t * K + i * p + a).ravel()),
+        ),
         shape=(N * q * n, N * K),
     )
     R = N - d
@@ -238,8 +241,13 @@ def polish(
             continue
         obj, gap, dual_res, u_norm = certificate(problem, weights, k_split, group)
         if gap <= tol * obj and dual_res <= tol:
-            return PolishResult(k=k_split, objective=obj, duality_gap=gap, dual_residual=dual_res,
-                                newton_iterations=newton_total)
+            return PolishResult(
+                k=k_split,
+                objective=obj,
+                duality_gap=gap,
+                dual_residual=dual_res,
+                newton_iterations=newton_total,
+            )
         violated = vertex & (u_norm > 1.0)
         if not violated.any():
             return None

@@ -74,8 +74,11 @@ class RegressionProblem:
         object.__setattr__(self, "observed", observed)
         # The count, kept: the likelihood, the checks and the reports each ask for it.
         object.__setattr__(self, "_n_observed", n_observed)
-        row_scale = (observed.astype(float) if self.row_scale is None
-                     else np.where(observed, np.asarray(self.row_scale, dtype=float), 0.0))
+        row_scale = (
+            observed.astype(float)
+            if self.row_scale is None
+            else np.where(observed, np.asarray(self.row_scale, dtype=float), 0.0)
+        )
         object.__setattr__(self, "row_scale", row_scale)
 
     @property
@@ -155,8 +158,7 @@ def weighted_problem(
     """
     if weights is None and _all_finite(y) and _all_finite(phi):
         # every row observed: the problem needs no mask (nor a count of it)
-        return RegressionProblem(y=np.swapaxes(y, 0, 1), phi=np.swapaxes(phi, 0, 1),
-                                 coeffs=coeffs)
+        return RegressionProblem(y=np.swapaxes(y, 0, 1), phi=np.swapaxes(phi, 0, 1), coeffs=coeffs)
     observed = _finite_rows(y) & _finite_rows(phi)
     scale = None
     if weights is not None:
@@ -164,8 +166,11 @@ def weighted_problem(
         scale = np.sqrt(np.where(observed, weights, 0.0))
         y, phi = y * scale[:, :, None], phi * scale[:, :, None]
     return RegressionProblem(
-        y=np.swapaxes(y, 0, 1), phi=np.swapaxes(phi, 0, 1), coeffs=coeffs,
-        observed=observed.T, row_scale=None if scale is None else scale.T,
+        y=np.swapaxes(y, 0, 1),
+        phi=np.swapaxes(phi, 0, 1),
+        coeffs=coeffs,
+        observed=observed.T,
+        row_scale=None if scale is None else scale.T,
     )
 
 
@@ -182,8 +187,12 @@ def _finite_rows(values: np.ndarray) -> np.ndarray:
 
 
 def state_space_problem(
-    x: np.ndarray, u: np.ndarray, coeffs: np.ndarray, *,
-    weights: np.ndarray | None = None, constant: bool = False,
+    x: np.ndarray,
+    u: np.ndarray,
+    coeffs: np.ndarray,
+    *,
+    weights: np.ndarray | None = None,
+    constant: bool = False,
 ) -> RegressionProblem:
     """Regression form of x[t+1] = A_t x[t] + B_t u[t] (+ c_t): y = x[1:], φ = [x, u, 1][:-1].
 

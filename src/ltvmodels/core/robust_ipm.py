@@ -39,8 +39,8 @@ import numpy as np
 
 from ..errors import ConvergenceWarning, SingularProblemError
 from . import conekernels as cones
-from .ipm import MIN_STEP, STEP_FRACTION, ConicProblem, NewtonSystem, feasible_start
 from .banded import BlockFactor, BlockSystem
+from .ipm import MIN_STEP, STEP_FRACTION, ConicProblem, NewtonSystem, feasible_start
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 from .sparse_common import difference_preimage
 
@@ -68,8 +68,15 @@ class RobustIPMResult:
 
 
 def fit_robust_ipm(
-    part: RegressionProblem, weights: np.ndarray, norm: str, loss: str, costs: np.ndarray,
-    *, tol: float, max_iter: int, start: np.ndarray | None = None,
+    part: RegressionProblem,
+    weights: np.ndarray,
+    norm: str,
+    loss: str,
+    costs: np.ndarray,
+    *,
+    tol: float,
+    max_iter: int,
+    start: np.ndarray | None = None,
 ) -> RobustIPMResult:
     """Minimize the loss plus the sparse penalty of a single-output problem (module docstring).
 
@@ -137,8 +144,11 @@ def fit_robust_ipm(
         objective = entries.loss(k) + reg
         gap = float(np.sum(s * z)) + entries.gap()
         primal_res = float(np.linalg.norm(r_z)) / (1.0 + float(np.linalg.norm(s)))
-        dual_res = max(float(np.linalg.norm(r_k)) / entries.scale,
-                       float(np.abs(1.0 - z[:, 0]).max(initial=0.0)), entries.residual())
+        dual_res = max(
+            float(np.linalg.norm(r_k)) / entries.scale,
+            float(np.abs(1.0 - z[:, 0]).max(initial=0.0)),
+            entries.residual(),
+        )
         if gap <= tol * max(objective, 1e-300) and primal_res <= tol and dual_res <= tol:
             converged = True
             break
@@ -179,21 +189,38 @@ def fit_robust_ipm(
         entries.take_step(direction, dk, step)
     cp.phi = data_phi
     if not converged:
-        reason = ("stalled at the limit of working precision" if stalled
-                  else f"did not converge in {max_iter} iterations")
-        warnings.warn(f"the interior-point method {reason} (relative gap "
-                      f"{gap / max(objective, 1e-300):.1e}, dual residual {dual_res:.1e})",
-                      ConvergenceWarning, stacklevel=3)
+        reason = (
+            "stalled at the limit of working precision"
+            if stalled
+            else f"did not converge in {max_iter} iterations"
+        )
+        warnings.warn(
+            f"the interior-point method {reason} (relative gap "
+            f"{gap / max(objective, 1e-300):.1e}, dual residual {dual_res:.1e})",
+            ConvergenceWarning,
+            stacklevel=3,
+        )
     return RobustIPMResult(
-        k=k, objective=objective, duality_gap=gap / max(objective, 1e-300),
-        dual_residual=dual_res, iterations=iterations, converged=converged,
-        stalled=stalled and not converged, psi=entries.pairing(),
+        k=k,
+        objective=objective,
+        duality_gap=gap / max(objective, 1e-300),
+        dual_residual=dual_res,
+        iterations=iterations,
+        converged=converged,
+        stalled=stalled and not converged,
+        psi=entries.pairing(),
     )
 
 
 def fit_robust_ipm_squared(
-    part: RegressionProblem, W: np.ndarray, loss: str, costs: np.ndarray, *, tol: float,
-    max_iter: int, start: np.ndarray,
+    part: RegressionProblem,
+    W: np.ndarray,
+    loss: str,
+    costs: np.ndarray,
+    *,
+    tol: float,
+    max_iter: int,
+    start: np.ndarray,
 ) -> RobustIPMResult:
     """The same with the squared-difference penalty Σ_t (Dk)_tᵀ W (Dk)_t instead of cones.
 
@@ -235,8 +262,10 @@ def fit_robust_ipm_squared(
             break
         phi = entries.scaled_regressors(part.phi) * np.sqrt(2.0)  # Σ d φφᵀ
         try:
-            factor = BlockFactor(BlockSystem(phi, 1, 1.0, np.zeros((0,) + Wm.shape), 2.0 * Wm,
-                                             coeffs), "the interior-point Newton system")
+            factor = BlockFactor(
+                BlockSystem(phi, 1, 1.0, np.zeros((0,) + Wm.shape), 2.0 * Wm, coeffs),
+                "the interior-point Newton system",
+            )
         except SingularProblemError:
             if iterations == 0:
                 raise
@@ -247,8 +276,9 @@ def fit_robust_ipm_squared(
         dk = factor.solve(np.ascontiguousarray((affine.rhs - r_k)[:, :, None]))[:, :, 0]
         step = min(1.0, affine.step(dk))
         sigma_mu = (1.0 - step) ** 3 * gap / degree
-        direction = entries.eliminate(sigma_mu - entries.complementarity()
-                                      - affine.second_order(dk))
+        direction = entries.eliminate(
+            sigma_mu - entries.complementarity() - affine.second_order(dk)
+        )
         dk = factor.solve(np.ascontiguousarray((direction.rhs - r_k)[:, :, None]))[:, :, 0]
         step = min(1.0, STEP_FRACTION * direction.step(dk))
         if step < MIN_STEP:
@@ -257,9 +287,14 @@ def fit_robust_ipm_squared(
         k += step * dk
         entries.take_step(direction, dk, step)
     return RobustIPMResult(
-        k=k, objective=objective, duality_gap=gap / max(objective, 1e-300),
-        dual_residual=dual_res, iterations=iterations, converged=converged,
-        stalled=stalled and not converged, psi=entries.pairing(),
+        k=k,
+        objective=objective,
+        duality_gap=gap / max(objective, 1e-300),
+        dual_residual=dual_res,
+        iterations=iterations,
+        converged=converged,
+        stalled=stalled and not converged,
+        psi=entries.pairing(),
     )
 
 
@@ -268,7 +303,7 @@ class _Direction:
     """One Newton direction's per-entry parts, before Δk is known."""
 
     rhs: np.ndarray  # (N, K) added to the banded system's right-hand side
-    entries: "_Entries"
+    entries: _Entries
     target: np.ndarray  # (2, N, q) the orthant targets η±
     cached: tuple | None = None  # (Δk, its deltas)
 
@@ -321,8 +356,12 @@ class _Entries:
             pairing = START_DUAL_SHRINK * c * np.sign(r)
         # ζ⁺ + ζ⁻ = c (stationarity in b), ζ⁺ − ζ⁻ a shrunk pairing: both >= 0.05c > 0;
         # entries outside the loss are frozen at σ = ζ = 1 and never move
-        self.zeta = np.stack([np.where(self.mask, (c + pairing) / 2.0, 1.0),
-                              np.where(self.mask, (c - pairing) / 2.0, 1.0)])
+        self.zeta = np.stack(
+            [
+                np.where(self.mask, (c + pairing) / 2.0, 1.0),
+                np.where(self.mask, (c - pairing) / 2.0, 1.0),
+            ]
+        )
         self.refresh(k)
 
     def _slacks(self, r: np.ndarray) -> np.ndarray:
@@ -426,8 +465,7 @@ class _Entries:
         else:
             q = A
         q = np.where(self.mask, q, 0.0)
-        return _Direction(rhs=np.einsum("tj,tjk->tk", q, self.phi), entries=self,
-                          target=target)
+        return _Direction(rhs=np.einsum("tj,tjk->tk", q, self.phi), entries=self, target=target)
 
     def deltas(self, direction: _Direction, dk: np.ndarray):
         G, H, kappa = self._terms()

@@ -134,20 +134,42 @@ def solve_sparse(
         # Dk = 0 is optimal (λ_max's dual certificate): the null-space fit, exactly.
         rss = float(np.sum(problem.residuals(theta_bar) ** 2))
         return SparseSolution(
-            theta=theta_bar, solver="closed form (lam >= lambda_max)", iterations=0,
-            converged=True, objective=rss, rss=rss, lambda_max=lam_max,
-            details={"duality_gap": 0.0}, closed_form=True,
+            theta=theta_bar,
+            solver="closed form (lam >= lambda_max)",
+            iterations=0,
+            converged=True,
+            objective=rss,
+            rss=rss,
+            lambda_max=lam_max,
+            details={"duality_gap": 0.0},
+            closed_form=True,
         )
     if ipm_suits(norm, K) and np.all(weights > 0):
-        ip = fit_sparse_ipm(problem, weights, norm, tol=tol, max_iter=max_iter,
-                            warm_start=None if warm_start is None else warm_start.ipm)
+        ip = fit_sparse_ipm(
+            problem,
+            weights,
+            norm,
+            tol=tol,
+            max_iter=max_iter,
+            warm_start=None if warm_start is None else warm_start.ipm,
+        )
         return SparseSolution(
-            theta=ip.theta, solver="interior point (block-banded Newton systems)",
-            iterations=ip.iterations, converged=ip.converged, objective=ip.objective,
-            rss=float(np.sum(problem.residuals(ip.theta) ** 2)), lambda_max=lam_max,
-            details={"duality_gap": ip.duality_gap, "primal_residual": ip.primal_residual,
-                     "dual_residual": ip.dual_residual, "polished": ip.polished},
-            polished=ip.polished, stalled=ip.stalled, ipm=ip,
+            theta=ip.theta,
+            solver="interior point (block-banded Newton systems)",
+            iterations=ip.iterations,
+            converged=ip.converged,
+            objective=ip.objective,
+            rss=float(np.sum(problem.residuals(ip.theta) ** 2)),
+            lambda_max=lam_max,
+            details={
+                "duality_gap": ip.duality_gap,
+                "primal_residual": ip.primal_residual,
+                "dual_residual": ip.dual_residual,
+                "polished": ip.polished,
+            },
+            polished=ip.polished,
+            stalled=ip.stalled,
+            ipm=ip,
         )
     if np.isinf(weights).any():
         raise NotImplementedError(
@@ -156,15 +178,29 @@ def solve_sparse(
             f"step, received norm={norm!r}, K = {K} and {int(np.sum(weights == 0))} zero "
             "weights"
         )
-    result = fit_sparse(problem, weights, norm, max_iter=max_iter, tol=tol,
-                        warm_start=None if warm_start is None else warm_start.admm)
+    result = fit_sparse(
+        problem,
+        weights,
+        norm,
+        max_iter=max_iter,
+        tol=tol,
+        warm_start=None if warm_start is None else warm_start.admm,
+    )
     return SparseSolution(
-        theta=result.theta, solver="ADMM (banded k-update)", iterations=result.iterations,
-        converged=result.converged, objective=result.objective,
-        rss=float(np.sum(problem.residuals(result.theta) ** 2)), lambda_max=lam_max,
-        details={"duality_gap": result.duality_gap, "stationarity": result.stationarity,
-                 "primal_residual": result.primal_residual,
-                 "dual_residual": result.dual_residual, "rho": result.rho,
-                 "n_factorizations": result.n_factorizations},
+        theta=result.theta,
+        solver="ADMM (banded k-update)",
+        iterations=result.iterations,
+        converged=result.converged,
+        objective=result.objective,
+        rss=float(np.sum(problem.residuals(result.theta) ** 2)),
+        lambda_max=lam_max,
+        details={
+            "duality_gap": result.duality_gap,
+            "stationarity": result.stationarity,
+            "primal_residual": result.primal_residual,
+            "dual_residual": result.dual_residual,
+            "rho": result.rho,
+            "n_factorizations": result.n_factorizations,
+        },
         admm=result,
     )

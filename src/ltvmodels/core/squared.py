@@ -128,15 +128,15 @@ def shared_row_weight(W: np.ndarray, n: int, p: int) -> np.ndarray | None:
     return row
 
 
-def _row_penalty_diagonal(theta: np.ndarray, coeffs: np.ndarray, weights: np.ndarray,
-                          n: int, p: int) -> np.ndarray:
+def _row_penalty_diagonal(
+    theta: np.ndarray, coeffs: np.ndarray, weights: np.ndarray, n: int, p: int
+) -> np.ndarray:
     """Σ_j w_j ‖(Dk)_j‖² per output row, shape (n,), for a diagonal weight (K,)."""
     Dk = apply_difference(theta.reshape(theta.shape[0], -1), coeffs)
     return (np.einsum("tk,tk->k", Dk, Dk) * weights).reshape(n, p).sum(axis=1)
 
 
-def _shared_normalizer(problem: RegressionProblem, row: np.ndarray
-                       ) -> tuple[float, float, float]:
+def _shared_normalizer(problem: RegressionProblem, row: np.ndarray) -> tuple[float, float, float]:
     """:meth:`SquaredSolver.log_penalty_normalizer` (per row) for a diagonal weight ``row``
     (p,) shared by every row, all finite, and the penalty's scale for :func:`_digits_lost`.
 
@@ -195,7 +195,8 @@ class SquaredSolver:
         self.W0 = _finite(W)
         self.W0_diagonal = weight_diagonal(self.W0).copy()
         self.diagonal = W.ndim == 1 or (
-            np.count_nonzero(self.W0) == np.count_nonzero(self.W0_diagonal))
+            np.count_nonzero(self.W0) == np.count_nonzero(self.W0_diagonal)
+        )
         separable = self.diagonal or _is_row_separable(self.W0, n, p)
         for term in priors:
             if term.on == "parameters":
@@ -216,9 +217,7 @@ class SquaredSolver:
         K = n * p
         if not self.priors:
             return None, None
-        time_varying = any(
-            t.precision.ndim == 3 or t.on == "output" for t in self.priors
-        )
+        time_varying = any(t.precision.ndim == 3 or t.on == "output" for t in self.priors)
         gram = np.zeros((N if time_varying else 1, K, K))
         rhs = np.zeros((N, K))
         for term in self.priors:
@@ -279,8 +278,13 @@ class SquaredSolver:
         return groups
 
     # -- solving ------------------------------------------------------------------
-    def solve(self, prior_scale: float | np.ndarray, *, include_data: bool = True,
-              compute_cov: bool = False):
+    def solve(
+        self,
+        prior_scale: float | np.ndarray,
+        *,
+        include_data: bool = True,
+        compute_cov: bool = False,
+    ):
         """Minimize J with the prior terms weighted by ``prior_scale`` (σ², or σ_i² per row).
 
         Returns (theta (N, n, p), CovarianceBlocks | None, logdet H, #factorizations,
@@ -399,16 +403,23 @@ class SquaredSolver:
             weights = self.W.reshape(n, p) if self.separable else self.W[None, :]
             varying = ~np.isinf(weights)
             finite = np.where(varying, weights, 0.0)
-            tol = 10 * varying.sum(axis=1) * np.finfo(float).eps * np.maximum(
-                finite.max(axis=1, initial=0.0), 1e-300)
+            tol = (
+                10
+                * varying.sum(axis=1)
+                * np.finfo(float).eps
+                * np.maximum(finite.max(axis=1, initial=0.0), 1e-300)
+            )
             positive = varying & (finite > tol[:, None])
             rank = positive.sum(axis=1)
             log_weights = np.log(np.where(positive, finite, 1.0)).sum(axis=1)
             log_pdet = rank * log_dd + (N - d) * log_weights
             diffuse = N * varying.sum(axis=1) + (~varying).sum(axis=1) - (N - d) * rank
             return log_pdet, diffuse.astype(float)
-        blocks = [_block(self.W, slice(i * p, (i + 1) * p)) for i in range(n)] \
-            if self.separable else [_block(self.W, slice(None))]
+        blocks = (
+            [_block(self.W, slice(i * p, (i + 1) * p)) for i in range(n)]
+            if self.separable
+            else [_block(self.W, slice(None))]
+        )
         log_pdet = np.zeros(len(blocks))
         diffuse = np.zeros(len(blocks))
         for row, Wb in enumerate(blocks):
@@ -446,14 +457,14 @@ def _loglik_with_prior(
     except SingularProblemError:
         return np.full(scale.shape, np.nan)
     if rows:
-        j_y = (pb.output_rss(theta) + solver.row_penalty(theta)
-               + scale * solver.row_prior_cost(theta))
+        j_y = (
+            pb.output_rss(theta) + solver.row_penalty(theta) + scale * solver.row_prior_cost(theta)
+        )
         j_mu = solver.row_penalty(m) + scale * solver.row_prior_cost(m)
         logdet_mu = row_logdet_mu
         size = pb.n_observed
     else:
-        j_y = (pb.output_rss(theta).sum() + solver.penalty(theta)
-               + scale * solver.prior_cost(theta))
+        j_y = pb.output_rss(theta).sum() + solver.penalty(theta) + scale * solver.prior_cost(theta)
         j_mu = solver.penalty(m) + scale * solver.prior_cost(m)
         size = pb.n_observed * pb.n
     return (
@@ -469,8 +480,10 @@ def _noise_var_guess(problem: RegressionProblem, W: np.ndarray, n_eff: float) ->
     try:
         theta, *_ = SquaredSolver(problem, W, []).solve(0.0)
         if n_eff > 0:
-            return (float(problem.output_rss(theta).sum())
-                    + SquaredSolver(problem, W, []).penalty(theta)) / n_eff
+            return (
+                float(problem.output_rss(theta).sum())
+                + SquaredSolver(problem, W, []).penalty(theta)
+            ) / n_eff
     except SingularProblemError:
         pass
     # Minimum-norm least squares works for rank-deficient regressors too.
@@ -495,8 +508,7 @@ def _ml_noise_var_with_prior(solver: SquaredSolver, guess: float) -> np.ndarray 
 
     def loglik(log_var: np.ndarray) -> np.ndarray:
         var = np.broadcast_to(np.exp(log_var), (n,))
-        theta, _, logdet, _, row_logdet = solver.solve(
-            var if solver.separable else float(var[0]))
+        theta, _, logdet, _, row_logdet = solver.solve(var if solver.separable else float(var[0]))
         logdets = row_logdet if solver.separable else np.array([logdet])
         value = _loglik_with_prior(solver, var, theta, logdets)
         return np.where(np.isnan(value), -np.inf, value)
@@ -507,8 +519,12 @@ def _ml_noise_var_with_prior(solver: SquaredSolver, guess: float) -> np.ndarray 
         return None
     lo, hi = center - np.log(1e3), center + np.log(1e3)
     if size == 1:
-        res = minimize_scalar(lambda v: -float(loglik(np.array([v]))[0]), bounds=(lo[0], hi[0]),
-                              method="bounded", options={"xatol": 1e-4})
+        res = minimize_scalar(
+            lambda v: -float(loglik(np.array([v]))[0]),
+            bounds=(lo[0], hi[0]),
+            method="bounded",
+            options={"xatol": 1e-4},
+        )
         return np.full(n, float(np.exp(res.x)))
     return np.exp(_golden_section_max(loglik, lo, hi, tol=1e-5))
 
@@ -528,8 +544,12 @@ def _golden_section_max(f, lo: np.ndarray, hi: np.ndarray, tol: float) -> np.nda
         a, b = np.where(left, a, c), np.where(left, d, b)
         new = np.where(left, b - g * (b - a), a + g * (b - a))
         f_new = f(new)
-        c, d, fc, fd = (np.where(left, new, d), np.where(left, c, new),
-                        np.where(left, f_new, fd), np.where(left, fc, f_new))
+        c, d, fc, fd = (
+            np.where(left, new, d),
+            np.where(left, c, new),
+            np.where(left, f_new, fd),
+            np.where(left, fc, f_new),
+        )
     return np.where(fc >= fd, c, d)
 
 
@@ -557,8 +577,14 @@ def _warn_if_precision_lost(lost: float, info: dict, stacklevel: int) -> None:
         )
 
 
-def _fit_shared(problem: RegressionProblem, W: np.ndarray, row: np.ndarray, *,
-                noise_var: np.ndarray | float | None, compute_cov: bool) -> SquaredResult:
+def _fit_shared(
+    problem: RegressionProblem,
+    W: np.ndarray,
+    row: np.ndarray,
+    *,
+    noise_var: np.ndarray | float | None,
+    compute_cov: bool,
+) -> SquaredResult:
     """:func:`fit_squared` without priors for a diagonal weight ``row`` (p,) that every
     output row shares (``W`` (K,) its repetition; a scalar λ): the same results by
     one factorization for all rows and the closed forms of the shared normalizer.
@@ -566,13 +592,17 @@ def _fit_shared(problem: RegressionProblem, W: np.ndarray, row: np.ndarray, *,
     n = problem.n
     n_obs = problem.n_observed
     log_pdet, diffuse, penalty_scale = _shared_normalizer(problem, row)
-    variances = None if noise_var is None else np.broadcast_to(
-        np.asarray(noise_var, dtype=float), (n,)).copy()
+    variances = (
+        None
+        if noise_var is None
+        else np.broadcast_to(np.asarray(noise_var, dtype=float), (n,)).copy()
+    )
     try:
         # One factorization for the n rows, from the raw arrays; RSS_i and penalty_i
         # (the weighted squares of DΘ_i) come out of its back substitution.
-        sol = solve_shared_rows(problem.phi, problem.y, row, problem.coeffs,
-                                compute_cov=compute_cov)
+        sol = solve_shared_rows(
+            problem.phi, problem.y, row, problem.coeffs, compute_cov=compute_cov
+        )
     except SingularProblemError as exc:
         gram_trace = float(np.vdot(problem.phi, problem.phi))
         _raise_if_precision_lost(_digits_lost(penalty_scale, gram_trace, problem), exc)
@@ -580,8 +610,9 @@ def _fit_shared(problem: RegressionProblem, W: np.ndarray, row: np.ndarray, *,
     theta, row_logdet, row_rss, row_pen = sol.theta, sol.logdet, sol.rss, sol.squares
     cov = None if sol.cov is None else CovarianceBlocks(sol.cov[None], np.zeros(n, dtype=int))
     info: dict = {"row_separable": True}
-    _warn_if_precision_lost(_digits_lost(penalty_scale, sol.gram_trace, problem), info,
-                            stacklevel=5)
+    _warn_if_precision_lost(
+        _digits_lost(penalty_scale, sol.gram_trace, problem), info, stacklevel=5
+    )
     rss, pen = float(row_rss.sum()), float(row_pen.sum())
     row_cost = row_rss + row_pen  # RSS_i + penalty_i
     variances, loglik = _rows_loglik(row_cost, n_obs, diffuse, log_pdet, row_logdet, variances)
@@ -643,8 +674,11 @@ def fit_squared(
     info: dict = {"row_separable": bool(solver.separable)}
     estimated = noise_var is None
     per_row = solver.separable  # each output row its own problem and σ_i²
-    variances = None if noise_var is None else np.broadcast_to(
-        np.asarray(noise_var, dtype=float), (n,)).copy()
+    variances = (
+        None
+        if noise_var is None
+        else np.broadcast_to(np.asarray(noise_var, dtype=float), (n,)).copy()
+    )
     if variances is not None and not per_row and np.any(variances != variances[0]):
         raise ValueError(
             "noise_var: one variance per output needs a penalty and priors that do not "
@@ -665,9 +699,7 @@ def fit_squared(
 
     lost = solver.digits_lost()
     try:
-        theta, cov, logdet, n_fact, row_logdet = solver.solve(
-            prior_scale, compute_cov=compute_cov
-        )
+        theta, cov, logdet, n_fact, row_logdet = solver.solve(prior_scale, compute_cov=compute_cov)
     except SingularProblemError as exc:
         _raise_if_precision_lost(lost, exc)
         raise
@@ -689,12 +721,14 @@ def fit_squared(
                 "the prior alone does not determine every parameter, so log p(y | prior) "
                 "is not defined"
             )
-        weighted_prior = float(np.sum(variances * row_prior)) if per_row \
-            else float(variances[0]) * prior_cost
+        weighted_prior = (
+            float(np.sum(variances * row_prior)) if per_row else float(variances[0]) * prior_cost
+        )
     elif per_row:
         row_cost = row_rss + row_pen  # RSS_i + penalty_i
-        variances, loglik = _rows_loglik(row_cost, n_obs, row_diffuse, row_log_pdet,
-                                         row_logdet, variances)
+        variances, loglik = _rows_loglik(
+            row_cost, n_obs, row_diffuse, row_log_pdet, row_logdet, variances
+        )
         weighted_prior = 0.0
     else:
         if variances is None:
@@ -729,8 +763,9 @@ def fit_squared(
     )
 
 
-def _rows_loglik(row_cost, n_obs: int, diffuse, log_pdet, row_logdet,
-                 variances: np.ndarray | None) -> tuple[np.ndarray, float]:
+def _rows_loglik(
+    row_cost, n_obs: int, diffuse, log_pdet, row_logdet, variances: np.ndarray | None
+) -> tuple[np.ndarray, float]:
     """Noise variances (their ML values when None) and the log-likelihood of decoupled rows.
 
     ``row_cost`` is RSS_i + penalty_i per row; ``diffuse``, ``log_pdet`` and
@@ -745,10 +780,12 @@ def _rows_loglik(row_cost, n_obs: int, diffuse, log_pdet, row_logdet,
                 "noise_var or use more data"
             )
         variances = np.maximum(row_cost / row_n_eff, np.finfo(float).tiny)
-    loglik = float(np.sum(
-        -0.5 * row_n_eff * (LOG_2PI + np.log(variances))
-        + 0.5 * log_pdet
-        - 0.5 * row_logdet
-        - 0.5 * row_cost / variances
-    ))
+    loglik = float(
+        np.sum(
+            -0.5 * row_n_eff * (LOG_2PI + np.log(variances))
+            + 0.5 * log_pdet
+            - 0.5 * row_logdet
+            - 0.5 * row_cost / variances
+        )
+    )
     return variances, loglik

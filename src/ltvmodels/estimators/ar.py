@@ -203,10 +203,27 @@ def fit_arx(
         _warn_if_offset(y)
     n, m = y.shape[2], u.shape[2]
     factory = partial(ARXModel, n_outputs=n, n_inputs=m, na=na, nb=nb, nk=nk, constant=constant)
-    model = _fit_lagged(y, u, na, nb, nk, constant, factory, lam=lam, norm=norm, order=order,
-                        prior=prior, prior_mode=prior_mode, noise_var=noise_var,
-                        compute_cov=compute_cov, max_iter=max_iter, tol=tol, weights=weights,
-                        loss=loss, huber_delta=huber_delta)
+    model = _fit_lagged(
+        y,
+        u,
+        na,
+        nb,
+        nk,
+        constant,
+        factory,
+        lam=lam,
+        norm=norm,
+        order=order,
+        prior=prior,
+        prior_mode=prior_mode,
+        noise_var=noise_var,
+        compute_cov=compute_cov,
+        max_iter=max_iter,
+        tol=tol,
+        weights=weights,
+        loss=loss,
+        huber_delta=huber_delta,
+    )
     return _describe(model, y_data, u_data, y.shape)
 
 
@@ -281,10 +298,27 @@ def fit_ar(
     if not constant:
         _warn_if_offset(y)
     factory = partial(ARModel, n_outputs=y.shape[2], na=na, constant=constant)
-    model = _fit_lagged(y, u, na, 0, 1, constant, factory, lam=lam, norm=norm, order=order,
-                        prior=prior, prior_mode=prior_mode, noise_var=noise_var,
-                        compute_cov=compute_cov, max_iter=max_iter, tol=tol, weights=weights,
-                        loss=loss, huber_delta=huber_delta)
+    model = _fit_lagged(
+        y,
+        u,
+        na,
+        0,
+        1,
+        constant,
+        factory,
+        lam=lam,
+        norm=norm,
+        order=order,
+        prior=prior,
+        prior_mode=prior_mode,
+        noise_var=noise_var,
+        compute_cov=compute_cov,
+        max_iter=max_iter,
+        tol=tol,
+        weights=weights,
+        loss=loss,
+        huber_delta=huber_delta,
+    )
     return _describe(model, y_data, None, y.shape)
 
 
@@ -292,8 +326,10 @@ def _describe(model: Any, y: Any, u: Any, shape: tuple[int, int, int]) -> Any:
     """Record the column names of a pandas y (and u) and the index of y (one series) in
     the model's ``info`` ("signal_names", "time")."""
     R, T, n = shape
-    names = {"output": arrays.column_names(y, n),
-             "input": None if u is None else arrays.column_names(u, model.n_inputs)}
+    names = {
+        "output": arrays.column_names(y, n),
+        "input": None if u is None else arrays.column_names(u, model.n_inputs),
+    }
     names = {key: value for key, value in names.items() if value is not None}
     if names:
         model.info["signal_names"] = names
@@ -327,7 +363,8 @@ def _warn_if_offset(y: np.ndarray) -> None:
                 f"{where} has mean {mean:.4g}, {abs(mean) / max(std, 1e-300):.1f} standard "
                 "deviations from 0, but the model has no intercept, so the coefficients must "
                 "absorb the level; pass constant=True (or subtract the mean)",
-                ModelStructureWarning, stacklevel=3,
+                ModelStructureWarning,
+                stacklevel=3,
             )
 
 
@@ -370,8 +407,16 @@ def _fit_lagged(
         regressor_names=lag_regressor_names(y.shape[2], u.shape[2], na, nb, nk, constant),
         data_name="y",
         rows_note=f" (T = {y.shape[1]} samples, the first {L} only as lags)",
-        lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
-        compute_cov=compute_cov, max_iter=max_iter, tol=tol, loss=loss, huber_delta=huber_delta,
+        lam=lam,
+        norm=norm,
+        prior=prior,
+        prior_mode=prior_mode,
+        noise_var=noise_var,
+        compute_cov=compute_cov,
+        max_iter=max_iter,
+        tol=tol,
+        loss=loss,
+        huber_delta=huber_delta,
     )
     model.info["n_missing"] = problem.N * problem.q - problem.n_observed  # rows left out
     return model

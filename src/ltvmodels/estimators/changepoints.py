@@ -170,8 +170,11 @@ def find_changepoints(
     """
     activation, degree = _activation_and_degree(model_or_activation, degree)
     if min_level is None:
-        min_level = (residue_level(np.asarray(model_or_activation.k))
-                     if isinstance(model_or_activation, RegressionModel) else 0.0)
+        min_level = (
+            residue_level(np.asarray(model_or_activation.k))
+            if isinstance(model_or_activation, RegressionModel)
+            else 0.0
+        )
     else:
         min_level = options.nonnegative_scalar(min_level, "min_level")
     threshold = options.fraction(threshold, "threshold")
@@ -188,9 +191,7 @@ def find_changepoints(
     return np.sort(kept) + changepoint_offset(degree)
 
 
-def detection_level(
-    activation: np.ndarray, threshold: float, noise_factor: float | None
-) -> float:
+def detection_level(activation: np.ndarray, threshold: float, noise_factor: float | None) -> float:
     """The level max(threshold · max(a), median(a) + noise_factor · 1.4826 · MAD(a)).
 
     Parameters

@@ -29,14 +29,16 @@ from __future__ import annotations
 import multiprocessing
 import os
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
-from typing import Any, Iterator
+from typing import Any
 
-WORKER_DIED = ("the worker process fitting this unit died twice (killed, or out of memory?); "
-               "fit it alone to see why")
+WORKER_DIED = (
+    "the worker process fitting this unit died twice (killed, or out of memory?); "
+    "fit it alone to see why"
+)
 
 # Of a process-pool worker: the shared array of running tasks and this worker's slot.
 _running_tasks: Any = None
@@ -64,8 +66,9 @@ def run_task(task: Callable[[list], list], units: list) -> list:
         return task(units)
 
 
-def run_here(task: Callable[[list], list], chunks: Sequence[list],
-             done: Callable[[list], None]) -> None:
+def run_here(
+    task: Callable[[list], list], chunks: Sequence[list], done: Callable[[list], None]
+) -> None:
     """Run every chunk in this process, in order; ``done(results)`` after each."""
     for units in chunks:
         done(run_task(task, units))
@@ -117,8 +120,11 @@ class _Pool:
         self.running = context.Array("q", [-1] * n_workers)
         counter = context.Value("q", 0)
         self.executor = ProcessPoolExecutor(
-            n_workers, mp_context=context, initializer=_start_worker,
-            initargs=(self.running, counter))
+            n_workers,
+            mp_context=context,
+            initializer=_start_worker,
+            initargs=(self.running, counter),
+        )
 
     def running_tasks(self) -> set[int]:
         return {int(task_id) for task_id in self.running if task_id >= 0}
@@ -127,8 +133,13 @@ class _Pool:
         self.executor.shutdown(wait=True, cancel_futures=True)
 
 
-def run_processes(task: Callable[[list], list], chunks: Sequence[list], n_workers: int,
-                  done: Callable[[list], None], lost: Callable[[Any, str], None]) -> None:
+def run_processes(
+    task: Callable[[list], list],
+    chunks: Sequence[list],
+    n_workers: int,
+    done: Callable[[list], None],
+    lost: Callable[[Any, str], None],
+) -> None:
     """Run the chunks on ``n_workers`` processes; ``done(results)`` as each finishes.
 
     ``task`` must be a module-level function (it is pickled by reference).
@@ -138,15 +149,15 @@ def run_processes(task: Callable[[list], list], chunks: Sequence[list], n_worker
     ``lost(unit, message)``.
     """
     suspects = _run_pool(task, list(chunks), n_workers, done)
-    suspects = _run_pool(task, [[unit] for units in suspects for unit in units], n_workers,
-                         done)
+    suspects = _run_pool(task, [[unit] for units in suspects for unit in units], n_workers, done)
     for units in suspects:
         for dead in _run_pool(task, [units], 1, done):
             lost(dead[0], WORKER_DIED)
 
 
-def _run_pool(task: Callable[[list], list], chunks: list[list], n_workers: int,
-              done: Callable[[list], None]) -> list[list]:
+def _run_pool(
+    task: Callable[[list], list], chunks: list[list], n_workers: int, done: Callable[[list], None]
+) -> list[list]:
     """Run the chunks on a process pool, a fresh one after each worker death.
 
     Returns the chunks that were running when a worker died (the suspects).
@@ -177,8 +188,13 @@ def _run_pool(task: Callable[[list], list], chunks: list[list], n_workers: int,
     return suspects
 
 
-def run_dask(client: Any, task: Callable[[list], list], chunks: Sequence[list],
-             done: Callable[[list], None], lost: Callable[[Any, str], None]) -> None:
+def run_dask(
+    client: Any,
+    task: Callable[[list], list],
+    chunks: Sequence[list],
+    done: Callable[[list], None],
+    lost: Callable[[Any, str], None],
+) -> None:
     """Run the chunks as tasks of a ``distributed.Client``; ``done(results)`` as each finishes.
 
     A task that fails anyway (``KilledWorker`` after the scheduler's own
@@ -189,15 +205,15 @@ def run_dask(client: Any, task: Callable[[list], list], chunks: Sequence[list],
     it, so only a unit that fails alone is known to be the cause.
     """
     failures = _run_futures(client, task, chunks, done)
-    failures = _run_futures(client, task, [[unit] for units, _ in failures for unit in units],
-                            done)
+    failures = _run_futures(client, task, [[unit] for units, _ in failures for unit in units], done)
     for units, _ in failures:
         for units_again, exc in _run_futures(client, task, [units], done):
             lost(units_again[0], f"{WORKER_DIED} ({type(exc).__name__}: {exc})")
 
 
-def _run_futures(client: Any, task: Callable[[list], list], chunks: Sequence[list],
-                 done: Callable[[list], None]) -> list[tuple[list, BaseException]]:
+def _run_futures(
+    client: Any, task: Callable[[list], list], chunks: Sequence[list], done: Callable[[list], None]
+) -> list[tuple[list, BaseException]]:
     """Submit the chunks, report each result; returns the chunks whose task failed."""
     from distributed import as_completed as dask_completed
 

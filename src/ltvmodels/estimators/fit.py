@@ -8,8 +8,9 @@ core :func:`.regression.fit_problem`.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from functools import partial
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -25,15 +26,19 @@ from .recordings import StateSpaceData, state_space_data
 from .regression import fit_problem, sparse_model
 from .robust import robust_model
 
-
 # Newton steps and tolerance of fit_lti(loss="huber"/"laplace") (it takes no solver options).
 LTI_HUBER_MAX_ITER = 500
 LTI_HUBER_TOL = 1e-10
 
 
 def fit_lti(
-    x: Any, u: Any = None, *, weights: Any = None, constant: bool = False,
-    loss: str = "squared", huber_delta: Any = None,
+    x: Any,
+    u: Any = None,
+    *,
+    weights: Any = None,
+    constant: bool = False,
+    loss: str = "squared",
+    huber_delta: Any = None,
 ) -> LTVModel:
     """Least-squares LTI model x[t+1] = A x[t] + B u[t] (+ c) + v_t (paper eqs. lscost, ls).
 
@@ -82,10 +87,17 @@ def fit_lti(
     loss, delta = options.loss_options(loss, huber_delta, n)
     if loss != "squared":  # every coefficient held constant: λ = inf
         model = robust_model(
-            problem, np.full(n * p, np.inf), loss=loss, lam=float("inf"), norm="lti",
+            problem,
+            np.full(n * p, np.inf),
+            loss=loss,
+            lam=float("inf"),
+            norm="lti",
             delta=delta,
             factory=partial(LTVModel, n_states=n, n_inputs=m, constant=data.constant),
-            max_iter=LTI_HUBER_MAX_ITER, tol=LTI_HUBER_TOL, stacklevel=2)
+            max_iter=LTI_HUBER_MAX_ITER,
+            tol=LTI_HUBER_TOL,
+            stacklevel=2,
+        )
         return data.describe(model)
     phi, y = problem.stacked_rows()
     # QR-based least squares: solve, don't form (ΦᵀΦ)⁻¹ for the estimate.
@@ -101,17 +113,34 @@ def fit_lti(
     cov_k = np.kron(noise_cov, gram_inv)
     cov = CovarianceBlocks(np.broadcast_to(cov_k, (N, K, K)), None)
     rss = float(np.sum(resid**2))
-    info = {"solver": "least-squares (QR)", "rss": rss, "dof": int(dof),
-            "n_missing": data.n_missing}
+    info = {
+        "solver": "least-squares (QR)",
+        "rss": rss,
+        "dof": int(dof),
+        "n_missing": data.n_missing,
+    }
     if loglik_note:
         info["loglik_note"] = loglik_note
-    return data.describe(LTVModel(k, n, m, FitRecord(
-        norm="lti", coeffs=None, lam=float("inf"), cov=cov,
-        noise_var=np.diag(noise_cov).copy(),
-        noise_cov=noise_cov, loglik=loglik, info=info,
-        changepoints=np.zeros(0, dtype=int),
-        status=FitStatus("closed_form", info["solver"], 0, rss),
-    ), constant=data.constant))
+    return data.describe(
+        LTVModel(
+            k,
+            n,
+            m,
+            FitRecord(
+                norm="lti",
+                coeffs=None,
+                lam=float("inf"),
+                cov=cov,
+                noise_var=np.diag(noise_cov).copy(),
+                noise_cov=noise_cov,
+                loglik=loglik,
+                info=info,
+                changepoints=np.zeros(0, dtype=int),
+                status=FitStatus("closed_form", info["solver"], 0, rss),
+            ),
+            constant=data.constant,
+        )
+    )
 
 
 def fit(
@@ -281,18 +310,36 @@ def fit(
         raise TypeError(f"refine: expected True or False, received {refine!r}")
     if refine:
         first = fit(
-            x, u, lam=lam, norm=norm, order=order, prior=prior, prior_mode=prior_mode,
-            noise_var=noise_var, compute_cov=False, max_iter=max_iter, tol=tol,
-            weights=weights, constant=constant, loss=loss, huber_delta=huber_delta,
+            x,
+            u,
+            lam=lam,
+            norm=norm,
+            order=order,
+            prior=prior,
+            prior_mode=prior_mode,
+            noise_var=noise_var,
+            compute_cov=False,
+            max_iter=max_iter,
+            tol=tol,
+            weights=weights,
+            constant=constant,
+            loss=loss,
+            huber_delta=huber_delta,
             progress=progress,
         )
         data = state_space_data(x, u, weights=weights, constant=constant)
         _, delta = options.loss_options(loss, huber_delta, data.n)
-        return data.describe(refine_fit(
-            data.problem, first, names=data.regressor_names, loss=loss, delta=delta,
-            factory=partial(LTVModel, n_states=data.n, n_inputs=data.m,
-                            constant=data.constant),
-            n_missing=data.n_missing))
+        return data.describe(
+            refine_fit(
+                data.problem,
+                first,
+                names=data.regressor_names,
+                loss=loss,
+                delta=delta,
+                factory=partial(LTVModel, n_states=data.n, n_inputs=data.m, constant=data.constant),
+                n_missing=data.n_missing,
+            )
+        )
     data = state_space_data(x, u, order=order, weights=weights, constant=constant)
     norm = options.norm_name(norm)
     model = fit_problem(
@@ -300,8 +347,16 @@ def fit(
         factory=partial(LTVModel, n_states=data.n, n_inputs=data.m, constant=data.constant),
         regressor_names=data.regressor_names,
         data_name="x",
-        lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
-        compute_cov=compute_cov, max_iter=max_iter, tol=tol, loss=loss, huber_delta=huber_delta,
+        lam=lam,
+        norm=norm,
+        prior=prior,
+        prior_mode=prior_mode,
+        noise_var=noise_var,
+        compute_cov=compute_cov,
+        max_iter=max_iter,
+        tol=tol,
+        loss=loss,
+        huber_delta=huber_delta,
         progress=progress,
     )
     return data.describe(model)
@@ -342,8 +397,9 @@ def fit_path(
     """
     values = arrays.as_float_array(lams, "lams")
     if values.ndim != 1 or values.size == 0:
-        raise ValueError(f"lams: expected a non-empty 1-d sequence of λ values, received "
-                         f"shape {values.shape}")
+        raise ValueError(
+            f"lams: expected a non-empty 1-d sequence of λ values, received shape {values.shape}"
+        )
     for lam in values:  # each as fit checks lam, named as passed here
         try:
             options.penalty_weight(lam, 1)
@@ -351,9 +407,19 @@ def fit_path(
             raise ValueError("lams: " + str(exc).removeprefix("lam: ")) from None
     norm = options.norm_name(norm)
     if norm == "sq":
-        return [fit(x, u, lam=float(lam), norm=norm, order=order, compute_cov=compute_cov,
-                    weights=weights, constant=constant)
-                for lam in values]
+        return [
+            fit(
+                x,
+                u,
+                lam=float(lam),
+                norm=norm,
+                order=order,
+                compute_cov=compute_cov,
+                weights=weights,
+                constant=constant,
+            )
+            for lam in values
+        ]
     data = _identifiable_data(x, u, order, weights, constant)
     problem = data.problem
     max_iter = options.integer(max_iter, "max_iter", minimum=1)
@@ -364,8 +430,7 @@ def fit_path(
     for position, index in enumerate(np.argsort(-values, kind="stable")):
         lam = float(values[index])
         weights = options.sparse_weights(lam, problem.K)
-        solution = solve_sparse(problem, weights, norm, max_iter=max_iter, tol=tol,
-                                warm_start=warm)
+        solution = solve_sparse(problem, weights, norm, max_iter=max_iter, tol=tol, warm_start=warm)
         warm = solution
         model = sparse_model(problem, lam, norm, solution, factory)
         model.info["path_position"] = position
@@ -374,7 +439,12 @@ def fit_path(
 
 
 def lambda_max(
-    x: Any, u: Any = None, *, norm: str, order: Any = 1, weights: Any = None,
+    x: Any,
+    u: Any = None,
+    *,
+    norm: str,
+    order: Any = 1,
+    weights: Any = None,
     constant: bool = False,
 ) -> float:
     """The smallest λ at which ``fit(x, u, lam=λ, norm=norm, order=order)`` has Dk = 0.
@@ -425,13 +495,16 @@ def lambda_max(
     return problem_lambda_max(_identifiable_data(x, u, order, weights, constant).problem, norm)
 
 
-def _identifiable_data(
-    x: Any, u: Any, order: Any, weights: Any, constant: Any
-) -> StateSpaceData:
+def _identifiable_data(x: Any, u: Any, order: Any, weights: Any, constant: Any) -> StateSpaceData:
     """Validated state-space data, checked for samples and identifiability."""
     data = state_space_data(x, u, order=order, weights=weights, constant=constant)
     problem = data.problem
-    options.enough_samples(problem.N, problem.p, problem.degree,
-                           observed=problem.n_observed, n_rows=problem.N * problem.q)
+    options.enough_samples(
+        problem.N,
+        problem.p,
+        problem.degree,
+        observed=problem.n_observed,
+        n_rows=problem.N * problem.q,
+    )
     identifiability.check(problem, has_prior=False, regressor_names=data.regressor_names)
     return data

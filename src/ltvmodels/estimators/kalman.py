@@ -76,9 +76,12 @@ def _setup(x, u, lam, order, noise_var, init_mean, init_cov) -> _Setup:
     noise_var = options.variance(noise_var, "noise_var")
     problem = state_space_data(x, u, order=order).problem
     prior = arrays.initial_state_prior(init_mean, init_cov, problem.degree, problem.n, problem.p)
-    return _Setup(problem=problem, model=realize(problem.coeffs, problem.p, lam, noise_var),
-                  lam=lam,
-                  prior=prior)
+    return _Setup(
+        problem=problem,
+        model=realize(problem.coeffs, problem.p, lam, noise_var),
+        lam=lam,
+        prior=prior,
+    )
 
 
 def _run_filter(s: _Setup):
@@ -88,9 +91,18 @@ def _run_filter(s: _Setup):
     pb = s.problem
     m0, P0 = (np.zeros((D, pb.n)), np.eye(D)) if diffuse else s.prior
     return filter_kernel(
-        pb.phi, pb.y, pb.observed, model.F, model.F_inv, model.q, model.R,
-        log_abs_det_transition(model.coeffs, pb.p), diffuse, np.ascontiguousarray(m0),
-        np.ascontiguousarray(P0), IDENTIFIED_TOL,
+        pb.phi,
+        pb.y,
+        pb.observed,
+        model.F,
+        model.F_inv,
+        model.q,
+        model.R,
+        log_abs_det_transition(model.coeffs, pb.p),
+        diffuse,
+        np.ascontiguousarray(m0),
+        np.ascontiguousarray(P0),
+        IDENTIFIED_TOL,
     )
 
 
@@ -105,8 +117,14 @@ def _filter_result(s: _Setup, vecs, mats, in_info, ell) -> KalmanFilterResult:
     offset = loglik_offset(s.model.coeffs, n, p, s.prior is None)
     loglik = None if in_info[-1] else float(ell.sum()) + offset
     return KalmanFilterResult(
-        k=k, cov=cov, loglik=loglik, first_identified=first, noise_var=float(s.model.R),
-        lam=s.lam, coeffs=s.model.coeffs.copy(), n_states=n,
+        k=k,
+        cov=cov,
+        loglik=loglik,
+        first_identified=first,
+        noise_var=float(s.model.R),
+        lam=s.lam,
+        coeffs=s.model.coeffs.copy(),
+        n_states=n,
     )
 
 
@@ -212,8 +230,9 @@ def kalman_smoother(
             "time steps. Remedies: more excitation in the inputs, a larger lam, a proper "
             "prior (init_mean, init_cov), or fewer regressors."
         )
-    means, covs = smoother_kernel(vecs, mats, in_info, s.model.F, s.model.F_inv, s.problem.p,
-                                   s.model.q)
+    means, covs = smoother_kernel(
+        vecs, mats, in_info, s.model.F, s.model.F_inv, s.problem.p, s.model.q
+    )
     N, p, n = s.problem.N, s.problem.p, s.problem.n
     k = means.transpose(0, 2, 1).reshape(N, n * p)
     return KalmanSmootherResult(k=k, cov=covs, loglik=filtered.loglik, filtered=filtered)
@@ -346,8 +365,7 @@ class OnlineParameterFilter:
         n, m = self.n_states, self.n_inputs
         x_t = arrays.vector(x_t, "x_t", n, missing=True)
         x_next = arrays.vector(x_next, "x_next", n, missing=True)
-        u_t = (np.zeros(0) if u_t is None and m == 0
-               else arrays.vector(u_t, "u_t", m, missing=True))
+        u_t = np.zeros(0) if u_t is None and m == 0 else arrays.vector(u_t, "u_t", m, missing=True)
         for value, name in ((x_t, "x_t"), (u_t, "u_t"), (x_next, "x_next")):
             arrays.representable(value, name, small=False)  # one sample: tiny values are fine
         phi = np.concatenate([x_t, u_t])
@@ -356,9 +374,21 @@ class OnlineParameterFilter:
             phi, x_next = np.zeros_like(phi), np.zeros_like(x_next)
         model = self.model
         self._mat, self._vec, self._info = step(
-            self._mat, self._vec, self._ell, self._info, self._t > 0, phi[None], x_next[None],
-            observed, model.F, model.F_inv, self._F_invT, model.q, model.R,
-            self._log_abs_det_F, IDENTIFIED_TOL,
+            self._mat,
+            self._vec,
+            self._ell,
+            self._info,
+            self._t > 0,
+            phi[None],
+            x_next[None],
+            observed,
+            model.F,
+            model.F_inv,
+            self._F_invT,
+            model.q,
+            model.R,
+            self._log_abs_det_F,
+            IDENTIFIED_TOL,
         )
         self._t += 1
         return self.k

@@ -33,7 +33,8 @@ import numpy as np
 
 from ..progress import Progress
 from ..results.model_set import ModelSet, model_file_name
-from ..validation import arrays, options as checks
+from ..validation import arrays
+from ..validation import options as checks
 from . import engines
 from .fit import fit, fit_lti
 from .segments import fit_segments
@@ -103,12 +104,12 @@ def fit_unit(data: UnitData, spec: FitSpec) -> UnitResult:
     seconds = clock.perf_counter() - start
     record.update(model_record(model, data, spec.options))
     record["seconds"] = seconds
-    record["warnings"] = "; ".join(sorted({f"{w.category.__name__}: {w.message}"
-                                           for w in caught})) or None
+    record["warnings"] = (
+        "; ".join(sorted({f"{w.category.__name__}: {w.message}" for w in caught})) or None
+    )
     if spec.models_dir is not None:
         model.save(Path(spec.models_dir) / model_file_name(data.position))
-    return UnitResult(data.position, data.unit, record,
-                      model=model if spec.keep_models else None)
+    return UnitResult(data.position, data.unit, record, model=model if spec.keep_models else None)
 
 
 def failed(data: UnitData, record: dict, message: str) -> UnitResult:
@@ -123,8 +124,9 @@ def model_record(model: Any, data: UnitData, options: dict) -> dict:
     lam = getattr(model, "lam", None)
     record["lam"] = float(lam) if lam is not None and np.ndim(lam) == 0 else None
     selection = info.get("lam_selection")
-    record["lam_method"] = selection["method"] if selection else (
-        "given" if lam is not None else None)
+    record["lam_method"] = (
+        selection["method"] if selection else ("given" if lam is not None else None)
+    )
     record["missing"] = info.get("n_missing")
     names = getattr(model, "state_names", None) or []
     noise = getattr(model, "noise_var", None)
@@ -148,8 +150,11 @@ def model_record(model: Any, data: UnitData, options: dict) -> dict:
 def one_step_rms(model: Any, data: UnitData, options: dict) -> float | None:
     """Root mean square of x[t+1] − x̂[t+1] over the transitions with data."""
     info = getattr(model, "info", {})
-    unweighted = data.weights is None and options.get("weights") is None and \
-        options.get("loss", "squared") == "squared"
+    unweighted = (
+        data.weights is None
+        and options.get("weights") is None
+        and options.get("loss", "squared") == "squared"
+    )
     if unweighted and "rss" in info and "n_missing" in info and np.ndim(plain(data.x)) in (1, 2):
         # The fit's residual sum of squares over its observed transitions: no recomputation.
         rows = model.N - info["n_missing"]
@@ -196,8 +201,7 @@ def column_list(value: Any, name: str, columns: Any, *, required: bool) -> list:
     """Column names given as one name, a comma-separated text or a list; checked present."""
     if value is None:
         if required:
-            raise TypeError(f"{name}: expected the name(s) of the column(s) to use, received "
-                            "None")
+            raise TypeError(f"{name}: expected the name(s) of the column(s) to use, received None")
         return []
     names = list(value) if isinstance(value, (list, tuple)) else [value]
     if len(names) == 0 and required:
@@ -205,8 +209,10 @@ def column_list(value: Any, name: str, columns: Any, *, required: bool) -> list:
     missing = [column for column in names if column not in columns]
     if missing:
         shown = ", ".join(repr(column) for column in list(columns)[:12])
-        raise ValueError(f"{name}: column {missing[0]!r} is not in data; its columns are "
-                         f"{shown}{', ...' if len(columns) > 12 else ''}")
+        raise ValueError(
+            f"{name}: column {missing[0]!r} is not in data; its columns are "
+            f"{shown}{', ...' if len(columns) > 12 else ''}"
+        )
     return names
 
 
@@ -215,13 +221,16 @@ def numeric_columns(frame: Any, names: list, name: str) -> np.ndarray:
     for column in names:
         kind = getattr(frame[column].dtype, "kind", "O")
         if kind not in "biuf":
-            raise TypeError(f"{name}: column {column!r} holds {frame[column].dtype} values; "
-                            "expected numbers (convert it, e.g. with pandas.to_numeric)")
+            raise TypeError(
+                f"{name}: column {column!r} holds {frame[column].dtype} values; "
+                "expected numbers (convert it, e.g. with pandas.to_numeric)"
+            )
     return frame[names].to_numpy(dtype=np.float64)
 
 
-def table_units(frame: Any, by: Any, state: Any, inputs: Any, time: Any,
-                weights: Any) -> list[UnitData]:
+def table_units(
+    frame: Any, by: Any, state: Any, inputs: Any, time: Any, weights: Any
+) -> list[UnitData]:
     """Split a long pandas DataFrame (one row per unit and time step) into units.
 
     Units in order of first appearance; rows of a unit sorted by ``time`` (stably),
@@ -236,35 +245,44 @@ def table_units(frame: Any, by: Any, state: Any, inputs: Any, time: Any,
     state = column_list(state, "state", columns, required=True)
     inputs = column_list(inputs, "inputs", columns, required=False)
     time_column = column_list(time, "time", columns, required=False)
-    weight_column = column_list(weights, "weights", columns, required=False) if isinstance(
-        weights, str) else []
+    weight_column = (
+        column_list(weights, "weights", columns, required=False) if isinstance(weights, str) else []
+    )
     if weights is not None and not weight_column:
-        raise TypeError(f"weights: expected the name of a column of weights, received "
-                        f"{arrays.describe(weights)}")
+        raise TypeError(
+            f"weights: expected the name of a column of weights, received "
+            f"{arrays.describe(weights)}"
+        )
     keys = frame[by]
     if keys.isna().any():
-        raise ValueError(f"by: column {by!r} has {int(keys.isna().sum())} rows without a unit "
-                         "(missing values); drop them or label them")
+        raise ValueError(
+            f"by: column {by!r} has {int(keys.isna().sum())} rows without a unit "
+            "(missing values); drop them or label them"
+        )
     codes, uniques = pd.factorize(keys, sort=False)
     if time_column:
         stamps = frame[time_column[0]]
         if stamps.isna().any():
-            raise ValueError(f"time: column {time_column[0]!r} has {int(stamps.isna().sum())} "
-                             "missing time stamps; drop those rows or fill them")
+            raise ValueError(
+                f"time: column {time_column[0]!r} has {int(stamps.isna().sum())} "
+                "missing time stamps; drop those rows or fill them"
+            )
         stamps = arrays.index_values(pd.Index(stamps))
-        if not (np.issubdtype(stamps.dtype, np.datetime64)
-                or np.issubdtype(stamps.dtype, np.number)):
-            raise TypeError(f"time: column {time_column[0]!r} holds {stamps.dtype} values; "
-                            "expected dates or numbers (convert it, e.g. with "
-                            "pandas.to_datetime)")
+        if not (
+            np.issubdtype(stamps.dtype, np.datetime64) or np.issubdtype(stamps.dtype, np.number)
+        ):
+            raise TypeError(
+                f"time: column {time_column[0]!r} holds {stamps.dtype} values; "
+                "expected dates or numbers (convert it, e.g. with "
+                "pandas.to_datetime)"
+            )
         order = np.lexsort((stamps, codes))
         stamps = stamps[order]
     else:
         order = np.argsort(codes, kind="stable")
     x_all = numeric_columns(frame, state, "state")[order]
     u_all = numeric_columns(frame, inputs, "inputs")[order] if inputs else None
-    w_all = numeric_columns(frame, weight_column, "weights")[order, 0] if weight_column \
-        else None
+    w_all = numeric_columns(frame, weight_column, "weights")[order, 0] if weight_column else None
     bounds = np.searchsorted(codes[order], np.arange(len(uniques) + 1))
     state_names = [str(name) for name in state]
     input_names = [str(name) for name in inputs]
@@ -275,30 +293,43 @@ def table_units(frame: Any, by: Any, state: Any, inputs: Any, time: Any,
         error = None
         if unit_time is not None and b - a > 1 and np.any(unit_time[1:] == unit_time[:-1]):
             first = unit_time[1:][unit_time[1:] == unit_time[:-1]][0]
-            error = (f"ValueError: time: duplicated time stamp {first} in column "
-                     f"{time_column[0]!r}; each unit needs one row per time step (aggregate "
-                     "or drop the duplicates)")
-        units.append(UnitData(
-            unit, position,
-            arrays.LabelledSeries(x_all[a:b], state_names, unit_time),
-            None if u_all is None else arrays.LabelledSeries(u_all[a:b], input_names,
-                                                             unit_time),
-            None if w_all is None else w_all[a:b - 1], T=b - a, error=error))
+            error = (
+                f"ValueError: time: duplicated time stamp {first} in column "
+                f"{time_column[0]!r}; each unit needs one row per time step (aggregate "
+                "or drop the duplicates)"
+            )
+        units.append(
+            UnitData(
+                unit,
+                position,
+                arrays.LabelledSeries(x_all[a:b], state_names, unit_time),
+                None
+                if u_all is None
+                else arrays.LabelledSeries(u_all[a:b], input_names, unit_time),
+                None if w_all is None else w_all[a : b - 1],
+                T=b - a,
+                error=error,
+            )
+        )
     return units
 
 
 def mapping_units(data: Mapping, weights: Any) -> list[UnitData]:
     """Units of a mapping ``{unit: x}`` or ``{unit: (x, u)}`` (arrays or DataFrames)."""
     if isinstance(weights, str):
-        raise TypeError("weights: a column name needs a table; with a mapping of arrays, "
-                        "pass (x, u) pairs and the weights as an array shared by every unit, "
-                        "or fit the units with different weights separately")
+        raise TypeError(
+            "weights: a column name needs a table; with a mapping of arrays, "
+            "pass (x, u) pairs and the weights as an array shared by every unit, "
+            "or fit the units with different weights separately"
+        )
     units = []
     for position, (unit, value) in enumerate(data.items()):
         if isinstance(value, tuple):
             if len(value) not in (1, 2):
-                raise ValueError(f"data[{unit!r}]: expected x or a pair (x, u), received a "
-                                 f"tuple of {len(value)} items")
+                raise ValueError(
+                    f"data[{unit!r}]: expected x or a pair (x, u), received a "
+                    f"tuple of {len(value)} items"
+                )
             x, u = value if len(value) == 2 else (value[0], None)
         else:
             x, u = value, None
@@ -423,23 +454,37 @@ def fit_many(
     keep_models = checks.flag(keep_models, "keep_models")
     if progress is not None:
         progress = checks.flag(progress, "progress")
-    n_jobs = engines.default_jobs() if n_jobs is None else checks.integer(
-        n_jobs, "n_jobs", minimum=1)
+    n_jobs = (
+        engines.default_jobs() if n_jobs is None else checks.integer(n_jobs, "n_jobs", minimum=1)
+    )
     if models_dir is not None and not isinstance(models_dir, (str, os.PathLike)):
-        raise TypeError(f"models_dir: expected a directory path, received "
-                        f"{arrays.describe(models_dir)}")
+        raise TypeError(
+            f"models_dir: expected a directory path, received {arrays.describe(models_dir)}"
+        )
     directory = None if models_dir is None else Path(models_dir)
     client = dask_client(engine)
     weights = options.pop("weights", None)
     if is_dask_frame(data):
-        return fit_dask_frame(data, client, by=by, state=state, inputs=inputs, time=time,
-                              weights=weights, estimator=estimator, options=options,
-                              keep_models=keep_models, directory=directory,
-                              progress=progress)
+        return fit_dask_frame(
+            data,
+            client,
+            by=by,
+            state=state,
+            inputs=inputs,
+            time=time,
+            weights=weights,
+            estimator=estimator,
+            options=options,
+            keep_models=keep_models,
+            directory=directory,
+            progress=progress,
+        )
     if isinstance(data, Mapping):
         if by is not None or state is not None or inputs is not None or time is not None:
-            raise TypeError("by, state, inputs, time: name columns of a table; a mapping "
-                            "{unit: (x, u)} needs none of them")
+            raise TypeError(
+                "by, state, inputs, time: name columns of a table; a mapping "
+                "{unit: (x, u)} needs none of them"
+            )
         units = mapping_units(data, weights)
         if weights is not None:
             options["weights"] = weights
@@ -454,21 +499,25 @@ def fit_many(
         )
     if directory is not None:
         directory.mkdir(parents=True, exist_ok=True)
-    spec = FitSpec(estimator, options, keep_models,
-                   None if directory is None else str(directory))
+    spec = FitSpec(estimator, options, keep_models, None if directory is None else str(directory))
     collected = Collector(len(units), by_name, keep_models, directory, progress)
     task = partial(fit_units, spec=spec)
     with collected.progress:
         if client is not None:
-            engines.run_dask(client, task, chunked(units, task_count(client_workers(client),
-                                                                     len(units))),
-                             collected.add, collected.lose)
+            engines.run_dask(
+                client,
+                task,
+                chunked(units, task_count(client_workers(client), len(units))),
+                collected.add,
+                collected.lose,
+            )
         elif n_jobs == 1 or len(units) <= 1:
             engines.run_here(task, [units], collected.add)
         else:
             chunks = chunked(units, task_count(n_jobs, len(units)))
-            engines.run_processes(task, chunks, min(n_jobs, len(chunks)), collected.add,
-                                  collected.lose)
+            engines.run_processes(
+                task, chunks, min(n_jobs, len(chunks)), collected.add, collected.lose
+            )
     return collected.model_set(units)
 
 
@@ -491,8 +540,9 @@ def check_options(estimator: Callable, method: Any, options: dict) -> None:
         if name not in parameters or name in ("x", "u"):
             name_of = method if isinstance(method, str) else getattr(method, "__name__", "")
             accepted = [p for p in parameters if p not in ("x", "u")]
-            raise TypeError(f"{name}: not an option of method={name_of!r}; it takes "
-                            f"{', '.join(accepted)}")
+            raise TypeError(
+                f"{name}: not an option of method={name_of!r}; it takes {', '.join(accepted)}"
+            )
 
 
 def dask_client(engine: Any) -> Any:
@@ -500,8 +550,10 @@ def dask_client(engine: Any) -> Any:
         return None
     if type(engine).__name__ == "Client" and hasattr(engine, "submit"):
         return engine
-    raise TypeError(f"engine: expected None (local processes) or a dask.distributed.Client, "
-                    f"received {arrays.describe(engine)}")
+    raise TypeError(
+        f"engine: expected None (local processes) or a dask.distributed.Client, "
+        f"received {arrays.describe(engine)}"
+    )
 
 
 def client_workers(client: Any) -> int:
@@ -528,8 +580,15 @@ def chunked(units: list, n_tasks: int) -> list[list]:
 class Collector:
     """Gathers the workers' results into a :class:`~ltvmodels.ModelSet`."""
 
-    def __init__(self, total: int | None, by: str, keep_models: bool,
-                 directory: Path | None, progress: bool | None, unit: str = "units") -> None:
+    def __init__(
+        self,
+        total: int | None,
+        by: str,
+        keep_models: bool,
+        directory: Path | None,
+        progress: bool | None,
+        unit: str = "units",
+    ) -> None:
         self.results: dict[int, UnitResult] = {}
         self.by = by
         self.keep_models = keep_models
@@ -549,36 +608,64 @@ class Collector:
     def model_set(self, units: list[UnitData]) -> ModelSet:
         ordered = [self.results[data.position] for data in units]
         errors = {result.unit: result.error for result in ordered if result.error}
-        models = {result.unit: result.model for result in ordered
-                  if self.keep_models and result.error is None}
-        files = {} if self.directory is None else {
-            data.unit: model_file_name(data.position) for data in units
-            if data.unit not in errors}
-        model_set = ModelSet([result.unit for result in ordered],
-                             [result.record for result in ordered], errors, by=self.by,
-                             models=models, directory=self.directory, files=files)
+        models = {
+            result.unit: result.model
+            for result in ordered
+            if self.keep_models and result.error is None
+        }
+        files = (
+            {}
+            if self.directory is None
+            else {
+                data.unit: model_file_name(data.position)
+                for data in units
+                if data.unit not in errors
+            }
+        )
+        model_set = ModelSet(
+            [result.unit for result in ordered],
+            [result.record for result in ordered],
+            errors,
+            by=self.by,
+            models=models,
+            directory=self.directory,
+            files=files,
+        )
         if self.directory is not None:
             model_set.save(self.directory)
         return model_set
 
 
-def fit_dask_frame(frame: Any, client: Any, *, by: Any, state: Any, inputs: Any, time: Any,
-                   weights: Any, estimator: Callable, options: dict, keep_models: bool,
-                   directory: Path | None, progress: bool | None) -> ModelSet:
+def fit_dask_frame(
+    frame: Any,
+    client: Any,
+    *,
+    by: Any,
+    state: Any,
+    inputs: Any,
+    time: Any,
+    weights: Any,
+    estimator: Callable,
+    options: dict,
+    keep_models: bool,
+    directory: Path | None,
+    progress: bool | None,
+) -> ModelSet:
     """Fit the units of a dask DataFrame where its partitions live (see :func:`fit_many`)."""
     import dask
 
     if client is None:
         from distributed import get_client
+
         try:
             client = get_client()
         except ValueError:
-            raise TypeError("engine: a dask DataFrame needs a dask.distributed.Client: pass "
-                            "engine=Client(...) (or start one, e.g. Client(LocalCluster()))"
-                            ) from None
+            raise TypeError(
+                "engine: a dask DataFrame needs a dask.distributed.Client: pass "
+                "engine=Client(...) (or start one, e.g. Client(LocalCluster()))"
+            ) from None
     if not isinstance(by, str):
-        raise TypeError(f"by: expected the name of the unit column, received "
-                        f"{arrays.describe(by)}")
+        raise TypeError(f"by: expected the name of the unit column, received {arrays.describe(by)}")
     # The column names are known here: check them before any partition runs, so
     # that a typo is an error naming the argument, not a failed partition.
     column_list(by, "by", frame.columns, required=True)
@@ -586,19 +673,21 @@ def fit_dask_frame(frame: Any, client: Any, *, by: Any, state: Any, inputs: Any,
     column_list(inputs, "inputs", frame.columns, required=False)
     column_list(time, "time", frame.columns, required=False)
     if weights is not None and not isinstance(weights, str):
-        raise TypeError(f"weights: expected the name of a column of weights, received "
-                        f"{arrays.describe(weights)}")
+        raise TypeError(
+            f"weights: expected the name of a column of weights, received "
+            f"{arrays.describe(weights)}"
+        )
     column_list(weights, "weights", frame.columns, required=False)
     if directory is not None:
         directory.mkdir(parents=True, exist_ok=True)
     shuffled = frame.shuffle(on=by)
-    spec = FitSpec(estimator, options, keep_models,
-                   None if directory is None else str(directory))
+    spec = FitSpec(estimator, options, keep_models, None if directory is None else str(directory))
     parts = shuffled.to_delayed()
-    tasks = [dask.delayed(fit_partition)(part, index, by, state, inputs, time, weights, spec)
-             for index, part in enumerate(parts)]
-    collected = Collector(len(tasks), by, keep_models, directory, progress,
-                          unit="partitions")
+    tasks = [
+        dask.delayed(fit_partition)(part, index, by, state, inputs, time, weights, spec)
+        for index, part in enumerate(parts)
+    ]
+    collected = Collector(len(tasks), by, keep_models, directory, progress, unit="partitions")
     from distributed import as_completed as dask_completed
 
     results: list[UnitResult] = []
@@ -618,9 +707,13 @@ def fit_dask_frame(frame: Any, client: Any, *, by: Any, state: Any, inputs: Any,
                     queue.add(again)
                     continue
                 unit = f"<partition {index}>"  # its units are unknown here
-                results.append(failed(UnitData(unit, index * PARTITION_STRIDE, None),
-                                      {"unit": unit, "T": None},
-                                      f"{engines.WORKER_DIED} ({type(exc).__name__}: {exc})"))
+                results.append(
+                    failed(
+                        UnitData(unit, index * PARTITION_STRIDE, None),
+                        {"unit": unit, "T": None},
+                        f"{engines.WORKER_DIED} ({type(exc).__name__}: {exc})",
+                    )
+                )
             collected.progress.advance(1)
     results.sort(key=lambda result: result.position)
     units = [UnitData(result.unit, result.position, None) for result in results]
@@ -632,10 +725,21 @@ PARTITION_STRIDE = 10**9
 """Positions of a dask DataFrame's units: partition × stride + position in the partition."""
 
 
-def fit_partition(frame: Any, index: int, by: str, state: Any, inputs: Any, time: Any,
-                  weights: Any, spec: FitSpec) -> list[UnitResult]:
+def fit_partition(
+    frame: Any, index: int, by: str, state: Any, inputs: Any, time: Any, weights: Any, spec: FitSpec
+) -> list[UnitResult]:
     """Fit the units of one partition (all rows of a unit are in one partition)."""
     units = table_units(frame, by, state, inputs, time, weights)
-    units = [UnitData(data.unit, index * PARTITION_STRIDE + data.position, data.x, data.u,
-                      data.weights, data.T, data.error) for data in units]
+    units = [
+        UnitData(
+            data.unit,
+            index * PARTITION_STRIDE + data.position,
+            data.x,
+            data.u,
+            data.weights,
+            data.T,
+            data.error,
+        )
+        for data in units
+    ]
     return engines.run_task(partial(fit_units, spec=spec), units)

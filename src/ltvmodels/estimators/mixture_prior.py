@@ -211,8 +211,12 @@ class GMMPrior:
             mixture.set_params(warm_start=True)
         else:
             mixture = _gaussian_mixture()(
-                n_components=count, covariance_type="full", reg_covar=self._reg_covar,
-                max_iter=self._max_iter, random_state=int(self._rng.integers(2**31 - 1)))
+                n_components=count,
+                covariance_type="full",
+                reg_covar=self._reg_covar,
+                max_iter=self._max_iter,
+                random_state=int(self._rng.integers(2**31 - 1)),
+            )
         with warnings.catch_warnings():
             # scikit-learn's own warning is replaced by ours below, with a remedy.
             warnings.simplefilter("ignore")
@@ -227,10 +231,13 @@ class GMMPrior:
         if not mixture.converged_:
             warnings.warn(
                 f"GMMPrior: EM stopped at max_iter={self._max_iter} before converging "
-                f"({count} components); raise max_iter", ConvergenceWarning, stacklevel=3)
+                f"({count} components); raise max_iter",
+                ConvergenceWarning,
+                stacklevel=3,
+            )
         return mixture
 
-    def update(self, x: Any, u: Any = None) -> "GMMPrior":
+    def update(self, x: Any, u: Any = None) -> GMMPrior:
         """Add the transitions of new recordings and refit, starting from the current mixture.
 
         EM continues from the current components on all transitions so far (a
@@ -342,18 +349,24 @@ class GMMPrior:
         return self._noise.copy()
 
     def __repr__(self) -> str:
-        return (f"GMMPrior(n_components={self.n_components}, n_states={self.n_states}, "
-                f"n_inputs={self.n_inputs}, n_transitions={self.n_transitions})")
+        return (
+            f"GMMPrior(n_components={self.n_components}, n_states={self.n_states}, "
+            f"n_inputs={self.n_inputs}, n_transitions={self.n_transitions})"
+        )
 
     def _recordings(self, x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
         """Validated recordings with the mixture's numbers of states and inputs."""
         x, u = arrays.recordings(x, u)
         if x.shape[2] != self.n_states:
-            raise ValueError(f"x: expected {self.n_states} states (as the transitions the "
-                             f"mixture was fitted to), received {x.shape[2]}")
+            raise ValueError(
+                f"x: expected {self.n_states} states (as the transitions the "
+                f"mixture was fitted to), received {x.shape[2]}"
+            )
         if u.shape[2] != self.n_inputs:
-            raise ValueError(f"u: expected {self.n_inputs} inputs (as the transitions the "
-                             f"mixture was fitted to), received {u.shape[2]}")
+            raise ValueError(
+                f"u: expected {self.n_inputs} inputs (as the transitions the "
+                f"mixture was fitted to), received {u.shape[2]}"
+            )
         return x, u
 
     def responsibilities(self, x: Any, u: Any = None) -> np.ndarray:
@@ -395,15 +408,18 @@ class GMMPrior:
             for c in range(log_weights.size):
                 cov = self.mixture.covariances_[c][np.ix_(seen, seen)]
                 L = linalg.cholesky(cov, lower=True)
-                r = linalg.solve_triangular(L, (zs - self.mixture.means_[c, seen]).T,
-                                            lower=True)
-                log_post[rows, c] += -0.5 * np.sum(r * r, axis=0) - np.sum(
-                    np.log(np.diag(L))) - 0.5 * seen.sum() * np.log(2.0 * np.pi)
+                r = linalg.solve_triangular(L, (zs - self.mixture.means_[c, seen]).T, lower=True)
+                log_post[rows, c] += (
+                    -0.5 * np.sum(r * r, axis=0)
+                    - np.sum(np.log(np.diag(L)))
+                    - 0.5 * seen.sum() * np.log(2.0 * np.pi)
+                )
         log_post -= logsumexp(log_post, axis=1, keepdims=True)
         return np.exp(log_post).reshape(R, N, -1)
 
-    def _component_moments(self, constant: bool, max_samples: float | None
-                           ) -> tuple[np.ndarray, np.ndarray]:
+    def _component_moments(
+        self, constant: bool, max_samples: float | None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """θ_c (C, K) and V_c (C, K, K) on vec([A B c]) (or vec([A B]))."""
         n, p = self.n_states, self.n_states + self.n_inputs + 1
         counts = self.mixture.weights_ * self.n_transitions
@@ -419,8 +435,15 @@ class GMMPrior:
             theta, V = theta[:, keep], V[:, keep][:, :, keep]
         return theta, V
 
-    def at(self, x: Any, u: Any = None, *, constant: bool = False, weights: Any = None,
-           max_samples: float | None = None) -> Prior:
+    def at(
+        self,
+        x: Any,
+        u: Any = None,
+        *,
+        constant: bool = False,
+        weights: Any = None,
+        max_samples: float | None = None,
+    ) -> Prior:
         """The mixture's prior on k_t along a recording (see the module docstring).
 
         Parameters

@@ -33,8 +33,9 @@ from __future__ import annotations
 
 import itertools
 import warnings
+from collections.abc import Callable
 from functools import partial
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -158,15 +159,31 @@ def fit_piecewise(
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
     loss, delta = options.loss_options(loss, huber_delta, data.n)
     factory = partial(LTVModel, n_states=data.n, n_inputs=data.m, constant=data.constant)
-    return data.describe(piecewise_fit(
-        data.problem, changepoints, order=order, compute_cov=compute_cov,
-        names=data.regressor_names, loss=loss, delta=delta, factory=factory,
-        n_missing=data.n_missing))
+    return data.describe(
+        piecewise_fit(
+            data.problem,
+            changepoints,
+            order=order,
+            compute_cov=compute_cov,
+            names=data.regressor_names,
+            loss=loss,
+            delta=delta,
+            factory=factory,
+            n_missing=data.n_missing,
+        )
+    )
 
 
 def piecewise_fit(
-    problem: RegressionProblem, changepoints: Any, *, order: int, compute_cov: bool,
-    names: list[str], loss: str, delta: np.ndarray | None, factory: Callable[..., Any],
+    problem: RegressionProblem,
+    changepoints: Any,
+    *,
+    order: int,
+    compute_cov: bool,
+    names: list[str],
+    loss: str,
+    delta: np.ndarray | None,
+    factory: Callable[..., Any],
     n_missing: int,
 ) -> Any:
     """:func:`fit_piecewise` on a validated regression problem (any front-end): the model
@@ -190,16 +207,32 @@ def piecewise_fit(
         info_extra = {"knots": [int(t) for t in knots]}
 
     if loss != "squared":  # the squared-loss fit above checked the segments
-        return _fit_robust(problem, order, bounds, changepoints, loss, delta, factory,
-                           {"order": order, "segments": segments, **info_extra,
-                            "n_params_per_row": int(n_params), "n_missing": n_missing})
+        return _fit_robust(
+            problem,
+            order,
+            bounds,
+            changepoints,
+            loss,
+            delta,
+            factory,
+            {
+                "order": order,
+                "segments": segments,
+                **info_extra,
+                "n_params_per_row": int(n_params),
+                "n_missing": n_missing,
+            },
+        )
     resid = problem.residuals(theta).reshape(-1, n)
     rss_matrix = resid.T @ resid
     M = problem.n_observed
     dof = M - n_params
     noise_cov, loglik, loglik_note = residual_noise(
-        rss_matrix, M, n_params,
-        "changepoints: fewer change points (or a segment with more samples)")
+        rss_matrix,
+        M,
+        n_params,
+        "changepoints: fewer change points (or a segment with more samples)",
+    )
     cov = None
     if compute_cov:
         # Row i of Θ_t: Σ_v[i, i] S_t (one group per row, O(n N p²) memory). The
@@ -219,17 +252,32 @@ def piecewise_fit(
     }
     if loglik_note:
         info["loglik_note"] = loglik_note
-    return factory(theta.reshape(N, n * p), fit=FitRecord(
-        norm="piecewise", coeffs=_DIFFERENCE[order].copy(), lam=float("inf"), cov=cov,
-        noise_var=np.diag(noise_cov).copy(),
-        noise_cov=noise_cov, loglik=loglik, info=info, changepoints=changepoints,
-        status=FitStatus("closed_form", info["solver"], 0, info["rss"]),
-    ))
+    return factory(
+        theta.reshape(N, n * p),
+        fit=FitRecord(
+            norm="piecewise",
+            coeffs=_DIFFERENCE[order].copy(),
+            lam=float("inf"),
+            cov=cov,
+            noise_var=np.diag(noise_cov).copy(),
+            noise_cov=noise_cov,
+            loglik=loglik,
+            info=info,
+            changepoints=changepoints,
+            status=FitStatus("closed_form", info["solver"], 0, info["rss"]),
+        ),
+    )
 
 
 def refine_fit(
-    problem: RegressionProblem, first: Any, *, names: list[str], loss: str,
-    delta: np.ndarray | None, factory: Callable[..., Any], n_missing: int,
+    problem: RegressionProblem,
+    first: Any,
+    *,
+    names: list[str],
+    loss: str,
+    delta: np.ndarray | None,
+    factory: Callable[..., Any],
+    n_missing: int,
 ) -> Any:
     """Second step of the two-step refinement (paper Section III-G): refit ``first``'s
     problem between its change points, with the same loss (any front-end).
@@ -245,9 +293,17 @@ def refine_fit(
         )
     changepoints = first.changepoints if first.norm != "sq" else find_changepoints(first)
     try:
-        refined = piecewise_fit(problem, changepoints, order=degree, compute_cov=True,
-                                names=names, loss=loss, delta=delta, factory=factory,
-                                n_missing=n_missing)
+        refined = piecewise_fit(
+            problem,
+            changepoints,
+            order=degree,
+            compute_cov=True,
+            names=names,
+            loss=loss,
+            delta=delta,
+            factory=factory,
+            n_missing=n_missing,
+        )
     except ValueError as exc:  # the change points are ours, not the caller's
         if not str(exc).startswith("changepoints:"):
             raise
@@ -277,9 +333,16 @@ ROBUST_TOL = 1e-9
 ROBUST_MAX_ITER = 500
 
 
-def _fit_robust(problem: RegressionProblem, order: int, bounds: np.ndarray,
-                changepoints: np.ndarray, loss: str, delta: np.ndarray | None,
-                factory: Callable[..., Any], info_extra: dict) -> Any:
+def _fit_robust(
+    problem: RegressionProblem,
+    order: int,
+    bounds: np.ndarray,
+    changepoints: np.ndarray,
+    loss: str,
+    delta: np.ndarray | None,
+    factory: Callable[..., Any],
+    info_extra: dict,
+) -> Any:
     """The piecewise model with loss "huber" or "laplace".
 
     With basis functions B (N, J) — segment indicators (order 1) or hat
@@ -291,8 +354,9 @@ def _fit_robust(problem: RegressionProblem, order: int, bounds: np.ndarray,
     n = problem.n
     N, q, p = problem.N, problem.q, problem.p
     if order == 1:
-        basis = (np.arange(N)[:, None] >= bounds[None, :-1]) & \
-            (np.arange(N)[:, None] < bounds[None, 1:])
+        basis = (np.arange(N)[:, None] >= bounds[None, :-1]) & (
+            np.arange(N)[:, None] < bounds[None, 1:]
+        )
         basis = basis.astype(float)
     else:
         knots = np.concatenate([[0], changepoints, [N - 1]])
@@ -309,24 +373,41 @@ def _fit_robust(problem: RegressionProblem, order: int, bounds: np.ndarray,
         )
     lifted = (basis[:, None, :, None] * problem.phi[:, :, None, :]).reshape(1, N * q, J * p)
     static = RegressionProblem(
-        y=problem.y.reshape(1, N * q, n), phi=lifted, coeffs=_DIFFERENCE[1],
+        y=problem.y.reshape(1, N * q, n),
+        phi=lifted,
+        coeffs=_DIFFERENCE[1],
         observed=problem.observed.reshape(1, N * q),
         row_scale=problem.row_scale.reshape(1, N * q),
     )
-    solution = solve_robust(static, np.full(n * J * p, np.inf), loss=loss, norm="piecewise",
-                            delta=delta, max_iter=ROBUST_MAX_ITER, tol=ROBUST_TOL,
-                            stacklevel=3)
+    solution = solve_robust(
+        static,
+        np.full(n * J * p, np.inf),
+        loss=loss,
+        norm="piecewise",
+        delta=delta,
+        max_iter=ROBUST_MAX_ITER,
+        tol=ROBUST_TOL,
+        stacklevel=3,
+    )
     gamma = solution.theta[0].reshape(n, J, p)
     theta = np.einsum("tl,ilp->tip", basis, gamma)
     if solution.outliers is not None:
         solution.outliers = solution.outliers.reshape(N, q, n)
     info, status = robust_record_parts(solution, loss)
     noise_var = problem.output_rss(theta) / max(problem.n_observed, 1)
-    return factory(theta.reshape(N, n * p), fit=FitRecord(
-        norm="piecewise", coeffs=_DIFFERENCE[order].copy(), lam=float("inf"),
-        noise_var=noise_var, noise_cov=np.diag(noise_var),
-        info={**info, **info_extra}, changepoints=changepoints, status=status,
-    ))
+    return factory(
+        theta.reshape(N, n * p),
+        fit=FitRecord(
+            norm="piecewise",
+            coeffs=_DIFFERENCE[order].copy(),
+            lam=float("inf"),
+            noise_var=noise_var,
+            noise_cov=np.diag(noise_var),
+            info={**info, **info_extra},
+            changepoints=changepoints,
+            status=status,
+        ),
+    )
 
 
 def residual_noise(
@@ -355,9 +436,14 @@ def residual_noise(
     noise_cov = rss_matrix / dof
     sign, logdet = np.linalg.slogdet(rss_matrix / n_obs)
     if sign <= 0:
-        return noise_cov, None, (
-            "the residual covariance is singular (an exact fit in some direction), so the "
-            "Gaussian likelihood is unbounded; loglik is None")
+        return (
+            noise_cov,
+            None,
+            (
+                "the residual covariance is singular (an exact fit in some direction), so the "
+                "Gaussian likelihood is unbounded; loglik is None"
+            ),
+        )
     n = rss_matrix.shape[0]
     return noise_cov, float(-0.5 * n_obs * (n * np.log(2 * np.pi) + logdet + n)), None
 
@@ -502,7 +588,7 @@ def _fit_linear(
     gram = gram.reshape(J * p, J * p)
     gram_inv = _inverse_or_raise(gram, knots, p, names, single)
     gamma = (gram_inv @ rhs.reshape(J * p, -1)).reshape(J, p, -1)  # Γ_jᵀ stacked
-    theta = ((1.0 - w)[:, None, None] * gamma[left] + w[:, None, None] * gamma[left + 1])
+    theta = (1.0 - w)[:, None, None] * gamma[left] + w[:, None, None] * gamma[left + 1]
     theta = theta.transpose(0, 2, 1)  # (N, n, p)
     blocks = gram_inv.reshape(J, p, J, p)
     b_ll = blocks[left, :, left, :]

@@ -116,14 +116,21 @@ def state_space_data(
     w = arrays.row_weights(weights, R, T - 1)
     constant = options.flag(constant, "constant")
     problem = state_space_problem(x, u, coeffs, weights=w, constant=constant)
-    return StateSpaceData(problem, x, u, w, constant,
-                          state_names=arrays.column_names(x_data, x.shape[2]),
-                          input_names=arrays.column_names(u_data, u.shape[2]),
-                          time=arrays.time_index(x_data, T) if R == 1 else None)
+    return StateSpaceData(
+        problem,
+        x,
+        u,
+        w,
+        constant,
+        state_names=arrays.column_names(x_data, x.shape[2]),
+        input_names=arrays.column_names(u_data, u.shape[2]),
+        time=arrays.time_index(x_data, T) if R == 1 else None,
+    )
 
 
-def regression_problem(y: Any, phi: Any, *, order: Any = 1, weights: Any = None
-                       ) -> RegressionProblem:
+def regression_problem(
+    y: Any, phi: Any, *, order: Any = 1, weights: Any = None
+) -> RegressionProblem:
     """Validate regression data and build its problem: y_t = Θ_t φ_t + e_t.
 
     ``y`` (N, n), (N,) or (R, N, n) and ``phi`` (N, p), (N,) or (R, N, p), NaN =
@@ -155,5 +162,4 @@ def require_enough_data(problem: RegressionProblem, data_name: str, rows_note: s
     if data_name == "x":
         options.enough_samples(problem.N, problem.p, problem.degree, **counts)
     else:
-        options.enough_rows(problem.N, problem.p, problem.degree, data_name, rows_note,
-                            **counts)
+        options.enough_rows(problem.N, problem.p, problem.degree, data_name, rows_note, **counts)

@@ -12,8 +12,9 @@ the front-end's factory: :func:`ltvmodels.fit` (state space,
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from functools import partial
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -28,8 +29,8 @@ from ..results.record import FitRecord, FitStatus, iterative_status
 from ..results.regression import RegressionModel
 from ..validation import arrays, options
 from .changepoints import find_changepoints, residue_level
-from .priors import resolve as resolve_priors
 from .piecewise import refine_fit
+from .priors import resolve as resolve_priors
 from .recordings import regression_problem, require_enough_data
 from .robust import robust_model
 from .selection import DEFAULT_METHOD, select_for_problem
@@ -128,15 +129,32 @@ def fit_regression(
     time = arrays.time_index(y, problem.N) if problem.q == 1 else None
     names = described.get("regressor", signal_names("phi", p))
     model = fit_problem(
-        problem, factory=factory, regressor_names=names, data_name="y",
-        lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
-        compute_cov=compute_cov and not refine, max_iter=max_iter, tol=tol, loss=loss,
+        problem,
+        factory=factory,
+        regressor_names=names,
+        data_name="y",
+        lam=lam,
+        norm=norm,
+        prior=prior,
+        prior_mode=prior_mode,
+        noise_var=noise_var,
+        compute_cov=compute_cov and not refine,
+        max_iter=max_iter,
+        tol=tol,
+        loss=loss,
         huber_delta=huber_delta,
     )
     if refine:
         _, delta = options.loss_options(loss, huber_delta, n)
-        model = refine_fit(problem, model, names=names, loss=loss, delta=delta,
-                           factory=factory, n_missing=int((~problem.observed).sum()))
+        model = refine_fit(
+            problem,
+            model,
+            names=names,
+            loss=loss,
+            delta=delta,
+            factory=factory,
+            n_missing=int((~problem.observed).sum()),
+        )
     if described:
         model.info["signal_names"] = described
     if time is not None:
@@ -192,25 +210,44 @@ def fit_problem(
         require_enough_data(problem, data_name, rows_note)
         identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
         method = DEFAULT_METHOD[norm] if loss == "squared" else "cv"
-        selection = select_for_problem(problem, norm, method, None, loss=loss,
-                                       delta=huber_delta,
-                                       progress=options.callback(progress, "progress"))
+        selection = select_for_problem(
+            problem,
+            norm,
+            method,
+            None,
+            loss=loss,
+            delta=huber_delta,
+            progress=options.callback(progress, "progress"),
+        )
         lam = selection.lam
         if selection.huber_delta is not None:  # the model has the loss λ was chosen for
             huber_delta = np.array(selection.huber_delta)
     model = _fit_with_lam(
-        problem, factory=factory, regressor_names=regressor_names, data_name=data_name,
-        lam=lam, norm=norm, prior=prior, prior_mode=prior_mode, noise_var=noise_var,
-        compute_cov=compute_cov, max_iter=max_iter, tol=tol, rows_note=rows_note, loss=loss,
+        problem,
+        factory=factory,
+        regressor_names=regressor_names,
+        data_name=data_name,
+        lam=lam,
+        norm=norm,
+        prior=prior,
+        prior_mode=prior_mode,
+        noise_var=noise_var,
+        compute_cov=compute_cov,
+        max_iter=max_iter,
+        tol=tol,
+        rows_note=rows_note,
+        loss=loss,
         huber_delta=huber_delta,
     )
     if selection is not None:
         model.info["lam_selection"] = {
-            "method": selection.method, "lam": selection.lam,
+            "method": selection.method,
+            "lam": selection.lam,
             "lams": selection.lams.tolist(),
             # None where there is no score (a skipped candidate, an L-curve without a bend)
             "scores": [float(v) if np.isfinite(v) else None for v in selection.scores],
-            "loss": selection.loss, "n_fits": selection.n_fits,
+            "loss": selection.loss,
+            "n_fits": selection.n_fits,
         }
         if selection.skipped:
             model.info["lam_selection"]["skipped"] = [list(item) for item in selection.skipped]
@@ -218,8 +255,21 @@ def fit_problem(
 
 
 def _fit_with_lam(
-    problem: RegressionProblem, *, factory, regressor_names, data_name, lam, norm, prior,
-    prior_mode, noise_var, compute_cov, max_iter, tol, rows_note, loss="squared",
+    problem: RegressionProblem,
+    *,
+    factory,
+    regressor_names,
+    data_name,
+    lam,
+    norm,
+    prior,
+    prior_mode,
+    noise_var,
+    compute_cov,
+    max_iter,
+    tol,
+    rows_note,
+    loss="squared",
     huber_delta=None,
 ) -> RegressionModel:
     """:func:`fit_problem` for a given λ, on validated options."""
@@ -237,9 +287,17 @@ def _fit_with_lam(
         identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
         if loss != "squared":
             _no_robust_option(noise_var, "noise_var", loss)
-            return robust_model(problem, weights, loss=loss, lam=_lam_copy(lam), norm=norm,
-                                delta=huber_delta, factory=factory, max_iter=max_iter,
-                                tol=tol)
+            return robust_model(
+                problem,
+                weights,
+                loss=loss,
+                lam=_lam_copy(lam),
+                norm=norm,
+                delta=huber_delta,
+                factory=factory,
+                max_iter=max_iter,
+                tol=tol,
+            )
         solution = solve_sparse(problem, weights, norm, max_iter=max_iter, tol=tol)
         return sparse_model(problem, lam, norm, solution, factory)
     require_enough_data(problem, data_name, rows_note)  # before a (K, K) λ is checked
@@ -263,18 +321,29 @@ def _fit_with_lam(
             _no_robust_option(prior, "prior", loss)
             _no_robust_option(noise_var, "noise_var", loss)
         elif terms and prior_mode != "exact":
-            raise NotImplementedError("prior_mode: 'posthoc' is not available with "
-                                      "loss='huber'; use prior_mode='exact'")
+            raise NotImplementedError(
+                "prior_mode: 'posthoc' is not available with loss='huber'; use prior_mode='exact'"
+            )
         return robust_model(
-            problem, W, loss=loss, lam=_lam_copy(lam), norm=norm, delta=huber_delta,
-            factory=factory, max_iter=options.integer(max_iter, "max_iter", minimum=1),
-            tol=options.positive_scalar(tol, "tol"), priors=terms,
+            problem,
+            W,
+            loss=loss,
+            lam=_lam_copy(lam),
+            norm=norm,
+            delta=huber_delta,
+            factory=factory,
+            max_iter=options.integer(max_iter, "max_iter", minimum=1),
+            tol=options.positive_scalar(tol, "tol"),
+            priors=terms,
             noise_var=None if noise_var is None else np.broadcast_to(noise_var, (n,)).copy(),
         )
 
     exact_terms = terms if prior_mode == "exact" else []
     result = fit_squared(
-        problem, W, exact_terms, noise_var=noise_var,
+        problem,
+        W,
+        exact_terms,
+        noise_var=noise_var,
         compute_cov=compute_cov or (prior_mode == "posthoc" and bool(terms)),
     )
     k = result.theta.reshape(N, K)
@@ -302,16 +371,34 @@ def _fit_with_lam(
         loglik = None
         info["loglik_note"] = "no likelihood is defined for the posthoc correction"
     noise_cov = np.diag(result.noise_var)
-    status = FitStatus("closed_form", info["solver"], 1, result.objective,
-                       {"n_factorizations": result.n_factorizations})
-    return factory(k, fit=FitRecord(
-        norm=norm, coeffs=problem.coeffs, lam=_lam_copy(lam), cov=cov,
-        noise_var=result.noise_var, noise_cov=noise_cov, loglik=loglik, info=info, status=status,
-    ))
+    status = FitStatus(
+        "closed_form",
+        info["solver"],
+        1,
+        result.objective,
+        {"n_factorizations": result.n_factorizations},
+    )
+    return factory(
+        k,
+        fit=FitRecord(
+            norm=norm,
+            coeffs=problem.coeffs,
+            lam=_lam_copy(lam),
+            cov=cov,
+            noise_var=result.noise_var,
+            noise_cov=noise_cov,
+            loglik=loglik,
+            info=info,
+            status=status,
+        ),
+    )
 
 
 def sparse_model(
-    problem: RegressionProblem, lam: Any, norm: str, solution: SparseSolution,
+    problem: RegressionProblem,
+    lam: Any,
+    norm: str,
+    solution: SparseSolution,
     factory: ModelFactory,
 ) -> RegressionModel:
     """The model of a sparse-norm solution: noise from the residuals, change points detected.
@@ -324,31 +411,51 @@ def sparse_model(
     N, K = problem.N, problem.K
     k = solution.theta.reshape(N, K)
     info = {
-        "solver": solution.solver, "iterations": solution.iterations,
-        "converged": solution.converged, "objective": solution.objective, **solution.details,
-        "rss": solution.rss, "lambda_max": solution.lambda_max,
+        "solver": solution.solver,
+        "iterations": solution.iterations,
+        "converged": solution.converged,
+        "objective": solution.objective,
+        **solution.details,
+        "rss": solution.rss,
+        "lambda_max": solution.lambda_max,
     }
     status = FitStatus(
-        "closed_form" if solution.closed_form else iterative_status(
-            solution.converged, polished=solution.polished, stalled=solution.stalled),
-        solution.solver, solution.iterations, solution.objective,
+        "closed_form"
+        if solution.closed_form
+        else iterative_status(
+            solution.converged, polished=solution.polished, stalled=solution.stalled
+        ),
+        solution.solver,
+        solution.iterations,
+        solution.objective,
         {**solution.details, "lambda_max": solution.lambda_max},
     )
     noise_var = problem.output_rss(solution.theta) / max(problem.n_observed, 1)
     info["loglik_note"] = f"norm={norm!r} has no Gaussian likelihood; loglik is None"
-    changepoints = find_changepoints(activation(k, problem.coeffs), degree=problem.degree,
-                                     min_level=residue_level(k))
+    changepoints = find_changepoints(
+        activation(k, problem.coeffs), degree=problem.degree, min_level=residue_level(k)
+    )
     unit = last_segment_unit_cov(problem, changepoints)
     if unit is not None:
         info["last_segment_unit_cov"] = unit
-    return factory(k, fit=FitRecord(
-        norm=norm, coeffs=problem.coeffs, lam=_lam_copy(lam), noise_var=noise_var,
-        noise_cov=np.diag(noise_var), info=info, changepoints=changepoints, status=status,
-    ))
+    return factory(
+        k,
+        fit=FitRecord(
+            norm=norm,
+            coeffs=problem.coeffs,
+            lam=_lam_copy(lam),
+            noise_var=noise_var,
+            noise_cov=np.diag(noise_var),
+            info=info,
+            changepoints=changepoints,
+            status=status,
+        ),
+    )
 
 
-def last_segment_unit_cov(problem: RegressionProblem, changepoints: np.ndarray
-                          ) -> np.ndarray | None:
+def last_segment_unit_cov(
+    problem: RegressionProblem, changepoints: np.ndarray
+) -> np.ndarray | None:
     """(Σ_{t >= c} Σ_j φ_tj φ_tjᵀ)⁻¹ over the last segment [c, N) of a piecewise-constant
     fit (order 1), the least-squares covariance of its coefficients per unit noise
     variance, (p, p); None for other orders or where the segment does not determine

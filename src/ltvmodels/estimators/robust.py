@@ -12,8 +12,9 @@ as one δ away. The Laplacian loss Σ w|r| counts every residual linearly.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -67,9 +68,17 @@ class RobustSolution:
 
 
 def solve_robust(
-    problem: RegressionProblem, penalty: np.ndarray, *, loss: str, norm: str,
-    delta: np.ndarray | None, max_iter: int, tol: float, stacklevel: int = 2,
-    priors: list[PriorTerm] | None = None, noise_var: np.ndarray | None = None,
+    problem: RegressionProblem,
+    penalty: np.ndarray,
+    *,
+    loss: str,
+    norm: str,
+    delta: np.ndarray | None,
+    max_iter: int,
+    tol: float,
+    stacklevel: int = 2,
+    priors: list[PriorTerm] | None = None,
+    noise_var: np.ndarray | None = None,
 ) -> RobustSolution:
     """Minimize the robust loss plus the penalty of ``norm`` from the squared-loss fit.
 
@@ -91,8 +100,9 @@ def solve_robust(
     else:
         with warnings.catch_warnings():  # only a starting point and a residual scale
             warnings.simplefilter("ignore", ConvergenceWarning)
-            start = solve_sparse(problem, penalty, norm, max_iter=max_iter,
-                                 tol=max(tol, START_TOL)).theta
+            start = solve_sparse(
+                problem, penalty, norm, max_iter=max_iter, tol=max(tol, START_TOL)
+            ).theta
     rule = "given"
     if delta is None:
         delta = default_delta(problem, start)
@@ -101,45 +111,86 @@ def solve_robust(
         return _exact_fit(problem, penalty, start, loss, delta, rule)
     outliers = None
     if loss == "laplace":
-        result = fit_laplace(problem, penalty, norm if sparse else "sq", delta,
-                             max_iter=max_iter, tol=tol, start=start)
+        result = fit_laplace(
+            problem,
+            penalty,
+            norm if sparse else "sq",
+            delta,
+            max_iter=max_iter,
+            tol=tol,
+            start=start,
+        )
         solver = result.method + (", exact active-set polish" if result.polished else "")
-        details: dict[str, Any] = {"duality_gap": result.duality_gap,
-                                   "duality_gap_rigorous": result.rigorous,
-                                   "kkt_residual": result.kkt_residual,
-                                   "smoothing": result.smoothing, "stages": result.stages}
-        failure = (f"the duality gap {result.duality_gap:.3g} (relative) did not reach its "
-                   f"tolerance {tol:g} in {result.stages} smoothing stages")
+        details: dict[str, Any] = {
+            "duality_gap": result.duality_gap,
+            "duality_gap_rigorous": result.rigorous,
+            "kkt_residual": result.kkt_residual,
+            "smoothing": result.smoothing,
+            "stages": result.stages,
+        }
+        failure = (
+            f"the duality gap {result.duality_gap:.3g} (relative) did not reach its "
+            f"tolerance {tol:g} in {result.stages} smoothing stages"
+        )
     else:
         if not sparse:
             prior_scale = None
             details = {}
             if priors:
-                prior_scale = (delta / HUBER_EFFICIENCY) ** 2 if noise_var is None \
+                prior_scale = (
+                    (delta / HUBER_EFFICIENCY) ** 2
+                    if noise_var is None
                     else np.asarray(noise_var, dtype=float)
+                )
                 details["prior_scale"] = prior_scale.tolist()
-            result = fit_huber(problem, penalty, delta, max_iter=max_iter, tol=tol,
-                               start=start, priors=priors, prior_scale=prior_scale)
+            result = fit_huber(
+                problem,
+                penalty,
+                delta,
+                max_iter=max_iter,
+                tol=tol,
+                start=start,
+                priors=priors,
+                prior_scale=prior_scale,
+            )
             solver = "damped Newton on reweighted fits (exact)"
         else:
-            result = fit_huber_sparse(problem, penalty, norm, delta, max_iter=max_iter,
-                                      tol=tol, start=start)
+            result = fit_huber_sparse(
+                problem, penalty, norm, delta, max_iter=max_iter, tol=tol, start=start
+            )
             solver = result.solver
             details = {"inner_iterations": result.inner_iterations}
         outliers = result.outliers
-        details.update(kkt_residual=result.kkt_residual, huber_delta=delta.tolist(),
-                       n_outliers=int(outliers.sum()))
-        failure = (f"the KKT residual {result.kkt_residual:.3g} did not reach its tolerance "
-                   f"{tol:g} in {result.iterations} steps")
+        details.update(
+            kkt_residual=result.kkt_residual,
+            huber_delta=delta.tolist(),
+            n_outliers=int(outliers.sum()),
+        )
+        failure = (
+            f"the KKT residual {result.kkt_residual:.3g} did not reach its tolerance "
+            f"{tol:g} in {result.iterations} steps"
+        )
     if not result.converged:
-        remedy = ("it stopped at the limit of working precision; loosen tol" if result.stalled
-                  else "increase max_iter or loosen tol")
-        warnings.warn(f"loss={loss!r}: {failure}; the model is the last iterate: {remedy}",
-                      ConvergenceWarning, stacklevel=stacklevel + 1)
+        remedy = (
+            "it stopped at the limit of working precision; loosen tol"
+            if result.stalled
+            else "increase max_iter or loosen tol"
+        )
+        warnings.warn(
+            f"loss={loss!r}: {failure}; the model is the last iterate: {remedy}",
+            ConvergenceWarning,
+            stacklevel=stacklevel + 1,
+        )
     return RobustSolution(
-        theta=result.theta, objective=result.objective, iterations=result.iterations,
-        converged=result.converged, stalled=result.stalled, solver=solver, details=details,
-        outliers=outliers, delta_rule=rule,
+        theta=result.theta,
+        objective=result.objective,
+        iterations=result.iterations,
+        converged=result.converged,
+        stalled=result.stalled,
+        solver=solver,
+        details=details,
+        outliers=outliers,
+        delta_rule=rule,
     )
 
 
@@ -173,33 +224,54 @@ def _exact_fit(problem, W, theta, loss, delta, rule) -> RobustSolution:
         details = {"duality_gap": 0.0, "duality_gap_rigorous": True, "kkt_residual": 0.0}
     details["exact_fit"] = True
     return RobustSolution(
-        theta=theta, objective=value + SquaredSolver(problem, W, []).penalty(theta),
-        iterations=0, converged=True, stalled=False,
-        solver="the squared-loss fit (no residual: optimal for any loss)", details=details,
-        outliers=outliers, delta_rule=rule,
+        theta=theta,
+        objective=value + SquaredSolver(problem, W, []).penalty(theta),
+        iterations=0,
+        converged=True,
+        stalled=False,
+        solver="the squared-loss fit (no residual: optimal for any loss)",
+        details=details,
+        outliers=outliers,
+        delta_rule=rule,
     )
 
 
 def robust_record_parts(solution: RobustSolution, loss: str) -> tuple[dict, FitStatus]:
     """``info`` and ``status`` of a model fitted with a robust loss."""
     info = {
-        "solver": solution.solver, "iterations": solution.iterations,
-        "converged": solution.converged, "objective": solution.objective, "loss": loss,
+        "solver": solution.solver,
+        "iterations": solution.iterations,
+        "converged": solution.converged,
+        "objective": solution.objective,
+        "loss": loss,
         **solution.details,
         "loglik_note": f"loss={loss!r} has no Gaussian likelihood; loglik is None",
     }
     if solution.outliers is not None:
         info.update(huber_delta_rule=solution.delta_rule, outliers=solution.outliers)
-    status = FitStatus(iterative_status(solution.converged, stalled=solution.stalled),
-                       solution.solver, solution.iterations, solution.objective,
-                       solution.details)
+    status = FitStatus(
+        iterative_status(solution.converged, stalled=solution.stalled),
+        solution.solver,
+        solution.iterations,
+        solution.objective,
+        solution.details,
+    )
     return info, status
 
 
 def robust_model(
-    problem: RegressionProblem, penalty: np.ndarray, *, loss: str, lam: Any, norm: str,
-    delta: np.ndarray | None, factory: Callable[..., RegressionModel], max_iter: int,
-    tol: float, stacklevel: int = 4, priors: list[PriorTerm] | None = None,
+    problem: RegressionProblem,
+    penalty: np.ndarray,
+    *,
+    loss: str,
+    lam: Any,
+    norm: str,
+    delta: np.ndarray | None,
+    factory: Callable[..., RegressionModel],
+    max_iter: int,
+    tol: float,
+    stacklevel: int = 4,
+    priors: list[PriorTerm] | None = None,
     noise_var: np.ndarray | None = None,
 ) -> RegressionModel:
     """Fit with loss="huber" or "laplace" (:func:`solve_robust`) and build the model.
@@ -215,19 +287,38 @@ def robust_model(
     one, else the residual mean square of each output. ``priors`` and
     ``noise_var`` as in :func:`solve_robust`.
     """
-    solution = solve_robust(problem, penalty, loss=loss, norm=norm, delta=delta,
-                            max_iter=max_iter, tol=tol, stacklevel=stacklevel + 1,
-                            priors=priors, noise_var=noise_var)
+    solution = solve_robust(
+        problem,
+        penalty,
+        loss=loss,
+        norm=norm,
+        delta=delta,
+        max_iter=max_iter,
+        tol=tol,
+        stacklevel=stacklevel + 1,
+        priors=priors,
+        noise_var=noise_var,
+    )
     info, status = robust_record_parts(solution, loss)
     N, K = problem.N, problem.K
     k = solution.theta.reshape(N, K)
     changepoints = None
     if norm in ("group", "l1"):
-        changepoints = find_changepoints(activation(k, problem.coeffs), degree=problem.degree,
-                                         min_level=residue_level(k))
+        changepoints = find_changepoints(
+            activation(k, problem.coeffs), degree=problem.degree, min_level=residue_level(k)
+        )
     if noise_var is None:
         noise_var = problem.output_rss(solution.theta) / max(problem.n_observed, 1)
-    return factory(k, fit=FitRecord(
-        norm=norm, coeffs=problem.coeffs, lam=lam, noise_var=noise_var,
-        noise_cov=np.diag(noise_var), info=info, changepoints=changepoints, status=status,
-    ))
+    return factory(
+        k,
+        fit=FitRecord(
+            norm=norm,
+            coeffs=problem.coeffs,
+            lam=lam,
+            noise_var=noise_var,
+            noise_cov=np.diag(noise_var),
+            info=info,
+            changepoints=changepoints,
+            status=status,
+        ),
+    )

@@ -99,10 +99,16 @@ def segment_regression(
     if problem.n_observed <= (result.n_changes + 1) * problem.p:
         return result  # no residual degree of freedom: no noise estimate, no model
     model = piecewise_fit(
-        problem, result.changepoints, order=1, compute_cov=True,
-        names=signal_names("phi", problem.p), loss="squared", delta=None,
+        problem,
+        result.changepoints,
+        order=1,
+        compute_cov=True,
+        names=signal_names("phi", problem.p),
+        loss="squared",
+        delta=None,
         factory=partial(RegressionModel, n_outputs=problem.n, n_regressors=problem.p),
-        n_missing=int((~problem.observed).sum()))
+        n_missing=int((~problem.observed).sum()),
+    )
     return replace(result, model=_segmentation_model(model, result))
 
 
@@ -239,9 +245,15 @@ def fit_segments(
             "transitions, leaving no residual degree of freedom to estimate the noise; use a "
             f"larger penalty, fewer n_changes or min_size > {data.problem.p}"
         )
-    model = fit_piecewise(data.x, data.inputs, result.changepoints, order=1,
-                          compute_cov=compute_cov, weights=data.weights,
-                          constant=data.constant)
+    model = fit_piecewise(
+        data.x,
+        data.inputs,
+        result.changepoints,
+        order=1,
+        compute_cov=compute_cov,
+        weights=data.weights,
+        constant=data.constant,
+    )
     return _segmentation_model(data.describe(model), result)
 
 
@@ -387,15 +399,23 @@ def _segment(
         changepoints = search.backtrack_layers(starts, m_opt)
         cost = float(costs[m_opt])
         result = dict(
-            cost=cost, objective=cost, costs_by_n_changes=costs, penalty=None,
-            penalty_rule=None, noise_var=None, solver="dynamic programming",
+            cost=cost,
+            objective=cost,
+            costs_by_n_changes=costs,
+            penalty=None,
+            penalty_rule=None,
+            noise_var=None,
+            solver="dynamic programming",
             work=2 * N if M == 1 else N * (N + 1) // 2,
         )
     else:
         if isinstance(beta_spec, str):
-            sigma2 = _noise_variance(problem, min_size,
-                                     remedy=f"{data_name}: more samples, or a number for "
-                                     f"penalty (the rule {beta_spec!r} needs the noise variance)")
+            sigma2 = _noise_variance(
+                problem,
+                min_size,
+                remedy=f"{data_name}: more samples, or a number for "
+                f"penalty (the rule {beta_spec!r} needs the noise variance)",
+            )
             K = n * p
             beta = K * np.log(N) * sigma2 if beta_spec == "bic" else 2.0 * K * sigma2
             rule: str | None = beta_spec
@@ -408,8 +428,14 @@ def _segment(
         cost = _residual_sum_of_squares(y, phi, changepoints)
         objective = cost + beta * len(changepoints)
         result = dict(
-            cost=cost, objective=objective, costs_by_n_changes=None, penalty=float(beta),
-            penalty_rule=rule, noise_var=sigma2, solver="PELT", work=int(work),
+            cost=cost,
+            objective=objective,
+            costs_by_n_changes=None,
+            penalty=float(beta),
+            penalty_rule=rule,
+            noise_var=sigma2,
+            solver="PELT",
+            work=int(work),
         )
     bounds = np.concatenate([[0], changepoints, [N]])
     return Segmentation(

@@ -46,7 +46,8 @@ N·n·log(RSS_M / (N·n)) + c·((M + 1)·K + M), c = log(N·n) or 2.
 from __future__ import annotations
 
 import warnings
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -178,13 +179,24 @@ def select_lambda(
     LambdaSelection
     """
     norm, method, loss = _norm_and_method(norm, method, tuple(METHODS), loss)
-    data = state_space_data(x, u, order=1 if norm == "l0" else order, weights=weights,
-                            constant=constant)
+    data = state_space_data(
+        x, u, order=1 if norm == "l0" else order, weights=weights, constant=constant
+    )
     _, delta = options.loss_options(loss, huber_delta, data.n)
     if norm == "l0":
         return _select_changes(data, method, lams, max_changes)
-    return _select_validated(data.problem, norm, method, lams, n_folds, progress,
-                             data.regressor_names, data_name="x", loss=loss, delta=delta)
+    return _select_validated(
+        data.problem,
+        norm,
+        method,
+        lams,
+        n_folds,
+        progress,
+        data.regressor_names,
+        data_name="x",
+        loss=loss,
+        delta=delta,
+    )
 
 
 def select_lambda_regression(
@@ -219,30 +231,51 @@ def select_lambda_regression(
     norm, method, loss = _norm_and_method(norm, method, ("sq", "group", "l1"), loss)
     problem = regression_problem(y, phi, order=order, weights=weights)
     _, delta = options.loss_options(loss, huber_delta, problem.n)
-    return _select_validated(problem, norm, method, lams, n_folds, progress,
-                             signal_names("phi", problem.p), data_name="y", loss=loss,
-                             delta=delta)
+    return _select_validated(
+        problem,
+        norm,
+        method,
+        lams,
+        n_folds,
+        progress,
+        signal_names("phi", problem.p),
+        data_name="y",
+        loss=loss,
+        delta=delta,
+    )
 
 
-def _norm_and_method(norm: Any, method: Any, norms: tuple[str, ...],
-                     loss: Any) -> tuple[str, str, str]:
+def _norm_and_method(
+    norm: Any, method: Any, norms: tuple[str, ...], loss: Any
+) -> tuple[str, str, str]:
     """The validated norm, criterion (the default when ``method`` is None) and loss."""
     norm = options.choice(norm, "norm", norms)
     loss = options.choice(loss, "loss", options.LOSSES)
     if loss != "squared":
         if norm == "l0":
-            raise ValueError(f"loss: norm='l0' (fit_segments) uses the squared loss only, "
-                             f"received loss={loss!r}")
+            raise ValueError(
+                f"loss: norm='l0' (fit_segments) uses the squared loss only, received loss={loss!r}"
+            )
         method = options.choice("cv" if method is None else method, "method", ("cv",))
         return norm, method, loss
-    method = options.choice(DEFAULT_METHOD[norm] if method is None else method, "method",
-                            METHODS[norm])
+    method = options.choice(
+        DEFAULT_METHOD[norm] if method is None else method, "method", METHODS[norm]
+    )
     return norm, method, loss
 
 
 def _select_validated(
-    problem, norm, method, lams, n_folds, progress, regressor_names, *, data_name: str,
-    loss: str = "squared", delta: np.ndarray | None = None,
+    problem,
+    norm,
+    method,
+    lams,
+    n_folds,
+    progress,
+    regressor_names,
+    *,
+    data_name: str,
+    loss: str = "squared",
+    delta: np.ndarray | None = None,
 ) -> LambdaSelection:
     """Check the sample count, identifiability and ``n_folds``, then
     :func:`select_for_problem`."""
@@ -251,8 +284,17 @@ def _select_validated(
     # as fit does: name the combination of regressors the data do not determine
     identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
     options.callback(progress, "progress")
-    return select_for_problem(problem, norm, method, lams, n_folds=n_folds, progress=progress,
-                              data_name=data_name, loss=loss, delta=delta)
+    return select_for_problem(
+        problem,
+        norm,
+        method,
+        lams,
+        n_folds=n_folds,
+        progress=progress,
+        data_name=data_name,
+        loss=loss,
+        delta=delta,
+    )
 
 
 def select_for_problem(
@@ -307,17 +349,37 @@ def select_for_problem(
         if loss == "huber" and delta is None:
             middle = float(np.sqrt(grid[0] * grid[-1]))
             delta = default_delta(problem, criterion_fit(problem, norm, middle)["theta"])
-        values = [attempt(lambda lam: _robust_cv_error(problem, norm, lam, n_folds, loss,
-                                                        delta), lam) for lam in scored(grid)]
+        values = [
+            attempt(lambda lam: _robust_cv_error(problem, norm, lam, n_folds, loss, delta), lam)
+            for lam in scored(grid)
+        ]
         scores = _scores(values, grid, skipped, data_name, worst=np.inf)
-        return finish(LambdaSelection(float(grid[np.argmin(scores)]), grid, scores, method,
-                                      norm, loss=loss,
-                                      huber_delta=None if delta is None else delta.tolist(),
-                                      n_fits=grid.size * n_folds))
+        return finish(
+            LambdaSelection(
+                float(grid[np.argmin(scores)]),
+                grid,
+                scores,
+                method,
+                norm,
+                loss=loss,
+                huber_delta=None if delta is None else delta.tolist(),
+                n_fits=grid.size * n_folds,
+            )
+        )
     if method == "lcurve":
-        return finish(_lcurve_selection(problem, norm, grid, attempt, skipped, data_name,
-                                        rounds=LCURVE_ROUNDS if adaptive else 0,
-                                        progress=progress, given=not adaptive))
+        return finish(
+            _lcurve_selection(
+                problem,
+                norm,
+                grid,
+                attempt,
+                skipped,
+                data_name,
+                rounds=LCURVE_ROUNDS if adaptive else 0,
+                progress=progress,
+                given=not adaptive,
+            )
+        )
     fits: dict[float, dict] = {}  # λ → the criterion fit's numbers (gcv)
     if method == "ml":
         evidence = ScalarEvidence(problem)
@@ -336,7 +398,8 @@ def select_for_problem(
 
         def criterion(lam: float) -> float:
             fit = evidence.solution(lam, dof=True) or attempt(
-                lambda value: criterion_fit(problem, norm, value, compute_cov=True), lam)
+                lambda value: criterion_fit(problem, norm, value, compute_cov=True), lam
+            )
             if fit is None:
                 return -np.inf
             fits[lam] = fit
@@ -344,34 +407,55 @@ def select_for_problem(
 
         xatol, sign = ML_XATOL, -1.0
     else:  # cv
+
         def criterion(lam: float) -> float:
             value = attempt(lambda value: _cv_error(problem, norm, value, n_folds), lam)
             return -np.inf if value is None else -value
 
         xatol, sign = CV_XATOL, -1.0
-    search = maximize_on_log_scale(criterion, grid, xatol=xatol,
-                                   max_refine=MAX_REFINE if adaptive or method != "cv" else 0,
-                                   progress=progress)
-    _scores([None if v == -np.inf else 0.0 for v in search.values], search.lams, skipped,
-            data_name, worst=0.0)
+    search = maximize_on_log_scale(
+        criterion,
+        grid,
+        xatol=xatol,
+        max_refine=MAX_REFINE if adaptive or method != "cv" else 0,
+        progress=progress,
+    )
+    _scores(
+        [None if v == -np.inf else 0.0 for v in search.values],
+        search.lams,
+        skipped,
+        data_name,
+        worst=0.0,
+    )
     # The candidates reported: every one scored, or the ones given (the choice may lie
     # between them, refined).
-    lams_out, values = ((search.lams, search.values) if adaptive
-                        else (grid, search.grid_values))
+    lams_out, values = (search.lams, search.values) if adaptive else (grid, search.grid_values)
     extra = {}
     if method == "gcv":
         numbers = [fits.get(lam) for lam in lams_out]
-        extra = {name: np.array([np.nan if f is None else f[key] for f in numbers])
-                 for name, key in (("residual_norms", "rss"), ("penalty_norms", "penalty_norm"),
-                                   ("dof", "dof"))}
+        extra = {
+            name: np.array([np.nan if f is None else f[key] for f in numbers])
+            for name, key in (
+                ("residual_norms", "rss"),
+                ("penalty_norms", "penalty_norm"),
+                ("dof", "dof"),
+            )
+        }
         extra["residual_norms"] = np.sqrt(extra["residual_norms"])
-    return finish(LambdaSelection(search.best, lams_out, sign * values, method, norm,
-                                  n_fits=search.n_evaluations * (n_folds if method == "cv"
-                                                                 else 1), **extra))
+    return finish(
+        LambdaSelection(
+            search.best,
+            lams_out,
+            sign * values,
+            method,
+            norm,
+            n_fits=search.n_evaluations * (n_folds if method == "cv" else 1),
+            **extra,
+        )
+    )
 
 
-def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, rounds, progress,
-                      given):
+def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, rounds, progress, given):
     """The L-curve's corner (see :func:`_lcurve_curvature`): fits on ``grid``, then
     ``rounds`` times two more fits halving the spacing on either side of the corner
     so far.
@@ -394,8 +478,8 @@ def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, round
         below = [value for value in fits if value < lam and fits[value] is not None]
         warm = fits[max(below)].get("solution") if below else None
         fits[lam] = (evidence and evidence.solution(lam)) or attempt(
-            lambda value: criterion_fit(problem, norm, value, tol=LCURVE_TOL, warm_start=warm),
-            lam)
+            lambda value: criterion_fit(problem, norm, value, tol=LCURVE_TOL, warm_start=warm), lam
+        )
         if progress is not None:
             progress(len(fits), max(total, len(fits)))
 
@@ -404,30 +488,35 @@ def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, round
     for round_ in range(rounds + 1):
         lams = np.array(sorted(fits))
         numbers = [fits[lam] for lam in lams]
-        _scores([None if f is None else 0.0 for f in numbers], lams, skipped, data_name,
-                worst=0.0)
+        _scores([None if f is None else 0.0 for f in numbers], lams, skipped, data_name, worst=0.0)
         residual = np.array([np.sqrt(f["rss"]) if f is not None else np.nan for f in numbers])
         penalty = np.array([f["penalty_norm"] if f is not None else np.nan for f in numbers])
         with np.errstate(invalid="ignore"):
             resolved = lams * penalty > (0.0 if norm == "sq" else LCURVE_TOL) * (
-                residual**2 + lams * penalty)
+                residual**2 + lams * penalty
+            )
         curvature = np.full(lams.size, -np.inf)
         if resolved.sum() >= 2:
-            curvature[resolved] = _lcurve_curvature(lams[resolved], residual[resolved],
-                                                    penalty[resolved])
+            curvature[resolved] = _lcurve_curvature(
+                lams[resolved], residual[resolved], penalty[resolved]
+            )
         if not np.isfinite(curvature).any():
             ok = np.isfinite(residual)
-            same = (f"the L-curve has no corner: every candidate gives the same fit (residual "
-                    f"norm {residual[ok][0]:.6g})")
+            same = (
+                f"the L-curve has no corner: every candidate gives the same fit (residual "
+                f"norm {residual[ok][0]:.6g})"
+            )
             if given:
                 raise ValueError(
                     f"lams: {same}, e.g. all at or above λ_max = "
                     f"{lambda_max(problem, norm):.6g}; pass candidates below λ_max, or none for "
-                    "the default grid")
+                    "the default grid"
+                )
             raise ValueError(
                 f"{data_name}: {same} over the default range λ_max·[1e-3, 1] (λ_max = "
                 f"{lambda_max(problem, norm):.6g}: the data leave nothing to choose); pass a "
-                "number for lam")
+                "number for lam"
+            )
         best = int(np.argmax(curvature))
         if round_ == rounds:
             break
@@ -436,12 +525,14 @@ def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, round
                 fit_at(float(np.sqrt(lams[best] * lams[neighbour])))
     if progress is not None and len(fits) < total:  # fewer than planned: the bar ends full
         progress(len(fits), len(fits))
-    return LambdaSelection(float(lams[best]), lams, curvature, "lcurve", norm, residual,
-                           penalty, n_fits=len(fits))
+    return LambdaSelection(
+        float(lams[best]), lams, curvature, "lcurve", norm, residual, penalty, n_fits=len(fits)
+    )
 
 
-def _scores(values: list, grid: np.ndarray, skipped: list, data_name: str, *,
-            worst: float) -> np.ndarray:
+def _scores(
+    values: list, grid: np.ndarray, skipped: list, data_name: str, *, worst: float
+) -> np.ndarray:
     """The scores with ``worst`` for skipped candidates; an error if every one was skipped."""
     if all(value is None for value in values):
         lam, why = skipped[0]
@@ -456,8 +547,13 @@ def _scores(values: list, grid: np.ndarray, skipped: list, data_name: str, *,
 
 
 def criterion_fit(
-    problem: RegressionProblem, norm: str, lam: float, *, compute_cov: bool = False,
-    tol: float = 1e-6, warm_start: Any = None,
+    problem: RegressionProblem,
+    norm: str,
+    lam: float,
+    *,
+    compute_cov: bool = False,
+    tol: float = 1e-6,
+    warm_start: Any = None,
 ) -> dict:
     """One fit for the criteria at a scalar λ, without building a model.
 
@@ -474,22 +570,32 @@ def criterion_fit(
             # The largest grid values (averaging over the whole record) may lose
             # digits; they are scored all the same and are rarely the choice.
             warnings.simplefilter("ignore", PrecisionWarning)
-            result = fit_squared(problem, np.full(K, lam**2), [], noise_var=None,
-                                 compute_cov=compute_cov)
-        out = {"theta": result.theta, "rss": result.rss, "loglik": result.loglik,
-               "penalty_norm": float(np.sqrt(result.penalty)) / lam}
+            result = fit_squared(
+                problem, np.full(K, lam**2), [], noise_var=None, compute_cov=compute_cov
+            )
+        out = {
+            "theta": result.theta,
+            "rss": result.rss,
+            "loglik": result.loglik,
+            "penalty_norm": float(np.sqrt(result.penalty)) / lam,
+        }
         if compute_cov:
             out["dof"] = _effective_dof(problem, result)
         return out
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
-        solution = solve_sparse(problem, np.full(K, lam), norm, max_iter=200, tol=tol,
-                                warm_start=warm_start)
+        solution = solve_sparse(
+            problem, np.full(K, lam), norm, max_iter=200, tol=tol, warm_start=warm_start
+        )
     k = solution.theta.reshape(problem.N, K)
     Dk = apply_difference(k, problem.coeffs)
     reg = np.linalg.norm(Dk, axis=1).sum() if norm == "group" else np.abs(Dk).sum()
-    return {"theta": solution.theta, "rss": solution.rss, "penalty_norm": float(reg),
-            "solution": solution}
+    return {
+        "theta": solution.theta,
+        "rss": solution.rss,
+        "penalty_norm": float(reg),
+        "solution": solution,
+    }
 
 
 def _effective_dof(problem: RegressionProblem, result: Any) -> float:
@@ -547,13 +653,23 @@ def _folds(N: int, n_folds: int) -> np.ndarray:
 
 def _without(problem: RegressionProblem, held: np.ndarray) -> RegressionProblem:
     """The problem with the time steps ``held`` (N,) unobserved (the penalty bridges them)."""
-    return RegressionProblem(y=problem.y, phi=problem.phi, coeffs=problem.coeffs,
-                             row_scale=problem.row_scale,
-                             observed=problem.observed & ~held[:, None])
+    return RegressionProblem(
+        y=problem.y,
+        phi=problem.phi,
+        coeffs=problem.coeffs,
+        row_scale=problem.row_scale,
+        observed=problem.observed & ~held[:, None],
+    )
 
 
-def _robust_cv_error(problem: RegressionProblem, norm: str, lam: float, n_folds: int,
-                     loss: str, delta: np.ndarray | None) -> float:
+def _robust_cv_error(
+    problem: RegressionProblem,
+    norm: str,
+    lam: float,
+    n_folds: int,
+    loss: str,
+    delta: np.ndarray | None,
+) -> float:
     """Mean robust loss of the one-step predictions on held-out blocks (blocked CV)."""
     penalty = np.full(problem.K, lam**2 if norm == "sq" else lam)
     fold = _folds(problem.N, n_folds)
@@ -562,15 +678,21 @@ def _robust_cv_error(problem: RegressionProblem, norm: str, lam: float, n_folds:
         held = fold == f
         with warnings.catch_warnings():  # a fold's fit is scored, not reported
             warnings.simplefilter("ignore", ConvergenceWarning)
-            theta = solve_robust(_without(problem, held), penalty, loss=loss, norm=norm,
-                                 delta=delta, max_iter=CV_MAX_ITER, tol=CV_TOL).theta
+            theta = solve_robust(
+                _without(problem, held),
+                penalty,
+                loss=loss,
+                norm=norm,
+                delta=delta,
+                max_iter=CV_MAX_ITER,
+                tol=CV_TOL,
+            ).theta
         r = problem.residuals(theta)[held]  # scaled rows; unobserved rows are 0
         total += loss_value(loss, r, problem.row_scale[held][:, :, None], delta)
     return total / (problem.n_observed * problem.n)
 
 
-def _default_range(problem: RegressionProblem, norm: str,
-                   data_name: str) -> tuple[float, float]:
+def _default_range(problem: RegressionProblem, norm: str, data_name: str) -> tuple[float, float]:
     """The ends of the default range of λ (see :func:`select_lambda`)."""
     if norm == "sq":
         # root-mean-square ‖φ‖ of the observed rows
@@ -587,8 +709,9 @@ def _default_range(problem: RegressionProblem, norm: str,
     return 1e-3 * lam_max, lam_max
 
 
-def _select_changes(data: StateSpaceData, method: str, lams: Any,
-                    max_changes: Any) -> LambdaSelection:
+def _select_changes(
+    data: StateSpaceData, method: str, lams: Any, max_changes: Any
+) -> LambdaSelection:
     """Number of changes for fit_segments by BIC/AIC over one dynamic program."""
     if lams is None:
         max_changes = options.integer(max_changes, "max_changes", minimum=0)
@@ -605,9 +728,15 @@ def _select_changes(data: StateSpaceData, method: str, lams: Any,
             f"x: too few samples to compare numbers of changes: {N} transitions, and one "
             f"segment needs more than p = {p}"
         )
-    costs = fit_segments(data.x, data.inputs, n_changes=M_max, compute_cov=False,
-                         min_size=min_size, weights=data.weights, constant=data.constant
-                         ).info["costs_by_n_changes"]
+    costs = fit_segments(
+        data.x,
+        data.inputs,
+        n_changes=M_max,
+        compute_cov=False,
+        min_size=min_size,
+        weights=data.weights,
+        constant=data.constant,
+    ).info["costs_by_n_changes"]
     candidates = candidates[candidates <= M_max]
     if candidates.size == 0:
         raise ValueError(
@@ -617,14 +746,26 @@ def _select_changes(data: StateSpaceData, method: str, lams: Any,
     size = data.problem.n_observed * n
     c = np.log(size) if method == "bic" else 2.0
     with np.errstate(divide="ignore"):
-        scores = np.array([size * np.log(costs[M] / size) + c * ((M + 1) * n * p + M)
-                           if costs[M] > 0 else np.inf  # an exact fit: degenerate
-                           for M in candidates])
+        scores = np.array(
+            [
+                size * np.log(costs[M] / size) + c * ((M + 1) * n * p + M)
+                if costs[M] > 0
+                else np.inf  # an exact fit: degenerate
+                for M in candidates
+            ]
+        )
     if not np.isfinite(scores).any():
         raise ValueError(
             "x: every candidate number of changes fits the data exactly (zero residuals), so "
             "no criterion can compare them; use data with noise or fewer changes"
         )
     best = int(candidates[np.argmin(scores)])
-    return LambdaSelection(float(best), candidates.astype(float), scores, method, "l0",
-                           residual_norms=np.sqrt(costs[candidates]), n_fits=1)
+    return LambdaSelection(
+        float(best),
+        candidates.astype(float),
+        scores,
+        method,
+        "l0",
+        residual_norms=np.sqrt(costs[candidates]),
+        n_fits=1,
+    )

@@ -30,13 +30,15 @@ def _model_theta(model: Any) -> tuple[np.ndarray, list[list[str]]]:
         if A.ndim != 3 or A.shape[1] != A.shape[2]:
             raise ValueError(f"model.A: expected shape (N, n, n), received {A.shape}")
         if B.ndim != 3 or B.shape[:2] != A.shape[:2]:
-            raise ValueError(f"model.B: expected shape {A.shape[:2] + ('m',)}, received "
-                             f"{B.shape}")
+            raise ValueError(f"model.B: expected shape {A.shape[:2] + ('m',)}, received {B.shape}")
         n, m = A.shape[1], B.shape[2]
         states = list(getattr(model, "state_names", [str(i) for i in range(n)]))
         inputs = list(getattr(model, "input_names", [str(j) for j in range(m)]))
-        names = [[f"A[{states[i]},{states[j]}]" for j in range(n)]
-                 + [f"B[{states[i]},{inputs[j]}]" for j in range(m)] for i in range(n)]
+        names = [
+            [f"A[{states[i]},{states[j]}]" for j in range(n)]
+            + [f"B[{states[i]},{inputs[j]}]" for j in range(m)]
+            for i in range(n)
+        ]
         return np.concatenate([A, B], axis=2), names
     if not hasattr(model, "theta"):
         raise TypeError(
@@ -48,10 +50,12 @@ def _model_theta(model: Any) -> tuple[np.ndarray, list[list[str]]]:
     if theta.ndim != 3:
         raise ValueError(f"model.theta: expected shape (N, n, p), received {theta.shape}")
     N, n, p = theta.shape
-    flat = (list(model.coefficient_names()) if callable(getattr(model, "coefficient_names",
-                                                                 None))
-            else [f"theta[{i},{j}]" for i in range(n) for j in range(p)])
-    return theta, [flat[i * p:(i + 1) * p] for i in range(n)]
+    flat = (
+        list(model.coefficient_names())
+        if callable(getattr(model, "coefficient_names", None))
+        else [f"theta[{i},{j}]" for i in range(n) for j in range(p)]
+    )
+    return theta, [flat[i * p : (i + 1) * p] for i in range(n)]
 
 
 def _truth_theta(truth: Any, N: int, n: int, p: int) -> np.ndarray:
@@ -79,8 +83,9 @@ def _truth_theta(truth: Any, N: int, n: int, p: int) -> np.ndarray:
     )
 
 
-def plot_coefficients(model: Any, truth: Any = None, *, bands: bool = True,
-                      fig: "Figure | None" = None) -> "Figure":
+def plot_coefficients(
+    model: Any, truth: Any = None, *, bands: bool = True, fig: Figure | None = None
+) -> Figure:
     """Plot every coefficient of [A_t B_t] (or of Θ_t) over time, one subplot each.
 
     Parameters
@@ -143,12 +148,25 @@ def plot_coefficients(model: Any, truth: Any = None, *, bands: bool = True,
             est = theta[:, i, j]
             if std is not None:
                 s = std[:, i * p + j]
-                ax.fill_between(t, est - 2 * s, est + 2 * s, color=ESTIMATE_COLOR, alpha=0.25,
-                                linewidth=0, label="±2σ")
+                ax.fill_between(
+                    t,
+                    est - 2 * s,
+                    est + 2 * s,
+                    color=ESTIMATE_COLOR,
+                    alpha=0.25,
+                    linewidth=0,
+                    label="±2σ",
+                )
             ax.plot(t, est, color=ESTIMATE_COLOR, linewidth=1.2, label="estimate")
             if truth_theta is not None:
-                ax.plot(t, truth_theta[:, i, j], color="black", linestyle="--", linewidth=1.2,
-                        label="truth")
+                ax.plot(
+                    t,
+                    truth_theta[:, i, j],
+                    color="black",
+                    linestyle="--",
+                    linewidth=1.2,
+                    label="truth",
+                )
             ax.set_title(names[i][j])
             ax.grid(True, alpha=0.3)
             if j == 0:
@@ -159,8 +177,7 @@ def plot_coefficients(model: Any, truth: Any = None, *, bands: bool = True,
     return fig
 
 
-def plot_activation(model: Any, ax: "Axes | None" = None, *,
-                    changepoints: Any = None) -> "Axes":
+def plot_activation(model: Any, ax: Axes | None = None, *, changepoints: Any = None) -> Axes:
     """Plot the activation ‖(Dk)_t‖ of the model over time.
 
     Large values mark where the coefficients change (paper Section III); with
@@ -190,8 +207,10 @@ def plot_activation(model: Any, ax: "Axes | None" = None, *,
         activation, the change-point lines follow it.
     """
     if not callable(getattr(model, "activation", None)):
-        raise TypeError(f"model: expected an object with an activation() method such as an "
-                        f"LTVModel, received {type(model).__name__}")
+        raise TypeError(
+            f"model: expected an object with an activation() method such as an "
+            f"LTVModel, received {type(model).__name__}"
+        )
     marks = None
     if changepoints is not None:
         marks = arrays.as_float_array(changepoints, "changepoints").ravel()
@@ -200,20 +219,27 @@ def plot_activation(model: Any, ax: "Axes | None" = None, *,
     act = np.asarray(model.activation(), dtype=float)
     if ax is None:
         ax = new_axes((7.0, 2.8))
-    ax.plot(np.arange(act.shape[0]), act, color=ESTIMATE_COLOR, linewidth=1.2,
-            label=r"$\|(Dk)_t\|$")
+    ax.plot(
+        np.arange(act.shape[0]), act, color=ESTIMATE_COLOR, linewidth=1.2, label=r"$\|(Dk)_t\|$"
+    )
     if marks is not None:
         coeffs = getattr(model, "coeffs", None)
         degree = 1 if coeffs is None else max(len(np.atleast_1d(coeffs)) - 1, 1)
         shift = (degree + 1) // 2
         for i, c in enumerate(marks.astype(int)):
-            ax.axvline(c - shift, color="C3", linestyle="--", linewidth=1.0,
-                       label="change points" if i == 0 else None)
+            ax.axvline(
+                c - shift,
+                color="C3",
+                linestyle="--",
+                linewidth=1.0,
+                label="change points" if i == 0 else None,
+            )
         found = ", ".join(str(int(c)) for c in marks) if marks.size else "none"
         if not marks.size:
             ax.plot([], [], color="C3", linestyle="--", linewidth=1.0, label="change points")
-        ax.legend(fontsize="small", loc="upper right", title=f"detected: {found}",
-                  title_fontsize="small")
+        ax.legend(
+            fontsize="small", loc="upper right", title=f"detected: {found}", title_fontsize="small"
+        )
     ax.set_xlabel("t")
     ax.set_ylabel(r"$\|(Dk)_t\|$")
     ax.set_title("Activation")
@@ -233,7 +259,7 @@ def _dynamics_eigenvalues(model: Any) -> tuple[np.ndarray, str, str]:
     return np.linalg.eigvals(arrays.dynamics_matrices(model)), "A_t", "eigenvalues of $A_t$"
 
 
-def plot_eigenvalues(model: Any, ax: "Axes | None" = None) -> "Axes":
+def plot_eigenvalues(model: Any, ax: Axes | None = None) -> Axes:
     """Plot the magnitudes of the eigenvalues of A_t over time.
 
     Curve i is the i-th largest |λ(A_t)| at each t; the dotted line marks the
@@ -269,7 +295,7 @@ def plot_eigenvalues(model: Any, ax: "Axes | None" = None) -> "Axes":
     return ax
 
 
-def plot_poles(model: Any, ax: "Axes | None" = None) -> "Axes":
+def plot_poles(model: Any, ax: Axes | None = None) -> Axes:
     """Plot the eigenvalues of A_t in the complex plane with the unit circle.
 
     Every eigenvalue of every A_t is one dot, coloured by t, so a time-varying
@@ -299,11 +325,18 @@ def plot_poles(model: Any, ax: "Axes | None" = None) -> "Axes":
         ax = new_axes((4.6, 4.0))
     N, n = eig.shape
     phase = np.linspace(0.0, 2 * np.pi, 361)
-    ax.plot(np.cos(phase), np.sin(phase), color="black", linestyle=":", linewidth=1.0,
-            label="unit circle")
+    ax.plot(
+        np.cos(phase),
+        np.sin(phase),
+        color="black",
+        linestyle=":",
+        linewidth=1.0,
+        label="unit circle",
+    )
     times = np.repeat(np.arange(N), n)
-    points = ax.scatter(eig.real.ravel(), eig.imag.ravel(), c=times, cmap="viridis", s=6,
-                        label=r"$\lambda(A_t)$")
+    points = ax.scatter(
+        eig.real.ravel(), eig.imag.ravel(), c=times, cmap="viridis", s=6, label=r"$\lambda(A_t)$"
+    )
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("Re λ")
     ax.set_ylabel("Im λ")
@@ -314,8 +347,9 @@ def plot_poles(model: Any, ax: "Axes | None" = None) -> "Axes":
     return ax
 
 
-def plot_model(model: Any, truth: Any = None, *, changepoints: Any = None,
-               fig: "Figure | None" = None) -> "Figure":
+def plot_model(
+    model: Any, truth: Any = None, *, changepoints: Any = None, fig: Figure | None = None
+) -> Figure:
     """Overview of a state-space model: coefficients, activation, eigenvalue magnitudes.
 
     The top part is :func:`plot_coefficients` (±2σ bands where the model has

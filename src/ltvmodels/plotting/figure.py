@@ -24,14 +24,14 @@ ESTIMATE_COLOR = "C0"
 """Colour of estimated quantities in every figure."""
 
 
-def new_figure(figsize: tuple[float, float]) -> "Figure":
+def new_figure(figsize: tuple[float, float]) -> Figure:
     """A new Figure of the given size (inches) with constrained layout, without pyplot."""
     from matplotlib.figure import Figure
 
     return Figure(figsize=figsize, layout="constrained")
 
 
-def new_axes(figsize: tuple[float, float]) -> "Axes":
+def new_axes(figsize: tuple[float, float]) -> Axes:
     """The single Axes of a new :func:`new_figure`."""
     return new_figure(figsize).add_subplot()
 
@@ -52,11 +52,13 @@ def output_file(out: Any, option: str = "out") -> Path:
         raise OutputPathError(f"{option}: {str(path)!r} is a directory; expected a file path")
     parent = path.parent
     if not parent.is_dir():
-        raise OutputPathError(f"{option}: cannot write {str(path)!r}: directory "
-                              f"{str(parent)!r} does not exist")
+        raise OutputPathError(
+            f"{option}: cannot write {str(path)!r}: directory {str(parent)!r} does not exist"
+        )
     if not os.access(parent, os.W_OK):
-        raise OutputPathError(f"{option}: cannot write {str(path)!r}: directory "
-                              f"{str(parent)!r} is not writable")
+        raise OutputPathError(
+            f"{option}: cannot write {str(path)!r}: directory {str(parent)!r} is not writable"
+        )
     if path.exists() and not os.access(path, os.W_OK):
         raise OutputPathError(f"{option}: cannot write {str(path)!r}: file is not writable")
     return path
@@ -88,7 +90,7 @@ def image_file(out: Any, option: str = "out") -> tuple[Path, str]:
     return path, suffix
 
 
-def save_figure(fig: "Figure", path: Path, fmt: str, option: str = "out", dpi: int = 150) -> None:
+def save_figure(fig: Figure, path: Path, fmt: str, option: str = "out", dpi: int = 150) -> None:
     """``fig.savefig`` with write errors as :class:`~ltvmodels.errors.OutputPathError`."""
     try:
         fig.savefig(path, format=fmt, dpi=dpi)

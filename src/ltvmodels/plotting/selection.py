@@ -13,7 +13,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
 
 
-def plot_lambda_selection(selection: LambdaSelection, ax: "Axes | None" = None) -> "Axes":
+def plot_lambda_selection(selection: LambdaSelection, ax: Axes | None = None) -> Axes:
     """Plot a λ-selection curve: the criterion against λ, or the L-curve, the choice marked.
 
     For the L-curve (``method="lcurve"``) the points (‖y − Φk‖, R(Dk)) of the
@@ -35,15 +35,22 @@ def plot_lambda_selection(selection: LambdaSelection, ax: "Axes | None" = None) 
         The axes (``ax.figure`` is its figure).
     """
     if not isinstance(selection, LambdaSelection):
-        raise TypeError(f"selection: expected a LambdaSelection (from select_lambda), received "
-                        f"{type(selection).__name__}")
+        raise TypeError(
+            f"selection: expected a LambdaSelection (from select_lambda), received "
+            f"{type(selection).__name__}"
+        )
     s = selection
     ax = new_axes((6.0, 4.0)) if ax is None else ax
     if s.method == "lcurve" and s.residual_norms is not None:
         ax.loglog(s.residual_norms, s.penalty_norms, ".-", color="C0")
         i = int(np.argmin(np.abs(s.lams - s.lam)))
-        ax.loglog(s.residual_norms[i], s.penalty_norms[i], "o", color="C3",
-                  label=f"corner, lam = {s.lam:.3g}")
+        ax.loglog(
+            s.residual_norms[i],
+            s.penalty_norms[i],
+            "o",
+            color="C3",
+            label=f"corner, lam = {s.lam:.3g}",
+        )
         ax.set_xlabel("residual norm ‖y − Φk‖")
         ax.set_ylabel("penalty R(Dk)")
     else:

@@ -14,8 +14,15 @@ if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
 
-def plot_simulation(data: Any, simulation: Any, *, start: int = 0, names: Any = None,
-                    label: str = "simulation", fig: "Figure | None" = None) -> "Figure":
+def plot_simulation(
+    data: Any,
+    simulation: Any,
+    *,
+    start: int = 0,
+    names: Any = None,
+    label: str = "simulation",
+    fig: Figure | None = None,
+) -> Figure:
     """Plot a simulation or prediction against the recorded data, one subplot per signal.
 
     Parameters
@@ -57,12 +64,16 @@ def plot_simulation(data: Any, simulation: Any, *, start: int = 0, names: Any = 
     T, n = x.shape
     start = options.integer(start, "start", minimum=0)
     if sim.ndim != 2 or sim.shape[1] != n:
-        raise ValueError(f"simulation: expected shape (S, {n}) (one column per column of "
-                         f"data), received {sim.shape}")
+        raise ValueError(
+            f"simulation: expected shape (S, {n}) (one column per column of "
+            f"data), received {sim.shape}"
+        )
     S = sim.shape[0]
     if start + S > T:
-        raise ValueError(f"simulation: rows start .. start + S = {start} .. {start + S} do not "
-                         f"fit in the T = {T} rows of data")
+        raise ValueError(
+            f"simulation: rows start .. start + S = {start} .. {start + S} do not "
+            f"fit in the T = {T} rows of data"
+        )
     if names is None:
         names = [f"x[{i}]" for i in range(n)]
     else:
@@ -81,12 +92,11 @@ def plot_simulation(data: Any, simulation: Any, *, start: int = 0, names: Any = 
     t_data = np.arange(T)
     t_sim = start + np.arange(S)
     with np.errstate(over="ignore", invalid="ignore"):
-        err = sim - x[start:start + S]
+        err = sim - x[start : start + S]
         rms = np.sqrt(np.mean(err**2, axis=0)) if S else np.full(n, np.nan)
     for i, ax in enumerate(axes):
         ax.plot(t_data, x[:, i], color="black", linewidth=1.0, label="data")
-        ax.plot(t_sim, sim[:, i], color=ESTIMATE_COLOR, linestyle="--", linewidth=1.2,
-                label=label)
+        ax.plot(t_sim, sim[:, i], color=ESTIMATE_COLOR, linestyle="--", linewidth=1.2, label=label)
         ax.set_title(f"{names[i]}: RMS error {rms[i]:.3g}", fontsize="medium")
         ax.grid(True, alpha=0.3)
         finite = np.concatenate([x[:, i], sim[:, i][np.isfinite(sim[:, i])]])
@@ -101,8 +111,7 @@ def plot_simulation(data: Any, simulation: Any, *, start: int = 0, names: Any = 
     return fig
 
 
-def plot_forecast(forecast: Any, *, history: Any = None,
-                  fig: "Figure | None" = None) -> "Figure":
+def plot_forecast(forecast: Any, *, history: Any = None, fig: Figure | None = None) -> Figure:
     """Plot a forecast: its mean and prediction interval, one subplot per state (output).
 
     Parameters
@@ -136,8 +145,10 @@ def plot_forecast(forecast: Any, *, history: Any = None,
     """
     needed = ("mean", "lower", "upper", "time", "level", "names")
     if not all(hasattr(forecast, name) for name in needed):
-        raise TypeError(f"forecast: expected a Forecast (from model.forecast), received "
-                        f"{type(forecast).__name__}")
+        raise TypeError(
+            f"forecast: expected a Forecast (from model.forecast), received "
+            f"{type(forecast).__name__}"
+        )
     mean = np.asarray(forecast.mean, dtype=float)
     lower = np.asarray(forecast.lower, dtype=float)
     upper = np.asarray(forecast.upper, dtype=float)
@@ -152,8 +163,10 @@ def plot_forecast(forecast: Any, *, history: Any = None,
         past = arrays.as_float_array(history, "history", missing=True)
         past = past[:, None] if past.ndim == 1 else past
         if past.ndim != 2 or past.shape[1] != n:
-            raise ValueError(f"history: expected shape (H, {n}) (one column per state of the "
-                             f"forecast), received {past.shape}")
+            raise ValueError(
+                f"history: expected shape (H, {n}) (one column per state of the "
+                f"forecast), received {past.shape}"
+            )
     if fig is None:
         fig = new_figure((8.0, min(1.9 * n + 0.6, 14.0)))
     else:
@@ -161,18 +174,39 @@ def plot_forecast(forecast: Any, *, history: Any = None,
     axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
     band = f"{100 * float(forecast.level):g} % interval"
     for i, ax in enumerate(axes):
-        ax.fill_between(time, lower[:, i], upper[:, i], color=ESTIMATE_COLOR, alpha=0.25,
-                        linewidth=0, label=band)
+        ax.fill_between(
+            time,
+            lower[:, i],
+            upper[:, i],
+            color=ESTIMATE_COLOR,
+            alpha=0.25,
+            linewidth=0,
+            label=band,
+        )
         if past is not None and past.shape[0]:
             # one sample per step before the forecast (for dates: the forecast's step)
-            step = (time[1] - time[0]) if dated and steps > 1 else (np.timedelta64(1, "D")
-                                                                   if dated else 1.0)
+            step = (
+                (time[1] - time[0])
+                if dated and steps > 1
+                else (np.timedelta64(1, "D") if dated else 1.0)
+            )
             t_past = time[0] - (past.shape[0] - np.arange(past.shape[0])) * step
             ax.plot(t_past, past[:, i], color="black", linewidth=1.0, label="data")
-            ax.plot([t_past[-1], time[0]], [past[-1, i], mean[0, i]], color=ESTIMATE_COLOR,
-                    linewidth=1.0, linestyle=":")
-        ax.plot(time, mean[:, i], color=ESTIMATE_COLOR, linewidth=1.2, marker="." if steps < 30
-                else None, label="forecast mean")
+            ax.plot(
+                [t_past[-1], time[0]],
+                [past[-1, i], mean[0, i]],
+                color=ESTIMATE_COLOR,
+                linewidth=1.0,
+                linestyle=":",
+            )
+        ax.plot(
+            time,
+            mean[:, i],
+            color=ESTIMATE_COLOR,
+            linewidth=1.2,
+            marker="." if steps < 30 else None,
+            label="forecast mean",
+        )
         ax.set_ylabel(names[i])
         ax.grid(True, alpha=0.3)
     axes[-1].set_xlabel("time" if dated else "t")
@@ -183,8 +217,7 @@ def plot_forecast(forecast: Any, *, history: Any = None,
     return fig
 
 
-def plot_root_spectrogram(model: Any, fs: float | None = None, *,
-                          ax: "Axes | None" = None) -> "Axes":
+def plot_root_spectrogram(model: Any, fs: float | None = None, *, ax: Axes | None = None) -> Axes:
     """Plot the root spectrogram of an AR/ARX model: pole frequencies over time.
 
     Each complex-conjugate pair of poles of 1/A_t(z) is one dot per time step
@@ -213,11 +246,11 @@ def plot_root_spectrogram(model: Any, fs: float | None = None, *,
     matplotlib.axes.Axes
         The axes (``ax.figure`` is its figure); the y axis spans 0 … fs/2.
     """
-    if not callable(getattr(model, "root_spectrogram", None)) or not hasattr(
-        model, "sample_index"
-    ):
-        raise TypeError(f"model: expected an AR/ARX model with root_spectrogram() and "
-                        f"sample_index, received {type(model).__name__}")
+    if not callable(getattr(model, "root_spectrogram", None)) or not hasattr(model, "sample_index"):
+        raise TypeError(
+            f"model: expected an AR/ARX model with root_spectrogram() and "
+            f"sample_index, received {type(model).__name__}"
+        )
     if fs is not None:
         fs = options.positive_scalar(fs, "fs")
         time = np.asarray(model.sample_index, dtype=float) / fs
@@ -228,8 +261,15 @@ def plot_root_spectrogram(model: Any, fs: float | None = None, *,
     if ax is None:
         ax = new_axes((7.0, 3.2))
     for i in range(freq.shape[1]):
-        ax.plot(time, freq[:, i], linestyle="none", marker=".", markersize=1.5,
-                color=ESTIMATE_COLOR, label="pole frequencies" if i == 0 else None)
+        ax.plot(
+            time,
+            freq[:, i],
+            linestyle="none",
+            marker=".",
+            markersize=1.5,
+            color=ESTIMATE_COLOR,
+            label="pole frequencies" if i == 0 else None,
+        )
     ax.set_xlabel(time_label)
     ax.set_ylabel(f"frequency ({unit})")
     ax.set_title("Root spectrogram")
@@ -253,8 +293,9 @@ def _index_frequency(model: Any) -> tuple[float, np.ndarray, str, str]:
     return 1.0 / float(steps[0]), times, "time", "cycles per unit of time"
 
 
-def plot_spectrogram(y: Any, fs: float, *, ax: "Axes | None" = None, nperseg: int = 256,
-                     dynamic_range: float = 80.0) -> "Axes":
+def plot_spectrogram(
+    y: Any, fs: float, *, ax: Axes | None = None, nperseg: int = 256, dynamic_range: float = 80.0
+) -> Axes:
     """Draw the short-time Fourier spectrogram of a scalar signal in grey.
 
     The non-parametric counterpart of :func:`plot_root_spectrogram`; draw the
@@ -286,8 +327,9 @@ def plot_spectrogram(y: Any, fs: float, *, ax: "Axes | None" = None, nperseg: in
     if arr.ndim == 2 and arr.shape[1] == 1:
         arr = arr[:, 0]
     if arr.ndim != 1 or arr.shape[0] < 8:
-        raise ValueError(f"y: expected a 1-d signal of at least 8 samples, received shape "
-                         f"{arr.shape}")
+        raise ValueError(
+            f"y: expected a 1-d signal of at least 8 samples, received shape {arr.shape}"
+        )
     fs = options.positive_scalar(fs, "fs")
     nperseg = min(options.integer(nperseg, "nperseg", minimum=8), arr.shape[0])
     dynamic_range = options.positive_scalar(dynamic_range, "dynamic_range")
@@ -296,8 +338,9 @@ def plot_spectrogram(y: Any, fs: float, *, ax: "Axes | None" = None, nperseg: in
     top = float(power_db.max())
     if ax is None:
         ax = new_axes((7.0, 3.2))
-    ax.pcolormesh(time, freq, power_db, cmap="Greys", shading="auto",
-                  vmin=top - dynamic_range, vmax=top)
+    ax.pcolormesh(
+        time, freq, power_db, cmap="Greys", shading="auto", vmin=top - dynamic_range, vmax=top
+    )
     ax.set_xlabel("time (s)")
     ax.set_ylabel("frequency (Hz)")
     ax.set_title("Spectrogram")

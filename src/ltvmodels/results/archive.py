@@ -30,11 +30,22 @@ FORMAT_VERSION = 2
 READABLE_VERSIONS = (1, 2)
 
 # How version-1 files name the solvers that need no iterations, or search exactly.
-_CLOSED_FORM_SOLVERS = ("block-banded Cholesky (exact)", "least-squares (QR)",
-                        "piecewise least squares", "closed form (lam >= lambda_max)")
+_CLOSED_FORM_SOLVERS = (
+    "block-banded Cholesky (exact)",
+    "least-squares (QR)",
+    "piecewise least squares",
+    "closed form (lam >= lambda_max)",
+)
 _SEARCH_SOLVERS = ("dynamic programming", "PELT")
-_DETAIL_KEYS = ("duality_gap", "primal_residual", "dual_residual", "polished", "rho",
-                "n_factorizations", "lambda_max")
+_DETAIL_KEYS = (
+    "duality_gap",
+    "primal_residual",
+    "dual_residual",
+    "polished",
+    "rho",
+    "n_factorizations",
+    "lambda_max",
+)
 
 
 @dataclass
@@ -76,7 +87,8 @@ def write(model: Any, path: str | Path) -> None:
         "model_type": type(model).__name__,
         **model.structure(),
         "norm": fit.norm,
-        "noise_var": None if fit.noise_var is None
+        "noise_var": None
+        if fit.noise_var is None
         else np.asarray(fit.noise_var, dtype=float).tolist(),
         "loglik": fit.loglik,
         "info": info_json,
@@ -106,7 +118,7 @@ def read(path: str | Path) -> ModelFile:
             row_scale = data["cov_row_scale"] if "cov_row_scale" in files else None
             cov = CovarianceBlocks(data["cov_blocks"], row_group, row_scale)
         info = dict(meta["info"])
-        info.update({key[len("info__"):]: data[key] for key in files if key.startswith("info__")})
+        info.update({key[len("info__") :]: data[key] for key in files if key.startswith("info__")})
         if version == 1:
             status = _status_from_info(info)
         else:
@@ -171,8 +183,9 @@ def _status_from_info(info: dict) -> FitStatus | None:
     elif solver in _SEARCH_SOLVERS:
         status = "optimal"
     else:
-        status = iterative_status(bool(info.get("converged", False)),
-                                  polished=bool(info.get("polished", False)))
+        status = iterative_status(
+            bool(info.get("converged", False)), polished=bool(info.get("polished", False))
+        )
     objective = info.get("objective", info.get("rss", float("nan")))
     details = {key: info[key] for key in _DETAIL_KEYS if key in info}
     return FitStatus(status, solver, int(info.get("iterations", 0)), float(objective), details)

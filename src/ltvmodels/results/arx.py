@@ -74,8 +74,15 @@ class ARXModel(RegressionModel):
     """
 
     def __init__(
-        self, k: np.ndarray, n_outputs: int, n_inputs: int, na: int, nb: int, nk: int,
-        constant: bool, fit: FitRecord | None = None,
+        self,
+        k: np.ndarray,
+        n_outputs: int,
+        n_inputs: int,
+        na: int,
+        nb: int,
+        nk: int,
+        constant: bool,
+        fit: FitRecord | None = None,
     ) -> None:
         self.n_inputs = int(n_inputs)
         self.na, self.nb, self.nk = int(na), int(nb), int(nk)
@@ -88,21 +95,30 @@ class ARXModel(RegressionModel):
     def output_names(self) -> list[str]:
         """The data's column names (a pandas y), else "y" for one output, "y0", "y1", …"""
         return self._recorded("output", self.n_outputs) or (
-            ["y"] if self.n_outputs == 1 else [f"y{i}" for i in range(self.n_outputs)])
+            ["y"] if self.n_outputs == 1 else [f"y{i}" for i in range(self.n_outputs)]
+        )
 
     @property
     def input_names(self) -> list[str]:
         """The data's column names (a pandas u), else "u" for one input, "u0", "u1", …"""
         return self._recorded("input", self.n_inputs) or (
-            ["u"] if self.n_inputs == 1 else [f"u{i}" for i in range(self.n_inputs)])
+            ["u"] if self.n_inputs == 1 else [f"u{i}" for i in range(self.n_inputs)]
+        )
 
     @property
     def regressor_names(self) -> list[str]:
         """The lagged regressors: "y[t-1]", …, "u[t-nk]", …, "1" (see :func:`ar_regressors`),
         with the signals' names."""
-        return lag_regressor_names(self.n_outputs, self.n_inputs, self.na, self.nb, self.nk,
-                                   self.constant, output_names=self.output_names,
-                                   input_names=self.input_names)
+        return lag_regressor_names(
+            self.n_outputs,
+            self.n_inputs,
+            self.na,
+            self.nb,
+            self.nk,
+            self.constant,
+            output_names=self.output_names,
+            input_names=self.input_names,
+        )
 
     @property
     def step_offset(self) -> int:
@@ -210,8 +226,7 @@ class ARXModel(RegressionModel):
         ndarray, shape (N, n), or (N,) for n = 1
             Predictions of y[L:].
         """
-        y, u = arrays.model_series(y, u, N=self.N, n=self.n_outputs, m=self.n_inputs,
-                                      lag=self.lag)
+        y, u = arrays.model_series(y, u, N=self.N, n=self.n_outputs, m=self.n_inputs, lag=self.lag)
         _, phi = lagged_regressors(y, u, self.na, self.nb, self.nk, self.constant)
         return self._squeeze(np.einsum("tij,tj->ti", self.theta, phi))
 
@@ -237,13 +252,29 @@ class ARXModel(RegressionModel):
         )
         y = np.zeros((self.N + self.lag, self.n_outputs))
         y[: self.lag] = y0
-        _simulate_arx(np.ascontiguousarray(self.theta), y, u, noise, self.na, self.nb, self.nk,
-                      self.lag, self.constant)
+        _simulate_arx(
+            np.ascontiguousarray(self.theta),
+            y,
+            u,
+            noise,
+            self.na,
+            self.nb,
+            self.nk,
+            self.lag,
+            self.constant,
+        )
         return y[:, 0] if self.n_outputs == 1 else y
 
     def forecast(
-        self, y_last: Any, u: Any = None, *, steps: int | None = None, level: float = 0.95,
-        n_samples: int = DEFAULT_SAMPLES, seed: Any = 0, noise_cov: Any = None,
+        self,
+        y_last: Any,
+        u: Any = None,
+        *,
+        steps: int | None = None,
+        level: float = 0.95,
+        n_samples: int = DEFAULT_SAMPLES,
+        seed: Any = 0,
+        noise_cov: Any = None,
     ) -> Forecast:
         """Forecast the outputs after the end of the data, with prediction intervals.
 
@@ -297,8 +328,14 @@ class ARXModel(RegressionModel):
         initial = y_last[::-1][: self.na]  # the lags y[T−1], …, y[T−na], newest first
         T = self.N + L
         return forecast_model(
-            self, np.ascontiguousarray(initial), known, level=level, n_samples=n_samples,
-            seed=seed, noise_cov=noise, time=self.times_after(T, steps),
+            self,
+            np.ascontiguousarray(initial),
+            known,
+            level=level,
+            n_samples=n_samples,
+            seed=seed,
+            noise_cov=noise,
+            time=self.times_after(T, steps),
             names=self.output_names,
         )
 
@@ -311,18 +348,25 @@ class ARXModel(RegressionModel):
 
     # -- persistence and display ------------------------------------------------------
     def structure(self) -> dict:
-        return {"n_outputs": self.n_outputs, "n_inputs": self.n_inputs, "na": self.na,
-                "nb": self.nb, "nk": self.nk, "constant": self.constant}
+        return {
+            "n_outputs": self.n_outputs,
+            "n_inputs": self.n_inputs,
+            "na": self.na,
+            "nb": self.nb,
+            "nk": self.nk,
+            "constant": self.constant,
+        }
 
     @classmethod
     def from_structure(cls, k: np.ndarray, structure: dict, fit: FitRecord) -> ARXModel:
         s = structure
-        return cls(k, s["n_outputs"], s["n_inputs"], s["na"], s["nb"], s["nk"], s["constant"],
-                   fit)
+        return cls(k, s["n_outputs"], s["n_inputs"], s["na"], s["nb"], s["nk"], s["constant"], fit)
 
     def _repr_sizes(self) -> str:
-        return (f"n_outputs={self.n_outputs}, n_inputs={self.n_inputs}, na={self.na}, "
-                f"nb={self.nb}, nk={self.nk}, constant={self.constant}")
+        return (
+            f"n_outputs={self.n_outputs}, n_inputs={self.n_inputs}, na={self.na}, "
+            f"nb={self.nb}, nk={self.nk}, constant={self.constant}"
+        )
 
 
 class ARModel(ARXModel):
@@ -333,7 +377,11 @@ class ARModel(ARXModel):
     """
 
     def __init__(
-        self, k: np.ndarray, n_outputs: int, na: int, constant: bool,
+        self,
+        k: np.ndarray,
+        n_outputs: int,
+        na: int,
+        constant: bool,
         fit: FitRecord | None = None,
     ) -> None:
         super().__init__(k, n_outputs, 0, na, 0, 1, constant, fit)
@@ -367,15 +415,28 @@ class ARModel(ARXModel):
         return super().simulate(y0, None, noise)
 
     def forecast(
-        self, y_last: Any, *, steps: int, level: float = 0.95,
-        n_samples: int = DEFAULT_SAMPLES, seed: Any = 0, noise_cov: Any = None,
+        self,
+        y_last: Any,
+        *,
+        steps: int,
+        level: float = 0.95,
+        n_samples: int = DEFAULT_SAMPLES,
+        seed: Any = 0,
+        noise_cov: Any = None,
     ) -> Forecast:
         """Forecast y[T] … y[T+steps−1] from the last na samples y_last (na, n) or (na,).
 
         :meth:`ARXModel.forecast` without inputs; ``steps`` is required.
         """
-        return super().forecast(y_last, None, steps=steps, level=level, n_samples=n_samples,
-                                seed=seed, noise_cov=noise_cov)
+        return super().forecast(
+            y_last,
+            None,
+            steps=steps,
+            level=level,
+            n_samples=n_samples,
+            seed=seed,
+            noise_cov=noise_cov,
+        )
 
     def structure(self) -> dict:
         return {"n_outputs": self.n_outputs, "na": self.na, "constant": self.constant}

@@ -63,8 +63,7 @@ def _recorded_names(obj: object, key: str, count: int) -> list[str] | None:
     """``obj.info["signal_names"][key]`` when it names ``count`` signals, else None."""
     info = getattr(obj, "info", None)
     names = info.get("signal_names", {}).get(key) if isinstance(info, dict) else None
-    return [str(name) for name in names] if names is not None and len(names) == count \
-        else None
+    return [str(name) for name in names] if names is not None and len(names) == count else None
 
 
 def signal_names(prefix: str, count: int) -> list[str]:

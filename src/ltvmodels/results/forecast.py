@@ -158,11 +158,14 @@ class Forecast:
 
     def __repr__(self) -> str:
         samples = "" if self.n_samples is None else f", n_samples={self.n_samples}"
-        return (f"Forecast(steps={self.steps}, n={self.mean.shape[1]}, level={self.level:g}, "
-                f"method={self.method!r}{samples})")
+        return (
+            f"Forecast(steps={self.steps}, n={self.mean.shape[1]}, level={self.level:g}, "
+            f"method={self.method!r}{samples})"
+        )
 
 
 # -- the inputs of a forecast, checked in one place ------------------------------------------
+
 
 def forecast_options(level: Any, n_samples: Any, seed: Any) -> tuple[float, int, Any]:
     """Validate ``level`` in (0, 1), ``n_samples`` >= 2 and ``seed``; returns them.
@@ -191,16 +194,21 @@ def forecast_steps(steps: Any, rows: int | None, lag: int = 0) -> int:
     after = f" after its first {lag}" if lag else ""
     if steps is None:
         if rows is None:
-            raise TypeError("steps: expected the number of steps to forecast (an integer >= 1) "
-                            "for a model without inputs, received None")
+            raise TypeError(
+                "steps: expected the number of steps to forecast (an integer >= 1) "
+                "for a model without inputs, received None"
+            )
         if rows < 1:
-            raise ValueError(f"u: expected at least one future input (a row of u{after}), "
-                             "received none")
+            raise ValueError(
+                f"u: expected at least one future input (a row of u{after}), received none"
+            )
         return rows
     steps = options.integer(steps, "steps", minimum=1)
     if rows is not None and rows != steps:
-        raise ValueError(f"steps: expected {rows} (the number of future inputs: the rows of "
-                         f"u{after}) or None, received {steps}")
+        raise ValueError(
+            f"steps: expected {rows} (the number of future inputs: the rows of "
+            f"u{after}) or None, received {steps}"
+        )
     return steps
 
 
@@ -216,23 +224,29 @@ def noise_covariance(value: Any, model_value: np.ndarray | None, n: int) -> np.n
     """
     if value is None:
         if model_value is None:
-            raise ValueError("noise_cov: the model has no noise covariance (its coefficients "
-                             "were given, not fitted); pass noise_cov=, the covariance of "
-                             f"v_t, shape ({n}, {n})")
+            raise ValueError(
+                "noise_cov: the model has no noise covariance (its coefficients "
+                "were given, not fitted); pass noise_cov=, the covariance of "
+                f"v_t, shape ({n}, {n})"
+            )
         return np.array(model_value, dtype=float)
     cov = arrays.as_float_array(value, "noise_cov")
     if cov.ndim == 0 or cov.shape == (n,):
         cov = np.diag(np.broadcast_to(cov, (n,)))
     if cov.shape != (n, n):
-        raise ValueError(f"noise_cov: expected a ({n}, {n}) covariance matrix, a variance or "
-                         f"({n},) variances, received shape {cov.shape}")
+        raise ValueError(
+            f"noise_cov: expected a ({n}, {n}) covariance matrix, a variance or "
+            f"({n},) variances, received shape {cov.shape}"
+        )
     scale = max(float(np.abs(cov).max()), 1e-300)
     if not np.allclose(cov, cov.T, rtol=1e-10, atol=1e-12 * scale):
         raise ValueError("noise_cov: expected a symmetric matrix, received a non-symmetric one")
     eig_min = float(np.linalg.eigvalsh(cov).min())
     if eig_min < -1e-10 * scale:
-        raise ValueError(f"noise_cov: expected a positive semidefinite matrix, received one "
-                         f"with eigenvalue {eig_min:g}")
+        raise ValueError(
+            f"noise_cov: expected a positive semidefinite matrix, received one "
+            f"with eigenvalue {eig_min:g}"
+        )
     return 0.5 * (cov + cov.T)
 
 
@@ -245,8 +259,10 @@ def state_space_inputs(
     """
     x0 = arrays.as_float_array(x0, "x0")
     if x0.shape != (n,):
-        raise ValueError(f"x0: expected the state at the end of the data, shape ({n},), "
-                         f"received shape {x0.shape}")
+        raise ValueError(
+            f"x0: expected the state at the end of the data, shape ({n},), "
+            f"received shape {x0.shape}"
+        )
     arrays.representable(x0, "x0", small=False)  # beyond 1e100 the forecast overflows
     u, steps = _future_inputs(u, steps, m=m, lag=0, meaning="the future inputs")
     return x0, u, steps
@@ -267,17 +283,22 @@ def lagged_inputs(
             y_last = y_last[:, None]
         if y_last.shape != (lag, n):
             expected = f"({lag}, {n})" + (f" or ({lag},)" if n == 1 else "")
-            raise ValueError(f"y_last: expected the last {lag} samples of y (oldest first), "
-                             f"shape {expected}, received shape {y_last.shape}")
+            raise ValueError(
+                f"y_last: expected the last {lag} samples of y (oldest first), "
+                f"shape {expected}, received shape {y_last.shape}"
+            )
         arrays.representable(y_last, "y_last", small=False)
     u, steps = _future_inputs(
-        u, steps, m=m, lag=lag,
-        meaning=f"the inputs at the {lag} samples of y_last and at the forecast samples")
+        u,
+        steps,
+        m=m,
+        lag=lag,
+        meaning=f"the inputs at the {lag} samples of y_last and at the forecast samples",
+    )
     return y_last, u, steps
 
 
-def _future_inputs(u: Any, steps: Any, *, m: int, lag: int, meaning: str
-                   ) -> tuple[np.ndarray, int]:
+def _future_inputs(u: Any, steps: Any, *, m: int, lag: int, meaning: str) -> tuple[np.ndarray, int]:
     """Validate the inputs u (lag + steps, m) of a forecast, the first ``lag`` rows at
     the known samples that start it; ``meaning`` says what they are in the messages.
 
@@ -285,8 +306,7 @@ def _future_inputs(u: Any, steps: Any, *, m: int, lag: int, meaning: str
     """
     if m == 0:
         if u is not None:
-            raise ValueError(f"u: the model has no inputs, expected None, received "
-                             f"{describe(u)}")
+            raise ValueError(f"u: the model has no inputs, expected None, received {describe(u)}")
         steps = forecast_steps(steps, None)
         return np.zeros((lag + steps, 0)), steps
     rows = "steps" if lag == 0 else f"{lag} + steps"
@@ -304,6 +324,7 @@ def _future_inputs(u: Any, steps: Any, *, m: int, lag: int, meaning: str
 
 
 # -- the coefficients after the data ---------------------------------------------------------
+
 
 def continue_coefficients(k: np.ndarray, coeffs: np.ndarray, steps: int) -> np.ndarray:
     """The coefficients after the data: Σ_j c_j k_{t+j} = 0 solved forward.
@@ -324,9 +345,11 @@ def continue_coefficients(k: np.ndarray, coeffs: np.ndarray, steps: int) -> np.n
     d = len(coeffs) - 1
     N = k.shape[0]
     if N < d:
-        raise ValueError(f"the model has N = {N} time steps, fewer than the order d = {d} of "
-                         "its difference operator needs to continue its coefficients")
-    history = list(k[N - d:])
+        raise ValueError(
+            f"the model has N = {N} time steps, fewer than the order d = {d} of "
+            "its difference operator needs to continue its coefficients"
+        )
+    history = list(k[N - d :])
     out = np.empty((steps, k.shape[1]))
     for s in range(steps):
         nxt = -sum(coeffs[j] * history[j] for j in range(d)) / coeffs[d]
@@ -351,8 +374,9 @@ def end_coefficient_cov(model: Any) -> np.ndarray | None:
         unit = model.info.get("last_segment_unit_cov")
         if unit is None or model.noise_var is None:
             return None
-        return np.kron(np.diag(np.asarray(model.noise_var, dtype=float)),
-                       np.asarray(unit, dtype=float))
+        return np.kron(
+            np.diag(np.asarray(model.noise_var, dtype=float)), np.asarray(unit, dtype=float)
+        )
     cov = np.asarray(cov, dtype=float)
     if model.cov_shared_by_rows:
         return np.kron(np.eye(n), cov[-1])
@@ -422,9 +446,18 @@ def _as_matrix(cov: np.ndarray | None, K: int) -> np.ndarray:
 
 # -- propagation -------------------------------------------------------------------------------
 
+
 def forecast_model(
-    model: Any, initial: np.ndarray, known: np.ndarray, *, level: float, n_samples: int,
-    seed: Any, noise_cov: np.ndarray, time: np.ndarray, names: list[str],
+    model: Any,
+    initial: np.ndarray,
+    known: np.ndarray,
+    *,
+    level: float,
+    n_samples: int,
+    seed: Any,
+    noise_cov: np.ndarray,
+    time: np.ndarray,
+    names: list[str],
 ) -> Forecast:
     """Forecast the regression y_t = Θ_t φ_t + e_t of a model whose φ_t holds past outputs.
 
@@ -468,8 +501,17 @@ def forecast_model(
     coef_factor, drift_factor = _factor(coef_cov), _factor(drift)
     if coef_factor is not None or drift_factor is not None:
         mean, cov, lower, upper, drawn = _monte_carlo(
-            theta, coeffs, coef_factor, drift_factor, initial, known, _factor(noise_cov),
-            level, n_samples, seed)
+            theta,
+            coeffs,
+            coef_factor,
+            drift_factor,
+            initial,
+            known,
+            _factor(noise_cov),
+            level,
+            n_samples,
+            seed,
+        )
         method = "monte_carlo"
     else:
         mean, cov = _gaussian(theta, initial, known, noise_cov)
@@ -481,12 +523,23 @@ def forecast_model(
         lower, upper = mean - z * sd, mean + z * sd
     else:
         lower[0], upper[0] = mean0 - z * sd[0], mean0 + z * sd[0]
-    return Forecast(mean=mean, lower=lower, upper=upper, cov=cov, level=level, time=time,
-                    names=names, method=method, n_samples=drawn, coefficients=theta)
+    return Forecast(
+        mean=mean,
+        lower=lower,
+        upper=upper,
+        cov=cov,
+        level=level,
+        time=time,
+        names=names,
+        method=method,
+        n_samples=drawn,
+        coefficients=theta,
+    )
 
 
-def _gaussian(theta: np.ndarray, initial: np.ndarray, known: np.ndarray,
-              noise_cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _gaussian(
+    theta: np.ndarray, initial: np.ndarray, known: np.ndarray, noise_cov: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Exact mean and covariance for known coefficients: the lag state's covariance recursion."""
     steps, n, _ = theta.shape
     L = initial.shape[0]
@@ -512,8 +565,9 @@ def _gaussian(theta: np.ndarray, initial: np.ndarray, known: np.ndarray,
     return mean, cov
 
 
-def _monte_carlo(theta, coeffs, coef_factor, drift_factor, initial, known, noise_factor, level,
-                 n_samples, seed):
+def _monte_carlo(
+    theta, coeffs, coef_factor, drift_factor, initial, known, noise_factor, level, n_samples, seed
+):
     """Sample mean, covariance and quantile bounds of simulated paths (antithetic pairs).
 
     The factors are square roots of Cov(k_{N−1}), of the drift per step (already divided by

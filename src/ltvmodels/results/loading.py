@@ -65,8 +65,10 @@ def load(path: str | Path) -> RegressionModel:
                 f"{sorted(MODEL_TYPES)})"
             )
         if not np.isrealobj(content.k) or not np.all(np.abs(content.k) <= LARGEST_DATA):
-            raise ValueError(f"path: {path} holds coefficients that are not finite real numbers "
-                             f"of magnitude up to {LARGEST_DATA:g}")
+            raise ValueError(
+                f"path: {path} holds coefficients that are not finite real numbers "
+                f"of magnitude up to {LARGEST_DATA:g}"
+            )
         model = cls.from_structure(content.k, content.structure, content.fit)
         problem = _invalid_record(model)
         if problem:
@@ -97,13 +99,24 @@ def _invalid_record(model: RegressionModel) -> str | None:
     fit = model.record
     if fit.coeffs is not None:
         c = np.asarray(fit.coeffs)
-        if (c.ndim != 1 or c.size < 2 or c.size > N or not np.all(np.isfinite(c))
-                or c[-1] == 0 or abs(c.sum()) > 1e-8 * np.abs(c).sum()):
+        if (
+            c.ndim != 1
+            or c.size < 2
+            or c.size > N
+            or not np.all(np.isfinite(c))
+            or c[-1] == 0
+            or abs(c.sum()) > 1e-8 * np.abs(c).sum()
+        ):
             return f"difference operator 'coeffs' {c.tolist()}"
     if fit.changepoints is not None:
         cp = np.asarray(fit.changepoints)
-        if (cp.ndim != 1 or cp.dtype.kind not in "iu" or np.any(cp < 1) or np.any(cp > N - 1)
-                or np.any(np.diff(cp) <= 0)):
+        if (
+            cp.ndim != 1
+            or cp.dtype.kind not in "iu"
+            or np.any(cp < 1)
+            or np.any(cp > N - 1)
+            or np.any(np.diff(cp) <= 0)
+        ):
             return f"'changepoints' (expected increasing integers in [1, {N - 1}])"
     if fit.noise_var is not None:
         v = np.asarray(fit.noise_var, dtype=float)
@@ -126,9 +139,13 @@ def _invalid_record(model: RegressionModel) -> str | None:
             expected_ok = blocks.shape == (N, K, K)
         else:
             group = np.asarray(cov.row_group)
-            expected_ok = (blocks.ndim == 4 and blocks.shape[1:] == (N, p, p)
-                           and group.shape == (n,) and group.dtype.kind in "iu"
-                           and np.all((group >= 0) & (group < blocks.shape[0])))
+            expected_ok = (
+                blocks.ndim == 4
+                and blocks.shape[1:] == (N, p, p)
+                and group.shape == (n,)
+                and group.dtype.kind in "iu"
+                and np.all((group >= 0) & (group < blocks.shape[0]))
+            )
             if cov.row_scale is not None:
                 scale = np.asarray(cov.row_scale)
                 expected_ok &= scale.shape == (n,) and bool(np.all(np.isfinite(scale)))

@@ -57,9 +57,17 @@ class ModelSet(Mapping):
         Where the model files of units not held in memory are.
     """
 
-    def __init__(self, units: list, records: list[dict], errors: dict, *, by: str = "unit",
-                 models: dict | None = None, directory: str | Path | None = None,
-                 files: dict | None = None) -> None:
+    def __init__(
+        self,
+        units: list,
+        records: list[dict],
+        errors: dict,
+        *,
+        by: str = "unit",
+        models: dict | None = None,
+        directory: str | Path | None = None,
+        files: dict | None = None,
+    ) -> None:
         self.units = list(units)
         self.records = list(records)
         self.errors = dict(errors)
@@ -99,10 +107,13 @@ class ModelSet(Mapping):
         return [unit for unit in self.units if unit not in self.errors]
 
     def __repr__(self) -> str:
-        where = ("in memory" if self._models else
-                 f"in {self.directory}" if self._files else "not kept")
-        return (f"ModelSet({len(self.units)} units, {len(self)} fitted, "
-                f"{len(self.errors)} failed, models {where})")
+        where = (
+            "in memory" if self._models else f"in {self.directory}" if self._files else "not kept"
+        )
+        return (
+            f"ModelSet({len(self.units)} units, {len(self)} fitted, "
+            f"{len(self.errors)} failed, models {where})"
+        )
 
     # -- the summary ------------------------------------------------------------------
     @property
@@ -140,8 +151,10 @@ class ModelSet(Mapping):
         fitted unit whose model was kept and ``manifest.json`` (see the module
         docstring); :func:`ltvmodels.load_many` reads it back."""
         if not isinstance(directory, (str, os.PathLike)):
-            raise TypeError(f"directory: expected a directory path (str or pathlib.Path), "
-                            f"received {describe(directory)}")
+            raise TypeError(
+                f"directory: expected a directory path (str or pathlib.Path), "
+                f"received {describe(directory)}"
+            )
         target = Path(directory)
         target.mkdir(parents=True, exist_ok=True)
         files = {}
@@ -158,9 +171,15 @@ class ModelSet(Mapping):
             else:
                 continue
             files[unit] = name
-        entries = [{"unit": json_unit(unit), "file": files.get(unit),
-                    "error": self.errors.get(unit), "summary": record}
-                   for unit, record in zip(self.units, self.records)]
+        entries = [
+            {
+                "unit": json_unit(unit),
+                "file": files.get(unit),
+                "error": self.errors.get(unit),
+                "summary": record,
+            }
+            for unit, record in zip(self.units, self.records)
+        ]
         manifest = {"format": FORMAT_VERSION, "by": self.by, "units": entries}
         (target / MANIFEST).write_text(json.dumps(manifest, indent=1, allow_nan=True))
 
@@ -195,8 +214,10 @@ def load_many(directory: str | Path) -> ModelSet:
         The manifest is not one this version reads.
     """
     if not isinstance(directory, (str, os.PathLike)):
-        raise TypeError(f"directory: expected a directory path (str or pathlib.Path), "
-                        f"received {describe(directory)}")
+        raise TypeError(
+            f"directory: expected a directory path (str or pathlib.Path), "
+            f"received {describe(directory)}"
+        )
     path = Path(directory) / MANIFEST
     if not path.is_file():
         raise FileNotFoundError(
@@ -206,8 +227,10 @@ def load_many(directory: str | Path) -> ModelSet:
     try:
         manifest = json.loads(path.read_text())
         if manifest.get("format") != FORMAT_VERSION:
-            raise ModelFileError(f"{path}: unknown model-set format {manifest.get('format')!r} "
-                                 f"(this version reads {FORMAT_VERSION})")
+            raise ModelFileError(
+                f"{path}: unknown model-set format {manifest.get('format')!r} "
+                f"(this version reads {FORMAT_VERSION})"
+            )
         entries = manifest["units"]
         units = [entry["unit"] for entry in entries]
         records = [entry["summary"] for entry in entries]
@@ -217,5 +240,6 @@ def load_many(directory: str | Path) -> ModelSet:
         if isinstance(exc, ModelFileError):
             raise
         raise ModelFileError(f"{path}: not a model-set manifest ({exc})") from None
-    return ModelSet(units, records, errors, by=manifest.get("by", "unit"),
-                    directory=directory, files=files)
+    return ModelSet(
+        units, records, errors, by=manifest.get("by", "unit"), directory=directory, files=files
+    )

@@ -21,13 +21,13 @@ from ..core.covariance import CovarianceBlocks
 STATUSES = {
     "closed_form": "solved exactly by direct linear algebra, without iterations",
     "optimal": "optimal: the optimality conditions hold to the requested tolerance "
-               "(for a segmentation: the exact optimum of the search)",
+    "(for a segmentation: the exact optimum of the search)",
     "optimal_polished": "optimal: the active-set polish fixed the vanishing differences and "
-                        "certified the optimum to the requested tolerance",
+    "certified the optimum to the requested tolerance",
     "stalled": "not optimal to the requested tolerance: the solver made no progress at the "
-               "limit of working precision; the last iterate is returned",
+    "limit of working precision; the last iterate is returned",
     "max_iter": "not optimal to the requested tolerance: the solver stopped at its iteration "
-                "limit; the last iterate is returned",
+    "limit; the last iterate is returned",
 }
 """Every value of :attr:`FitStatus.status`, with its message."""
 
@@ -78,8 +78,7 @@ class FitStatus:
 
     def __post_init__(self) -> None:
         if self.status not in STATUSES:
-            raise ValueError(f"status: expected one of {tuple(STATUSES)}, received "
-                             f"{self.status!r}")
+            raise ValueError(f"status: expected one of {tuple(STATUSES)}, received {self.status!r}")
 
     @property
     def message(self) -> str:
@@ -93,19 +92,30 @@ class FitStatus:
 
     def to_dict(self) -> dict:
         """The record as JSON-serializable values (for saving a model)."""
-        return {"status": self.status, "solver": self.solver, "iterations": int(self.iterations),
-                "objective": float(self.objective),
-                "details": {key: _plain(value) for key, value in self.details.items()}}
+        return {
+            "status": self.status,
+            "solver": self.solver,
+            "iterations": int(self.iterations),
+            "objective": float(self.objective),
+            "details": {key: _plain(value) for key, value in self.details.items()},
+        }
 
     @classmethod
     def from_dict(cls, values: dict) -> FitStatus:
         """The inverse of :meth:`to_dict`."""
-        return cls(values["status"], values["solver"], int(values["iterations"]),
-                   float(values["objective"]), dict(values["details"]))
+        return cls(
+            values["status"],
+            values["solver"],
+            int(values["iterations"]),
+            float(values["objective"]),
+            dict(values["details"]),
+        )
 
     def __repr__(self) -> str:
-        return (f"FitStatus(status={self.status!r}, solver={self.solver!r}, "
-                f"iterations={self.iterations}, objective={self.objective:.6g})")
+        return (
+            f"FitStatus(status={self.status!r}, solver={self.solver!r}, "
+            f"iterations={self.iterations}, objective={self.objective:.6g})"
+        )
 
 
 def _plain(value: Any) -> Any:

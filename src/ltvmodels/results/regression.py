@@ -86,8 +86,7 @@ class RegressionModel:
                 f"{self._k.shape}"
             )
         if self._k.shape[0] == 0:
-            raise ValueError("k: expected at least one time step, received shape "
-                             f"{self._k.shape}")
+            raise ValueError(f"k: expected at least one time step, received shape {self._k.shape}")
         fit = FitRecord() if fit is None else fit
         self.norm = fit.norm
         self.coeffs = None if fit.coeffs is None else np.asarray(fit.coeffs, dtype=float)
@@ -96,8 +95,11 @@ class RegressionModel:
         n = self._n_outputs
         noise_var = None if fit.noise_var is None else np.asarray(fit.noise_var, dtype=float)
         if noise_var is not None:  # (n,) as given, or a shared variance repeated
-            noise_var = noise_var.copy() if noise_var.shape == (n,) \
+            noise_var = (
+                noise_var.copy()
+                if noise_var.shape == (n,)
                 else np.broadcast_to(noise_var, (n,)).copy()
+            )
         self.noise_var = noise_var
         self.noise_cov = fit.noise_cov
         # NaN: files written before None marked a missing likelihood
@@ -110,9 +112,16 @@ class RegressionModel:
     def record(self) -> FitRecord:
         """What the fit computed besides k, as one :class:`FitRecord` (for copies and files)."""
         return FitRecord(
-            norm=self.norm, coeffs=self.coeffs, lam=self.lam, cov=self._cov,
-            noise_var=self.noise_var, noise_cov=self.noise_cov, loglik=self.loglik,
-            info=self.info, changepoints=self._changepoints, status=self.status,
+            norm=self.norm,
+            coeffs=self.coeffs,
+            lam=self.lam,
+            cov=self._cov,
+            noise_var=self.noise_var,
+            noise_cov=self.noise_cov,
+            loglik=self.loglik,
+            info=self.info,
+            changepoints=self._changepoints,
+            status=self.status,
         )
 
     # -- shapes -------------------------------------------------------------------
@@ -201,8 +210,9 @@ class RegressionModel:
         else:
             per_group = np.diagonal(c.blocks, axis1=2, axis2=3)  # (G, N, p)
             scales = c.scales(self.n_outputs)
-            var = np.concatenate([scales[i] * per_group[g] for i, g in enumerate(c.row_group)],
-                                 axis=1)
+            var = np.concatenate(
+                [scales[i] * per_group[g] for i, g in enumerate(c.row_group)], axis=1
+            )
         return np.sqrt(np.maximum(var, 0.0))
 
     # -- names, time and export ------------------------------------------------------
@@ -256,21 +266,20 @@ class RegressionModel:
     def output_names(self) -> list[str]:
         """Names of the n outputs (rows of Θ_t): the data's column names (a pandas y),
         else "y0", "y1", …"""
-        return self._recorded("output", self.n_outputs) or \
-            [f"y{i}" for i in range(self.n_outputs)]
+        return self._recorded("output", self.n_outputs) or [f"y{i}" for i in range(self.n_outputs)]
 
     @property
     def regressor_names(self) -> list[str]:
         """Names of the p regressors (columns of Θ_t): the data's column names (a pandas
         phi), else "phi0", "phi1", …"""
-        return self._recorded("regressor", self.n_regressors) or \
-            [f"phi{j}" for j in range(self.n_regressors)]
+        return self._recorded("regressor", self.n_regressors) or [
+            f"phi{j}" for j in range(self.n_regressors)
+        ]
 
     def _recorded(self, key: str, count: int) -> list[str] | None:
         """``info["signal_names"][key]`` when it names ``count`` signals, else None."""
         names = self.info.get("signal_names", {}).get(key)
-        return [str(name) for name in names] if names is not None and len(names) == count \
-            else None
+        return [str(name) for name in names] if names is not None and len(names) == count else None
 
     def coefficient_names(self) -> list[str]:
         """Names of the K entries of k_t, "output:regressor" in k's order (rows of Θ_t)."""
@@ -310,17 +319,23 @@ class RegressionModel:
             raise TypeError(f"std: expected True or False, received {std!r}")
         names = self.coefficient_names()
         times = self.step_times
-        index = (pd.RangeIndex(self.N, name="t") if times is None
-                 else pd.Index(times, name="time"))
+        index = pd.RangeIndex(self.N, name="t") if times is None else pd.Index(times, name="time")
         frame = pd.DataFrame(np.array(self.k), columns=names, index=index)
         if std:
             deviations = self.std()
             if deviations is None:
-                raise ValueError(f"std: this model (norm={self.norm!r}) has no covariance; "
-                                 "use std=False")
-            frame = pd.concat([frame, pd.DataFrame(deviations, columns=[f"{name} std"
-                                                                         for name in names],
-                                                   index=frame.index)], axis=1)
+                raise ValueError(
+                    f"std: this model (norm={self.norm!r}) has no covariance; use std=False"
+                )
+            frame = pd.concat(
+                [
+                    frame,
+                    pd.DataFrame(
+                        deviations, columns=[f"{name} std" for name in names], index=frame.index
+                    ),
+                ],
+                axis=1,
+            )
         return frame
 
     def plot(self, truth: Any = None, *, bands: bool = True, fig: Any = None):
@@ -403,8 +418,10 @@ class RegressionModel:
                 lines.append(f"  {key}: {self.info[key]}")
         act = self.activation()
         if act.size:
-            lines.append(f"  activation ‖Dk‖: max {act.max():.3g} at t={int(act.argmax())}, "
-                         f"median {np.median(act):.3g}")
+            lines.append(
+                f"  activation ‖Dk‖: max {act.max():.3g} at t={int(act.argmax())}, "
+                f"median {np.median(act):.3g}"
+            )
         return "\n".join(lines)
 
 

@@ -62,6 +62,8 @@ class Segmentation:
     def plot(self, fig: Any = None):
         """Plot the model on the segments (:meth:`RegressionModel.plot`); needs ``model``."""
         if self.model is None:
-            raise ValueError("the segmentation has no model (its segments leave no residual "
-                             "degree of freedom), so there are no coefficients to plot")
+            raise ValueError(
+                "the segmentation has no model (its segments leave no residual "
+                "degree of freedom), so there are no coefficients to plot"
+            )
         return self.model.plot(fig=fig)

@@ -95,7 +95,11 @@ class LTVModel(RegressionModel, LinearTimeVarying):
     """
 
     def __init__(
-        self, k: np.ndarray, n_states: int, n_inputs: int, fit: FitRecord | None = None,
+        self,
+        k: np.ndarray,
+        n_states: int,
+        n_inputs: int,
+        fit: FitRecord | None = None,
         constant: bool = False,
     ) -> None:
         n_states = options.integer(n_states, "n_states", minimum=1)
@@ -159,8 +163,14 @@ class LTVModel(RegressionModel, LinearTimeVarying):
 
     @classmethod
     def from_arrays(
-        cls, A: Any, B: Any = None, *, c: Any = None, steps: int | None = None,
-        noise_cov: Any = None, order: Any = None,
+        cls,
+        A: Any,
+        B: Any = None,
+        *,
+        c: Any = None,
+        steps: int | None = None,
+        noise_cov: Any = None,
+        order: Any = None,
     ) -> LTVModel:
         """A model with known coefficients: x[t+1] = A_t x[t] + B_t u[t] (+ c_t) + v_t.
 
@@ -226,45 +236,58 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         """
         A = _coefficient_array(A, "A")
         if A.ndim not in (2, 3) or A.shape[-1] != A.shape[-2] or A.shape[-1] == 0:
-            raise ValueError(f"A: expected shape (N, n, n) or (n, n) with n >= 1, received shape "
-                             f"{A.shape}")
+            raise ValueError(
+                f"A: expected shape (N, n, n) or (n, n) with n >= 1, received shape {A.shape}"
+            )
         if steps is not None:
             steps = options.integer(steps, "steps", minimum=1)
         if A.ndim == 2:
             if steps is None:
-                raise ValueError(f"steps: required when A is one {A.shape} matrix (it is "
-                                 "repeated over steps time steps); pass steps=N, or A of shape "
-                                 f"(N, {A.shape[0]}, {A.shape[1]})")
+                raise ValueError(
+                    f"steps: required when A is one {A.shape} matrix (it is "
+                    "repeated over steps time steps); pass steps=N, or A of shape "
+                    f"(N, {A.shape[0]}, {A.shape[1]})"
+                )
             A = np.broadcast_to(A, (steps,) + A.shape)
         elif A.shape[0] == 0:
             raise ValueError(f"A: expected at least one time step, received shape {A.shape}")
         elif steps is not None and steps != A.shape[0]:
-            raise ValueError(f"steps: expected None or {A.shape[0]} (the length of A, shape "
-                             f"{A.shape}), received {steps}")
+            raise ValueError(
+                f"steps: expected None or {A.shape[0]} (the length of A, shape "
+                f"{A.shape}), received {steps}"
+            )
         N, n = A.shape[0], A.shape[1]
         if B is None:
             B = np.zeros((N, n, 0))
         else:
             B = _coefficient_array(B, "B")
             if B.ndim not in (2, 3) or B.shape[-2] != n or (B.ndim == 3 and B.shape[0] != N):
-                raise ValueError(f"B: expected shape ({N}, {n}, m) or ({n}, m) for A with N = "
-                                 f"{N} steps and n = {n} states, received shape {B.shape}")
+                raise ValueError(
+                    f"B: expected shape ({N}, {n}, m) or ({n}, m) for A with N = "
+                    f"{N} steps and n = {n} states, received shape {B.shape}"
+                )
             B = np.broadcast_to(B, (N,) + B.shape[-2:])
         parts = [A, B]
         if c is not None:
             c = _coefficient_array(c, "c")
             if c.ndim not in (1, 2) or c.shape[-1] != n or (c.ndim == 2 and c.shape[0] != N):
-                raise ValueError(f"c: expected shape ({N}, {n}) or ({n},) for A with N = {N} "
-                                 f"steps and n = {n} states, received shape {c.shape}")
+                raise ValueError(
+                    f"c: expected shape ({N}, {n}) or ({n},) for A with N = {N} "
+                    f"steps and n = {n} states, received shape {c.shape}"
+                )
             parts.append(np.broadcast_to(c, (N, n))[:, :, None])
-        coeffs = None if order is None else \
-            options.difference_coefficients(order, max_degree=N - 1)
+        coeffs = None if order is None else options.difference_coefficients(order, max_degree=N - 1)
         if coeffs is not None and coeffs.size > N:  # model files hold at most N coefficients
-            raise ValueError(f"order: expected at most {N} coefficients (degree N − 1 = {N - 1}) "
-                             f"for a model of N = {N} steps, received {coeffs.size}")
+            raise ValueError(
+                f"order: expected at most {N} coefficients (degree N − 1 = {N - 1}) "
+                f"for a model of N = {N} steps, received {coeffs.size}"
+            )
         noise = None if noise_cov is None else noise_covariance(noise_cov, None, n)
-        fit = FitRecord(coeffs=coeffs, noise_cov=noise,
-                        noise_var=None if noise is None else np.diag(noise).copy())
+        fit = FitRecord(
+            coeffs=coeffs,
+            noise_cov=noise,
+            noise_var=None if noise is None else np.diag(noise).copy(),
+        )
         k = np.concatenate(parts, axis=2).reshape(N, -1)
         return cls(k, n, B.shape[2], fit, constant=c is not None)
 
@@ -327,8 +350,7 @@ class LTVModel(RegressionModel, LinearTimeVarying):
             )
         R = x0.shape[0]
         if R == 0:
-            raise ValueError("x0: expected at least one initial state, received shape "
-                             f"{x0.shape}")
+            raise ValueError(f"x0: expected at least one initial state, received shape {x0.shape}")
         if u is None:
             if self.n_inputs:
                 raise ValueError(f"u: the model has {self.n_inputs} inputs, received None")
@@ -350,21 +372,32 @@ class LTVModel(RegressionModel, LinearTimeVarying):
                 )
         A, B = np.ascontiguousarray(self.A), np.ascontiguousarray(self.B)
         c = np.ascontiguousarray(self.c)
-        out = np.stack([
-            simulate_affine(A, B, c, x0[r], np.ascontiguousarray(u[r % u.shape[0], : self.N]))
-            for r in range(R)
-        ])
+        out = np.stack(
+            [
+                simulate_affine(A, B, c, x0[r], np.ascontiguousarray(u[r % u.shape[0], : self.N]))
+                for r in range(R)
+            ]
+        )
         if not np.all(np.isfinite(out)):
             step = int(np.flatnonzero(~np.all(np.isfinite(out), axis=(0, 2)))[0])
             warnings.warn(
                 f"the simulation diverged: the state is inf or NaN from time step {step} on "
-                "(the model is unstable along these inputs)", DivergenceWarning, stacklevel=2,
+                "(the model is unstable along these inputs)",
+                DivergenceWarning,
+                stacklevel=2,
             )
         return out if batch else out[0]
 
     def forecast(
-        self, x0: Any, u: Any = None, *, steps: int | None = None, level: float = 0.95,
-        n_samples: int = DEFAULT_SAMPLES, seed: Any = 0, noise_cov: Any = None,
+        self,
+        x0: Any,
+        u: Any = None,
+        *,
+        steps: int | None = None,
+        level: float = 0.95,
+        n_samples: int = DEFAULT_SAMPLES,
+        seed: Any = 0,
+        noise_cov: Any = None,
     ) -> Forecast:
         """Forecast the states after the end of the data, with prediction intervals.
 
@@ -419,11 +452,16 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         x0, future, steps = state_space_inputs(x0, u, steps, n=self.n_states, m=self.n_inputs)
         level, n_samples, seed = forecast_options(level, n_samples, seed)
         noise = noise_covariance(noise_cov, self.noise_cov, self.n_states)
-        known = np.concatenate([future, np.ones((steps, 1))], axis=1) if self.constant \
-            else future
+        known = np.concatenate([future, np.ones((steps, 1))], axis=1) if self.constant else future
         return forecast_model(
-            self, x0[None, :], known, level=level, n_samples=n_samples, seed=seed,
-            noise_cov=noise, time=self.times_after(self.N + 1, steps),
+            self,
+            x0[None, :],
+            known,
+            level=level,
+            n_samples=n_samples,
+            seed=seed,
+            noise_cov=noise,
+            time=self.times_after(self.N + 1, steps),
             names=self.state_names,
         )
 
@@ -487,23 +525,31 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         >>> model.to_statespace(0, dt=0.01).dcgain()     # doctest: +SKIP
         """
         if isinstance(t, (bool, np.bool_)) or not isinstance(t, Integral):
-            raise TypeError(f"t: expected an integer model step in [{-self.N}, {self.N - 1}], "
-                            f"received {describe(t)}")
+            raise TypeError(
+                f"t: expected an integer model step in [{-self.N}, {self.N - 1}], "
+                f"received {describe(t)}"
+            )
         if not -self.N <= t < self.N:
-            raise ValueError(f"t: expected a model step in [{-self.N}, {self.N - 1}] (the model "
-                             f"has N = {self.N} steps; negative steps count from the end), "
-                             f"received {int(t)}")
+            raise ValueError(
+                f"t: expected a model step in [{-self.N}, {self.N - 1}] (the model "
+                f"has N = {self.N} steps; negative steps count from the end), "
+                f"received {int(t)}"
+            )
         step = int(t) % self.N
         dt = self._index_step() if dt is None else options.positive_scalar(dt, "dt")
-        missing = ("to_statespace needs python-control (the package 'control', >= 0.9.4): "
-                   "install it with pip install 'ltvmodels[control]' (or pip install control)")
+        missing = (
+            "to_statespace needs python-control (the package 'control', >= 0.9.4): "
+            "install it with pip install 'ltvmodels[control]' (or pip install control)"
+        )
         try:
             import control
         except ImportError as exc:
             raise ImportError(missing) from exc
         if not hasattr(control, "StateSpace"):  # a directory named control/ on sys.path
-            raise ImportError(f"{missing}; the module 'control' found "
-                              f"({getattr(control, '__path__', None) or control}) is not it")
+            raise ImportError(
+                f"{missing}; the module 'control' found "
+                f"({getattr(control, '__path__', None) or control}) is not it"
+            )
         n = self.n_states
         B = self.theta[step, :, n:]  # [B_t] or [B_t c_t]
         inputs = self.input_names
@@ -513,8 +559,14 @@ class LTVModel(RegressionModel, LinearTimeVarying):
                 label += "_"
             inputs = inputs + [label]
         return control.StateSpace(
-            np.array(self.A[step]), np.array(B), np.eye(n), np.zeros((n, B.shape[1])), dt,
-            inputs=inputs, outputs=self.state_names, states=self.state_names,
+            np.array(self.A[step]),
+            np.array(B),
+            np.eye(n),
+            np.zeros((n, B.shape[1])),
+            dt,
+            inputs=inputs,
+            outputs=self.state_names,
+            states=self.state_names,
             name=f"ltv_t{step}",
         )
 
@@ -532,8 +584,13 @@ class LTVModel(RegressionModel, LinearTimeVarying):
 
     @classmethod
     def from_structure(cls, k: np.ndarray, structure: dict, fit: FitRecord) -> LTVModel:
-        return cls(k, structure["n_states"], structure["n_inputs"], fit,
-                   constant=structure.get("constant", False))
+        return cls(
+            k,
+            structure["n_states"],
+            structure["n_inputs"],
+            fit,
+            constant=structure.get("constant", False),
+        )
 
     # -- display ------------------------------------------------------------------
     def _repr_sizes(self) -> str:
@@ -554,6 +611,8 @@ def _coefficient_array(value: Any, name: str) -> np.ndarray:
     """A finite float64 copy of given coefficients, of magnitude up to ``LARGEST_DATA``."""
     arr = arrays.as_float_array(value, name)
     if arr.size and np.abs(arr).max() > LARGEST_DATA:
-        raise ValueError(f"{name}: expected finite values of magnitude up to {LARGEST_DATA:g}, "
-                         f"received values up to {np.abs(arr).max():.3g}")
+        raise ValueError(
+            f"{name}: expected finite values of magnitude up to {LARGEST_DATA:g}, "
+            f"received values up to {np.abs(arr).max():.3g}"
+        )
     return arr

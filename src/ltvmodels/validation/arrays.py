@@ -135,8 +135,7 @@ def _time_series_shape(arr: np.ndarray, name: str, allow_1d: bool) -> np.ndarray
     if arr.shape[1] == 0:
         raise ValueError(f"{name}: expected at least one column, received shape {arr.shape}")
     if arr.shape[0] == 0:
-        raise ValueError(f"{name}: expected at least one sample (row), received shape "
-                         f"{arr.shape}")
+        raise ValueError(f"{name}: expected at least one sample (row), received shape {arr.shape}")
     return arr
 
 
@@ -146,8 +145,12 @@ def trajectories(value: Any, name: str) -> np.ndarray:
     Accepted: (T,) and (T, d) (one trajectory), (R, T, d), or a list of R
     equal-length arrays or DataFrames of shape (T, d) or (T,).
     """
-    if type(value) is np.ndarray and value.dtype.kind in "fiu" and value.ndim in (1, 2) \
-            and value.size:
+    if (
+        type(value) is np.ndarray
+        and value.dtype.kind in "fiu"
+        and value.ndim in (1, 2)
+        and value.size
+    ):
         # The common case, a plain numeric array, in a few passes (many short series
         # are fitted one after another); anything the checks below would reject
         # (inf, magnitudes out of range) goes through them for their message.
@@ -155,11 +158,8 @@ def trajectories(value: Any, name: str) -> np.ndarray:
         scale = column_scale(arr if arr.ndim == 2 else arr[:, None])
         if all(not (v > LARGEST_DATA or 0 < v < SMALLEST_DATA) for v in scale.tolist()):
             return _time_series_shape(arr, name, True)[None]  # NaN columns: missing data
-    if isinstance(value, (list, tuple)) and value and all(
-        hasattr(item, "shape") for item in value
-    ):
-        parts = [as_time_series(item, f"{name}[{r}]", missing=True)
-                 for r, item in enumerate(value)]
+    if isinstance(value, (list, tuple)) and value and all(hasattr(item, "shape") for item in value):
+        parts = [as_time_series(item, f"{name}[{r}]", missing=True) for r, item in enumerate(value)]
         shapes = {part.shape for part in parts}
         if len(shapes) > 1:
             listed = ", ".join(str(part.shape) for part in parts[:4])
@@ -188,8 +188,10 @@ def trajectories(value: Any, name: str) -> np.ndarray:
     if arr.shape[2] == 0:
         raise ValueError(f"{name}: expected at least one column, received shape {arr.shape}")
     if arr.shape[1] == 0:
-        raise ValueError(f"{name}: expected at least one sample (time on axis 1 of an "
-                         f"(R, T, d) batch), received shape {arr.shape}")
+        raise ValueError(
+            f"{name}: expected at least one sample (time on axis 1 of an "
+            f"(R, T, d) batch), received shape {arr.shape}"
+        )
     return representable(arr, name)
 
 
@@ -234,9 +236,10 @@ def representable(arr: np.ndarray, name: str, *, small: bool = True) -> np.ndarr
     if arr.size == 0:
         return arr
     scale = column_scale(arr)
-    for bad, what, limit in ((scale > LARGEST_DATA, "large", LARGEST_DATA),
-                             ((scale > 0) & (scale < SMALLEST_DATA) & small, "small",
-                              SMALLEST_DATA)):
+    for bad, what in (
+        (scale > LARGEST_DATA, "large"),
+        ((scale > 0) & (scale < SMALLEST_DATA) & small, "small"),
+    ):
         if bad.any():
             j = int(np.flatnonzero(bad)[0])
             raise ValueError(
@@ -272,8 +275,12 @@ def column_names(value: Any, count: int) -> list[str] | None:
     if columns is not None and getattr(value, "ndim", 0) == 2 and len(columns) == count:
         return [str(name) for name in columns]
     name = getattr(value, "name", None)
-    if name is not None and getattr(value, "ndim", 0) == 1 and count == 1 and \
-            hasattr(value, "index"):
+    if (
+        name is not None
+        and getattr(value, "ndim", 0) == 1
+        and count == 1
+        and hasattr(value, "index")
+    ):
         return [str(name)]
     return None
 
@@ -384,8 +391,9 @@ def row_weights(weights: Any, R: int, N: int, name: str = "weights") -> np.ndarr
     if np.any(w < 0):
         raise ValueError(f"{name}: expected weights >= 0, received a minimum of {w.min():g}")
     positive = w[w > 0]
-    if positive.size and not (LIGHTEST_WEIGHT <= positive.min()
-                              and positive.max() <= HEAVIEST_WEIGHT):
+    if positive.size and not (
+        LIGHTEST_WEIGHT <= positive.min() and positive.max() <= HEAVIEST_WEIGHT
+    ):
         raise ValueError(
             f"{name}: expected weights of 0 or between {LIGHTEST_WEIGHT:g} and "
             f"{HEAVIEST_WEIGHT:g}, received values from {positive.min():g} to "
@@ -516,7 +524,12 @@ def initial_state_prior(
 
 
 def lagged_series(
-    y: Any, u: Any, lag: int, structure: str, *, n_inputs: int | None = None,
+    y: Any,
+    u: Any,
+    lag: int,
+    structure: str,
+    *,
+    n_inputs: int | None = None,
     require_inputs: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Validate AR/ARX data: y (T, n) or (T,), u (T, m) or (T,) or None; T > lag.
@@ -536,9 +549,7 @@ def lagged_series(
     else:
         u = representable(as_time_series(u, "u", allow_1d=True, missing=True), "u")
         if u.shape[0] != T:
-            raise ValueError(
-                f"u: expected {T} rows (one per sample of y), received {u.shape[0]}"
-            )
+            raise ValueError(f"u: expected {T} rows (one per sample of y), received {u.shape[0]}")
         if n_inputs is not None and u.shape[1] != n_inputs:
             raise ValueError(f"u: expected {n_inputs} columns, received {u.shape[1]}")
     if T <= lag:
@@ -550,7 +561,12 @@ def lagged_series(
 
 
 def lagged_recordings(
-    y: Any, u: Any, lag: int, structure: str, *, require_inputs: bool = False,
+    y: Any,
+    u: Any,
+    lag: int,
+    structure: str,
+    *,
+    require_inputs: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """As :func:`lagged_series` for R trajectories with NaN = missing.
 
@@ -583,8 +599,7 @@ def model_series(
     y: Any, u: Any, *, N: int, n: int, m: int, lag: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """Data for a fitted AR/ARX model: y (N + lag, n), u (N + lag, m) (None if m = 0)."""
-    y, u = lagged_series(y, u, lag, f"the model's lags ({lag})", n_inputs=m,
-                         require_inputs=m > 0)
+    y, u = lagged_series(y, u, lag, f"the model's lags ({lag})", n_inputs=m, require_inputs=m > 0)
     if y.shape[1] != n:
         raise ValueError(f"y: expected {n} columns (outputs), received {y.shape[1]}")
     if y.shape[0] != N + lag:
@@ -645,8 +660,10 @@ def simulation_inputs(
 def dynamics_matrices(model: Any) -> np.ndarray:
     """``model.A`` as a float array of shape (N, n, n), for any object that has one."""
     if not hasattr(model, "A"):
-        raise TypeError(f"model: expected an object with attribute A (N, n, n) such as an "
-                        f"LTVModel, received {type(model).__name__}")
+        raise TypeError(
+            f"model: expected an object with attribute A (N, n, n) such as an "
+            f"LTVModel, received {type(model).__name__}"
+        )
     A = np.asarray(model.A, dtype=float)
     if A.ndim != 3 or A.shape[1] != A.shape[2]:
         raise ValueError(f"model.A: expected shape (N, n, n), received {A.shape}")

@@ -7,9 +7,10 @@ checked in :mod:`ltvmodels.validation.arrays`.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from functools import lru_cache
 from numbers import Integral, Real
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -38,8 +39,9 @@ def flag(value: Any, name: str) -> bool:
 def callback(value: Any, name: str) -> Any:
     """Validate a function or None (e.g. ``progress(done, total)``)."""
     if value is not None and not callable(value):
-        raise TypeError(f"{name}: expected a function {name}(done, total) or None, received "
-                        f"{describe(value)}")
+        raise TypeError(
+            f"{name}: expected a function {name}(done, total) or None, received {describe(value)}"
+        )
     return value
 
 
@@ -148,8 +150,10 @@ def loss_options(loss: Any, delta: Any, n: int) -> tuple[str, np.ndarray | None]
     loss = choice(loss, "loss", LOSSES)
     delta = huber_delta(delta, n)
     if loss != "huber" and delta is not None:
-        raise ValueError(f"huber_delta: applies to loss='huber' only, received loss={loss!r}; "
-                         "pass loss='huber' or leave huber_delta out")
+        raise ValueError(
+            f"huber_delta: applies to loss='huber' only, received loss={loss!r}; "
+            "pass loss='huber' or leave huber_delta out"
+        )
     return loss, delta
 
 
@@ -157,17 +161,21 @@ def huber_delta(value: Any, n: int) -> np.ndarray | None:
     """Validate None (the default rule), a threshold δ > 0, or one per output (n,)."""
     if value is None:
         return None
-    arr = np.asarray(value, dtype=float) if not isinstance(value, (str, bytes, bool)) \
-        else None
-    if arr is None or arr.shape not in ((), (n,)) or not np.all(np.isfinite(arr)) \
-            or np.any(arr <= 0):
+    arr = np.asarray(value, dtype=float) if not isinstance(value, (str, bytes, bool)) else None
+    if (
+        arr is None
+        or arr.shape not in ((), (n,))
+        or not np.all(np.isfinite(arr))
+        or np.any(arr <= 0)
+    ):
         raise ValueError(
             f"huber_delta: expected a threshold > 0 or one per output (shape ({n},)), in the "
             f"units of the outputs, received {describe(value)}"
         )
     if np.any(arr > 1e100) or np.any(arr < 1e-100):
-        raise ValueError(f"huber_delta: expected thresholds between 1e-100 and 1e100, "
-                         f"received {describe(value)}")
+        raise ValueError(
+            f"huber_delta: expected thresholds between 1e-100 and 1e100, received {describe(value)}"
+        )
     return np.broadcast_to(arr, (n,)).copy()
 
 
@@ -207,12 +215,12 @@ def penalty_weight(lam: Any, K: int) -> np.ndarray:
         _square_fits(arr)
         return np.broadcast_to(arr**2, (K,)).copy()
     if not np.all(np.isfinite(arr)):
-        raise ValueError("lam: a weight matrix must be finite (use a vector with inf "
-                         "entries to hold coefficients constant)")
-    if not np.allclose(arr, arr.T, rtol=1e-10, atol=1e-12 * np.abs(arr).max()):
         raise ValueError(
-            "lam: expected a symmetric weight matrix, received a non-symmetric one"
+            "lam: a weight matrix must be finite (use a vector with inf "
+            "entries to hold coefficients constant)"
         )
+    if not np.allclose(arr, arr.T, rtol=1e-10, atol=1e-12 * np.abs(arr).max()):
+        raise ValueError("lam: expected a symmetric weight matrix, received a non-symmetric one")
     eig_min = np.linalg.eigvalsh(arr).min()
     if eig_min < -1e-10 * max(np.abs(arr).max(), 1e-300):
         raise ValueError(
@@ -228,8 +236,10 @@ def _lam_array(lam: Any, K: int) -> np.ndarray:
     Checks type, NaN, shape and signs; what each norm allows beyond that is
     checked by :func:`penalty_weight` and :func:`sparse_weights`.
     """
-    expected = (f"lam: expected a number >= 0, a (K,) vector or a (K, K) matrix of real "
-                f"numbers (K={K}), received {describe(lam)}")
+    expected = (
+        f"lam: expected a number >= 0, a (K,) vector or a (K, K) matrix of real "
+        f"numbers (K={K}), received {describe(lam)}"
+    )
     if lam is None or isinstance(lam, (str, bytes, bool)):
         raise TypeError(expected)
     if isinstance(lam, np.ma.MaskedArray) and np.ma.getmaskarray(lam).any():
@@ -322,8 +332,10 @@ def difference_coefficients(order: Any, max_degree: int | None = None) -> np.nda
     order before its coefficients are built.
     """
     if isinstance(order, bool):
-        raise TypeError(f"order: expected an integer >= 1 or a sequence of coefficients, "
-                        f"received {describe(order)}")
+        raise TypeError(
+            f"order: expected an integer >= 1 or a sequence of coefficients, "
+            f"received {describe(order)}"
+        )
     if isinstance(order, Integral):
         d = int(order)
         if d < 1:
@@ -335,8 +347,10 @@ def difference_coefficients(order: Any, max_degree: int | None = None) -> np.nda
             )
         return _difference_of_degree(d).copy()  # a copy: the caller may modify it
     if isinstance(order, Real):
-        raise TypeError(f"order: expected an integer >= 1 or a sequence of coefficients, "
-                        f"received {describe(order)}")
+        raise TypeError(
+            f"order: expected an integer >= 1 or a sequence of coefficients, "
+            f"received {describe(order)}"
+        )
     coeffs = as_float_array(order, "order")
     if coeffs.ndim != 1 or coeffs.size < 2:
         raise ValueError(
@@ -388,7 +402,10 @@ def lag_orders(na: Any, nb: Any, nk: Any, *, min_na: int, min_nb: int) -> tuple[
 
 
 def enough_samples(
-    N: int, n_params_per_row: int, n_diff: int, observed: int | None = None,
+    N: int,
+    n_params_per_row: int,
+    n_diff: int,
+    observed: int | None = None,
     n_rows: int | None = None,
 ) -> None:
     """Require enough time steps and observed transitions to identify the parameters.
@@ -399,21 +416,35 @@ def enough_samples(
     ``observed`` of ``n_rows`` transitions (all trajectories) are complete
     (default: all N).
     """
-    _enough(N, n_params_per_row, n_diff, observed, n_rows, "x", "transitions",
-            f" (T={N + 1})", "T >= {}", 1)
+    _enough(
+        N,
+        n_params_per_row,
+        n_diff,
+        observed,
+        n_rows,
+        "x",
+        "transitions",
+        f" (T={N + 1})",
+        "T >= {}",
+        1,
+    )
 
 
 def enough_rows(
-    N: int, n_params_per_row: int, n_diff: int, name: str, note: str = "",
-    observed: int | None = None, n_rows: int | None = None,
+    N: int,
+    n_params_per_row: int,
+    n_diff: int,
+    name: str,
+    note: str = "",
+    observed: int | None = None,
+    n_rows: int | None = None,
 ) -> None:
     """Require enough regression rows to identify p regressors per output row.
 
     As :func:`enough_samples` for a regression with N rows (``name`` is the
     data argument; ``note`` says how the rows relate to the series, e.g. for AR).
     """
-    _enough(N, n_params_per_row, n_diff, observed, n_rows, name, "regression rows", note,
-            "", 0)
+    _enough(N, n_params_per_row, n_diff, observed, n_rows, name, "regression rows", note, "", 0)
 
 
 def _enough(N, p, d, observed, n_rows, name, rows, note, total_hint, offset) -> None:
@@ -470,9 +501,7 @@ def segmentable_length(N: int, min_size: int, data_name: str) -> None:
 def n_changes_count(value: Any, N: int, min_size: int) -> int:
     """Number of changes M: an integer >= 0 with (M + 1) · min_size <= N."""
     if isinstance(value, bool) or not isinstance(value, Integral):
-        raise TypeError(
-            f"n_changes: expected an integer >= 0, received {describe(value)}"
-        )
+        raise TypeError(f"n_changes: expected an integer >= 0, received {describe(value)}")
     if value < 0:
         raise ValueError(f"n_changes: expected an integer >= 0, received {int(value)}")
     M = int(value)
@@ -496,8 +525,7 @@ def segment_penalty(value: Any) -> float | str:
         return value
     if isinstance(value, bool) or np.ndim(value) != 0:
         raise TypeError(
-            f"penalty: expected a number >= 0 or one of {PENALTY_RULES}, received "
-            f"{describe(value)}"
+            f"penalty: expected a number >= 0 or one of {PENALTY_RULES}, received {describe(value)}"
         )
     return nonnegative_scalar(value.item() if hasattr(value, "item") else value, "penalty")
 
