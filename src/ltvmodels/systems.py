@@ -164,8 +164,8 @@ def jump_linear(
     with ``A_t`` the first matrix for ``t < change_at`` and the second for
     ``t >= change_at`` (model index t maps (x[t], u[t]) to x[t+1], so k_t
     changes first at t = ``change_at``). Inputs u[t] ~ N(0, 1); process noise
-    w[t] ~ N(0, ``noise_std``² I); measurement noise e[t] ~ N(0,
-    ``measurement_std``² I) is added to the *recorded* states ``x`` (so ``x``
+    w[t] ~ N(0, noise_std² I); measurement noise e[t] ~ N(0,
+    measurement_std² I) is added to the *recorded* states ``x`` (so ``x``
     is noisy both as regressor and as target), as in the paper.
 
     Parameters
@@ -247,7 +247,7 @@ def random_walk_system(
 
     1. Start: ``A_0`` is a standard Gaussian n×n matrix scaled to Frobenius
        norm 0.6; ``B_0`` has standard Gaussian entries.
-    2. Walk: k_{t+1} = k_t + s_t with s_t ~ N(0, ``drift_std``² I) for all
+    2. Walk: k_{t+1} = k_t + s_t with s_t ~ N(0, drift_std² I) for all
        K = n(n + m) entries of [A_t B_t] (a vectorized cumulative sum).
     3. Stability: wherever ‖A_t‖_F exceeds ``max_norm`` (< 1), A_t is scaled
        down to Frobenius norm ``max_norm``. Since the spectral norm is at most
@@ -256,14 +256,14 @@ def random_walk_system(
        exponentially stable (a spectral radius < 1 of each A_t alone would not
        guarantee that). While the bound is inactive, A_t is exactly the random
        walk; B_t is never modified (it does not affect stability, and its
-       entries wander with standard deviation ``drift_std``·√t). For long
+       entries wander with standard deviation drift_std·√t). For long
        series (drift_std·√T of order 0.3 or more, e.g. T >= 10⁵ with the
        default drift_std) A_t spends most of the time on the bound.
 
     Then ``x_true[0] = 0``, ``x_true[t+1] = A_t x_true[t] + B_t u[t] + w[t]``
-    with u[t] ~ N(0, I_m), w[t] ~ N(0, ``noise_std``² I_n), computed by a
+    with u[t] ~ N(0, I_m), w[t] ~ N(0, noise_std² I_n), computed by a
     compiled loop (T = 10⁶ with n = 3, m = 2 takes well under a second), and
-    ``x = x_true + e`` with e[t] ~ N(0, ``measurement_std``² I_n).
+    ``x = x_true + e`` with e[t] ~ N(0, measurement_std² I_n).
 
     Parameters
     ----------

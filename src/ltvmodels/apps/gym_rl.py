@@ -66,7 +66,7 @@ the noise, and a large λ over-smooths them.
 
 Performance is measured with gymnasium's own episode return (the sum of the
 env's rewards) of the noise-free rollout, never with the surrogate or the
-noisy rollouts. The swing-up criterion (:func:`swung_up`): |θ_norm| < 0.3 rad
+noisy rollouts. The swing-up criterion (:func:`swung_up`): abs(θ_norm) < 0.3 rad
 for the last 40 observations (2 s) of the episode of the final incumbent.
 :func:`run_pendulum_experiment` compares the models over several seeds
 (``table()``); :func:`plot_pendulum_experiment` draws the learning curves.
@@ -198,7 +198,7 @@ def state_from_observations(obs: Any) -> np.ndarray:
 
     θ = ``np.unwrap(np.arctan2(sin θ, cos θ))``: continuous along the
     sequence (consecutive observations are assumed less than π apart, as
-    |θ̇| <= 8 rad/s and dt = 0.05 s guarantee), starting in (−π, π].
+    abs(θ̇) <= 8 rad/s and dt = 0.05 s guarantee), starting in (−π, π].
 
     Parameters
     ----------
@@ -218,14 +218,14 @@ def state_from_observations(obs: Any) -> np.ndarray:
 
 
 def swung_up(x: Any, *, angle: float = SWING_UP_ANGLE, steps: int = SWING_UP_STEPS) -> bool:
-    """Whether a trajectory ends swung up: |θ_norm| < ``angle`` for its last ``steps`` states.
+    """Whether a trajectory ends swung up: abs(θ_norm) < ``angle`` for its last ``steps`` states.
 
     Parameters
     ----------
     x : array_like, shape (T, 2)
         States (θ, θ̇), θ in radians from upright (any multiple of 2π is upright).
     angle : float
-        Largest allowed |θ| [rad] after wrapping to [−π, π).
+        Largest allowed abs(θ) [rad] after wrapping to [−π, π).
     steps : int
         Number of final states that must be upright (40: the last 2 s of an episode).
     """
@@ -383,7 +383,7 @@ def pendulum_rollout(
     computed online). The angle error θ_t − θ̄_t is wrapped to [−π, π). The
     exploration noise e_t is added to the clipped torque and reflected at the
     bounds (``⊕``: a torque beyond +max becomes 2 max − v), so a saturated
-    torque is still perturbed (inward, by |e_t|).
+    torque is still perturbed (inward, by abs(e_t)).
 
     Parameters
     ----------

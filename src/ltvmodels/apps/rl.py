@@ -218,7 +218,7 @@ class CartPole:
 
     State x = (p, v, θ, ω): cart position [m] and velocity [m/s], pole angle
     [rad] from the hanging position (θ = π is upright) and angular velocity
-    [rad/s]; input u = (F,), the force on the cart [N], |F| <= ``force_limit``.
+    [rad/s]; input u = (F,), the force on the cart [N], abs(F) <= ``force_limit``.
     The pole is a point mass ``pole_mass`` at distance ``length`` from the
     pivot:
 
@@ -638,7 +638,7 @@ def learn(
         For ``model="learned"``: rollouts the mixture must hold before its
         prior is used (the fits before are those of "ltv"). Fitted along one
         or two falls, a component's Jacobians across the trajectory are
-        confounded with its curvature (see the README's Fig. 4 section).
+        confounded with its curvature (see the user guide's page on model-based RL).
 
     Returns
     -------

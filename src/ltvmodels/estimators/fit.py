@@ -262,7 +262,7 @@ def fit(
     loss : {"squared", "huber", "laplace"}
         The loss of each residual entry, with every norm:
 
-        * "huber": h_δ(r) = r² for |r| <= δ and 2δ|r| − δ² beyond (cvxpy's
+        * "huber": h_δ(r) = r² for abs(r) <= δ and 2δ·abs(r) − δ² beyond (cvxpy's
           ``huber``), so λ keeps its meaning and a gross outlier pulls the fit
           as little as one δ away. Exact: damped Newton steps on reweighted
           squared-loss fits ("sq", stopped on the KKT residual), or the
@@ -271,7 +271,7 @@ def fit(
           Newton on reweighted sparse fits where it does not apply); ``tol``
           and ``max_iter`` apply. ``model.outliers`` marks the residuals beyond δ;
           ``info`` holds "huber_delta", "n_outliers" and "kkt_residual".
-        * "laplace": |r| (the paper's Laplacian noise, Section IV-A), the most
+        * "laplace": abs(r) (the paper's Laplacian noise, Section IV-A), the most
           robust. Exact: the interior-point method with one more cone pair
           per residual entry (Huber smoothing with an exact active-set polish
           where coefficients are held constant), stopped when a rigorous
@@ -455,8 +455,8 @@ def lambda_max(
     :func:`ltvmodels.select_lambda` spans λ_max·[1e-3, 1]). λ_max follows from
     the optimality conditions of the null-space fit k̄: the unique dual vector
     ν with Dᵀν = −∇‖y − Φk̄‖² must satisfy ‖ν_t‖₂ ≤ λ (group) or
-    |ν_tj| ≤ λ (l1) for every t, so λ_max = max_t ‖ν_t‖₂ (group) or
-    max_tj |ν_tj| (l1). Costs one banded solve: no fit is run.
+    abs(ν_tj) ≤ λ (l1) for every t, so λ_max = max_t ‖ν_t‖₂ (group) or
+    max_tj abs(ν_tj) (l1). Costs one banded solve: no fit is run.
 
     Parameters
     ----------

@@ -262,8 +262,8 @@ def _dynamics_eigenvalues(model: Any) -> tuple[np.ndarray, str, str]:
 def plot_eigenvalues(model: Any, ax: Axes | None = None) -> Axes:
     """Plot the magnitudes of the eigenvalues of A_t over time.
 
-    Curve i is the i-th largest |λ(A_t)| at each t; the dotted line marks the
-    frozen-time stability limit |λ| = 1.
+    Curve i is the i-th largest abs(λ(A_t)) at each t; the dotted line marks the
+    frozen-time stability limit abs(λ) = 1.
 
     Parameters
     ----------
@@ -355,7 +355,7 @@ def plot_model(
     The top part is :func:`plot_coefficients` (±2σ bands where the model has
     covariances, the truth dashed if given); below it
     :func:`plot_activation` with the change points marked and
-    :func:`plot_eigenvalues` with the line |λ| = 1.
+    :func:`plot_eigenvalues` with the line abs(λ) = 1.
 
     Parameters
     ----------
