@@ -1,4 +1,6 @@
-"""Root spectrogram of a two-component chirp: a time-varying AR(6) model over the STFT.
+"""
+Root spectrogram of a two-component chirp: a time-varying AR(6) model over the STFT
+===================================================================================
 
 The test signal of the reference implementation: fs = 16 kHz, T = 2¹⁴ samples,
 
@@ -30,7 +32,9 @@ from ltvmodels.errors import OutputPathError
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument(
         "--out",
         default="chirp_spectrogram.png",
@@ -52,4 +56,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    # Exit only on failure: the documentation's gallery runs this file in-process.
+    if status := main():
+        raise SystemExit(status)

@@ -1,4 +1,6 @@
-"""Model-based reinforcement learning on gymnasium's Pendulum-v1 with LTV vs LTI models.
+"""
+Model-based reinforcement learning on gymnasium's Pendulum-v1 with LTV vs LTI models
+====================================================================================
 
 The loop of ``examples/rl_cartpole.py`` on a simulator nobody here wrote: the
 pendulum of gymnasium (torque bounded to ±2, episodes of 200 steps, swing-up)
@@ -57,7 +59,9 @@ from ltvmodels.apps.gym_rl import (
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument(
         "--out", default="gym_pendulum.png", help="image file to write (default: gym_pendulum.png)"
     )
@@ -119,4 +123,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    # Exit only on failure: the documentation's gallery runs this file in-process.
+    if status := main():
+        raise SystemExit(status)

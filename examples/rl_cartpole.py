@@ -1,4 +1,6 @@
-"""Model-based reinforcement learning of a pendulum on a cart (paper Section VIII, Fig. 4).
+"""
+Model-based reinforcement learning of a pendulum on a cart (paper Section VIII, Fig. 4)
+=======================================================================================
 
 The pendulum starts close to upright and falls; the controller moves the cart
 (force bounded to ±3 N) to damp the swing about the hanging position, under a
@@ -33,7 +35,9 @@ from ltvmodels.apps.rl import MODELS, PAPER_MODELS, plot_experiment, run_experim
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument(
         "--out", default="rl_cartpole.png", help="image file to write (default: rl_cartpole.png)"
     )
@@ -88,4 +92,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    # Exit only on failure: the documentation's gallery runs this file in-process.
+    if status := main():
+        raise SystemExit(status)
