@@ -1,0 +1,75 @@
+"""Sphinx configuration of the ltvmodels documentation.
+
+Build (warnings are errors)::
+
+    python -m sphinx -W --keep-going -b html docs docs/_build/html
+
+The gallery runs every script in ``examples/`` in its quick mode (see
+``gallery_hooks.py``); ``-D sphinx_gallery_conf.plot_gallery=0`` skips running them.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import ltvmodels
+
+DOCS = Path(__file__).resolve().parent
+sys.path.insert(0, str(DOCS))  # gallery_hooks
+
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+project = "ltvmodels"
+author = "ltvmodels developers"
+copyright = "2026, ltvmodels developers"
+release = ltvmodels.__version__
+version = ".".join(release.split(".")[:2])
+
+templates_path = ["_templates"]
+
+extensions = [
+    "sphinx.ext.autodoc",
+    "sphinx.ext.autosummary",
+    "sphinx.ext.mathjax",
+    "numpydoc",
+    "myst_parser",
+    "sphinx_gallery.gen_gallery",
+]
+
+source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
+exclude_patterns = ["_build", "**.ipynb_checkpoints", "auto_examples/*.py", "auto_examples/*.ipynb"]
+myst_enable_extensions = ["dollarmath", "colon_fence"]
+myst_heading_anchors = 3
+
+# API reference: one page per public name, written by autosummary from the docstrings.
+autosummary_generate = True
+autosummary_imported_members = True
+autodoc_typehints = "none"  # numpydoc's Parameters section says the types
+numpydoc_show_class_members = False
+numpydoc_class_members_toctree = False
+numpydoc_xref_param_type = False
+
+sphinx_gallery_conf = {
+    "examples_dirs": str(DOCS.parent / "examples"),
+    "gallery_dirs": "auto_examples",
+    "filename_pattern": r".*\.py$",  # every example runs, not only plot_*.py
+    "reset_argv": "gallery_hooks.example_argv",
+    "image_scrapers": ("gallery_hooks.written_figures",),
+    "within_subsection_order": "gallery_hooks.ExampleOrder",
+    "download_all_examples": False,
+    "remove_config_comments": True,
+    "abort_on_example_error": True,
+    "show_memory": False,
+    "min_reported_time": 1,
+}
+
+html_theme = "pydata_sphinx_theme"
+html_title = f"ltvmodels {release}"
+html_theme_options = {
+    "navigation_with_keys": False,
+    "show_toc_level": 2,
+    "footer_start": ["copyright"],
+}
+html_static_path: list[str] = []
