@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
+import importlib.metadata
+import re
+from pathlib import Path
+
 import pytest
 
 import ltvmodels
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.mark.parametrize("name", sorted(ltvmodels.__all__))
@@ -27,5 +33,8 @@ def test_moved_applications_warn_and_still_work(old, new):
     assert module.__name__ == new
 
 
-def test_version():
-    assert ltvmodels.__version__ == "0.2.0"
+def test_the_version_is_written_in_one_place():
+    # pyproject.toml reads it from ltvmodels.__version__; the installed metadata agrees.
+    assert re.fullmatch(r"\d+\.\d+\.\d+", ltvmodels.__version__)
+    assert importlib.metadata.version("ltvmodels") == ltvmodels.__version__
+    assert 'dynamic = ["version"]' in (ROOT / "pyproject.toml").read_text()
