@@ -383,14 +383,15 @@ def piecewise_order(order: Any) -> int:
     expected = "1 (piecewise constant) or 2 (piecewise linear, continuous)"
     if isinstance(order, bool) or not isinstance(order, Integral):
         raise TypeError(f"order: expected {expected}, received {describe(order)}")
-    if order < 1:
-        raise ValueError(f"order: expected {expected}, received {int(order)}")
-    if order > 2:
+    degree = int(order)
+    if degree < 1:
+        raise ValueError(f"order: expected {expected}, received {degree}")
+    if degree > 2:
         raise NotImplementedError(
-            f"order={int(order)}: piecewise polynomials of degree >= 2 are not implemented; "
+            f"order={degree}: piecewise polynomials of degree >= 2 are not implemented; "
             f"use order=1 or order=2"
         )
-    return int(order)
+    return degree
 
 
 def lag_orders(na: Any, nb: Any, nk: Any, *, min_na: int, min_nb: int) -> tuple[int, int, int]:
@@ -544,8 +545,10 @@ def random_generator(seed: Any) -> np.random.Generator:
     """A numpy Generator from a seed: an integer >= 0, a Generator (used as is) or None."""
     if isinstance(seed, np.random.Generator):
         return seed
-    if seed is None or (isinstance(seed, Integral) and not isinstance(seed, bool) and seed >= 0):
-        return np.random.default_rng(seed)
+    if seed is None:
+        return np.random.default_rng()
+    if isinstance(seed, Integral) and not isinstance(seed, bool) and int(seed) >= 0:
+        return np.random.default_rng(int(seed))
     raise TypeError(
         f"seed: expected a non-negative integer, a numpy Generator or None, received {seed!r}"
     )
