@@ -321,10 +321,10 @@ class ARXModel(RegressionModel):
         level, n_samples, seed = forecast_options(level, n_samples, seed)
         noise = noise_covariance(noise_cov, self.noise_cov, n)
         # φ = [y[t−1]; …; y[t−na]; u[t−nk]; …; u[t−nk−nb+1]; 1], u row L + s is sample T + s
-        known = [u[L - self.nk - j : L - self.nk - j + steps] for j in range(self.nb)]
+        columns = [u[L - self.nk - j : L - self.nk - j + steps] for j in range(self.nb)]
         if self.constant:
-            known.append(np.ones((steps, 1)))
-        known = np.concatenate(known, axis=1) if known else np.zeros((steps, 0))
+            columns.append(np.ones((steps, 1)))
+        known = np.concatenate(columns, axis=1) if columns else np.zeros((steps, 0))
         initial = y_last[::-1][: self.na]  # the lags y[T−1], …, y[T−na], newest first
         T = self.N + L
         return forecast_model(
@@ -339,7 +339,9 @@ class ARXModel(RegressionModel):
             names=self.output_names,
         )
 
-    def plot(self, fs: float | None = None, ax: Any = None):
+    # A different plot from the regression's (the roots, not the coefficients): its own
+    # arguments.
+    def plot(self, fs: float | None = None, ax: Any = None):  # type: ignore[override]
         """Plot the root spectrogram; see :func:`ltvmodels.plotting.plot_root_spectrogram`
         (``fs`` None: from the model's time index, or cycles per sample)."""
         from ..plotting import plot_root_spectrogram
@@ -386,7 +388,8 @@ class ARModel(ARXModel):
     ) -> None:
         super().__init__(k, n_outputs, 0, na, 0, 1, constant, fit)
 
-    def predict(self, y: Any) -> np.ndarray:
+    # An AR model has no inputs: its predict, simulate and forecast leave u out.
+    def predict(self, y: Any) -> np.ndarray:  # type: ignore[override]
         """One-step predictions ŷ[t] = Σ_i A_{t,i} y[t−i] (+ c_t), t = na … T − 1.
 
         Parameters
@@ -399,7 +402,7 @@ class ARModel(ARXModel):
         """
         return super().predict(y, None)
 
-    def simulate(self, y0: Any, noise: Any = None) -> np.ndarray:
+    def simulate(self, y0: Any, noise: Any = None) -> np.ndarray:  # type: ignore[override]
         """Simulate y[t] = Σ_i A_{t,i} y[t−i] (+ c_t) + noise[t − na] from y[0:na] = y0.
 
         Parameters
@@ -414,7 +417,7 @@ class ARModel(ARXModel):
         """
         return super().simulate(y0, None, noise)
 
-    def forecast(
+    def forecast(  # type: ignore[override]
         self,
         y_last: Any,
         *,

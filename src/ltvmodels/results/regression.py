@@ -249,8 +249,10 @@ class RegressionModel:
         time = self.time
         return None if time is None else time[self.step_offset : self.step_offset + self.N]
 
-    step_offset = 0
-    """The sample of the data's time axis that model step 0 describes (0; AR/ARX: lag)."""
+    @property
+    def step_offset(self) -> int:
+        """The sample of the data's time axis that model step 0 describes (0; AR/ARX: lag)."""
+        return 0
 
     @property
     def changepoint_times(self) -> np.ndarray | None:
