@@ -113,7 +113,7 @@ def fit_lti(
     cov_k = np.kron(noise_cov, gram_inv)
     cov = CovarianceBlocks(np.broadcast_to(cov_k, (N, K, K)), None)
     rss = float(np.sum(resid**2))
-    info = {
+    info: dict[str, Any] = {
         "solver": "least-squares (QR)",
         "rss": rss,
         "dof": int(dof),
@@ -425,7 +425,7 @@ def fit_path(
     max_iter = options.integer(max_iter, "max_iter", minimum=1)
     tol = options.positive_scalar(tol, "tol")
     factory = partial(LTVModel, n_states=data.n, n_inputs=data.m, constant=data.constant)
-    models: list[LTVModel | None] = [None] * values.size
+    models: dict[int, LTVModel] = {}  # by position in lams
     warm = None
     for position, index in enumerate(np.argsort(-values, kind="stable")):
         lam = float(values[index])
@@ -434,8 +434,8 @@ def fit_path(
         warm = solution
         model = sparse_model(problem, lam, norm, solution, factory)
         model.info["path_position"] = position
-        models[index] = model
-    return models
+        models[int(index)] = model
+    return [models[i] for i in range(values.size)]
 
 
 def lambda_max(

@@ -89,7 +89,7 @@ def _run_filter(s: _Setup):
     D = model.F.shape[0]
     diffuse = s.prior is None
     pb = s.problem
-    m0, P0 = (np.zeros((D, pb.n)), np.eye(D)) if diffuse else s.prior
+    m0, P0 = (np.zeros((D, pb.n)), np.eye(D)) if s.prior is None else s.prior
     return filter_kernel(
         pb.phi,
         pb.y,

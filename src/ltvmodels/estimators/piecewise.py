@@ -354,10 +354,10 @@ def _fit_robust(
     n = problem.n
     N, q, p = problem.N, problem.q, problem.p
     if order == 1:
-        basis = (np.arange(N)[:, None] >= bounds[None, :-1]) & (
+        inside = (np.arange(N)[:, None] >= bounds[None, :-1]) & (
             np.arange(N)[:, None] < bounds[None, 1:]
         )
-        basis = basis.astype(float)
+        basis = inside.astype(float)
     else:
         knots = np.concatenate([[0], changepoints, [N - 1]])
         left, w = hat_weights(knots, N)
@@ -573,19 +573,19 @@ def _fit_linear(
     z_right = w[:, None, None] * phi  # regressors of γ_{j+1}
     # Normal equations ZᵀZ g = Zᵀy, block tridiagonal with J blocks of size p,
     # accumulated interval by interval.
-    gram = np.zeros((J, p, J, p))
+    gram_blocks = np.zeros((J, p, J, p))
     rhs = np.zeros((J, p, n))
     for j in range(J - 1):
         sl = slice(knots[j], knots[j + 1] if j < J - 2 else N)
         zl, zr = z_left[sl].reshape(-1, p), z_right[sl].reshape(-1, p)
         ys = y[sl].reshape(-1, n)
-        gram[j, :, j, :] += zl.T @ zl
-        gram[j, :, j + 1, :] += zl.T @ zr
-        gram[j + 1, :, j, :] += zr.T @ zl
-        gram[j + 1, :, j + 1, :] += zr.T @ zr
+        gram_blocks[j, :, j, :] += zl.T @ zl
+        gram_blocks[j, :, j + 1, :] += zl.T @ zr
+        gram_blocks[j + 1, :, j, :] += zr.T @ zl
+        gram_blocks[j + 1, :, j + 1, :] += zr.T @ zr
         rhs[j] += zl.T @ ys
         rhs[j + 1] += zr.T @ ys
-    gram = gram.reshape(J * p, J * p)
+    gram = gram_blocks.reshape(J * p, J * p)
     gram_inv = _inverse_or_raise(gram, knots, p, names, single)
     gamma = (gram_inv @ rhs.reshape(J * p, -1)).reshape(J, p, -1)  # Γ_jᵀ stacked
     theta = (1.0 - w)[:, None, None] * gamma[left] + w[:, None, None] * gamma[left + 1]

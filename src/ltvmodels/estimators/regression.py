@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import partial
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -35,7 +35,9 @@ from .recordings import regression_problem, require_enough_data
 from .robust import robust_model
 from .selection import DEFAULT_METHOD, select_for_problem
 
-ModelFactory = Callable[..., RegressionModel]
+ModelT = TypeVar("ModelT", bound=RegressionModel)
+"""The model a front-end's factory builds (RegressionModel, LTVModel, ARXModel, …)."""
+ModelFactory = Callable[..., ModelT]
 """Builds the result: ``factory(k, fit=FitRecord(...))`` with k of shape (N, K)."""
 
 
@@ -124,8 +126,8 @@ def fit_regression(
     norm = options.norm_name(norm)
     n, p = problem.n, problem.p
     factory = partial(RegressionModel, n_outputs=n, n_regressors=p)
-    described = {"output": arrays.column_names(y, n), "regressor": arrays.column_names(phi, p)}
-    described = {key: value for key, value in described.items() if value is not None}
+    columns = {"output": arrays.column_names(y, n), "regressor": arrays.column_names(phi, p)}
+    described = {key: value for key, value in columns.items() if value is not None}
     time = arrays.time_index(y, problem.N) if problem.q == 1 else None
     names = described.get("regressor", signal_names("phi", p))
     model = fit_problem(
@@ -162,13 +164,10 @@ def fit_regression(
     return model
 
 
-ModelFactory = Callable[..., RegressionModel]
-
-
 def fit_problem(
     problem: RegressionProblem,
     *,
-    factory: ModelFactory,
+    factory: ModelFactory[ModelT],
     regressor_names: list[str],
     data_name: str,
     lam: Any,
@@ -183,7 +182,7 @@ def fit_problem(
     loss: Any = "squared",
     huber_delta: Any = None,
     progress: Any = None,
-) -> RegressionModel:
+) -> ModelT:
     """The core shared by every front-end: a validated (y, φ) problem → model.
 
     Validates the remaining options, checks the sample count and
@@ -257,7 +256,7 @@ def fit_problem(
 def _fit_with_lam(
     problem: RegressionProblem,
     *,
-    factory,
+    factory: ModelFactory[ModelT],
     regressor_names,
     data_name,
     lam,
@@ -271,7 +270,7 @@ def _fit_with_lam(
     rows_note,
     loss="squared",
     huber_delta=None,
-) -> RegressionModel:
+) -> ModelT:
     """:func:`fit_problem` for a given λ, on validated options."""
     n, p = problem.n, problem.p
     N, K = problem.N, problem.K
@@ -364,6 +363,8 @@ def _fit_with_lam(
     }
     loglik = result.loglik
     if terms and prior_mode == "posthoc":
+        if cov is None:  # fit_squared computes it for this correction
+            raise RuntimeError("the post-hoc prior correction needs the posterior covariance")
         blocks = np.array(cov.full(n, p))
         for term in terms:
             k, blocks = posthoc_correction(k, blocks, term, problem.phi[:, 0])
@@ -399,8 +400,8 @@ def sparse_model(
     lam: Any,
     norm: str,
     solution: SparseSolution,
-    factory: ModelFactory,
-) -> RegressionModel:
+    factory: ModelFactory[ModelT],
+) -> ModelT:
     """The model of a sparse-norm solution: noise from the residuals, change points detected.
 
     ``noise_var`` is the residual mean square of each output, RSS_i / (observed

@@ -385,7 +385,7 @@ def _segment(
         )
     unit = scaled.y_scale**2
 
-    if M >= 0:
+    if beta_spec is None:  # n_changes given: M >= 0 changes
         if M == 1:  # O(N): one forward and one backward pass
             best, starts = search.one_change(scaled.data, p, a_max)
         else:

@@ -349,11 +349,11 @@ def select_for_problem(
         if loss == "huber" and delta is None:
             middle = float(np.sqrt(grid[0] * grid[-1]))
             delta = default_delta(problem, criterion_fit(problem, norm, middle)["theta"])
-        values = [
+        errors = [
             attempt(lambda lam: _robust_cv_error(problem, norm, lam, n_folds, loss, delta), lam)
             for lam in scored(grid)
         ]
-        scores = _scores(values, grid, skipped, data_name, worst=np.inf)
+        scores = _scores(errors, grid, skipped, data_name, worst=np.inf)
         return finish(
             LambdaSelection(
                 float(grid[np.argmin(scores)]),
@@ -430,7 +430,7 @@ def select_for_problem(
     # The candidates reported: every one scored, or the ones given (the choice may lie
     # between them, refined).
     lams_out, values = (search.lams, search.values) if adaptive else (grid, search.grid_values)
-    extra = {}
+    extra: dict[str, np.ndarray] = {}  # the numbers of the gcv fits
     if method == "gcv":
         numbers = [fits.get(lam) for lam in lams_out]
         extra = {
@@ -449,8 +449,10 @@ def select_for_problem(
             sign * values,
             method,
             norm,
+            residual_norms=extra.get("residual_norms"),
+            penalty_norms=extra.get("penalty_norms"),
+            dof=extra.get("dof"),
             n_fits=search.n_evaluations * (n_folds if method == "cv" else 1),
-            **extra,
         )
     )
 
@@ -476,7 +478,8 @@ def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, round
 
     def fit_at(lam: float) -> None:
         below = [value for value in fits if value < lam and fits[value] is not None]
-        warm = fits[max(below)].get("solution") if below else None
+        previous = fits[max(below)] if below else None  # the fit at the next smaller λ
+        warm = previous.get("solution") if previous is not None else None
         fits[lam] = (evidence and evidence.solution(lam)) or attempt(
             lambda value: criterion_fit(problem, norm, value, tol=LCURVE_TOL, warm_start=warm), lam
         )
