@@ -241,6 +241,9 @@ class LinearDynamics(LinearTimeVarying):
         Offsets; default 0.
     """
 
+    A: np.ndarray
+    B: np.ndarray
+
     def __init__(self, A: Any, B: Any, c: Any = None) -> None:
         A = arrays.as_float_array(A, "A")
         B = arrays.as_float_array(B, "B")
@@ -642,7 +645,7 @@ def _trust_weights(value: Any, n: int, m: int) -> tuple[np.ndarray, np.ndarray]:
     return wx, wu
 
 
-def _dynamics(dynamics: Any, jacobian: Any, N: int | None, n: int, m: int | None) -> Any:
+def _dynamics(dynamics: Any, jacobian: Any, N: int, n: int, m: int) -> Any:
     """Wrap ``dynamics`` (LTVModel, LinearDynamics or a function) for the solver."""
     if isinstance(dynamics, LinearDynamics):
         return _LinearAdapter(dynamics)

@@ -387,7 +387,9 @@ def plot_model(
         fig = new_figure((min(2.6 * p + 0.6, 18.0), min(1.9 * n + 0.5, 14.0) + 2.8))
     else:
         fig.clear()
-    top, bottom = fig.subfigures(2, 1, height_ratios=[min(1.9 * n + 0.5, 14.0), 2.8])
+    top, bottom = fig.subfigures(
+        2, 1, squeeze=False, height_ratios=[min(1.9 * n + 0.5, 14.0), 2.8]
+    )[:, 0]
     plot_coefficients(model, truth=truth, fig=top)
     dynamics = hasattr(model, "A") or callable(getattr(model, "poles", None))
     axes = bottom.subplots(1, 2 if dynamics else 1, squeeze=False)[0]
