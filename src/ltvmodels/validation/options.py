@@ -10,23 +10,46 @@ from __future__ import annotations
 from collections.abc import Sequence
 from functools import lru_cache
 from numbers import Integral, Real
-from typing import Any
+from typing import Any, Literal, TypeVar, cast, get_args
 
 import numpy as np
 
 from .arrays import as_float_array, describe
 
-NORMS = ("sq", "group", "l1")
+# The option strings of the public functions, as types for their signatures. The
+# checks accept exactly these values (the tuples NORMS, SPARSE_NORMS, LOSSES, … are
+# derived from them).
+Norm = Literal["sq", "group", "l1"]
+"""The penalty norm of a fit: squared 2-norm, group (2-)norm or l1 norm."""
+SparseNorm = Literal["group", "l1"]
+"""The norms with a λ_max (:func:`ltvmodels.lambda_max`)."""
+SelectionNorm = Literal["sq", "group", "l1", "l0"]
+"""The norms :func:`ltvmodels.select_lambda` chooses for ("l0": the number of changes)."""
+SelectionMethod = Literal["ml", "gcv", "lcurve", "cv", "bic", "aic"]
+"""The criteria of :func:`ltvmodels.select_lambda` (which apply depends on the norm)."""
+Loss = Literal["squared", "huber", "laplace"]
+"""The loss on the residuals."""
+PriorMode = Literal["exact", "posthoc"]
+"""How a prior enters a fit with the squared norm."""
+PenaltyRule = Literal["bic", "aic"]
+"""The rules for the penalty per change of a segmentation."""
+ManyMethod = Literal["fit", "segments", "lti"]
+"""The estimators :func:`ltvmodels.fit_many` runs by name."""
+
+NORMS: tuple[Norm, ...] = get_args(Norm)
+SPARSE_NORMS: tuple[SparseNorm, ...] = get_args(SparseNorm)
+PENALTY_RULES: tuple[PenaltyRule, ...] = get_args(PenaltyRule)
+PRIOR_MODES: tuple[PriorMode, ...] = get_args(PriorMode)
 
 
-PENALTY_RULES = ("bic", "aic")
+_Option = TypeVar("_Option", bound=str)
 
 
-def choice(value: Any, name: str, options: Sequence[str]) -> str:
-    """Validate that ``value`` is one of the string ``options``."""
+def choice(value: Any, name: str, options: Sequence[_Option]) -> _Option:
+    """Validate that ``value`` is one of the string ``options`` (and type it as one)."""
     if not isinstance(value, str) or value not in options:
         raise ValueError(f"{name}: expected one of {tuple(options)}, received {describe(value)}")
-    return value
+    return cast(_Option, value)  # one of the options
 
 
 def flag(value: Any, name: str) -> bool:
@@ -134,17 +157,17 @@ def fraction(value: Any, name: str) -> float:
     return v
 
 
-def norm_name(norm: Any) -> str:
+def norm_name(norm: Any) -> Norm:
     """Validate the regularization norm name."""
     if not isinstance(norm, str) or norm not in NORMS:
         raise ValueError(f"norm: expected one of {NORMS}, received {describe(norm)}")
     return norm
 
 
-LOSSES = ("squared", "huber", "laplace")
+LOSSES: tuple[Loss, ...] = get_args(Loss)
 
 
-def loss_options(loss: Any, delta: Any, n: int) -> tuple[str, np.ndarray | None]:
+def loss_options(loss: Any, delta: Any, n: int) -> tuple[Loss, np.ndarray | None]:
     """Validate ``loss`` ("squared", "huber" or "laplace") and ``huber_delta`` together:
     (loss, δ (n,) or None)."""
     loss = choice(loss, "loss", LOSSES)
@@ -515,7 +538,7 @@ def n_changes_count(value: Any, N: int, min_size: int) -> int:
     return M
 
 
-def segment_penalty(value: Any) -> float | str:
+def segment_penalty(value: Any) -> float | PenaltyRule:
     """Penalty per change: a finite real number >= 0, or one of the rules 'bic', 'aic'."""
     if isinstance(value, str):
         if value not in PENALTY_RULES:
