@@ -38,6 +38,7 @@ from functools import partial
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.covariance import CovarianceBlocks
 from ..core.identifiability import (
@@ -51,6 +52,7 @@ from ..errors import IdentifiabilityWarning, SingularProblemError
 from ..results.record import FitRecord, FitStatus
 from ..results.statespace import LTVModel
 from ..validation import arrays, options
+from ..validation.options import Loss
 from .changepoints import find_changepoints
 from .recordings import state_space_data
 from .robust import robust_record_parts, solve_robust
@@ -61,16 +63,16 @@ _DIFFERENCE = {1: np.array([-1.0, 1.0]), 2: np.array([1.0, -2.0, 1.0])}
 
 
 def fit_piecewise(
-    x: Any,
-    u: Any = None,
-    changepoints: Any = None,
+    x: ArrayLike,
+    u: ArrayLike | None = None,
+    changepoints: ArrayLike | None = None,
     *,
     order: int = 1,
     compute_cov: bool = True,
-    weights: Any = None,
+    weights: ArrayLike | None = None,
     constant: bool = False,
-    loss: str = "squared",
-    huber_delta: Any = None,
+    loss: Loss = "squared",
+    huber_delta: float | ArrayLike | None = None,
 ) -> LTVModel:
     """Least-squares LTV model that is piecewise constant or linear between given change points.
 

@@ -14,9 +14,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import partial
-from typing import Any, TypeVar
+from typing import Any, Literal, TypeVar
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core import identifiability
 from ..core.covariance import CovarianceBlocks
@@ -28,6 +29,7 @@ from ..results.base import signal_names
 from ..results.record import FitRecord, FitStatus, iterative_status
 from ..results.regression import RegressionModel
 from ..validation import arrays, options
+from ..validation.options import Loss, Norm, PriorMode
 from .changepoints import find_changepoints, residue_level
 from .piecewise import refine_fit
 from .priors import resolve as resolve_priors
@@ -42,21 +44,21 @@ ModelFactory = Callable[..., ModelT]
 
 
 def fit_regression(
-    y: Any,
-    phi: Any,
+    y: ArrayLike,
+    phi: ArrayLike,
     *,
-    lam: Any,
-    norm: str = "sq",
-    order: Any = 1,
+    lam: float | ArrayLike | Literal["auto"],
+    norm: Norm = "sq",
+    order: int | ArrayLike = 1,
     prior: Any = None,
-    prior_mode: str = "exact",
-    noise_var: float | None = None,
+    prior_mode: PriorMode = "exact",
+    noise_var: float | ArrayLike | None = None,
     compute_cov: bool = True,
     max_iter: int = 10000,
     tol: float = 1e-6,
-    weights: Any = None,
-    loss: str = "squared",
-    huber_delta: Any = None,
+    weights: ArrayLike | None = None,
+    loss: Loss = "squared",
+    huber_delta: float | ArrayLike | None = None,
     refine: bool = False,
 ) -> RegressionModel:
     """Identify a time-varying regression y_t = Θ_t φ_t + e_t.
@@ -194,7 +196,7 @@ def fit_problem(
     :func:`ltvmodels.select_lambda`).
     """
     norm = options.norm_name(norm)
-    prior_mode = options.choice(prior_mode, "prior_mode", ("exact", "posthoc"))
+    prior_mode = options.choice(prior_mode, "prior_mode", options.PRIOR_MODES)
     noise_var = options.noise_variance(noise_var, problem.n)
     loss, huber_delta = options.loss_options(loss, huber_delta, problem.n)
     if not isinstance(compute_cov, bool):
