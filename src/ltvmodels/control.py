@@ -50,6 +50,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numba
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .core.dense import cholesky, cholesky_solve
 from .core.simulation import simulate_affine
@@ -174,13 +175,13 @@ class QuadraticCost:
 
     def __init__(
         self,
-        Q: Any,
-        R: Any,
+        Q: ArrayLike,
+        R: ArrayLike,
         horizon: int,
         *,
-        Qf: Any = None,
-        x_goal: Any = None,
-        u_goal: Any = None,
+        Qf: ArrayLike | None = None,
+        x_goal: ArrayLike | None = None,
+        u_goal: ArrayLike | None = None,
     ) -> None:
         N = options.integer(horizon, "horizon", 1)
         Qa = arrays.as_float_array(Q, "Q")
@@ -241,7 +242,10 @@ class LinearDynamics(LinearTimeVarying):
         Offsets; default 0.
     """
 
-    def __init__(self, A: Any, B: Any, c: Any = None) -> None:
+    A: np.ndarray
+    B: np.ndarray
+
+    def __init__(self, A: ArrayLike, B: ArrayLike, c: ArrayLike | None = None) -> None:
         A = arrays.as_float_array(A, "A")
         B = arrays.as_float_array(B, "B")
         if A.ndim != 3 or A.shape[1] != A.shape[2]:
@@ -254,7 +258,7 @@ class LinearDynamics(LinearTimeVarying):
         self.c = _target_sequence(c, "c", N, n)
 
     @classmethod
-    def through(cls, A: Any, B: Any, x: Any, u: Any) -> LinearDynamics:
+    def through(cls, A: ArrayLike, B: ArrayLike, x: ArrayLike, u: ArrayLike) -> LinearDynamics:
         """Jacobians A_t, B_t with offsets that make a trajectory satisfy the model.
 
         c_t = x_{t+1} − A_t x_t − B_t u_t, so the model is the linearization
@@ -278,7 +282,7 @@ class LinearDynamics(LinearTimeVarying):
         )
         return dyn
 
-    def simulate(self, x0: Any, u: Any) -> np.ndarray:
+    def simulate(self, x0: ArrayLike, u: ArrayLike) -> np.ndarray:
         """States (N + 1, n) from x0 (n,) under controls u (N, m)."""
         x0 = arrays.vector(x0, "x0", self.n)
         u = _trajectory_controls(u, self.N, self.m, "u")
@@ -642,7 +646,7 @@ def _trust_weights(value: Any, n: int, m: int) -> tuple[np.ndarray, np.ndarray]:
     return wx, wu
 
 
-def _dynamics(dynamics: Any, jacobian: Any, N: int | None, n: int, m: int | None) -> Any:
+def _dynamics(dynamics: Any, jacobian: Any, N: int, n: int, m: int) -> Any:
     """Wrap ``dynamics`` (LTVModel, LinearDynamics or a function) for the solver."""
     if isinstance(dynamics, LinearDynamics):
         return _LinearAdapter(dynamics)
@@ -744,7 +748,7 @@ class ILQGResult:
     upper: np.ndarray
     info: dict = field(default_factory=dict)
 
-    def control(self, t: int, x: Any) -> np.ndarray:
+    def control(self, t: int, x: ArrayLike) -> np.ndarray:
         """Feedback control u_t = clip(ū_t + K_t (x − x̄_t), lower_t, upper_t), shape (m,)."""
         N, n = self.K.shape[0], self.K.shape[2]
         t = options.integer(t, "t", 0)
@@ -904,14 +908,14 @@ def _solve(problem: _Problem, dyn, x0, u_start, lo, hi, *, max_iter, tol, mu_ini
 def ilqg(
     dynamics: Any,
     cost: Any,
-    x0: Any,
-    u_init: Any,
+    x0: ArrayLike,
+    u_init: ArrayLike,
     *,
     jacobian: Callable | None = None,
-    u_bounds: Any = None,
+    u_bounds: tuple[ArrayLike, ArrayLike] | None = None,
     trust_region: float | None = None,
-    reference: tuple[Any, Any] | None = None,
-    trust_weights: tuple[Any, Any] | None = None,
+    reference: tuple[ArrayLike, ArrayLike] | None = None,
+    trust_weights: tuple[ArrayLike, ArrayLike] | None = None,
     max_iter: int = 200,
     tol: float = 1e-8,
 ) -> ILQGResult:

@@ -314,7 +314,7 @@ def random_walk_system(
     N = T - 1
 
     G = rng.standard_normal((n, n))
-    A0 = G * (0.6 / max(np.linalg.norm(G), 1e-300))
+    A0 = G * (0.6 / max(float(np.linalg.norm(G)), 1e-300))
     B0 = rng.standard_normal((n, m))
     A = np.empty((N, n, n))
     B = np.empty((N, n, m))

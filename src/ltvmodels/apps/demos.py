@@ -52,7 +52,7 @@ def _report(
     lines: list[str], stream: TextIO, fig: Any, path: Path | None, fmt: str | None, dpi: int = 150
 ) -> None:
     """Write ``fig`` to ``path`` (if any), then print the demo's report."""
-    if path is not None:
+    if path is not None and fmt is not None:  # both or neither (_optional_output_path)
         save_figure(fig, path, fmt, dpi=dpi)
         lines.append(f"wrote {path}")
     print("\n".join(lines), file=stream)
@@ -136,7 +136,8 @@ def run_jump_linear_demo(
         "pred_rms_lti": _rms(lti.predict(data.x, data.u) - x_next),
         "pred_rms_truth": _rms(truth_pred - x_next),
     }
-    c = int(data.changepoints[0]) if data.changepoints.size else data.N
+    jumps = data.changepoints  # the system's one switch
+    c = int(jumps[0]) if jumps is not None and jumps.size else data.N
     before, after = max(c // 2, 0), min((c + data.N) // 2, data.N - 1)
     lines = [
         f"ltvmodels demo: jump-linear system (Bagge Carlson et al. 2018, Section VI), seed {seed}",

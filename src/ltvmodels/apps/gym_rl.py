@@ -109,7 +109,7 @@ import time
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -187,7 +187,10 @@ def make_env() -> Any:
     return _gymnasium().make(ENV_ID)
 
 
-def _wrap(angle: np.ndarray | float) -> np.ndarray | float:
+_Angle = TypeVar("_Angle", np.ndarray, float)
+
+
+def _wrap(angle: _Angle) -> _Angle:
     """Angle(s) wrapped to [−π, π)."""
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
@@ -873,8 +876,9 @@ def learn_pendulum(
         x, u, rewards = xb[0], ub[0], rb[0]
         returns.append(float(np.sum(rewards)))
         batch_returns.append(np.sum(rb, axis=1))
-        if inc is None:
+        if inc is None or inc_batch is None:  # the first rollout: the first incumbent
             take = True
+            inc, inc_batch = (x, u, rewards), (xb, ub)
         else:
             H = plan_horizon
             J_inc = cost.total(inc[0][: H + 1], inc[1][:H])
@@ -890,9 +894,8 @@ def learn_pendulum(
             take = J_new <= J_inc or not reject_worse
             if take or radius <= min_radius:
                 horizon = min(horizon + horizon_step, N)
-        if take:
-            inc = (x, u, rewards)
-            inc_batch = (xb, ub)
+            if take:
+                inc, inc_batch = (x, u, rewards), (xb, ub)
         accepted.append(take)
         incumbent_returns.append(float(np.sum(inc[2])))
         swung.append(swung_up(inc[0]))
@@ -966,6 +969,8 @@ def learn_pendulum(
                 if learned is None
                 else learned.update(xb, padded_inputs(ub))
             )
+    if inc is None:  # iterations >= 1, and the first rollout is always the incumbent
+        raise RuntimeError("no rollout became the incumbent")
     swung_arr = np.array(swung, dtype=bool)
     # Swung up for good: the start of the final stretch of swung-up incumbents. An
     # incumbent can be swung up and a later one, better over the planned H steps, fall
@@ -1118,8 +1123,10 @@ class PendulumExperiment:
             # gymnasium's good return is a mean: this is the number to compare with it.
             ("mean final return", {m: f"{np.mean(self.final[m]):.0f}" for m in self.models}),
         ]
-        for name, cells in rows:
-            lines.append(f"{name:<{label}}" + "".join(f"{cells[m]:>{width}}" for m in self.models))
+        for name, by_model in rows:
+            lines.append(
+                f"{name:<{label}}" + "".join(f"{by_model[m]:>{width}}" for m in self.models)
+            )
         lines.append(
             f"(swung up: |θ| < {SWING_UP_ANGLE:g} rad over the last {SWING_UP_STEPS} "
             "steps of the final incumbent; iterations to swing-up: from which on the "

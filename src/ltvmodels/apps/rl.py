@@ -551,8 +551,8 @@ def _fit_jacobians(
     if kind == "prior":  # the true model linearized along the rollout
         A, B = task.system.linearize(x, u)
         c = x[1:] - np.einsum("tij,tj->ti", A, x[:-1]) - B[:, :, 0] * u
-        mean = np.concatenate([A, B, c[:, :, None]], axis=2).reshape(N, -1)
-        priors = [Prior(mean, prior_std**2)]
+        means = np.concatenate([A, B, c[:, :, None]], axis=2).reshape(N, -1)
+        priors = [Prior(means, prior_std**2)]
     if kind == "learned" and learned is not None:  # the mixture of the earlier rollouts
         priors.append(learned.at(x, padded_inputs(u), constant=True, max_samples=learned_samples))
     return fit_affine("ltv" if kind == "learned" else kind, x, u, lam, priors)
@@ -673,7 +673,7 @@ def learn(
     radii: list[float] = []
     controller = None
     x_prev = None
-    learned = None
+    learned: GMMPrior | None = None
     for i in range(iterations):
         x, u = task.system.rollout(task.x0, x_nom, u_nom, K, noise_std=noise_std, seed=rng)
         costs.append(task.trajectory_cost(x, u))

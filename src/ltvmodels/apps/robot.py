@@ -34,6 +34,7 @@ from scipy.integrate import solve_ivp
 from ..estimators.changepoints import find_changepoints
 from ..estimators.fit import fit, lambda_max
 from ..plotting.figure import new_figure
+from ..results.statespace import LTVModel
 from ..validation import options
 
 __all__ = [
@@ -308,7 +309,7 @@ class RobotExperiment:
     u_train: np.ndarray
     x_validation: np.ndarray
     u_validation: np.ndarray
-    model: object
+    model: LTVModel
     changepoints: np.ndarray
     simulation_train: np.ndarray
     simulation_validation: np.ndarray

@@ -14,7 +14,7 @@ import zipfile
 from collections.abc import Callable, Iterator
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -69,7 +69,7 @@ def _outputs(
     any work."""
     out = getattr(args, file, None) if file else None
     plot = getattr(args, image, None)
-    path = output_file(out, file) if out is not None else None
+    path = output_file(out, file) if file and out is not None else None
     if model_file and path is not None and path.suffix.lower() != ".npz":
         raise OutputPathError(
             f"{file}: a model file is an .npz archive (read it with ltvmodels.load); expected "
@@ -170,7 +170,9 @@ def _lam_facts(model: Any, requested: Any) -> dict[str, Any]:
 def _missing_values(names: list[str], *columns: np.ndarray | None) -> dict[str, int]:
     """The number of missing values (NaN) of each selected data column, by name."""
     arrays = [c for c in columns if c is not None and c.size]
-    counts = np.concatenate([np.sum(np.isnan(c), axis=0) for c in arrays]) if arrays else []
+    counts = (
+        np.concatenate([np.sum(np.isnan(c), axis=0) for c in arrays]) if arrays else np.zeros(0)
+    )
     return {name: int(c) for name, c in zip(names, counts, strict=True)}
 
 
@@ -220,7 +222,7 @@ def _predict(model: Any, y: np.ndarray, u: np.ndarray | None) -> tuple[np.ndarra
         filled = np.where(np.isfinite(y), y, 0.0)
         series = filled[:, 0] if filled.shape[1] == 1 else filled
         with user_errors():
-            if isinstance(model, ARModel):
+            if isinstance(model, ARModel) or u is None:  # u is None for an AR model only
                 prediction = model.predict(series)
             else:
                 prediction = model.predict(series, np.where(np.isfinite(u), u, 0.0))
@@ -367,7 +369,7 @@ def _time_text(values: np.ndarray) -> list[str]:
     if not np.issubdtype(values.dtype, np.datetime64):
         return [fmt(float(value)) for value in values]
     days = values.astype("datetime64[D]")
-    unit = "D" if np.all(days == values) else "s"
+    unit: Literal["D", "s"] = "D" if np.all(days == values) else "s"
     return [str(text) for text in np.datetime_as_string(values, unit=unit)]
 
 
@@ -592,7 +594,7 @@ def _cmd_ar(args: argparse.Namespace) -> Report:
         "missing_values": counts,
         "rms": {"prediction": rms(err, valid), "prediction_per_output": rms_columns(err, valid)},
         "median_pole_frequencies": tracks,
-        "noise_var": np.atleast_1d(model.noise_var),
+        "noise_var": None if model.noise_var is None else np.atleast_1d(model.noise_var),
         "loglik": model.loglik,
         "solver": model.info.get("solver"),
         "converged": model.info.get("converged"),
@@ -1028,9 +1030,11 @@ def _cmd_forecast(args: argparse.Namespace) -> Report:
         representable(y[-lag:], "--state" if kind == "ltv" else "--column")
     with user_errors():
         if kind == "ltv":
-            inputs = None if u is None else np.concatenate([u[-1:], future[: H - 1]])
+            inputs = (
+                None if u is None or future is None else np.concatenate([u[-1:], future[: H - 1]])
+            )
             forecast = model.forecast(y[-1], inputs, steps=H, level=args.level, seed=args.seed)
-        elif kind == "arx":
+        elif kind == "arx" and future is not None:  # an ARX model has inputs: future is set
             forecast = model.forecast(
                 y[-lag:],
                 np.concatenate([u[-lag:], future[:H]]),

@@ -196,10 +196,10 @@ def _parse_csv(text: str, label: str) -> _Source:
                 out[r, j] = value  # float() also reads 'nan', '-nan': missing
         return out
 
-    def text(index: int) -> list[str]:
+    def column_text(index: int) -> list[str]:
         return ["" if _is_missing(row[index]) else row[index] for row in data_rows]
 
-    return _Source(label, names, read, text)
+    return _Source(label, names, read, column_text)
 
 
 def _resolve(source: _Source, spec: str, option: str) -> list[int]:
@@ -246,14 +246,14 @@ def read_columns(path: Any, **selections: str | None) -> tuple[int, str, dict[st
             resolved[key] = None
             continue
         option = "--" + key.replace("_", "-")
-        indices = _resolve(source, spec, option)
-        for i in indices:
+        chosen = _resolve(source, spec, option)
+        for i in chosen:
             if i in seen:
                 raise DataError(
                     f"{option}: column {source.names[i]!r} is also selected by {seen[i]}"
                 )
             seen[i] = option
-        resolved[key] = indices
+        resolved[key] = chosen
     columns: dict[str, Any] = {}
     T = 0
     for key, indices in resolved.items():

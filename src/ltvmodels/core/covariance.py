@@ -54,6 +54,8 @@ class CovarianceBlocks:
 
     def rows(self, n: int) -> np.ndarray:
         """The (N, n, p, p) covariances of the rows of Θ_t (rowwise form only)."""
+        if self.row_group is None:
+            raise ValueError("row covariances of a full covariance, which couples the rows")
         scales = self.scales(n)
         return np.stack([scales[i] * self.blocks[g] for i, g in enumerate(self.row_group)], axis=1)
 

@@ -390,6 +390,8 @@ def warm_dual(previous: InteriorPointResult, cp: ConicProblem) -> np.ndarray:
     smaller ones a dual that leaves its cone is pulled back to the norm
     WARM_MAX_DUAL_NORM (the step then also corrects the stationarity residual).
     """
+    if previous.dual is None or previous.weights is None:
+        raise ValueError("warm_dual: the previous solution holds no duals to start from")
     ratio = np.where(cp.w > 0, previous.weights / np.where(cp.w > 0, cp.w, 1.0), 0.0)
     rows = cp.N - cp.degree
     z1 = (previous.dual.reshape(rows, cp.K) * ratio).reshape(cp.n_cones, -1)
@@ -438,15 +440,18 @@ def fit_sparse_ipm(
     s, z = np.zeros(cp.cone_shape), np.zeros(cp.cone_shape)
     r_z, r_k = np.empty(cp.cone_shape), np.empty((N, K))
     rho = z1 = None
-    warm = (
-        warm_start is not None
+    warm_from = (  # the solution to start from, if its start is taken
+        warm_start
+        if warm_start is not None
         and warm_start.dual is not None
         and not cp.const.any()
         and problem.degree in WARM_DEGREES
+        else None
     )
-    if warm:
-        k = np.array(warm_start.theta.reshape(N, K))
-        z1 = warm_dual(warm_start, cp)
+    warm = warm_from is not None
+    if warm_from is not None:
+        k = np.array(warm_from.theta.reshape(N, K))
+        z1 = warm_dual(warm_from, cp)
     elif k0 is not None:
         k = np.array(k0, dtype=float)
     elif problem.degree in (1, 2) and not cp.const.any():

@@ -37,8 +37,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConvergenceWarning, SingularProblemError
-from .huber import fit_huber
-from .huber_sparse import fit_huber_sparse, ipm_applies, sparse_parts
+from .huber import HuberFit, fit_huber
+from .huber_sparse import SparseHuberFit, fit_huber_sparse, ipm_applies, sparse_parts
 from .problem import (
     RegressionProblem,
     apply_difference,
@@ -80,9 +80,9 @@ class LaplaceFit:
     stages: int  # smoothed problems solved
     smoothing: float  # the last δ
     converged: bool
+    psi: np.ndarray  # (N, q, n) the dual point of the certificate
     polished: bool = False  # the exact active-set solution (norm="sq") gave the result
     stalled: bool = False  # ended short of tol: less smoothing fails at working precision
-    psi: np.ndarray | None = None  # (N, q, n) the dual point of the certificate
     method: str = SMOOTHING  # how it was solved (parts may differ)
 
 
@@ -214,6 +214,7 @@ def _smoothed(problem, penalty, norm, delta, *, max_iter, tol, start) -> Laplace
     for stage in range(1, MAX_STAGES + 1):
         thresholds = np.full(problem.n, smoothing)
         scaled = 2.0 * smoothing * penalty
+        fit: HuberFit | SparseHuberFit
         try:
             if norm == "sq":
                 fit = fit_huber(
@@ -248,21 +249,21 @@ def _smoothed(problem, penalty, norm, delta, *, max_iter, tol, start) -> Laplace
         gap, rigorous = relative_gap(problem, theta, objective, psi, penalty, norm)
         candidates = [(gap, theta, objective, fit.kkt_residual, rigorous, False, psi)]
         if norm == "sq" and gap > tol:  # the exact solution with the zeros found so far
-            polished = polish_squared(problem, penalty, theta, smoothing)
-            if polished is not None:
-                polished_objective = _objective(problem, polished[0], penalty, norm)
+            exact = polish_squared(problem, penalty, theta, smoothing)
+            if exact is not None:
+                polished_objective = _objective(problem, exact[0], penalty, norm)
                 polished_gap, polished_rigorous = relative_gap(
-                    problem, polished[0], polished_objective, polished[1], penalty, norm
+                    problem, exact[0], polished_objective, exact[1], penalty, norm
                 )
                 candidates.append(
                     (
                         polished_gap,
-                        polished[0],
+                        exact[0],
                         polished_objective,
-                        polished[2],
+                        exact[2],
                         polished_rigorous,
                         True,
-                        polished[1],
+                        exact[1],
                     )
                 )
         for candidate in candidates:

@@ -181,6 +181,7 @@ def _refine(
         a, b, c = xs[best - 1], xs[best], xs[best + 1]
         if c - a <= 2.0 * xatol:
             return
+        vertex: float | None
         if first is not None:
             vertex, first = first, None
         else:

@@ -97,8 +97,9 @@ def _subspace(vertex: np.ndarray, N: int, K: int, degree: int, group: bool) -> s
     R = N - degree
     if group:
         rows, cols, vals, q = _knot_basis(np.flatnonzero(~vertex), N, degree)
-        j = np.arange(K)
-        rows, cols = (rows[:, None] * K + j).ravel(), (cols[:, None] * K + j).ravel()
+        coefficient = np.arange(K)
+        rows = (rows[:, None] * K + coefficient).ravel()
+        cols = (cols[:, None] * K + coefficient).ravel()
         return sp.csr_matrix((np.repeat(vals, K), (rows, cols)), shape=(N * K, q * K))
     parts_r, parts_c, parts_v, offset = [], [], [], 0
     vertex = vertex.reshape(R, K)
@@ -139,9 +140,9 @@ def _operators(problem: RegressionProblem, weights: np.ndarray):
         shape=(N * q * n, N * K),
     )
     R = N - d
-    r, q, j = np.meshgrid(np.arange(R), np.arange(d + 1), np.arange(K), indexing="ij")
+    r, lag, j = np.meshgrid(np.arange(R), np.arange(d + 1), np.arange(K), indexing="ij")
     diff_op = sp.csr_matrix(
-        ((coeffs[q] * weights[j]).ravel(), ((r * K + j).ravel(), ((r + q) * K + j).ravel())),
+        ((coeffs[lag] * weights[j]).ravel(), ((r * K + j).ravel(), ((r + lag) * K + j).ravel())),
         shape=(R * K, N * K),
     )
     return phi_op, diff_op

@@ -11,14 +11,14 @@ k_t = vec([A_tᵀ B_tᵀ]) = Θ_t.ravel() (rows of Θ_t concatenated), K = n·p.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from .blockkernels import rowwise_matvec
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class RegressionProblem:
     """Data of a time-varying regression with q rows per time step.
 
@@ -49,37 +49,47 @@ class RegressionProblem:
     y: np.ndarray
     phi: np.ndarray
     coeffs: np.ndarray
-    observed: np.ndarray | None = None
-    row_scale: np.ndarray | None = None
+    observed: np.ndarray
+    row_scale: np.ndarray
+    # The count, kept: the likelihood, the checks and the reports each ask for it.
+    _n_observed: int = field(init=False, repr=False, compare=False)
 
-    def __post_init__(self) -> None:
+    def __init__(
+        self,
+        y: np.ndarray,
+        phi: np.ndarray,
+        coeffs: np.ndarray,
+        observed: np.ndarray | None = None,
+        row_scale: np.ndarray | None = None,
+    ) -> None:
         # C order for every kernel: compiled kernels specialize on the memory
         # layout, and a fit must not depend on how the caller's arrays were laid
         # out (pandas frames arrive in Fortran order).
-        y = np.asarray(self.y, dtype=float)
-        phi = np.asarray(self.phi, dtype=float)
+        y = np.asarray(y, dtype=float)
+        phi = np.asarray(phi, dtype=float)
         if y.ndim == 2:
             y, phi = y[:, None, :], phi[:, None, :]
-        if self.observed is None:
+        if observed is None:
             observed = np.ones(y.shape[:2], dtype=bool)
             n_observed = observed.size
         else:
-            observed = np.asarray(self.observed, dtype=bool)
+            observed = np.asarray(observed, dtype=bool)
             n_observed = int(np.count_nonzero(observed))
         if n_observed < observed.size:  # an unobserved row must not add to any sum
             y = np.where(observed[:, :, None], y, 0.0)
             phi = np.where(observed[:, :, None], phi, 0.0)
-        object.__setattr__(self, "y", np.ascontiguousarray(y))
-        object.__setattr__(self, "phi", np.ascontiguousarray(phi))
-        object.__setattr__(self, "observed", observed)
-        # The count, kept: the likelihood, the checks and the reports each ask for it.
-        object.__setattr__(self, "_n_observed", n_observed)
         row_scale = (
             observed.astype(float)
-            if self.row_scale is None
-            else np.where(observed, np.asarray(self.row_scale, dtype=float), 0.0)
+            if row_scale is None
+            else np.where(observed, np.asarray(row_scale, dtype=float), 0.0)
         )
+        # frozen: the fields are set once, here
+        object.__setattr__(self, "y", np.ascontiguousarray(y))
+        object.__setattr__(self, "phi", np.ascontiguousarray(phi))
+        object.__setattr__(self, "coeffs", coeffs)
+        object.__setattr__(self, "observed", observed)
         object.__setattr__(self, "row_scale", row_scale)
+        object.__setattr__(self, "_n_observed", n_observed)
 
     @property
     def N(self) -> int:

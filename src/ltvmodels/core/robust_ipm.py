@@ -328,6 +328,8 @@ class _Direction:
 class _Entries:
     """The residual entries' variables: b, w (Huber), slacks σ± and duals ζ± (2, N, q)."""
 
+    w: np.ndarray | None  # the residual beyond the threshold (Huber); None for Laplace
+
     def __init__(self, part: RegressionProblem, loss: str, costs: np.ndarray):
         self.loss_name = loss
         self.y = part.y[:, :, 0]
@@ -372,7 +374,7 @@ class _Entries:
     def take_step(self, direction: _Direction, dk: np.ndarray, step: float) -> None:
         dw, db, d_sigma, d_zeta = direction.deltas(dk)
         mask = self.mask
-        if dw is not None:
+        if dw is not None and self.w is not None:  # both set for Huber only
             self.w = self.w + step * np.where(mask, dw, 0.0)
         self.b = self.b + step * np.where(mask, db, 0.0)
         self.zeta = np.where(mask, self.zeta + step * d_zeta, 1.0)  # σ: refresh()

@@ -36,7 +36,7 @@ class QuadraticUpdate:
         n, p = problem.n, problem.p
         self.problem, self.weights, self.rho = problem, weights, rho
         W_rows = (weights.reshape(n, p) ** 2) * (rho / 2.0)
-        self.groups: list[tuple[np.ndarray, BlockFactor]] = []
+        self.groups: list[tuple[list[int], BlockFactor]] = []
         for i in range(n):
             for rows, _ in self.groups:
                 if np.array_equal(W_rows[rows[0]], W_rows[i]):

@@ -298,7 +298,7 @@ class SquaredSolver:
         theta = np.empty((N, n, p))
         logdet = 0.0
         row_logdet = np.zeros(n)
-        covs = []
+        covs: list[np.ndarray] = []
         row_group = np.zeros(n, dtype=int)
         for g, group in enumerate(groups):
             sol: BlockSolution = solve_block_banded(
@@ -312,7 +312,8 @@ class SquaredSolver:
                 logdet += sol.logdet * len(group.rows)
                 row_logdet[group.rows] = sol.logdet
                 row_group[group.rows] = g
-            covs.append(sol.cov)
+            if sol.cov is not None:  # computed with compute_cov
+                covs.append(sol.cov)
         cov = None
         if compute_cov:
             if groups[0].rows is None:
@@ -708,11 +709,12 @@ def fit_squared(
     rss = float(row_rss.sum())
     # per row when the rows decouple (one differencing pass serves both)
     row_pen = solver.row_penalty(theta) if per_row else None
-    pen = float(row_pen.sum()) if per_row else solver.penalty(theta)
+    pen = float(row_pen.sum()) if row_pen is not None else solver.penalty(theta)
     row_prior = solver.row_prior_cost(theta)
     prior_cost = float(row_prior.sum())
 
-    if priors:
+    loglik: float | None
+    if priors and variances is not None:  # with priors, variances is given or estimated above
         logdets = row_logdet if per_row else np.array([logdet])
         loglik = float(_loglik_with_prior(solver, variances, theta, logdets).sum())
         if np.isnan(loglik):

@@ -29,15 +29,17 @@ from __future__ import annotations
 
 import warnings
 from functools import partial
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.lags import lag_length, lag_regressor_names, lagged_regressors
 from ..core.problem import weighted_problem
 from ..errors import ModelStructureWarning
 from ..results.arx import ARModel, ARXModel
 from ..validation import arrays, options
+from ..validation.options import Loss, Norm, PriorMode
 from .regression import fit_problem
 
 __all__ = ["ar_regressors", "arx_regressors", "fit_ar", "fit_arx"]
@@ -48,7 +50,7 @@ def _structure_text(na: int, nb: int, nk: int) -> str:
 
 
 def arx_regressors(
-    y: Any, u: Any, na: int, nb: int, nk: int = 1, *, constant: bool = False
+    y: ArrayLike, u: ArrayLike, na: int, nb: int, nk: int = 1, *, constant: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
     """The regression (y_t, φ_t) of a (V)ARX model.
 
@@ -98,7 +100,9 @@ def arx_regressors(
     return lagged_regressors(y, u, na, nb, nk, constant)
 
 
-def ar_regressors(y: Any, na: int, *, constant: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def ar_regressors(
+    y: ArrayLike, na: int, *, constant: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
     """The regression (y_t, φ_t) of a (V)AR(na) model: y[na:] and [y[t−1]; …; y[t−na] (; 1)].
 
     Parameters
@@ -125,25 +129,25 @@ def ar_regressors(y: Any, na: int, *, constant: bool = False) -> tuple[np.ndarra
 
 
 def fit_arx(
-    y: Any,
-    u: Any,
+    y: ArrayLike,
+    u: ArrayLike,
     na: int,
     nb: int,
     nk: int = 1,
     *,
-    lam: Any,
-    norm: str = "sq",
-    order: Any = 1,
+    lam: float | ArrayLike | Literal["auto"],
+    norm: Norm = "sq",
+    order: int | ArrayLike = 1,
     constant: bool = False,
     prior: Any = None,
-    prior_mode: str = "exact",
-    noise_var: float | None = None,
+    prior_mode: PriorMode = "exact",
+    noise_var: float | ArrayLike | None = None,
     compute_cov: bool = True,
     max_iter: int = 10000,
     tol: float = 1e-6,
-    weights: Any = None,
-    loss: str = "squared",
-    huber_delta: Any = None,
+    weights: ArrayLike | None = None,
+    loss: Loss = "squared",
+    huber_delta: float | ArrayLike | None = None,
 ) -> ARXModel:
     """Identify a time-varying (V)ARX model.
 
@@ -228,22 +232,22 @@ def fit_arx(
 
 
 def fit_ar(
-    y: Any,
+    y: ArrayLike,
     na: int,
     *,
-    lam: Any,
-    norm: str = "sq",
-    order: Any = 1,
+    lam: float | ArrayLike | Literal["auto"],
+    norm: Norm = "sq",
+    order: int | ArrayLike = 1,
     constant: bool = False,
     prior: Any = None,
-    prior_mode: str = "exact",
-    noise_var: float | None = None,
+    prior_mode: PriorMode = "exact",
+    noise_var: float | ArrayLike | None = None,
     compute_cov: bool = True,
     max_iter: int = 10000,
     tol: float = 1e-6,
-    weights: Any = None,
-    loss: str = "squared",
-    huber_delta: Any = None,
+    weights: ArrayLike | None = None,
+    loss: Loss = "squared",
+    huber_delta: float | ArrayLike | None = None,
 ) -> ARModel:
     """Identify a time-varying (V)AR(na) model y[t] = Σ_{i=1}^{na} A_{t,i} y[t−i] (+ c_t) + e[t].
 

@@ -56,6 +56,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..results.regression import RegressionModel
 from ..validation import arrays, options
@@ -81,7 +82,7 @@ def changepoint_offset(degree: int) -> int:
 
 
 def find_changepoints(
-    model_or_activation: RegressionModel | Any,
+    model_or_activation: RegressionModel | ArrayLike,
     *,
     threshold: float = 0.25,
     noise_factor: float | None = 8.0,

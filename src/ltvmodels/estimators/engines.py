@@ -220,7 +220,7 @@ def _run_futures(
     if not chunks:
         return []
     futures = {client.submit(run_task, task, units, pure=False): units for units in chunks}
-    failures = []
+    failures: list[tuple[list, BaseException]] = []
     for future in dask_completed(list(futures)):
         try:
             results = future.result()

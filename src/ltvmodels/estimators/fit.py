@@ -10,9 +10,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import partial
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core import identifiability
 from ..core.covariance import CovarianceBlocks
@@ -21,6 +22,7 @@ from ..core.sparse_common import lambda_max as problem_lambda_max
 from ..results.record import FitRecord, FitStatus
 from ..results.statespace import LTVModel
 from ..validation import arrays, options
+from ..validation.options import Loss, Norm, PriorMode, SparseNorm
 from .piecewise import refine_fit, residual_noise
 from .recordings import StateSpaceData, state_space_data
 from .regression import fit_problem, sparse_model
@@ -32,13 +34,13 @@ LTI_HUBER_TOL = 1e-10
 
 
 def fit_lti(
-    x: Any,
-    u: Any = None,
+    x: ArrayLike,
+    u: ArrayLike | None = None,
     *,
-    weights: Any = None,
+    weights: ArrayLike | None = None,
     constant: bool = False,
-    loss: str = "squared",
-    huber_delta: Any = None,
+    loss: Loss = "squared",
+    huber_delta: float | ArrayLike | None = None,
 ) -> LTVModel:
     """Least-squares LTI model x[t+1] = A x[t] + B u[t] (+ c) + v_t (paper eqs. lscost, ls).
 
@@ -113,7 +115,7 @@ def fit_lti(
     cov_k = np.kron(noise_cov, gram_inv)
     cov = CovarianceBlocks(np.broadcast_to(cov_k, (N, K, K)), None)
     rss = float(np.sum(resid**2))
-    info = {
+    info: dict[str, Any] = {
         "solver": "least-squares (QR)",
         "rss": rss,
         "dof": int(dof),
@@ -144,23 +146,23 @@ def fit_lti(
 
 
 def fit(
-    x: Any,
-    u: Any = None,
+    x: ArrayLike,
+    u: ArrayLike | None = None,
     *,
-    lam: Any,
-    norm: str = "sq",
-    order: Any = 1,
+    lam: float | ArrayLike | Literal["auto"],
+    norm: Norm = "sq",
+    order: int | ArrayLike = 1,
     prior: Any = None,
-    prior_mode: str = "exact",
-    noise_var: float | None = None,
+    prior_mode: PriorMode = "exact",
+    noise_var: float | ArrayLike | None = None,
     compute_cov: bool = True,
     max_iter: int = 10000,
     tol: float = 1e-6,
     refine: bool = False,
-    weights: Any = None,
+    weights: ArrayLike | None = None,
     constant: bool = False,
-    loss: str = "squared",
-    huber_delta: Any = None,
+    loss: Loss = "squared",
+    huber_delta: float | ArrayLike | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> LTVModel:
     """Identify an LTV model x[t+1] = A_t x[t] + B_t u[t] (+ c_t) + v_t.
@@ -363,16 +365,16 @@ def fit(
 
 
 def fit_path(
-    x: Any,
-    u: Any = None,
+    x: ArrayLike,
+    u: ArrayLike | None = None,
     *,
-    lams: Any,
-    norm: str = "sq",
-    order: Any = 1,
+    lams: ArrayLike,
+    norm: Norm = "sq",
+    order: int | ArrayLike = 1,
     compute_cov: bool = True,
     max_iter: int = 10000,
     tol: float = 1e-6,
-    weights: Any = None,
+    weights: ArrayLike | None = None,
     constant: bool = False,
 ) -> list[LTVModel]:
     """Fit one model per scalar λ in ``lams`` (a regularization path).
@@ -425,7 +427,7 @@ def fit_path(
     max_iter = options.integer(max_iter, "max_iter", minimum=1)
     tol = options.positive_scalar(tol, "tol")
     factory = partial(LTVModel, n_states=data.n, n_inputs=data.m, constant=data.constant)
-    models: list[LTVModel | None] = [None] * values.size
+    models: dict[int, LTVModel] = {}  # by position in lams
     warm = None
     for position, index in enumerate(np.argsort(-values, kind="stable")):
         lam = float(values[index])
@@ -434,17 +436,17 @@ def fit_path(
         warm = solution
         model = sparse_model(problem, lam, norm, solution, factory)
         model.info["path_position"] = position
-        models[index] = model
-    return models
+        models[int(index)] = model
+    return [models[i] for i in range(values.size)]
 
 
 def lambda_max(
-    x: Any,
-    u: Any = None,
+    x: ArrayLike,
+    u: ArrayLike | None = None,
     *,
-    norm: str,
-    order: Any = 1,
-    weights: Any = None,
+    norm: SparseNorm,
+    order: int | ArrayLike = 1,
+    weights: ArrayLike | None = None,
     constant: bool = False,
 ) -> float:
     """The smallest λ at which ``fit(x, u, lam=λ, norm=norm, order=order)`` has Dk = 0.
@@ -491,7 +493,7 @@ def lambda_max(
     >>> bool(model.status.status == "closed_form" and model.changepoints.size == 0)
     True
     """
-    norm = options.choice(norm, "norm", ("group", "l1"))
+    norm = options.choice(norm, "norm", options.SPARSE_NORMS)
     return problem_lambda_max(_identifiable_data(x, u, order, weights, constant).problem, norm)
 
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.kalman import (
     IDENTIFIED_TOL,
@@ -89,7 +90,7 @@ def _run_filter(s: _Setup):
     D = model.F.shape[0]
     diffuse = s.prior is None
     pb = s.problem
-    m0, P0 = (np.zeros((D, pb.n)), np.eye(D)) if diffuse else s.prior
+    m0, P0 = (np.zeros((D, pb.n)), np.eye(D)) if s.prior is None else s.prior
     return filter_kernel(
         pb.phi,
         pb.y,
@@ -129,14 +130,14 @@ def _filter_result(s: _Setup, vecs, mats, in_info, ell) -> KalmanFilterResult:
 
 
 def kalman_filter(
-    x: Any,
-    u: Any = None,
+    x: ArrayLike,
+    u: ArrayLike | None = None,
     *,
     lam: float,
-    order: Any = 1,
+    order: int | ArrayLike = 1,
     noise_var: float = 1.0,
-    init_mean: Any = None,
-    init_cov: Any = None,
+    init_mean: ArrayLike | None = None,
+    init_cov: float | ArrayLike | None = None,
 ) -> KalmanFilterResult:
     """Kalman filter for the parameters of x[t+1] = A_t x[t] + B_t u[t] + v_t.
 
@@ -180,14 +181,14 @@ def kalman_filter(
 
 
 def kalman_smoother(
-    x: Any,
-    u: Any = None,
+    x: ArrayLike,
+    u: ArrayLike | None = None,
     *,
     lam: float,
-    order: Any = 1,
+    order: int | ArrayLike = 1,
     noise_var: float = 1.0,
-    init_mean: Any = None,
-    init_cov: Any = None,
+    init_mean: ArrayLike | None = None,
+    init_cov: float | ArrayLike | None = None,
 ) -> KalmanSmootherResult:
     """Rauch–Tung–Striebel smoother for the parameters of x[t+1] = A_t x[t] + B_t u[t] + v_t.
 
@@ -274,10 +275,10 @@ class OnlineParameterFilter:
         n_inputs: int = 0,
         *,
         lam: float,
-        order: Any = 1,
+        order: int | ArrayLike = 1,
         noise_var: float = 1.0,
-        init_mean: Any = None,
-        init_cov: Any = None,
+        init_mean: ArrayLike | None = None,
+        init_cov: float | ArrayLike | None = None,
     ) -> None:
         self.n_states = options.integer(n_states, "n_states", 1)
         self.n_inputs = options.integer(n_inputs, "n_inputs", 0)
@@ -346,7 +347,7 @@ class OnlineParameterFilter:
             return None
         return float(self._ell.sum()) + self._loglik_offset
 
-    def update(self, x_t: Any, u_t: Any, x_next: Any) -> np.ndarray:
+    def update(self, x_t: ArrayLike, u_t: ArrayLike | None, x_next: ArrayLike) -> np.ndarray:
         """Process one transition x_next = A_t x_t + B_t u_t + v_t.
 
         Parameters

@@ -35,11 +35,12 @@ from ..progress import Progress
 from ..results.model_set import ModelSet, model_file_name
 from ..validation import arrays
 from ..validation import options as checks
+from ..validation.options import ManyMethod
 from . import engines
 from .fit import fit, fit_lti
 from .segments import fit_segments
 
-METHODS: dict[str, Callable] = {"fit": fit, "segments": fit_segments, "lti": fit_lti}
+METHODS: dict[ManyMethod, Callable] = {"fit": fit, "segments": fit_segments, "lti": fit_lti}
 """The estimators ``method=`` names."""
 
 # Units per task: enough that the per-task overhead (pickling, scheduling) is
@@ -351,7 +352,7 @@ def fit_many(
     n_jobs: int | None = None,
     keep_models: bool = True,
     models_dir: str | os.PathLike | None = None,
-    method: str | Callable = "fit",
+    method: ManyMethod | Callable = "fit",
     progress: bool | None = None,
     **options: Any,
 ) -> ModelSet:

@@ -48,6 +48,7 @@ import warnings
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import linalg
 from scipy.special import logsumexp
 
@@ -144,14 +145,14 @@ class GMMPrior:
 
     def __init__(
         self,
-        x: Any,
-        u: Any = None,
+        x: ArrayLike,
+        u: ArrayLike | None = None,
         *,
         n_components: int | None = None,
         max_components: int = 6,
         reg_covar: float = 1e-6,
         max_iter: int = 200,
-        seed: Any = 0,
+        seed: int | np.random.Generator | None = 0,
     ) -> None:
         x, u = arrays.recordings(x, u)
         self.n_states, self.n_inputs = x.shape[2], u.shape[2]
@@ -237,7 +238,7 @@ class GMMPrior:
             )
         return mixture
 
-    def update(self, x: Any, u: Any = None) -> GMMPrior:
+    def update(self, x: ArrayLike, u: ArrayLike | None = None) -> GMMPrior:
         """Add the transitions of new recordings and refit, starting from the current mixture.
 
         EM continues from the current components on all transitions so far (a
@@ -369,7 +370,7 @@ class GMMPrior:
             )
         return x, u
 
-    def responsibilities(self, x: Any, u: Any = None) -> np.ndarray:
+    def responsibilities(self, x: ArrayLike, u: ArrayLike | None = None) -> np.ndarray:
         """p(c | z_t) of every transition z_t = [x_t; u_t; x_{t+1}] of a recording.
 
         Missing entries of z_t are marginalized out; a transition with nothing
@@ -437,11 +438,11 @@ class GMMPrior:
 
     def at(
         self,
-        x: Any,
-        u: Any = None,
+        x: ArrayLike,
+        u: ArrayLike | None = None,
         *,
         constant: bool = False,
-        weights: Any = None,
+        weights: ArrayLike | None = None,
         max_samples: float | None = None,
     ) -> Prior:
         """The mixture's prior on k_t along a recording (see the module docstring).

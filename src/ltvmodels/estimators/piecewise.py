@@ -38,6 +38,7 @@ from functools import partial
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.covariance import CovarianceBlocks
 from ..core.identifiability import (
@@ -51,6 +52,7 @@ from ..errors import IdentifiabilityWarning, SingularProblemError
 from ..results.record import FitRecord, FitStatus
 from ..results.statespace import LTVModel
 from ..validation import arrays, options
+from ..validation.options import Loss
 from .changepoints import find_changepoints
 from .recordings import state_space_data
 from .robust import robust_record_parts, solve_robust
@@ -61,16 +63,16 @@ _DIFFERENCE = {1: np.array([-1.0, 1.0]), 2: np.array([1.0, -2.0, 1.0])}
 
 
 def fit_piecewise(
-    x: Any,
-    u: Any = None,
-    changepoints: Any = None,
+    x: ArrayLike,
+    u: ArrayLike | None = None,
+    changepoints: ArrayLike | None = None,
     *,
     order: int = 1,
     compute_cov: bool = True,
-    weights: Any = None,
+    weights: ArrayLike | None = None,
     constant: bool = False,
-    loss: str = "squared",
-    huber_delta: Any = None,
+    loss: Loss = "squared",
+    huber_delta: float | ArrayLike | None = None,
 ) -> LTVModel:
     """Least-squares LTV model that is piecewise constant or linear between given change points.
 
@@ -354,10 +356,10 @@ def _fit_robust(
     n = problem.n
     N, q, p = problem.N, problem.q, problem.p
     if order == 1:
-        basis = (np.arange(N)[:, None] >= bounds[None, :-1]) & (
+        inside = (np.arange(N)[:, None] >= bounds[None, :-1]) & (
             np.arange(N)[:, None] < bounds[None, 1:]
         )
-        basis = basis.astype(float)
+        basis = inside.astype(float)
     else:
         knots = np.concatenate([[0], changepoints, [N - 1]])
         left, w = hat_weights(knots, N)
@@ -573,19 +575,19 @@ def _fit_linear(
     z_right = w[:, None, None] * phi  # regressors of γ_{j+1}
     # Normal equations ZᵀZ g = Zᵀy, block tridiagonal with J blocks of size p,
     # accumulated interval by interval.
-    gram = np.zeros((J, p, J, p))
+    gram_blocks = np.zeros((J, p, J, p))
     rhs = np.zeros((J, p, n))
     for j in range(J - 1):
         sl = slice(knots[j], knots[j + 1] if j < J - 2 else N)
         zl, zr = z_left[sl].reshape(-1, p), z_right[sl].reshape(-1, p)
         ys = y[sl].reshape(-1, n)
-        gram[j, :, j, :] += zl.T @ zl
-        gram[j, :, j + 1, :] += zl.T @ zr
-        gram[j + 1, :, j, :] += zr.T @ zl
-        gram[j + 1, :, j + 1, :] += zr.T @ zr
+        gram_blocks[j, :, j, :] += zl.T @ zl
+        gram_blocks[j, :, j + 1, :] += zl.T @ zr
+        gram_blocks[j + 1, :, j, :] += zr.T @ zl
+        gram_blocks[j + 1, :, j + 1, :] += zr.T @ zr
         rhs[j] += zl.T @ ys
         rhs[j + 1] += zr.T @ ys
-    gram = gram.reshape(J * p, J * p)
+    gram = gram_blocks.reshape(J * p, J * p)
     gram_inv = _inverse_or_raise(gram, knots, p, names, single)
     gamma = (gram_inv @ rhs.reshape(J * p, -1)).reshape(J, p, -1)  # Γ_jᵀ stacked
     theta = (1.0 - w)[:, None, None] * gamma[left] + w[:, None, None] * gamma[left + 1]

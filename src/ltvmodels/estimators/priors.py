@@ -19,8 +19,10 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.priorterms import PriorTerm, precision_matrix
+from ..results.regression import RegressionModel
 from ..validation import arrays
 
 
@@ -43,7 +45,7 @@ class Prior:
     :func:`ltvmodels.fit`. K = n·(n + m) and k_t is ``np.hstack([A_t, B_t]).ravel()``.
     """
 
-    def __init__(self, mean: Any, cov: Any) -> None:
+    def __init__(self, mean: ArrayLike | RegressionModel, cov: float | ArrayLike) -> None:
         if hasattr(mean, "k") and hasattr(mean, "theta"):
             mean = mean.k
         self.mean = arrays.as_float_array(mean, "mean")
@@ -73,7 +75,7 @@ class OutputPrior:
         Its covariance S_t, positive definite.
     """
 
-    def __init__(self, mean: Any, cov: Any) -> None:
+    def __init__(self, mean: ArrayLike, cov: float | ArrayLike) -> None:
         self.mean = arrays.as_float_array(mean, "mean")
         if self.mean.ndim not in (1, 2):
             raise ValueError(

@@ -14,9 +14,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from functools import partial
-from typing import Any
+from typing import Any, Literal, TypeVar
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core import identifiability
 from ..core.covariance import CovarianceBlocks
@@ -28,6 +29,7 @@ from ..results.base import signal_names
 from ..results.record import FitRecord, FitStatus, iterative_status
 from ..results.regression import RegressionModel
 from ..validation import arrays, options
+from ..validation.options import Loss, Norm, PriorMode
 from .changepoints import find_changepoints, residue_level
 from .piecewise import refine_fit
 from .priors import resolve as resolve_priors
@@ -35,26 +37,28 @@ from .recordings import regression_problem, require_enough_data
 from .robust import robust_model
 from .selection import DEFAULT_METHOD, select_for_problem
 
-ModelFactory = Callable[..., RegressionModel]
+ModelT = TypeVar("ModelT", bound=RegressionModel)
+"""The model a front-end's factory builds (RegressionModel, LTVModel, ARXModel, …)."""
+ModelFactory = Callable[..., ModelT]
 """Builds the result: ``factory(k, fit=FitRecord(...))`` with k of shape (N, K)."""
 
 
 def fit_regression(
-    y: Any,
-    phi: Any,
+    y: ArrayLike,
+    phi: ArrayLike,
     *,
-    lam: Any,
-    norm: str = "sq",
-    order: Any = 1,
+    lam: float | ArrayLike | Literal["auto"],
+    norm: Norm = "sq",
+    order: int | ArrayLike = 1,
     prior: Any = None,
-    prior_mode: str = "exact",
-    noise_var: float | None = None,
+    prior_mode: PriorMode = "exact",
+    noise_var: float | ArrayLike | None = None,
     compute_cov: bool = True,
     max_iter: int = 10000,
     tol: float = 1e-6,
-    weights: Any = None,
-    loss: str = "squared",
-    huber_delta: Any = None,
+    weights: ArrayLike | None = None,
+    loss: Loss = "squared",
+    huber_delta: float | ArrayLike | None = None,
     refine: bool = False,
 ) -> RegressionModel:
     """Identify a time-varying regression y_t = Θ_t φ_t + e_t.
@@ -124,8 +128,8 @@ def fit_regression(
     norm = options.norm_name(norm)
     n, p = problem.n, problem.p
     factory = partial(RegressionModel, n_outputs=n, n_regressors=p)
-    described = {"output": arrays.column_names(y, n), "regressor": arrays.column_names(phi, p)}
-    described = {key: value for key, value in described.items() if value is not None}
+    columns = {"output": arrays.column_names(y, n), "regressor": arrays.column_names(phi, p)}
+    described = {key: value for key, value in columns.items() if value is not None}
     time = arrays.time_index(y, problem.N) if problem.q == 1 else None
     names = described.get("regressor", signal_names("phi", p))
     model = fit_problem(
@@ -162,13 +166,10 @@ def fit_regression(
     return model
 
 
-ModelFactory = Callable[..., RegressionModel]
-
-
 def fit_problem(
     problem: RegressionProblem,
     *,
-    factory: ModelFactory,
+    factory: ModelFactory[ModelT],
     regressor_names: list[str],
     data_name: str,
     lam: Any,
@@ -183,7 +184,7 @@ def fit_problem(
     loss: Any = "squared",
     huber_delta: Any = None,
     progress: Any = None,
-) -> RegressionModel:
+) -> ModelT:
     """The core shared by every front-end: a validated (y, φ) problem → model.
 
     Validates the remaining options, checks the sample count and
@@ -195,7 +196,7 @@ def fit_problem(
     :func:`ltvmodels.select_lambda`).
     """
     norm = options.norm_name(norm)
-    prior_mode = options.choice(prior_mode, "prior_mode", ("exact", "posthoc"))
+    prior_mode = options.choice(prior_mode, "prior_mode", options.PRIOR_MODES)
     noise_var = options.noise_variance(noise_var, problem.n)
     loss, huber_delta = options.loss_options(loss, huber_delta, problem.n)
     if not isinstance(compute_cov, bool):
@@ -257,7 +258,7 @@ def fit_problem(
 def _fit_with_lam(
     problem: RegressionProblem,
     *,
-    factory,
+    factory: ModelFactory[ModelT],
     regressor_names,
     data_name,
     lam,
@@ -271,7 +272,7 @@ def _fit_with_lam(
     rows_note,
     loss="squared",
     huber_delta=None,
-) -> RegressionModel:
+) -> ModelT:
     """:func:`fit_problem` for a given λ, on validated options."""
     n, p = problem.n, problem.p
     N, K = problem.N, problem.K
@@ -364,6 +365,8 @@ def _fit_with_lam(
     }
     loglik = result.loglik
     if terms and prior_mode == "posthoc":
+        if cov is None:  # fit_squared computes it for this correction
+            raise RuntimeError("the post-hoc prior correction needs the posterior covariance")
         blocks = np.array(cov.full(n, p))
         for term in terms:
             k, blocks = posthoc_correction(k, blocks, term, problem.phi[:, 0])
@@ -399,8 +402,8 @@ def sparse_model(
     lam: Any,
     norm: str,
     solution: SparseSolution,
-    factory: ModelFactory,
-) -> RegressionModel:
+    factory: ModelFactory[ModelT],
+) -> ModelT:
     """The model of a sparse-norm solution: noise from the residuals, change points detected.
 
     ``noise_var`` is the residual mean square of each output, RSS_i / (observed

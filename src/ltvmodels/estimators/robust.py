@@ -14,13 +14,13 @@ from __future__ import annotations
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
-from ..core.huber import fit_huber, huber_loss
-from ..core.huber_sparse import fit_huber_sparse
-from ..core.laplace import fit_laplace
+from ..core.huber import HuberFit, fit_huber, huber_loss
+from ..core.huber_sparse import SparseHuberFit, fit_huber_sparse
+from ..core.laplace import LaplaceFit, fit_laplace
 from ..core.priorterms import PriorTerm
 from ..core.problem import RegressionProblem, activation
 from ..core.sparse import solve_sparse
@@ -36,6 +36,8 @@ HUBER_EFFICIENCY = 1.345  # δ / σ of Huber's 95 %-efficient estimator
 START_TOL = 1e-3
 # Residuals at most this fraction of the largest |y| are rounding: an exact fit.
 EXACT_FIT = 1e-12
+
+ModelT = TypeVar("ModelT", bound=RegressionModel)  # the model the caller's factory builds
 
 
 def default_delta(problem: RegressionProblem, theta: np.ndarray) -> np.ndarray:
@@ -110,6 +112,7 @@ def solve_robust(
     if not sparse and not priors and _fits_exactly(problem, start):
         return _exact_fit(problem, penalty, start, loss, delta, rule)
     outliers = None
+    result: LaplaceFit | HuberFit | SparseHuberFit
     if loss == "laplace":
         result = fit_laplace(
             problem,
@@ -267,13 +270,13 @@ def robust_model(
     lam: Any,
     norm: str,
     delta: np.ndarray | None,
-    factory: Callable[..., RegressionModel],
+    factory: Callable[..., ModelT],
     max_iter: int,
     tol: float,
     stacklevel: int = 4,
     priors: list[PriorTerm] | None = None,
     noise_var: np.ndarray | None = None,
-) -> RegressionModel:
+) -> ModelT:
     """Fit with loss="huber" or "laplace" (:func:`solve_robust`) and build the model.
 
     A ConvergenceWarning points ``stacklevel`` frames up from the caller (the

@@ -21,9 +21,10 @@ from __future__ import annotations
 import itertools
 from dataclasses import replace
 from functools import partial
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core import segmentation as search
 from ..core.problem import RegressionProblem
@@ -34,6 +35,7 @@ from ..results.regression import RegressionModel
 from ..results.segmentation import Segmentation
 from ..results.statespace import LTVModel
 from ..validation import options
+from ..validation.options import PenaltyRule
 from .piecewise import fit_piecewise, piecewise_fit
 from .recordings import regression_problem, state_space_data
 
@@ -41,13 +43,13 @@ __all__ = ["fit_segments", "segment_regression", "noise_variance_estimate"]
 
 
 def segment_regression(
-    y: Any,
-    phi: Any,
+    y: ArrayLike,
+    phi: ArrayLike,
     *,
     n_changes: int | None = None,
-    penalty: float | str | None = None,
+    penalty: float | PenaltyRule | None = None,
     min_size: int | None = None,
-    weights: Any = None,
+    weights: ArrayLike | None = None,
 ) -> Segmentation:
     """Optimal piecewise-constant segmentation of a regression y_t = Θ_t φ_t + e_t.
 
@@ -113,16 +115,16 @@ def segment_regression(
 
 
 def fit_segments(
-    x: Any,
-    u: Any = None,
+    x: ArrayLike,
+    u: ArrayLike | None = None,
     *,
     n_changes: int | None = None,
-    penalty: float | str | None = None,
+    penalty: float | PenaltyRule | None = None,
     min_size: int | None = None,
     compute_cov: bool = True,
-    weights: Any = None,
+    weights: ArrayLike | None = None,
     constant: bool = False,
-    loss: str = "squared",
+    loss: Literal["squared"] = "squared",
 ) -> LTVModel:
     """Piecewise-constant LTV model with exactly optimal change points (paper eq:l0).
 
@@ -278,7 +280,7 @@ def _segmentation_model(model: Any, result: Segmentation) -> Any:
     return model
 
 
-def noise_variance_estimate(y: Any, phi: Any, min_size: int | None = None) -> float:
+def noise_variance_estimate(y: ArrayLike, phi: ArrayLike, min_size: int | None = None) -> float:
     """Robust estimate of the noise variance σ² per output for the penalty rules.
 
     The rows are cut into consecutive windows of w = max(4p, 20, min_size)
@@ -385,7 +387,7 @@ def _segment(
         )
     unit = scaled.y_scale**2
 
-    if M >= 0:
+    if beta_spec is None:  # n_changes given: M >= 0 changes
         if M == 1:  # O(N): one forward and one backward pass
             best, starts = search.one_change(scaled.data, p, a_max)
         else:

@@ -47,9 +47,10 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.interpolate import CubicSpline
 
 from ..core import identifiability
@@ -63,6 +64,7 @@ from ..errors import ConvergenceWarning, PrecisionWarning, SingularProblemError
 from ..results.base import signal_names
 from ..results.selection import LambdaSelection
 from ..validation import arrays, options
+from ..validation.options import Loss, Norm, SelectionMethod, SelectionNorm
 from .recordings import (
     StateSpaceData,
     regression_problem,
@@ -75,8 +77,13 @@ from .segments import fit_segments
 __all__ = ["select_lambda", "select_lambda_regression", "DEFAULT_METHOD"]
 
 # The criterion fit(..., lam="auto") uses for each norm.
-DEFAULT_METHOD = {"sq": "ml", "group": "lcurve", "l1": "lcurve", "l0": "bic"}
-METHODS = {
+DEFAULT_METHOD: dict[SelectionNorm, SelectionMethod] = {
+    "sq": "ml",
+    "group": "lcurve",
+    "l1": "lcurve",
+    "l0": "bic",
+}
+METHODS: dict[SelectionNorm, tuple[SelectionMethod, ...]] = {
     "sq": ("ml", "gcv", "lcurve", "cv"),
     "group": ("lcurve", "cv"),
     "l1": ("lcurve", "cv"),
@@ -113,21 +120,24 @@ CV_TOL = 1e-4
 ROBUST_GRID_SIZE = 15
 
 
+_Norm = TypeVar("_Norm", bound=SelectionNorm)  # the norms a front-end offers
+
+
 def select_lambda(
-    x: Any,
-    u: Any = None,
+    x: ArrayLike,
+    u: ArrayLike | None = None,
     *,
-    norm: str = "sq",
-    order: Any = 1,
-    method: str | None = None,
-    lams: Any = None,
+    norm: SelectionNorm = "sq",
+    order: int | ArrayLike = 1,
+    method: SelectionMethod | None = None,
+    lams: ArrayLike | None = None,
     n_folds: int = 5,
     max_changes: int = 10,
     progress: Callable[[int, int], None] | None = None,
-    weights: Any = None,
+    weights: ArrayLike | None = None,
     constant: bool = False,
-    loss: str = "squared",
-    huber_delta: Any = None,
+    loss: Loss = "squared",
+    huber_delta: float | ArrayLike | None = None,
 ) -> LambdaSelection:
     """Choose λ for :func:`ltvmodels.fit` (state-space data) by a documented criterion.
 
@@ -200,18 +210,18 @@ def select_lambda(
 
 
 def select_lambda_regression(
-    y: Any,
-    phi: Any,
+    y: ArrayLike,
+    phi: ArrayLike,
     *,
-    norm: str = "sq",
-    order: Any = 1,
-    method: str | None = None,
-    lams: Any = None,
+    norm: Norm = "sq",
+    order: int | ArrayLike = 1,
+    method: SelectionMethod | None = None,
+    lams: ArrayLike | None = None,
     n_folds: int = 5,
     progress: Callable[[int, int], None] | None = None,
-    weights: Any = None,
-    loss: str = "squared",
-    huber_delta: Any = None,
+    weights: ArrayLike | None = None,
+    loss: Loss = "squared",
+    huber_delta: float | ArrayLike | None = None,
 ) -> LambdaSelection:
     """:func:`select_lambda` for a regression y_t = Θ_t φ_t + e_t (any front-end).
 
@@ -228,7 +238,7 @@ def select_lambda_regression(
         As in :func:`select_lambda` (NaN = missing, as in
         :func:`ltvmodels.fit_regression`).
     """
-    norm, method, loss = _norm_and_method(norm, method, ("sq", "group", "l1"), loss)
+    norm, method, loss = _norm_and_method(norm, method, options.NORMS, loss)
     problem = regression_problem(y, phi, order=order, weights=weights)
     _, delta = options.loss_options(loss, huber_delta, problem.n)
     return _select_validated(
@@ -246,8 +256,8 @@ def select_lambda_regression(
 
 
 def _norm_and_method(
-    norm: Any, method: Any, norms: tuple[str, ...], loss: Any
-) -> tuple[str, str, str]:
+    norm: Any, method: Any, norms: tuple[_Norm, ...], loss: Any
+) -> tuple[_Norm, SelectionMethod, Loss]:
     """The validated norm, criterion (the default when ``method`` is None) and loss."""
     norm = options.choice(norm, "norm", norms)
     loss = options.choice(loss, "loss", options.LOSSES)
@@ -349,11 +359,11 @@ def select_for_problem(
         if loss == "huber" and delta is None:
             middle = float(np.sqrt(grid[0] * grid[-1]))
             delta = default_delta(problem, criterion_fit(problem, norm, middle)["theta"])
-        values = [
+        errors = [
             attempt(lambda lam: _robust_cv_error(problem, norm, lam, n_folds, loss, delta), lam)
             for lam in scored(grid)
         ]
-        scores = _scores(values, grid, skipped, data_name, worst=np.inf)
+        scores = _scores(errors, grid, skipped, data_name, worst=np.inf)
         return finish(
             LambdaSelection(
                 float(grid[np.argmin(scores)]),
@@ -430,7 +440,7 @@ def select_for_problem(
     # The candidates reported: every one scored, or the ones given (the choice may lie
     # between them, refined).
     lams_out, values = (search.lams, search.values) if adaptive else (grid, search.grid_values)
-    extra = {}
+    extra: dict[str, np.ndarray] = {}  # the numbers of the gcv fits
     if method == "gcv":
         numbers = [fits.get(lam) for lam in lams_out]
         extra = {
@@ -449,8 +459,10 @@ def select_for_problem(
             sign * values,
             method,
             norm,
+            residual_norms=extra.get("residual_norms"),
+            penalty_norms=extra.get("penalty_norms"),
+            dof=extra.get("dof"),
             n_fits=search.n_evaluations * (n_folds if method == "cv" else 1),
-            **extra,
         )
     )
 
@@ -476,7 +488,8 @@ def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, round
 
     def fit_at(lam: float) -> None:
         below = [value for value in fits if value < lam and fits[value] is not None]
-        warm = fits[max(below)].get("solution") if below else None
+        previous = fits[max(below)] if below else None  # the fit at the next smaller λ
+        warm = previous.get("solution") if previous is not None else None
         fits[lam] = (evidence and evidence.solution(lam)) or attempt(
             lambda value: criterion_fit(problem, norm, value, tol=LCURVE_TOL, warm_start=warm), lam
         )

@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..validation import arrays
 from .figure import ESTIMATE_COLOR, new_axes, new_figure
@@ -177,7 +178,9 @@ def plot_coefficients(
     return fig
 
 
-def plot_activation(model: Any, ax: Axes | None = None, *, changepoints: Any = None) -> Axes:
+def plot_activation(
+    model: Any, ax: Axes | None = None, *, changepoints: ArrayLike | None = None
+) -> Axes:
     """Plot the activation ‖(Dk)_t‖ of the model over time.
 
     Large values mark where the coefficients change (paper Section III); with
@@ -348,7 +351,11 @@ def plot_poles(model: Any, ax: Axes | None = None) -> Axes:
 
 
 def plot_model(
-    model: Any, truth: Any = None, *, changepoints: Any = None, fig: Figure | None = None
+    model: Any,
+    truth: Any = None,
+    *,
+    changepoints: ArrayLike | None = None,
+    fig: Figure | None = None,
 ) -> Figure:
     """Overview of a state-space model: coefficients, activation, eigenvalue magnitudes.
 
@@ -387,7 +394,9 @@ def plot_model(
         fig = new_figure((min(2.6 * p + 0.6, 18.0), min(1.9 * n + 0.5, 14.0) + 2.8))
     else:
         fig.clear()
-    top, bottom = fig.subfigures(2, 1, height_ratios=[min(1.9 * n + 0.5, 14.0), 2.8])
+    top, bottom = fig.subfigures(
+        2, 1, squeeze=False, height_ratios=[min(1.9 * n + 0.5, 14.0), 2.8]
+    )[:, 0]
     plot_coefficients(model, truth=truth, fig=top)
     dynamics = hasattr(model, "A") or callable(getattr(model, "poles", None))
     axes = bottom.subplots(1, 2 if dynamics else 1, squeeze=False)[0]

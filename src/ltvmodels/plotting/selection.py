@@ -41,7 +41,7 @@ def plot_lambda_selection(selection: LambdaSelection, ax: Axes | None = None) ->
         )
     s = selection
     ax = new_axes((6.0, 4.0)) if ax is None else ax
-    if s.method == "lcurve" and s.residual_norms is not None:
+    if s.method == "lcurve" and s.residual_norms is not None and s.penalty_norms is not None:
         ax.loglog(s.residual_norms, s.penalty_norms, ".-", color="C0")
         i = int(np.argmin(np.abs(s.lams - s.lam)))
         ax.loglog(

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..validation import arrays, options
 from .figure import ESTIMATE_COLOR, new_axes, new_figure
@@ -15,11 +17,11 @@ if TYPE_CHECKING:  # pragma: no cover
 
 
 def plot_simulation(
-    data: Any,
-    simulation: Any,
+    data: ArrayLike,
+    simulation: ArrayLike,
     *,
     start: int = 0,
-    names: Any = None,
+    names: Sequence[str] | None = None,
     label: str = "simulation",
     fig: Figure | None = None,
 ) -> Figure:
@@ -111,7 +113,9 @@ def plot_simulation(
     return fig
 
 
-def plot_forecast(forecast: Any, *, history: Any = None, fig: Figure | None = None) -> Figure:
+def plot_forecast(
+    forecast: Any, *, history: ArrayLike | None = None, fig: Figure | None = None
+) -> Figure:
     """Plot a forecast: its mean and prediction interval, one subplot per state (output).
 
     Parameters
@@ -294,7 +298,12 @@ def _index_frequency(model: Any) -> tuple[float, np.ndarray, str, str]:
 
 
 def plot_spectrogram(
-    y: Any, fs: float, *, ax: Axes | None = None, nperseg: int = 256, dynamic_range: float = 80.0
+    y: ArrayLike,
+    fs: float,
+    *,
+    ax: Axes | None = None,
+    nperseg: int = 256,
+    dynamic_range: float = 80.0,
 ) -> Axes:
     """Draw the short-time Fourier spectrogram of a scalar signal in grey.
 

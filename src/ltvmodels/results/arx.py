@@ -12,6 +12,7 @@ from typing import Any
 
 import numba
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.lags import lag_length, lag_regressor_names, lagged_regressors
 from ..validation import arrays, options
@@ -75,7 +76,7 @@ class ARXModel(RegressionModel):
 
     def __init__(
         self,
-        k: np.ndarray,
+        k: ArrayLike,
         n_outputs: int,
         n_inputs: int,
         na: int,
@@ -211,7 +212,7 @@ class ARXModel(RegressionModel):
         return np.sort(freq, axis=1)[:, : poles.shape[1] // 2]  # NaNs sort last
 
     # -- use --------------------------------------------------------------------------
-    def predict(self, y: Any, u: Any = None) -> np.ndarray:
+    def predict(self, y: ArrayLike, u: ArrayLike | None = None) -> np.ndarray:
         """One-step predictions ŷ[t] = Θ_t φ_t from measured data, t = L … T − 1.
 
         Parameters
@@ -230,7 +231,9 @@ class ARXModel(RegressionModel):
         _, phi = lagged_regressors(y, u, self.na, self.nb, self.nk, self.constant)
         return self._squeeze(np.einsum("tij,tj->ti", self.theta, phi))
 
-    def simulate(self, y0: Any, u: Any = None, noise: Any = None) -> np.ndarray:
+    def simulate(
+        self, y0: ArrayLike, u: ArrayLike | None = None, noise: ArrayLike | None = None
+    ) -> np.ndarray:
         """Simulate the model from initial samples: y[t] = Θ_t φ_t + noise[t − L].
 
         Parameters
@@ -267,14 +270,14 @@ class ARXModel(RegressionModel):
 
     def forecast(
         self,
-        y_last: Any,
-        u: Any = None,
+        y_last: ArrayLike,
+        u: ArrayLike | None = None,
         *,
         steps: int | None = None,
         level: float = 0.95,
         n_samples: int = DEFAULT_SAMPLES,
-        seed: Any = 0,
-        noise_cov: Any = None,
+        seed: int | np.random.Generator | None = 0,
+        noise_cov: float | ArrayLike | None = None,
     ) -> Forecast:
         """Forecast the outputs after the end of the data, with prediction intervals.
 
@@ -321,10 +324,10 @@ class ARXModel(RegressionModel):
         level, n_samples, seed = forecast_options(level, n_samples, seed)
         noise = noise_covariance(noise_cov, self.noise_cov, n)
         # φ = [y[t−1]; …; y[t−na]; u[t−nk]; …; u[t−nk−nb+1]; 1], u row L + s is sample T + s
-        known = [u[L - self.nk - j : L - self.nk - j + steps] for j in range(self.nb)]
+        columns = [u[L - self.nk - j : L - self.nk - j + steps] for j in range(self.nb)]
         if self.constant:
-            known.append(np.ones((steps, 1)))
-        known = np.concatenate(known, axis=1) if known else np.zeros((steps, 0))
+            columns.append(np.ones((steps, 1)))
+        known = np.concatenate(columns, axis=1) if columns else np.zeros((steps, 0))
         initial = y_last[::-1][: self.na]  # the lags y[T−1], …, y[T−na], newest first
         T = self.N + L
         return forecast_model(
@@ -339,7 +342,9 @@ class ARXModel(RegressionModel):
             names=self.output_names,
         )
 
-    def plot(self, fs: float | None = None, ax: Any = None):
+    # A different plot from the regression's (the roots, not the coefficients): its own
+    # arguments.
+    def plot(self, fs: float | None = None, ax: Any = None):  # type: ignore[override]
         """Plot the root spectrogram; see :func:`ltvmodels.plotting.plot_root_spectrogram`
         (``fs`` None: from the model's time index, or cycles per sample)."""
         from ..plotting import plot_root_spectrogram
@@ -378,7 +383,7 @@ class ARModel(ARXModel):
 
     def __init__(
         self,
-        k: np.ndarray,
+        k: ArrayLike,
         n_outputs: int,
         na: int,
         constant: bool,
@@ -386,7 +391,8 @@ class ARModel(ARXModel):
     ) -> None:
         super().__init__(k, n_outputs, 0, na, 0, 1, constant, fit)
 
-    def predict(self, y: Any) -> np.ndarray:
+    # An AR model has no inputs: its predict, simulate and forecast leave u out.
+    def predict(self, y: ArrayLike) -> np.ndarray:  # type: ignore[override]
         """One-step predictions ŷ[t] = Σ_i A_{t,i} y[t−i] (+ c_t), t = na … T − 1.
 
         Parameters
@@ -399,7 +405,7 @@ class ARModel(ARXModel):
         """
         return super().predict(y, None)
 
-    def simulate(self, y0: Any, noise: Any = None) -> np.ndarray:
+    def simulate(self, y0: ArrayLike, noise: ArrayLike | None = None) -> np.ndarray:  # type: ignore[override]
         """Simulate y[t] = Σ_i A_{t,i} y[t−i] (+ c_t) + noise[t − na] from y[0:na] = y0.
 
         Parameters
@@ -414,15 +420,15 @@ class ARModel(ARXModel):
         """
         return super().simulate(y0, None, noise)
 
-    def forecast(
+    def forecast(  # type: ignore[override]
         self,
-        y_last: Any,
+        y_last: ArrayLike,
         *,
         steps: int,
         level: float = 0.95,
         n_samples: int = DEFAULT_SAMPLES,
-        seed: Any = 0,
-        noise_cov: Any = None,
+        seed: int | np.random.Generator | None = 0,
+        noise_cov: float | ArrayLike | None = None,
     ) -> Forecast:
         """Forecast y[T] … y[T+steps−1] from the last na samples y_last (na, n) or (na,).
 

@@ -13,6 +13,8 @@ provides them in its own way.)
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 
@@ -24,8 +26,13 @@ class LinearTimeVarying:
     them.
     """
 
-    A: np.ndarray
-    B: np.ndarray
+    if TYPE_CHECKING:  # read-only here: a subclass may provide them as properties
+
+        @property
+        def A(self) -> np.ndarray: ...
+
+        @property
+        def B(self) -> np.ndarray: ...
 
     @property
     def N(self) -> int:

@@ -66,6 +66,7 @@ from statistics import NormalDist
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..validation import arrays, options
 from ..validation.arrays import describe
@@ -147,7 +148,7 @@ class Forecast:
         """(steps, n) standard deviations of the forecast (square roots of diag ``cov``)."""
         return np.sqrt(np.maximum(np.diagonal(self.cov, axis1=1, axis2=2), 0.0))
 
-    def plot(self, history: Any = None, *, fig: Any = None):
+    def plot(self, history: ArrayLike | None = None, *, fig: Any = None):
         """Plot the mean and the interval of each state, one subplot per state.
 
         See :func:`ltvmodels.plotting.plot_forecast`; returns the Figure.

@@ -7,6 +7,7 @@ Produced by :func:`ltvmodels.kalman_filter` and :func:`ltvmodels.kalman_smoother
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,7 +20,11 @@ class _ParameterAccess(LinearTimeVarying):
 
     k: np.ndarray
     cov: np.ndarray
-    n_states: int
+
+    if TYPE_CHECKING:  # a field of the filter's result, a property of the smoother's
+
+        @property
+        def n_states(self) -> int: ...
 
     @property
     def A(self) -> np.ndarray:

@@ -144,7 +144,7 @@ def _invalid_record(model: RegressionModel) -> str | None:
                 and blocks.shape[1:] == (N, p, p)
                 and group.shape == (n,)
                 and group.dtype.kind in "iu"
-                and np.all((group >= 0) & (group < blocks.shape[0]))
+                and bool(np.all((group >= 0) & (group < blocks.shape[0])))
             )
             if cov.row_scale is not None:
                 scale = np.asarray(cov.row_scale)

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.problem import activation
 from ..validation import arrays, options
@@ -74,7 +75,7 @@ class RegressionModel:
     """
 
     def __init__(
-        self, k: np.ndarray, n_outputs: int, n_regressors: int, fit: FitRecord | None = None
+        self, k: ArrayLike, n_outputs: int, n_regressors: int, fit: FitRecord | None = None
     ) -> None:
         self._k = arrays.as_float_array(k, "k")  # a finite float64 copy
         self._n_outputs = options.integer(n_outputs, "n_outputs", minimum=1)
@@ -249,8 +250,10 @@ class RegressionModel:
         time = self.time
         return None if time is None else time[self.step_offset : self.step_offset + self.N]
 
-    step_offset = 0
-    """The sample of the data's time axis that model step 0 describes (0; AR/ARX: lag)."""
+    @property
+    def step_offset(self) -> int:
+        """The sample of the data's time axis that model step 0 describes (0; AR/ARX: lag)."""
+        return 0
 
     @property
     def changepoint_times(self) -> np.ndarray | None:
@@ -346,7 +349,7 @@ class RegressionModel:
         return plot_coefficients(self, truth, bands=bands, fig=fig)
 
     # -- use ----------------------------------------------------------------------
-    def predict(self, phi: Any) -> np.ndarray:
+    def predict(self, phi: ArrayLike) -> np.ndarray:
         """Predictions ŷ_t = Θ_t φ_t of the regression.
 
         Parameters

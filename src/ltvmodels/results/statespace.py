@@ -7,6 +7,7 @@ from numbers import Integral
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.simulation import simulate_affine
 from ..errors import DivergenceWarning
@@ -96,7 +97,7 @@ class LTVModel(RegressionModel, LinearTimeVarying):
 
     def __init__(
         self,
-        k: np.ndarray,
+        k: ArrayLike,
         n_states: int,
         n_inputs: int,
         fit: FitRecord | None = None,
@@ -164,13 +165,13 @@ class LTVModel(RegressionModel, LinearTimeVarying):
     @classmethod
     def from_arrays(
         cls,
-        A: Any,
-        B: Any = None,
+        A: ArrayLike,
+        B: ArrayLike | None = None,
         *,
-        c: Any = None,
+        c: ArrayLike | None = None,
         steps: int | None = None,
-        noise_cov: Any = None,
-        order: Any = None,
+        noise_cov: float | ArrayLike | None = None,
+        order: int | ArrayLike | None = None,
     ) -> LTVModel:
         """A model with known coefficients: x[t+1] = A_t x[t] + B_t u[t] (+ c_t) + v_t.
 
@@ -292,7 +293,7 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         return cls(k, n, B.shape[2], fit, constant=c is not None)
 
     # -- use ----------------------------------------------------------------------
-    def predict(self, x: Any, u: Any = None) -> np.ndarray:
+    def predict(self, x: ArrayLike, u: ArrayLike | None = None) -> np.ndarray:
         """One-step predictions x̂[t+1] = A_t x[t] + B_t u[t] + c_t.
 
         Parameters
@@ -319,7 +320,7 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         out = np.einsum("tij,rtj->rti", self.theta, np.concatenate(parts, axis=2))
         return out if batch else out[0]
 
-    def simulate(self, x0: Any, u: Any = None) -> np.ndarray:
+    def simulate(self, x0: ArrayLike, u: ArrayLike | None = None) -> np.ndarray:
         """Open-loop simulation from x0: x[t+1] = A_t x[t] + B_t u[t] + c_t.
 
         Parameters
@@ -390,14 +391,14 @@ class LTVModel(RegressionModel, LinearTimeVarying):
 
     def forecast(
         self,
-        x0: Any,
-        u: Any = None,
+        x0: ArrayLike,
+        u: ArrayLike | None = None,
         *,
         steps: int | None = None,
         level: float = 0.95,
         n_samples: int = DEFAULT_SAMPLES,
-        seed: Any = 0,
-        noise_cov: Any = None,
+        seed: int | np.random.Generator | None = 0,
+        noise_cov: float | ArrayLike | None = None,
     ) -> Forecast:
         """Forecast the states after the end of the data, with prediction intervals.
 

@@ -72,7 +72,7 @@ def as_float_array(value: Any, name: str, *, missing: bool = False) -> np.ndarra
         value = value.to_numpy()
     if isinstance(value, np.ma.MaskedArray):
         if missing:  # masked entries are missing samples
-            value = value.astype(float).filled(np.nan)
+            value = np.ma.filled(value.astype(float), np.nan)
         elif np.ma.getmaskarray(value).any():
             raise ValueError(
                 f"{name}: received a masked array with masked entries, which cannot be missing "

@@ -10,23 +10,46 @@ from __future__ import annotations
 from collections.abc import Sequence
 from functools import lru_cache
 from numbers import Integral, Real
-from typing import Any
+from typing import Any, Literal, TypeVar, cast, get_args
 
 import numpy as np
 
 from .arrays import as_float_array, describe
 
-NORMS = ("sq", "group", "l1")
+# The option strings of the public functions, as types for their signatures. The
+# checks accept exactly these values (the tuples NORMS, SPARSE_NORMS, LOSSES, … are
+# derived from them).
+Norm = Literal["sq", "group", "l1"]
+"""The penalty norm of a fit: squared 2-norm, group (2-)norm or l1 norm."""
+SparseNorm = Literal["group", "l1"]
+"""The norms with a λ_max (:func:`ltvmodels.lambda_max`)."""
+SelectionNorm = Literal["sq", "group", "l1", "l0"]
+"""The norms :func:`ltvmodels.select_lambda` chooses for ("l0": the number of changes)."""
+SelectionMethod = Literal["ml", "gcv", "lcurve", "cv", "bic", "aic"]
+"""The criteria of :func:`ltvmodels.select_lambda` (which apply depends on the norm)."""
+Loss = Literal["squared", "huber", "laplace"]
+"""The loss on the residuals."""
+PriorMode = Literal["exact", "posthoc"]
+"""How a prior enters a fit with the squared norm."""
+PenaltyRule = Literal["bic", "aic"]
+"""The rules for the penalty per change of a segmentation."""
+ManyMethod = Literal["fit", "segments", "lti"]
+"""The estimators :func:`ltvmodels.fit_many` runs by name."""
+
+NORMS: tuple[Norm, ...] = get_args(Norm)
+SPARSE_NORMS: tuple[SparseNorm, ...] = get_args(SparseNorm)
+PENALTY_RULES: tuple[PenaltyRule, ...] = get_args(PenaltyRule)
+PRIOR_MODES: tuple[PriorMode, ...] = get_args(PriorMode)
 
 
-PENALTY_RULES = ("bic", "aic")
+_Option = TypeVar("_Option", bound=str)
 
 
-def choice(value: Any, name: str, options: Sequence[str]) -> str:
-    """Validate that ``value`` is one of the string ``options``."""
+def choice(value: Any, name: str, options: Sequence[_Option]) -> _Option:
+    """Validate that ``value`` is one of the string ``options`` (and type it as one)."""
     if not isinstance(value, str) or value not in options:
         raise ValueError(f"{name}: expected one of {tuple(options)}, received {describe(value)}")
-    return value
+    return cast(_Option, value)  # one of the options
 
 
 def flag(value: Any, name: str) -> bool:
@@ -134,17 +157,17 @@ def fraction(value: Any, name: str) -> float:
     return v
 
 
-def norm_name(norm: Any) -> str:
+def norm_name(norm: Any) -> Norm:
     """Validate the regularization norm name."""
     if not isinstance(norm, str) or norm not in NORMS:
         raise ValueError(f"norm: expected one of {NORMS}, received {describe(norm)}")
     return norm
 
 
-LOSSES = ("squared", "huber", "laplace")
+LOSSES: tuple[Loss, ...] = get_args(Loss)
 
 
-def loss_options(loss: Any, delta: Any, n: int) -> tuple[str, np.ndarray | None]:
+def loss_options(loss: Any, delta: Any, n: int) -> tuple[Loss, np.ndarray | None]:
     """Validate ``loss`` ("squared", "huber" or "laplace") and ``huber_delta`` together:
     (loss, δ (n,) or None)."""
     loss = choice(loss, "loss", LOSSES)
@@ -383,14 +406,15 @@ def piecewise_order(order: Any) -> int:
     expected = "1 (piecewise constant) or 2 (piecewise linear, continuous)"
     if isinstance(order, bool) or not isinstance(order, Integral):
         raise TypeError(f"order: expected {expected}, received {describe(order)}")
-    if order < 1:
-        raise ValueError(f"order: expected {expected}, received {int(order)}")
-    if order > 2:
+    degree = int(order)
+    if degree < 1:
+        raise ValueError(f"order: expected {expected}, received {degree}")
+    if degree > 2:
         raise NotImplementedError(
-            f"order={int(order)}: piecewise polynomials of degree >= 2 are not implemented; "
+            f"order={degree}: piecewise polynomials of degree >= 2 are not implemented; "
             f"use order=1 or order=2"
         )
-    return int(order)
+    return degree
 
 
 def lag_orders(na: Any, nb: Any, nk: Any, *, min_na: int, min_nb: int) -> tuple[int, int, int]:
@@ -514,7 +538,7 @@ def n_changes_count(value: Any, N: int, min_size: int) -> int:
     return M
 
 
-def segment_penalty(value: Any) -> float | str:
+def segment_penalty(value: Any) -> float | PenaltyRule:
     """Penalty per change: a finite real number >= 0, or one of the rules 'bic', 'aic'."""
     if isinstance(value, str):
         if value not in PENALTY_RULES:
@@ -544,8 +568,10 @@ def random_generator(seed: Any) -> np.random.Generator:
     """A numpy Generator from a seed: an integer >= 0, a Generator (used as is) or None."""
     if isinstance(seed, np.random.Generator):
         return seed
-    if seed is None or (isinstance(seed, Integral) and not isinstance(seed, bool) and seed >= 0):
-        return np.random.default_rng(seed)
+    if seed is None:
+        return np.random.default_rng()
+    if isinstance(seed, Integral) and not isinstance(seed, bool) and int(seed) >= 0:
+        return np.random.default_rng(int(seed))
     raise TypeError(
         f"seed: expected a non-negative integer, a numpy Generator or None, received {seed!r}"
     )
