@@ -169,9 +169,43 @@ def test_imports_point_down_the_layers():
     assert not wrong, "\n".join(wrong)
 
 
+def type_checking_lines(module: str) -> set[int]:
+    """The line numbers of a module's ``if TYPE_CHECKING:`` blocks (never run)."""
+    tree = ast.parse(MODULES[module].read_text(encoding="utf-8"))
+    return {
+        line
+        for node in ast.walk(tree)
+        if isinstance(node, ast.If)
+        and isinstance(node.test, ast.Name)
+        and node.test.id == "TYPE_CHECKING"
+        for child in node.body
+        for line in range(child.lineno, (child.end_lineno or child.lineno) + 1)
+    }
+
+
 def test_the_package_root_imports_only_the_errors():
     found, _ = ALL_IMPORTS[PACKAGE]
-    assert {t for imp in found for t in imp.targets} == {f"{PACKAGE}.errors"}
+    skipped = type_checking_lines(PACKAGE)
+    run = {t for imp in found if imp.line not in skipped for t in imp.targets}
+    assert run == {f"{PACKAGE}.errors"}
+
+
+def test_type_checkers_see_every_lazily_loaded_name_where_it_loads():
+    """The root's TYPE_CHECKING imports are the names of _API from their modules."""
+    tree = ast.parse(MODULES[PACKAGE].read_text(encoding="utf-8"))
+    seen: dict[str, str] = {}
+    declared: dict = {}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.lineno in type_checking_lines(PACKAGE):
+            for alias in node.names:
+                assert alias.asname == alias.name, "re-export explicitly: `name as name`"
+                seen[alias.name] = node.module or ""
+        if isinstance(node, ast.Assign) and isinstance(node.targets[0], ast.Name):
+            if node.targets[0].id in ("_API", "_MODULES"):
+                declared[node.targets[0].id] = ast.literal_eval(node.value)
+    expected = dict(declared["_API"])
+    expected.update({name: "" for name in declared["_MODULES"]})
+    assert seen == expected
 
 
 def test_no_import_cycles():

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import importlib
 import warnings
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .errors import (
     ConvergenceWarning,
@@ -80,6 +80,87 @@ _API = {
 _MODULES = ("systems", "plotting", "control")
 # Former names of modules that moved, with their new place (a DeprecationWarning on use).
 _MOVED = {"rl": "ltvmodels.apps.rl", "gym_rl": "ltvmodels.apps.gym_rl"}
+
+if TYPE_CHECKING:
+    # What a type checker sees of the names above, which load on first use at run
+    # time (tests/test_architecture.py keeps this block equal to _API and _MODULES).
+    from . import control as control
+    from . import plotting as plotting
+    from . import systems as systems
+    from .control import ilqg as ilqg
+    from .estimators.ar import (
+        ar_regressors as ar_regressors,
+    )
+    from .estimators.ar import (
+        arx_regressors as arx_regressors,
+    )
+    from .estimators.ar import (
+        fit_ar as fit_ar,
+    )
+    from .estimators.ar import (
+        fit_arx as fit_arx,
+    )
+    from .estimators.changepoints import find_changepoints as find_changepoints
+    from .estimators.fit import (
+        fit as fit,
+    )
+    from .estimators.fit import (
+        fit_lti as fit_lti,
+    )
+    from .estimators.fit import (
+        fit_path as fit_path,
+    )
+    from .estimators.fit import (
+        lambda_max as lambda_max,
+    )
+    from .estimators.kalman import (
+        OnlineParameterFilter as OnlineParameterFilter,
+    )
+    from .estimators.kalman import (
+        kalman_filter as kalman_filter,
+    )
+    from .estimators.kalman import (
+        kalman_smoother as kalman_smoother,
+    )
+    from .estimators.many import fit_many as fit_many
+    from .estimators.mixture_prior import GMMPrior as GMMPrior
+    from .estimators.piecewise import fit_piecewise as fit_piecewise
+    from .estimators.priors import OutputPrior as OutputPrior
+    from .estimators.priors import Prior as Prior
+    from .estimators.regression import fit_regression as fit_regression
+    from .estimators.segments import (
+        fit_segments as fit_segments,
+    )
+    from .estimators.segments import (
+        noise_variance_estimate as noise_variance_estimate,
+    )
+    from .estimators.segments import (
+        segment_regression as segment_regression,
+    )
+    from .estimators.selection import (
+        select_lambda as select_lambda,
+    )
+    from .estimators.selection import (
+        select_lambda_regression as select_lambda_regression,
+    )
+    from .results.arx import ARModel as ARModel
+    from .results.arx import ARXModel as ARXModel
+    from .results.forecast import Forecast as Forecast
+    from .results.kalman import (
+        KalmanFilterResult as KalmanFilterResult,
+    )
+    from .results.kalman import (
+        KalmanSmootherResult as KalmanSmootherResult,
+    )
+    from .results.loading import load as load
+    from .results.model_set import ModelSet as ModelSet
+    from .results.model_set import load_many as load_many
+    from .results.record import FitRecord as FitRecord
+    from .results.record import FitStatus as FitStatus
+    from .results.regression import RegressionModel as RegressionModel
+    from .results.segmentation import Segmentation as Segmentation
+    from .results.selection import LambdaSelection as LambdaSelection
+    from .results.statespace import LTVModel as LTVModel
 
 __all__ = [
     *_API,
