@@ -1,14 +1,9 @@
 """The cart-pole simulator and the model-based RL experiment of paper Fig. 4 (ltvmodels.rl)."""
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from ltvmodels.apps import rl
-
-EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 def test_jacobian_matches_finite_differences():
@@ -150,13 +145,3 @@ def test_experiment_input_validation():
         rl.CartPole().rollout(np.zeros(4), np.zeros((2, 4)), np.zeros((2, 1)))
     with pytest.raises(TypeError, match="result: expected an RLExperiment"):
         rl.plot_experiment({"ltv": [1.0]})
-
-
-def test_example_script_quick(tmp_path, capsys):
-    spec = importlib.util.spec_from_file_location("rl_cartpole", EXAMPLES / "rl_cartpole.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    out = tmp_path / "rl.png"
-    assert module.main(["--quick", "--runs", "1", "--seed", "1", "--out", str(out)]) == 0
-    assert out.stat().st_size > 10_000
-    assert "Median cost over 1 runs" in capsys.readouterr().out
