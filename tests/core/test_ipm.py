@@ -98,7 +98,7 @@ def test_pair_kernels_equal_the_general_kernels_on_2d_cones(coeffs):
     )
     pair = [np.empty(n_cones), np.empty_like(s), np.empty_like(s)]
     pair_steps = cones.direction_finish_pairs(
-        dk, work, s, r_z, z, inv_alpha, ratio, penalty, coeffs, w, *pair
+        dk, work, inv_s, r_z, z, inv_alpha, ratio, penalty, coeffs, w, *pair
     )
     for ours, theirs in zip(pair, general):
         np.testing.assert_allclose(ours, theirs, rtol=1e-7, atol=1e-9 * np.abs(theirs).max())

@@ -398,7 +398,17 @@ def kkt_residuals(k, t, s, z, y, phi, coeffs, w, r_z, r_k):  # pragma: no cover 
     weighted_difference(k, coeffs, w, r_z)  # vector parts: ΛDk
     reg = gap = rz_sq = s_sq = 0.0
     rt_max = 0.0
-    for c in range(s.shape[0]):
+    for c in range(s.shape[0] if g == 1 else 0):  # l1: the same without inner loops
+        r_0 = s[c, 0] - t[c]
+        reg += abs(r_z[c, 1])
+        r_1 = s[c, 1] - r_z[c, 1]
+        r_z[c, 0] = r_0
+        r_z[c, 1] = r_1
+        gap += s[c, 0] * z[c, 0] + s[c, 1] * z[c, 1]
+        rz_sq += r_0 * r_0 + r_1 * r_1
+        s_sq += s[c, 0] * s[c, 0] + s[c, 1] * s[c, 1]
+        rt_max = max(rt_max, abs(1.0 - z[c, 0]))
+    for c in range(s.shape[0] if g > 1 else 0):
         norm_sq = 0.0
         r_z[c, 0] = s[c, 0] - t[c]
         for a in range(1, g + 1):
@@ -608,33 +618,21 @@ def direction_rhs_pairs(
     add_weighted_difference_adjoint(work, coeffs, w, 1.0, rhs)
 
 
-@numba.njit(cache=True, inline="always")
-def _pair_step(x_a, x_b, d_a, d_b):  # pragma: no cover - compiled
-    """Largest α with x + α·d in a 2-D cone, in rotated coordinates (inf if unbounded).
-
-    The cone is two half-lines: the smallest −x/d over the coordinates with d < 0.
-    (:func:`max_step`'s root of the quadratic, without its cancellation.)
-    """
-    step = np.inf
-    if d_a < 0.0:
-        step = -x_a / d_a
-    if d_b < 0.0:
-        step = min(step, -x_b / d_b)
-    return step
-
-
 @numba.njit(cache=True)
 def direction_finish_pairs(
-    dk, work, s, r_z, z, inv_alpha, ratio, penalty, coeffs, w, dt, ds, dz
+    dk, work, inv_s, r_z, z, inv_alpha, ratio, penalty, coeffs, w, dt, ds, dz
 ):  # pragma: no cover - compiled
     """:func:`direction_finish` for cones of width 2, from :func:`prepare_newton_pairs`.
 
     With e = ΛDΔk: Δt = f_t/α − (β/α) e, Δs = (Δt, e) − r_z and
     Δz = (1 − z₀, work₁ − S e). Returns the largest steps that keep s + αΔs and
-    z + αΔz in the cones.
+    z + αΔz in the cones: a cone is two half-lines in rotated coordinates, so
+    the step is 1 / max(−Δx_a/x_a, −Δx_b/x_b) over all cones (inf if no
+    coordinate decreases); :func:`max_step`'s root of a quadratic without its
+    cancellation, and without a branch per cone.
     """
     weighted_difference(dk, coeffs, w, ds)  # vector parts: e
-    step_s = step_z = np.inf
+    shrink_s = shrink_z = 0.0  # the largest relative decrease of a coordinate
     for c in range(ds.shape[0]):
         e = ds[c, 1]
         dt_c = work[c, 0] * inv_alpha[c] - ratio[c] * e
@@ -647,12 +645,12 @@ def direction_finish_pairs(
         ds[c, 1] = ds_1
         dz[c, 0] = dz_0
         dz[c, 1] = dz_1
-        step_s = min(
-            step_s, _pair_step(s[c, 0] + s[c, 1], s[c, 0] - s[c, 1], ds_0 + ds_1, ds_0 - ds_1)
+        shrink_s = max(shrink_s, -(ds_0 + ds_1) * inv_s[c, 0], -(ds_0 - ds_1) * inv_s[c, 1])
+        shrink_z = max(
+            shrink_z, -(dz_0 + dz_1) / (z[c, 0] + z[c, 1]), -(dz_0 - dz_1) / (z[c, 0] - z[c, 1])
         )
-        step_z = min(
-            step_z, _pair_step(z[c, 0] + z[c, 1], z[c, 0] - z[c, 1], dz_0 + dz_1, dz_0 - dz_1)
-        )
+    step_s = 1.0 / shrink_s if shrink_s > 0.0 else np.inf
+    step_z = 1.0 / shrink_z if shrink_z > 0.0 else np.inf
     return step_s, step_z
 
 

@@ -354,7 +354,7 @@ class NewtonSystem:
         dt, ds, dz = np.empty(cp.n_cones), np.empty_like(work), np.empty_like(work)
         if self.pairs:
             steps = cones.direction_finish_pairs(
-                dk, work, self.s, self.r_z, self.z, self.inv_alpha, self.ratio,
+                dk, work, self.inv_s, self.r_z, self.z, self.inv_alpha, self.ratio,
                 self.penalty, cp.coeffs, cp.w, dt, ds, dz,
             )  # fmt: skip
             return dk, dt, ds, dz, min(steps)
