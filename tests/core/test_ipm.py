@@ -53,6 +53,70 @@ def test_nesterov_todd_scaling(g):
     np.testing.assert_allclose(S, schur, rtol=1e-10, atol=1e-12)
 
 
+@pytest.mark.parametrize("coeffs", [[-1.0, 1.0], [1.0, -2.0, 1.0]])
+def test_pair_kernels_equal_the_general_kernels_on_2d_cones(coeffs):
+    """The closed forms for cones of width 2 (l1) give what the general NT kernels give."""
+    rng = np.random.default_rng(11)
+    coeffs = np.array(coeffs)
+    N, K = 40, 3
+    n_cones = (N - len(coeffs) + 1) * K
+    # cones near their boundary too: the largest and smallest scalings of an IPM
+    s, z = interior_points(rng, n_cones, 1), interior_points(rng, n_cones, 1)
+    s[::5, 0] = np.abs(s[::5, 1]) * (1.0 + 1e-6)
+    z[1::5, 0] = np.abs(z[1::5, 1]) * (1.0 + 1e-5)
+    r_z, target = rng.normal(size=(n_cones, 2)), rng.normal(size=(n_cones, 2))
+    ds_a, dz_a = rng.normal(size=(n_cones, 2)), rng.normal(size=(n_cones, 2))
+    r_k, dk = rng.normal(size=(N, K)), rng.normal(size=(N, K))
+    w = rng.uniform(0.5, 2.0, K)
+
+    v, lam, lam_sq, u_rz = (np.empty_like(s) for _ in range(4))
+    eta = np.empty(n_cones)
+    alpha, beta, s_coef = np.empty(n_cones), np.empty((n_cones, 1)), np.empty(n_cones)
+    cones.prepare_newton(s, z, r_z, v, eta, lam, lam_sq, u_rz, alpha, beta, s_coef)
+    inv_s, base, pair_lam_sq = np.empty_like(s), np.empty_like(s), np.empty_like(s)
+    inv_alpha, ratio, penalty = np.empty(n_cones), np.empty(n_cones), np.empty(n_cones)
+    assert cones.prepare_newton_pairs(
+        s, z, r_z, inv_s, base, inv_alpha, ratio, penalty, pair_lam_sq
+    )
+    np.testing.assert_allclose(pair_lam_sq, lam_sq, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(inv_alpha, 1.0 / alpha, rtol=1e-9)
+    np.testing.assert_allclose(ratio, beta[:, 0] / alpha, rtol=1e-9, atol=1e-14)
+    S = (1.0 - s_coef * v[:, 1] ** 2) / eta**2
+    np.testing.assert_allclose(penalty, S, rtol=1e-7)  # the general form cancels
+
+    work, rhs = np.empty_like(s), np.empty((N, K))
+    cones.direction_rhs(target, lam, v, eta, u_rz, z, alpha, beta, r_k, coeffs, w, work, rhs)
+    pair_work, pair_rhs = np.empty_like(s), np.empty((N, K))
+    cones.direction_rhs_pairs(target, inv_s, base, ratio, r_k, coeffs, w, pair_work, pair_rhs)
+    scale = np.abs(work).max()
+    np.testing.assert_allclose(pair_work, work, rtol=1e-8, atol=1e-12 * scale)
+    np.testing.assert_allclose(pair_rhs, rhs, rtol=1e-8, atol=1e-12 * scale)
+
+    general = [np.empty(n_cones), np.empty_like(s), np.empty_like(s)]
+    steps = cones.direction_finish(
+        dk, work, s, r_z, z, alpha, beta, v, eta, s_coef, coeffs, w, *general
+    )
+    pair = [np.empty(n_cones), np.empty_like(s), np.empty_like(s)]
+    pair_steps = cones.direction_finish_pairs(
+        dk, work, inv_s, r_z, z, inv_alpha, ratio, penalty, coeffs, w, *pair
+    )
+    for ours, theirs in zip(pair, general):
+        np.testing.assert_allclose(ours, theirs, rtol=1e-7, atol=1e-9 * np.abs(theirs).max())
+    np.testing.assert_allclose(pair_steps, steps, rtol=1e-6)
+    assert pair_steps[0] == pytest.approx(cones.max_step(s, pair[1]), rel=1e-9)
+    assert pair_steps[1] == pytest.approx(cones.max_step(z, pair[2]), rel=1e-9)
+
+    out, pair_out = np.empty_like(s), np.empty_like(s)
+    cones.corrector_target_pairs(lam_sq, ds_a, dz_a, 0.3, pair_out)
+    cones.corrector_target(lam, v, eta, ds_a, dz_a, 0.3, out)
+    np.testing.assert_allclose(pair_out, out, rtol=1e-9, atol=1e-9 * np.abs(out).max())
+
+    s[3, 0] = s[3, 1]  # on the boundary
+    assert not cones.prepare_newton_pairs(
+        s, z, r_z, inv_s, base, inv_alpha, ratio, penalty, pair_lam_sq
+    )
+
+
 def test_max_step_reaches_the_boundary():
     rng = np.random.default_rng(3)
     x = interior_points(rng, 1, 3)
@@ -101,11 +165,13 @@ def test_newton_direction_solves_the_linearized_kkt_system(norm, coeffs):
         np.einsum("tij,tj->ti", theta, pb.phi[:, 0])[:, :, None] * pb.phi[:, 0, None, :]
     ).reshape(N, K)
     np.testing.assert_allclose(data_term - adj, -r_k, atol=1e-7 * np.abs(r_k).max())
-    # λ ∘ (WΔz + W⁻¹Δs) = target.
-    W, W_inv = cone_matrices(newton.v, newton.eta, 1.0), cone_matrices(newton.v, newton.eta, -1.0)
+    # λ ∘ (WΔz + W⁻¹Δs) = target, with the general NT scaling (l1 takes closed forms).
+    v, eta, lam = np.empty_like(s), np.empty(n_cones), np.empty_like(s)
+    cones.nt_scaling(s, z, v, eta, lam)
+    W, W_inv = cone_matrices(v, eta, 1.0), cone_matrices(v, eta, -1.0)
     scaled = np.einsum("cij,cj->ci", W, dz) + np.einsum("cij,cj->ci", W_inv, ds)
     out = np.empty_like(scaled)
-    cones.jordan_product(newton.lam, scaled, out)
+    cones.jordan_product(lam, scaled, out)
     np.testing.assert_allclose(out, target, atol=1e-7)
 
 

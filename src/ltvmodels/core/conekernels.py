@@ -24,6 +24,14 @@ def weighted_difference(k, coeffs, w, out):  # pragma: no cover - compiled
     R = k.shape[0] - coeffs.shape[0] + 1
     K = k.shape[1]
     g = out.shape[1] - 1
+    if g == 1:  # l1: cone r·K + j, no integer division by a run-time g
+        for r in range(R):
+            for j in range(K):
+                acc = 0.0
+                for q in range(coeffs.shape[0]):
+                    acc += coeffs[q] * k[r + q, j]
+                out[r * K + j, 1] = w[j] * acc
+        return
     C = K // g
     for r in range(R):
         for j in range(K):
@@ -38,6 +46,13 @@ def add_weighted_difference_adjoint(v, coeffs, w, scale, out):  # pragma: no cov
     """out += scale · DᵀΛ v₁ for cone vectors v; out is (N, K)."""
     K = out.shape[1]
     g = v.shape[1] - 1
+    if g == 1:  # l1: cone r·K + j, no integer division by a run-time g
+        for r in range(v.shape[0] // K):
+            for j in range(K):
+                value = scale * w[j] * v[r * K + j, 1]
+                for q in range(coeffs.shape[0]):
+                    out[r + q, j] += coeffs[q] * value
+        return
     C = K // g
     R = v.shape[0] // C
     for r in range(R):
@@ -164,21 +179,21 @@ def prepare_newton(
 
 
 @numba.njit(cache=True, inline="always")
-def _penalty_row(v, eta, s_coef, w, r, offset, out, b):  # pragma: no cover - compiled
+def _penalty_row(v, eta, s_coef, penalty, w, r, offset, out, b):  # pragma: no cover - compiled
     """out = (ΛSΛ)_r restricted to the coefficients offset … offset + b − 1.
 
-    Group cones (g = K = b): out = ΛSΛ with S = η_r⁻²(I − s_coef v₁v₁ᵀ). Scalar
-    cones (l1, g = 1): a diagonal block, one cone per coefficient.
+    Group cones (g = K = b): out = ΛSΛ with S = η_r⁻²(I − s_coef v₁v₁ᵀ). Cones
+    of width 2 (l1, g = 1; ``penalty`` non-empty): a diagonal block, one cone
+    per coefficient, S_c = penalty[c] from :func:`prepare_newton_pairs`.
     """
-    g = v.shape[1] - 1
-    if g == 1:
+    if penalty.shape[0] > 0:
         K = w.shape[0]
         for i in range(b):
             for j in range(b):
                 out[i, j] = 0.0
             c = r * K + offset + i
             wi = w[offset + i]
-            out[i, i] = wi * wi * (1.0 - s_coef[c] * v[c, 1] * v[c, 1]) / (eta[c] * eta[c])
+            out[i, i] = wi * wi * penalty[c]
     else:
         inv_eta2 = 1.0 / (eta[r] * eta[r])
         coef = s_coef[r]
@@ -194,12 +209,16 @@ def _penalty_row(v, eta, s_coef, w, r, offset, out, b):  # pragma: no cover - co
 
 @numba.njit(cache=True)
 def factor_newton(
-    phi, n_rep, v, eta, s_coef, w, coeffs, offset, pinned, L, size
+    phi, n_rep, v, eta, s_coef, penalty, w, coeffs, offset, pinned, L, size
 ):  # pragma: no cover - compiled
     """Factor the Newton matrix 2ΦᵀΦ + DᵀΛSΛD into L (N, d+1, b, b).
 
     ``size`` is the block size b as an int, or as a tuple of length b for the
     version compiled with b a constant (see :mod:`.blockkernels`).
+
+    S comes from the cone scaling (v, η, s_coef) of :func:`prepare_newton`, or
+    for cones of width 2 from ``penalty`` (:func:`prepare_newton_pairs`); the
+    unused one is empty.
 
     The block-banded Cholesky of :mod:`.blockkernels` with the penalty
     blocks (ΛSΛ)_r formed on the fly from the cone scaling (one per row of D,
@@ -229,7 +248,7 @@ def factor_newton(
     worst_t = 0
     for t in range(N):
         if t < R:
-            _penalty_row(v, eta, s_coef, w, t, offset, ring[t % (d + 1)], b)
+            _penalty_row(v, eta, s_coef, penalty, w, t, offset, ring[t % (d + 1)], b)
         for lag in range(min(d, t), 0, -1):
             s = t - lag
             # Block (t, s) of DᵀΛSΛD = Σ_r c_{t−r} c_{s−r} (ΛSΛ)_r.
@@ -289,13 +308,15 @@ def factor_newton(
 factor_newton_fixed = factor_newton
 
 
-def factor_newton_any(phi, n_rep, v, eta, s_coef, w, coeffs, offset, pinned, L):
+def factor_newton_any(phi, n_rep, v, eta, s_coef, penalty, w, coeffs, offset, pinned, L):
     """:func:`factor_newton` with the block size taken from ``L`` at run time.
 
     A Python function: as a compiled wrapper it made numba inline the kernel
     (and its inlined helpers) once more, about 1 s of compilation.
     """
-    return factor_newton(phi, n_rep, v, eta, s_coef, w, coeffs, offset, pinned, L, L.shape[2])
+    return factor_newton(
+        phi, n_rep, v, eta, s_coef, penalty, w, coeffs, offset, pinned, L, L.shape[2]
+    )
 
 
 @numba.njit(cache=True)
@@ -377,7 +398,17 @@ def kkt_residuals(k, t, s, z, y, phi, coeffs, w, r_z, r_k):  # pragma: no cover 
     weighted_difference(k, coeffs, w, r_z)  # vector parts: ΛDk
     reg = gap = rz_sq = s_sq = 0.0
     rt_max = 0.0
-    for c in range(s.shape[0]):
+    for c in range(s.shape[0] if g == 1 else 0):  # l1: the same without inner loops
+        r_0 = s[c, 0] - t[c]
+        reg += abs(r_z[c, 1])
+        r_1 = s[c, 1] - r_z[c, 1]
+        r_z[c, 0] = r_0
+        r_z[c, 1] = r_1
+        gap += s[c, 0] * z[c, 0] + s[c, 1] * z[c, 1]
+        rz_sq += r_0 * r_0 + r_1 * r_1
+        s_sq += s[c, 0] * s[c, 0] + s[c, 1] * s[c, 1]
+        rt_max = max(rt_max, abs(1.0 - z[c, 0]))
+    for c in range(s.shape[0] if g > 1 else 0):
         norm_sq = 0.0
         r_z[c, 0] = s[c, 0] - t[c]
         for a in range(1, g + 1):
@@ -506,3 +537,130 @@ def _scale_one(v, eta, c, x, power):  # pragma: no cover - compiled
     x[0, 0] = factor * (2.0 * dot * v[c, 0] - x[0, 0])
     for a in range(1, m):
         x[0, a] = factor * (2.0 * dot * sign * v[c, a] + x[0, a])
+
+
+# -- Cones of width 2 (norm="l1") --------------------------------------------------------
+# A 2-D cone {(t, s): t >= |s|} is a pair of half-lines in the rotated coordinates
+# x_a = x₀ + x₁, x_b = x₀ − x₁: x ∈ Q ⇔ x_a, x_b >= 0, the Jordan product is the
+# entrywise product, (x ∘ y)_a = x_a y_a, and e = (1, 1). The NT scaling W is
+# diagonal there, W_a = √(s_a / z_a), so λ_a = √(s_a z_a), W⁻² = diag(p_a, p_b) with
+# p_a = z_a / s_a, and (W⁻¹Δs) ∘ (WΔz) = Δs ∘ Δz: the algebra of the general
+# kernels above without square roots, reflections or inner loops. The kernels
+# below compute the same quantities from these closed forms (the same iterates
+# up to rounding) and are selected by :class:`.ipm.NewtonSystem` for cones of
+# width 2. Vectors stay in the (t, s) layout of the general kernels.
+
+
+@numba.njit(cache=True)
+def prepare_newton_pairs(
+    s, z, r_z, inv_s, base, inv_alpha, ratio, penalty, lam_sq
+):  # pragma: no cover - compiled
+    """What a Newton system of 2-D cones needs per cone (:func:`prepare_newton` for m = 2).
+
+    With p = W⁻² = diag(p_a, p_b) in rotated coordinates, α = (p_a + p_b)/2 and
+    β = (p_a − p_b)/2 (W⁻² = [[α, β], [β, α]] in (t, s) coordinates), fills
+
+    - inv_s = (1/s_a, 1/s_b): W⁻¹(λ ⋄ x) = (x_a/s_a, x_b/s_b) for a target x;
+    - base = u_rz − (1 − z₀, 0), u_rz = W⁻² r_z: the target-free part of the
+      right-hand side (:func:`direction_rhs_pairs`);
+    - inv_alpha = 1/α, ratio = β/α and penalty = α − β²/α = p_a p_b / α, the
+      diagonal Newton-matrix term S_c;
+    - lam_sq = λ ∘ λ = (sᵀz, s₀z₁ + s₁z₀).
+
+    Returns False (and stops) if a cone's s or z is not strictly inside its cone,
+    which rounding can cause next to the boundary.
+    """
+    for c in range(s.shape[0]):
+        s_a = s[c, 0] + s[c, 1]
+        s_b = s[c, 0] - s[c, 1]
+        z_a = z[c, 0] + z[c, 1]
+        z_b = z[c, 0] - z[c, 1]
+        if not (s_a > 0.0 and s_b > 0.0 and z_a > 0.0 and z_b > 0.0):
+            return False
+        inv_a = 1.0 / s_a
+        inv_b = 1.0 / s_b
+        p_a = z_a * inv_a
+        p_b = z_b * inv_b
+        inv_s[c, 0] = inv_a
+        inv_s[c, 1] = inv_b
+        u_a = p_a * (r_z[c, 0] + r_z[c, 1])
+        u_b = p_b * (r_z[c, 0] - r_z[c, 1])
+        base[c, 0] = 0.5 * (u_a + u_b) - (1.0 - z[c, 0])
+        base[c, 1] = 0.5 * (u_a - u_b)
+        inv_sum = 1.0 / (p_a + p_b)
+        inv_alpha[c] = 2.0 * inv_sum
+        ratio[c] = (p_a - p_b) * inv_sum
+        penalty[c] = 2.0 * p_a * p_b * inv_sum
+        lam_sq[c, 0] = s[c, 0] * z[c, 0] + s[c, 1] * z[c, 1]
+        lam_sq[c, 1] = s[c, 0] * z[c, 1] + s[c, 1] * z[c, 0]
+    return True
+
+
+@numba.njit(cache=True)
+def direction_rhs_pairs(
+    target, inv_s, base, ratio, r_k, coeffs, w, work, rhs
+):  # pragma: no cover - compiled
+    """:func:`direction_rhs` for cones of width 2, from :func:`prepare_newton_pairs`.
+
+    u = u_rz + W⁻¹(λ ⋄ target) is u_rz + (target_a/s_a, target_b/s_b) in rotated
+    coordinates; work = (f_t, u₁ − β f_t/α) with f_t = u₀ − (1 − z₀), and
+    rhs = −r_k + DᵀΛ work₁.
+    """
+    for c in range(target.shape[0]):
+        x_a = (target[c, 0] + target[c, 1]) * inv_s[c, 0]
+        x_b = (target[c, 0] - target[c, 1]) * inv_s[c, 1]
+        f_t = base[c, 0] + 0.5 * (x_a + x_b)
+        work[c, 0] = f_t
+        work[c, 1] = base[c, 1] + 0.5 * (x_a - x_b) - ratio[c] * f_t
+    for tt in range(rhs.shape[0]):
+        for j in range(rhs.shape[1]):
+            rhs[tt, j] = -r_k[tt, j]
+    add_weighted_difference_adjoint(work, coeffs, w, 1.0, rhs)
+
+
+@numba.njit(cache=True)
+def direction_finish_pairs(
+    dk, work, inv_s, r_z, z, inv_alpha, ratio, penalty, coeffs, w, dt, ds, dz
+):  # pragma: no cover - compiled
+    """:func:`direction_finish` for cones of width 2, from :func:`prepare_newton_pairs`.
+
+    With e = ΛDΔk: Δt = f_t/α − (β/α) e, Δs = (Δt, e) − r_z and
+    Δz = (1 − z₀, work₁ − S e). Returns the largest steps that keep s + αΔs and
+    z + αΔz in the cones: a cone is two half-lines in rotated coordinates, so
+    the step is 1 / max(−Δx_a/x_a, −Δx_b/x_b) over all cones (inf if no
+    coordinate decreases); :func:`max_step`'s root of a quadratic without its
+    cancellation, and without a branch per cone.
+    """
+    weighted_difference(dk, coeffs, w, ds)  # vector parts: e
+    shrink_s = shrink_z = 0.0  # the largest relative decrease of a coordinate
+    for c in range(ds.shape[0]):
+        e = ds[c, 1]
+        dt_c = work[c, 0] * inv_alpha[c] - ratio[c] * e
+        dt[c] = dt_c
+        ds_0 = dt_c - r_z[c, 0]
+        ds_1 = e - r_z[c, 1]
+        dz_0 = 1.0 - z[c, 0]
+        dz_1 = work[c, 1] - penalty[c] * e
+        ds[c, 0] = ds_0
+        ds[c, 1] = ds_1
+        dz[c, 0] = dz_0
+        dz[c, 1] = dz_1
+        shrink_s = max(shrink_s, -(ds_0 + ds_1) * inv_s[c, 0], -(ds_0 - ds_1) * inv_s[c, 1])
+        shrink_z = max(
+            shrink_z, -(dz_0 + dz_1) / (z[c, 0] + z[c, 1]), -(dz_0 - dz_1) / (z[c, 0] - z[c, 1])
+        )
+    step_s = 1.0 / shrink_s if shrink_s > 0.0 else np.inf
+    step_z = 1.0 / shrink_z if shrink_z > 0.0 else np.inf
+    return step_s, step_z
+
+
+@numba.njit(cache=True)
+def corrector_target_pairs(lam_sq, ds_a, dz_a, sigma_mu, out):  # pragma: no cover - compiled
+    """:func:`corrector_target` for cones of width 2: σμe − λ∘λ − Δs_a ∘ Δz_a.
+
+    (W⁻¹Δs) ∘ (WΔz) = Δs ∘ Δz for these cones: W is diagonal in the rotated
+    coordinates, where ∘ is the entrywise product. ds_a and dz_a are not changed.
+    """
+    for c in range(lam_sq.shape[0]):
+        out[c, 0] = sigma_mu - lam_sq[c, 0] - (ds_a[c, 0] * dz_a[c, 0] + ds_a[c, 1] * dz_a[c, 1])
+        out[c, 1] = -lam_sq[c, 1] - (ds_a[c, 0] * dz_a[c, 1] + ds_a[c, 1] * dz_a[c, 0])

@@ -134,6 +134,7 @@ class _RowSystem:
             newton.v,
             newton.eta,
             newton.s_coef,
+            newton.penalty,
             cp.w,
             cp.coeffs,
             self.offset,
@@ -254,13 +255,32 @@ class NewtonSystem:
     """
 
     def __init__(self, cp: ConicProblem, s, z, r_z, r_k):
-        self.cp, self.z, self.r_z, self.r_k = cp, z, r_z, r_k
+        self.cp, self.s, self.z, self.r_z, self.r_k = cp, s, z, r_z, r_k
         n_cones, m = s.shape
-        self.v, self.eta, self.lam = np.empty_like(s), np.empty(n_cones), np.empty_like(s)
-        self.alpha, self.beta = np.empty(n_cones), np.empty((n_cones, m - 1))
-        self.s_coef = np.empty(n_cones)
-        self.lam_sq = np.empty_like(s)
-        self.u_rz = np.empty_like(s)  # W⁻² r_z, shared by both directions
+        # Cones of width 2 (l1) take the closed forms of the *_pairs kernels; the
+        # arrays of the other kind stay empty.
+        self.pairs = m == 2
+        general, pairs = (0, n_cones) if self.pairs else (n_cones, 0)
+        self.v, self.eta = np.empty((general, m)), np.empty(general)
+        self.lam, self.u_rz = np.empty((general, m)), np.empty((general, m))
+        self.alpha, self.beta = np.empty(general), np.empty((general, m - 1))
+        self.s_coef = np.empty(general)
+        self.inv_s, self.base = np.empty((pairs, 2)), np.empty((pairs, 2))
+        self.inv_alpha, self.ratio = np.empty(pairs), np.empty(pairs)
+        self.penalty = np.empty(pairs)  # S_c, the diagonal Newton-matrix term
+        self.lam_sq = np.empty_like(s)  # λ∘λ
+        boundary = (
+            "the interior-point iterate reached the boundary of a cone at working "
+            "precision; a looser tol helps"
+        )
+        if self.pairs:
+            interior = cones.prepare_newton_pairs(
+                s, z, r_z, self.inv_s, self.base, self.inv_alpha, self.ratio,
+                self.penalty, self.lam_sq,
+            )  # fmt: skip
+            if not interior:
+                raise SingularProblemError(boundary)
+            return
         try:
             cones.prepare_newton(
                 s,
@@ -276,15 +296,24 @@ class NewtonSystem:
                 self.s_coef,
             )
         except ZeroDivisionError:  # a cone's s or z reached its boundary in rounding
-            raise SingularProblemError(
-                "the interior-point iterate reached the boundary of a cone at working "
-                "precision; a looser tol helps"
-            ) from None
-        self.s = s
+            raise SingularProblemError(boundary) from None
+
+    def predictor_target(self) -> np.ndarray:
+        """The affine (predictor) target −λ∘λ."""
+        return -self.lam_sq
+
+    def corrector_target(self, ds_a, dz_a, sigma_mu: float) -> np.ndarray:
+        """Mehrotra's target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a); ds_a, dz_a may be overwritten."""
+        target = np.empty_like(self.lam_sq)
+        if self.pairs:
+            cones.corrector_target_pairs(self.lam_sq, ds_a, dz_a, sigma_mu, target)
+        else:
+            cones.corrector_target(self.lam, self.v, self.eta, ds_a, dz_a, sigma_mu, target)
+        return target
 
     def affine_direction(self):
         """Factor the Newton matrix and solve for the predictor target −λ∘λ."""
-        work, rhs = self.rhs_for(-self.lam_sq)
+        work, rhs = self.rhs_for(self.predictor_target())
         return self.finish(self.cp.factor_and_solve(self, rhs), work)
 
     def direction(self, target: np.ndarray):
@@ -297,6 +326,11 @@ class NewtonSystem:
         cp = self.cp
         work = np.empty_like(target)
         rhs = np.empty((cp.N, cp.K))
+        if self.pairs:
+            cones.direction_rhs_pairs(
+                target, self.inv_s, self.base, self.ratio, self.r_k, cp.coeffs, cp.w, work, rhs
+            )
+            return work, rhs
         cones.direction_rhs(
             target,
             self.lam,
@@ -318,6 +352,12 @@ class NewtonSystem:
         """(Δk, Δt, Δs, Δz) and the largest steps keeping s and z in the cones."""
         cp = self.cp
         dt, ds, dz = np.empty(cp.n_cones), np.empty_like(work), np.empty_like(work)
+        if self.pairs:
+            steps = cones.direction_finish_pairs(
+                dk, work, self.inv_s, self.r_z, self.z, self.inv_alpha, self.ratio,
+                self.penalty, cp.coeffs, cp.w, dt, ds, dz,
+            )  # fmt: skip
+            return dk, dt, ds, dz, min(steps)
         steps = cones.direction_finish(
             dk,
             work,
@@ -505,8 +545,7 @@ def fit_sparse_ipm(
             break
         iterations += 1
         sigma_mu = (1.0 - min(1.0, step)) ** 3 * gap / n_cones
-        target = np.empty_like(s)
-        cones.corrector_target(newton.lam, newton.v, newton.eta, ds_a, dz_a, sigma_mu, target)
+        target = newton.corrector_target(ds_a, dz_a, sigma_mu)
         dk, dt, ds, dz, step = newton.direction(target)
         step = min(1.0, STEP_FRACTION * step)
         if step < MIN_STEP:

@@ -160,7 +160,7 @@ def fit_robust_ipm(
         cp.phi = entries.scaled_regressors(data_phi)  # the data block Σ d_e φφᵀ
         try:
             newton = NewtonSystem(cp, s, z, r_z, r_k)
-            work, rhs = newton.rhs_for(-newton.lam_sq)
+            work, rhs = newton.rhs_for(newton.predictor_target())
             affine = entries.eliminate(-entries.complementarity())
             rhs += affine.rhs
             dk, _, ds_a, dz_a, cone_step = newton.finish(cp.factor_and_solve(newton, rhs), work)
@@ -174,8 +174,7 @@ def fit_robust_ipm(
         mu = gap / degree
         sigma_mu = (1.0 - step) ** 3 * mu
         # Mehrotra's corrector, for the cones (conekernels) and the orthants
-        target = np.empty_like(s)
-        cones.corrector_target(newton.lam, newton.v, newton.eta, ds_a, dz_a, sigma_mu, target)
+        target = newton.corrector_target(ds_a, dz_a, sigma_mu)
         orthant_target = sigma_mu - entries.complementarity() - affine.second_order(dk)
         work, rhs = newton.rhs_for(target)
         direction = entries.eliminate(orthant_target)
