@@ -293,3 +293,20 @@ def test_lam_auto_on_data_that_leave_nothing_to_choose_blames_lam():
     y[-1] = np.nan
     with pytest.raises(ValueError, match=r"^lam: the L-curve has no corner"):
         ltv.fit_ar(y, na=1, lam="auto", norm="l1")
+
+
+def test_ar_and_arx_lam_auto_report_progress():
+    data = ltv.systems.jump_linear(T=300, change_at=150, seed=3)
+    y = data.x[:, 0]
+    for fit, args in ((ltv.fit_ar, (y, 2)), (ltv.fit_arx, (y, data.u, 2, 1))):
+        reports = []
+        model = fit(
+            *args,
+            lam="auto",
+            progress=lambda done, total, reports=reports: reports.append((done, total)),
+        )
+        n_fits = model.info["lam_selection"]["n_fits"]
+        assert [done for done, _ in reports[:n_fits]] == list(range(1, n_fits + 1))
+        assert reports[-1] == (n_fits, n_fits)
+        with pytest.raises(TypeError, match=r"^progress: expected a function"):
+            fit(*args, lam="auto", progress=1)

@@ -548,7 +548,11 @@ def _cmd_ar(args: argparse.Namespace) -> Report:
         if not np.all(np.isfinite(weights)):
             raise DataError("--weights: the weights must be observed (no missing values)")
     what = "choosing lambda and fitting" if args.lam == "auto" else "fitting"
-    with Progress(f"ltvmodels ar: {what}"), user_errors():
+    with Progress(f"ltvmodels ar: {what}") as bar, user_errors():
+
+        def progress(done: int, total: int) -> None:  # the candidates of lam=auto
+            bar.total, bar.done = total, done
+
         model = fit_ar(
             y[:, 0] if y.shape[1] == 1 else y,
             args.na,
@@ -560,6 +564,7 @@ def _cmd_ar(args: argparse.Namespace) -> Report:
             tol=args.tol,
             weights=weights,
             noise_var=args.noise_var,
+            progress=progress,
         )
         freq = model.root_spectrogram(args.fs)
     model.info["data_columns"] = {"output": names}

@@ -28,6 +28,7 @@ j describes y[L + j] (``model.sample_index``).
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 from functools import partial
 from typing import Any, Literal
 
@@ -148,6 +149,7 @@ def fit_arx(
     weights: ArrayLike | None = None,
     loss: Loss = "squared",
     huber_delta: float | ArrayLike | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> ARXModel:
     """Identify a time-varying (V)ARX model.
 
@@ -177,6 +179,9 @@ def fit_arx(
     lam, norm, order, prior, prior_mode, noise_var, compute_cov, max_iter, tol, loss, huber_delta
         As in :func:`ltvmodels.fit`, with K = n·p parameters per time step,
         p = n·na + m·nb (+ 1).
+    progress : callable, optional
+        Called as ``progress(done, total)`` while ``lam="auto"`` chooses λ (see
+        :func:`ltvmodels.select_lambda`).
     weights : array_like, shape (T − L,) or (R, T − L), optional
         Weights >= 0 of the regression rows (model time steps).
     constant : bool, default False
@@ -227,6 +232,7 @@ def fit_arx(
         weights=weights,
         loss=loss,
         huber_delta=huber_delta,
+        progress=progress,
     )
     return _describe(model, y_data, u_data, y.shape)
 
@@ -248,6 +254,7 @@ def fit_ar(
     weights: ArrayLike | None = None,
     loss: Loss = "squared",
     huber_delta: float | ArrayLike | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> ARModel:
     """Identify a time-varying (V)AR(na) model y[t] = Σ_{i=1}^{na} A_{t,i} y[t−i] (+ c_t) + e[t].
 
@@ -266,6 +273,9 @@ def fit_ar(
         Model order.
     lam, norm, order, prior, prior_mode, noise_var, compute_cov, max_iter, tol, loss, huber_delta
         As in :func:`ltvmodels.fit`, with K = n·p, p = n·na (+ 1).
+    progress : callable, optional
+        Called as ``progress(done, total)`` while ``lam="auto"`` chooses λ (see
+        :func:`ltvmodels.select_lambda`).
     weights : array_like, shape (T − na,) or (R, T − na), optional
         Weights >= 0 of the regression rows (model time steps).
     constant : bool, default False
@@ -322,6 +332,7 @@ def fit_ar(
         weights=weights,
         loss=loss,
         huber_delta=huber_delta,
+        progress=progress,
     )
     return _describe(model, y_data, None, y.shape)
 
@@ -393,6 +404,7 @@ def _fit_lagged(
     weights: Any,
     loss: Any,
     huber_delta: Any,
+    progress: Any,
 ) -> ARXModel:
     """Build the regression of validated AR/ARX data (R, T, ·) and run the shared core.
 
@@ -421,6 +433,7 @@ def _fit_lagged(
         tol=tol,
         loss=loss,
         huber_delta=huber_delta,
+        progress=progress,
     )
     model.info["n_missing"] = problem.N * problem.q - problem.n_observed  # rows left out
     return model
