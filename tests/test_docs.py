@@ -70,3 +70,20 @@ def test_every_public_function_and_class_has_an_api_page():
         wanted |= public_callables(module_name)
     assert wanted - listed == set(), "add these to docs/api.rst"
     assert listed - wanted == set(), "docs/api.rst lists names that are not public"
+
+
+def test_public_functions_document_their_parameters_and_return_value():
+    """numpydoc's checks: every parameter documented and described, a Returns section."""
+    validate = pytest.importorskip("numpydoc.validate").validate
+    problems = []
+    for module_name in ["ltvmodels", *DOCUMENTED_MODULES]:
+        module = importlib.import_module(module_name)
+        for name in sorted(public_callables(module_name)):
+            value = getattr(module, name)
+            if not inspect.isfunction(value):
+                continue  # classes document their fields as Attributes
+            path = f"{value.__module__}.{value.__qualname__}"
+            for code, message in validate(path)["errors"]:
+                if code in {"PR01", "PR02", "PR07", "RT01"}:
+                    problems.append(f"{module_name}.{name}: {code} {message}")
+    assert problems == []

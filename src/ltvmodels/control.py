@@ -237,7 +237,9 @@ class LinearDynamics(LinearTimeVarying):
     Parameters
     ----------
     A : array_like, shape (N, n, n)
+        State matrices A_t of x[t+1] = A_t x[t] + B_t u[t] + c_t.
     B : array_like, shape (N, n, m)
+        Input matrices B_t.
     c : array_like, shape (N, n) or (n,), optional
         Offsets; default 0.
     """

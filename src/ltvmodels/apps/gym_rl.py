@@ -183,7 +183,13 @@ def _gymnasium() -> Any:
 
 
 def make_env() -> Any:
-    """A new ``gymnasium.make("Pendulum-v1")`` environment."""
+    """A new ``gymnasium.make("Pendulum-v1")`` environment.
+
+    Returns
+    -------
+    gymnasium.Env
+        Needs gymnasium (``pip install "ltvmodels[rl]"``); ImportError without it.
+    """
     return _gymnasium().make(ENV_ID)
 
 
@@ -206,6 +212,7 @@ def state_from_observations(obs: Any) -> np.ndarray:
     Parameters
     ----------
     obs : array_like, shape (T, 3)
+        Observations [cos θ, sin θ, θ̇] of consecutive steps.
 
     Returns
     -------
@@ -231,6 +238,10 @@ def swung_up(x: Any, *, angle: float = SWING_UP_ANGLE, steps: int = SWING_UP_STE
         Largest allowed abs(θ) [rad] after wrapping to [−π, π).
     steps : int
         Number of final states that must be upright (40: the last 2 s of an episode).
+
+    Returns
+    -------
+    bool
     """
     xs = arrays.as_time_series(x, "x", allow_1d=False)
     if xs.shape[1] != 2:

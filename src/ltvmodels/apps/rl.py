@@ -731,6 +731,16 @@ def optimal_control(task: CartPoleTask) -> ILQGResult:
     """iLQG on the true nonlinear model from ``task.x0`` (no noise, force bounds).
 
     The reference cost of the experiment (the dashed line of paper Fig. 4).
+
+    Parameters
+    ----------
+    task : CartPoleTask
+        The system, initial state, horizon and cost (:func:`cartpole_task`).
+
+    Returns
+    -------
+    ILQGResult
+        The optimized trajectory, controls, gains and cost.
     """
     if not isinstance(task, CartPoleTask):
         raise TypeError(f"task: expected a CartPoleTask, received {arrays.describe(task)}")

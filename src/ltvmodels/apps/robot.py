@@ -379,7 +379,16 @@ def plot_robot_experiment(experiment: RobotExperiment, which: str = "train"):
     run's elbow-velocity sign change and contact; for ``which="validation"``
     dotted lines mark the validation run's own events.
 
-    Returns the matplotlib Figure.
+    Parameters
+    ----------
+    experiment : RobotExperiment
+        The result of :func:`robot_experiment`.
+    which : {"train", "validation"}
+        The run to draw.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     which = options.choice(which, "which", ("train", "validation"))
     run = experiment.train if which == "train" else experiment.validation

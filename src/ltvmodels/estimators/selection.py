@@ -157,6 +157,7 @@ def select_lambda(
     x : array_like, shape (T, n) or (R, T, n)
         States (R trajectories, NaN = missing), as in :func:`ltvmodels.fit`.
     u : array_like, shape (T, m), (T,) or (R, T, m), optional
+        Inputs (NaN = missing); None for an autonomous system.
     norm : {"sq", "group", "l1", "l0"}
         "l0" chooses the number of changes of :func:`ltvmodels.fit_segments`.
     order : int or sequence of float
@@ -232,11 +233,19 @@ def select_lambda_regression(
     Parameters
     ----------
     y : array_like, shape (N, n), (N,) or (R, N, n)
+        Outputs y_t of the regression, time on axis 0.
     phi : array_like, shape (N, p), (N,) or (R, N, p)
+        Regressors φ_t, shared by the n outputs.
     norm : {"sq", "group", "l1"}
+        The penalty norm, as in :func:`ltvmodels.fit_regression`.
     order, method, lams, n_folds, progress, weights, loss, huber_delta
         As in :func:`select_lambda` (NaN = missing, as in
         :func:`ltvmodels.fit_regression`).
+
+    Returns
+    -------
+    LambdaSelection
+        The chosen ``lam``, the candidates and their scores (``plot()`` draws them).
     """
     norm, method, loss = _norm_and_method(norm, method, options.NORMS, loss)
     problem = regression_problem(y, phi, order=order, weights=weights)

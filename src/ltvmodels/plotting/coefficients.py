@@ -367,6 +367,7 @@ def plot_model(
     Parameters
     ----------
     model : LTVModel
+        The fitted model.
     truth : optional
         As in :func:`plot_coefficients`.
     changepoints : array_like of int, optional
