@@ -398,33 +398,44 @@ def kkt_residuals(k, t, s, z, y, phi, coeffs, w, r_z, r_k):  # pragma: no cover 
     weighted_difference(k, coeffs, w, r_z)  # vector parts: ΛDk
     reg = gap = rz_sq = s_sq = 0.0
     rt_max = 0.0
-    for c in range(s.shape[0] if g == 1 else 0):  # l1: the same without inner loops
-        r_0 = s[c, 0] - t[c]
-        reg += abs(r_z[c, 1])
-        r_1 = s[c, 1] - r_z[c, 1]
-        r_z[c, 0] = r_0
-        r_z[c, 1] = r_1
-        gap += s[c, 0] * z[c, 0] + s[c, 1] * z[c, 1]
-        rz_sq += r_0 * r_0 + r_1 * r_1
-        s_sq += s[c, 0] * s[c, 0] + s[c, 1] * s[c, 1]
-        rt_max = max(rt_max, abs(1.0 - z[c, 0]))
-    for c in range(s.shape[0] if g > 1 else 0):
-        norm_sq = 0.0
-        r_z[c, 0] = s[c, 0] - t[c]
-        for a in range(1, g + 1):
-            norm_sq += r_z[c, a] * r_z[c, a]
-            r_z[c, a] = s[c, a] - r_z[c, a]
-        reg += np.sqrt(norm_sq)
-        for a in range(g + 1):
-            gap += s[c, a] * z[c, a]
-            rz_sq += r_z[c, a] * r_z[c, a]
-            s_sq += s[c, a] * s[c, a]
-        rt_max = max(rt_max, abs(1.0 - z[c, 0]))
+    if g == 1:  # l1: the same sums without inner loops
+        for c in range(s.shape[0]):
+            r_0 = s[c, 0] - t[c]
+            reg += abs(r_z[c, 1])
+            r_1 = s[c, 1] - r_z[c, 1]
+            r_z[c, 0] = r_0
+            r_z[c, 1] = r_1
+            gap += s[c, 0] * z[c, 0] + s[c, 1] * z[c, 1]
+            rz_sq += r_0 * r_0 + r_1 * r_1
+            s_sq += s[c, 0] * s[c, 0] + s[c, 1] * s[c, 1]
+            rt_max = max(rt_max, abs(1.0 - z[c, 0]))
+    else:
+        for c in range(s.shape[0]):
+            norm_sq = 0.0
+            r_z[c, 0] = s[c, 0] - t[c]
+            for a in range(1, g + 1):
+                norm_sq += r_z[c, a] * r_z[c, a]
+                r_z[c, a] = s[c, a] - r_z[c, a]
+            reg += np.sqrt(norm_sq)
+            for a in range(g + 1):
+                gap += s[c, a] * z[c, a]
+                rz_sq += r_z[c, a] * r_z[c, a]
+                s_sq += s[c, a] * s[c, a]
+            rt_max = max(rt_max, abs(1.0 - z[c, 0]))
     rk_sq = 0.0
     for tt in range(N):
         for j in range(K):
             rk_sq += r_k[tt, j] * r_k[tt, j]
     return loss, reg, gap, np.sqrt(rz_sq), np.sqrt(s_sq), np.sqrt(rk_sq), rt_max
+
+
+@numba.njit(cache=True, inline="always")
+def _stationarity_rhs(work, r_k, coeffs, w, rhs):  # pragma: no cover - compiled
+    """rhs = −r_k + DᵀΛ work₁: the banded system's right-hand side from the cone parts."""
+    for tt in range(rhs.shape[0]):
+        for j in range(rhs.shape[1]):
+            rhs[tt, j] = -r_k[tt, j]
+    add_weighted_difference_adjoint(work, coeffs, w, 1.0, rhs)
 
 
 @numba.njit(cache=True)
@@ -456,10 +467,7 @@ def direction_rhs(
         ratio = f_t / alpha[c]
         for a in range(1, m):
             work[c, a] = x[0, a] + u_rz[c, a] - beta[c, a - 1] * ratio
-    for tt in range(rhs.shape[0]):
-        for j in range(rhs.shape[1]):
-            rhs[tt, j] = -r_k[tt, j]
-    add_weighted_difference_adjoint(work, coeffs, w, 1.0, rhs)
+    _stationarity_rhs(work, r_k, coeffs, w, rhs)
 
 
 @numba.njit(cache=True)
@@ -612,10 +620,7 @@ def direction_rhs_pairs(
         f_t = base[c, 0] + 0.5 * (x_a + x_b)
         work[c, 0] = f_t
         work[c, 1] = base[c, 1] + 0.5 * (x_a - x_b) - ratio[c] * f_t
-    for tt in range(rhs.shape[0]):
-        for j in range(rhs.shape[1]):
-            rhs[tt, j] = -r_k[tt, j]
-    add_weighted_difference_adjoint(work, coeffs, w, 1.0, rhs)
+    _stationarity_rhs(work, r_k, coeffs, w, rhs)
 
 
 @numba.njit(cache=True)
