@@ -42,3 +42,10 @@ def report_threads(x, u=None, **options):
     model.info["blas_threads"] = max((pool["num_threads"] for pool in threadpool_info()), default=1)
     model.info["numba_threads"] = numba.get_num_threads()
     return model
+
+
+def stop_on_marked(x, u=None, **options):
+    """``fit``, except that data whose first sample is +1e6 stop their process (SIGSTOP)."""
+    if np.asarray(x)[0, 0] == 1e6:
+        os.kill(os.getpid(), signal.SIGSTOP)
+    return ltv.fit(x, u, **options)

@@ -43,10 +43,13 @@ from .segments import fit_segments
 METHODS: dict[ManyMethod, Callable] = {"fit": fit, "segments": fit_segments, "lti": fit_lti}
 """The estimators ``method=`` names."""
 
-# Units per task: enough that the per-task overhead (pickling, scheduling) is
+# Units per Dask task: enough that the per-task overhead (pickling, scheduling) is
 # small against the fits, few enough that the work spreads over the workers.
 TASKS_PER_WORKER = 8
 MAX_UNITS_PER_TASK = 256
+
+DASK_STALL_SECONDS = 600.0
+"""The default ``stall_timeout`` on a Dask cluster (no fit here measures a unit's cost)."""
 
 
 @dataclass(frozen=True)
@@ -354,6 +357,7 @@ def fit_many(
     models_dir: str | os.PathLike | None = None,
     method: ManyMethod | Callable = "fit",
     progress: bool | None = None,
+    stall_timeout: float | None = None,
     **options: Any,
 ) -> ModelSet:
     """Fit one model per unit of a panel, on all local cores or on a Dask cluster.
@@ -392,8 +396,11 @@ def fit_many(
         on its cluster (a ``LocalCluster``, ``dask scheduler``/``dask worker``,
         dask-jobqueue, Kubernetes), best with one thread per worker process.
     n_jobs : int, optional
-        Processes of the local pool (default: every core this process may
-        use); 1 fits in this process. Ignored with a Client.
+        Processes of the local pool; 1 fits in this process. Default: every
+        core this process may use, for a job large enough to gain from them:
+        the first units are fitted in this process, which measures what a
+        unit costs, and a job that would not finish sooner on the pool
+        (worker start-up included) is finished here. Ignored with a Client.
     keep_models : bool
         False keeps only the summary (and the model files, with
         ``models_dir``), so that 10⁵ units fit in bounded memory here.
@@ -408,6 +415,13 @@ def fit_many(
     progress : bool, optional
         A progress line on stderr (units done, rate, time left); default: only
         when stderr is a terminal.
+    stall_timeout : float, optional
+        Seconds to wait for the next finished task before giving up: the
+        workers are stopped and every unit without a result is recorded in
+        ``errors`` with a message that says so (a worker that hangs or was
+        stopped never hangs ``fit_many``). Default (local processes): 600 s
+        until a task has finished, then 60 s or 20 times the longest task so
+        far, whichever is longer; 600 s on Dask.
     **options
         Keyword arguments of the estimator, the same for every unit, e.g.
         ``lam`` (``"auto"`` selects λ per unit), ``norm``, ``order``, ``refine``,
@@ -434,7 +448,14 @@ def fit_many(
     Every task runs with one BLAS and one numba thread (restored after). A
     worker process that dies (killed, out of memory) loses only its running
     tasks: their units are retried once, and those whose worker dies again
-    are recorded in ``errors`` (see :mod:`ltvmodels.estimators.engines`).
+    are recorded in ``errors``; a pool that stops answering is stopped after
+    ``stall_timeout`` (see :mod:`ltvmodels.estimators.engines`). The local
+    workers are loky's reusable processes: they stay for the next call (five
+    minutes idle), so only a session's first parallel call waits for them
+    to start. With the default ``n_jobs``, the units fitted in this process
+    (the first few, or all of a small job) are as exposed as in a loop of
+    ``fit``: a unit that crashes the interpreter takes this process along.
+    Pass ``n_jobs`` to fit every unit in worker processes.
 
     Examples
     --------
@@ -455,9 +476,12 @@ def fit_many(
     keep_models = checks.flag(keep_models, "keep_models")
     if progress is not None:
         progress = checks.flag(progress, "progress")
+    adaptive = n_jobs is None
     n_jobs = (
         engines.default_jobs() if n_jobs is None else checks.integer(n_jobs, "n_jobs", minimum=1)
     )
+    if stall_timeout is not None:
+        stall_timeout = checks.positive_scalar(stall_timeout, "stall_timeout")
     if models_dir is not None and not isinstance(models_dir, (str, os.PathLike)):
         raise TypeError(
             f"models_dir: expected a directory path, received {arrays.describe(models_dir)}"
@@ -479,6 +503,7 @@ def fit_many(
             keep_models=keep_models,
             directory=directory,
             progress=progress,
+            stall_timeout=DASK_STALL_SECONDS if stall_timeout is None else stall_timeout,
         )
     if isinstance(data, Mapping):
         if by is not None or state is not None or inputs is not None or time is not None:
@@ -508,16 +533,20 @@ def fit_many(
             engines.run_dask(
                 client,
                 task,
-                chunked(units, task_count(client_workers(client), len(units))),
+                engines.chunked(units, task_count(client_workers(client), len(units))),
                 collected.add,
                 collected.lose,
+                stall_timeout=DASK_STALL_SECONDS if stall_timeout is None else stall_timeout,
             )
-        elif n_jobs == 1 or len(units) <= 1:
-            engines.run_here(task, [units], collected.add)
         else:
-            chunks = chunked(units, task_count(n_jobs, len(units)))
-            engines.run_processes(
-                task, chunks, min(n_jobs, len(chunks)), collected.add, collected.lose
+            engines.run_local(
+                task,
+                units,
+                n_jobs,
+                collected.add,
+                collected.lose,
+                adaptive=adaptive,
+                stall_timeout=stall_timeout,
             )
     return collected.model_set(units)
 
@@ -570,12 +599,6 @@ def task_count(workers: int, n_units: int) -> int:
     """How many tasks to split ``n_units`` into for ``workers`` workers."""
     tasks = max(workers * TASKS_PER_WORKER, math.ceil(n_units / MAX_UNITS_PER_TASK))
     return max(1, min(n_units, tasks))
-
-
-def chunked(units: list, n_tasks: int) -> list[list]:
-    """``units`` in ``n_tasks`` consecutive chunks of nearly equal size."""
-    bounds = np.linspace(0, len(units), n_tasks + 1).round().astype(int)
-    return [units[a:b] for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
 
 
 class Collector:
@@ -651,6 +674,7 @@ def fit_dask_frame(
     keep_models: bool,
     directory: Path | None,
     progress: bool | None,
+    stall_timeout: float,
 ) -> ModelSet:
     """Fit the units of a dask DataFrame where its partitions live (see :func:`fit_many`)."""
     import dask
@@ -689,33 +713,37 @@ def fit_dask_frame(
         for index, part in enumerate(parts)
     ]
     collected = Collector(len(tasks), by, keep_models, directory, progress, unit="partitions")
-    from distributed import as_completed as dask_completed
+    from distributed import as_completed as dask_as_completed
+
+    def partition_failed(index: int, message: str) -> UnitResult:
+        unit = f"<partition {index}>"  # its units are unknown here
+        data = UnitData(unit, index * PARTITION_STRIDE, None)
+        return failed(data, {"unit": unit, "T": None}, message)
 
     results: list[UnitResult] = []
     with collected.progress:
         futures = dict(zip(client.compute(tasks), enumerate(tasks)))
-        queue = dask_completed(list(futures))
+        queue = dask_as_completed(list(futures))
         retried = set()
-        for future in queue:
-            index, part_task = futures.pop(future)
-            try:
-                results.extend(future.result())
-            except Exception as exc:  # its worker died, after the scheduler's own retries
-                if index not in retried:  # once more, from the partition's source
-                    retried.add(index)
-                    again = client.compute(part_task)
-                    futures[again] = (index, part_task)
-                    queue.add(again)
-                    continue
-                unit = f"<partition {index}>"  # its units are unknown here
-                results.append(
-                    failed(
-                        UnitData(unit, index * PARTITION_STRIDE, None),
-                        {"unit": unit, "T": None},
-                        f"{engines.WORKER_DIED} ({type(exc).__name__}: {exc})",
-                    )
-                )
-            collected.progress.advance(1)
+        try:
+            for future in engines.dask_completed(queue, stall_timeout):
+                index, part_task = futures.pop(future)
+                try:
+                    results.extend(future.result())
+                except Exception as exc:  # its worker died, after the scheduler's own retries
+                    if index not in retried:  # once more, from the partition's source
+                        retried.add(index)
+                        again = client.compute(part_task)
+                        futures[again] = (index, part_task)
+                        queue.add(again)
+                        continue
+                    message = f"{engines.WORKER_DIED} ({type(exc).__name__}: {exc})"
+                    results.append(partition_failed(index, message))
+                collected.progress.advance(1)
+        except TimeoutError:
+            client.cancel(list(futures))
+            message = engines.STALLED.format(where="Dask workers", seconds=stall_timeout)
+            results.extend(partition_failed(index, message) for index, _ in futures.values())
     results.sort(key=lambda result: result.position)
     units = [UnitData(result.unit, result.position, None) for result in results]
     collected.results = {result.position: result for result in results}
