@@ -32,7 +32,8 @@ from typing import Any
 import numpy as np
 
 from ..progress import Progress
-from ..results.model_set import ModelSet, model_file_name
+from ..results.manifest import check_units, model_file_name, output_directory
+from ..results.model_set import ModelSet
 from ..validation import arrays
 from ..validation import options as checks
 from ..validation.options import ManyMethod
@@ -400,7 +401,11 @@ def fit_many(
     models_dir : str or path-like, optional
         Write each unit's model file there as it finishes (workers write it:
         on a cluster the directory must be shared), with the manifest of
-        :func:`ltvmodels.load_many` at the end.
+        :func:`ltvmodels.load_many` at the end (written atomically). Created
+        (with its parents) before the data are split; the units must be of a
+        type the manifest stores (text, numbers, bools, dates, times,
+        durations, UUIDs or tuples of these: see
+        :mod:`ltvmodels.results.manifest`), checked before any unit is fitted.
     method : {"fit", "segments", "lti"} or callable
         The estimator: :func:`ltvmodels.fit`, :func:`ltvmodels.fit_segments`,
         :func:`ltvmodels.fit_lti`, or any function ``f(x, u, **options)``
@@ -425,6 +430,8 @@ def fit_many(
     ------
     TypeError, ValueError
         Invalid arguments or options (a unit's bad data only fail that unit).
+    OutputPathError
+        ``models_dir`` is an existing file, or cannot be created or written.
     ImportError
         A table without pandas, or a Client or dask DataFrame without
         ``dask.distributed``.
@@ -458,11 +465,8 @@ def fit_many(
     n_jobs = (
         engines.default_jobs() if n_jobs is None else checks.integer(n_jobs, "n_jobs", minimum=1)
     )
-    if models_dir is not None and not isinstance(models_dir, (str, os.PathLike)):
-        raise TypeError(
-            f"models_dir: expected a directory path, received {arrays.describe(models_dir)}"
-        )
-    directory = None if models_dir is None else Path(models_dir)
+    # Created now, before the data are split: a directory that cannot be one fails at once.
+    directory = None if models_dir is None else output_directory(models_dir, "models_dir")
     client = dask_client(engine)
     weights = options.pop("weights", None)
     if is_dask_frame(data):
@@ -498,8 +502,8 @@ def fit_many(
             f"data: expected a long pandas DataFrame (with by=, state=), a mapping "
             f"{{unit: (x, u)}} or a dask DataFrame, received {arrays.describe(data)}"
         )
-    if directory is not None:
-        directory.mkdir(parents=True, exist_ok=True)
+    if directory is not None:  # the manifest stores every unit: checked before any fit
+        check_units((data.unit for data in units), "data" if isinstance(data, Mapping) else "by")
     spec = FitSpec(estimator, options, keep_models, None if directory is None else str(directory))
     collected = Collector(len(units), by_name, keep_models, directory, progress)
     task = partial(fit_units, spec=spec)
@@ -679,8 +683,9 @@ def fit_dask_frame(
             f"{arrays.describe(weights)}"
         )
     column_list(weights, "weights", frame.columns, required=False)
-    if directory is not None:
-        directory.mkdir(parents=True, exist_ok=True)
+    if directory is not None:  # the units are known only on the cluster: check their type
+        check_unit_dtype(frame[by].dtype, by)
+        directory = output_directory(directory, "models_dir")
     shuffled = frame.shuffle(on=by)
     spec = FitSpec(estimator, options, keep_models, None if directory is None else str(directory))
     parts = shuffled.to_delayed()
@@ -720,6 +725,39 @@ def fit_dask_frame(
     units = [UnitData(result.unit, result.position, None) for result in results]
     collected.results = {result.position: result for result in results}
     return collected.model_set(units)
+
+
+def check_unit_dtype(dtype: Any, by: str) -> None:
+    """Raise if a unit column of this dtype holds units a manifest cannot store.
+
+    For a dask DataFrame, whose units are known only once its partitions are
+    fitted. Python objects (object dtype) cannot be checked here.
+
+    Parameters
+    ----------
+    dtype : numpy or pandas dtype
+        The dtype of the unit column.
+    by : str
+        Its name.
+
+    Raises
+    ------
+    TypeError
+        Complex numbers, periods, intervals and other types that are neither
+        text, numbers, bools, dates nor durations.
+    """
+    import pandas as pd
+
+    if isinstance(dtype, pd.CategoricalDtype):
+        dtype = dtype.categories.dtype
+    kind = getattr(dtype, "kind", "O")
+    if kind in "biufmMUS" or dtype == np.dtype(object) or pd.api.types.is_string_dtype(dtype):
+        return
+    raise TypeError(
+        f"by: column {by!r} holds {dtype} units, which a model set's manifest cannot store "
+        f"(models_dir); expected text, numbers, bools, dates or durations; relabel the units "
+        "(e.g. as text)"
+    )
 
 
 PARTITION_STRIDE = 10**9
