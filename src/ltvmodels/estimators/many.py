@@ -418,7 +418,9 @@ def fit_many(
         ``lam`` (``"auto"`` selects λ per unit), ``norm``, ``order``, ``refine``,
         ``constant``, ``loss``; for a table ``weights`` may name a column
         (the weight of row t applies to the transition from t to t + 1).
-        Checked against the estimator's signature before anything runs.
+        Checked against the estimator's signature before anything runs: an
+        option it does not take, or a parameter it requires (``lam`` for
+        ``fit``) that is missing, is an error.
 
     Returns
     -------
@@ -429,7 +431,8 @@ def fit_many(
     Raises
     ------
     TypeError, ValueError
-        Invalid arguments or options (a unit's bad data only fail that unit).
+        Invalid arguments or options (a unit's bad data only fail that unit),
+        including a missing required option.
     OutputPathError
         ``models_dir`` is an existing file, or cannot be created or written.
     ImportError
@@ -532,22 +535,62 @@ def estimator_of(method: Any) -> Callable:
     return METHODS[checks.choice(method, "method", tuple(METHODS))]
 
 
+# How to pass a required option, in the message that asks for it.
+REQUIRED_HINTS = {"lam": "a number or 'auto'"}
+
+
 def check_options(estimator: Callable, method: Any, options: dict) -> None:
-    """Options the estimator does not take fail here, before any unit runs."""
+    """Check the options against the estimator's signature, before any unit runs.
+
+    Parameters
+    ----------
+    estimator : callable
+        The estimator, called as ``estimator(x, u, **options)``.
+    method : str or callable
+        What the caller passed as ``method`` (named in the messages).
+    options : dict
+        The options for every unit (a table's ``weights`` column included).
+
+    Raises
+    ------
+    TypeError
+        An option the estimator does not take (unless it takes ``**kwargs``),
+        or a parameter it requires (no default, beyond x and u) that is not
+        given: every unit would fail with it.
+    """
     try:
         signature = inspect.signature(estimator)
     except (TypeError, ValueError):  # pragma: no cover - builtins without a signature
         return
     parameters = signature.parameters
-    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values()):
-        return
-    for name in options:
-        if name not in parameters or name in ("x", "u"):
-            name_of = method if isinstance(method, str) else getattr(method, "__name__", "")
-            accepted = [p for p in parameters if p not in ("x", "u")]
-            raise TypeError(
-                f"{name}: not an option of method={name_of!r}; it takes {', '.join(accepted)}"
-            )
+    name_of = method if isinstance(method, str) else getattr(method, "__name__", "")
+    positional = [
+        p.name
+        for p in parameters.values()
+        if p.kind in (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    ][:2]  # x and u: every unit's data
+    if not any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values()):
+        for name in options:
+            if name not in parameters or name in ("x", "u"):
+                accepted = [p for p in parameters if p not in ("x", "u")]
+                raise TypeError(
+                    f"{name}: not an option of method={name_of!r}; it takes {', '.join(accepted)}"
+                )
+    missing = [
+        p.name
+        for p in parameters.values()
+        if p.default is inspect.Parameter.empty
+        and p.kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+        and p.name not in positional
+        and p.name not in options
+    ]
+    if missing:
+        name = missing[0]
+        raise TypeError(
+            f"{name}: required by method={name_of!r}; pass {name}=... "
+            f"({REQUIRED_HINTS.get(name, 'the same value for every unit')})"
+            + (f" (also required: {', '.join(missing[1:])})" if len(missing) > 1 else "")
+        )
 
 
 def dask_client(engine: Any) -> Any:
