@@ -200,7 +200,32 @@ def json_times(points: np.ndarray) -> list:
 
 # -- splitting the data into units ----------------------------------------------------------
 def column_list(value: Any, name: str, columns: Any, *, required: bool) -> list:
-    """Column names given as one name, a comma-separated text or a list; checked present."""
+    """Column names given as one name or a list; checked present and named once.
+
+    Parameters
+    ----------
+    value : str, list, tuple or None
+        The names.
+    name : str
+        The argument they come from (the start of the messages).
+    columns : sequence
+        The columns of the table.
+    required : bool
+        Whether at least one name is needed.
+
+    Returns
+    -------
+    list
+        The names.
+
+    Raises
+    ------
+    TypeError
+        None where a name is required.
+    ValueError
+        No name where one is required, a name that is not a column, or a
+        name given twice.
+    """
     if value is None:
         if required:
             raise TypeError(f"{name}: expected the name(s) of the column(s) to use, received None")
@@ -208,6 +233,11 @@ def column_list(value: Any, name: str, columns: Any, *, required: bool) -> list:
     names = list(value) if isinstance(value, (list, tuple)) else [value]
     if len(names) == 0 and required:
         raise ValueError(f"{name}: expected at least one column name, received an empty list")
+    repeated = [column for position, column in enumerate(names) if column in names[:position]]
+    if repeated:
+        raise ValueError(
+            f"{name}: column {repeated[0]!r} is named twice in {names!r}; name each column once"
+        )
     missing = [column for column in names if column not in columns]
     if missing:
         shown = ", ".join(repr(column) for column in list(columns)[:12])
@@ -216,6 +246,50 @@ def column_list(value: Any, name: str, columns: Any, *, required: bool) -> list:
             f"{shown}{', ...' if len(columns) > 12 else ''}"
         )
     return names
+
+
+def check_roles(by: Any, state: list, inputs: list, time: list, weights: list) -> None:
+    """Each column plays one role: the unit, a state, an input, the time or the weights.
+
+    Parameters
+    ----------
+    by : column name
+        The unit column.
+    state, inputs, time, weights : list
+        The columns of each role (``time`` and ``weights``: none or one).
+
+    Raises
+    ------
+    ValueError
+        A column named in two roles; the message names the column and both roles.
+    """
+    roles = [("by", [by]), ("state", state), ("inputs", inputs), ("time", time)]
+    roles.append(("weights", weights))
+    for index, (first, names) in enumerate(roles):
+        for second, others in roles[index + 1 :]:
+            shared = [column for column in names if column in others]
+            if not shared:
+                continue
+            column = shared[0]
+            if "time" in (first, second):
+                other = second if first == "time" else first
+                raise ValueError(
+                    f"time: column {column!r} is also {ROLE_PHRASES[other]} ({other}=); each "
+                    "unit's rows would be sorted by its values: pass the column of time "
+                    "stamps as time= (or time=None to keep the table's row order)"
+                )
+            raise ValueError(
+                f"{first}, {second}: column {column!r} is named as both {first} and "
+                f"{second}; a column plays one role: name it in one of them"
+            )
+
+
+ROLE_PHRASES = {
+    "by": "the unit column",
+    "state": "a state column",
+    "inputs": "an input column",
+    "weights": "the weights column",
+}
 
 
 def numeric_columns(frame: Any, names: list, name: str) -> np.ndarray:
@@ -237,6 +311,25 @@ def table_units(
 
     Units in order of first appearance; rows of a unit sorted by ``time`` (stably),
     or in their order in the table when ``time`` is None.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The long table.
+    by, state, inputs, time, weights : column names
+        As :func:`fit_many` takes them (``weights``: a column name or None).
+
+    Returns
+    -------
+    list of UnitData
+        One per unit, its position its order of first appearance.
+
+    Raises
+    ------
+    TypeError, ValueError
+        A column that is missing, named twice or in two roles (e.g. ``time``
+        also a state), not numeric (state, inputs, weights) or not dates or
+        numbers (time), missing units or time stamps.
     """
     import pandas as pd
 
@@ -278,6 +371,8 @@ def table_units(
                 "expected dates or numbers (convert it, e.g. with "
                 "pandas.to_datetime)"
             )
+    check_roles(by, state, inputs, time_column, weight_column)
+    if time_column:
         order = np.lexsort((stamps, codes))
         stamps = stamps[order]
     else:
@@ -387,7 +482,9 @@ def fit_many(
     inputs : str or list of str, optional
         The input columns (tables only).
     time : str, optional
-        The time column (tables only); None keeps the table's row order.
+        The time column (tables only); None keeps the table's row order. A
+        column plays one role: ``time`` cannot be ``by``, a state, an input
+        or the weights column, nor a column both a state and an input.
     engine : None or dask.distributed.Client
         None: a pool of ``n_jobs`` processes on this machine. A Client: tasks
         on its cluster (a ``LocalCluster``, ``dask scheduler``/``dask worker``,
@@ -432,7 +529,7 @@ def fit_many(
     ------
     TypeError, ValueError
         Invalid arguments or options (a unit's bad data only fail that unit),
-        including a missing required option.
+        including a missing required option and a column named in two roles.
     OutputPathError
         ``models_dir`` is an existing file, or cannot be created or written.
     ImportError
@@ -717,15 +814,18 @@ def fit_dask_frame(
     # The column names are known here: check them before any partition runs, so
     # that a typo is an error naming the argument, not a failed partition.
     column_list(by, "by", frame.columns, required=True)
-    column_list(state, "state", frame.columns, required=True)
-    column_list(inputs, "inputs", frame.columns, required=False)
-    column_list(time, "time", frame.columns, required=False)
     if weights is not None and not isinstance(weights, str):
         raise TypeError(
             f"weights: expected the name of a column of weights, received "
             f"{arrays.describe(weights)}"
         )
-    column_list(weights, "weights", frame.columns, required=False)
+    check_roles(
+        by,
+        column_list(state, "state", frame.columns, required=True),
+        column_list(inputs, "inputs", frame.columns, required=False),
+        column_list(time, "time", frame.columns, required=False),
+        column_list(weights, "weights", frame.columns, required=False),
+    )
     if directory is not None:  # the units are known only on the cluster: check their type
         check_unit_dtype(frame[by].dtype, by)
         directory = output_directory(directory, "models_dir")
