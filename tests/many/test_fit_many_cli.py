@@ -59,9 +59,12 @@ def test_fit_many_writes_summary_and_models(panel_csv, tmp_path, capsys):
     rows = frame[frame["unit"] == "m2"].assign(date=lambda f: pd.to_datetime(f["date"]))
     rows = rows.sort_values("date").set_index("date")
     reference = ltv.fit(rows[STATE], rows[["u"]], lam=7.0)
-    np.testing.assert_array_equal(models["m2"].k, reference.k)
+    # Not bit for bit: the worker process fits with one BLAS thread, this process with
+    # several, and a BLAS's threaded and single-threaded kernels may round differently
+    # (differences of 2e-15 were seen); the same data and options give k to rounding.
+    np.testing.assert_allclose(models["m2"].k, reference.k, rtol=1e-12, atol=1e-14)
     np.testing.assert_array_equal(models["m2"].time, reference.time)
-    assert summary.loc["m2", "loglik"] == pytest.approx(reference.loglik, rel=1e-15)
+    assert summary.loc["m2", "loglik"] == pytest.approx(reference.loglik, rel=1e-12)
 
 
 def test_fit_many_json_parquet_and_segments(panel_csv, tmp_path, capsys):
