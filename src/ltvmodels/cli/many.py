@@ -5,7 +5,10 @@ column, ``--state``/``--input`` the columns of x and u, ``--time`` the column
 each unit's rows are sorted by (dates or numbers). The summary (one row per
 unit: see :attr:`ltvmodels.ModelSet.summary`) goes to ``--out`` (CSV, or
 Parquet by its suffix); ``--models-dir`` keeps every model file and the
-manifest that :func:`ltvmodels.load_many` reads.
+manifest that :func:`ltvmodels.load_many` reads. The options of the
+estimator go to the ``--method`` that takes them (:data:`METHOD_OPTIONS`):
+one given with another method is an error, as are outputs that cannot be
+written, all before any unit is fitted.
 """
 
 from __future__ import annotations
@@ -18,11 +21,24 @@ from pathlib import Path
 from typing import Any
 
 from ..estimators.many import fit_many
+from ..plotting.figure import output_file
+from ..results.manifest import output_directory
 from .data import PARQUET_SUFFIXES
 from .messages import CommandError, DataError, user_errors
 
 # How many failed units the text summary lists (--json lists them all).
 LISTED_ERRORS = 5
+
+# The estimator options of fit-many: their option, and the methods whose estimator takes
+# them (the parser leaves them None when not given).
+METHOD_OPTIONS = {
+    "lam": ("--lam", ("fit",)),
+    "norm": ("--norm", ("fit",)),
+    "order": ("--order", ("fit",)),
+    "refine": ("--refine", ("fit",)),
+    "loss": ("--loss", ("fit", "lti")),
+    "n_changes": ("--n-changes", ("segments",)),
+}
 
 
 def read_table(path: str) -> Any:
@@ -93,19 +109,73 @@ def connect(address: str | None) -> Any:
         ) from None
 
 
-def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
-    """Run ``fit-many``: returns the report and the text summary."""
-    frame = read_table(args.data)
-    parse_time_column(frame, args.time)
+def estimator_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The options of ``--method``'s estimator; an option it does not take is an error.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``fit-many`` arguments.
+
+    Returns
+    -------
+    dict
+        Keyword arguments of :func:`ltvmodels.fit_many` (``lam="auto"`` for
+        ``--method fit`` without ``--lam``).
+
+    Raises
+    ------
+    CommandError
+        An option given with a method that would ignore it (e.g. ``--lam``
+        with ``--method segments``); the message names both.
+    """
     options: dict[str, Any] = {"constant": args.constant}
+    for name, (flag, methods) in METHOD_OPTIONS.items():
+        value = getattr(args, name)
+        if value is None:
+            continue
+        if args.method not in methods:
+            raise CommandError(
+                f"{flag}: not an option of --method {args.method}; it applies to --method "
+                f"{' or '.join(methods)} (leave it out, or choose that method)"
+            )
+        options[name] = value
     if args.method == "fit":
-        options.update(
-            lam=args.lam, norm=args.norm, order=args.order, refine=args.refine, loss=args.loss
-        )
-    elif args.method == "segments" and args.n_changes is not None:
-        options["n_changes"] = args.n_changes
+        options.setdefault("lam", "auto")
     if args.weights is not None:
         options["weights"] = args.weights
+    return options
+
+
+def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
+    """Run ``fit-many``: returns the report and the text summary.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``fit-many`` arguments.
+
+    Returns
+    -------
+    report : dict
+        What ``--json`` prints.
+    lines : list of str
+        The text summary.
+
+    Raises
+    ------
+    CommandError, DataError, OutputPathError
+        User errors (printed as one line, exit status 2). The options, the
+        data and the outputs (``--out``, ``--models-dir``) are checked before
+        any unit is fitted.
+    """
+    options = estimator_options(args)
+    frame = read_table(args.data)
+    parse_time_column(frame, args.time)
+    if args.out is not None:
+        output_file(args.out, "out")
+    if args.models_dir is not None:
+        output_directory(args.models_dir, "models-dir")
     client = connect(args.scheduler)
     start = time.perf_counter()
     try:

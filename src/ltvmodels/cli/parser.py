@@ -613,31 +613,35 @@ def build_parser() -> argparse.ArgumentParser:
         help="fit (default), segments (exact change points, BIC penalty unless "
         "--n-changes) or lti (least squares)",
     )
+    # The estimator options default to None, so that one given to a method that does not
+    # take it is an error (ltvmodels.cli.many); --method fit's defaults are the library's.
     many.add_argument(
         "--norm",
         choices=["sq", "group", "l1"],
-        default="sq",
+        default=None,
         help="penalty of --method fit (default: sq)",
     )
     many.add_argument(
         "--order",
         type=_positive_int,
-        default=1,
-        help="order of the time difference penalized (default: 1)",
+        default=None,
+        help="--method fit: order of the time difference penalized (default: 1)",
     )
     many.add_argument(
         "--lam",
         type=_lam_or_auto,
-        default="auto",
+        default=None,
         metavar="{VALUE,auto}",
-        help="regularization lambda, or auto: chosen per unit (default)",
+        help="--method fit: regularization lambda, or auto: chosen per unit (default)",
     )
-    many.add_argument("--refine", action="store_true", help="two-step refinement")
+    many.add_argument(
+        "--refine", action="store_true", default=None, help="--method fit: two-step refinement"
+    )
     many.add_argument(
         "--loss",
         choices=["squared", "huber", "laplace"],
-        default="squared",
-        help="loss of the residuals (default: squared)",
+        default=None,
+        help="--method fit or lti: loss of the residuals (default: squared)",
     )
     many.add_argument(
         "--n-changes",

@@ -32,7 +32,8 @@ from typing import Any
 import numpy as np
 
 from ..progress import Progress
-from ..results.model_set import ModelSet, model_file_name
+from ..results.manifest import check_units, model_file_name, output_directory
+from ..results.model_set import ModelSet
 from ..validation import arrays
 from ..validation import options as checks
 from ..validation.options import ManyMethod
@@ -202,7 +203,32 @@ def json_times(points: np.ndarray) -> list:
 
 # -- splitting the data into units ----------------------------------------------------------
 def column_list(value: Any, name: str, columns: Any, *, required: bool) -> list:
-    """Column names given as one name, a comma-separated text or a list; checked present."""
+    """Column names given as one name or a list; checked present and named once.
+
+    Parameters
+    ----------
+    value : str, list, tuple or None
+        The names.
+    name : str
+        The argument they come from (the start of the messages).
+    columns : sequence
+        The columns of the table.
+    required : bool
+        Whether at least one name is needed.
+
+    Returns
+    -------
+    list
+        The names.
+
+    Raises
+    ------
+    TypeError
+        None where a name is required.
+    ValueError
+        No name where one is required, a name that is not a column, or a
+        name given twice.
+    """
     if value is None:
         if required:
             raise TypeError(f"{name}: expected the name(s) of the column(s) to use, received None")
@@ -210,6 +236,11 @@ def column_list(value: Any, name: str, columns: Any, *, required: bool) -> list:
     names = list(value) if isinstance(value, (list, tuple)) else [value]
     if len(names) == 0 and required:
         raise ValueError(f"{name}: expected at least one column name, received an empty list")
+    repeated = [column for position, column in enumerate(names) if column in names[:position]]
+    if repeated:
+        raise ValueError(
+            f"{name}: column {repeated[0]!r} is named twice in {names!r}; name each column once"
+        )
     missing = [column for column in names if column not in columns]
     if missing:
         shown = ", ".join(repr(column) for column in list(columns)[:12])
@@ -218,6 +249,50 @@ def column_list(value: Any, name: str, columns: Any, *, required: bool) -> list:
             f"{shown}{', ...' if len(columns) > 12 else ''}"
         )
     return names
+
+
+def check_roles(by: Any, state: list, inputs: list, time: list, weights: list) -> None:
+    """Each column plays one role: the unit, a state, an input, the time or the weights.
+
+    Parameters
+    ----------
+    by : column name
+        The unit column.
+    state, inputs, time, weights : list
+        The columns of each role (``time`` and ``weights``: none or one).
+
+    Raises
+    ------
+    ValueError
+        A column named in two roles; the message names the column and both roles.
+    """
+    roles = [("by", [by]), ("state", state), ("inputs", inputs), ("time", time)]
+    roles.append(("weights", weights))
+    for index, (first, names) in enumerate(roles):
+        for second, others in roles[index + 1 :]:
+            shared = [column for column in names if column in others]
+            if not shared:
+                continue
+            column = shared[0]
+            if "time" in (first, second):
+                other = second if first == "time" else first
+                raise ValueError(
+                    f"time: column {column!r} is also {ROLE_PHRASES[other]} ({other}=); each "
+                    "unit's rows would be sorted by its values: pass the column of time "
+                    "stamps as time= (or time=None to keep the table's row order)"
+                )
+            raise ValueError(
+                f"{first}, {second}: column {column!r} is named as both {first} and "
+                f"{second}; a column plays one role: name it in one of them"
+            )
+
+
+ROLE_PHRASES = {
+    "by": "the unit column",
+    "state": "a state column",
+    "inputs": "an input column",
+    "weights": "the weights column",
+}
 
 
 def numeric_columns(frame: Any, names: list, name: str) -> np.ndarray:
@@ -239,6 +314,25 @@ def table_units(
 
     Units in order of first appearance; rows of a unit sorted by ``time`` (stably),
     or in their order in the table when ``time`` is None.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The long table.
+    by, state, inputs, time, weights : column names
+        As :func:`fit_many` takes them (``weights``: a column name or None).
+
+    Returns
+    -------
+    list of UnitData
+        One per unit, its position its order of first appearance.
+
+    Raises
+    ------
+    TypeError, ValueError
+        A column that is missing, named twice or in two roles (e.g. ``time``
+        also a state), not numeric (state, inputs, weights) or not dates or
+        numbers (time), missing units or time stamps.
     """
     import pandas as pd
 
@@ -280,6 +374,8 @@ def table_units(
                 "expected dates or numbers (convert it, e.g. with "
                 "pandas.to_datetime)"
             )
+    check_roles(by, state, inputs, time_column, weight_column)
+    if time_column:
         order = np.lexsort((stamps, codes))
         stamps = stamps[order]
     else:
@@ -390,7 +486,9 @@ def fit_many(
     inputs : str or list of str, optional
         The input columns (tables only).
     time : str, optional
-        The time column (tables only); None keeps the table's row order.
+        The time column (tables only); None keeps the table's row order. A
+        column plays one role: ``time`` cannot be ``by``, a state, an input
+        or the weights column, nor a column both a state and an input.
     engine : None or dask.distributed.Client
         None: a pool of ``n_jobs`` processes on this machine. A Client: tasks
         on its cluster (a ``LocalCluster``, ``dask scheduler``/``dask worker``,
@@ -407,7 +505,11 @@ def fit_many(
     models_dir : str or path-like, optional
         Write each unit's model file there as it finishes (workers write it:
         on a cluster the directory must be shared), with the manifest of
-        :func:`ltvmodels.load_many` at the end.
+        :func:`ltvmodels.load_many` at the end (written atomically). Created
+        (with its parents) before the data are split; the units must be of a
+        type the manifest stores (text, numbers, bools, dates, times,
+        durations, UUIDs or tuples of these: see
+        :mod:`ltvmodels.results.manifest`), checked before any unit is fitted.
     method : {"fit", "segments", "lti"} or callable
         The estimator: :func:`ltvmodels.fit`, :func:`ltvmodels.fit_segments`,
         :func:`ltvmodels.fit_lti`, or any function ``f(x, u, **options)``
@@ -427,7 +529,9 @@ def fit_many(
         ``lam`` (``"auto"`` selects λ per unit), ``norm``, ``order``, ``refine``,
         ``constant``, ``loss``; for a table ``weights`` may name a column
         (the weight of row t applies to the transition from t to t + 1).
-        Checked against the estimator's signature before anything runs.
+        Checked against the estimator's signature before anything runs: an
+        option it does not take, or a parameter it requires (``lam`` for
+        ``fit``) that is missing, is an error.
 
     Returns
     -------
@@ -438,7 +542,10 @@ def fit_many(
     Raises
     ------
     TypeError, ValueError
-        Invalid arguments or options (a unit's bad data only fail that unit).
+        Invalid arguments or options (a unit's bad data only fail that unit),
+        including a missing required option and a column named in two roles.
+    OutputPathError
+        ``models_dir`` is an existing file, or cannot be created or written.
     ImportError
         A table without pandas, or a Client or dask DataFrame without
         ``dask.distributed``.
@@ -482,11 +589,8 @@ def fit_many(
     )
     if stall_timeout is not None:
         stall_timeout = checks.positive_scalar(stall_timeout, "stall_timeout")
-    if models_dir is not None and not isinstance(models_dir, (str, os.PathLike)):
-        raise TypeError(
-            f"models_dir: expected a directory path, received {arrays.describe(models_dir)}"
-        )
-    directory = None if models_dir is None else Path(models_dir)
+    # Created now, before the data are split: a directory that cannot be one fails at once.
+    directory = None if models_dir is None else output_directory(models_dir, "models_dir")
     client = dask_client(engine)
     weights = options.pop("weights", None)
     if is_dask_frame(data):
@@ -523,8 +627,8 @@ def fit_many(
             f"data: expected a long pandas DataFrame (with by=, state=), a mapping "
             f"{{unit: (x, u)}} or a dask DataFrame, received {arrays.describe(data)}"
         )
-    if directory is not None:
-        directory.mkdir(parents=True, exist_ok=True)
+    if directory is not None:  # the manifest stores every unit: checked before any fit
+        check_units((data.unit for data in units), "data" if isinstance(data, Mapping) else "by")
     spec = FitSpec(estimator, options, keep_models, None if directory is None else str(directory))
     collected = Collector(len(units), by_name, keep_models, directory, progress)
     task = partial(fit_units, spec=spec)
@@ -557,22 +661,62 @@ def estimator_of(method: Any) -> Callable:
     return METHODS[checks.choice(method, "method", tuple(METHODS))]
 
 
+# How to pass a required option, in the message that asks for it.
+REQUIRED_HINTS = {"lam": "a number or 'auto'"}
+
+
 def check_options(estimator: Callable, method: Any, options: dict) -> None:
-    """Options the estimator does not take fail here, before any unit runs."""
+    """Check the options against the estimator's signature, before any unit runs.
+
+    Parameters
+    ----------
+    estimator : callable
+        The estimator, called as ``estimator(x, u, **options)``.
+    method : str or callable
+        What the caller passed as ``method`` (named in the messages).
+    options : dict
+        The options for every unit (a table's ``weights`` column included).
+
+    Raises
+    ------
+    TypeError
+        An option the estimator does not take (unless it takes ``**kwargs``),
+        or a parameter it requires (no default, beyond x and u) that is not
+        given: every unit would fail with it.
+    """
     try:
         signature = inspect.signature(estimator)
     except (TypeError, ValueError):  # pragma: no cover - builtins without a signature
         return
     parameters = signature.parameters
-    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values()):
-        return
-    for name in options:
-        if name not in parameters or name in ("x", "u"):
-            name_of = method if isinstance(method, str) else getattr(method, "__name__", "")
-            accepted = [p for p in parameters if p not in ("x", "u")]
-            raise TypeError(
-                f"{name}: not an option of method={name_of!r}; it takes {', '.join(accepted)}"
-            )
+    name_of = method if isinstance(method, str) else getattr(method, "__name__", "")
+    positional = [
+        p.name
+        for p in parameters.values()
+        if p.kind in (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    ][:2]  # x and u: every unit's data
+    if not any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values()):
+        for name in options:
+            if name not in parameters or name in ("x", "u"):
+                accepted = [p for p in parameters if p not in ("x", "u")]
+                raise TypeError(
+                    f"{name}: not an option of method={name_of!r}; it takes {', '.join(accepted)}"
+                )
+    missing = [
+        p.name
+        for p in parameters.values()
+        if p.default is inspect.Parameter.empty
+        and p.kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+        and p.name not in positional
+        and p.name not in options
+    ]
+    if missing:
+        name = missing[0]
+        raise TypeError(
+            f"{name}: required by method={name_of!r}; pass {name}=... "
+            f"({REQUIRED_HINTS.get(name, 'the same value for every unit')})"
+            + (f" (also required: {', '.join(missing[1:])})" if len(missing) > 1 else "")
+        )
 
 
 def dask_client(engine: Any) -> Any:
@@ -694,17 +838,21 @@ def fit_dask_frame(
     # The column names are known here: check them before any partition runs, so
     # that a typo is an error naming the argument, not a failed partition.
     column_list(by, "by", frame.columns, required=True)
-    column_list(state, "state", frame.columns, required=True)
-    column_list(inputs, "inputs", frame.columns, required=False)
-    column_list(time, "time", frame.columns, required=False)
     if weights is not None and not isinstance(weights, str):
         raise TypeError(
             f"weights: expected the name of a column of weights, received "
             f"{arrays.describe(weights)}"
         )
-    column_list(weights, "weights", frame.columns, required=False)
-    if directory is not None:
-        directory.mkdir(parents=True, exist_ok=True)
+    check_roles(
+        by,
+        column_list(state, "state", frame.columns, required=True),
+        column_list(inputs, "inputs", frame.columns, required=False),
+        column_list(time, "time", frame.columns, required=False),
+        column_list(weights, "weights", frame.columns, required=False),
+    )
+    if directory is not None:  # the units are known only on the cluster: check their type
+        check_unit_dtype(frame[by].dtype, by)
+        directory = output_directory(directory, "models_dir")
     shuffled = frame.shuffle(on=by)
     spec = FitSpec(estimator, options, keep_models, None if directory is None else str(directory))
     parts = shuffled.to_delayed()
@@ -748,6 +896,39 @@ def fit_dask_frame(
     units = [UnitData(result.unit, result.position, None) for result in results]
     collected.results = {result.position: result for result in results}
     return collected.model_set(units)
+
+
+def check_unit_dtype(dtype: Any, by: str) -> None:
+    """Raise if a unit column of this dtype holds units a manifest cannot store.
+
+    For a dask DataFrame, whose units are known only once its partitions are
+    fitted. Python objects (object dtype) cannot be checked here.
+
+    Parameters
+    ----------
+    dtype : numpy or pandas dtype
+        The dtype of the unit column.
+    by : str
+        Its name.
+
+    Raises
+    ------
+    TypeError
+        Complex numbers, periods, intervals and other types that are neither
+        text, numbers, bools, dates nor durations.
+    """
+    import pandas as pd
+
+    if isinstance(dtype, pd.CategoricalDtype):
+        dtype = dtype.categories.dtype
+    kind = getattr(dtype, "kind", "O")
+    if kind in "biufmMUS" or dtype == np.dtype(object) or pd.api.types.is_string_dtype(dtype):
+        return
+    raise TypeError(
+        f"by: column {by!r} holds {dtype} units, which a model set's manifest cannot store "
+        f"(models_dir); expected text, numbers, bools, dates or durations; relabel the units "
+        "(e.g. as text)"
+    )
 
 
 PARTITION_STRIDE = 10**9

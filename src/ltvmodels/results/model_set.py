@@ -8,30 +8,31 @@ read back on access), or nowhere (only the summary was kept).
 On disk (:meth:`ModelSet.save`, :func:`load_many`) a model set is a directory
 with one ``.npz`` model file per fitted unit (:meth:`RegressionModel.save`)
 and ``manifest.json``: the format version, the name of the unit column, and
-per unit, in the order of the input, the unit, its model file (or null), its
-error (or null) and its summary record.
+per unit, in the order of the input, the unit (with its type), the name of
+its model file in the directory (or null), its error (or null) and its
+summary record (see :mod:`ltvmodels.results.manifest`).
 """
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
-from ..errors import ModelFileError
 from ..validation.arrays import describe
 from .loading import load
-
-MANIFEST = "manifest.json"
-FORMAT_VERSION = 1
-
-
-def model_file_name(position: int) -> str:
-    """The model file of the unit at ``position`` in the input order."""
-    return f"unit-{position:06d}.npz"
+from .manifest import (
+    MANIFEST,
+    check_units,
+    manifest_text,
+    model_file_name,
+    output_directory,
+    plain_file_name,
+    read_manifest,
+    write_manifest,
+)
 
 
 class ModelSet(Mapping):
@@ -50,7 +51,8 @@ class ModelSet(Mapping):
         ``{unit: message}`` for the units whose fit failed.
     records : list of dict
         One summary record per unit, in input order (what :attr:`summary`
-        tabulates; JSON-compatible values).
+        tabulates): the unit under ``"unit"``, and JSON-compatible values
+        (:meth:`save` writes any other value as text).
     by : str
         The name of the unit column (the index name of :attr:`summary`).
     directory : pathlib.Path or None
@@ -65,7 +67,7 @@ class ModelSet(Mapping):
         *,
         by: str = "unit",
         models: dict | None = None,
-        directory: str | Path | None = None,
+        directory: str | os.PathLike | None = None,
         files: dict | None = None,
     ) -> None:
         self.units = list(units)
@@ -75,6 +77,12 @@ class ModelSet(Mapping):
         self._models = dict(models or {})
         self.directory = None if directory is None else Path(directory)
         self._files = dict(files or {})
+        for unit, name in self._files.items():
+            if not plain_file_name(name):
+                raise ValueError(
+                    f"files: the model file of unit {unit!r} must be a file name in "
+                    f"directory, without a path; received {name!r}"
+                )
         self._summary: Any = None
         self._fitted = {unit for unit in self.units if unit not in self.errors}
 
@@ -146,55 +154,65 @@ class ModelSet(Mapping):
         return self._summary
 
     # -- persistence --------------------------------------------------------------------
-    def save(self, directory: str | Path) -> None:
-        """Write the model set to ``directory`` (created if needed): one model file per
-        fitted unit whose model was kept and ``manifest.json`` (see the module
-        docstring); :func:`ltvmodels.load_many` reads it back."""
-        if not isinstance(directory, (str, os.PathLike)):
-            raise TypeError(
-                f"directory: expected a directory path (str or pathlib.Path), "
-                f"received {describe(directory)}"
-            )
-        target = Path(directory)
-        target.mkdir(parents=True, exist_ok=True)
+    def save(self, directory: str | os.PathLike) -> None:
+        """Write the model set to a directory that :func:`ltvmodels.load_many` reads.
+
+        One model file per fitted unit whose model was kept (written from
+        memory, or copied from this set's directory) and ``manifest.json``
+        (see :mod:`ltvmodels.results.manifest`). Saving to the directory the
+        models are read from keeps their files as they are. The manifest is
+        written last and atomically: a failure never leaves a half-written one.
+
+        Parameters
+        ----------
+        directory : str or path-like
+            The directory, created (with its parents) if needed.
+
+        Raises
+        ------
+        TypeError
+            ``directory`` is not a path, or a unit is of a type the manifest
+            cannot store (checked before anything is written).
+        OutputPathError
+            ``directory`` is an existing file, or cannot be created or written.
+        """
+        check_units(self.units, "units")
+        target = output_directory(directory, "directory")
+        here = target.resolve()
+        own = self.directory is not None and self.directory.resolve() == here
         files = {}
         for position, unit in enumerate(self.units):
             if unit in self.errors:
+                continue
+            if own and unit in self._files:  # already there
+                files[unit] = self._files[unit]
                 continue
             name = model_file_name(position)
             if unit in self._models:
                 self._models[unit].save(target / name)
             elif unit in self._files and self.directory is not None:
-                source = self.directory / self._files[unit]
-                if source.resolve() != (target / name).resolve():
-                    shutil.copyfile(source, target / name)
+                shutil.copyfile(self.directory / self._files[unit], target / name)
             else:
                 continue
             files[unit] = name
         entries = [
             {
-                "unit": json_unit(unit),
+                "unit": unit,
                 "file": files.get(unit),
                 "error": self.errors.get(unit),
                 "summary": record,
             }
             for unit, record in zip(self.units, self.records)
         ]
-        manifest = {"format": FORMAT_VERSION, "by": self.by, "units": entries}
-        (target / MANIFEST).write_text(json.dumps(manifest, indent=1, allow_nan=True))
+        write_manifest(target, manifest_text(self.by, entries))
 
 
-def json_unit(unit: Any) -> Any:
-    """A unit as JSON keeps it: strings and numbers as they are, anything else as text."""
-    if isinstance(unit, bool) or not isinstance(unit, (str, int, float)):
-        return str(unit)
-    return unit
-
-
-def load_many(directory: str | Path) -> ModelSet:
+def load_many(directory: str | os.PathLike) -> ModelSet:
     """Read a model set written by :meth:`ModelSet.save` or ``fit_many(models_dir=...)``.
 
-    The models stay on disk: ``ms[unit]`` reads a unit's model file when asked.
+    The models stay on disk: ``ms[unit]`` reads a unit's model file when
+    asked. Only files inside ``directory`` are read: the manifest names
+    them by file name alone.
 
     Parameters
     ----------
@@ -204,14 +222,21 @@ def load_many(directory: str | Path) -> ModelSet:
     Returns
     -------
     ModelSet
-        Units that are not strings or numbers come back as their text.
+        Units come back with their type (dates, times, numbers, text; see
+        :mod:`ltvmodels.results.manifest`); a manifest of format 1 gives the
+        units that are not strings or numbers as their text.
 
     Raises
     ------
+    TypeError
+        ``directory`` is not a path.
     FileNotFoundError
         No ``manifest.json`` in ``directory``.
     ModelFileError
-        The manifest is not one this version reads.
+        The manifest is not one this version reads, or is damaged (an entry
+        that is not an object, lacks a key, has a unit that cannot be one, a
+        file name with a path, an error or summary of the wrong type, a unit
+        listed twice); the message names the entry and the problem.
     """
     if not isinstance(directory, (str, os.PathLike)):
         raise TypeError(
@@ -224,22 +249,5 @@ def load_many(directory: str | Path) -> ModelSet:
             f"directory: {directory} holds no {MANIFEST}; expected a directory written by "
             "ModelSet.save or fit_many(..., models_dir=...)"
         )
-    try:
-        manifest = json.loads(path.read_text())
-        if manifest.get("format") != FORMAT_VERSION:
-            raise ModelFileError(
-                f"{path}: unknown model-set format {manifest.get('format')!r} "
-                f"(this version reads {FORMAT_VERSION})"
-            )
-        entries = manifest["units"]
-        units = [entry["unit"] for entry in entries]
-        records = [entry["summary"] for entry in entries]
-        errors = {entry["unit"]: entry["error"] for entry in entries if entry["error"]}
-        files = {entry["unit"]: entry["file"] for entry in entries if entry["file"]}
-    except (ValueError, KeyError, TypeError, AttributeError) as exc:
-        if isinstance(exc, ModelFileError):
-            raise
-        raise ModelFileError(f"{path}: not a model-set manifest ({exc})") from None
-    return ModelSet(
-        units, records, errors, by=manifest.get("by", "unit"), directory=directory, files=files
-    )
+    by, units, records, errors, files = read_manifest(path)
+    return ModelSet(units, records, errors, by=by, directory=directory, files=files)
