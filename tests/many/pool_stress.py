@@ -17,6 +17,7 @@ every fitted model equals the one fitted in this process.
 from __future__ import annotations
 
 import argparse
+import faulthandler
 import json
 import os
 import random
@@ -66,6 +67,7 @@ def main() -> None:
     parser.add_argument("--stall-timeout", type=float, default=None)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
+    faulthandler.register(signal.SIGUSR1, all_threads=True)  # kill -USR1 PID: the stacks
     rng = random.Random(args.seed)
     data = make_units(args.units, args.T)
     reference = ltv.fit_many(data, lam="auto", n_jobs=1)

@@ -188,6 +188,7 @@ def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
                 time=args.time,
                 engine=client,
                 n_jobs=args.jobs,
+                stall_timeout=args.stall_timeout,
                 keep_models=False,
                 models_dir=args.models_dir,
                 method=args.method,

@@ -672,7 +672,17 @@ def build_parser() -> argparse.ArgumentParser:
         type=_positive_int,
         default=None,
         metavar="N",
-        help="local worker processes (default: all cores; 1: this process)",
+        help="local worker processes (default: all cores for a job large enough to gain "
+        "from them; 1: this process)",
+    )
+    many.add_argument(
+        "--stall-timeout",
+        type=_positive_float,
+        default=None,
+        metavar="SECONDS",
+        help="give up on the units without a result when no task has finished for this long "
+        "(default: 600 s until a task has finished, then 60 s or 20 times the longest task; "
+        "600 s on a Dask cluster)",
     )
     many.add_argument(
         "--scheduler",

@@ -28,6 +28,10 @@ submitted at a time, so that when a worker dies (loky then fails every task
 in flight and starts fresh workers) the tasks in flight are exactly the
 suspects: their units are retried one per task, and those in flight when a
 worker dies again are run alone, where a death names its unit.
+A task's results come back as a file (in memory where the system has
+``/dev/shm``) whose path is the message: a worker killed while writing a
+long message would leave half of it in the pipe, where loky's reader would
+wait for the rest for good.
 
 Dask (:func:`run_dask`): tasks are submitted to a ``distributed.Client``. The
 scheduler itself reruns the tasks of a lost worker (its ``allowed-failures``
@@ -38,8 +42,12 @@ units resubmitted one per task, once, and those that fail again run alone.
 from __future__ import annotations
 
 import os
+import pickle
+import shutil
 import statistics
+import tempfile
 import time
+import uuid
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, wait
@@ -131,6 +139,38 @@ def run_task(task: Callable[[list], list], units: list) -> list:
     """``task(units)`` with one thread (see :func:`single_threaded`)."""
     with single_threaded():
         return task(units)
+
+
+def run_task_to_file(task: Callable[[list], list], units: list, directory: str) -> str:
+    """In a pool worker: run the task and write its results to a new file in ``directory``.
+
+    Returns the file's path: the message back to the pool is a few hundred
+    bytes, which a pipe writes at once, so a worker killed at any moment
+    never leaves half a message in the pipe (a half-written result would
+    block loky's reader for good). The file appears whole or not at all
+    (written under a temporary name, then renamed).
+    """
+    results = run_task(task, units)
+    path = os.path.join(directory, f"{os.getpid()}-{uuid.uuid4().hex}.pickle")
+    with open(path + ".part", "wb") as stream:
+        pickle.dump(results, stream, protocol=pickle.HIGHEST_PROTOCOL)
+    os.replace(path + ".part", path)
+    return path
+
+
+def read_results(path: str) -> list:
+    """The results written by :func:`run_task_to_file` (the file is removed)."""
+    with open(path, "rb") as stream:
+        results = pickle.load(stream)
+    os.remove(path)
+    return results
+
+
+def results_directory() -> str:
+    """A new private directory for the results of a pool run: in memory where possible."""
+    shared_memory = "/dev/shm"
+    memory = shared_memory if os.access(shared_memory, os.W_OK) else None
+    return tempfile.mkdtemp(prefix="ltvmodels-pool-", dir=memory)
 
 
 def run_here(
@@ -302,6 +342,8 @@ def run_processes(
         for unit in stalled.units:
             lost(unit, stalled.message)
         return
+    finally:
+        shutil.rmtree(run.directory, ignore_errors=True)
     _pool.workers, _pool.until = n_workers, time.monotonic() + IDLE_WORKERS_SECONDS - 1
 
 
@@ -323,6 +365,7 @@ class _PoolRun:
         self.max_breaks = max_breaks
         self.breaks = 0
         self.longest_task = 0.0
+        self.directory = results_directory()
         self.later: list[list] = []  # chunks of later stages (reported if the pool stalls)
 
     def wait_limit(self) -> float:
@@ -341,7 +384,7 @@ class _PoolRun:
             while pending and len(in_flight) < width:
                 units = pending.popleft()
                 try:
-                    future = executor.submit(run_task, self.task, units)
+                    future = executor.submit(run_task_to_file, self.task, units, self.directory)
                 except (BrokenProcessPool, RuntimeError):  # broken, or shut down: a fresh pool
                     pending.appendleft(units)
                     executor = self._after_break(executor, in_flight, pending, suspects)
@@ -357,13 +400,13 @@ class _PoolRun:
             for future in finished:
                 units, submitted = in_flight.pop(future)
                 try:
-                    results = future.result()
+                    path = future.result()
                 except BrokenProcessPool:  # its worker, or another one, died
                     suspects.append(units)
                     broken = True
                     continue
                 self.longest_task = max(self.longest_task, time.monotonic() - submitted)
-                self.done(results)
+                self.done(read_results(path))
             if broken:  # loky fails every task in flight and starts fresh workers
                 executor = self._after_break(executor, in_flight, pending, suspects)
         return suspects
@@ -381,7 +424,7 @@ class _PoolRun:
         finished, unfinished = wait(in_flight, timeout=limit)
         for future in finished:
             if future.exception() is None:
-                self.done(future.result())  # it finished before the break
+                self.done(read_results(future.result()))  # it finished before the break
             else:
                 suspects.append(in_flight[future][0])
         if unfinished or self.breaks >= self.max_breaks:

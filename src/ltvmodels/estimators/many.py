@@ -113,7 +113,12 @@ def fit_unit(data: UnitData, spec: FitSpec) -> UnitResult:
         "; ".join(sorted({f"{w.category.__name__}: {w.message}" for w in caught})) or None
     )
     if spec.models_dir is not None:
-        model.save(Path(spec.models_dir) / model_file_name(data.position))
+        try:
+            model.save(Path(spec.models_dir) / model_file_name(data.position))
+        except OSError as exc:  # a full disk fails this unit, not the task
+            return failed(
+                data, record, f"cannot write its model file ({type(exc).__name__}: {exc})"
+            )
     return UnitResult(data.position, data.unit, record, model=model if spec.keep_models else None)
 
 
