@@ -23,15 +23,13 @@ tasks of about :attr:`Sizing.task_seconds` each and run on loky's reusable
 process pool. Loky starts its workers as fresh interpreters (no fork of this
 process, so it is safe while this process runs threads, and a script needs
 no ``if __name__ == "__main__"`` guard), keeps them for the next call, detects
-a dead worker and never deadlocks on shutdown. At most one task per worker is
-submitted at a time, so that when a worker dies (loky then fails every task
-in flight and starts fresh workers) the tasks in flight are exactly the
-suspects: their units are retried one per task, and those in flight when a
-worker dies again are run alone, where a death names its unit.
-A task's results come back as a file (in memory where the system has
-``/dev/shm``) whose path is the message: a worker killed while writing a
-long message would leave half of it in the pipe, where loky's reader would
-wait for the rest for good.
+a dead worker and never deadlocks on shutdown. At most two tasks per worker
+are submitted at a time (one running, one ready, so that no worker waits for
+this process between tasks): when a worker dies, loky fails every task in
+flight and starts fresh workers, and the tasks in flight are the suspects.
+Their units are retried one per task, and those in flight when a worker dies
+again are run alone, where a death names its unit. A task's results come
+back as a file that this process maps (:mod:`.pool_results`).
 
 Dask (:func:`run_dask`): tasks are submitted to a ``distributed.Client``. The
 scheduler itself reruns the tasks of a lost worker (its ``allowed-failures``
@@ -42,12 +40,9 @@ units resubmitted one per task, once, and those that fail again run alone.
 from __future__ import annotations
 
 import os
-import pickle
 import shutil
 import statistics
-import tempfile
 import time
-import uuid
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, wait
@@ -57,6 +52,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+from . import pool_results
 
 WORKER_DIED = (
     "the worker process fitting this unit died twice (killed, or out of memory?); "
@@ -142,35 +139,8 @@ def run_task(task: Callable[[list], list], units: list) -> list:
 
 
 def run_task_to_file(task: Callable[[list], list], units: list, directory: str) -> str:
-    """In a pool worker: run the task and write its results to a new file in ``directory``.
-
-    Returns the file's path: the message back to the pool is a few hundred
-    bytes, which a pipe writes at once, so a worker killed at any moment
-    never leaves half a message in the pipe (a half-written result would
-    block loky's reader for good). The file appears whole or not at all
-    (written under a temporary name, then renamed).
-    """
-    results = run_task(task, units)
-    path = os.path.join(directory, f"{os.getpid()}-{uuid.uuid4().hex}.pickle")
-    with open(path + ".part", "wb") as stream:
-        pickle.dump(results, stream, protocol=pickle.HIGHEST_PROTOCOL)
-    os.replace(path + ".part", path)
-    return path
-
-
-def read_results(path: str) -> list:
-    """The results written by :func:`run_task_to_file` (the file is removed)."""
-    with open(path, "rb") as stream:
-        results = pickle.load(stream)
-    os.remove(path)
-    return results
-
-
-def results_directory() -> str:
-    """A new private directory for the results of a pool run: in memory where possible."""
-    shared_memory = "/dev/shm"
-    memory = shared_memory if os.access(shared_memory, os.W_OK) else None
-    return tempfile.mkdtemp(prefix="ltvmodels-pool-", dir=memory)
+    """In a pool worker: run the task; its results go to a file (:mod:`.pool_results`)."""
+    return pool_results.write(run_task(task, units), directory)
 
 
 def run_here(
@@ -228,27 +198,31 @@ def run_local(
         run_processes(task, chunks, n_workers, done, lost, stall_timeout=stall_timeout)
         return
     seconds: list[float] = []
-    while len(seconds) < len(units) and (
-        len(seconds) < 3
-        or (len(seconds) < sizing.probe_units and sum(seconds[1:]) < sizing.probe_seconds)
-    ):
-        start = time.perf_counter()
-        done(run_task(task, [units[len(seconds)]]))
-        seconds.append(time.perf_counter() - start)
-    rest = units[len(seconds) :]
-    if not rest:
-        return
-    unit_seconds = statistics.median(seconds[1:])
-    here = unit_seconds * len(rest)
-    per_task = max(1, round(sizing.task_seconds / max(unit_seconds, 1e-9)))
-    n_tasks = min(len(rest), max(-(-len(rest) // per_task), n_workers * sizing.tasks_per_worker))
-    start_up = sizing.warm_start_seconds if _pool_is_warm(n_workers) else sizing.cold_start_seconds
-    on_pool = start_up + (here + n_tasks * sizing.task_overhead_seconds) / n_workers
-    if here < sizing.min_speedup * on_pool:
-        run_here(task, [rest], done)
-    else:
-        chunks = chunked(rest, n_tasks)
-        run_processes(task, chunks, n_workers, done, lost, stall_timeout=stall_timeout)
+    with single_threaded():  # (entered once: it costs milliseconds, more than a small fit)
+        while len(seconds) < len(units) and (
+            len(seconds) < 3
+            or (len(seconds) < sizing.probe_units and sum(seconds[1:]) < sizing.probe_seconds)
+        ):
+            start = time.perf_counter()
+            done(task([units[len(seconds)]]))
+            seconds.append(time.perf_counter() - start)
+        rest = units[len(seconds) :]
+        if not rest:
+            return
+        unit_seconds = statistics.median(seconds[1:])
+        here = unit_seconds * len(rest)
+        per_task = max(1, round(sizing.task_seconds / max(unit_seconds, 1e-9)))
+        n_tasks = min(
+            len(rest), max(-(-len(rest) // per_task), n_workers * sizing.tasks_per_worker)
+        )
+        warm = _pool_is_warm(n_workers)
+        start_up = sizing.warm_start_seconds if warm else sizing.cold_start_seconds
+        on_pool = start_up + (here + n_tasks * sizing.task_overhead_seconds) / n_workers
+        if here < sizing.min_speedup * on_pool:
+            done(task(rest))
+            return
+    chunks = chunked(rest, n_tasks)
+    run_processes(task, chunks, n_workers, done, lost, stall_timeout=stall_timeout)
 
 
 # Units per task at most, where no unit was timed (a dead worker's task is retried unit by unit).
@@ -332,8 +306,9 @@ def run_processes(
     run = _PoolRun(task, n_workers, done, stall_timeout, max_breaks)
     _pool.workers, _pool.started = 0, True
     try:
-        suspects = run.stage(list(chunks), width=n_workers)
-        suspects = run.stage([[unit] for units in suspects for unit in units], width=n_workers)
+        suspects = run.stage(list(chunks), width=2 * n_workers)
+        singles = [[unit] for units in suspects for unit in units]
+        suspects = run.stage(singles, width=2 * n_workers)
         for position, units in enumerate(suspects):
             run.later = suspects[position + 1 :]
             for dead in run.stage([units], width=1):
@@ -365,7 +340,7 @@ class _PoolRun:
         self.max_breaks = max_breaks
         self.breaks = 0
         self.longest_task = 0.0
-        self.directory = results_directory()
+        self.directory = pool_results.new_directory()
         self.later: list[list] = []  # chunks of later stages (reported if the pool stalls)
 
     def wait_limit(self) -> float:
@@ -406,7 +381,7 @@ class _PoolRun:
                     broken = True
                     continue
                 self.longest_task = max(self.longest_task, time.monotonic() - submitted)
-                self.done(read_results(path))
+                self.done(pool_results.read(path))
             if broken:  # loky fails every task in flight and starts fresh workers
                 executor = self._after_break(executor, in_flight, pending, suspects)
         return suspects
@@ -424,7 +399,7 @@ class _PoolRun:
         finished, unfinished = wait(in_flight, timeout=limit)
         for future in finished:
             if future.exception() is None:
-                self.done(read_results(future.result()))  # it finished before the break
+                self.done(pool_results.read(future.result()))  # it finished before the break
             else:
                 suspects.append(in_flight[future][0])
         if unfinished or self.breaks >= self.max_breaks:

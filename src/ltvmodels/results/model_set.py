@@ -33,6 +33,7 @@ from .manifest import (
     read_manifest,
     write_manifest,
 )
+from .packed import Packed
 
 
 class ModelSet(Mapping):
@@ -89,7 +90,10 @@ class ModelSet(Mapping):
     # -- the mapping ----------------------------------------------------------------
     def __getitem__(self, unit: Any) -> Any:
         if unit in self._models:
-            return self._models[unit]
+            model = self._models[unit]
+            if isinstance(model, Packed):  # sent by a worker process: unpacked once, now
+                model = self._models[unit] = model.unpack()
+            return model
         if unit in self.errors:
             raise KeyError(f"unit {unit!r} was not fitted: {self.errors[unit]}")
         if unit in self._files and self.directory is not None:
@@ -189,7 +193,7 @@ class ModelSet(Mapping):
                 continue
             name = model_file_name(position)
             if unit in self._models:
-                self._models[unit].save(target / name)
+                self[unit].save(target / name)
             elif unit in self._files and self.directory is not None:
                 shutil.copyfile(self.directory / self._files[unit], target / name)
             else:
