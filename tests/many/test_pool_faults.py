@@ -133,3 +133,37 @@ def test_a_worker_stopped_at_a_random_moment_never_hangs():
         )
         for line in lines
     )
+
+
+UNGUARDED_SCRIPT = textwrap.dedent(
+    """
+    import sys
+    import ltvmodels as ltv
+
+    print("top level", flush=True)  # a worker that re-ran this script would print it again
+
+
+    def doubled_lam_fit(x, u=None, *, lam):  # defined in the script: sent by value
+        return ltv.fit(x, u, lam=2 * lam)
+
+
+    data = {i: (d.x, d.u) for i, d in enumerate(
+        ltv.systems.jump_linear(T=60, change_at=30, seed=i) for i in range(12))}
+    ms = ltv.fit_many(data, method=doubled_lam_fit, lam=5.0, n_jobs=2)
+    same = all((ms[i].k == ltv.fit(*data[i], lam=10.0).k).all() for i in data)
+    print('{"fitted": %d, "same": %s}' % (len(ms), "true" if same else "false"), flush=True)
+    """
+)
+
+
+def test_a_script_needs_no_main_guard(tmp_path):
+    script = tmp_path / "unguarded.py"
+    script.write_text(UNGUARDED_SCRIPT)
+    environment = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    done = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, timeout=300, env=environment
+    )
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[0] == "top level" and len(lines) == 2  # the workers did not run the script
+    assert json.loads(lines[1]) == {"fitted": 12, "same": True}

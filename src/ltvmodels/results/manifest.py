@@ -75,6 +75,15 @@ def zone_name(zone: Any) -> str | None:
     return None
 
 
+def encoded_instant(kind: str, instant: datetime.datetime) -> dict:
+    """A date and time (``pandas.Timestamp`` or ``datetime.datetime``) with its time zone."""
+    encoded = {"type": kind, "value": instant.isoformat()}
+    zone = zone_name(instant.tzinfo)
+    if zone is not None:
+        encoded["tz"] = zone
+    return encoded
+
+
 def encode_unit(unit: Any) -> Any:
     """A unit as the manifest stores it (see the module docstring).
 
@@ -103,11 +112,7 @@ def encode_unit(unit: Any) -> Any:
     pandas = sys.modules.get("pandas")  # a pandas value means pandas is imported
     if pandas is not None:
         if isinstance(unit, pandas.Timestamp):
-            encoded = {"type": "pandas.Timestamp", "value": unit.isoformat()}
-            zone = zone_name(unit.tzinfo)
-            if zone is not None:
-                encoded["tz"] = zone
-            return encoded
+            return encoded_instant("pandas.Timestamp", unit)
         if isinstance(unit, pandas.Timedelta):
             return {"type": "pandas.Timedelta", "value": unit.isoformat()}
     if isinstance(unit, np.timedelta64):  # a numpy integer too
@@ -121,11 +126,7 @@ def encode_unit(unit: Any) -> Any:
     if isinstance(unit, (float, np.floating)) and not isinstance(unit, np.longdouble):
         return float(unit)
     if isinstance(unit, datetime.datetime):
-        encoded = {"type": "datetime.datetime", "value": unit.isoformat()}
-        zone = zone_name(unit.tzinfo)
-        if zone is not None:
-            encoded["tz"] = zone
-        return encoded
+        return encoded_instant("datetime.datetime", unit)
     if isinstance(unit, datetime.date):
         return {"type": "datetime.date", "value": unit.isoformat()}
     if isinstance(unit, datetime.time) and unit.tzinfo is None:
