@@ -167,3 +167,27 @@ def test_a_script_needs_no_main_guard(tmp_path):
     lines = done.stdout.splitlines()
     assert lines[0] == "top level" and len(lines) == 2  # the workers did not run the script
     assert json.loads(lines[1]) == {"fitted": 12, "same": True}
+
+
+EXIT_WITH_STOPPED_WORKERS = textwrap.dedent(
+    """
+    import os, signal
+    import ltvmodels as ltv
+    from pool_stress import loky_workers, make_units
+
+    ltv.fit_many(make_units(40, 100), lam=10.0, n_jobs=2)
+    for pid in loky_workers():  # stopped while idle, after the run
+        os.kill(pid, signal.SIGSTOP)
+    print('{"stopped": %d}' % len(loky_workers()), flush=True)
+    """
+)
+
+
+def test_the_interpreter_exits_with_stopped_idle_workers():
+    """Loky waits for its idle workers at exit; stopped ones are killed first."""
+    start = time.monotonic()
+    (report,) = child_lines(
+        ["-c", EXIT_WITH_STOPPED_WORKERS], line_deadline=120, total_deadline=120
+    )
+    assert report["stopped"] == 2
+    assert time.monotonic() - start < 60

@@ -39,9 +39,11 @@ units resubmitted one per task, once, and those that fail again run alone.
 
 from __future__ import annotations
 
+import atexit
 import os
 import shutil
 import statistics
+import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
@@ -159,6 +161,17 @@ def default_jobs() -> int:
         return os.cpu_count() or 1
 
 
+# Units per task at most where no unit was timed (a dead worker's task is retried unit by unit).
+MAX_UNITS_PER_TASK = 256
+
+
+def even_chunks(units: list, workers: int, tasks_per_worker: int) -> list[list]:
+    """``units`` in chunks: ``tasks_per_worker`` per worker or more, of at most
+    :data:`MAX_UNITS_PER_TASK` units each."""
+    n_tasks = max(workers * tasks_per_worker, -(-len(units) // MAX_UNITS_PER_TASK))
+    return chunked(units, max(1, min(len(units), n_tasks)))
+
+
 def chunked(units: list, n_tasks: int) -> list[list]:
     """``units`` in ``n_tasks`` consecutive chunks of nearly equal size."""
     bounds = np.linspace(0, len(units), n_tasks + 1).round().astype(int)
@@ -193,8 +206,7 @@ def run_local(
         run_here(task, [units], done)
         return
     if not adaptive:
-        n_tasks = max(n_workers * sizing.tasks_per_worker, -(-len(units) // MAX_UNITS_PER_TASK))
-        chunks = chunked(units, min(len(units), n_tasks))
+        chunks = even_chunks(units, n_workers, sizing.tasks_per_worker)
         run_processes(task, chunks, n_workers, done, lost, stall_timeout=stall_timeout)
         return
     seconds: list[float] = []
@@ -225,15 +237,12 @@ def run_local(
     run_processes(task, chunks, n_workers, done, lost, stall_timeout=stall_timeout)
 
 
-# Units per task at most, where no unit was timed (a dead worker's task is retried unit by unit).
-MAX_UNITS_PER_TASK = 256
-
-
 def _executor(n_workers: int) -> Any:
     """Loky's reusable process pool with ``n_workers`` workers (a fresh one after a break)."""
     from loky import get_reusable_executor
 
-    return get_reusable_executor(max_workers=n_workers, timeout=IDLE_WORKERS_SECONDS)
+    _pool.executor = get_reusable_executor(max_workers=n_workers, timeout=IDLE_WORKERS_SECONDS)
+    return _pool.executor
 
 
 @dataclass
@@ -243,6 +252,7 @@ class _PoolState:
     workers: int = 0
     until: float = 0.0
     started: bool = False
+    executor: Any = None  # the last one (asking loky for it again could restart it)
 
 
 _pool = _PoolState()
@@ -253,19 +263,40 @@ def _pool_is_warm(n_workers: int) -> bool:
     return _pool.workers == n_workers and time.monotonic() < _pool.until
 
 
+def _kill_workers_at_exit() -> None:
+    """At interpreter exit, before loky waits for its workers to stop: kill ours.
+
+    Loky's exit hook asks idle workers to stop and waits for them; a worker
+    that was stopped (SIGSTOP) while idle would never answer, and the exit
+    would hang. Killing our pool's workers first makes that wait short.
+    """
+    if _pool.executor is not None:
+        _pool.executor.shutdown(wait=False, kill_workers=True)
+
+
+def _at_exit_before_loky() -> None:
+    """Register :func:`_kill_workers_at_exit` to run before loky's own exit hook.
+
+    Loky registers its hook with ``threading._register_atexit`` (when its
+    first executor starts); those hooks run in reverse order and before
+    ``atexit``'s, so a later registration there runs first.
+    """
+    register = getattr(threading, "_register_atexit", None)
+    if register is None:  # pragma: no cover - not CPython
+        atexit.register(_kill_workers_at_exit)
+    else:
+        register(_kill_workers_at_exit)
+
+
 def shutdown_pool() -> None:
     """Stop the workers that :func:`run_processes` keeps for the next call (if any)."""
-    from loky import get_reusable_executor
-
     _pool.workers = 0
-    if _pool.started:
-        _kill_workers(get_reusable_executor())
+    if _pool.executor is not None:
+        _kill_workers(_pool.executor)
 
 
 def _kill_workers(executor: Any, timeout: float = 10.0) -> None:
     """Kill the pool's workers (a stopped one too) and wait for that, at most ``timeout`` s."""
-    import threading
-
     killer = threading.Thread(
         target=executor.shutdown, kwargs={"wait": True, "kill_workers": True}, daemon=True
     )
@@ -304,7 +335,7 @@ def run_processes(
     the longest task so far, whichever is longer.
     """
     run = _PoolRun(task, n_workers, done, stall_timeout, max_breaks)
-    _pool.workers, _pool.started = 0, True
+    _pool.workers = 0
     try:
         suspects = run.stage(list(chunks), width=2 * n_workers)
         singles = [[unit] for units in suspects for unit in units]
@@ -365,6 +396,9 @@ class _PoolRun:
                     executor = self._after_break(executor, in_flight, pending, suspects)
                     continue
                 in_flight[future] = (units, time.monotonic())
+                if not _pool.started:  # loky registered its exit hook at this first submit
+                    _pool.started = True
+                    _at_exit_before_loky()
             limit = self.wait_limit()
             finished, _ = wait(in_flight, timeout=limit, return_when=FIRST_COMPLETED)
             if not finished:

@@ -19,7 +19,6 @@ stamps, without a DataFrame per unit).
 from __future__ import annotations
 
 import inspect
-import math
 import os
 import time as clock
 import warnings
@@ -45,10 +44,8 @@ from .segments import fit_segments
 METHODS: dict[ManyMethod, Callable] = {"fit": fit, "segments": fit_segments, "lti": fit_lti}
 """The estimators ``method=`` names."""
 
-# Units per Dask task: enough that the per-task overhead (pickling, scheduling) is
-# small against the fits, few enough that the work spreads over the workers.
-TASKS_PER_WORKER = 8
-MAX_UNITS_PER_TASK = 256
+# Dask tasks per worker thread: the cluster's workers take tasks as they free up.
+DASK_TASKS_PER_WORKER = 8
 
 DASK_STALL_SECONDS = 600.0
 """The default ``stall_timeout`` on a Dask cluster (no fit here measures a unit's cost)."""
@@ -653,7 +650,7 @@ def fit_many(
             engines.run_dask(
                 client,
                 task,
-                engines.chunked(units, task_count(client_workers(client), len(units))),
+                engines.even_chunks(units, client_workers(client), DASK_TASKS_PER_WORKER),
                 collected.add,
                 collected.lose,
                 stall_timeout=DASK_STALL_SECONDS if stall_timeout is None else stall_timeout,
@@ -753,12 +750,6 @@ def client_workers(client: Any) -> int:
 
 def is_dask_frame(data: Any) -> bool:
     return type(data).__module__.startswith("dask") and hasattr(data, "npartitions")
-
-
-def task_count(workers: int, n_units: int) -> int:
-    """How many tasks to split ``n_units`` into for ``workers`` workers."""
-    tasks = max(workers * TASKS_PER_WORKER, math.ceil(n_units / MAX_UNITS_PER_TASK))
-    return max(1, min(n_units, tasks))
 
 
 class Collector:
