@@ -57,6 +57,19 @@ def loky_workers() -> list[int]:
     return workers
 
 
+def dask_worker_pids(client, cluster) -> list[int]:
+    """The worker processes of the cluster, once its two workers are up again."""
+    for _ in range(10):  # a killed worker's nanny is restarting it
+        try:
+            cluster.scale(2)  # a nanny whose worker was killed while starting gives up
+            client.wait_for_workers(2, timeout=120)
+            pids = client.run(os.getpid, on_error="return").values()
+            return [pid for pid in pids if isinstance(pid, int)]
+        except OSError:  # the broadcast met a worker that is going away
+            time.sleep(1)
+    return []
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--engine", choices=["local", "dask"], default="local")
@@ -85,52 +98,54 @@ def main() -> None:
         options["engine"] = client
     else:
         options["n_jobs"] = 2
-    ltv.fit_many(data, **options)  # the workers exist from here on
-    start = time.perf_counter()
-    ltv.fit_many(data, **options)
-    usual = time.perf_counter() - start  # a run's length with warm workers
-    for repetition in range(args.repetitions):
-        if client is not None:
-            pids = list(client.run(os.getpid).values())
-        else:
-            pids = loky_workers()
-        victim = rng.choice(pids) if pids else None
-        delay = rng.uniform(0.0, usual)
-        signal_number = signal.SIGSTOP if args.stop else signal.SIGKILL
-
-        def strike(victim=victim, delay=delay, signal_number=signal_number):
-            time.sleep(delay)
-            if victim is not None:
-                try:
-                    os.kill(victim, signal_number)
-                except ProcessLookupError:
-                    pass
-
-        killer = threading.Thread(target=strike, daemon=True)
+    try:
+        ltv.fit_many(data, **options)  # the workers exist from here on
         start = time.perf_counter()
-        killer.start()
-        ms = ltv.fit_many(data, **options)
-        seconds = time.perf_counter() - start
-        killer.join()
-        equal = all(np.array_equal(ms[unit].k, reference[unit].k) for unit in ms)
-        print(
-            json.dumps(
-                {
-                    "repetition": repetition,
-                    "fitted": len(ms),
-                    "errors": len(ms.errors),
-                    "accounted": len(ms) + len(ms.errors) == args.units,
-                    "equal": equal,
-                    "seconds": round(seconds, 3),
-                    "delay": round(delay, 3),
-                    "messages": sorted({message[:60] for message in ms.errors.values()}),
-                }
-            ),
-            flush=True,
-        )
-    if client is not None:
-        client.close()
-        cluster.close()
+        ltv.fit_many(data, **options)
+        usual = time.perf_counter() - start  # a run's length with warm workers
+        for repetition in range(args.repetitions):
+            if client is not None:
+                pids = dask_worker_pids(client, cluster)
+            else:
+                pids = loky_workers()
+            victim = rng.choice(pids) if pids else None
+            delay = rng.uniform(0.0, usual)
+            signal_number = signal.SIGSTOP if args.stop else signal.SIGKILL
+
+            def strike(victim=victim, delay=delay, signal_number=signal_number):
+                time.sleep(delay)
+                if victim is not None:
+                    try:
+                        os.kill(victim, signal_number)
+                    except ProcessLookupError:
+                        pass
+
+            killer = threading.Thread(target=strike, daemon=True)
+            start = time.perf_counter()
+            killer.start()
+            ms = ltv.fit_many(data, **options)
+            seconds = time.perf_counter() - start
+            killer.join()
+            equal = all(np.array_equal(ms[unit].k, reference[unit].k) for unit in ms)
+            print(
+                json.dumps(
+                    {
+                        "repetition": repetition,
+                        "fitted": len(ms),
+                        "errors": len(ms.errors),
+                        "accounted": len(ms) + len(ms.errors) == args.units,
+                        "equal": equal,
+                        "seconds": round(seconds, 3),
+                        "delay": round(delay, 3),
+                        "messages": sorted({message[:60] for message in ms.errors.values()}),
+                    }
+                ),
+                flush=True,
+            )
+    finally:
+        if client is not None:
+            client.close(timeout=60)
+            cluster.close(timeout=60)
 
 
 if __name__ == "__main__":
