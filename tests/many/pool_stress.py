@@ -58,16 +58,11 @@ def loky_workers() -> list[int]:
 
 
 def dask_worker_pids(client, cluster) -> list[int]:
-    """The worker processes of the cluster, once its two workers are up again."""
-    for _ in range(10):  # a killed worker's nanny is restarting it
-        try:
-            cluster.scale(2)  # a nanny whose worker was killed while starting gives up
-            client.wait_for_workers(2, timeout=120)
-            pids = client.run(os.getpid, on_error="return").values()
-            return [pid for pid in pids if isinstance(pid, int)]
-        except OSError:  # the broadcast met a worker that is going away
-            time.sleep(1)
-    return []
+    """The worker processes alive now (at least one; a second one may be restarting)."""
+    cluster.scale(2)  # a nanny whose worker was killed while it started gives up
+    client.wait_for_workers(1, timeout=120)
+    pids = client.run(os.getpid, on_error="return").values()
+    return [pid for pid in pids if isinstance(pid, int)]
 
 
 def main() -> None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import os
 import select
+import signal
 import subprocess
 import sys
 import textwrap
@@ -40,7 +41,15 @@ def child_lines(arguments: list[str], *, line_deadline: float, total_deadline: f
         while True:
             ready, _, _ = select.select([child.stdout], [], [], line_deadline)
             if not ready:
-                pytest.fail(f"no output for {line_deadline} s after {len(lines)} lines: a hang")
+                child.send_signal(signal.SIGUSR1)  # pool_stress.py then prints its stacks
+                time.sleep(2)
+                child.kill()
+                _, errors = child.communicate(timeout=60)
+                own = [line for line in errors.splitlines() if not line.startswith("20")]
+                pytest.fail(  # (its stderr without Dask's dated log lines: stacks, errors)
+                    f"no output for {line_deadline} s after {len(lines)} lines: a hang; "
+                    "its stderr:\n" + "\n".join(own[-150:])
+                )
             line = child.stdout.readline()
             if not line:
                 break
@@ -118,7 +127,9 @@ def test_a_worker_killed_at_a_random_moment_loses_nothing():
 @pytest.mark.slow
 def test_a_dask_worker_killed_at_a_random_moment_loses_nothing():
     pytest.importorskip("distributed")
-    lines = stress_lines("--engine", "dask", repetitions=50, line_deadline=120)
+    lines = stress_lines(
+        "--engine", "dask", "--stall-timeout", "60", repetitions=50, line_deadline=300
+    )
     assert all(line["accounted"] and line["equal"] for line in lines)
 
 
