@@ -76,7 +76,7 @@ STOPPED_WORKER = textwrap.dedent(
     data = marked_units(40, {37})  # in the last task: the tasks before it finish first
     ltv.fit_many(data, lam=10.0, n_jobs=2)  # the workers are running from here on
     start = __import__("time").perf_counter()
-    ms = ltv.fit_many(data, method=stop_on_marked, lam=10.0, n_jobs=2, stall_timeout=5.0)
+    ms = ltv.fit_many(data, method=stop_on_marked, lam=10.0, n_jobs=2, stall_timeout=3.0)
     seconds = __import__("time").perf_counter() - start
     stopped = []  # children of this process still stopped (state T)
     for entry in Path("/proc").iterdir():
@@ -100,7 +100,7 @@ def test_a_stopped_worker_is_detected_by_the_bounded_wait():
     )
     errors = report["errors"]
     assert "37" in errors
-    assert all("no result from the worker processes for 5 s" in text for text in errors.values())
+    assert all("no result from the worker processes for 3 s" in text for text in errors.values())
     assert len(errors) + len(report["fitted"]) == 40 and len(report["fitted"]) >= 35
     assert report["same"]
     assert report["stopped"] == []  # the stopped worker was killed, not left behind
