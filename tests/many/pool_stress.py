@@ -57,10 +57,17 @@ def loky_workers() -> list[int]:
     return workers
 
 
-def dask_worker_pids(client, cluster) -> list[int]:
-    """The worker processes alive now (at least one; a second one may be restarting)."""
-    cluster.scale(2)  # a nanny whose worker was killed while it started gives up
-    client.wait_for_workers(1, timeout=120)
+def dask_worker_pids(client) -> list[int]:
+    """The cluster's two worker processes, restarting the cluster's workers if one is missing.
+
+    (A nanny whose worker was killed may fail to start a new one: "name taken"
+    while the scheduler still knows the old worker.)
+    """
+    try:
+        client.wait_for_workers(2, timeout=60)
+    except TimeoutError:
+        client.restart(timeout=120)
+        client.wait_for_workers(2, timeout=120)
     pids = client.run(os.getpid, on_error="return").values()
     return [pid for pid in pids if isinstance(pid, int)]
 
@@ -100,7 +107,7 @@ def main() -> None:
         usual = time.perf_counter() - start  # a run's length with warm workers
         for repetition in range(args.repetitions):
             if client is not None:
-                pids = dask_worker_pids(client, cluster)
+                pids = dask_worker_pids(client)
             else:
                 pids = loky_workers()
             victim = rng.choice(pids) if pids else None
