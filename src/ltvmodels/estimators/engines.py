@@ -251,7 +251,7 @@ class _PoolState:
 
     workers: int = 0
     until: float = 0.0
-    started: bool = False
+    exit_hook: bool = False  # ours registered (after loky's, so that it runs first)
     executor: Any = None  # the last one (asking loky for it again could restart it)
 
 
@@ -396,8 +396,8 @@ class _PoolRun:
                     executor = self._after_break(executor, in_flight, pending, suspects)
                     continue
                 in_flight[future] = (units, time.monotonic())
-                if not _pool.started:  # loky registered its exit hook at this first submit
-                    _pool.started = True
+                if not _pool.exit_hook:  # loky registered its exit hook at this first submit
+                    _pool.exit_hook = True
                     _at_exit_before_loky()
             limit = self.wait_limit()
             finished, _ = wait(in_flight, timeout=limit, return_when=FIRST_COMPLETED)
