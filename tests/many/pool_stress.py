@@ -57,19 +57,36 @@ def loky_workers() -> list[int]:
     return workers
 
 
-def dask_worker_pids(client) -> list[int]:
-    """The cluster's two worker processes, restarting the cluster's workers if one is missing.
+def new_cluster():
+    """A ``LocalCluster`` of two worker processes, and its client."""
+    import dask
+    import distributed
+
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        cluster = distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        )
+    return cluster, distributed.Client(cluster)
+
+
+def dask_worker_pids(client) -> list[int] | None:
+    """The cluster's two worker processes; None when one has not come back in 60 s.
 
     (A nanny whose worker was killed may fail to start a new one: "name taken"
-    while the scheduler still knows the old worker.)
+    while the scheduler still knows the old worker. That is the test cluster's
+    trouble, not the engine's: the run then starts a new cluster.)
     """
     try:
         client.wait_for_workers(2, timeout=60)
     except TimeoutError:
-        client.restart(timeout=120)
-        client.wait_for_workers(2, timeout=120)
+        return None
     pids = client.run(os.getpid, on_error="return").values()
     return [pid for pid in pids if isinstance(pid, int)]
+
+
+def close(cluster, client) -> None:
+    client.close(timeout=60)
+    cluster.close(timeout=60)
 
 
 def main() -> None:
@@ -87,19 +104,13 @@ def main() -> None:
     data = make_units(args.units, args.T)
     reference = ltv.fit_many(data, lam="auto", n_jobs=1)
     options = {"lam": "auto", "stall_timeout": args.stall_timeout}
-    client = None
+    cluster = client = None
     if args.engine == "dask":
-        import dask
-        import distributed
-
-        with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
-            cluster = distributed.LocalCluster(
-                n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
-            )
-        client = distributed.Client(cluster)
+        cluster, client = new_cluster()
         options["engine"] = client
     else:
         options["n_jobs"] = 2
+    new_clusters = 0
     try:
         ltv.fit_many(data, **options)  # the workers exist from here on
         start = time.perf_counter()
@@ -108,6 +119,12 @@ def main() -> None:
         for repetition in range(args.repetitions):
             if client is not None:
                 pids = dask_worker_pids(client)
+                if pids is None:
+                    close(cluster, client)
+                    cluster, client = new_cluster()
+                    options["engine"] = client
+                    new_clusters += 1
+                    pids = dask_worker_pids(client) or []
             else:
                 pids = loky_workers()
             victim = rng.choice(pids) if pids else None
@@ -139,6 +156,7 @@ def main() -> None:
                         "equal": equal,
                         "seconds": round(seconds, 3),
                         "delay": round(delay, 3),
+                        "new_clusters": new_clusters,
                         "messages": sorted({message[:60] for message in ms.errors.values()}),
                     }
                 ),
@@ -146,8 +164,7 @@ def main() -> None:
             )
     finally:
         if client is not None:
-            client.close(timeout=60)
-            cluster.close(timeout=60)
+            close(cluster, client)
 
 
 if __name__ == "__main__":
