@@ -42,6 +42,7 @@ from ..results.arx import ARModel, ARXModel
 from ..validation import arrays, options
 from ..validation.options import Loss, Norm, PriorMode
 from .regression import fit_problem
+from .spec import FitSpec
 
 __all__ = ["ar_regressors", "arx_regressors", "fit_ar", "fit_arx"]
 
@@ -205,6 +206,20 @@ def fit_arx(
     """
     na, nb, nk = options.lag_orders(na, nb, nk, min_na=0, min_nb=1)
     constant = options.flag(constant, "constant")
+    spec = FitSpec.build(
+        lam=lam,
+        norm=norm,
+        order=order,
+        prior=prior,
+        prior_mode=prior_mode,
+        noise_var=noise_var,
+        compute_cov=compute_cov,
+        max_iter=max_iter,
+        tol=tol,
+        loss=loss,
+        huber_delta=huber_delta,
+        progress=progress,
+    )
     L = lag_length(na, nb, nk)
     y_data, u_data = y, u
     y, u = arrays.lagged_recordings(y, u, L, _structure_text(na, nb, nk), require_inputs=True)
@@ -220,19 +235,8 @@ def fit_arx(
         nk,
         constant,
         factory,
-        lam=lam,
-        norm=norm,
-        order=order,
-        prior=prior,
-        prior_mode=prior_mode,
-        noise_var=noise_var,
-        compute_cov=compute_cov,
-        max_iter=max_iter,
-        tol=tol,
-        weights=weights,
-        loss=loss,
-        huber_delta=huber_delta,
-        progress=progress,
+        spec,
+        weights,
     )
     return _describe(model, y_data, u_data, y.shape)
 
@@ -307,6 +311,20 @@ def fit_ar(
     """
     na, _, _ = options.lag_orders(na, 0, 1, min_na=1, min_nb=0)
     constant = options.flag(constant, "constant")
+    spec = FitSpec.build(
+        lam=lam,
+        norm=norm,
+        order=order,
+        prior=prior,
+        prior_mode=prior_mode,
+        noise_var=noise_var,
+        compute_cov=compute_cov,
+        max_iter=max_iter,
+        tol=tol,
+        loss=loss,
+        huber_delta=huber_delta,
+        progress=progress,
+    )
     y_data = y
     y, u = arrays.lagged_recordings(y, None, na, _structure_text(na, 0, 1))
     if not constant:
@@ -320,19 +338,8 @@ def fit_ar(
         1,
         constant,
         factory,
-        lam=lam,
-        norm=norm,
-        order=order,
-        prior=prior,
-        prior_mode=prior_mode,
-        noise_var=noise_var,
-        compute_cov=compute_cov,
-        max_iter=max_iter,
-        tol=tol,
-        weights=weights,
-        loss=loss,
-        huber_delta=huber_delta,
-        progress=progress,
+        spec,
+        weights,
     )
     return _describe(model, y_data, None, y.shape)
 
@@ -391,49 +398,26 @@ def _fit_lagged(
     nk: int,
     constant: bool,
     factory: Any,
-    *,
-    lam: Any,
-    norm: Any,
-    order: Any,
-    prior: Any,
-    prior_mode: Any,
-    noise_var: Any,
-    compute_cov: Any,
-    max_iter: Any,
-    tol: Any,
+    spec: FitSpec,
     weights: Any,
-    loss: Any,
-    huber_delta: Any,
-    progress: Any,
 ) -> ARXModel:
     """Build the regression of validated AR/ARX data (R, T, ·) and run the shared core.
 
     A row enters the data term only if y[t] and all its lags are observed.
     """
-    norm = options.norm_name(norm)
     y_out, phi = lagged_regressors(y, u, na, nb, nk, constant)
     R, N = y_out.shape[:2]
-    coeffs = options.difference_coefficients(order, max_degree=N)
+    coeffs = options.difference_coefficients(spec.order, max_degree=N)
     w = arrays.row_weights(weights, R, N)
     L = lag_length(na, nb, nk)
     problem = weighted_problem(y_out, phi, coeffs, w)
     model = fit_problem(
         problem,
+        spec,
         factory=factory,
         regressor_names=lag_regressor_names(y.shape[2], u.shape[2], na, nb, nk, constant),
         data_name="y",
         rows_note=f" (T = {y.shape[1]} samples, the first {L} only as lags)",
-        lam=lam,
-        norm=norm,
-        prior=prior,
-        prior_mode=prior_mode,
-        noise_var=noise_var,
-        compute_cov=compute_cov,
-        max_iter=max_iter,
-        tol=tol,
-        loss=loss,
-        huber_delta=huber_delta,
-        progress=progress,
     )
     model.info["n_missing"] = problem.N * problem.q - problem.n_observed  # rows left out
     return model

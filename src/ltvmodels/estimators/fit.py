@@ -23,10 +23,11 @@ from ..results.record import FitRecord, FitStatus
 from ..results.statespace import LTVModel
 from ..validation import arrays, options
 from ..validation.options import Loss, Norm, PriorMode, SparseNorm
-from .piecewise import refine_fit, residual_noise
+from .piecewise import residual_noise
 from .recordings import StateSpaceData, state_space_data
 from .regression import fit_problem, sparse_model
 from .robust import robust_model
+from .spec import FitSpec
 
 # Newton steps and tolerance of fit_lti(loss="huber"/"laplace") (it takes no solver options).
 LTI_HUBER_MAX_ITER = 500
@@ -308,58 +309,28 @@ def fit(
     SingularProblemError
         The data do not identify the model (with the reason and remedies).
     """
-    if not isinstance(refine, bool):
-        raise TypeError(f"refine: expected True or False, received {refine!r}")
-    if refine:
-        first = fit(
-            x,
-            u,
-            lam=lam,
-            norm=norm,
-            order=order,
-            prior=prior,
-            prior_mode=prior_mode,
-            noise_var=noise_var,
-            compute_cov=False,
-            max_iter=max_iter,
-            tol=tol,
-            weights=weights,
-            constant=constant,
-            loss=loss,
-            huber_delta=huber_delta,
-            progress=progress,
-        )
-        data = state_space_data(x, u, weights=weights, constant=constant)
-        _, delta = options.loss_options(loss, huber_delta, data.n)
-        return data.describe(
-            refine_fit(
-                data.problem,
-                first,
-                names=data.regressor_names,
-                loss=loss,
-                delta=delta,
-                factory=partial(LTVModel, n_states=data.n, n_inputs=data.m, constant=data.constant),
-                n_missing=data.n_missing,
-            )
-        )
-    data = state_space_data(x, u, order=order, weights=weights, constant=constant)
-    norm = options.norm_name(norm)
-    model = fit_problem(
-        data.problem,
-        factory=partial(LTVModel, n_states=data.n, n_inputs=data.m, constant=data.constant),
-        regressor_names=data.regressor_names,
-        data_name="x",
+    spec = FitSpec.build(
         lam=lam,
         norm=norm,
+        order=order,
         prior=prior,
         prior_mode=prior_mode,
         noise_var=noise_var,
         compute_cov=compute_cov,
         max_iter=max_iter,
         tol=tol,
+        refine=refine,
         loss=loss,
         huber_delta=huber_delta,
         progress=progress,
+    )
+    data = state_space_data(x, u, order=spec.order, weights=weights, constant=constant)
+    model = fit_problem(
+        data.problem,
+        spec,
+        factory=partial(LTVModel, n_states=data.n, n_inputs=data.m, constant=data.constant),
+        regressor_names=data.regressor_names,
+        data_name="x",
     )
     return data.describe(model)
 

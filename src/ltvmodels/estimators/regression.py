@@ -13,6 +13,7 @@ the front-end's factory: :func:`ltvmodels.fit` (state space,
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from functools import partial
 from typing import Any, Literal, TypeVar
 
@@ -36,6 +37,7 @@ from .priors import resolve as resolve_priors
 from .recordings import regression_problem, require_enough_data
 from .robust import robust_model
 from .selection import DEFAULT_METHOD, select_for_problem
+from .spec import FitSpec
 
 ModelT = TypeVar("ModelT", bound=RegressionModel)
 """The model a front-end's factory builds (RegressionModel, LTVModel, ARXModel, …)."""
@@ -122,43 +124,32 @@ def fit_regression(
     >>> bool(np.abs(model.theta[:, 0, 0] - slope).max() < 0.05)
     True
     """
-    if not isinstance(refine, bool):
-        raise TypeError(f"refine: expected True or False, received {refine!r}")
-    problem = regression_problem(y, phi, order=order, weights=weights)
-    norm = options.norm_name(norm)
-    n, p = problem.n, problem.p
-    factory = partial(RegressionModel, n_outputs=n, n_regressors=p)
-    columns = {"output": arrays.column_names(y, n), "regressor": arrays.column_names(phi, p)}
-    described = {key: value for key, value in columns.items() if value is not None}
-    time = arrays.time_index(y, problem.N) if problem.q == 1 else None
-    names = described.get("regressor", signal_names("phi", p))
-    model = fit_problem(
-        problem,
-        factory=factory,
-        regressor_names=names,
-        data_name="y",
+    spec = FitSpec.build(
         lam=lam,
         norm=norm,
+        order=order,
         prior=prior,
         prior_mode=prior_mode,
         noise_var=noise_var,
-        compute_cov=compute_cov and not refine,
+        compute_cov=compute_cov,
         max_iter=max_iter,
         tol=tol,
+        refine=refine,
         loss=loss,
         huber_delta=huber_delta,
     )
-    if refine:
-        _, delta = options.loss_options(loss, huber_delta, n)
-        model = refine_fit(
-            problem,
-            model,
-            names=names,
-            loss=loss,
-            delta=delta,
-            factory=factory,
-            n_missing=int((~problem.observed).sum()),
-        )
+    problem = regression_problem(y, phi, order=spec.order, weights=weights)
+    n, p = problem.n, problem.p
+    columns = {"output": arrays.column_names(y, n), "regressor": arrays.column_names(phi, p)}
+    described = {key: value for key, value in columns.items() if value is not None}
+    time = arrays.time_index(y, problem.N) if problem.q == 1 else None
+    model = fit_problem(
+        problem,
+        spec,
+        factory=partial(RegressionModel, n_outputs=n, n_regressors=p),
+        regressor_names=described.get("regressor", signal_names("phi", p)),
+        data_name="y",
+    )
     if described:
         model.info["signal_names"] = described
     if time is not None:
@@ -168,124 +159,129 @@ def fit_regression(
 
 def fit_problem(
     problem: RegressionProblem,
+    spec: FitSpec,
     *,
     factory: ModelFactory[ModelT],
     regressor_names: list[str],
     data_name: str,
-    lam: Any,
-    norm: str,
-    prior: Any,
-    prior_mode: str,
-    noise_var: Any,
-    compute_cov: Any,
-    max_iter: Any,
-    tol: Any,
     rows_note: str = "",
-    loss: Any = "squared",
-    huber_delta: Any = None,
-    progress: Any = None,
 ) -> ModelT:
-    """The core shared by every front-end: a validated (y, φ) problem → model.
+    """The core shared by every front-end: a validated (y, φ) problem and a spec → model.
 
-    Validates the remaining options, checks the sample count and
-    identifiability (naming ``regressor_names`` in messages and ``data_name``
-    as the argument), solves with the solver of ``norm`` and builds the model
-    with ``factory(k, fit=FitRecord(...))``. ``rows_note`` is
-    added to a too-few-samples message (e.g. how the rows relate to T).
-    ``progress`` follows the choice of λ for ``lam="auto"`` (see
-    :func:`ltvmodels.select_lambda`).
+    Checks the options that depend on the problem's sizes (noise variance,
+    Huber threshold, λ), the sample count and identifiability (naming
+    ``regressor_names`` in messages and ``data_name`` as the argument),
+    chooses λ where ``spec.lam`` is "auto" (:func:`ltvmodels.select_lambda`,
+    followed by ``spec.progress``), solves with the solver of the norm, and
+    builds the model with ``factory(k, fit=FitRecord(...))``; with
+    ``spec.refine``, refits between the change points of that fit. ``rows_note``
+    is added to a too-few-samples message (e.g. how the rows relate to T).
     """
-    norm = options.norm_name(norm)
-    prior_mode = options.choice(prior_mode, "prior_mode", options.PRIOR_MODES)
-    noise_var = options.noise_variance(noise_var, problem.n)
-    loss, huber_delta = options.loss_options(loss, huber_delta, problem.n)
-    if not isinstance(compute_cov, bool):
-        raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
-    selection = None
-    if options.is_auto(lam, "lam"):
-        if prior is not None:
-            raise ValueError(
-                "lam: 'auto' chooses λ from the data alone and does not take a prior into "
-                "account; choose λ with ltvmodels.select_lambda or pass a number"
-            )
-        require_enough_data(problem, data_name, rows_note)
-        identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
-        method = DEFAULT_METHOD[norm] if loss == "squared" else "cv"
-        selection = select_for_problem(
-            problem,
-            norm,
-            method,
-            None,
-            loss=loss,
-            delta=huber_delta,
-            progress=options.callback(progress, "progress"),
-        )
-        lam = selection.lam
-        if selection.huber_delta is not None:  # the model has the loss λ was chosen for
-            huber_delta = np.array(selection.huber_delta)
-    model = _fit_with_lam(
+    noise_var = options.noise_variance(spec.noise_var, problem.n)
+    loss, huber_delta = options.loss_options(spec.loss, spec.huber_delta, problem.n)
+    checks = _Checks(regressor_names, data_name, rows_note)
+    first = spec.first_step() if spec.refine else spec
+    model = _fit_or_choose_lam(problem, first, noise_var, huber_delta, factory, checks)
+    if not spec.refine:
+        return model
+    return refine_fit(
         problem,
-        factory=factory,
-        regressor_names=regressor_names,
-        data_name=data_name,
-        lam=lam,
-        norm=norm,
-        prior=prior,
-        prior_mode=prior_mode,
-        noise_var=noise_var,
-        compute_cov=compute_cov,
-        max_iter=max_iter,
-        tol=tol,
-        rows_note=rows_note,
+        model,
+        names=regressor_names,
         loss=loss,
-        huber_delta=huber_delta,
+        delta=huber_delta,
+        factory=factory,
+        n_missing=problem.N * problem.q - problem.n_observed,
     )
-    if selection is not None:
-        model.info["lam_selection"] = {
-            "method": selection.method,
-            "lam": selection.lam,
-            "lams": selection.lams.tolist(),
-            # None where there is no score (a skipped candidate, an L-curve without a bend)
-            "scores": [float(v) if np.isfinite(v) else None for v in selection.scores],
-            "loss": selection.loss,
-            "n_fits": selection.n_fits,
-        }
-        if selection.skipped:
-            model.info["lam_selection"]["skipped"] = [list(item) for item in selection.skipped]
+
+
+@dataclass(frozen=True)
+class _Checks:
+    """What the sample-count and identifiability checks name in their messages."""
+
+    regressor_names: list[str]
+    data_name: str
+    rows_note: str
+
+    def enough_data(self, problem: RegressionProblem) -> None:
+        require_enough_data(problem, self.data_name, self.rows_note)
+
+    def identifiable(self, problem: RegressionProblem, **details: Any) -> None:
+        identifiability.check(problem, regressor_names=self.regressor_names, **details)
+
+
+def _fit_or_choose_lam(
+    problem: RegressionProblem,
+    spec: FitSpec,
+    noise_var: Any,
+    huber_delta: np.ndarray | None,
+    factory: ModelFactory[ModelT],
+    checks: _Checks,
+) -> ModelT:
+    """The fit at ``spec.lam``, or at the λ chosen from the data for ``lam="auto"``."""
+    if not spec.lam_is_auto:
+        return _fit_with_lam(problem, spec, spec.lam, noise_var, huber_delta, factory, checks)
+    if spec.prior is not None:
+        raise ValueError(
+            "lam: 'auto' chooses λ from the data alone and does not take a prior into "
+            "account; choose λ with ltvmodels.select_lambda or pass a number"
+        )
+    checks.enough_data(problem)
+    checks.identifiable(problem, has_prior=False)
+    method = DEFAULT_METHOD[spec.norm] if spec.loss == "squared" else "cv"
+    selection = select_for_problem(
+        problem,
+        spec.norm,
+        method,
+        None,
+        loss=spec.loss,
+        delta=huber_delta,
+        progress=spec.progress,
+    )
+    if selection.huber_delta is not None:  # the model has the loss λ was chosen for
+        huber_delta = np.array(selection.huber_delta)
+    model = _fit_with_lam(
+        problem, spec, selection.lam, noise_var, huber_delta, factory, checks, checked=True
+    )
+    model.info["lam_selection"] = {
+        "method": selection.method,
+        "lam": selection.lam,
+        "lams": selection.lams.tolist(),
+        # None where there is no score (a skipped candidate, an L-curve without a bend)
+        "scores": [float(v) if np.isfinite(v) else None for v in selection.scores],
+        "loss": selection.loss,
+        "n_fits": selection.n_fits,
+    }
+    if selection.skipped:
+        model.info["lam_selection"]["skipped"] = [list(item) for item in selection.skipped]
     return model
 
 
 def _fit_with_lam(
     problem: RegressionProblem,
-    *,
+    spec: FitSpec,
+    lam: Any,
+    noise_var: Any,
+    huber_delta: np.ndarray | None,
     factory: ModelFactory[ModelT],
-    regressor_names,
-    data_name,
-    lam,
-    norm,
-    prior,
-    prior_mode,
-    noise_var,
-    compute_cov,
-    max_iter,
-    tol,
-    rows_note,
-    loss="squared",
-    huber_delta=None,
+    checks: _Checks,
+    *,
+    checked: bool = False,
 ) -> ModelT:
-    """:func:`fit_problem` for a given λ, on validated options."""
+    """The fit at a given λ; ``checked``: the sample count and identifiability were checked
+    (for a scalar λ chosen from the data)."""
     n, p = problem.n, problem.p
     N, K = problem.N, problem.K
+    norm, loss, prior_mode = spec.norm, spec.loss, spec.prior_mode
     if norm != "sq":
-        if prior is not None:
+        if spec.prior is not None:
             raise NotImplementedError(
                 f"prior: priors are available with norm='sq' only, not yet with norm={norm!r}"
             )
-        max_iter = options.integer(max_iter, "max_iter", minimum=1)
-        tol = options.positive_scalar(tol, "tol")
         weights = options.sparse_weights(lam, K)
-        require_enough_data(problem, data_name, rows_note)
-        identifiability.check(problem, has_prior=False, regressor_names=regressor_names)
+        if not checked:
+            checks.enough_data(problem)
+            checks.identifiable(problem, has_prior=False)
         if loss != "squared":
             _no_robust_option(noise_var, "noise_var", loss)
             return robust_model(
@@ -296,30 +292,31 @@ def _fit_with_lam(
                 norm=norm,
                 delta=huber_delta,
                 factory=factory,
-                max_iter=max_iter,
-                tol=tol,
+                max_iter=spec.max_iter,
+                tol=spec.tol,
             )
-        solution = solve_sparse(problem, weights, norm, max_iter=max_iter, tol=tol)
+        solution = solve_sparse(problem, weights, norm, max_iter=spec.max_iter, tol=spec.tol)
         return sparse_model(problem, lam, norm, solution, factory)
-    require_enough_data(problem, data_name, rows_note)  # before a (K, K) λ is checked
+    if not checked:
+        checks.enough_data(problem)  # before a (K, K) λ is checked
     W = options.penalty_weight(lam, K)
-    terms = resolve_priors(prior, N, n, p)
+    terms = resolve_priors(spec.prior, N, n, p)
     if not problem.complete and any(term.on == "output" for term in terms):
         raise NotImplementedError(
             "prior: an OutputPrior needs one complete trajectory (no missing samples, "
             "weights or batches); use a Prior on the coefficients instead"
         )
 
-    const = np.isinf(weight_diagonal(W)).reshape(n, p)
-    identifiability.check(
-        problem,
-        has_prior=bool(terms),
-        regressor_names=regressor_names,
-        const_mask=const.all(axis=0) if const.any() else None,
-    )
+    if not checked:
+        const = np.isinf(weight_diagonal(W)).reshape(n, p)
+        checks.identifiable(
+            problem,
+            has_prior=bool(terms),
+            const_mask=const.all(axis=0) if const.any() else None,
+        )
     if loss != "squared":
         if loss == "laplace":
-            _no_robust_option(prior, "prior", loss)
+            _no_robust_option(spec.prior, "prior", loss)
             _no_robust_option(noise_var, "noise_var", loss)
         elif terms and prior_mode != "exact":
             raise NotImplementedError(
@@ -333,12 +330,13 @@ def _fit_with_lam(
             norm=norm,
             delta=huber_delta,
             factory=factory,
-            max_iter=options.integer(max_iter, "max_iter", minimum=1),
-            tol=options.positive_scalar(tol, "tol"),
+            max_iter=spec.max_iter,
+            tol=spec.tol,
             priors=terms,
             noise_var=None if noise_var is None else np.broadcast_to(noise_var, (n,)).copy(),
         )
 
+    compute_cov = spec.compute_cov
     exact_terms = terms if prior_mode == "exact" else []
     result = fit_squared(
         problem,

@@ -1,0 +1,124 @@
+"""``FitSpec``: the options of a penalized fit, checked once where the user's call enters.
+
+:func:`ltvmodels.fit`, :func:`ltvmodels.fit_regression`, :func:`ltvmodels.fit_ar`
+and :func:`ltvmodels.fit_arx` keep their keyword signatures; each builds one
+:class:`FitSpec` from its keywords (:meth:`FitSpec.build`) and passes it down,
+so that everything below takes the spec, not loose keywords, and no option is
+checked twice. The constraints are declared in :data:`FIT_CONSTRAINTS`; the
+options that depend on the data's sizes are checked by the fit against the
+problem (see :mod:`ltvmodels.validation.constraints`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Any
+
+from ..validation import options
+from ..validation.constraints import (
+    Callback,
+    Choice,
+    Constraint,
+    Deferred,
+    Flag,
+    Integer,
+    LamValue,
+    Positive,
+    check_all,
+)
+from ..validation.options import Loss, Norm, PriorMode
+
+__all__ = ["FIT_CONSTRAINTS", "FitSpec"]
+
+FIT_CONSTRAINTS: dict[str, Constraint] = {
+    "lam": LamValue(),
+    "norm": Choice(options.NORMS),
+    "order": Deferred(),  # the difference operator, against the series length
+    "prior": Deferred(),  # against the number of steps and parameters
+    "prior_mode": Choice(options.PRIOR_MODES),
+    "noise_var": Deferred(),  # against the number of outputs
+    "compute_cov": Flag(),
+    "max_iter": Integer(1),
+    "tol": Positive(),
+    "refine": Flag(),
+    "loss": Choice(options.LOSSES),
+    "huber_delta": Deferred(),  # with the loss, against the number of outputs
+    "progress": Callback(),
+}
+"""The constraint of each option of :class:`FitSpec`, checked in this order."""
+
+
+@dataclass(frozen=True)
+class FitSpec:
+    """The options of one penalized fit (their meanings: :func:`ltvmodels.fit`).
+
+    Build it with :meth:`build`, which checks every option; ``order``,
+    ``prior``, ``noise_var``, ``huber_delta`` and the values of ``lam`` are
+    checked by the fit against the problem's sizes.
+    """
+
+    lam: Any
+    norm: Norm = "sq"
+    order: Any = 1
+    prior: Any = None
+    prior_mode: PriorMode = "exact"
+    noise_var: Any = None
+    compute_cov: bool = True
+    max_iter: int = 10000
+    tol: float = 1e-6
+    refine: bool = False
+    loss: Loss = "squared"
+    huber_delta: Any = None
+    progress: Callable[[int, int], None] | None = None
+
+    @classmethod
+    def build(
+        cls,
+        *,
+        lam: Any,
+        norm: Any = "sq",
+        order: Any = 1,
+        prior: Any = None,
+        prior_mode: Any = "exact",
+        noise_var: Any = None,
+        compute_cov: Any = True,
+        max_iter: Any = 10000,
+        tol: Any = 1e-6,
+        refine: Any = False,
+        loss: Any = "squared",
+        huber_delta: Any = None,
+        progress: Any = None,
+    ) -> FitSpec:
+        """The spec of these options, each checked by its constraint (:data:`FIT_CONSTRAINTS`).
+
+        Raises
+        ------
+        ValueError, TypeError
+            An invalid option (the message names it).
+        """
+        values = dict(
+            lam=lam,
+            norm=norm,
+            order=order,
+            prior=prior,
+            prior_mode=prior_mode,
+            noise_var=noise_var,
+            compute_cov=compute_cov,
+            max_iter=max_iter,
+            tol=tol,
+            refine=refine,
+            loss=loss,
+            huber_delta=huber_delta,
+            progress=progress,
+        )
+        return cls(**check_all(FIT_CONSTRAINTS, values))
+
+    @property
+    def lam_is_auto(self) -> bool:
+        """True where λ is to be chosen from the data (``lam="auto"``)."""
+        return isinstance(self.lam, str)
+
+    def first_step(self) -> FitSpec:
+        """The spec of the first fit of a two-step refinement (no covariance needed)."""
+        return replace(self, refine=False, compute_cov=False)
