@@ -204,22 +204,9 @@ def fit_arx(
     SingularProblemError
         The data do not identify the model (e.g. an input that is not exciting).
     """
+    spec = FitSpec.from_arguments(locals())  # every option, checked once
     na, nb, nk = options.lag_orders(na, nb, nk, min_na=0, min_nb=1)
     constant = options.flag(constant, "constant")
-    spec = FitSpec.build(
-        lam=lam,
-        norm=norm,
-        order=order,
-        prior=prior,
-        prior_mode=prior_mode,
-        noise_var=noise_var,
-        compute_cov=compute_cov,
-        max_iter=max_iter,
-        tol=tol,
-        loss=loss,
-        huber_delta=huber_delta,
-        progress=progress,
-    )
     L = lag_length(na, nb, nk)
     y_data, u_data = y, u
     y, u = arrays.lagged_recordings(y, u, L, _structure_text(na, nb, nk), require_inputs=True)
@@ -309,22 +296,9 @@ def fit_ar(
     >>> bool(abs(np.median(model.root_spectrogram(fs)) - 100.0) < 1.0)
     True
     """
+    spec = FitSpec.from_arguments(locals())  # every option, checked once
     na, _, _ = options.lag_orders(na, 0, 1, min_na=1, min_nb=0)
     constant = options.flag(constant, "constant")
-    spec = FitSpec.build(
-        lam=lam,
-        norm=norm,
-        order=order,
-        prior=prior,
-        prior_mode=prior_mode,
-        noise_var=noise_var,
-        compute_cov=compute_cov,
-        max_iter=max_iter,
-        tol=tol,
-        loss=loss,
-        huber_delta=huber_delta,
-        progress=progress,
-    )
     y_data = y
     y, u = arrays.lagged_recordings(y, None, na, _structure_text(na, 0, 1))
     if not constant:

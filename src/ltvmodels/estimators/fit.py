@@ -309,21 +309,7 @@ def fit(
     SingularProblemError
         The data do not identify the model (with the reason and remedies).
     """
-    spec = FitSpec.build(
-        lam=lam,
-        norm=norm,
-        order=order,
-        prior=prior,
-        prior_mode=prior_mode,
-        noise_var=noise_var,
-        compute_cov=compute_cov,
-        max_iter=max_iter,
-        tol=tol,
-        refine=refine,
-        loss=loss,
-        huber_delta=huber_delta,
-        progress=progress,
-    )
+    spec = FitSpec.from_arguments(locals())  # every option, checked once
     data = state_space_data(x, u, order=spec.order, weights=weights, constant=constant)
     model = fit_problem(
         data.problem,

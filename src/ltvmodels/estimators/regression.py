@@ -124,20 +124,7 @@ def fit_regression(
     >>> bool(np.abs(model.theta[:, 0, 0] - slope).max() < 0.05)
     True
     """
-    spec = FitSpec.build(
-        lam=lam,
-        norm=norm,
-        order=order,
-        prior=prior,
-        prior_mode=prior_mode,
-        noise_var=noise_var,
-        compute_cov=compute_cov,
-        max_iter=max_iter,
-        tol=tol,
-        refine=refine,
-        loss=loss,
-        huber_delta=huber_delta,
-    )
+    spec = FitSpec.from_arguments(locals())  # every option, checked once
     problem = regression_problem(y, phi, order=spec.order, weights=weights)
     n, p = problem.n, problem.p
     columns = {"output": arrays.column_names(y, n), "regressor": arrays.column_names(phi, p)}

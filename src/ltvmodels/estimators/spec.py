@@ -2,7 +2,7 @@
 
 :func:`ltvmodels.fit`, :func:`ltvmodels.fit_regression`, :func:`ltvmodels.fit_ar`
 and :func:`ltvmodels.fit_arx` keep their keyword signatures; each builds one
-:class:`FitSpec` from its keywords (:meth:`FitSpec.build`) and passes it down,
+:class:`FitSpec` from its keywords (:meth:`FitSpec.from_arguments`) and passes it down,
 so that everything below takes the spec, not loose keywords, and no option is
 checked twice. The constraints are declared in :data:`FIT_CONSTRAINTS`; the
 options that depend on the data's sizes are checked by the fit against the
@@ -11,8 +11,8 @@ problem (see :mod:`ltvmodels.validation.constraints`).
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 from ..validation import options
@@ -53,7 +53,7 @@ FIT_CONSTRAINTS: dict[str, Constraint] = {
 class FitSpec:
     """The options of one penalized fit (their meanings: :func:`ltvmodels.fit`).
 
-    Build it with :meth:`build`, which checks every option; ``order``,
+    Build it with :meth:`from_arguments`, which checks every option; ``order``,
     ``prior``, ``noise_var``, ``huber_delta`` and the values of ``lam`` are
     checked by the fit against the problem's sizes.
     """
@@ -73,45 +73,19 @@ class FitSpec:
     progress: Callable[[int, int], None] | None = None
 
     @classmethod
-    def build(
-        cls,
-        *,
-        lam: Any,
-        norm: Any = "sq",
-        order: Any = 1,
-        prior: Any = None,
-        prior_mode: Any = "exact",
-        noise_var: Any = None,
-        compute_cov: Any = True,
-        max_iter: Any = 10000,
-        tol: Any = 1e-6,
-        refine: Any = False,
-        loss: Any = "squared",
-        huber_delta: Any = None,
-        progress: Any = None,
-    ) -> FitSpec:
-        """The spec of these options, each checked by its constraint (:data:`FIT_CONSTRAINTS`).
+    def from_arguments(cls, arguments: Mapping[str, Any]) -> FitSpec:
+        """The spec of a front-end's call: its arguments named as the fields of
+        :class:`FitSpec` (a front-end passes ``locals()`` first thing; the others are
+        ignored, a field it does not take keeps its default), each checked by its
+        constraint (:data:`FIT_CONSTRAINTS`).
 
         Raises
         ------
         ValueError, TypeError
             An invalid option (the message names it).
         """
-        values = dict(
-            lam=lam,
-            norm=norm,
-            order=order,
-            prior=prior,
-            prior_mode=prior_mode,
-            noise_var=noise_var,
-            compute_cov=compute_cov,
-            max_iter=max_iter,
-            tol=tol,
-            refine=refine,
-            loss=loss,
-            huber_delta=huber_delta,
-            progress=progress,
-        )
+        defaults = {field.name: field.default for field in fields(cls) if field.name != "lam"}
+        values = {name: arguments.get(name, defaults.get(name)) for name in FIT_CONSTRAINTS}
         return cls(**check_all(FIT_CONSTRAINTS, values))
 
     @property
