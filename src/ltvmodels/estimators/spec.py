@@ -84,8 +84,7 @@ class FitSpec:
         ValueError, TypeError
             An invalid option (the message names it).
         """
-        defaults = {field.name: field.default for field in fields(cls) if field.name != "lam"}
-        values = {name: arguments.get(name, defaults.get(name)) for name in FIT_CONSTRAINTS}
+        values = {name: arguments.get(name, _DEFAULTS.get(name)) for name in FIT_CONSTRAINTS}
         return cls(**check_all(FIT_CONSTRAINTS, values))
 
     @property
@@ -96,3 +95,7 @@ class FitSpec:
     def first_step(self) -> FitSpec:
         """The spec of the first fit of a two-step refinement (no covariance needed)."""
         return replace(self, refine=False, compute_cov=False)
+
+
+_DEFAULTS = {field.name: field.default for field in fields(FitSpec) if field.name != "lam"}
+"""The default of each option but λ (which has none)."""

@@ -93,6 +93,8 @@ def optional_integer(value: Any, name: str, minimum: int) -> int | None:
 
 def nonnegative_scalar(value: Any, name: str, *, allow_inf: bool = False) -> float:
     """Validate a real scalar >= 0 (0-d numpy arrays are accepted)."""
+    if type(value) is float and 0.0 <= value < np.inf:  # the common case, without ABC checks
+        return value
     if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
         value = value.item()
     if isinstance(value, bool) or not isinstance(value, (Real, np.floating, np.integer)):
