@@ -8,6 +8,7 @@ import pytest
 import ltvmodels as ltv
 from ltvmodels.core import conekernels as cones
 from ltvmodels.core import ipm, polish
+from ltvmodels.core.penalties import named
 from ltvmodels.core.problem import apply_difference, state_space_problem
 from ltvmodels.core.sparse_common import lambda_max, null_space_fit
 
@@ -62,14 +63,10 @@ def test_certificate_agrees_with_lambda_max(norm):
     # The LTI (null-space) fit is optimal exactly when λ >= λ_max.
     pb, _ = problem_and_weights(5, 1, 1.0)
     k = null_space_fit(pb).reshape(pb.N, pb.K)
-    lam_max = lambda_max(pb, norm, np.ones(pb.K), null_space_fit(pb))
-    _, gap, residual, u_norm = polish.certificate(
-        pb, np.full(pb.K, 1.01 * lam_max), k, norm == "group"
-    )
+    lam_max = lambda_max(pb, named(norm), np.ones(pb.K), null_space_fit(pb))
+    _, gap, residual, u_norm = polish.certificate(pb, np.full(pb.K, 1.01 * lam_max), k, named(norm))
     assert gap == pytest.approx(0.0, abs=1e-9) and residual < 1e-12 and u_norm.max() <= 1.0
-    _, _, residual, u_norm = polish.certificate(
-        pb, np.full(pb.K, 0.5 * lam_max), k, norm == "group"
-    )
+    _, _, residual, u_norm = polish.certificate(pb, np.full(pb.K, 0.5 * lam_max), k, named(norm))
     assert u_norm.max() > 1.5 and residual > 1e-3
 
 

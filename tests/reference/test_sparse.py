@@ -36,6 +36,7 @@ from dense_reference import (
 
 import ltvmodels as ltv
 import ltvmodels.core.sparse as sparse_dispatch
+from ltvmodels.core.penalties import named
 from ltvmodels.core.problem import state_space_problem
 from ltvmodels.core.sparse_common import lambda_max
 
@@ -154,7 +155,7 @@ def data(seed, with_input=True):
 def test_matches_clarabel(norm, order, coeffs, seed, frac):
     x, u = data(seed)
     pb = state_space_problem(x, u, np.array(coeffs))
-    lam = frac * lambda_max(pb, norm)
+    lam = frac * lambda_max(pb, named(norm))
     model = ltv.fit(x, u, lam=lam, norm=norm, order=order, tol=IPM_TOL, max_iter=100_000)
     weights = np.full(pb.K, lam)
     optimum, theta = clarabel_optimum(x, u, weights, norm, coeffs)
@@ -183,7 +184,7 @@ def test_without_inputs_and_with_weight_vector(norm):
     x, _ = data(3, with_input=False)
     weights = np.array([1.0, 0.5, 2.0, 1.5])  # K = 4, one weight per coefficient
     pb = state_space_problem(x, np.zeros((len(x), 0)), np.array([-1.0, 1.0]))
-    lam = 0.3 * lambda_max(pb, norm, weights)
+    lam = 0.3 * lambda_max(pb, named(norm), weights)
     model = ltv.fit(x, None, lam=lam * weights, norm=norm, tol=IPM_TOL, max_iter=100_000)
     assert model.info["solver"].startswith("interior point")
     optimum, theta = clarabel_optimum(x, None, lam * weights, norm, [-1.0, 1.0])
@@ -207,7 +208,7 @@ def test_lambda_max_separates_lti_from_ltv(norm):
     """λ >= λ_max gives the LTI solution exactly; just below it the model changes."""
     x, u = data(4)
     pb = state_space_problem(x, u, np.array([-1.0, 1.0]))
-    lam_max = lambda_max(pb, norm)
+    lam_max = lambda_max(pb, named(norm))
     lti = ltv.fit_lti(x, u)
     above = ltv.fit(x, u, lam=1.001 * lam_max, norm=norm, tol=1e-10, max_iter=100_000)
     assert np.abs(above.k - lti.k).max() < 1e-7 * np.abs(lti.k).max()
@@ -219,7 +220,7 @@ def test_lambda_max_separates_lti_from_ltv(norm):
 def test_lambda_max_order_two_gives_linear_trend():
     x, u = data(5)
     pb = state_space_problem(x, u, np.array([1.0, -2.0, 1.0]))
-    lam_max = lambda_max(pb, "group")
+    lam_max = lambda_max(pb, named("group"))
     model = ltv.fit(x, u, lam=1.001 * lam_max, norm="group", order=2, tol=1e-9, max_iter=100_000)
     assert model.activation().max() < 1e-7 * np.abs(model.k).max()  # k_t linear in t
 
@@ -263,7 +264,7 @@ def test_constant_coefficients_match_clarabel(norm, order, coeffs):
     const = np.array([1, 4])  # A[0, 1] and A[1, 1]: one in each row
     pattern = np.ones(pb.K)
     pattern[const] = np.inf
-    weights = 0.3 * lambda_max(pb, norm, pattern) * pattern
+    weights = 0.3 * lambda_max(pb, named(norm), pattern) * pattern
     model = ltv.fit(x, u, lam=weights, norm=norm, order=order, tol=IPM_TOL)
     assert model.info["converged"] and model.info["solver"].startswith("interior point")
     np.testing.assert_allclose(model.k[:, const], model.k[:1, const].repeat(N, 0), atol=1e-12)
@@ -371,7 +372,7 @@ def route(monkeypatch, solver):
     """Force ADMM (the route of "group" beyond 24 parameters per step and of zero weights)
     for a comparison on the same data; "interior point" is the default at K = 24."""
     if solver == "ADMM":
-        monkeypatch.setattr(sparse_dispatch, "ipm_suits", lambda norm, K: False)
+        monkeypatch.setattr(sparse_dispatch, "ipm_suits", lambda penalty, K: False)
 
 
 @pytest.mark.parametrize("solver", ["interior point", "ADMM"])

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConvergenceWarning
+from .penalties import Penalty
 from .polish import certificate
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 from .sparse_common import QuadraticUpdate
@@ -58,28 +59,18 @@ class SparseResult:
 
 
 def objective(
-    problem: RegressionProblem, theta: np.ndarray, weights: np.ndarray, norm: str
+    problem: RegressionProblem, theta: np.ndarray, weights: np.ndarray, penalty: Penalty
 ) -> float:
     """Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ (Dk)_t)."""
     N = problem.N
     z = apply_difference(theta.reshape(N, -1), problem.coeffs) * weights
-    reg = np.linalg.norm(z, axis=1).sum() if norm == "group" else np.abs(z).sum()
-    return float(np.sum(problem.residuals(theta) ** 2) + reg)
-
-
-def _prox(v: np.ndarray, threshold: float, norm: str) -> np.ndarray:
-    """prox of threshold·R: group (per time step) or elementwise soft threshold."""
-    if norm == "group":
-        size = np.linalg.norm(v, axis=1, keepdims=True)
-        scale = np.maximum(0.0, 1.0 - threshold / np.maximum(size, 1e-300))
-        return v * scale
-    return np.sign(v) * np.maximum(np.abs(v) - threshold, 0.0)
+    return float(np.sum(problem.residuals(theta) ** 2) + penalty.value(z))
 
 
 def fit_sparse(
     problem: RegressionProblem,
     weights: np.ndarray,
-    norm: str,
+    penalty: Penalty,
     *,
     rho: float | None = None,
     max_iter: int = 5000,
@@ -94,7 +85,8 @@ def fit_sparse(
     problem : RegressionProblem
     weights : ndarray, shape (K,)
         λ_j >= 0 (finite) per coefficient of k_t.
-    norm : {"group", "l1"}
+    penalty : Penalty
+        A sparse penalty R (:mod:`.penalties`): its proximal operator and cones.
     rho : float, optional
         Initial ADMM penalty; default from the data and weight scales.
     max_iter : int
@@ -139,7 +131,7 @@ def fit_sparse(
         q = apply_difference(theta.reshape(N, K), problem.coeffs) * weights
         q_hat = relaxation * q + (1.0 - relaxation) * z
         z_prev = z
-        z = _prox(q_hat + w, 1.0 / rho, norm)
+        z = penalty.prox(q_hat + w, 1.0 / rho)
         w = w + q_hat - z
         r = np.linalg.norm(q - z)
         change = apply_difference_adjoint((z - z_prev) * weights, problem.coeffs, N)
@@ -150,7 +142,7 @@ def fit_sparse(
         s_rel = s / max(s_scale, dual_floor, 1e-300)
         if r_rel <= residual_tol and s_rel <= residual_tol:
             value, gap, stationarity, _ = certificate(
-                problem, weights, theta.reshape(N, K), norm == "group"
+                problem, weights, theta.reshape(N, K), penalty
             )
             gap_rel = gap / max(value, 1e-300)
             if gap_rel <= tol and stationarity <= tol:
@@ -171,7 +163,7 @@ def fit_sparse(
     if not converged:
         if not np.isfinite(gap_rel):
             value, gap, stationarity, _ = certificate(
-                problem, weights, theta.reshape(N, K), norm == "group"
+                problem, weights, theta.reshape(N, K), penalty
             )
             gap_rel = gap / max(value, 1e-300)
         warnings.warn(
@@ -184,7 +176,7 @@ def fit_sparse(
         )
     return SparseResult(
         theta=theta,
-        objective=objective(problem, theta, weights, norm),
+        objective=objective(problem, theta, weights, penalty),
         iterations=it,
         converged=converged,
         primal_residual=float(r_rel),

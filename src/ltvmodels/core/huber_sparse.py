@@ -34,6 +34,7 @@ import numpy as np
 
 from ..errors import ConvergenceWarning
 from .huber import LINE_SEARCH_STEPS, MIN_DAMPING, NEWTON_DAMPING, huber_loss, newton_model
+from .penalties import named
 from .problem import RegressionProblem, apply_difference
 from .robust_ipm import fit_robust_ipm
 from .sparse import IPM_MAX_K, solve_sparse
@@ -228,7 +229,7 @@ def _proximal_newton(part, weights, norm, thresholds, k, *, max_iter, tol) -> _P
         )
         with warnings.catch_warnings():  # judged below by the certificate
             warnings.simplefilter("ignore", ConvergenceWarning)
-            solution = solve_sparse(model, weights, norm, max_iter=max_iter, tol=inner_tol)
+            solution = solve_sparse(model, weights, named(norm), max_iter=max_iter, tol=inner_tol)
         steps += 1
         inner += solution.iterations
         solver = f"proximal Newton on {solution.solver}"

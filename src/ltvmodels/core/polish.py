@@ -34,6 +34,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
+from .penalties import Penalty, named
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 
 # Newton iterations on the reduced problem (it converges quadratically from an
@@ -148,8 +149,9 @@ def _operators(problem: RegressionProblem, weights: np.ndarray):
     return phi_op, diff_op
 
 
-def certificate(problem: RegressionProblem, weights: np.ndarray, k: np.ndarray, group: bool):
-    """Objective, duality gap, relative dual residual and ‖u_c‖ per cone of k (full problem).
+def certificate(problem: RegressionProblem, weights: np.ndarray, k: np.ndarray, penalty: Penalty):
+    """Objective, duality gap, relative dual residual and the dual norm per cone of k
+    (full problem) for a sparse ``penalty``.
 
     Any k (N, K) gets one; weights (K,) finite and >= 0.
     """
@@ -168,10 +170,7 @@ def certificate(problem: RegressionProblem, weights: np.ndarray, k: np.ndarray, 
     # which the stationarity residual below measures.
     u = np.divide(lam_u, weights, out=np.zeros_like(lam_u), where=weights > 0)
     e = apply_difference(k, coeffs) * weights
-    if group:
-        e_norm, u_norm = np.linalg.norm(e, axis=1), np.linalg.norm(u, axis=1)
-    else:
-        e_norm, u_norm = np.abs(e), np.abs(u)
+    e_norm, u_norm = penalty.cone_norms(e), penalty.dual_norms(u)
     scale = max(1.0, float(u_norm.max(initial=0.0)))
     u /= scale
     objective = float(np.sum(resid**2) + e_norm.sum())
@@ -246,7 +245,7 @@ def polish(
             vertex = vertex.copy()
             vertex[collapsed] = True
             continue
-        obj, gap, dual_res, u_norm = certificate(problem, weights, k_split, group)
+        obj, gap, dual_res, u_norm = certificate(problem, weights, k_split, named(norm))
         if gap <= tol * obj and dual_res <= tol:
             return PolishResult(
                 k=k_split,

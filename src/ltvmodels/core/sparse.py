@@ -1,14 +1,19 @@
-"""norm="group" and norm="l1": choose the solver for a problem and return a plain solution.
+"""The sparse penalties: choose the solver for a problem and return a plain solution.
 
-    minimize_k  Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ (Dk)_t),   R = ‖·‖₂ (group) or ‖·‖₁ (l1).
+    minimize_k  Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ (Dk)_t),
+
+with R a sparse :class:`~.penalties.Penalty`: ‖·‖₂ (group), ‖·‖₁ (l1), or one
+registered by the user.
 
 Three exact routes, tried in this order:
 
 1. λ ≥ λ_max (:func:`.sparse_common.lambda_max`): Dk = 0 is optimal, and the
    null-space fit is the solution in closed form;
-2. every weight positive and the interior-point method suits the size
-   (:func:`ipm_suits`): the primal-dual interior-point method (:mod:`.ipm`);
-3. otherwise ADMM (:mod:`.admm`), which also takes a warm start along a path.
+2. every weight positive, the interior-point method has the penalty's cones
+   and suits the size (:func:`ipm_suits`): the primal-dual interior-point
+   method (:mod:`.ipm`);
+3. otherwise ADMM (:mod:`.admm`), which needs only the penalty's proximal
+   operator and cones, and also takes a warm start along a path.
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ import numpy as np
 
 from .admm import SparseResult, fit_sparse
 from .ipm import InteriorPointResult, fit_sparse_ipm
+from .penalties import Penalty
 from .problem import RegressionProblem
 from .sparse_common import lambda_max, null_space_fit
 
@@ -36,9 +42,11 @@ IPM_MAX_K = 20
 GROUP_IPM_MAX_K = 24
 
 
-def ipm_suits(norm: str, K: int) -> bool:
-    """Whether the interior-point method is the faster route for K parameters per step."""
-    return norm == "l1" or K <= GROUP_IPM_MAX_K
+def ipm_suits(penalty: Penalty, K: int) -> bool:
+    """Whether the interior-point method has the penalty's cones and is the faster route
+    for K parameters per step (its Newton blocks are p × p per output for a separable
+    penalty, K × K otherwise)."""
+    return penalty.interior_point and (penalty.separable or K <= GROUP_IPM_MAX_K)
 
 
 @dataclass
@@ -96,7 +104,7 @@ class SparseSolution:
 def solve_sparse(
     problem: RegressionProblem,
     weights: np.ndarray,
-    norm: str,
+    penalty: Penalty,
     *,
     max_iter: int,
     tol: float,
@@ -109,7 +117,9 @@ def solve_sparse(
     problem : RegressionProblem
     weights : ndarray, shape (K,)
         λ_j >= 0 per coefficient of k_t; ``inf`` holds coefficient j constant.
-    norm : {"group", "l1"}
+    penalty : Penalty
+        A sparse penalty (:mod:`.penalties`); the interior-point method serves the
+        built-in cones, ADMM any penalty.
     max_iter : int
         Iteration limit of the solver.
     tol : float
@@ -129,7 +139,7 @@ def solve_sparse(
     # (weights of inf hold their coefficients constant at any λ).
     finite = weights[np.isfinite(weights)]
     scale = finite.max() if finite.size else np.inf
-    lam_max = lambda_max(problem, norm, weights / scale, theta_bar) if finite.size else 0.0
+    lam_max = lambda_max(problem, penalty, weights / scale, theta_bar) if finite.size else 0.0
     if np.all(weights > 0) and scale >= lam_max:
         # Dk = 0 is optimal (λ_max's dual certificate): the null-space fit, exactly.
         rss = float(np.sum(problem.residuals(theta_bar) ** 2))
@@ -144,11 +154,11 @@ def solve_sparse(
             details={"duality_gap": 0.0},
             closed_form=True,
         )
-    if ipm_suits(norm, K) and np.all(weights > 0):
+    if ipm_suits(penalty, K) and np.all(weights > 0):
         ip = fit_sparse_ipm(
             problem,
             weights,
-            norm,
+            penalty.name,
             tol=tol,
             max_iter=max_iter,
             warm_start=None if warm_start is None else warm_start.ipm,
@@ -175,13 +185,13 @@ def solve_sparse(
         raise NotImplementedError(
             "lam: constant coefficients (lam = inf) with norm='group' or 'l1' need every "
             f"weight > 0 and, for 'group', at most {GROUP_IPM_MAX_K} parameters per time "
-            f"step, received norm={norm!r}, K = {K} and {int(np.sum(weights == 0))} zero "
+            f"step, received norm={penalty.name!r}, K = {K} and {int(np.sum(weights == 0))} zero "
             "weights"
         )
     result = fit_sparse(
         problem,
         weights,
-        norm,
+        penalty,
         max_iter=max_iter,
         tol=tol,
         warm_start=None if warm_start is None else warm_start.admm,

@@ -16,6 +16,7 @@ import numpy as np
 from scipy.linalg import solveh_banded
 
 from .banded import BlockFactor, BlockSystem
+from .penalties import Penalty
 from .problem import (
     RegressionProblem,
     apply_difference,
@@ -86,7 +87,7 @@ def null_space_fit(problem: RegressionProblem) -> np.ndarray:
 
 def lambda_max(
     problem: RegressionProblem,
-    norm: str,
+    penalty: Penalty,
     weights: np.ndarray | None = None,
     theta_bar: np.ndarray | None = None,
 ) -> float:
@@ -95,13 +96,15 @@ def lambda_max(
     At λ ≥ λ_max the minimizer is the least-squares fit within the null space
     of D (the LTI model for order 1). Optimality of that k̄ requires a dual
     vector ν with Dᵀν = −∇‖y − Φk̄‖² = −g and R*(ν/λ) finite, i.e.
-    ‖ν_t / w‖₂ ≤ λ (group) or |ν_tj / w_j| ≤ λ (l1). D has full row rank and g
+    ‖ν_t / w‖₂ ≤ λ (group) or |ν_tj / w_j| ≤ λ (l1): the dual norms of the
+    penalty's cones. D has full row rank and g
     is orthogonal to null(D) at k̄, so ν = −(DDᵀ)⁻¹ D g is the unique solution.
 
     Parameters
     ----------
     problem : RegressionProblem
-    norm : {"group", "l1"}
+    penalty : Penalty
+        A sparse penalty (:mod:`.penalties`).
     weights : ndarray, shape (K,), optional
         Relative weights (default ones); coefficients with weight 0 are free.
     theta_bar : ndarray, shape (N, n, p), optional
@@ -114,9 +117,7 @@ def lambda_max(
     free = weights == 0  # unpenalized coefficients: their dual part is unconstrained
     nu = -difference_preimage(g, problem.coeffs)
     scaled = nu[:, ~free] / weights[~free]
-    if norm == "group":
-        return float(np.linalg.norm(scaled, axis=1).max(initial=0.0))
-    return float(np.abs(scaled).max(initial=0.0))
+    return float(penalty.dual_norms(scaled).max(initial=0.0))
 
 
 def difference_preimage(v: np.ndarray, coeffs: np.ndarray) -> np.ndarray:

@@ -15,7 +15,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..core import identifiability
+from ..core import identifiability, penalties
 from ..core.covariance import CovarianceBlocks
 from ..core.sparse import solve_sparse
 from ..core.sparse_common import lambda_max as problem_lambda_max
@@ -379,6 +379,7 @@ def fit_path(
             )
             for lam in values
         ]
+    penalty = penalties.named(norm)
     data = _identifiable_data(x, u, order, weights, constant)
     problem = data.problem
     max_iter = options.integer(max_iter, "max_iter", minimum=1)
@@ -388,8 +389,10 @@ def fit_path(
     warm = None
     for position, index in enumerate(np.argsort(-values, kind="stable")):
         lam = float(values[index])
-        weights = options.sparse_weights(lam, problem.K)
-        solution = solve_sparse(problem, weights, norm, max_iter=max_iter, tol=tol, warm_start=warm)
+        weights = penalty.weights(lam, problem.K)
+        solution = solve_sparse(
+            problem, weights, penalty, max_iter=max_iter, tol=tol, warm_start=warm
+        )
         warm = solution
         model = sparse_model(problem, lam, norm, solution, factory)
         model.info["path_position"] = position
@@ -451,7 +454,8 @@ def lambda_max(
     True
     """
     norm = options.choice(norm, "norm", options.SPARSE_NORMS)
-    return problem_lambda_max(_identifiable_data(x, u, order, weights, constant).problem, norm)
+    problem = _identifiable_data(x, u, order, weights, constant).problem
+    return problem_lambda_max(problem, penalties.named(norm))
 
 
 def _identifiable_data(x: Any, u: Any, order: Any, weights: Any, constant: Any) -> StateSpaceData:

@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike
 
 from ..core import identifiability
 from ..core.covariance import CovarianceBlocks
+from ..core.penalties import named
 from ..core.priorterms import posthoc_correction
 from ..core.problem import RegressionProblem, activation
 from ..core.sparse import SparseSolution, solve_sparse
@@ -36,7 +37,7 @@ from .piecewise import refine_fit
 from .priors import resolve as resolve_priors
 from .recordings import regression_problem, require_enough_data
 from .robust import robust_model
-from .selection import DEFAULT_METHOD, select_for_problem
+from .selection import select_for_problem
 from .spec import FitSpec
 
 ModelT = TypeVar("ModelT", bound=RegressionModel)
@@ -215,7 +216,7 @@ def _fit_or_choose_lam(
         )
     checks.enough_data(problem)
     checks.identifiable(problem, has_prior=False)
-    method = DEFAULT_METHOD[spec.norm] if spec.loss == "squared" else "cv"
+    method = named(spec.norm).selection if spec.loss == "squared" else "cv"
     selection = select_for_problem(
         problem,
         spec.norm,
@@ -260,16 +261,22 @@ def _fit_with_lam(
     n, p = problem.n, problem.p
     N, K = problem.N, problem.K
     norm, loss, prior_mode = spec.norm, spec.loss, spec.prior_mode
-    if norm != "sq":
+    penalty = named(norm)
+    if not penalty.closed_form:
         if spec.prior is not None:
             raise NotImplementedError(
                 f"prior: priors are available with norm='sq' only, not yet with norm={norm!r}"
             )
-        weights = options.sparse_weights(lam, K)
+        weights = penalty.weights(lam, K)
         if not checked:
             checks.enough_data(problem)
             checks.identifiable(problem, has_prior=False)
         if loss != "squared":
+            if not penalty.interior_point:
+                raise NotImplementedError(
+                    f"loss: {loss!r} is available with the built-in norms; norm={norm!r} "
+                    "takes loss='squared'"
+                )
             _no_robust_option(noise_var, "noise_var", loss)
             return robust_model(
                 problem,
@@ -282,11 +289,11 @@ def _fit_with_lam(
                 max_iter=spec.max_iter,
                 tol=spec.tol,
             )
-        solution = solve_sparse(problem, weights, norm, max_iter=spec.max_iter, tol=spec.tol)
+        solution = solve_sparse(problem, weights, penalty, max_iter=spec.max_iter, tol=spec.tol)
         return sparse_model(problem, lam, norm, solution, factory)
     if not checked:
         checks.enough_data(problem)  # before a (K, K) λ is checked
-    W = options.penalty_weight(lam, K)
+    W = penalty.weights(lam, K)
     terms = resolve_priors(spec.prior, N, n, p)
     if not problem.complete and any(term.on == "output" for term in terms):
         raise NotImplementedError(

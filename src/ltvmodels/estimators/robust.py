@@ -21,6 +21,7 @@ import numpy as np
 from ..core.huber import HuberFit, fit_huber, huber_loss
 from ..core.huber_sparse import SparseHuberFit, fit_huber_sparse
 from ..core.laplace import LaplaceFit, fit_laplace
+from ..core.penalties import named
 from ..core.priorterms import PriorTerm
 from ..core.problem import RegressionProblem, activation
 from ..core.sparse import solve_sparse
@@ -103,7 +104,7 @@ def solve_robust(
         with warnings.catch_warnings():  # only a starting point and a residual scale
             warnings.simplefilter("ignore", ConvergenceWarning)
             start = solve_sparse(
-                problem, penalty, norm, max_iter=max_iter, tol=max(tol, START_TOL)
+                problem, penalty, named(norm), max_iter=max_iter, tol=max(tol, START_TOL)
             ).theta
     rule = "given"
     if delta is None:

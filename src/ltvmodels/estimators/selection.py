@@ -56,6 +56,7 @@ from scipy.interpolate import CubicSpline
 from ..core import identifiability
 from ..core.evidence import ScalarEvidence
 from ..core.logsearch import maximize_on_log_scale
+from ..core.penalties import named
 from ..core.problem import RegressionProblem, apply_difference
 from ..core.sparse import solve_sparse
 from ..core.sparse_common import lambda_max
@@ -528,15 +529,16 @@ def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, round
                 f"the L-curve has no corner: every candidate gives the same fit (residual "
                 f"norm {residual[ok][0]:.6g})"
             )
+            lam_max = lambda_max(problem, named(norm))
             if given:
                 raise ValueError(
                     f"lams: {same}, e.g. all at or above λ_max = "
-                    f"{lambda_max(problem, norm):.6g}; pass candidates below λ_max, or none for "
+                    f"{lam_max:.6g}; pass candidates below λ_max, or none for "
                     "the default grid"
                 )
             raise ValueError(
                 f"{data_name}: {same} over the default range λ_max·[1e-3, 1] (λ_max = "
-                f"{lambda_max(problem, norm):.6g}: the data leave nothing to choose); pass a "
+                f"{lam_max:.6g}: the data leave nothing to choose); pass a "
                 "number for lam"
             )
         best = int(np.argmax(curvature))
@@ -607,11 +609,10 @@ def criterion_fit(
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
         solution = solve_sparse(
-            problem, np.full(K, lam), norm, max_iter=200, tol=tol, warm_start=warm_start
+            problem, np.full(K, lam), named(norm), max_iter=200, tol=tol, warm_start=warm_start
         )
     k = solution.theta.reshape(problem.N, K)
-    Dk = apply_difference(k, problem.coeffs)
-    reg = np.linalg.norm(Dk, axis=1).sum() if norm == "group" else np.abs(Dk).sum()
+    reg = named(norm).value(apply_difference(k, problem.coeffs))
     return {
         "theta": solution.theta,
         "rss": solution.rss,
@@ -720,7 +721,7 @@ def _default_range(problem: RegressionProblem, norm: str, data_name: str) -> tup
         # root-mean-square ‖φ‖ of the observed rows
         scale = float(np.sqrt(np.sum(problem.phi**2) / max(problem.n_observed, 1)))
         return 0.1 * scale, 2.0 * problem.N**problem.degree * scale
-    lam_max = lambda_max(problem, norm)
+    lam_max = lambda_max(problem, named(norm))
     if not lam_max > 0:
         raise ValueError(
             f"{data_name}: there is no λ to choose: coefficients in the null space of the "

@@ -15,6 +15,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
+from ..core.penalties import PENALTIES
 from ..validation import options
 from ..validation.constraints import (
     Callback,
@@ -33,7 +34,7 @@ __all__ = ["FIT_CONSTRAINTS", "FitSpec"]
 
 FIT_CONSTRAINTS: dict[str, Constraint] = {
     "lam": LamValue(),
-    "norm": Choice(options.NORMS),
+    "norm": Choice(PENALTIES),  # the registered penalties
     "order": Deferred(),  # the difference operator, against the series length
     "prior": Deferred(),  # against the number of steps and parameters
     "prior_mode": Choice(options.PRIOR_MODES),

@@ -17,7 +17,7 @@ fit checks them once against the problem.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -49,15 +49,16 @@ class Constraint:
 
 @dataclass(frozen=True)
 class Choice(Constraint):
-    """One of the strings ``values``."""
+    """One of the strings ``values`` (a sequence, or a registry's names: a mapping read at
+    each check, so that what is registered later is accepted)."""
 
-    values: Sequence[str]
+    values: Collection[str]
 
     def check(self, value: Any, name: str) -> Any:
-        return options.choice(value, name, self.values)
+        return options.choice(value, name, tuple(self.values))
 
     def invalid_examples(self) -> list[Any]:
-        return ["", "none", self.values[0].upper(), 1, None]
+        return ["", "none", next(iter(self.values)).upper(), 1, None]
 
 
 @dataclass(frozen=True)
