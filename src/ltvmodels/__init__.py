@@ -65,6 +65,7 @@ _API = {
     "ARXModel": "results.arx",
     "FitStatus": "results.record",
     "FitRecord": "results.record",
+    "DataDescription": "results.description",
     "LambdaSelection": "results.selection",
     "Segmentation": "results.segmentation",
     "KalmanFilterResult": "results.kalman",
@@ -155,6 +156,7 @@ if TYPE_CHECKING:
     from .results.loading import load as load
     from .results.model_set import ModelSet as ModelSet
     from .results.model_set import load_many as load_many
+    from .results.description import DataDescription as DataDescription
     from .results.record import FitRecord as FitRecord
     from .results.record import FitStatus as FitStatus
     from .results.regression import RegressionModel as RegressionModel

@@ -207,7 +207,7 @@ def test_fit_model_file_then_simulate_and_predict(workdir, capsys):
     assert "one-step prediction RMS" in out and "open-loop simulation RMS" in out
     assert f"wrote {model_path}" in out and _is_png(fig)
     model = ltvmodels.load(model_path)
-    assert model.info["data_columns"] == {"state": ["x1", "x2"], "input": ["u"]}
+    assert dict(model.data.names) == {"state": ("x1", "x2"), "input": ("u",)}
 
     # the model file records its columns: no --state/--input needed
     code, out, err = _run(
@@ -537,7 +537,7 @@ def test_data_commands_user_errors_exit_2(argv, needle, workdir, tmp_path, capsy
     model = tmp_path / "model.npz"
     if "{model}" in argv:
         fitted = ltvmodels.fit(data.x, data.u, lam=10.0)
-        fitted.info["data_columns"] = {"state": ["x1", "x2"], "input": ["u"]}
+        fitted = fitted.with_data(fitted.data.renamed({"state": ["x1", "x2"], "input": ["u"]}))
         fitted.save(model)
     subs = {
         "{tmp}": str(tmp_path),
@@ -703,7 +703,7 @@ def test_fit_with_missing_values_matches_the_api(missing_csv, tmp_path, capsys):
     assert "open-loop simulation: not computed (input u is missing at sample 30" in out
     saved = ltvmodels.load(tmp_path / "m.npz")
     api = ltvmodels.fit(x, u, lam=10.0)
-    assert api.info["n_missing"] == n_missing
+    assert api.n_missing == n_missing
     assert np.all(np.isfinite(saved.k)) and np.allclose(saved.k, api.k)
 
     code, out, err = _run(
@@ -728,7 +728,7 @@ def test_segments_ar_select_lambda_with_missing_values(missing_csv, capsys):
     assert code == 0, err
     report = json.loads(out)
     api = ltvmodels.fit_segments(x, u, n_changes=1)
-    assert report["n_missing"] == api.info["n_missing"] == 10
+    assert report["n_missing"] == api.n_missing == 10
     assert report["changepoints"] == [int(c) for c in api.changepoints] == [100]
 
     # AR: a step enters only if y[t] and its 2 lags are observed: x1 missing at 10 and 150
@@ -762,7 +762,7 @@ def test_predict_with_missing_values(missing_csv, workdir, tmp_path, capsys):
     path, x, u = missing_csv
     _, data = workdir
     model = ltvmodels.fit(data.x, data.u, lam=10.0)
-    model.info["data_columns"] = {"state": ["x1", "x2"], "input": ["u"]}
+    model = model.with_data(model.data.renamed({"state": ["x1", "x2"], "input": ["u"]}))
     model.save(tmp_path / "m.npz")
     code, out, err = _run(
         ["predict", tmp_path / "m.npz", path, "--out", tmp_path / "p.csv"], capsys
@@ -901,7 +901,7 @@ def test_commands_without_input(command, autonomous, tmp_path, capsys):
 def test_predict_simulate_without_input(command, autonomous, tmp_path, capsys):
     path, x = autonomous
     model = ltvmodels.fit(x, None, lam=10.0, constant=True)
-    model.info["data_columns"] = {"state": ["x1", "x2"], "input": []}
+    model = model.with_data(model.data.renamed({"state": ["x1", "x2"], "input": []}))
     model.save(tmp_path / "m.npz")
     code, out, err = _run([command, tmp_path / "m.npz", path, "--out", tmp_path / "r.csv"], capsys)
     assert code == 0, err

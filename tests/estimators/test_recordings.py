@@ -85,7 +85,7 @@ def test_missing_samples_equal_dense_fit_with_rows_removed(order):
     N, K = k.shape
     blocks = np.stack([H_inv[t * K : (t + 1) * K, t * K : (t + 1) * K] for t in range(N)])
     assert relerr(model.cov_full(), 0.5 * blocks) < 1e-7
-    assert model.info["n_missing"] > 0
+    assert model.n_missing > 0
 
 
 @pytest.mark.parametrize("order", ORDERS, ids=ORDER_IDS)
@@ -127,7 +127,7 @@ def test_gaps_are_bridged_and_covariance_grows_there(gap):
     std = model.std()[:, 0]
     inside = std[60 : 59 + gap].max() if gap > 1 else std[59]
     assert inside > 1.2 * np.median(std[:40])
-    assert model.info["n_missing"] == gap + 1
+    assert model.n_missing == gap + 1
 
 
 def test_missing_first_and_last_sample():
@@ -142,7 +142,7 @@ def test_missing_first_and_last_sample():
     phi = np.hstack([x[:-1], u[:-1]])[keep]
     coef = np.linalg.lstsq(phi, x[1:][keep], rcond=None)[0].T
     np.testing.assert_allclose(lti.theta[0], coef, rtol=1e-10, atol=1e-12)
-    assert lti.info["n_missing"] == 2
+    assert lti.n_missing == 2
 
 
 def test_records_joined_by_a_nan_row_are_independent_experiments():
@@ -344,7 +344,7 @@ def test_ar_with_missing_samples_and_several_series():
     y_gap[0, 50] = np.nan
     model = ltv.fit_ar(y_gap[..., None], 2, lam=1e4, constant=True)
     # rows needing y[50] (as output or as one of its two lags) are left out
-    assert model.info["n_missing"] == 3
+    assert model.n_missing == 3
     np.testing.assert_allclose(np.median(model.theta[:, 0, :2], axis=0), [1.5, -0.8], atol=0.1)
     y_out, phi = ltv.ar_regressors(y[1], 2)
     single = ltv.fit_ar(y[1], 2, lam=1e4)
@@ -406,7 +406,7 @@ def test_dataframe_column_names_name_the_model(tmp_path):
     titles = [ax.get_title() for ax in loaded.plot().axes[:3]]
     assert titles == ["A[position,position]", "A[position,velocity]", "B[position,force]"]
     plain = ltv.fit(data.x, data.u, lam=10.0)
-    assert plain.state_names == ["x0", "x1"] and "signal_names" not in plain.info
+    assert plain.state_names == ["x0", "x1"] and not plain.data.names
 
 
 def test_a_datetime_index_times_the_model(tmp_path):

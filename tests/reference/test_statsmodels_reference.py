@@ -138,7 +138,7 @@ def test_missing_samples_match_statsmodels_nan_observations():
     assert rel(model.k, k_sm) < 1e-8
     assert rel(model.cov_full(), cov_sm) < 1e-6
     assert llf == pytest.approx(model.loglik - 0.5 * q * LOG_2PI, rel=1e-9, abs=1e-6)
-    assert model.info["n_missing"] == 5
+    assert model.n_missing == 5
 
 
 def statsmodels_smoother_y(y, phi, lam, noise_var):

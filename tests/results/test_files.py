@@ -1,4 +1,5 @@
-"""Model files: the current format keeps the fit status; files of ltvmodels 0.1 still load.
+"""Model files: the current format keeps the fit status and the data description; files
+of ltvmodels 0.1 and 0.2 still load.
 
 The files in ``data/`` were written by ltvmodels 0.1 (format version 1) from
 ``systems.jump_linear(T=100, change_at=50, seed=0)`` with the calls in
@@ -61,7 +62,7 @@ def test_files_of_version_0_1_load_as_the_same_model(name):
         np.testing.assert_allclose(old.cov, new.cov, rtol=1e-8, atol=1e-14)
     np.testing.assert_array_equal(old.changepoints, new.changepoints)
     # new in 0.2
-    assert set(old.info) == set(new.info) - {"n_missing", "loglik_note", "last_segment_unit_cov"}
+    assert set(old.info) == set(new.info) - {"loglik_note", "last_segment_unit_cov"}
     # The status of a 0.1 file is reconstructed from its info: that of the same fit now.
     assert old.status.status == new.status.status
     assert old.status.solver == new.status.solver
@@ -70,19 +71,54 @@ def test_files_of_version_0_1_load_as_the_same_model(name):
     assert set(old.status.details) == set(new.status.details)
 
 
-def test_current_files_are_version_2_and_keep_the_status(tmp_path):
-    model = ltv.fit(X, U, lam=5.0, norm="group")
+def dated_frames(gap: bool = True):
+    pd = pytest.importorskip("pandas")
+    index = pd.date_range("2024-01-01", periods=len(X), freq="D")
+    x = pd.DataFrame(X, index=index, columns=["pos", "vel"])
+    if gap:
+        x.iloc[40:43] = np.nan
+    return x, pd.DataFrame(U, index=index, columns=["force"])
+
+
+def test_current_files_are_version_3_and_keep_the_status_and_the_data(tmp_path):
+    model = ltv.fit(*dated_frames(), lam=5.0, norm="group")
     path = tmp_path / "m.npz"
     model.save(path)
-    assert version_of(path) == 2
+    assert version_of(path) == 3
     loaded = ltv.load(path)
     assert loaded.status == model.status
+    assert dict(loaded.data.names) == {"state": ("pos", "vel"), "input": ("force",)}
+    np.testing.assert_array_equal(loaded.time, model.time)
+    assert loaded.n_missing == model.n_missing == 4 and loaded.data.n_trajectories == 1
+    assert loaded.state_names == ["pos", "vel"] and loaded.input_names == ["force"]
     # a model without a status (given coefficients) round-trips too
     given = ltv.LTVModel(D.k, 2, 1)
     given.save(path)
     again = ltv.load(path)
     assert again.status is None and again.norm is None
     np.testing.assert_array_equal(again.k, D.k)
+
+
+def test_version_2_files_keep_names_time_and_missing_in_info_and_load_them_as_data(tmp_path):
+    # Version 2 wrote the data's names, time and missing count into info.
+    model = ltv.fit(*dated_frames(), lam=10.0)
+    path = tmp_path / "m.npz"
+    model.save(path)
+    with np.load(path, allow_pickle=False) as data:
+        arrays = {key: data[key] for key in data.files}
+    meta = json.loads(str(arrays.pop("meta")))
+    meta["format_version"] = 2
+    meta.pop("data")
+    meta["info"]["signal_names"] = {"state": ["pos", "vel"], "input": ["force"]}
+    meta["info"]["n_missing"] = 4
+    arrays["info__time"] = arrays.pop("data_time")
+    arrays["meta"] = np.array(json.dumps(meta))
+    np.savez(path, **arrays)
+    loaded = ltv.load(path)
+    assert {"signal_names", "time", "n_missing"}.isdisjoint(loaded.info)
+    assert dict(loaded.data.names) == dict(model.data.names)
+    np.testing.assert_array_equal(loaded.time, model.time)
+    assert loaded.n_missing == 4
 
 
 def test_unreadable_versions_are_rejected(tmp_path):

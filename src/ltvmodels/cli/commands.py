@@ -108,16 +108,12 @@ def _state_space_data(
 
 def _record_columns(
     model: Any, state_names: list[str], input_names: list[str], time: np.ndarray | None
-) -> None:
-    """The data's columns in the model: to read them again (simulate, predict, forecast),
-    as its signal names (plots, to_frame) and, with --time, as its time index."""
-    model.info["data_columns"] = {"state": state_names, "input": input_names}
-    model.info["signal_names"] = {
-        "state": state_names,
-        **({"input": input_names} if input_names else {}),
-    }
-    if time is not None:
-        model.info["time"] = time
+) -> Any:
+    """The model described by the data's columns (a new model): to read them again
+    (simulate, predict, forecast), as its signal names (plots, to_frame) and, with
+    --time, as its time index."""
+    names = {"state": state_names, "input": input_names or None}
+    return model.with_data(model.data.renamed(names, time))
 
 
 def _check_coef_out(args: argparse.Namespace) -> None:
@@ -286,8 +282,7 @@ def _state_space_report(
         sim_rms = sim_total = None
     changepoints, rule = _detected_changepoints(model)
     info = model.info
-    n_missing = info.get("n_missing")
-    n_missing = _missing_transitions(x, u) if n_missing is None else int(n_missing)
+    n_missing = model.data.n_missing
     report: dict[str, Any] = {
         "command": command,
         "data": label,
@@ -433,7 +428,7 @@ def _cmd_fit(args: argparse.Namespace) -> Report:
             weights=args.transition_weights,
             progress=progress,
         )
-    _record_columns(model, state_names, input_names, args.time_values)
+    model = _record_columns(model, state_names, input_names, args.time_values)
     report, lines, changepoints = _state_space_report(
         "fit", label, model, x, u, state_names, input_names
     )
@@ -497,7 +492,7 @@ def _cmd_segments(args: argparse.Namespace) -> Report:
             constant=args.constant,
             weights=args.transition_weights,
         )
-    _record_columns(model, state_names, input_names, args.time_values)
+    model = _record_columns(model, state_names, input_names, args.time_values)
     report, lines, changepoints = _state_space_report(
         "segments", label, model, x, u, state_names, input_names
     )
@@ -567,17 +562,13 @@ def _cmd_ar(args: argparse.Namespace) -> Report:
             progress=progress,
         )
         freq = model.root_spectrogram(args.fs)
-    model.info["data_columns"] = {"output": names}
-    model.info["signal_names"] = {"output": names}
+    model = model.with_data(model.data.renamed({"output": names}))
     prediction, ok = _predict(model, y, None)
     err = prediction - y[model.lag :]
     valid = ok[:, None] & np.isfinite(y[model.lag :])
     counts = _missing_values(names, y)
     any_missing = any(counts.values())
-    n_missing = model.info.get("n_missing")
-    n_missing = (
-        int(np.count_nonzero(~np.all(valid, axis=1))) if n_missing is None else int(n_missing)
-    )
+    n_missing = model.data.n_missing
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN tracks (real poles)
         tracks = np.nanmedian(freq, axis=0) if freq.size else np.zeros(0)
@@ -832,8 +823,7 @@ def _load_model(path: str) -> Any:
 def _model_data(args: argparse.Namespace, model: Any) -> dict[str, Any]:
     """Read the columns a loaded model needs from DATA and check their sizes."""
 
-    recorded = model.info.get("data_columns")
-    recorded = recorded if isinstance(recorded, dict) else {}
+    recorded = {role: list(names) for role, names in model.data.names.items()}
     if isinstance(model, LTVModel):
         kind, n, m, lag = "ltv", model.n_states, model.n_inputs, 1
         out_key = "state"

@@ -39,6 +39,7 @@ from ..core.lags import lag_length, lag_regressor_names, lagged_regressors
 from ..core.problem import weighted_problem
 from ..errors import ModelStructureWarning
 from ..results.arx import ARModel, ARXModel
+from ..results.description import DataDescription
 from ..validation import arrays, options
 from ..validation.options import Loss, Norm, PriorMode
 from .regression import fit_problem
@@ -319,20 +320,17 @@ def fit_ar(
 
 
 def _describe(model: Any, y: Any, u: Any, shape: tuple[int, int, int]) -> Any:
-    """Record the column names of a pandas y (and u) and the index of y (one series) in
-    the model's ``info`` ("signal_names", "time")."""
+    """``model`` with the description of its data: the column names of a pandas y (and
+    u), the index of y (one series), the series and the regression rows left out."""
     R, T, n = shape
     names = {
         "output": arrays.column_names(y, n),
         "input": None if u is None else arrays.column_names(u, model.n_inputs),
     }
-    names = {key: value for key, value in names.items() if value is not None}
-    if names:
-        model.info["signal_names"] = names
     time = arrays.time_index(y, T) if R == 1 else None
-    if time is not None:
-        model.info["time"] = time
-    return model
+    return model.with_data(
+        DataDescription.of(names, time, n_trajectories=R, n_missing=model.data.n_missing)
+    )
 
 
 # A mean farther from 0 than this many standard deviations is clearly not zero (a
@@ -393,5 +391,7 @@ def _fit_lagged(
         data_name="y",
         rows_note=f" (T = {y.shape[1]} samples, the first {L} only as lags)",
     )
-    model.info["n_missing"] = problem.N * problem.q - problem.n_observed  # rows left out
-    return model
+    # the rows left out (the names and time are added by the front-end)
+    return model.with_data(
+        DataDescription.of(None, n_missing=problem.N * problem.q - problem.n_observed)
+    )

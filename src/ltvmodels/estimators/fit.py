@@ -120,7 +120,6 @@ def fit_lti(
         "solver": "least-squares (QR)",
         "rss": rss,
         "dof": int(dof),
-        "n_missing": data.n_missing,
     }
     if loglik_note:
         info["loglik_note"] = loglik_note

@@ -145,7 +145,7 @@ def model_record(model: Any, data: UnitData, options: dict) -> dict:
     record["lam_method"] = (
         selection["method"] if selection else ("given" if lam is not None else None)
     )
-    record["missing"] = info.get("n_missing")
+    record["missing"] = getattr(model, "n_missing", None)
     names = getattr(model, "state_names", None) or []
     noise = getattr(model, "noise_var", None)
     if noise is not None and len(names) == len(noise):
@@ -173,9 +173,10 @@ def one_step_rms(model: Any, data: UnitData, options: dict) -> float | None:
         and options.get("weights") is None
         and options.get("loss", "squared") == "squared"
     )
-    if unweighted and "rss" in info and "n_missing" in info and np.ndim(plain(data.x)) in (1, 2):
+    missing = getattr(model, "n_missing", None)
+    if unweighted and "rss" in info and missing is not None and np.ndim(plain(data.x)) in (1, 2):
         # The fit's residual sum of squares over its observed transitions: no recomputation.
-        rows = model.N - info["n_missing"]
+        rows = model.N - missing
         return float(np.sqrt(info["rss"] / (rows * model.n_outputs))) if rows > 0 else None
     try:  # the estimator has validated the data: no need to check them again
         x = np.asarray(plain(data.x), dtype=np.float64)

@@ -171,7 +171,6 @@ def fit_piecewise(
             loss=loss,
             delta=delta,
             factory=factory,
-            n_missing=data.n_missing,
         )
     )
 
@@ -186,7 +185,6 @@ def piecewise_fit(
     loss: str,
     delta: np.ndarray | None,
     factory: Callable[..., Any],
-    n_missing: int,
 ) -> Any:
     """:func:`fit_piecewise` on a validated regression problem (any front-end): the model
     ``factory(k, fit=FitRecord(...))``; ``changepoints`` are validated here."""
@@ -222,7 +220,6 @@ def piecewise_fit(
                 "segments": segments,
                 **info_extra,
                 "n_params_per_row": int(n_params),
-                "n_missing": n_missing,
             },
         )
     resid = problem.residuals(theta).reshape(-1, n)
@@ -250,7 +247,6 @@ def piecewise_fit(
         "rss": float(np.trace(rss_matrix)),
         "dof": int(dof),
         "n_params_per_row": int(n_params),
-        "n_missing": n_missing,
     }
     if loglik_note:
         info["loglik_note"] = loglik_note
@@ -279,7 +275,6 @@ def refine_fit(
     loss: str,
     delta: np.ndarray | None,
     factory: Callable[..., Any],
-    n_missing: int,
 ) -> Any:
     """Second step of the two-step refinement (paper Section III-G): refit ``first``'s
     problem between its change points, with the same loss (any front-end).
@@ -304,7 +299,6 @@ def refine_fit(
             loss=loss,
             delta=delta,
             factory=factory,
-            n_missing=n_missing,
         )
     except ValueError as exc:  # the change points are ours, not the caller's
         if not str(exc).startswith("changepoints:"):

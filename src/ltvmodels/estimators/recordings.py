@@ -21,6 +21,7 @@ import numpy as np
 
 from ..core.problem import RegressionProblem, state_space_problem, weighted_problem
 from ..results.base import signal_names
+from ..results.description import DataDescription
 from ..validation import arrays, options
 
 
@@ -72,18 +73,20 @@ class StateSpaceData:
         inputs = self.input_names or signal_names("u", self.m)
         return states + inputs + (["1"] if self.constant else [])
 
+    @property
+    def description(self) -> DataDescription:
+        """What the data say (a fitted model's ``data``): the column names of pandas
+        states and inputs, the index of x (T,), the trajectories and missing transitions."""
+        return DataDescription.of(
+            {"state": self.state_names, "input": self.input_names if self.m else None},
+            self.time,
+            n_trajectories=self.x.shape[0],
+            n_missing=self.n_missing,
+        )
+
     def describe(self, model: Any) -> Any:
-        """Record what the data say about ``model`` in its ``info``: "n_missing" and, for
-        pandas inputs, "signal_names" ({"state": …, "input": …}, the column names) and
-        "time" (the index of x, (T,))."""
-        model.info["n_missing"] = self.n_missing
-        if self.time is not None:
-            model.info["time"] = self.time
-        names = {"state": self.state_names, "input": self.input_names if self.m else None}
-        names = {key: value for key, value in names.items() if value is not None}
-        if names:
-            model.info["signal_names"] = names
-        return model
+        """``model`` with :attr:`description` as its ``data``."""
+        return model.with_data(self.description)
 
     @property
     def n_missing(self) -> int:
@@ -149,6 +152,20 @@ def regression_problem(
     coeffs = options.difference_coefficients(order, max_degree=y.shape[1])
     w = arrays.row_weights(weights, y.shape[0], y.shape[1])
     return weighted_problem(y, phi, coeffs, w)
+
+
+def regression_description(y: Any, phi: Any, problem: RegressionProblem) -> DataDescription:
+    """What regression data say (a fitted model's ``data``): the column names of a pandas
+    y and phi, the index of y (one series), the series and missing rows."""
+    return DataDescription.of(
+        {
+            "output": arrays.column_names(y, problem.n),
+            "regressor": arrays.column_names(phi, problem.p),
+        },
+        arrays.time_index(y, problem.N) if problem.q == 1 else None,
+        n_trajectories=problem.q,
+        n_missing=problem.N * problem.q - problem.n_observed,
+    )
 
 
 def require_enough_data(problem: RegressionProblem, data_name: str, rows_note: str = "") -> None:

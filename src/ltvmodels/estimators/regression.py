@@ -30,12 +30,12 @@ from ..core.squared import fit_squared, weight_diagonal
 from ..results.base import signal_names
 from ..results.record import FitRecord, FitStatus, iterative_status
 from ..results.regression import RegressionModel
-from ..validation import arrays, options
+from ..validation import options
 from ..validation.options import Loss, Norm, PriorMode
 from .changepoints import find_changepoints, residue_level
 from .piecewise import refine_fit
 from .priors import resolve as resolve_priors
-from .recordings import regression_problem, require_enough_data
+from .recordings import regression_description, regression_problem, require_enough_data
 from .robust import robust_model
 from .selection import select_for_problem
 from .spec import FitSpec
@@ -127,22 +127,16 @@ def fit_regression(
     """
     spec = FitSpec.from_arguments(locals())  # every option, checked once
     problem = regression_problem(y, phi, order=spec.order, weights=weights)
-    n, p = problem.n, problem.p
-    columns = {"output": arrays.column_names(y, n), "regressor": arrays.column_names(phi, p)}
-    described = {key: value for key, value in columns.items() if value is not None}
-    time = arrays.time_index(y, problem.N) if problem.q == 1 else None
+    description = regression_description(y, phi, problem)
     model = fit_problem(
         problem,
         spec,
-        factory=partial(RegressionModel, n_outputs=n, n_regressors=p),
-        regressor_names=described.get("regressor", signal_names("phi", p)),
+        factory=partial(RegressionModel, n_outputs=problem.n, n_regressors=problem.p),
+        regressor_names=description.names_of("regressor", problem.p)
+        or signal_names("phi", problem.p),
         data_name="y",
     )
-    if described:
-        model.info["signal_names"] = described
-    if time is not None:
-        model.info["time"] = time
-    return model
+    return model.with_data(description)
 
 
 def fit_problem(
@@ -179,7 +173,6 @@ def fit_problem(
         loss=loss,
         delta=huber_delta,
         factory=factory,
-        n_missing=problem.N * problem.q - problem.n_observed,
     )
 
 

@@ -37,7 +37,7 @@ from ..results.statespace import LTVModel
 from ..validation import options
 from ..validation.options import PenaltyRule
 from .piecewise import fit_piecewise, piecewise_fit
-from .recordings import regression_problem, state_space_data
+from .recordings import regression_description, regression_problem, state_space_data
 
 __all__ = ["fit_segments", "segment_regression", "noise_variance_estimate"]
 
@@ -109,8 +109,7 @@ def segment_regression(
         loss="squared",
         delta=None,
         factory=partial(RegressionModel, n_outputs=problem.n, n_regressors=problem.p),
-        n_missing=int((~problem.observed).sum()),
-    )
+    ).with_data(regression_description(y, phi, problem))
     return replace(result, model=_segmentation_model(model, result))
 
 

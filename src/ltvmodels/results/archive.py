@@ -5,11 +5,16 @@ Members: ``k``, ``lam``, optionally ``noise_cov`` (absent: not estimated), ``coe
 array-valued ``info`` entries as ``info__<key>``, and ``meta``: one JSON text
 with the format version, the model class, its sizes (``model.structure()``),
 ``norm``, ``noise_var``, ``loglik`` (null where not estimated or not defined),
-the JSON part of ``info`` and (from version 2) the fit status. Files are read
-with ``allow_pickle=False``: loading a model never executes code from the file.
+the JSON part of ``info``, (from version 2) the fit status and (from version
+3) the data description (``model.data``: names, trajectories, missing rows;
+its time axis is the member ``data_time``). Files are read with
+``allow_pickle=False``: loading a model never executes code from the file.
 
-Version history: 1 (ltvmodels 0.1), 2 (adds the fit status). Version 1 files
-are read too; their status is reconstructed from ``info``.
+Version history: 1 (ltvmodels 0.1), 2 (adds the fit status), 3 (adds the data
+description, which earlier versions kept in ``info`` as "signal_names", "time"
+and "n_missing"). Earlier versions are read too: the status of a version-1
+file is reconstructed from ``info``, the description of version 1 and 2 files
+from those ``info`` entries.
 """
 
 from __future__ import annotations
@@ -24,10 +29,11 @@ import numpy as np
 
 from ..core.covariance import CovarianceBlocks
 from ..validation.arrays import describe
+from .description import DataDescription
 from .record import FitRecord, FitStatus, iterative_status
 
-FORMAT_VERSION = 2
-READABLE_VERSIONS = (1, 2)
+FORMAT_VERSION = 3
+READABLE_VERSIONS = (1, 2, 3)
 
 # How version-1 files name the solvers that need no iterations, or search exactly.
 _CLOSED_FORM_SOLVERS = (
@@ -93,7 +99,10 @@ def write(model: Any, path: str | Path) -> None:
         "loglik": fit.loglik,
         "info": info_json,
         "status": None if fit.status is None else fit.status.to_dict(),
+        "data": None if fit.data is None else fit.data.to_json(),
     }
+    if fit.data is not None and fit.data.time is not None:
+        arrays["data_time"] = fit.data.time
     arrays["meta"] = np.array(json.dumps(meta))
     with open(path, "wb") as fh:
         # mypy matches the unpacked names against savez's keyword allow_pickle (numpy >= 2.1),
@@ -126,6 +135,13 @@ def read(path: str | Path) -> ModelFile:
         else:
             status = None if meta["status"] is None else FitStatus.from_dict(meta["status"])
         lam = data["lam"] if "lam" in files else None
+        if version < 3:
+            description = _description_from_info(info)
+        elif meta.get("data") is None:
+            description = None
+        else:
+            time = data["data_time"] if "data_time" in files else None
+            description = DataDescription.from_json(meta["data"], time)
         fit = FitRecord(
             norm=meta["norm"],
             coeffs=data["coeffs"] if "coeffs" in files else None,
@@ -137,6 +153,7 @@ def read(path: str | Path) -> ModelFile:
             info=info,
             changepoints=data["changepoints"] if "changepoints" in files else None,
             status=status,
+            data=description,
         )
         # Files written before model types were recorded hold state-space models.
         return ModelFile(meta.get("model_type", "LTVModel"), data["k"], meta, fit)
@@ -169,6 +186,15 @@ def _split_info(info: dict) -> tuple[dict, dict]:
             plain[key] = value
     json.dumps(plain)  # fail early (TypeError) on values that cannot be stored
     return plain, arrays
+
+
+def _description_from_info(info: dict) -> DataDescription:
+    """The data description of a version 1 or 2 file, from (and out of) its ``info``."""
+    return DataDescription.of(
+        info.pop("signal_names", None),
+        info.pop("time", None),
+        n_missing=info.pop("n_missing", 0),
+    )
 
 
 def _status_from_info(info: dict) -> FitStatus | None:

@@ -57,7 +57,7 @@ class LinearTimeVarying:
     @property
     def state_names(self) -> list[str]:
         """Names of the states: the data's column names where it had them (a pandas
-        DataFrame, recorded in ``info["signal_names"]``), else ``["x0", "x1", …]``."""
+        DataFrame, recorded in ``data.names``), else ``["x0", "x1", …]``."""
         return _recorded_names(self, "state", self.n) or signal_names("x", self.n)
 
     @property
@@ -67,10 +67,10 @@ class LinearTimeVarying:
 
 
 def _recorded_names(obj: object, key: str, count: int) -> list[str] | None:
-    """``obj.info["signal_names"][key]`` when it names ``count`` signals, else None."""
-    info = getattr(obj, "info", None)
-    names = info.get("signal_names", {}).get(key) if isinstance(info, dict) else None
-    return [str(name) for name in names] if names is not None and len(names) == count else None
+    """The names of ``key`` in ``obj.data`` (a fitted model's :class:`DataDescription`)
+    when they name ``count`` signals, else None."""
+    data = getattr(obj, "data", None)
+    return data.names_of(key, count) if data is not None else None
 
 
 def signal_names(prefix: str, count: int) -> list[str]:

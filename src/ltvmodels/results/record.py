@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..core.covariance import CovarianceBlocks
+from .description import DataDescription
 
 STATUSES = {
     "closed_form": "solved exactly by direct linear algebra, without iterations",
@@ -158,6 +159,9 @@ class FitRecord:
         Change points found by the estimator (None: derived from k).
     status : FitStatus or None
         How the coefficients were computed (None for given coefficients).
+    data : DataDescription or None
+        What the data said: names, time axis, trajectories, missing rows (None:
+        nothing known, as for given coefficients).
     """
 
     norm: str | None = None
@@ -170,3 +174,4 @@ class FitRecord:
     info: dict = field(default_factory=dict)
     changepoints: np.ndarray | None = None
     status: FitStatus | None = None
+    data: DataDescription | None = None

@@ -7,16 +7,21 @@ models (:mod:`.arx`).
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ..core.problem import activation
 from ..validation import arrays, options
+from ..validation.arrays import describe
 from . import archive
+from .description import DataDescription
 from .record import FitRecord
+
+ModelT = TypeVar("ModelT", bound="RegressionModel")
 
 
 class RegressionModel:
@@ -61,6 +66,11 @@ class RegressionModel:
     status : FitStatus or None
         How the coefficients were computed and whether that met its tolerance
         (None for coefficients given to the constructor).
+    data : DataDescription
+        What the data said: the names of its signals, its time axis, the
+        trajectories and the rows left out (:attr:`n_missing`); empty for
+        coefficients given to the constructor. :meth:`with_data` gives a
+        model with another description.
 
     Parameters
     ----------
@@ -108,6 +118,7 @@ class RegressionModel:
         self.info = dict(fit.info)
         self._changepoints = fit.changepoints
         self.status = fit.status
+        self.data = DataDescription() if fit.data is None else fit.data
 
     @property
     def record(self) -> FitRecord:
@@ -123,7 +134,18 @@ class RegressionModel:
             info=self.info,
             changepoints=self._changepoints,
             status=self.status,
+            data=self.data,
         )
+
+    def with_data(self: ModelT, data: DataDescription) -> ModelT:
+        """This model with another description of its data (:attr:`data`); a new model
+        sharing the coefficients' arrays (this one is unchanged)."""
+        if not isinstance(data, DataDescription):
+            raise TypeError(f"data: expected a DataDescription, received {describe(data)}")
+        described = copy.copy(self)
+        described.info = dict(self.info)
+        described.data = data
+        return described
 
     # -- shapes -------------------------------------------------------------------
     @property
@@ -221,7 +243,7 @@ class RegressionModel:
     def time(self) -> np.ndarray | None:
         """The time index of the data (a pandas index: dates as datetime64[ns], or
         numbers), or None; for a state-space model one value per sample x[t], (N + 1,)."""
-        value = self.info.get("time")
+        value = self.data.time
         return None if value is None else np.array(value)
 
     def times_after(self, first: int, steps: int) -> np.ndarray:
@@ -280,9 +302,13 @@ class RegressionModel:
         ]
 
     def _recorded(self, key: str, count: int) -> list[str] | None:
-        """``info["signal_names"][key]`` when it names ``count`` signals, else None."""
-        names = self.info.get("signal_names", {}).get(key)
-        return [str(name) for name in names] if names is not None and len(names) == count else None
+        """The data's names of ``key`` (:attr:`data`) when they name ``count`` signals."""
+        return self.data.names_of(key, count)
+
+    @property
+    def n_missing(self) -> int:
+        """Rows of the data term left out for missing values (``data.n_missing``)."""
+        return self.data.n_missing
 
     def coefficient_names(self) -> list[str]:
         """Names of the K entries of k_t, "output:regressor" in k's order (rows of Θ_t)."""
