@@ -146,6 +146,7 @@ if TYPE_CHECKING:
     )
     from .results.arx import ARModel as ARModel
     from .results.arx import ARXModel as ARXModel
+    from .results.description import DataDescription as DataDescription
     from .results.forecast import Forecast as Forecast
     from .results.kalman import (
         KalmanFilterResult as KalmanFilterResult,
@@ -156,7 +157,6 @@ if TYPE_CHECKING:
     from .results.loading import load as load
     from .results.model_set import ModelSet as ModelSet
     from .results.model_set import load_many as load_many
-    from .results.description import DataDescription as DataDescription
     from .results.record import FitRecord as FitRecord
     from .results.record import FitStatus as FitStatus
     from .results.regression import RegressionModel as RegressionModel

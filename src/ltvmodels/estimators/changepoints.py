@@ -58,11 +58,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.robust import MAD_TO_STD
 from ..results.regression import RegressionModel
 from ..validation import arrays, options
 
-MAD_TO_STD = 1.4826
-"""Factor turning the median absolute deviation into a standard deviation (Gaussian)."""
 TIE_TOLERANCE = 1e-10
 """Activations closer than this fraction of max(a) are equal when finding peaks."""
 RESIDUE = 1e-9

@@ -93,13 +93,13 @@ def fit_lti(
             problem,
             np.full(n * p, np.inf),
             loss=loss,
+            penalty=penalties.named("sq"),  # with every coefficient held constant
             lam=float("inf"),
             norm="lti",
             delta=delta,
             factory=partial(LTVModel, n_states=n, n_inputs=m, constant=data.constant),
             max_iter=LTI_HUBER_MAX_ITER,
             tol=LTI_HUBER_TOL,
-            stacklevel=2,
         )
         return data.describe(model)
     phi, y = problem.stacked_rows()

@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core import losses, penalties
 from ..core.covariance import CovarianceBlocks
 from ..core.identifiability import (
     ILL_CONDITIONED_TOL,
@@ -48,6 +49,7 @@ from ..core.identifiability import (
     scaled_min_eig,
 )
 from ..core.problem import RegressionProblem
+from ..core.robust import solve_robust
 from ..errors import IdentifiabilityWarning, SingularProblemError
 from ..results.record import FitRecord, FitStatus
 from ..results.statespace import LTVModel
@@ -55,7 +57,7 @@ from ..validation import arrays, options
 from ..validation.options import Loss
 from .changepoints import find_changepoints
 from .recordings import state_space_data
-from .robust import robust_record_parts, solve_robust
+from .robust import robust_record_parts
 
 __all__ = ["fit_piecewise"]
 
@@ -344,7 +346,7 @@ def _fit_robust(
     With basis functions B (N, J) — segment indicators (order 1) or hat
     functions (order 2) — Θ_t = Σ_l B_tl Γ_l, and each output row is the
     static regression y_tji = Σ_l B_tl φ_tjᵀ Γ_li: one time step with N·q rows
-    and J·p regressors, solved by :func:`.robust.solve_robust` with every
+    and J·p regressors, solved by :func:`ltvmodels.core.robust.solve_robust` with every
     coefficient held constant.
     """
     n = problem.n
@@ -377,13 +379,12 @@ def _fit_robust(
     )
     solution = solve_robust(
         static,
-        np.full(n * J * p, np.inf),
-        loss=loss,
-        norm="piecewise",
+        np.full(n * J * p, np.inf),  # every coefficient constant
+        loss=losses.named(loss),
+        penalty=penalties.named("sq"),
         delta=delta,
         max_iter=ROBUST_MAX_ITER,
         tol=ROBUST_TOL,
-        stacklevel=3,
     )
     gamma = solution.theta[0].reshape(n, J, p)
     theta = np.einsum("tl,ilp->tip", basis, gamma)

@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike
 
 from ..core import identifiability
 from ..core.covariance import CovarianceBlocks
+from ..core.losses import named as named_loss
 from ..core.penalties import named
 from ..core.priorterms import posthoc_correction
 from ..core.problem import RegressionProblem, activation
@@ -160,7 +161,8 @@ def fit_problem(
     is added to a too-few-samples message (e.g. how the rows relate to T).
     """
     noise_var = options.noise_variance(spec.noise_var, problem.n)
-    loss, huber_delta = options.loss_options(spec.loss, spec.huber_delta, problem.n)
+    loss = named_loss(spec.loss)
+    huber_delta = options.threshold_of(loss.name, loss.threshold, spec.huber_delta, problem.n)
     checks = _Checks(regressor_names, data_name, rows_note)
     first = spec.first_step() if spec.refine else spec
     model = _fit_or_choose_lam(problem, first, noise_var, huber_delta, factory, checks)
@@ -170,7 +172,7 @@ def fit_problem(
         problem,
         model,
         names=regressor_names,
-        loss=loss,
+        loss=loss.name,
         delta=huber_delta,
         factory=factory,
     )
@@ -209,7 +211,7 @@ def _fit_or_choose_lam(
         )
     checks.enough_data(problem)
     checks.identifiable(problem, has_prior=False)
-    method = named(spec.norm).selection if spec.loss == "squared" else "cv"
+    method = named(spec.norm).selection if named_loss(spec.loss).closed_form else "cv"
     selection = select_for_problem(
         problem,
         spec.norm,
@@ -254,7 +256,7 @@ def _fit_with_lam(
     n, p = problem.n, problem.p
     N, K = problem.N, problem.K
     norm, loss, prior_mode = spec.norm, spec.loss, spec.prior_mode
-    penalty = named(norm)
+    penalty, robust = named(norm), named_loss(loss)
     if not penalty.closed_form:
         if spec.prior is not None:
             raise NotImplementedError(
@@ -264,7 +266,7 @@ def _fit_with_lam(
         if not checked:
             checks.enough_data(problem)
             checks.identifiable(problem, has_prior=False)
-        if loss != "squared":
+        if not robust.closed_form:
             if not penalty.interior_point:
                 raise NotImplementedError(
                     f"loss: {loss!r} is available with the built-in norms; norm={norm!r} "
@@ -275,6 +277,7 @@ def _fit_with_lam(
                 problem,
                 weights,
                 loss=loss,
+                penalty=penalty,
                 lam=_lam_copy(lam),
                 norm=norm,
                 delta=huber_delta,
@@ -301,8 +304,8 @@ def _fit_with_lam(
             has_prior=bool(terms),
             const_mask=const.all(axis=0) if const.any() else None,
         )
-    if loss != "squared":
-        if loss == "laplace":
+    if not robust.closed_form:
+        if not robust.priors:
             _no_robust_option(spec.prior, "prior", loss)
             _no_robust_option(noise_var, "noise_var", loss)
         elif terms and prior_mode != "exact":
@@ -313,6 +316,7 @@ def _fit_with_lam(
             problem,
             W,
             loss=loss,
+            penalty=penalty,
             lam=_lam_copy(lam),
             norm=norm,
             delta=huber_delta,

@@ -1,243 +1,27 @@
-"""loss="huber" and loss="laplace": models robust to outliers.
+"""loss="huber" and loss="laplace": the models of robust fits.
 
-The solvers are :mod:`ltvmodels.core.huber` (norm="sq"),
-:mod:`ltvmodels.core.huber_sparse` (norm="group"/"l1") and
-:mod:`ltvmodels.core.laplace`. The default Huber threshold is
-δ_i = 1.345 σ̂_i with σ̂_i the robust scale of the squared-loss fit's residuals
-of output i, 1.4826 · MAD (95 % efficiency at Gaussian noise, Huber 1964);
-residuals beyond δ count linearly, so a gross outlier moves the fit as little
-as one δ away. The Laplacian loss Σ w|r| counts every residual linearly.
+The fit itself is :func:`ltvmodels.core.robust.solve_robust`, which starts
+from the squared-loss fit and runs the loss's solver (:mod:`ltvmodels.core.losses`);
+this module turns its solution into a model.
 """
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any, TypeVar
 
 import numpy as np
 
-from ..core.huber import HuberFit, fit_huber, huber_loss
-from ..core.huber_sparse import SparseHuberFit, fit_huber_sparse
-from ..core.laplace import LaplaceFit, fit_laplace
-from ..core.penalties import named
+from ..core.losses import named as named_loss
+from ..core.penalties import Penalty
 from ..core.priorterms import PriorTerm
 from ..core.problem import RegressionProblem, activation
-from ..core.sparse import solve_sparse
-from ..core.squared import SquaredSolver
-from ..errors import ConvergenceWarning
+from ..core.robust import RobustSolution, solve_robust
 from ..results.record import FitRecord, FitStatus, iterative_status
 from ..results.regression import RegressionModel
-from .changepoints import MAD_TO_STD, find_changepoints, residue_level
-
-HUBER_EFFICIENCY = 1.345  # δ / σ of Huber's 95 %-efficient estimator
-# Tolerance of the squared-loss sparse fit that starts a robust one: its residuals'
-# MAD (the default δ) and a starting point need a few digits only.
-START_TOL = 1e-3
-# Residuals at most this fraction of the largest |y| are rounding: an exact fit.
-EXACT_FIT = 1e-12
+from .changepoints import find_changepoints, residue_level
 
 ModelT = TypeVar("ModelT", bound=RegressionModel)  # the model the caller's factory builds
-
-
-def default_delta(problem: RegressionProblem, theta: np.ndarray) -> np.ndarray:
-    """1.345 × the robust scale (1.4826 · MAD) of each output's residuals of ``theta``
-    (N, n, p), the squared-loss fit."""
-    scale = np.where(problem.row_scale > 0, problem.row_scale, 1.0)[:, :, None]
-    resid = (problem.residuals(theta) / scale)[problem.observed]  # (rows, n), units of y
-    median = np.median(resid, axis=0)
-    sigma = MAD_TO_STD * np.median(np.abs(resid - median), axis=0)
-    rms = np.sqrt(np.mean(resid**2, axis=0))
-    # More than half the residuals zero: the MAD is 0, fall back to the RMS; an exact
-    # fit has nothing to be robust against (any δ gives the squared-loss fit).
-    sigma = np.where(sigma > 0, sigma, np.where(rms > 0, rms, 1.0))
-    return HUBER_EFFICIENCY * sigma
-
-
-@dataclass
-class RobustSolution:
-    """A robust-loss fit before it becomes a model (:func:`solve_robust`)."""
-
-    theta: np.ndarray  # (N, n, p)
-    objective: float
-    iterations: int
-    converged: bool
-    stalled: bool
-    solver: str
-    details: dict  # the certificate and loss-specific numbers (FitStatus.details)
-    outliers: np.ndarray | None  # (N, q, n) mask of residuals beyond δ (Huber)
-    delta_rule: str
-
-
-def solve_robust(
-    problem: RegressionProblem,
-    penalty: np.ndarray,
-    *,
-    loss: str,
-    norm: str,
-    delta: np.ndarray | None,
-    max_iter: int,
-    tol: float,
-    stacklevel: int = 2,
-    priors: list[PriorTerm] | None = None,
-    noise_var: np.ndarray | None = None,
-) -> RobustSolution:
-    """Minimize the robust loss plus the penalty of ``norm`` from the squared-loss fit.
-
-    ``penalty`` is the weight W (K,) or (K, K) of a squared-difference penalty
-    (norm "sq", or any other name: LTI and piecewise fits pass W = inf), or
-    the sparse weights (K,) of "group"/"l1"; ``delta`` the Huber thresholds
-    (n,) (None: :func:`default_delta`). Warns (ConvergenceWarning) when the
-    certificate does not reach ``tol``, at ``stacklevel`` counted from the caller.
-
-    ``priors`` (loss="huber", a squared-difference penalty) add
-    σ_i² Σ_t (k_ti − m_ti)ᵀ P_t (k_ti − m_ti) per output, as in the squared
-    loss's MAP estimate, with σ_i² = ``noise_var`` or, by default, the robust
-    scale (δ_i / 1.345)².
-    """
-    sparse = norm in ("group", "l1")
-    # the squared-loss fit starts the iteration (and gives the robust residual scale)
-    if not sparse:
-        start = SquaredSolver(problem, penalty, []).solve(1.0)[0]
-    else:
-        with warnings.catch_warnings():  # only a starting point and a residual scale
-            warnings.simplefilter("ignore", ConvergenceWarning)
-            start = solve_sparse(
-                problem, penalty, named(norm), max_iter=max_iter, tol=max(tol, START_TOL)
-            ).theta
-    rule = "given"
-    if delta is None:
-        delta = default_delta(problem, start)
-        rule = "1.345 * 1.4826 * MAD of squared-loss residuals"
-    if not sparse and not priors and _fits_exactly(problem, start):
-        return _exact_fit(problem, penalty, start, loss, delta, rule)
-    outliers = None
-    result: LaplaceFit | HuberFit | SparseHuberFit
-    if loss == "laplace":
-        result = fit_laplace(
-            problem,
-            penalty,
-            norm if sparse else "sq",
-            delta,
-            max_iter=max_iter,
-            tol=tol,
-            start=start,
-        )
-        solver = result.method + (", exact active-set polish" if result.polished else "")
-        details: dict[str, Any] = {
-            "duality_gap": result.duality_gap,
-            "duality_gap_rigorous": result.rigorous,
-            "kkt_residual": result.kkt_residual,
-            "smoothing": result.smoothing,
-            "stages": result.stages,
-        }
-        failure = (
-            f"the duality gap {result.duality_gap:.3g} (relative) did not reach its "
-            f"tolerance {tol:g} in {result.stages} smoothing stages"
-        )
-    else:
-        if not sparse:
-            prior_scale = None
-            details = {}
-            if priors:
-                prior_scale = (
-                    (delta / HUBER_EFFICIENCY) ** 2
-                    if noise_var is None
-                    else np.asarray(noise_var, dtype=float)
-                )
-                details["prior_scale"] = prior_scale.tolist()
-            result = fit_huber(
-                problem,
-                penalty,
-                delta,
-                max_iter=max_iter,
-                tol=tol,
-                start=start,
-                priors=priors,
-                prior_scale=prior_scale,
-            )
-            solver = "damped Newton on reweighted fits (exact)"
-        else:
-            result = fit_huber_sparse(
-                problem, penalty, norm, delta, max_iter=max_iter, tol=tol, start=start
-            )
-            solver = result.solver
-            details = {"inner_iterations": result.inner_iterations}
-        outliers = result.outliers
-        details.update(
-            kkt_residual=result.kkt_residual,
-            huber_delta=delta.tolist(),
-            n_outliers=int(outliers.sum()),
-        )
-        failure = (
-            f"the KKT residual {result.kkt_residual:.3g} did not reach its tolerance "
-            f"{tol:g} in {result.iterations} steps"
-        )
-    if not result.converged:
-        remedy = (
-            "it stopped at the limit of working precision; loosen tol"
-            if result.stalled
-            else "increase max_iter or loosen tol"
-        )
-        warnings.warn(
-            f"loss={loss!r}: {failure}; the model is the last iterate: {remedy}",
-            ConvergenceWarning,
-            stacklevel=stacklevel + 1,
-        )
-    return RobustSolution(
-        theta=result.theta,
-        objective=result.objective,
-        iterations=result.iterations,
-        converged=result.converged,
-        stalled=result.stalled,
-        solver=solver,
-        details=details,
-        outliers=outliers,
-        delta_rule=rule,
-    )
-
-
-def _fits_exactly(problem: RegressionProblem, theta: np.ndarray) -> bool:
-    """No residual beyond rounding (EXACT_FIT relative to the largest |y|)."""
-    scale = max(float(np.abs(problem.y).max(initial=0.0)), np.finfo(float).tiny)
-    return bool(np.abs(problem.residuals(theta)).max(initial=0.0) <= EXACT_FIT * scale)
-
-
-def loss_value(loss: str, r: np.ndarray, scale: np.ndarray, delta: np.ndarray | None) -> float:
-    """The robust loss of scaled residuals ``r`` (..., n) with row scales ``scale``
-    (..., 1): Σ huber(r; δ·s) for "huber", Σ s·|r| for "laplace" (the residual in
-    the units of y is r / s)."""
-    if loss == "huber":
-        return float(huber_loss(r, delta * scale).sum())
-    return float(np.sum(scale * np.abs(r)))
-
-
-def _exact_fit(problem, W, theta, loss, delta, rule) -> RobustSolution:
-    """The squared-loss fit when it leaves no residual: it minimizes the penalty with every
-    residual zero (its stationarity is ∇P = 2Φᵀr = 0), so it minimizes any loss plus the
-    penalty; the certificate is that zero gradient."""
-    r = problem.residuals(theta)
-    s = problem.row_scale[:, :, None]
-    value = loss_value(loss, r, s, delta)
-    if loss == "huber":
-        outliers = np.zeros(r.shape, dtype=bool)
-        details = {"kkt_residual": 0.0, "huber_delta": delta.tolist(), "n_outliers": 0}
-    else:
-        outliers = None
-        details = {"duality_gap": 0.0, "duality_gap_rigorous": True, "kkt_residual": 0.0}
-    details["exact_fit"] = True
-    return RobustSolution(
-        theta=theta,
-        objective=value + SquaredSolver(problem, W, []).penalty(theta),
-        iterations=0,
-        converged=True,
-        stalled=False,
-        solver="the squared-loss fit (no residual: optimal for any loss)",
-        details=details,
-        outliers=outliers,
-        delta_rule=rule,
-    )
 
 
 def robust_record_parts(solution: RobustSolution, loss: str) -> tuple[dict, FitStatus]:
@@ -265,23 +49,22 @@ def robust_record_parts(solution: RobustSolution, loss: str) -> tuple[dict, FitS
 
 def robust_model(
     problem: RegressionProblem,
-    penalty: np.ndarray,
+    weights: np.ndarray,
     *,
     loss: str,
+    penalty: Penalty,
     lam: Any,
     norm: str,
     delta: np.ndarray | None,
     factory: Callable[..., ModelT],
     max_iter: int,
     tol: float,
-    stacklevel: int = 4,
     priors: list[PriorTerm] | None = None,
     noise_var: np.ndarray | None = None,
 ) -> ModelT:
-    """Fit with loss="huber" or "laplace" (:func:`solve_robust`) and build the model.
-
-    A ConvergenceWarning points ``stacklevel`` frames up from the caller (the
-    user's call through fit → fit_problem → _fit_with_lam).
+    """Fit with a robust ``loss`` and ``penalty`` with ``weights``
+    (:func:`~ltvmodels.core.robust.solve_robust`) and build the model, recorded as
+    ``norm`` (the penalty's name, or "lti" for a model held constant).
 
     ``model.info`` holds "loss", "objective", "iterations", "converged" and
     the certificate: "kkt_residual" (Huber), or "duality_gap" and
@@ -293,13 +76,12 @@ def robust_model(
     """
     solution = solve_robust(
         problem,
-        penalty,
-        loss=loss,
-        norm=norm,
+        weights,
+        loss=named_loss(loss),
+        penalty=penalty,
         delta=delta,
         max_iter=max_iter,
         tol=tol,
-        stacklevel=stacklevel + 1,
         priors=priors,
         noise_var=noise_var,
     )
@@ -307,7 +89,7 @@ def robust_model(
     N, K = problem.N, problem.K
     k = solution.theta.reshape(N, K)
     changepoints = None
-    if norm in ("group", "l1"):
+    if not penalty.closed_form:
         changepoints = find_changepoints(
             activation(k, problem.coeffs), degree=problem.degree, min_level=residue_level(k)
         )

@@ -56,8 +56,10 @@ from scipy.interpolate import CubicSpline
 from ..core import identifiability
 from ..core.evidence import ScalarEvidence
 from ..core.logsearch import maximize_on_log_scale
+from ..core.losses import named as named_loss
 from ..core.penalties import named
 from ..core.problem import RegressionProblem, apply_difference
+from ..core.robust import default_delta, solve_robust
 from ..core.sparse import solve_sparse
 from ..core.sparse_common import lambda_max
 from ..core.squared import fit_squared
@@ -72,7 +74,6 @@ from .recordings import (
     require_enough_data,
     state_space_data,
 )
-from .robust import default_delta, loss_value, solve_robust
 from .segments import fit_segments
 
 __all__ = ["select_lambda", "select_lambda_regression", "DEFAULT_METHOD"]
@@ -365,8 +366,8 @@ def select_for_problem(
         selection.skipped = skipped or None
         return selection
 
-    if loss != "squared":
-        if loss == "huber" and delta is None:
+    if not named_loss(loss).closed_form:
+        if named_loss(loss).threshold and delta is None:
             middle = float(np.sqrt(grid[0] * grid[-1]))
             delta = default_delta(problem, criterion_fit(problem, norm, middle)["theta"])
         errors = [
@@ -694,7 +695,8 @@ def _robust_cv_error(
     delta: np.ndarray | None,
 ) -> float:
     """Mean robust loss of the one-step predictions on held-out blocks (blocked CV)."""
-    penalty = np.full(problem.K, lam**2 if norm == "sq" else lam)
+    penalty, robust = named(norm), named_loss(loss)
+    weights = np.full(problem.K, lam**2 if penalty.closed_form else lam)
     fold = _folds(problem.N, n_folds)
     total = 0.0
     for f in range(n_folds):
@@ -703,15 +705,15 @@ def _robust_cv_error(
             warnings.simplefilter("ignore", ConvergenceWarning)
             theta = solve_robust(
                 _without(problem, held),
-                penalty,
-                loss=loss,
-                norm=norm,
+                weights,
+                loss=robust,
+                penalty=penalty,
                 delta=delta,
                 max_iter=CV_MAX_ITER,
                 tol=CV_TOL,
             ).theta
         r = problem.residuals(theta)[held]  # scaled rows; unobserved rows are 0
-        total += loss_value(loss, r, problem.row_scale[held][:, :, None], delta)
+        total += robust.value(r, problem.row_scale[held][:, :, None], delta)
     return total / (problem.n_observed * problem.n)
 
 

@@ -15,6 +15,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
+from ..core.losses import LOSSES
 from ..core.penalties import PENALTIES
 from ..validation import options
 from ..validation.constraints import (
@@ -43,7 +44,7 @@ FIT_CONSTRAINTS: dict[str, Constraint] = {
     "max_iter": Integer(1),
     "tol": Positive(),
     "refine": Flag(),
-    "loss": Choice(options.LOSSES),
+    "loss": Choice(LOSSES),  # the registered losses
     "huber_delta": Deferred(),  # with the loss, against the number of outputs
     "progress": Callback(),
 }

@@ -173,13 +173,18 @@ def loss_options(loss: Any, delta: Any, n: int) -> tuple[Loss, np.ndarray | None
     """Validate ``loss`` ("squared", "huber" or "laplace") and ``huber_delta`` together:
     (loss, δ (n,) or None)."""
     loss = choice(loss, "loss", LOSSES)
+    return loss, threshold_of(loss, loss == "huber", delta, n)
+
+
+def threshold_of(loss: str, takes_threshold: bool, delta: Any, n: int) -> np.ndarray | None:
+    """Validate ``huber_delta`` for ``loss``, which takes a threshold or not."""
     delta = huber_delta(delta, n)
-    if loss != "huber" and delta is not None:
+    if not takes_threshold and delta is not None:
         raise ValueError(
             f"huber_delta: applies to loss='huber' only, received loss={loss!r}; "
             "pass loss='huber' or leave huber_delta out"
         )
-    return loss, delta
+    return delta
 
 
 def huber_delta(value: Any, n: int) -> np.ndarray | None:
