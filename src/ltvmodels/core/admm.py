@@ -28,12 +28,11 @@ tolerance tightens tenfold and the iteration goes on.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConvergenceWarning
+from ..errors import ConvergenceWarning, warn
 from .polish import certificate
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 from .sparse_common import QuadraticUpdate
@@ -174,13 +173,12 @@ def fit_sparse(
                 problem, weights, theta.reshape(N, K), norm == "group"
             )
             gap_rel = gap / max(value, 1e-300)
-        warnings.warn(
+        warn(
             f"ADMM did not converge in {max_iter} iterations (relative duality gap "
             f"{gap_rel:.1e} and stationarity residual {stationarity:.1e}; primal residual "
             f"{r_rel:.1e}, dual residual {s_rel:.1e}; tolerance {tol:.0e}); increase max_iter "
             "or loosen tol",
             ConvergenceWarning,
-            stacklevel=3,
         )
     return SparseResult(
         theta=theta,

@@ -12,12 +12,11 @@ for the direction b(t) = t alone; M covers the whole null space.)
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import IdentifiabilityWarning, SingularProblemError
+from ..errors import IdentifiabilityWarning, SingularProblemError, warn
 from .problem import RegressionProblem, null_space_basis
 
 SINGULAR_TOL = 1e-10  # smallest eigenvalue of the correlation-scaled matrix
@@ -116,20 +115,18 @@ def check(
     else:
         worst = min(diag.lti_min_eig, diag.null_space_min_eig)
         if worst < ILL_CONDITIONED_TOL:
-            warnings.warn(
+            warn(
                 f"the identification problem is ill-conditioned (smallest scaled eigenvalue "
                 f"{worst:.1e}); estimates along the direction "
                 f"{describe_direction(diag.direction, regressor_names)} are unreliable. "
                 "More excitation or a prior helps.",
                 IdentifiabilityWarning,
-                stacklevel=3,
             )
         return diag
     if has_prior:
-        warnings.warn(
+        warn(
             message + " The prior determines these directions.",
             IdentifiabilityWarning,
-            stacklevel=3,
         )
         return diag
     raise SingularProblemError(message)

@@ -32,13 +32,12 @@ Jordan product u ∘ v = (uᵀv, u₀v₁ + v₀u₁) with identity e = (1, 0).
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
-from ..errors import ConvergenceWarning, SingularProblemError
+from ..errors import ConvergenceWarning, SingularProblemError, warn
 from . import blockkernels as kernels
 from . import conekernels as cones
 from .polish import polish, stationarity_scale
@@ -567,12 +566,11 @@ def fit_sparse_ipm(
             if stalled
             else f"did not converge in {max_iter} iterations"
         )
-        warnings.warn(
+        warn(
             f"the interior-point method {reason} (relative gap "
             f"{gap / max(objective, 1e-300):.1e}, relative residuals {primal_res:.1e} and "
             f"{dual_res:.1e}; tolerance {tol:.0e}); increase max_iter or loosen tol",
             ConvergenceWarning,
-            stacklevel=3,
         )
     return InteriorPointResult(
         theta=k.reshape(N, problem.n, problem.p),

@@ -98,7 +98,6 @@ def fit_lti(
             factory=partial(LTVModel, n_states=n, n_inputs=m, constant=data.constant),
             max_iter=LTI_HUBER_MAX_ITER,
             tol=LTI_HUBER_TOL,
-            stacklevel=2,
         )
         return data.describe(model)
     phi, y = problem.stacked_rows()

@@ -32,7 +32,6 @@ first step are. With knots τ_0 = 0 < τ_1 = c_1 < … < τ_M = c_M and segments
 from __future__ import annotations
 
 import itertools
-import warnings
 from collections.abc import Callable
 from functools import partial
 from typing import Any
@@ -48,7 +47,7 @@ from ..core.identifiability import (
     scaled_min_eig,
 )
 from ..core.problem import RegressionProblem
-from ..errors import IdentifiabilityWarning, SingularProblemError
+from ..errors import IdentifiabilityWarning, SingularProblemError, warn
 from ..results.record import FitRecord, FitStatus
 from ..results.statespace import LTVModel
 from ..validation import arrays, options
@@ -389,7 +388,6 @@ def _fit_robust(
         delta=delta,
         max_iter=ROBUST_MAX_ITER,
         tol=ROBUST_TOL,
-        stacklevel=3,
     )
     gamma = solution.theta[0].reshape(n, J, p)
     theta = np.einsum("tl,ilp->tip", basis, gamma)
@@ -498,7 +496,7 @@ def _fit_constant(
                 f"combination {describe_direction(direction, names)} is numerically zero), "
                 f"so its [A B] is not identifiable; {_remedy(single, 'segment', p)}"
             )
-        _warn_if_ill_conditioned(min_eig, where, stacklevel=3)
+        _warn_if_ill_conditioned(min_eig, where)
         q, r = np.linalg.qr(phi_s)
         theta_s = np.linalg.solve(r, q.T @ y[start:stop].reshape(-1, n)).T  # (n, p)
         r_inv = np.linalg.solve(r, np.eye(p))
@@ -624,7 +622,7 @@ def _inverse_or_raise(
             f"{describe_direction(per_knot[j], names)} of the regressors is not excited "
             f"there; {_remedy(single, 'knot', p)}"
         )
-    _warn_if_ill_conditioned(min_eig, "x" if single else "changepoints", stacklevel=4)
+    _warn_if_ill_conditioned(min_eig, "x" if single else "changepoints")
     scale = 1.0 / np.sqrt(np.diag(gram))
     eig, vec = np.linalg.eigh(gram * scale[:, None] * scale[None, :])
     inv = ((vec / eig) @ vec.T) * scale[:, None] * scale[None, :]
@@ -634,19 +632,14 @@ def _inverse_or_raise(
 # -- shared helpers ------------------------------------------------------------------------
 
 
-def _warn_if_ill_conditioned(min_eig: float, where: str, *, stacklevel: int) -> None:
-    """IdentifiabilityWarning when the scaled normal matrix is nearly singular.
-
-    ``stacklevel`` counts the frames from the caller of this function up to the
-    user's call of :func:`fit_piecewise` (1: the caller itself).
-    """
+def _warn_if_ill_conditioned(min_eig: float, where: str) -> None:
+    """IdentifiabilityWarning when the scaled normal matrix is nearly singular."""
     if min_eig < ILL_CONDITIONED_TOL:
-        warnings.warn(
+        warn(
             f"{where}: the least-squares problem is ill-conditioned (smallest scaled "
             f"eigenvalue {min_eig:.1e}); the estimates are unreliable. More excitation or "
             "fewer change points helps.",
             IdentifiabilityWarning,
-            stacklevel=stacklevel + 1,
         )
 
 

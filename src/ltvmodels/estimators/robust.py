@@ -25,7 +25,7 @@ from ..core.priorterms import PriorTerm
 from ..core.problem import RegressionProblem, activation
 from ..core.sparse import solve_sparse
 from ..core.squared import SquaredSolver
-from ..errors import ConvergenceWarning
+from ..errors import ConvergenceWarning, warn
 from ..results.record import FitRecord, FitStatus, iterative_status
 from ..results.regression import RegressionModel
 from .changepoints import MAD_TO_STD, find_changepoints, residue_level
@@ -78,7 +78,6 @@ def solve_robust(
     delta: np.ndarray | None,
     max_iter: int,
     tol: float,
-    stacklevel: int = 2,
     priors: list[PriorTerm] | None = None,
     noise_var: np.ndarray | None = None,
 ) -> RobustSolution:
@@ -88,7 +87,7 @@ def solve_robust(
     (norm "sq", or any other name: LTI and piecewise fits pass W = inf), or
     the sparse weights (K,) of "group"/"l1"; ``delta`` the Huber thresholds
     (n,) (None: :func:`default_delta`). Warns (ConvergenceWarning) when the
-    certificate does not reach ``tol``, at ``stacklevel`` counted from the caller.
+    certificate does not reach ``tol``.
 
     ``priors`` (loss="huber", a squared-difference penalty) add
     σ_i² Σ_t (k_ti − m_ti)ᵀ P_t (k_ti − m_ti) per output, as in the squared
@@ -179,10 +178,9 @@ def solve_robust(
             if result.stalled
             else "increase max_iter or loosen tol"
         )
-        warnings.warn(
+        warn(
             f"loss={loss!r}: {failure}; the model is the last iterate: {remedy}",
             ConvergenceWarning,
-            stacklevel=stacklevel + 1,
         )
     return RobustSolution(
         theta=result.theta,
@@ -273,14 +271,10 @@ def robust_model(
     factory: Callable[..., ModelT],
     max_iter: int,
     tol: float,
-    stacklevel: int = 4,
     priors: list[PriorTerm] | None = None,
     noise_var: np.ndarray | None = None,
 ) -> ModelT:
     """Fit with loss="huber" or "laplace" (:func:`solve_robust`) and build the model.
-
-    A ConvergenceWarning points ``stacklevel`` frames up from the caller (the
-    user's call through fit → fit_problem → _fit_with_lam).
 
     ``model.info`` holds "loss", "objective", "iterations", "converged" and
     the certificate: "kkt_residual" (Huber), or "duality_gap" and
@@ -298,7 +292,6 @@ def robust_model(
         delta=delta,
         max_iter=max_iter,
         tol=tol,
-        stacklevel=stacklevel + 1,
         priors=priors,
         noise_var=noise_var,
     )
