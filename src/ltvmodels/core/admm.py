@@ -56,7 +56,7 @@ class SparseResult:
     w: np.ndarray
 
 
-def objective(
+def _objective(
     problem: RegressionProblem, theta: np.ndarray, weights: np.ndarray, norm: str
 ) -> float:
     """Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ (Dk)_t)."""
@@ -182,7 +182,7 @@ def fit_sparse(
         )
     return SparseResult(
         theta=theta,
-        objective=objective(problem, theta, weights, norm),
+        objective=_objective(problem, theta, weights, norm),
         iterations=it,
         converged=converged,
         primal_residual=float(r_rel),

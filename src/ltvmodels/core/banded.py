@@ -96,7 +96,7 @@ class BlockSystem:
 
     def gram(self) -> np.ndarray:
         """The Gram blocks G_t as an (N, b, b) array."""
-        phi_gram = self.data_scale * phi_outer(self.phi)
+        phi_gram = self.data_scale * _phi_outer(self.phi)
         G = np.zeros((self.N, self.b, self.b))
         p = self.phi.shape[2]
         for i in range(self.n_rep):
@@ -131,7 +131,7 @@ def _make_bands(N: int, coeffs: np.ndarray) -> np.ndarray:
     return out
 
 
-def phi_outer(phi: np.ndarray) -> np.ndarray:
+def _phi_outer(phi: np.ndarray) -> np.ndarray:
     """(N, p, p) array of Σ_j φ_tj φ_tjᵀ for φ of shape (N, q, p)."""
     return np.einsum("tja,tjb->tab", phi, phi)
 

@@ -52,7 +52,7 @@ def scaled_min_eig(M: np.ndarray) -> tuple[float, np.ndarray]:
     return float(max(eig[0], 0.0)), vec[:, 0] * s
 
 
-def diagnose(problem: RegressionProblem, const_mask: np.ndarray | None = None) -> Diagnosis:
+def _diagnose(problem: RegressionProblem, const_mask: np.ndarray | None = None) -> Diagnosis:
     """Compute the identifiability diagnostics of a regression problem.
 
     ``const_mask`` (p,) marks regressors whose coefficients are held constant in
@@ -95,7 +95,7 @@ def check(
     return); with a prior it warns, since the prior then decides the directions
     the data cannot. Ill-conditioning only warns.
     """
-    diag = diagnose(problem, const_mask)
+    diag = _diagnose(problem, const_mask)
     remedy_prior = "a prior (ltvmodels.Prior)" if not has_prior else "a more informative prior"
     if not diag.lti_identifiable:
         message = (

@@ -361,7 +361,7 @@ def _fit_robust(
         basis = inside.astype(float)
     else:
         knots = np.concatenate([[0], changepoints, [N - 1]])
-        left, w = hat_weights(knots, N)
+        left, w = _hat_weights(knots, N)
         basis = np.zeros((N, len(knots)))
         basis[np.arange(N), left] = 1.0 - w
         basis[np.arange(N), left + 1] = w
@@ -508,7 +508,7 @@ def _fit_constant(
 # -- order 2: piecewise linear, continuous ----------------------------------------------
 
 
-def hat_weights(knots: np.ndarray, N: int) -> tuple[np.ndarray, np.ndarray]:
+def _hat_weights(knots: np.ndarray, N: int) -> tuple[np.ndarray, np.ndarray]:
     """Linear-spline (hat function) weights of each time step.
 
     Parameters
@@ -568,7 +568,7 @@ def _fit_linear(
             f"({J - 2} change points, p = {p} regressors); "
             f"{_remedy(single, 'knot', p)}"
         )
-    left, w = hat_weights(knots, N)
+    left, w = _hat_weights(knots, N)
     z_left = (1.0 - w)[:, None, None] * phi  # regressors of γ_j, j = left[t]
     z_right = w[:, None, None] * phi  # regressors of γ_{j+1}
     # Normal equations ZᵀZ g = Zᵀy, block tridiagonal with J blocks of size p,

@@ -60,14 +60,14 @@ def write(results: Any, directory: str) -> str:
     descriptor = os.open(path + ".part", os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
     try:  # a thousand pieces a system call: the arrays of a task are tens of thousands
         for start in range(0, len(pieces), WRITE_PIECES):
-            write_all(descriptor, pieces[start : start + WRITE_PIECES])
+            _write_all(descriptor, pieces[start : start + WRITE_PIECES])
     finally:
         os.close(descriptor)
     os.replace(path + ".part", path)
     return path
 
 
-def write_all(descriptor: int, pieces: list) -> None:
+def _write_all(descriptor: int, pieces: list) -> None:
     """Write the buffers ``pieces`` in order (``os.writev`` may write part of them)."""
     views = [memoryview(piece).cast("B") for piece in pieces]
     while views:
