@@ -14,6 +14,19 @@ from typing import Any
 
 import numpy as np
 
+__all__ = [
+    "SingularProblemError",
+    "IdentifiabilityWarning",
+    "PrecisionWarning",
+    "ConvergenceWarning",
+    "OutputPathError",
+    "ModelFileError",
+    "DivergenceWarning",
+    "ModelStructureWarning",
+    "warn",
+    "find_stack_level",
+]
+
 _PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep
 _PACKAGE = __name__.rpartition(".")[0]
 

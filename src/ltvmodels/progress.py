@@ -11,6 +11,8 @@ import threading
 import time
 from typing import Any
 
+__all__ = ["Progress"]
+
 
 def _is_terminal(stream: Any) -> bool:
     isatty = getattr(stream, "isatty", None)

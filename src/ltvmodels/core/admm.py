@@ -37,6 +37,8 @@ from .polish import certificate
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 from .sparse_common import QuadraticUpdate
 
+__all__ = ["SparseResult", "fit_sparse"]
+
 
 @dataclass
 class SparseResult:

@@ -30,6 +30,20 @@ from ..errors import SingularProblemError
 from . import blockkernels as kernels
 from .problem import gram_bands
 
+__all__ = [
+    "RELATIVE_PIVOT_TOL",
+    "FIXED_BLOCK_SMALL_B",
+    "FIXED_BLOCK_MIN_SIZE",
+    "BlockSystem",
+    "difference_bands",
+    "BlockSolution",
+    "kernel_size",
+    "BlockFactor",
+    "solve_block_banded",
+    "RowsSolution",
+    "solve_shared_rows",
+]
+
 # A pivot whose square is below this fraction of the matrix diagonal it came
 # from means the system is singular to working precision.
 RELATIVE_PIVOT_TOL = 1e-12

@@ -17,6 +17,28 @@ import numpy as np
 
 from .blockkernels import block_size, diagonal_step, offdiagonal_step
 
+__all__ = [
+    "weighted_difference",
+    "add_weighted_difference_adjoint",
+    "nt_scaling",
+    "apply_scaling",
+    "elimination_terms",
+    "prepare_newton",
+    "factor_newton_fixed",
+    "factor_newton_any",
+    "jordan_product",
+    "max_step",
+    "kkt_residuals",
+    "direction_rhs",
+    "direction_finish",
+    "take_step",
+    "corrector_target",
+    "prepare_newton_pairs",
+    "direction_rhs_pairs",
+    "direction_finish_pairs",
+    "corrector_target_pairs",
+]
+
 
 @numba.njit(cache=True)
 def weighted_difference(k, coeffs, w, out):  # pragma: no cover - compiled

@@ -19,6 +19,15 @@ import numpy as np
 from ..errors import IdentifiabilityWarning, SingularProblemError, warn
 from .problem import RegressionProblem, null_space_basis
 
+__all__ = [
+    "SINGULAR_TOL",
+    "ILL_CONDITIONED_TOL",
+    "Diagnosis",
+    "scaled_min_eig",
+    "describe_direction",
+    "check",
+]
+
 SINGULAR_TOL = 1e-10  # smallest eigenvalue of the correlation-scaled matrix
 ILL_CONDITIONED_TOL = 1e-7
 

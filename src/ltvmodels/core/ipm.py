@@ -44,6 +44,20 @@ from .polish import polish, stationarity_scale
 from .problem import RegressionProblem
 from .sparse_common import quadratic_fit
 
+__all__ = [
+    "STEP_FRACTION",
+    "MIN_STEP",
+    "START_DUAL_RANGE",
+    "WARM_DEGREES",
+    "FIXED_KERNEL_MIN_SIZE",
+    "InteriorPointResult",
+    "ConicProblem",
+    "NewtonSystem",
+    "feasible_start",
+    "warm_dual",
+    "fit_sparse_ipm",
+]
+
 # Fraction of the way to the cone boundary taken by a step (CVXOPT's STEP).
 STEP_FRACTION = 0.99
 # A step shorter than this makes no progress: the iterate is as good as it gets.

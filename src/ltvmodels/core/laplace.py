@@ -49,6 +49,8 @@ from .robust_ipm import fit_robust_ipm, fit_robust_ipm_squared
 from .sparse_common import difference_preimage
 from .squared import SquaredSolver, weight_diagonal
 
+__all__ = ["LaplaceFit", "fit_laplace"]
+
 SMOOTHING = "Huber smoothing with a duality-gap certificate"
 IPM = "interior point with residual cones (block-banded Newton systems)"
 # δ shrinks by this factor per stage (a larger step changes which residuals are

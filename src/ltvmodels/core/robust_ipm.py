@@ -43,6 +43,8 @@ from .ipm import MIN_STEP, STEP_FRACTION, ConicProblem, NewtonSystem, feasible_s
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 from .sparse_common import difference_preimage
 
+__all__ = ["RobustIPMResult", "fit_robust_ipm", "fit_robust_ipm_squared"]
+
 # The starting slack of each entry's orthant, relative to the median |r|; and how
 # far inside [0, c] the starting duals ζ± sit.
 START_SLACK = 0.1

@@ -59,6 +59,19 @@ import numpy as np
 
 from .dense import cholesky
 
+__all__ = [
+    "FEASIBILITY_TOL",
+    "PRUNE_MARGIN",
+    "ScaledData",
+    "scale_data",
+    "feasible_starts",
+    "dynamic_program",
+    "one_change",
+    "pelt",
+    "backtrack_layers",
+    "backtrack_last",
+]
+
 FEASIBILITY_TOL = 1e-10  # τ = FEASIBILITY_TOL · N on the unit-RMS-scaled Gram matrix
 PRUNE_MARGIN = 1e-12  # relative to the total sum of squares of the scaled outputs
 

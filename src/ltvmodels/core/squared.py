@@ -57,6 +57,8 @@ from .covariance import CovarianceBlocks
 from .priorterms import PriorTerm
 from .problem import RegressionProblem, apply_difference
 
+__all__ = ["SquaredResult", "weight_diagonal", "shared_row_weight", "SquaredSolver", "fit_squared"]
+
 LOG_2PI = float(np.log(2.0 * np.pi))
 EPS = float(np.finfo(float).eps)
 # Warn when the penalty dominates the data by more than 1e10: results keep fewer

@@ -68,7 +68,7 @@ TIE_TOLERANCE = 1e-10
 RESIDUE = 1e-9
 """Activations below this fraction of the largest ‖k_t‖ are solver residue, not changes."""
 
-__all__ = ["detection_level", "find_changepoints", "residue_level"]
+__all__ = ["detection_level", "find_changepoints", "residue_level", "MAD_TO_STD"]
 
 
 def residue_level(k: np.ndarray) -> float:

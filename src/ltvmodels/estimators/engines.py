@@ -57,6 +57,19 @@ import numpy as np
 
 from . import pool_results
 
+__all__ = [
+    "WORKER_DIED",
+    "STALLED",
+    "Sizing",
+    "run_task",
+    "default_jobs",
+    "even_chunks",
+    "run_local",
+    "shutdown_pool",
+    "run_dask",
+    "dask_completed",
+]
+
 WORKER_DIED = (
     "the worker process fitting this unit died twice (killed, or out of memory?); "
     "fit it alone to see why"

@@ -28,6 +28,8 @@ from .recordings import StateSpaceData, state_space_data
 from .regression import fit_problem, sparse_model
 from .robust import robust_model
 
+__all__ = ["fit_lti", "fit", "fit_path", "lambda_max"]
+
 # Newton steps and tolerance of fit_lti(loss="huber"/"laplace") (it takes no solver options).
 LTI_HUBER_MAX_ITER = 500
 LTI_HUBER_TOL = 1e-10

@@ -41,6 +41,8 @@ from . import engines
 from .fit import fit, fit_lti
 from .segments import fit_segments
 
+__all__ = ["fit_many", "check_unit_dtype"]
+
 METHODS: dict[ManyMethod, Callable] = {"fit": fit, "segments": fit_segments, "lti": fit_lti}
 """The estimators ``method=`` names."""
 

@@ -56,7 +56,7 @@ from .changepoints import find_changepoints
 from .recordings import state_space_data
 from .robust import robust_record_parts, solve_robust
 
-__all__ = ["fit_piecewise"]
+__all__ = ["fit_piecewise", "piecewise_fit", "refine_fit", "residual_noise"]
 
 _DIFFERENCE = {1: np.array([-1.0, 1.0]), 2: np.array([1.0, -2.0, 1.0])}
 

@@ -30,6 +30,8 @@ import tempfile
 import uuid
 from typing import Any
 
+__all__ = ["new_directory", "write", "read"]
+
 ALIGNMENT = 64
 INDEX_LENGTH_BYTES = 8
 WRITE_PIECES = 1024  # buffers per os.writev (IOV_MAX on Linux)

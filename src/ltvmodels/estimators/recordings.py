@@ -23,6 +23,8 @@ from ..core.problem import RegressionProblem, state_space_problem, weighted_prob
 from ..results.base import signal_names
 from ..validation import arrays, options
 
+__all__ = ["StateSpaceData", "state_space_data", "regression_problem", "require_enough_data"]
+
 
 @dataclass(frozen=True)
 class StateSpaceData:

@@ -37,6 +37,8 @@ from .recordings import regression_problem, require_enough_data
 from .robust import robust_model
 from .selection import DEFAULT_METHOD, select_for_problem
 
+__all__ = ["fit_regression", "fit_problem", "sparse_model", "last_segment_unit_cov"]
+
 ModelT = TypeVar("ModelT", bound=RegressionModel)
 """The model a front-end's factory builds (RegressionModel, LTVModel, ARXModel, …)."""
 ModelFactory = Callable[..., ModelT]

@@ -30,6 +30,15 @@ from ..results.record import FitRecord, FitStatus, iterative_status
 from ..results.regression import RegressionModel
 from .changepoints import MAD_TO_STD, find_changepoints, residue_level
 
+__all__ = [
+    "default_delta",
+    "RobustSolution",
+    "solve_robust",
+    "loss_value",
+    "robust_record_parts",
+    "robust_model",
+]
+
 HUBER_EFFICIENCY = 1.345  # δ / σ of Huber's 95 %-efficient estimator
 # Tolerance of the squared-loss sparse fit that starts a robust one: its residuals'
 # MAD (the default δ) and a starting point need a few digits only.

@@ -26,6 +26,8 @@ from ..core.covariance import CovarianceBlocks
 from ..validation.arrays import describe
 from .record import FitRecord, FitStatus, iterative_status
 
+__all__ = ["ModelFile", "write", "read"]
+
 FORMAT_VERSION = 2
 READABLE_VERSIONS = (1, 2)
 

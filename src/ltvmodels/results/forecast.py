@@ -71,6 +71,16 @@ from numpy.typing import ArrayLike
 from ..validation import arrays, options
 from ..validation.arrays import describe
 
+__all__ = [
+    "DEFAULT_SAMPLES",
+    "Forecast",
+    "forecast_options",
+    "noise_covariance",
+    "state_space_inputs",
+    "lagged_inputs",
+    "forecast_model",
+]
+
 DEFAULT_SAMPLES = 2000
 """Default Monte Carlo sample count: the 95 % bounds' coverage error is about ±0.5 %
 (the binomial error sqrt(0.025·0.975/2000) of each tail quantile)."""

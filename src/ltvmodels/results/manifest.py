@@ -39,6 +39,17 @@ import numpy as np
 
 from ..errors import ModelFileError, OutputPathError
 
+__all__ = [
+    "MANIFEST",
+    "check_units",
+    "model_file_name",
+    "plain_file_name",
+    "output_directory",
+    "manifest_text",
+    "write_manifest",
+    "read_manifest",
+]
+
 MANIFEST = "manifest.json"
 FORMAT_VERSION = 2
 READ_FORMATS = (1, 2)

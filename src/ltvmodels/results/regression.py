@@ -18,6 +18,8 @@ from ..validation import arrays, options
 from . import archive
 from .record import FitRecord
 
+__all__ = ["RegressionModel"]
+
 
 class RegressionModel:
     """An identified time-varying regression y_t = Θ_t φ_t + e_t.

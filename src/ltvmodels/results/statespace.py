@@ -24,6 +24,8 @@ from .forecast import (
 from .record import FitRecord
 from .regression import RegressionModel
 
+__all__ = ["LTVModel"]
+
 
 class LTVModel(RegressionModel, LinearTimeVarying):
     """An identified linear time-varying model.

@@ -14,6 +14,36 @@ from typing import Any
 
 import numpy as np
 
+__all__ = [
+    "LabelledSeries",
+    "describe",
+    "as_float_array",
+    "as_time_series",
+    "trajectories",
+    "LARGEST_DATA",
+    "representable",
+    "is_batch",
+    "column_names",
+    "time_index",
+    "index_values",
+    "recordings",
+    "row_weights",
+    "regressor_rows",
+    "vector",
+    "covariance",
+    "mean_sequence",
+    "initial_state_prior",
+    "lagged_series",
+    "lagged_recordings",
+    "model_series",
+    "simulation_inputs",
+    "dynamics_matrices",
+    "activation_series",
+    "changepoint_indices",
+    "positive_grid",
+    "count_grid",
+]
+
 
 @dataclass(frozen=True)
 class LabelledSeries:
