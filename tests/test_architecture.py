@@ -8,7 +8,9 @@ Every import of every module of ``src/ltvmodels`` is read from its source
   (``results``) may import ``plotting`` inside the method;
 * no import cycle between modules;
 * no module imports a private name (``_name``) from another module, or uses
-  one through an imported module.
+  one through an imported module;
+* every module outside ``cli`` has an ``__all__`` that names only what it binds
+  and lists every public function and class it defines.
 """
 
 from __future__ import annotations
@@ -324,3 +326,121 @@ def test_help_does_not_load_the_solvers():
         [sys.executable, "-c", code], capture_output=True, text=True, check=True
     ).stdout.strip()
     assert out == "[]"
+
+
+# -- the public surface of each module ---------------------------------------------------------
+def top_level_statements(tree: ast.Module) -> list[ast.stmt]:
+    """The module's top-level statements, with those inside top-level ``if``/``try`` blocks."""
+    found: list[ast.stmt] = []
+
+    def add(body: list[ast.stmt]) -> None:
+        for node in body:
+            if isinstance(node, ast.If):
+                add(node.body)
+                add(node.orelse)
+            elif isinstance(node, ast.Try):
+                add(node.body)
+                add(node.orelse)
+                add(node.finalbody)
+                for handler in node.handlers:
+                    add(handler.body)
+            else:
+                found.append(node)
+
+    add(tree.body)
+    return found
+
+
+def literal_assignments(tree: ast.Module) -> dict[str, ast.expr]:
+    """The values of the module's top-level assignments to one name."""
+    values: dict[str, ast.expr] = {}
+    for node in top_level_statements(tree):
+        if isinstance(node, ast.Assign) and len(node.targets) == 1:
+            target, value = node.targets[0], node.value
+        elif isinstance(node, ast.AnnAssign) and node.value is not None:
+            target, value = node.target, node.value
+        else:
+            continue
+        if isinstance(target, ast.Name):
+            values[target.id] = value
+    return values
+
+
+def declared_all(tree: ast.Module) -> list[str] | None:
+    """The module's ``__all__``, None without one.
+
+    A literal list or tuple of strings, which may unpack (``*NAMES``) another
+    literal of the module (the package root lists ``*_API``).
+    """
+    values = literal_assignments(tree)
+    if "__all__" not in values:
+        return None
+    node = values["__all__"]
+    assert isinstance(node, (ast.List, ast.Tuple)), "__all__ is a literal list or tuple"
+    names: list[str] = []
+    for element in node.elts:
+        if isinstance(element, ast.Starred) and isinstance(element.value, ast.Name):
+            names.extend(ast.literal_eval(values[element.value.id]))
+        else:
+            names.append(ast.literal_eval(element))
+    return names
+
+
+def bound_names(tree: ast.Module) -> set[str]:
+    """The names a module binds at its top level (definitions, assignments, imports)."""
+    names: set[str] = set()
+    for node in top_level_statements(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            names.add(node.name)
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            names.update((a.asname or a.name).split(".")[0] for a in node.names)
+        elif isinstance(node, (ast.Assign, ast.AnnAssign, ast.AugAssign)):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            for target in targets:
+                names.update(n.id for n in ast.walk(target) if isinstance(n, ast.Name))
+    return names
+
+
+def public_definitions(tree: ast.Module) -> set[str]:
+    """The public functions and classes a module defines (not those it imports)."""
+    return {
+        node.name
+        for node in top_level_statements(tree)
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef))
+        and not node.name.startswith("_")
+    }
+
+
+LIBRARY_MODULES = sorted(m for m in MODULES if part(m) != "cli")
+
+
+@pytest.mark.parametrize("module", LIBRARY_MODULES)
+def test_every_module_lists_its_public_names_in_all(module):
+    """``__all__`` exists, names what the module binds, and every public function and class.
+
+    A function or class used only inside its module is private (``_name``); the
+    command line (``cli``) is not checked.
+    """
+    tree = ast.parse(MODULES[module].read_text(encoding="utf-8"))
+    names = declared_all(tree)
+    assert names is not None, f"{module} has no __all__"
+    assert len(names) == len(set(names)), f"{module}: __all__ lists a name twice"
+    missing = sorted(set(names) - bound_names(tree))
+    assert not missing, f"{module}: __all__ names what the module does not define: {missing}"
+    unlisted = sorted(public_definitions(tree) - set(names))
+    assert not unlisted, (
+        f"{module}: public functions or classes not in __all__ (list them, or make them "
+        f"private with a leading underscore): {unlisted}"
+    )
+
+
+def test_the_public_names_check_can_fail():
+    tree = ast.parse(
+        "from x import y\n__all__ = ['f', 'y', 'z']\ndef f(): pass\nclass C: pass\n"
+        "def _g(): pass\nif True:\n    def h(): pass\n"
+    )
+    assert declared_all(tree) == ["f", "y", "z"]
+    assert set(declared_all(tree)) - bound_names(tree) == {"z"}
+    assert public_definitions(tree) - set(declared_all(tree)) == {"C", "h"}
+    assert declared_all(ast.parse("x = 1\n")) is None
+    assert declared_all(ast.parse("A = {'a': 1}\n__all__ = [*A, 'b']\n")) == ["a", "b"]

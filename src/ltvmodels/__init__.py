@@ -19,7 +19,6 @@ describes the layers behind these names.
 from __future__ import annotations
 
 import importlib
-import warnings
 from typing import TYPE_CHECKING, Any
 
 from .errors import (
@@ -185,10 +184,11 @@ def __getattr__(name: str) -> Any:
     elif name in _MODULES:
         value = importlib.import_module(f".{name}", __name__)
     elif name in _MOVED:
-        warnings.warn(
+        from .errors import warn
+
+        warn(
             f"ltvmodels.{name} moved to {_MOVED[name]}; import it from there",
             DeprecationWarning,
-            stacklevel=2,
         )
         return importlib.import_module(_MOVED[name])
     else:

@@ -43,7 +43,6 @@ pass of linear dynamics) are compiled with numba.
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
@@ -54,7 +53,7 @@ from numpy.typing import ArrayLike
 
 from .core.dense import cholesky, cholesky_solve
 from .core.simulation import simulate_affine
-from .errors import ConvergenceWarning
+from .errors import ConvergenceWarning, warn
 from .results.base import LinearTimeVarying
 from .validation import arrays, options
 
@@ -1080,12 +1079,11 @@ def _trust_bisection(problem, dyn, x0, u0, lo, hi, radius, sol0, opts, total_it)
         eta *= 10.0
     if best is None:
         problem.eta = eta
-        warnings.warn(
+        warn(
             f"ilqg: the trust region of radius {radius:g} could not be met (deviation "
             f"{problem.deviation(sol.x, sol.u):.3g} at eta={eta:.3g}); is the reference "
             "reachable from x0 under the dynamics?",
             ConvergenceWarning,
-            stacklevel=3,
         )
         return sol, eta, solves, total_it
     for _ in range(30):  # bisect (geometrically) on η

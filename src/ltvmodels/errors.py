@@ -1,4 +1,4 @@
-"""Exceptions and warnings raised by ltvmodels.
+"""Exceptions and warnings raised by ltvmodels, and :func:`warn`, which issues the warnings.
 
 Bad user input raises plain :class:`ValueError` / :class:`TypeError` (see
 :mod:`ltvmodels.validation`); the classes here describe problems that only show
@@ -7,7 +7,68 @@ up once the data meet the model.
 
 from __future__ import annotations
 
+import os
+import sys
+import warnings
+from typing import Any
+
 import numpy as np
+
+__all__ = [
+    "SingularProblemError",
+    "IdentifiabilityWarning",
+    "PrecisionWarning",
+    "ConvergenceWarning",
+    "OutputPathError",
+    "ModelFileError",
+    "DivergenceWarning",
+    "ModelStructureWarning",
+    "warn",
+    "find_stack_level",
+]
+
+_PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep
+_PACKAGE = __name__.rpartition(".")[0]
+
+
+def _in_package(frame: Any) -> bool:
+    """Whether a frame runs the package's code.
+
+    Its file lies in the package's directory, or, for code generated at run time
+    (the ``__init__`` of a dataclass, file ``<string>``), it runs in a module of
+    the package.
+    """
+    filename = frame.f_code.co_filename
+    if filename.startswith("<"):
+        module = frame.f_globals.get("__name__") or ""
+        return module == _PACKAGE or module.startswith(_PACKAGE + ".")
+    return os.path.abspath(filename).startswith(_PACKAGE_DIR)
+
+
+def find_stack_level() -> int:
+    """The ``stacklevel`` of the first frame outside ltvmodels, for :func:`warnings.warn`.
+
+    Counted from the caller of this function, which must be the function that
+    calls :func:`warnings.warn` (so that ``stacklevel=find_stack_level()`` there
+    points the warning at the user's line, however deep in the package it
+    arises). Where every frame is the package's (the ``ltvmodels`` command run
+    as ``python -m ltvmodels``), the outermost one.
+    """
+    frame = sys._getframe(1)
+    level = 1
+    while frame.f_back is not None and _in_package(frame):
+        frame = frame.f_back
+        level += 1
+    return level
+
+
+def warn(message: str, category: type[Warning]) -> None:
+    """Issue a warning at the user's line: the first caller outside ltvmodels.
+
+    Every warning of the package goes through here, so where it is reported
+    does not depend on how deep in the package it arises.
+    """
+    warnings.warn(message, category, stacklevel=find_stack_level())
 
 
 class SingularProblemError(np.linalg.LinAlgError):

@@ -11,8 +11,10 @@ import threading
 import time
 from typing import Any
 
+__all__ = ["Progress"]
 
-def is_terminal(stream: Any) -> bool:
+
+def _is_terminal(stream: Any) -> bool:
     isatty = getattr(stream, "isatty", None)
     try:
         return bool(isatty and isatty())
@@ -56,7 +58,7 @@ class Progress:
         self.total = total
         self.done = 0
         self.stream = sys.stderr if stream is None else stream
-        self.enabled = is_terminal(self.stream)
+        self.enabled = _is_terminal(self.stream)
         self.delay = delay
         self.interval = interval
         self._stop = threading.Event()

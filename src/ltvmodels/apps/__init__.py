@@ -9,3 +9,5 @@
 Nothing here is imported by ``import ltvmodels``; the library never imports
 from here.
 """
+
+__all__: list[str] = []

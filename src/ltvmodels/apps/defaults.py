@@ -4,6 +4,8 @@ Kept apart from :mod:`.demos` and free of heavy imports, so that
 ``ltvmodels --help`` answers without loading the solvers.
 """
 
+__all__ = ["JUMP_LINEAR_LAM", "DEFAULT_DEMO_OUT"]
+
 JUMP_LINEAR_LAM = 30.0
 """Fixed λ of the jump-linear demo (norm="sq", order=1).
 

@@ -147,6 +147,7 @@ __all__ = [
     "plot_pendulum_experiment",
     "PENDULUM_MODELS",
     "GOOD_RETURN",
+    "riccati_gains",
 ]
 
 ENV_ID = "Pendulum-v1"
@@ -674,6 +675,20 @@ def riccati_gains(A: np.ndarray, B: np.ndarray, e: CostExpansion) -> np.ndarray:
 
     The Riccati recursion without control bounds (the gains of the closed loop
     u = ū + K (x − x̄) around the nominal trajectory).
+
+    Parameters
+    ----------
+    A : ndarray, shape (N, n, n)
+        A_t of the dynamics x_{t+1} = A_t x_t + B_t u_t (deviations from the nominal).
+    B : ndarray, shape (N, n, m)
+        B_t.
+    e : ltvmodels.control.CostExpansion
+        The cost's second-order expansion at the nominal trajectory.
+
+    Returns
+    -------
+    ndarray, shape (N, m, n)
+        K_t.
     """
     N, n, _ = A.shape
     m = B.shape[2]

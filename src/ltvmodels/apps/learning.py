@@ -16,6 +16,16 @@ from ..errors import IdentifiabilityWarning
 from ..estimators.fit import fit, fit_lti
 from ..estimators.priors import Prior
 
+__all__ = [
+    "padded_inputs",
+    "fit_affine",
+    "improvement_ratio",
+    "adapt_radius",
+    "median_by_model",
+    "quartiles_by_model",
+    "draw_learning_curves",
+]
+
 # Trust-region adaptation between learning iterations.
 _SHRINK_BELOW = 0.1  # ρ below this: the model over-promised; halve the radius
 _GROW_ABOVE = 0.5  # ρ above this (and the step as predicted): grow the radius

@@ -76,6 +76,8 @@ __all__ = [
     "plot_experiment",
     "MODELS",
     "PAPER_MODELS",
+    "QUICK_RUNS",
+    "QUICK_ITERATIONS",
 ]
 
 MODELS = ("true", "ltv", "lti", "prior", "learned")

@@ -43,6 +43,7 @@ __all__ = [
     "plot_robot_experiment",
     "robot_experiment",
     "two_link_robot",
+    "hand_position",
 ]
 
 LINK = 1.0  # both link lengths [m]
@@ -107,7 +108,18 @@ def _bias(q: np.ndarray, qd: np.ndarray) -> np.ndarray:
 
 
 def hand_position(q: np.ndarray) -> np.ndarray:
-    """Position (horizontal, vertical) of the arm's tip at joint angles q (2,)."""
+    """Position (horizontal, vertical) of the arm's tip at joint angles q.
+
+    Parameters
+    ----------
+    q : ndarray, shape (2,)
+        The joint angles (shoulder, elbow), in radians.
+
+    Returns
+    -------
+    ndarray, shape (2,)
+        The tip's horizontal and vertical position.
+    """
     return LINK * np.array([np.cos(q[0]) + np.cos(q[0] + q[1]), np.sin(q[0]) + np.sin(q[0] + q[1])])
 
 

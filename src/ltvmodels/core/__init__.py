@@ -10,3 +10,5 @@ among :mod:`.ipm`, :mod:`.polish` and :mod:`.admm`, with :mod:`.sparse_common`),
 segmentation (:mod:`.segmentation`), AR/ARX regressors (:mod:`.lags`) and
 identifiability (:mod:`.identifiability`).
 """
+
+__all__: list[str] = []

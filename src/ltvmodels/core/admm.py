@@ -28,16 +28,17 @@ tolerance tightens tenfold and the iteration goes on.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConvergenceWarning
+from ..errors import ConvergenceWarning, warn
 from .penalties import Penalty
 from .polish import certificate
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 from .sparse_common import QuadraticUpdate
+
+__all__ = ["SparseResult", "fit_sparse"]
 
 
 @dataclass
@@ -58,7 +59,7 @@ class SparseResult:
     w: np.ndarray
 
 
-def objective(
+def _objective(
     problem: RegressionProblem, theta: np.ndarray, weights: np.ndarray, penalty: Penalty
 ) -> float:
     """Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ (Dk)_t)."""
@@ -166,17 +167,16 @@ def fit_sparse(
                 problem, weights, theta.reshape(N, K), penalty
             )
             gap_rel = gap / max(value, 1e-300)
-        warnings.warn(
+        warn(
             f"ADMM did not converge in {max_iter} iterations (relative duality gap "
             f"{gap_rel:.1e} and stationarity residual {stationarity:.1e}; primal residual "
             f"{r_rel:.1e}, dual residual {s_rel:.1e}; tolerance {tol:.0e}); increase max_iter "
             "or loosen tol",
             ConvergenceWarning,
-            stacklevel=3,
         )
     return SparseResult(
         theta=theta,
-        objective=objective(problem, theta, weights, penalty),
+        objective=_objective(problem, theta, weights, penalty),
         iterations=it,
         converged=converged,
         primal_residual=float(r_rel),

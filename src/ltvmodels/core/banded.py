@@ -30,6 +30,20 @@ from ..errors import SingularProblemError
 from . import blockkernels as kernels
 from .problem import gram_bands
 
+__all__ = [
+    "RELATIVE_PIVOT_TOL",
+    "FIXED_BLOCK_SMALL_B",
+    "FIXED_BLOCK_MIN_SIZE",
+    "BlockSystem",
+    "difference_bands",
+    "BlockSolution",
+    "kernel_size",
+    "BlockFactor",
+    "solve_block_banded",
+    "RowsSolution",
+    "solve_shared_rows",
+]
+
 # A pivot whose square is below this fraction of the matrix diagonal it came
 # from means the system is singular to working precision.
 RELATIVE_PIVOT_TOL = 1e-12
@@ -96,7 +110,7 @@ class BlockSystem:
 
     def gram(self) -> np.ndarray:
         """The Gram blocks G_t as an (N, b, b) array."""
-        phi_gram = self.data_scale * phi_outer(self.phi)
+        phi_gram = self.data_scale * _phi_outer(self.phi)
         G = np.zeros((self.N, self.b, self.b))
         p = self.phi.shape[2]
         for i in range(self.n_rep):
@@ -131,7 +145,7 @@ def _make_bands(N: int, coeffs: np.ndarray) -> np.ndarray:
     return out
 
 
-def phi_outer(phi: np.ndarray) -> np.ndarray:
+def _phi_outer(phi: np.ndarray) -> np.ndarray:
     """(N, p, p) array of Σ_j φ_tj φ_tjᵀ for φ of shape (N, q, p)."""
     return np.einsum("tja,tjb->tab", phi, phi)
 

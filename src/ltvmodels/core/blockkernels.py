@@ -44,6 +44,20 @@ import numpy as np
 from numba.core import types
 from numba.extending import intrinsic
 
+__all__ = [
+    "block_size",
+    "offdiagonal_step",
+    "diagonal_step",
+    "factor_forward",
+    "backward",
+    "solve",
+    "rowwise_matvec",
+    "residual_and_difference_squares",
+    "rows_factor_forward",
+    "rows_backward",
+    "solve_fixed",
+]
+
 
 @intrinsic
 def block_size(typingctx, size):  # pragma: no cover - compiled

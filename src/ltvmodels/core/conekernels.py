@@ -17,6 +17,28 @@ import numpy as np
 
 from .blockkernels import block_size, diagonal_step, offdiagonal_step
 
+__all__ = [
+    "weighted_difference",
+    "add_weighted_difference_adjoint",
+    "nt_scaling",
+    "apply_scaling",
+    "elimination_terms",
+    "prepare_newton",
+    "factor_newton_fixed",
+    "factor_newton_any",
+    "jordan_product",
+    "max_step",
+    "kkt_residuals",
+    "direction_rhs",
+    "direction_finish",
+    "take_step",
+    "corrector_target",
+    "prepare_newton_pairs",
+    "direction_rhs_pairs",
+    "direction_finish_pairs",
+    "corrector_target_pairs",
+]
+
 
 @numba.njit(cache=True)
 def weighted_difference(k, coeffs, w, out):  # pragma: no cover - compiled
@@ -139,7 +161,7 @@ def elimination_terms(v, eta, alpha, beta, s_coef):  # pragma: no cover - compil
     S_c is the inverse of the lower-right block of W² = η²(2vvᵀ − J)², which is
     η²(I + 8v₀² v₁v₁ᵀ) because v₀² − ‖v₁‖² = 1; so S_c = η⁻² (I − s_coef_c v₁v₁ᵀ)
     with s_coef_c = 8v₀² / (1 + 8v₀²‖v₁‖²). The penalty blocks ΛSΛ of the
-    Newton matrix are formed from it inside :func:`factor_newton`.
+    Newton matrix are formed from it inside :func:`_factor_newton`.
     """
     for i in range(v.shape[0]):
         _elimination_cone(v, eta, i, alpha, beta, s_coef)
@@ -208,7 +230,7 @@ def _penalty_row(v, eta, s_coef, penalty, w, r, offset, out, b):  # pragma: no c
 
 
 @numba.njit(cache=True)
-def factor_newton(
+def _factor_newton(
     phi, n_rep, v, eta, s_coef, penalty, w, coeffs, offset, pinned, L, size
 ):  # pragma: no cover - compiled
     """Factor the Newton matrix 2ΦᵀΦ + DᵀΛSΛD into L (N, d+1, b, b).
@@ -305,16 +327,16 @@ def factor_newton(
 
 
 # The constant-size version is the same kernel with a tuple ``size``.
-factor_newton_fixed = factor_newton
+factor_newton_fixed = _factor_newton
 
 
 def factor_newton_any(phi, n_rep, v, eta, s_coef, penalty, w, coeffs, offset, pinned, L):
-    """:func:`factor_newton` with the block size taken from ``L`` at run time.
+    """:func:`_factor_newton` with the block size taken from ``L`` at run time.
 
     A Python function: as a compiled wrapper it made numba inline the kernel
     (and its inlined helpers) once more, about 1 s of compilation.
     """
-    return factor_newton(
+    return _factor_newton(
         phi, n_rep, v, eta, s_coef, penalty, w, coeffs, offset, pinned, L, L.shape[2]
     )
 

@@ -13,6 +13,8 @@ import math
 
 import numba
 
+__all__ = ["cholesky", "cholesky_solve"]
+
 
 @numba.njit(cache=True)
 def cholesky(A, index, shift, L):  # pragma: no cover - compiled

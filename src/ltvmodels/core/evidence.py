@@ -34,6 +34,8 @@ from . import blockkernels as kernels
 from .banded import RELATIVE_PIVOT_TOL, difference_bands, kernel_size
 from .problem import RegressionProblem
 
+__all__ = ["ScalarEvidence"]
+
 LOG_2PI = float(np.log(2.0 * np.pi))
 TINY = float(np.finfo(float).tiny)
 EPS = float(np.finfo(float).eps)

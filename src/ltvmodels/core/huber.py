@@ -33,6 +33,16 @@ from .priorterms import PriorTerm
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 from .squared import SquaredSolver
 
+__all__ = [
+    "NEWTON_DAMPING",
+    "LINE_SEARCH_STEPS",
+    "MIN_DAMPING",
+    "HuberFit",
+    "huber_loss",
+    "fit_huber",
+    "newton_model",
+]
+
 # τ of the Newton steps (see _reweighted_fit) and the step halvings tried before falling
 # back to the majorize-minimize step.
 NEWTON_DAMPING = 1e-2

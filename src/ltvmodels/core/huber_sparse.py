@@ -39,6 +39,8 @@ from .problem import RegressionProblem, apply_difference
 from .robust_ipm import fit_robust_ipm
 from .sparse import IPM_MAX_K, solve_sparse
 
+__all__ = ["SparseHuberFit", "fit_huber_sparse", "ipm_applies", "sparse_parts"]
+
 # The tightest tolerance asked of the inner solver.
 INNER_TOL_FLOOR = 1e-14
 IPM_SOLVER = "interior point with residual cones (block-banded Newton systems)"

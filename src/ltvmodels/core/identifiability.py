@@ -12,13 +12,21 @@ for the direction b(t) = t alone; M covers the whole null space.)
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import IdentifiabilityWarning, SingularProblemError
+from ..errors import IdentifiabilityWarning, SingularProblemError, warn
 from .problem import RegressionProblem, null_space_basis
+
+__all__ = [
+    "SINGULAR_TOL",
+    "ILL_CONDITIONED_TOL",
+    "Diagnosis",
+    "scaled_min_eig",
+    "describe_direction",
+    "check",
+]
 
 SINGULAR_TOL = 1e-10  # smallest eigenvalue of the correlation-scaled matrix
 ILL_CONDITIONED_TOL = 1e-7
@@ -53,7 +61,7 @@ def scaled_min_eig(M: np.ndarray) -> tuple[float, np.ndarray]:
     return float(max(eig[0], 0.0)), vec[:, 0] * s
 
 
-def diagnose(problem: RegressionProblem, const_mask: np.ndarray | None = None) -> Diagnosis:
+def _diagnose(problem: RegressionProblem, const_mask: np.ndarray | None = None) -> Diagnosis:
     """Compute the identifiability diagnostics of a regression problem.
 
     ``const_mask`` (p,) marks regressors whose coefficients are held constant in
@@ -96,7 +104,7 @@ def check(
     return); with a prior it warns, since the prior then decides the directions
     the data cannot. Ill-conditioning only warns.
     """
-    diag = diagnose(problem, const_mask)
+    diag = _diagnose(problem, const_mask)
     remedy_prior = "a prior (ltvmodels.Prior)" if not has_prior else "a more informative prior"
     if not diag.lti_identifiable:
         message = (
@@ -116,20 +124,18 @@ def check(
     else:
         worst = min(diag.lti_min_eig, diag.null_space_min_eig)
         if worst < ILL_CONDITIONED_TOL:
-            warnings.warn(
+            warn(
                 f"the identification problem is ill-conditioned (smallest scaled eigenvalue "
                 f"{worst:.1e}); estimates along the direction "
                 f"{describe_direction(diag.direction, regressor_names)} are unreliable. "
                 "More excitation or a prior helps.",
                 IdentifiabilityWarning,
-                stacklevel=3,
             )
         return diag
     if has_prior:
-        warnings.warn(
+        warn(
             message + " The prior determines these directions.",
             IdentifiabilityWarning,
-            stacklevel=3,
         )
         return diag
     raise SingularProblemError(message)

@@ -32,18 +32,31 @@ Jordan product u ∘ v = (uᵀv, u₀v₁ + v₀u₁) with identity e = (1, 0).
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
-from ..errors import ConvergenceWarning, SingularProblemError
+from ..errors import ConvergenceWarning, SingularProblemError, warn
 from . import blockkernels as kernels
 from . import conekernels as cones
 from .polish import polish, stationarity_scale
 from .problem import RegressionProblem
 from .sparse_common import quadratic_fit
+
+__all__ = [
+    "STEP_FRACTION",
+    "MIN_STEP",
+    "START_DUAL_RANGE",
+    "WARM_DEGREES",
+    "FIXED_KERNEL_MIN_SIZE",
+    "InteriorPointResult",
+    "ConicProblem",
+    "NewtonSystem",
+    "feasible_start",
+    "warm_dual",
+    "fit_sparse_ipm",
+]
 
 # Fraction of the way to the cone boundary taken by a step (CVXOPT's STEP).
 STEP_FRACTION = 0.99
@@ -567,12 +580,11 @@ def fit_sparse_ipm(
             if stalled
             else f"did not converge in {max_iter} iterations"
         )
-        warnings.warn(
+        warn(
             f"the interior-point method {reason} (relative gap "
             f"{gap / max(objective, 1e-300):.1e}, relative residuals {primal_res:.1e} and "
             f"{dual_res:.1e}; tolerance {tol:.0e}); increase max_iter or loosen tol",
             ConvergenceWarning,
-            stacklevel=3,
         )
     return InteriorPointResult(
         theta=k.reshape(N, problem.n, problem.p),

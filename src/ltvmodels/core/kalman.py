@@ -70,6 +70,17 @@ import numpy as np
 
 from .dense import cholesky, cholesky_solve
 
+__all__ = [
+    "IDENTIFIED_TOL",
+    "ParameterStateSpace",
+    "realize",
+    "step",
+    "filter_kernel",
+    "smoother_kernel",
+    "log_abs_det_transition",
+    "loglik_offset",
+]
+
 LOG_2PI = float(np.log(2.0 * np.pi))
 
 #: Smallest eigenvalue of the information matrix, scaled to unit diagonal, at

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+__all__ = ["lag_length", "lagged_regressors", "lag_regressor_names"]
+
 
 def lag_length(na: int, nb: int, nk: int) -> int:
     """L: how far the regressors reach back (the first regression row is y[L])."""

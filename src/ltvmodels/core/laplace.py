@@ -16,7 +16,7 @@ Methods:
   previous one, for δ decreasing tenfold per stage until a duality gap
   certifies the answer. For norm="sq" each stage also tries the exact
   solution with the zero residuals and signs it has found
-  (:func:`polish_squared`, the method of multipliers on an
+  (:func:`_polish_squared`, the method of multipliers on an
   equality-constrained QP), which ends the iteration as soon as they are
   right; smoothing alone reaches gaps of about 1e-7 to 1e-6 before the
   smoothed problems become too badly scaled for working precision.
@@ -24,7 +24,7 @@ Methods:
 Certificate: Laplace's dual is max_{|ψ|<=1} Σ sψỹ − P*(Σ sψφ̃). The method's
 dual point ψ (the interior-point duals, the smoothed optimum's
 clip(r/δ, ±1), or the polish's multipliers) is made exactly feasible
-(:func:`dual_bound`), so its dual value is a rigorous lower bound on min F,
+(:func:`_dual_bound`), so its dual value is a rigorous lower bound on min F,
 and the relative gap (F(k) − bound)/F(k) bounds the suboptimality of the
 answer.
 """
@@ -48,6 +48,8 @@ from .problem import (
 from .robust_ipm import fit_robust_ipm, fit_robust_ipm_squared
 from .sparse_common import difference_preimage
 from .squared import SquaredSolver, weight_diagonal
+
+__all__ = ["LaplaceFit", "fit_laplace"]
 
 SMOOTHING = "Huber smoothing with a duality-gap certificate"
 IPM = "interior point with residual cones (block-banded Newton systems)"
@@ -174,7 +176,7 @@ def fit_laplace(
         theta[:, index, :] = k.reshape(N, -1, p)
         psi[:, :, index] = pairing.reshape(N, problem.q, -1)
     objective = _objective(problem, theta, penalty, norm)
-    gap, rigorous = relative_gap(problem, theta, objective, psi, penalty, norm)
+    gap, rigorous = _relative_gap(problem, theta, objective, psi, penalty, norm)
     return LaplaceFit(
         theta=theta,
         objective=objective,
@@ -246,13 +248,13 @@ def _smoothed(problem, penalty, norm, delta, *, max_iter, tol, start) -> Laplace
         objective = _objective(problem, theta, penalty, norm)
         r = problem.residuals(theta)
         psi = np.clip(r / np.maximum(problem.row_scale[:, :, None] * smoothing, tiny), -1, 1)
-        gap, rigorous = relative_gap(problem, theta, objective, psi, penalty, norm)
+        gap, rigorous = _relative_gap(problem, theta, objective, psi, penalty, norm)
         candidates = [(gap, theta, objective, fit.kkt_residual, rigorous, False, psi)]
         if norm == "sq" and gap > tol:  # the exact solution with the zeros found so far
-            exact = polish_squared(problem, penalty, theta, smoothing)
+            exact = _polish_squared(problem, penalty, theta, smoothing)
             if exact is not None:
                 polished_objective = _objective(problem, exact[0], penalty, norm)
-                polished_gap, polished_rigorous = relative_gap(
+                polished_gap, polished_rigorous = _relative_gap(
                     problem, exact[0], polished_objective, exact[1], penalty, norm
                 )
                 candidates.append(
@@ -294,7 +296,7 @@ def _smoothed(problem, penalty, norm, delta, *, max_iter, tol, start) -> Laplace
     )
 
 
-def polish_squared(
+def _polish_squared(
     problem: RegressionProblem,
     W: np.ndarray,
     theta: np.ndarray,
@@ -362,7 +364,7 @@ def _equality_qp(problem, W, zero, linear) -> tuple[np.ndarray, np.ndarray] | No
     return None
 
 
-def relative_gap(
+def _relative_gap(
     problem: RegressionProblem,
     theta: np.ndarray,
     objective: float,
@@ -372,12 +374,12 @@ def relative_gap(
 ) -> tuple[float, bool]:
     """((F(k) − dual)/F(k), rigorous) at Θ (N, n, p) and the dual point ψ (N, q, n).
 
-    Rigorous: the dual point made feasible (:func:`dual_bound`). Where no such
+    Rigorous: the dual point made feasible (:func:`_dual_bound`). Where no such
     point is available (an unpenalized coefficient), Σ s(|r̃| − ψr̃)/F, the gap
     if the stationarity of Θ with ψ were exact.
     """
     tiny = np.finfo(float).tiny
-    bound = dual_bound(problem, psi, penalty, norm)
+    bound = _dual_bound(problem, psi, penalty, norm)
     if bound is not None:
         return max(objective - bound, 0.0) / max(objective, tiny), True
     r = problem.residuals(theta)
@@ -385,7 +387,7 @@ def relative_gap(
     return max(gap, 0.0) / max(objective, tiny), False
 
 
-def dual_bound(
+def _dual_bound(
     problem: RegressionProblem, psi: np.ndarray, penalty: np.ndarray, norm: str
 ) -> float | None:
     """A lower bound on min F: Laplace's dual at a feasible point made from ψ (N, q, n).
@@ -489,7 +491,7 @@ def _laplace_kkt(problem, theta, W, weighted_psi) -> float:
     return float(np.linalg.norm(residual)) / max(float(np.linalg.norm(size)), np.finfo(float).tiny)
 
 
-def laplace_loss(problem: RegressionProblem, theta: np.ndarray) -> float:
+def _laplace_loss(problem: RegressionProblem, theta: np.ndarray) -> float:
     """Σ w|r| = Σ s|r̃| at Θ (N, n, p)."""
     return float(np.sum(problem.row_scale[:, :, None] * np.abs(problem.residuals(theta))))
 
@@ -497,8 +499,8 @@ def laplace_loss(problem: RegressionProblem, theta: np.ndarray) -> float:
 def _objective(problem, theta, penalty, norm) -> float:
     """F at Θ: the Laplacian loss plus the penalty (constant coefficients add 0)."""
     if norm == "sq":
-        return laplace_loss(problem, theta) + SquaredSolver(problem, penalty, []).penalty(theta)
+        return _laplace_loss(problem, theta) + SquaredSolver(problem, penalty, []).penalty(theta)
     weights = np.where(np.isinf(penalty), 0.0, penalty)
     scaled = apply_difference(theta.reshape(problem.N, -1), problem.coeffs) * weights
     size = np.linalg.norm(scaled, axis=1).sum() if norm == "group" else np.abs(scaled).sum()
-    return laplace_loss(problem, theta) + float(size)
+    return _laplace_loss(problem, theta) + float(size)

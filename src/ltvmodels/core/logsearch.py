@@ -20,6 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+__all__ = ["LogSearch", "maximize_on_log_scale"]
+
 GOLDEN = 0.381966011250105  # (3 − √5) / 2, the golden-section fraction
 CUBIC_SAMPLES = 201
 # The candidates a refinement typically takes (for the progress reported).

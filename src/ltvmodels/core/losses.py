@@ -44,7 +44,16 @@ from .problem import RegressionProblem, apply_difference
 from .sparse import solve_sparse
 from .squared import SquaredSolver
 
-__all__ = ["LOSSES", "HuberLoss", "LaplaceLoss", "Loss", "LossFit", "SquaredLoss", "named"]
+__all__ = [
+    "LOSSES",
+    "HuberLoss",
+    "LaplaceLoss",
+    "Loss",
+    "LossFit",
+    "SquaredLoss",
+    "named",
+    "register",
+]
 
 
 @dataclass

@@ -37,6 +37,8 @@ from scipy.sparse.linalg import splu
 from .penalties import Penalty, named
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 
+__all__ = ["PolishResult", "vertex_cones", "certificate", "stationarity_scale", "polish"]
+
 # Newton iterations on the reduced problem (it converges quadratically from an
 # interior-point iterate; more means the split is wrong).
 MAX_NEWTON = 30

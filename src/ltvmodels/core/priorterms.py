@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+__all__ = ["PriorTerm", "precision_matrix", "posthoc_correction"]
+
 
 @dataclass
 class PriorTerm:

@@ -17,6 +17,17 @@ import numpy as np
 
 from .blockkernels import rowwise_matvec
 
+__all__ = [
+    "RegressionProblem",
+    "weighted_problem",
+    "state_space_problem",
+    "apply_difference",
+    "activation",
+    "apply_difference_adjoint",
+    "gram_bands",
+    "null_space_basis",
+]
+
 
 @dataclass(frozen=True, init=False)
 class RegressionProblem:

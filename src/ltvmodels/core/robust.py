@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConvergenceWarning
+from ..errors import ConvergenceWarning, warn
 from .losses import Loss
 from .penalties import Penalty
 from .priorterms import PriorTerm
@@ -128,10 +128,9 @@ def solve_robust(
             if result.stalled
             else "increase max_iter or loosen tol"
         )
-        warnings.warn(
+        warn(
             f"loss={loss.name!r}: {result.failure}; the model is the last iterate: {remedy}",
             ConvergenceWarning,
-            stacklevel=2,
         )
     return RobustSolution(
         theta=result.theta,

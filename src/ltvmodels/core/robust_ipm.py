@@ -32,17 +32,18 @@ are below ``tol``: an optimality certificate of the convex problem.
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConvergenceWarning, SingularProblemError
+from ..errors import ConvergenceWarning, SingularProblemError, warn
 from . import conekernels as cones
 from .banded import BlockFactor, BlockSystem
 from .ipm import MIN_STEP, STEP_FRACTION, ConicProblem, NewtonSystem, feasible_start
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 from .sparse_common import difference_preimage
+
+__all__ = ["RobustIPMResult", "fit_robust_ipm", "fit_robust_ipm_squared"]
 
 # The starting slack of each entry's orthant, relative to the median |r|; and how
 # far inside [0, c] the starting duals ζ± sit.
@@ -193,11 +194,10 @@ def fit_robust_ipm(
             if stalled
             else f"did not converge in {max_iter} iterations"
         )
-        warnings.warn(
+        warn(
             f"the interior-point method {reason} (relative gap "
             f"{gap / max(objective, 1e-300):.1e}, dual residual {dual_res:.1e})",
             ConvergenceWarning,
-            stacklevel=3,
         )
     return RobustIPMResult(
         k=k,

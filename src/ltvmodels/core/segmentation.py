@@ -59,6 +59,19 @@ import numpy as np
 
 from .dense import cholesky
 
+__all__ = [
+    "FEASIBILITY_TOL",
+    "PRUNE_MARGIN",
+    "ScaledData",
+    "scale_data",
+    "feasible_starts",
+    "dynamic_program",
+    "one_change",
+    "pelt",
+    "backtrack_layers",
+    "backtrack_last",
+]
+
 FEASIBILITY_TOL = 1e-10  # τ = FEASIBILITY_TOL · N on the unit-RMS-scaled Gram matrix
 PRUNE_MARGIN = 1e-12  # relative to the total sum of squares of the scaled outputs
 
@@ -181,7 +194,7 @@ def feasible_starts(data, p, min_size, tau):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def first_feasible_ends(a_max):  # pragma: no cover - compiled
+def _first_feasible_ends(a_max):  # pragma: no cover - compiled
     """first_end[s] = min{b : a_max[b] >= s} (len(a_max) when none): [s, b) feasible iff b >= it."""
     n1 = a_max.shape[0]
     out = np.full(n1, n1, dtype=np.int64)
@@ -194,7 +207,7 @@ def first_feasible_ends(a_max):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def segment_costs_ending_at(data, p, b, lowest, costs, W, v):  # pragma: no cover - compiled
+def _segment_costs_ending_at(data, p, b, lowest, costs, W, v):  # pragma: no cover - compiled
     """costs[a] = C(a, b) for a = b−1 down to ``lowest`` (one sequential-QR pass)."""
     q = data.shape[2]
     for i in range(p):
@@ -238,7 +251,7 @@ def dynamic_program(data, p, n_changes, min_size, a_max):  # pragma: no cover - 
         amax = a_max[b]
         if amax < 0:
             continue
-        segment_costs_ending_at(data, p, b, 0, costs, W, v)
+        _segment_costs_ending_at(data, p, b, 0, costs, W, v)
         F[0, b] = costs[0]
         starts[0, b] = 0
         # layer M is needed at b = N only; m changes need (m + 1) · min_size samples
@@ -276,7 +289,7 @@ def one_change(data, p, a_max):  # pragma: no cover - compiled
         rss += _add_step(W, v, data, b - 1, p, q)
         head[b] = rss
     tail = np.empty(N + 1)  # tail[a] = C(a, N)
-    segment_costs_ending_at(data, p, N, 0, tail, W, v)
+    _segment_costs_ending_at(data, p, N, 0, tail, W, v)
     best = np.full(2, np.inf)
     starts = np.full((2, N + 1), -1, dtype=np.int64)
     best[0] = head[N]
@@ -306,7 +319,7 @@ def pelt(data, p, beta, min_size, a_max, margin):  # pragma: no cover - compiled
     """
     N = data.shape[0]
     q = data.shape[2]
-    first_end = first_feasible_ends(a_max)
+    first_end = _first_feasible_ends(a_max)
     F = np.full(N + 1, np.inf)
     F[0] = -beta
     last = np.full(N + 1, -1, dtype=np.int64)

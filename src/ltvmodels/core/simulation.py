@@ -5,6 +5,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+__all__ = ["simulate_affine"]
+
 
 @numba.njit(cache=True)
 def simulate_affine(A, B, w, x0, u):  # pragma: no cover - compiled

@@ -28,6 +28,8 @@ from .penalties import Penalty
 from .problem import RegressionProblem
 from .sparse_common import lambda_max, null_space_fit
 
+__all__ = ["IPM_MAX_K", "ipm_suits", "SparseSolution", "solve_sparse"]
+
 # The robust losses' interior-point method (:mod:`.robust_ipm`) takes up to this
 # many parameters per time step (see :mod:`.huber_sparse`, :mod:`.laplace`).
 IPM_MAX_K = 20

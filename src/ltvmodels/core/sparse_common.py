@@ -24,6 +24,14 @@ from .problem import (
     null_space_basis,
 )
 
+__all__ = [
+    "QuadraticUpdate",
+    "quadratic_fit",
+    "null_space_fit",
+    "lambda_max",
+    "difference_preimage",
+]
+
 
 class QuadraticUpdate:
     """argmin_k ‖y − Φk‖² + (ρ/2)‖ΛDk − v‖² for many v, factored once per group of equal rows.

@@ -46,17 +46,18 @@ second banded factorization:
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import PrecisionWarning, SingularProblemError
+from ..errors import PrecisionWarning, SingularProblemError, warn
 from .banded import BlockSolution, BlockSystem, solve_block_banded, solve_shared_rows
 from .blockkernels import rowwise_matvec
 from .covariance import CovarianceBlocks
 from .priorterms import PriorTerm
 from .problem import RegressionProblem, apply_difference
+
+__all__ = ["SquaredResult", "weight_diagonal", "shared_row_weight", "SquaredSolver", "fit_squared"]
 
 LOG_2PI = float(np.log(2.0 * np.pi))
 EPS = float(np.finfo(float).eps)
@@ -565,16 +566,15 @@ def _raise_if_precision_lost(lost: float, exc: SingularProblemError) -> None:
         ) from exc
 
 
-def _warn_if_precision_lost(lost: float, info: dict, stacklevel: int) -> None:
+def _warn_if_precision_lost(lost: float, info: dict) -> None:
     """Warn (and record in ``info``) when a large λ costs more than 10 digits."""
     if lost > PRECISION_DIGITS_WARN:
         info["digits_lost"] = lost
-        warnings.warn(
+        warn(
             f"lam is very large for the scale of the data: the normal equations lose about "
             f"{lost:.0f} of 16 significant digits. For coefficients constant in time use "
             "lam=np.inf (an exact LTI fit); otherwise use a smaller lam.",
             PrecisionWarning,
-            stacklevel=stacklevel,
         )
 
 
@@ -611,9 +611,7 @@ def _fit_shared(
     theta, row_logdet, row_rss, row_pen = sol.theta, sol.logdet, sol.rss, sol.squares
     cov = None if sol.cov is None else CovarianceBlocks(sol.cov[None], np.zeros(n, dtype=int))
     info: dict = {"row_separable": True}
-    _warn_if_precision_lost(
-        _digits_lost(penalty_scale, sol.gram_trace, problem), info, stacklevel=5
-    )
+    _warn_if_precision_lost(_digits_lost(penalty_scale, sol.gram_trace, problem), info)
     rss, pen = float(row_rss.sum()), float(row_pen.sum())
     row_cost = row_rss + row_pen  # RSS_i + penalty_i
     variances, loglik = _rows_loglik(row_cost, n_obs, diffuse, log_pdet, row_logdet, variances)
@@ -704,7 +702,7 @@ def fit_squared(
     except SingularProblemError as exc:
         _raise_if_precision_lost(lost, exc)
         raise
-    _warn_if_precision_lost(lost, info, stacklevel=4)
+    _warn_if_precision_lost(lost, info)
     row_rss = problem.output_rss(theta)
     rss = float(row_rss.sum())
     # per row when the rows decouple (one differencing pass serves both)

@@ -5,3 +5,5 @@ core of the front-ends), :mod:`.ar`, :mod:`.piecewise`, :mod:`.segments`,
 :mod:`.changepoints`, :mod:`.selection` (λ), :mod:`.priors` and
 :mod:`.kalman`. Their public functions are exported by :mod:`ltvmodels`.
 """
+
+__all__: list[str] = []

@@ -27,7 +27,6 @@ j describes y[L + j] (``model.sample_index``).
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable
 from functools import partial
 from typing import Any, Literal
@@ -37,7 +36,7 @@ from numpy.typing import ArrayLike
 
 from ..core.lags import lag_length, lag_regressor_names, lagged_regressors
 from ..core.problem import weighted_problem
-from ..errors import ModelStructureWarning
+from ..errors import ModelStructureWarning, warn
 from ..results.arx import ARModel, ARXModel
 from ..results.description import DataDescription
 from ..validation import arrays, options
@@ -353,12 +352,11 @@ def _warn_if_offset(y: np.ndarray) -> None:
         mean, std = float(np.mean(column)), float(np.std(column))
         if abs(mean) > OFFSET_IN_STDS * std:
             where = f"output {i} of y" if values.shape[1] > 1 else "y"
-            warnings.warn(
+            warn(
                 f"{where} has mean {mean:.4g}, {abs(mean) / max(std, 1e-300):.1f} standard "
                 "deviations from 0, but the model has no intercept, so the coefficients must "
                 "absorb the level; pass constant=True (or subtract the mean)",
                 ModelStructureWarning,
-                stacklevel=3,
             )
 
 

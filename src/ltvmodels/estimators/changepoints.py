@@ -67,7 +67,7 @@ TIE_TOLERANCE = 1e-10
 RESIDUE = 1e-9
 """Activations below this fraction of the largest ‖k_t‖ are solver residue, not changes."""
 
-__all__ = ["changepoint_offset", "detection_level", "find_changepoints", "residue_level"]
+__all__ = ["detection_level", "find_changepoints", "residue_level", "MAD_TO_STD"]
 
 
 def residue_level(k: np.ndarray) -> float:
@@ -75,7 +75,7 @@ def residue_level(k: np.ndarray) -> float:
     return RESIDUE * float(np.max(np.linalg.norm(k, axis=1), initial=0.0))
 
 
-def changepoint_offset(degree: int) -> int:
+def _changepoint_offset(degree: int) -> int:
     """Offset ⌈d/2⌉ from activation index t to change point c = t + ⌈d/2⌉."""
     return (degree + 1) // 2
 
@@ -188,7 +188,7 @@ def find_changepoints(
     peaks = _local_maxima(activation)
     candidates = peaks[activation[peaks] > level]
     kept = _suppress_non_maxima(activation, candidates, min_distance, max_changes)
-    return np.sort(kept) + changepoint_offset(degree)
+    return np.sort(kept) + _changepoint_offset(degree)
 
 
 def detection_level(activation: np.ndarray, threshold: float, noise_factor: float | None) -> float:

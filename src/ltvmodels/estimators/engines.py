@@ -57,6 +57,19 @@ import numpy as np
 
 from . import pool_results
 
+__all__ = [
+    "WORKER_DIED",
+    "STALLED",
+    "Sizing",
+    "run_task",
+    "default_jobs",
+    "even_chunks",
+    "run_local",
+    "shutdown_pool",
+    "run_dask",
+    "dask_completed",
+]
+
 WORKER_DIED = (
     "the worker process fitting this unit died twice (killed, or out of memory?); "
     "fit it alone to see why"
@@ -120,7 +133,7 @@ SIZING = Sizing()
 
 
 @contextmanager
-def single_threaded() -> Iterator[None]:
+def _single_threaded() -> Iterator[None]:
     """Run the body with one BLAS/OpenMP thread and one numba thread; restore both after."""
     import numba
     from threadpoolctl import threadpool_limits
@@ -135,17 +148,17 @@ def single_threaded() -> Iterator[None]:
 
 
 def run_task(task: Callable[[list], list], units: list) -> list:
-    """``task(units)`` with one thread (see :func:`single_threaded`)."""
-    with single_threaded():
+    """``task(units)`` with one thread (see :func:`_single_threaded`)."""
+    with _single_threaded():
         return task(units)
 
 
-def run_task_to_file(task: Callable[[list], list], units: list, directory: str) -> str:
+def _run_task_to_file(task: Callable[[list], list], units: list, directory: str) -> str:
     """In a pool worker: run the task; its results go to a file (:mod:`.pool_results`)."""
     return pool_results.write(run_task(task, units), directory)
 
 
-def run_here(
+def _run_here(
     task: Callable[[list], list], chunks: Sequence[list], done: Callable[[list], None]
 ) -> None:
     """Run every chunk in this process, in order; ``done(results)`` after each."""
@@ -169,10 +182,10 @@ def even_chunks(units: list, workers: int, tasks_per_worker: int) -> list[list]:
     """``units`` in chunks: ``tasks_per_worker`` per worker or more, of at most
     :data:`MAX_UNITS_PER_TASK` units each."""
     n_tasks = max(workers * tasks_per_worker, -(-len(units) // MAX_UNITS_PER_TASK))
-    return chunked(units, max(1, min(len(units), n_tasks)))
+    return _chunked(units, max(1, min(len(units), n_tasks)))
 
 
-def chunked(units: list, n_tasks: int) -> list[list]:
+def _chunked(units: list, n_tasks: int) -> list[list]:
     """``units`` in ``n_tasks`` consecutive chunks of nearly equal size."""
     bounds = np.linspace(0, len(units), n_tasks + 1).round().astype(int)
     return [units[a:b] for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
@@ -194,7 +207,7 @@ def run_local(
 
     ``done(results)`` after each task; ``lost(unit, message)`` for a unit
     that killed its worker twice, or that had no result when the pool stalled
-    (see :func:`run_processes`).
+    (see :func:`_run_processes`).
 
     ``adaptive``: fit the first units here to measure a unit's cost, predict
     the time of the rest here and on the pool (:class:`Sizing`), and run them
@@ -203,14 +216,14 @@ def run_local(
     ``sizing.tasks_per_worker`` tasks per worker or more.
     """
     if n_workers <= 1 or len(units) <= 1:
-        run_here(task, [units], done)
+        _run_here(task, [units], done)
         return
     if not adaptive:
         chunks = even_chunks(units, n_workers, sizing.tasks_per_worker)
-        run_processes(task, chunks, n_workers, done, lost, stall_timeout=stall_timeout)
+        _run_processes(task, chunks, n_workers, done, lost, stall_timeout=stall_timeout)
         return
     seconds: list[float] = []
-    with single_threaded():  # (entered once: it costs milliseconds, more than a small fit)
+    with _single_threaded():  # (entered once: it costs milliseconds, more than a small fit)
         while len(seconds) < len(units) and (
             len(seconds) < 3
             or (len(seconds) < sizing.probe_units and sum(seconds[1:]) < sizing.probe_seconds)
@@ -233,8 +246,8 @@ def run_local(
         if here < sizing.min_speedup * on_pool:
             done(task(rest))
             return
-    chunks = chunked(rest, n_tasks)
-    run_processes(task, chunks, n_workers, done, lost, stall_timeout=stall_timeout)
+    chunks = _chunked(rest, n_tasks)
+    _run_processes(task, chunks, n_workers, done, lost, stall_timeout=stall_timeout)
 
 
 def _executor(n_workers: int) -> Any:
@@ -289,7 +302,7 @@ def _at_exit_before_loky() -> None:
 
 
 def shutdown_pool() -> None:
-    """Stop the workers that :func:`run_processes` keeps for the next call (if any)."""
+    """Stop the workers that :func:`_run_processes` keeps for the next call (if any)."""
     _pool.workers = 0
     if _pool.executor is not None:
         _kill_workers(_pool.executor)
@@ -313,7 +326,7 @@ class _Stalled(Exception):
         self.message = message
 
 
-def run_processes(
+def _run_processes(
     task: Callable[[list], list],
     chunks: Sequence[list],
     n_workers: int,
@@ -354,7 +367,7 @@ def run_processes(
 
 
 class _PoolRun:
-    """One :func:`run_processes` call: its pool, its wait limit and how often the pool broke."""
+    """One :func:`_run_processes` call: its pool, its wait limit and how often the pool broke."""
 
     def __init__(
         self,
@@ -390,7 +403,7 @@ class _PoolRun:
             while pending and len(in_flight) < width:
                 units = pending.popleft()
                 try:
-                    future = executor.submit(run_task_to_file, self.task, units, self.directory)
+                    future = executor.submit(_run_task_to_file, self.task, units, self.directory)
                 except (BrokenProcessPool, RuntimeError):  # broken, or shut down: a fresh pool
                     pending.appendleft(units)
                     executor = self._after_break(executor, in_flight, pending, suspects)

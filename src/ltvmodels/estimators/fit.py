@@ -29,6 +29,8 @@ from .regression import fit_problem, sparse_model
 from .robust import robust_model
 from .spec import FitSpec
 
+__all__ = ["fit_lti", "fit", "fit_path", "lambda_max"]
+
 # Newton steps and tolerance of fit_lti(loss="huber"/"laplace") (it takes no solver options).
 LTI_HUBER_MAX_ITER = 500
 LTI_HUBER_TOL = 1e-10

@@ -33,6 +33,8 @@ from ..results.kalman import KalmanFilterResult, KalmanSmootherResult
 from ..validation import arrays, options
 from .recordings import state_space_data
 
+__all__ = ["parameter_state_space", "kalman_filter", "kalman_smoother", "OnlineParameterFilter"]
+
 
 def parameter_state_space(
     order: Any = 1, n_regressors: int = 1, *, lam: float, noise_var: float = 1.0

@@ -41,6 +41,8 @@ from . import engines
 from .fit import fit, fit_lti
 from .segments import fit_segments
 
+__all__ = ["fit_many", "check_unit_dtype"]
+
 METHODS: dict[ManyMethod, Callable] = {"fit": fit, "segments": fit_segments, "lti": fit_lti}
 """The estimators ``method=`` names."""
 
@@ -52,7 +54,7 @@ DASK_STALL_SECONDS = 600.0
 
 
 @dataclass(frozen=True)
-class UnitData:
+class _UnitData:
     """One unit's data, as its estimator receives it."""
 
     unit: Any
@@ -65,7 +67,7 @@ class UnitData:
 
 
 @dataclass(frozen=True)
-class UnitResult:
+class _UnitResult:
     """What a worker sends back for one unit.
 
     Pickled (sent from a worker process), its model travels packed: one
@@ -82,11 +84,11 @@ class UnitResult:
         model = self.model
         if model is not None and not isinstance(model, Packed):
             model = Packed.pack(model)
-        return (UnitResult, (self.position, self.unit, self.record, model, self.error))
+        return (_UnitResult, (self.position, self.unit, self.record, model, self.error))
 
 
 @dataclass(frozen=True)
-class FitSpec:
+class _FitSpec:
     """How every unit is fitted (sent to the workers once per task)."""
 
     estimator: Callable
@@ -96,26 +98,26 @@ class FitSpec:
 
 
 # -- the work of one task ---------------------------------------------------------------
-def fit_units(units: list[UnitData], spec: FitSpec) -> list[UnitResult]:
+def _fit_units(units: list[_UnitData], spec: _FitSpec) -> list[_UnitResult]:
     """Fit each unit; a unit that fails becomes a result with its error (never raises)."""
-    return [fit_unit(data, spec) for data in units]
+    return [_fit_unit(data, spec) for data in units]
 
 
-def fit_unit(data: UnitData, spec: FitSpec) -> UnitResult:
+def _fit_unit(data: _UnitData, spec: _FitSpec) -> _UnitResult:
     """Fit one unit and summarize it (see :attr:`ltvmodels.ModelSet.summary`)."""
     record: dict[str, Any] = {"unit": data.unit, "T": data.T}
     start = clock.perf_counter()
     if data.error is not None:
-        return failed(data, record, data.error)
+        return _failed(data, record, data.error)
     extra = {} if data.weights is None else {"weights": data.weights}
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             model = spec.estimator(data.x, data.u, **spec.options, **extra)
     except Exception as exc:  # one bad unit never stops the others
-        return failed(data, record, f"{type(exc).__name__}: {exc}")
+        return _failed(data, record, f"{type(exc).__name__}: {exc}")
     seconds = clock.perf_counter() - start
-    record.update(model_record(model, data, spec.options))
+    record.update(_model_record(model, data, spec.options))
     record["seconds"] = seconds
     record["warnings"] = (
         "; ".join(sorted({f"{w.category.__name__}: {w.message}" for w in caught})) or None
@@ -124,18 +126,18 @@ def fit_unit(data: UnitData, spec: FitSpec) -> UnitResult:
         try:
             model.save(Path(spec.models_dir) / model_file_name(data.position))
         except OSError as exc:  # a full disk fails this unit, not the task
-            return failed(
+            return _failed(
                 data, record, f"cannot write its model file ({type(exc).__name__}: {exc})"
             )
-    return UnitResult(data.position, data.unit, record, model=model if spec.keep_models else None)
+    return _UnitResult(data.position, data.unit, record, model=model if spec.keep_models else None)
 
 
-def failed(data: UnitData, record: dict, message: str) -> UnitResult:
+def _failed(data: _UnitData, record: dict, message: str) -> _UnitResult:
     record.update(status="error", error=message)
-    return UnitResult(data.position, data.unit, record, error=message)
+    return _UnitResult(data.position, data.unit, record, error=message)
 
 
-def model_record(model: Any, data: UnitData, options: dict) -> dict:
+def _model_record(model: Any, data: _UnitData, options: dict) -> dict:
     """The summary entries of a fitted model (JSON-compatible values)."""
     record: dict[str, Any] = {}
     info = getattr(model, "info", {})
@@ -152,12 +154,12 @@ def model_record(model: Any, data: UnitData, options: dict) -> dict:
         record.update({f"noise_var_{name}": float(value) for name, value in zip(names, noise)})
     loglik = getattr(model, "loglik", None)
     record["loglik"] = None if loglik is None else float(loglik)
-    record["rms"] = one_step_rms(model, data, options)
+    record["rms"] = _one_step_rms(model, data, options)
     if getattr(model, "norm", "sq") != "sq" and hasattr(model, "changepoints"):
         times = model.changepoint_times
         points = model.changepoints if times is None else times
         record["n_changes"] = int(len(points))
-        record["change_times"] = json_times(points)
+        record["change_times"] = _json_times(points)
     else:
         record["n_changes"], record["change_times"] = None, None
     status = getattr(model, "status", None)
@@ -165,7 +167,7 @@ def model_record(model: Any, data: UnitData, options: dict) -> dict:
     return record
 
 
-def one_step_rms(model: Any, data: UnitData, options: dict) -> float | None:
+def _one_step_rms(model: Any, data: _UnitData, options: dict) -> float | None:
     """Root mean square of x[t+1] − x̂[t+1] over the transitions with data."""
     info = getattr(model, "info", {})
     unweighted = (
@@ -174,13 +176,13 @@ def one_step_rms(model: Any, data: UnitData, options: dict) -> float | None:
         and options.get("loss", "squared") == "squared"
     )
     missing = getattr(model, "n_missing", None)
-    if unweighted and "rss" in info and missing is not None and np.ndim(plain(data.x)) in (1, 2):
+    if unweighted and "rss" in info and missing is not None and np.ndim(_plain(data.x)) in (1, 2):
         # The fit's residual sum of squares over its observed transitions: no recomputation.
         rows = model.N - missing
         return float(np.sqrt(info["rss"] / (rows * model.n_outputs))) if rows > 0 else None
     try:  # the estimator has validated the data: no need to check them again
-        x = np.asarray(plain(data.x), dtype=np.float64)
-        u = None if data.u is None else np.asarray(plain(data.u), dtype=np.float64)
+        x = np.asarray(_plain(data.x), dtype=np.float64)
+        u = None if data.u is None else np.asarray(_plain(data.u), dtype=np.float64)
         theta = model.theta
     except (AttributeError, TypeError, ValueError):
         return None
@@ -202,12 +204,12 @@ def one_step_rms(model: Any, data: UnitData, options: dict) -> float | None:
     return float(np.sqrt(np.mean(error**2))) if error.size else None
 
 
-def plain(value: Any) -> Any:
+def _plain(value: Any) -> Any:
     """The values of a DataFrame or LabelledSeries; anything else as it is."""
     return value.to_numpy() if hasattr(value, "to_numpy") else value
 
 
-def json_times(points: np.ndarray) -> list:
+def _json_times(points: np.ndarray) -> list:
     """Change-point times as JSON keeps them: ISO text for dates, numbers otherwise."""
     points = np.asarray(points)
     if np.issubdtype(points.dtype, np.datetime64):
@@ -216,7 +218,7 @@ def json_times(points: np.ndarray) -> list:
 
 
 # -- splitting the data into units ----------------------------------------------------------
-def column_list(value: Any, name: str, columns: Any, *, required: bool) -> list:
+def _column_list(value: Any, name: str, columns: Any, *, required: bool) -> list:
     """Column names given as one name or a list; checked present and named once.
 
     Parameters
@@ -265,7 +267,7 @@ def column_list(value: Any, name: str, columns: Any, *, required: bool) -> list:
     return names
 
 
-def check_roles(by: Any, state: list, inputs: list, time: list, weights: list) -> None:
+def _check_roles(by: Any, state: list, inputs: list, time: list, weights: list) -> None:
     """Each column plays one role: the unit, a state, an input, the time or the weights.
 
     Parameters
@@ -309,7 +311,7 @@ ROLE_PHRASES = {
 }
 
 
-def numeric_columns(frame: Any, names: list, name: str) -> np.ndarray:
+def _numeric_columns(frame: Any, names: list, name: str) -> np.ndarray:
     """The columns as a float64 (rows, len(names)) array; TypeError naming a text column."""
     for column in names:
         kind = getattr(frame[column].dtype, "kind", "O")
@@ -321,9 +323,9 @@ def numeric_columns(frame: Any, names: list, name: str) -> np.ndarray:
     return frame[names].to_numpy(dtype=np.float64)
 
 
-def table_units(
+def _table_units(
     frame: Any, by: Any, state: Any, inputs: Any, time: Any, weights: Any
-) -> list[UnitData]:
+) -> list[_UnitData]:
     """Split a long pandas DataFrame (one row per unit and time step) into units.
 
     Units in order of first appearance; rows of a unit sorted by ``time`` (stably),
@@ -338,7 +340,7 @@ def table_units(
 
     Returns
     -------
-    list of UnitData
+    list of _UnitData
         One per unit, its position its order of first appearance.
 
     Raises
@@ -353,12 +355,14 @@ def table_units(
     columns = frame.columns
     if isinstance(by, (list, tuple)):
         raise TypeError(f"by: expected the name of one column (the unit), received {by!r}")
-    (by,) = column_list(by, "by", columns, required=True)
-    state = column_list(state, "state", columns, required=True)
-    inputs = column_list(inputs, "inputs", columns, required=False)
-    time_column = column_list(time, "time", columns, required=False)
+    (by,) = _column_list(by, "by", columns, required=True)
+    state = _column_list(state, "state", columns, required=True)
+    inputs = _column_list(inputs, "inputs", columns, required=False)
+    time_column = _column_list(time, "time", columns, required=False)
     weight_column = (
-        column_list(weights, "weights", columns, required=False) if isinstance(weights, str) else []
+        _column_list(weights, "weights", columns, required=False)
+        if isinstance(weights, str)
+        else []
     )
     if weights is not None and not weight_column:
         raise TypeError(
@@ -388,15 +392,15 @@ def table_units(
                 "expected dates or numbers (convert it, e.g. with "
                 "pandas.to_datetime)"
             )
-    check_roles(by, state, inputs, time_column, weight_column)
+    _check_roles(by, state, inputs, time_column, weight_column)
     if time_column:
         order = np.lexsort((stamps, codes))
         stamps = stamps[order]
     else:
         order = np.argsort(codes, kind="stable")
-    x_all = numeric_columns(frame, state, "state")[order]
-    u_all = numeric_columns(frame, inputs, "inputs")[order] if inputs else None
-    w_all = numeric_columns(frame, weight_column, "weights")[order, 0] if weight_column else None
+    x_all = _numeric_columns(frame, state, "state")[order]
+    u_all = _numeric_columns(frame, inputs, "inputs")[order] if inputs else None
+    w_all = _numeric_columns(frame, weight_column, "weights")[order, 0] if weight_column else None
     bounds = np.searchsorted(codes[order], np.arange(len(uniques) + 1))
     state_names = [str(name) for name in state]
     input_names = [str(name) for name in inputs]
@@ -413,7 +417,7 @@ def table_units(
                 "or drop the duplicates)"
             )
         units.append(
-            UnitData(
+            _UnitData(
                 unit,
                 position,
                 arrays.LabelledSeries(x_all[a:b], state_names, unit_time),
@@ -428,7 +432,7 @@ def table_units(
     return units
 
 
-def mapping_units(data: Mapping, weights: Any) -> list[UnitData]:
+def _mapping_units(data: Mapping, weights: Any) -> list[_UnitData]:
     """Units of a mapping ``{unit: x}`` or ``{unit: (x, u)}`` (arrays or DataFrames)."""
     if isinstance(weights, str):
         raise TypeError(
@@ -449,7 +453,7 @@ def mapping_units(data: Mapping, weights: Any) -> list[UnitData]:
             x, u = value, None
         shape = np.shape(x) if not isinstance(x, list) else (None,)
         T = shape[-2] if len(shape) == 3 else (shape[0] if shape else None)
-        units.append(UnitData(unit, position, x, u, T=T))
+        units.append(_UnitData(unit, position, x, u, T=T))
     return units
 
 
@@ -592,8 +596,8 @@ def fit_many(
     >>> len(ms), list(ms.summary["status"])
     (3, ['closed_form', 'closed_form', 'closed_form'])
     """
-    estimator = estimator_of(method)
-    check_options(estimator, method, options)
+    estimator = _estimator_of(method)
+    _check_options(estimator, method, options)
     keep_models = checks.flag(keep_models, "keep_models")
     if progress is not None:
         progress = checks.flag(progress, "progress")
@@ -605,10 +609,10 @@ def fit_many(
         stall_timeout = checks.positive_scalar(stall_timeout, "stall_timeout")
     # Created now, before the data are split: a directory that cannot be one fails at once.
     directory = None if models_dir is None else output_directory(models_dir, "models_dir")
-    client = dask_client(engine)
+    client = _dask_client(engine)
     weights = options.pop("weights", None)
-    if is_dask_frame(data):
-        return fit_dask_frame(
+    if _is_dask_frame(data):
+        return _fit_dask_frame(
             data,
             client,
             by=by,
@@ -629,12 +633,12 @@ def fit_many(
                 "by, state, inputs, time: name columns of a table; a mapping "
                 "{unit: (x, u)} needs none of them"
             )
-        units = mapping_units(data, weights)
+        units = _mapping_units(data, weights)
         if weights is not None:
             options["weights"] = weights
         by_name = "unit"
     elif hasattr(data, "columns") and hasattr(data, "groupby"):
-        units = table_units(data, by, state, inputs, time, weights)
+        units = _table_units(data, by, state, inputs, time, weights)
         by_name = str(by)
     else:
         raise TypeError(
@@ -643,15 +647,15 @@ def fit_many(
         )
     if directory is not None:  # the manifest stores every unit: checked before any fit
         check_units((data.unit for data in units), "data" if isinstance(data, Mapping) else "by")
-    spec = FitSpec(estimator, options, keep_models, None if directory is None else str(directory))
-    collected = Collector(len(units), by_name, keep_models, directory, progress)
-    task = partial(fit_units, spec=spec)
+    spec = _FitSpec(estimator, options, keep_models, None if directory is None else str(directory))
+    collected = _Collector(len(units), by_name, keep_models, directory, progress)
+    task = partial(_fit_units, spec=spec)
     with collected.progress:
         if client is not None:
             engines.run_dask(
                 client,
                 task,
-                engines.even_chunks(units, client_workers(client), DASK_TASKS_PER_WORKER),
+                engines.even_chunks(units, _client_workers(client), DASK_TASKS_PER_WORKER),
                 collected.add,
                 collected.lose,
                 stall_timeout=DASK_STALL_SECONDS if stall_timeout is None else stall_timeout,
@@ -669,7 +673,7 @@ def fit_many(
     return collected.model_set(units)
 
 
-def estimator_of(method: Any) -> Callable:
+def _estimator_of(method: Any) -> Callable:
     if callable(method):
         return method
     return METHODS[checks.choice(method, "method", tuple(METHODS))]
@@ -679,7 +683,7 @@ def estimator_of(method: Any) -> Callable:
 REQUIRED_HINTS = {"lam": "a number or 'auto'"}
 
 
-def check_options(estimator: Callable, method: Any, options: dict) -> None:
+def _check_options(estimator: Callable, method: Any, options: dict) -> None:
     """Check the options against the estimator's signature, before any unit runs.
 
     Parameters
@@ -733,7 +737,7 @@ def check_options(estimator: Callable, method: Any, options: dict) -> None:
         )
 
 
-def dask_client(engine: Any) -> Any:
+def _dask_client(engine: Any) -> Any:
     if engine is None:
         return None
     if type(engine).__name__ == "Client" and hasattr(engine, "submit"):
@@ -744,16 +748,16 @@ def dask_client(engine: Any) -> Any:
     )
 
 
-def client_workers(client: Any) -> int:
+def _client_workers(client: Any) -> int:
     """Worker threads of a cluster (at least 1)."""
     return max(1, sum(client.nthreads().values()))
 
 
-def is_dask_frame(data: Any) -> bool:
+def _is_dask_frame(data: Any) -> bool:
     return type(data).__module__.startswith("dask") and hasattr(data, "npartitions")
 
 
-class Collector:
+class _Collector:
     """Gathers the workers' results into a :class:`~ltvmodels.ModelSet`."""
 
     def __init__(
@@ -765,7 +769,7 @@ class Collector:
         progress: bool | None,
         unit: str = "units",
     ) -> None:
-        self.results: dict[int, UnitResult] = {}
+        self.results: dict[int, _UnitResult] = {}
         self.by = by
         self.keep_models = keep_models
         self.directory = directory
@@ -773,15 +777,15 @@ class Collector:
         if progress is not None:
             self.progress.enabled = progress
 
-    def add(self, results: list[UnitResult]) -> None:
+    def add(self, results: list[_UnitResult]) -> None:
         for result in results:
             self.results[result.position] = result
         self.progress.advance(len(results))
 
-    def lose(self, data: UnitData, message: str) -> None:
-        self.add([failed(data, {"unit": data.unit, "T": data.T}, message)])
+    def lose(self, data: _UnitData, message: str) -> None:
+        self.add([_failed(data, {"unit": data.unit, "T": data.T}, message)])
 
-    def model_set(self, units: list[UnitData]) -> ModelSet:
+    def model_set(self, units: list[_UnitData]) -> ModelSet:
         ordered = [self.results[data.position] for data in units]
         errors = {result.unit: result.error for result in ordered if result.error}
         models = {
@@ -812,7 +816,7 @@ class Collector:
         return model_set
 
 
-def fit_dask_frame(
+def _fit_dask_frame(
     frame: Any,
     client: Any,
     *,
@@ -845,38 +849,38 @@ def fit_dask_frame(
         raise TypeError(f"by: expected the name of the unit column, received {arrays.describe(by)}")
     # The column names are known here: check them before any partition runs, so
     # that a typo is an error naming the argument, not a failed partition.
-    column_list(by, "by", frame.columns, required=True)
+    _column_list(by, "by", frame.columns, required=True)
     if weights is not None and not isinstance(weights, str):
         raise TypeError(
             f"weights: expected the name of a column of weights, received "
             f"{arrays.describe(weights)}"
         )
-    check_roles(
+    _check_roles(
         by,
-        column_list(state, "state", frame.columns, required=True),
-        column_list(inputs, "inputs", frame.columns, required=False),
-        column_list(time, "time", frame.columns, required=False),
-        column_list(weights, "weights", frame.columns, required=False),
+        _column_list(state, "state", frame.columns, required=True),
+        _column_list(inputs, "inputs", frame.columns, required=False),
+        _column_list(time, "time", frame.columns, required=False),
+        _column_list(weights, "weights", frame.columns, required=False),
     )
     if directory is not None:  # the units are known only on the cluster: check their type
         check_unit_dtype(frame[by].dtype, by)
         directory = output_directory(directory, "models_dir")
     shuffled = frame.shuffle(on=by)
-    spec = FitSpec(estimator, options, keep_models, None if directory is None else str(directory))
+    spec = _FitSpec(estimator, options, keep_models, None if directory is None else str(directory))
     parts = shuffled.to_delayed()
     tasks = [
-        dask.delayed(fit_partition)(part, index, by, state, inputs, time, weights, spec)
+        dask.delayed(_fit_partition)(part, index, by, state, inputs, time, weights, spec)
         for index, part in enumerate(parts)
     ]
-    collected = Collector(len(tasks), by, keep_models, directory, progress, unit="partitions")
+    collected = _Collector(len(tasks), by, keep_models, directory, progress, unit="partitions")
     from distributed import as_completed as dask_as_completed
 
-    def partition_failed(index: int, message: str) -> UnitResult:
+    def partition_failed(index: int, message: str) -> _UnitResult:
         unit = f"<partition {index}>"  # its units are unknown here
-        data = UnitData(unit, index * PARTITION_STRIDE, None)
-        return failed(data, {"unit": unit, "T": None}, message)
+        data = _UnitData(unit, index * PARTITION_STRIDE, None)
+        return _failed(data, {"unit": unit, "T": None}, message)
 
-    results: list[UnitResult] = []
+    results: list[_UnitResult] = []
     with collected.progress:
         futures = dict(zip(client.compute(tasks), enumerate(tasks)))
         queue = dask_as_completed(list(futures))
@@ -901,7 +905,7 @@ def fit_dask_frame(
             message = engines.STALLED.format(where="Dask workers", seconds=stall_timeout)
             results.extend(partition_failed(index, message) for index, _ in futures.values())
     results.sort(key=lambda result: result.position)
-    units = [UnitData(result.unit, result.position, None) for result in results]
+    units = [_UnitData(result.unit, result.position, None) for result in results]
     collected.results = {result.position: result for result in results}
     return collected.model_set(units)
 
@@ -943,13 +947,20 @@ PARTITION_STRIDE = 10**9
 """Positions of a dask DataFrame's units: partition × stride + position in the partition."""
 
 
-def fit_partition(
-    frame: Any, index: int, by: str, state: Any, inputs: Any, time: Any, weights: Any, spec: FitSpec
-) -> list[UnitResult]:
+def _fit_partition(
+    frame: Any,
+    index: int,
+    by: str,
+    state: Any,
+    inputs: Any,
+    time: Any,
+    weights: Any,
+    spec: _FitSpec,
+) -> list[_UnitResult]:
     """Fit the units of one partition (all rows of a unit are in one partition)."""
-    units = table_units(frame, by, state, inputs, time, weights)
+    units = _table_units(frame, by, state, inputs, time, weights)
     units = [
-        UnitData(
+        _UnitData(
             data.unit,
             index * PARTITION_STRIDE + data.position,
             data.x,
@@ -960,4 +971,4 @@ def fit_partition(
         )
         for data in units
     ]
-    return engines.run_task(partial(fit_units, spec=spec), units)
+    return engines.run_task(partial(_fit_units, spec=spec), units)

@@ -52,7 +52,7 @@ from numpy.typing import ArrayLike
 from scipy import linalg
 from scipy.special import logsumexp
 
-from ..errors import ConvergenceWarning, SingularProblemError
+from ..errors import ConvergenceWarning, SingularProblemError, warn
 from ..validation import arrays, options
 from .priors import Prior
 
@@ -230,11 +230,10 @@ class GMMPrior:
                     "reg_covar > 0 or excite the system more"
                 ) from None
         if not mixture.converged_:
-            warnings.warn(
+            warn(
                 f"GMMPrior: EM stopped at max_iter={self._max_iter} before converging "
                 f"({count} components); raise max_iter",
                 ConvergenceWarning,
-                stacklevel=3,
             )
         return mixture
 

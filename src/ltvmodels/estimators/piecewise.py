@@ -32,7 +32,6 @@ first step are. With knots τ_0 = 0 < τ_1 = c_1 < … < τ_M = c_M and segments
 from __future__ import annotations
 
 import itertools
-import warnings
 from collections.abc import Callable
 from functools import partial
 from typing import Any
@@ -50,7 +49,7 @@ from ..core.identifiability import (
 )
 from ..core.problem import RegressionProblem
 from ..core.robust import solve_robust
-from ..errors import IdentifiabilityWarning, SingularProblemError
+from ..errors import IdentifiabilityWarning, SingularProblemError, warn
 from ..results.record import FitRecord, FitStatus
 from ..results.statespace import LTVModel
 from ..validation import arrays, options
@@ -59,7 +58,7 @@ from .changepoints import find_changepoints
 from .recordings import state_space_data
 from .robust import robust_record_parts
 
-__all__ = ["fit_piecewise"]
+__all__ = ["fit_piecewise", "piecewise_fit", "refine_fit", "residual_noise"]
 
 _DIFFERENCE = {1: np.array([-1.0, 1.0]), 2: np.array([1.0, -2.0, 1.0])}
 
@@ -358,7 +357,7 @@ def _fit_robust(
         basis = inside.astype(float)
     else:
         knots = np.concatenate([[0], changepoints, [N - 1]])
-        left, w = hat_weights(knots, N)
+        left, w = _hat_weights(knots, N)
         basis = np.zeros((N, len(knots)))
         basis[np.arange(N), left] = 1.0 - w
         basis[np.arange(N), left + 1] = w
@@ -493,7 +492,7 @@ def _fit_constant(
                 f"combination {describe_direction(direction, names)} is numerically zero), "
                 f"so its [A B] is not identifiable; {_remedy(single, 'segment', p)}"
             )
-        _warn_if_ill_conditioned(min_eig, where, stacklevel=3)
+        _warn_if_ill_conditioned(min_eig, where)
         q, r = np.linalg.qr(phi_s)
         theta_s = np.linalg.solve(r, q.T @ y[start:stop].reshape(-1, n)).T  # (n, p)
         r_inv = np.linalg.solve(r, np.eye(p))
@@ -505,7 +504,7 @@ def _fit_constant(
 # -- order 2: piecewise linear, continuous ----------------------------------------------
 
 
-def hat_weights(knots: np.ndarray, N: int) -> tuple[np.ndarray, np.ndarray]:
+def _hat_weights(knots: np.ndarray, N: int) -> tuple[np.ndarray, np.ndarray]:
     """Linear-spline (hat function) weights of each time step.
 
     Parameters
@@ -565,7 +564,7 @@ def _fit_linear(
             f"({J - 2} change points, p = {p} regressors); "
             f"{_remedy(single, 'knot', p)}"
         )
-    left, w = hat_weights(knots, N)
+    left, w = _hat_weights(knots, N)
     z_left = (1.0 - w)[:, None, None] * phi  # regressors of γ_j, j = left[t]
     z_right = w[:, None, None] * phi  # regressors of γ_{j+1}
     # Normal equations ZᵀZ g = Zᵀy, block tridiagonal with J blocks of size p,
@@ -619,7 +618,7 @@ def _inverse_or_raise(
             f"{describe_direction(per_knot[j], names)} of the regressors is not excited "
             f"there; {_remedy(single, 'knot', p)}"
         )
-    _warn_if_ill_conditioned(min_eig, "x" if single else "changepoints", stacklevel=4)
+    _warn_if_ill_conditioned(min_eig, "x" if single else "changepoints")
     scale = 1.0 / np.sqrt(np.diag(gram))
     eig, vec = np.linalg.eigh(gram * scale[:, None] * scale[None, :])
     inv = ((vec / eig) @ vec.T) * scale[:, None] * scale[None, :]
@@ -629,19 +628,14 @@ def _inverse_or_raise(
 # -- shared helpers ------------------------------------------------------------------------
 
 
-def _warn_if_ill_conditioned(min_eig: float, where: str, *, stacklevel: int) -> None:
-    """IdentifiabilityWarning when the scaled normal matrix is nearly singular.
-
-    ``stacklevel`` counts the frames from the caller of this function up to the
-    user's call of :func:`fit_piecewise` (1: the caller itself).
-    """
+def _warn_if_ill_conditioned(min_eig: float, where: str) -> None:
+    """IdentifiabilityWarning when the scaled normal matrix is nearly singular."""
     if min_eig < ILL_CONDITIONED_TOL:
-        warnings.warn(
+        warn(
             f"{where}: the least-squares problem is ill-conditioned (smallest scaled "
             f"eigenvalue {min_eig:.1e}); the estimates are unreliable. More excitation or "
             "fewer change points helps.",
             IdentifiabilityWarning,
-            stacklevel=stacklevel + 1,
         )
 
 

@@ -30,6 +30,8 @@ import tempfile
 import uuid
 from typing import Any
 
+__all__ = ["new_directory", "write", "read"]
+
 ALIGNMENT = 64
 INDEX_LENGTH_BYTES = 8
 WRITE_PIECES = 1024  # buffers per os.writev (IOV_MAX on Linux)
@@ -60,14 +62,14 @@ def write(results: Any, directory: str) -> str:
     descriptor = os.open(path + ".part", os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
     try:  # a thousand pieces a system call: the arrays of a task are tens of thousands
         for start in range(0, len(pieces), WRITE_PIECES):
-            write_all(descriptor, pieces[start : start + WRITE_PIECES])
+            _write_all(descriptor, pieces[start : start + WRITE_PIECES])
     finally:
         os.close(descriptor)
     os.replace(path + ".part", path)
     return path
 
 
-def write_all(descriptor: int, pieces: list) -> None:
+def _write_all(descriptor: int, pieces: list) -> None:
     """Write the buffers ``pieces`` in order (``os.writev`` may write part of them)."""
     views = [memoryview(piece).cast("B") for piece in pieces]
     while views:

@@ -25,6 +25,8 @@ from ..core.priorterms import PriorTerm, precision_matrix
 from ..results.regression import RegressionModel
 from ..validation import arrays
 
+__all__ = ["Prior", "OutputPrior", "resolve"]
+
 
 class Prior:
     """Gaussian prior on the parameter vectors k_t = vec([A_tᵀ B_tᵀ]).

@@ -24,6 +24,14 @@ from ..results.base import signal_names
 from ..results.description import DataDescription
 from ..validation import arrays, options
 
+__all__ = [
+    "StateSpaceData",
+    "state_space_data",
+    "regression_description",
+    "regression_problem",
+    "require_enough_data",
+]
+
 
 @dataclass(frozen=True)
 class StateSpaceData:

@@ -41,6 +41,8 @@ from .robust import robust_model
 from .selection import select_for_problem
 from .spec import FitSpec
 
+__all__ = ["fit_regression", "fit_problem", "sparse_model", "last_segment_unit_cov"]
+
 ModelT = TypeVar("ModelT", bound=RegressionModel)
 """The model a front-end's factory builds (RegressionModel, LTVModel, ARXModel, …)."""
 ModelFactory = Callable[..., ModelT]

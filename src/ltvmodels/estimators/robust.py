@@ -21,6 +21,8 @@ from ..results.record import FitRecord, FitStatus, iterative_status
 from ..results.regression import RegressionModel
 from .changepoints import find_changepoints, residue_level
 
+__all__ = ["robust_model", "robust_record_parts"]
+
 ModelT = TypeVar("ModelT", bound=RegressionModel)  # the model the caller's factory builds
 
 

@@ -76,7 +76,13 @@ from .recordings import (
 )
 from .segments import fit_segments
 
-__all__ = ["select_lambda", "select_lambda_regression", "DEFAULT_METHOD"]
+__all__ = [
+    "select_lambda",
+    "select_lambda_regression",
+    "DEFAULT_METHOD",
+    "select_for_problem",
+    "criterion_fit",
+]
 
 # The criterion fit(..., lam="auto") uses for each norm.
 DEFAULT_METHOD: dict[SelectionNorm, SelectionMethod] = {

@@ -14,6 +14,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
+__all__ = ["plot_coefficients", "plot_activation", "plot_eigenvalues", "plot_poles", "plot_model"]
+
 MODELS_WITH_CHANGEPOINTS = ("group", "l1", "piecewise", "l0", "lti")
 """Norms of the models whose ``changepoints`` were found by the fit itself."""
 

@@ -20,6 +20,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
+__all__ = ["ESTIMATE_COLOR", "new_figure", "new_axes", "output_file", "image_file", "save_figure"]
+
 ESTIMATE_COLOR = "C0"
 """Colour of estimated quantities in every figure."""
 

@@ -12,6 +12,8 @@ from .figure import new_axes
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
 
+__all__ = ["plot_lambda_selection"]
+
 
 def plot_lambda_selection(selection: LambdaSelection, ax: Axes | None = None) -> Axes:
     """Plot a λ-selection curve: the criterion against λ, or the L-curve, the choice marked.

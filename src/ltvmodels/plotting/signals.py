@@ -15,6 +15,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
+__all__ = ["plot_simulation", "plot_forecast", "plot_root_spectrogram", "plot_spectrogram"]
+
 
 def plot_simulation(
     data: ArrayLike,

@@ -7,3 +7,5 @@
 :mod:`.selection`, :mod:`.segmentation`, and the model file (:mod:`.archive`,
 :mod:`.loading`).
 """
+
+__all__: list[str] = []

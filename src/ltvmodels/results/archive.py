@@ -32,6 +32,8 @@ from ..validation.arrays import describe
 from .description import DataDescription
 from .record import FitRecord, FitStatus, iterative_status
 
+__all__ = ["ModelFile", "write", "read"]
+
 FORMAT_VERSION = 3
 READABLE_VERSIONS = (1, 2, 3)
 

@@ -27,6 +27,8 @@ from .forecast import (
 from .record import FitRecord
 from .regression import RegressionModel
 
+__all__ = ["ARXModel", "ARModel"]
+
 
 @numba.njit(cache=True)
 def _simulate_arx(theta, y, u, noise, na, nb, nk, lag, constant):  # pragma: no cover

@@ -17,6 +17,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+__all__ = ["LinearTimeVarying", "signal_names"]
+
 
 class LinearTimeVarying:
     """Sizes and signal names of x[t+1] = A_t x[t] + B_t u[t].

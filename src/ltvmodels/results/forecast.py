@@ -71,6 +71,16 @@ from numpy.typing import ArrayLike
 from ..validation import arrays, options
 from ..validation.arrays import describe
 
+__all__ = [
+    "DEFAULT_SAMPLES",
+    "Forecast",
+    "forecast_options",
+    "noise_covariance",
+    "state_space_inputs",
+    "lagged_inputs",
+    "forecast_model",
+]
+
 DEFAULT_SAMPLES = 2000
 """Default Monte Carlo sample count: the 95 % bounds' coverage error is about ±0.5 %
 (the binomial error sqrt(0.025·0.975/2000) of each tail quantile)."""
@@ -186,7 +196,7 @@ def forecast_options(level: Any, n_samples: Any, seed: Any) -> tuple[float, int,
     return level, n_samples, seed
 
 
-def forecast_steps(steps: Any, rows: int | None, lag: int = 0) -> int:
+def _forecast_steps(steps: Any, rows: int | None, lag: int = 0) -> int:
     """The number of steps: ``steps`` (an integer >= 1), or ``rows`` future inputs when None.
 
     ``rows`` is the number of future inputs given (None without inputs), the
@@ -308,7 +318,7 @@ def _future_inputs(u: Any, steps: Any, *, m: int, lag: int, meaning: str) -> tup
     if m == 0:
         if u is not None:
             raise ValueError(f"u: the model has no inputs, expected None, received {describe(u)}")
-        steps = forecast_steps(steps, None)
+        steps = _forecast_steps(steps, None)
         return np.zeros((lag + steps, 0)), steps
     rows = "steps" if lag == 0 else f"{lag} + steps"
     if u is None:
@@ -320,14 +330,14 @@ def _future_inputs(u: Any, steps: Any, *, m: int, lag: int, meaning: str) -> tup
         expected = f"({rows}, {m})" + (f" or ({rows},)" if m == 1 else "")
         raise ValueError(f"u: expected {meaning}, shape {expected}, received shape {u.shape}")
     arrays.representable(u, "u", small=False)
-    steps = forecast_steps(steps, u.shape[0] - lag, lag)
+    steps = _forecast_steps(steps, u.shape[0] - lag, lag)
     return u, steps
 
 
 # -- the coefficients after the data ---------------------------------------------------------
 
 
-def continue_coefficients(k: np.ndarray, coeffs: np.ndarray, steps: int) -> np.ndarray:
+def _continue_coefficients(k: np.ndarray, coeffs: np.ndarray, steps: int) -> np.ndarray:
     """The coefficients after the data: Σ_j c_j k_{t+j} = 0 solved forward.
 
     Parameters
@@ -359,7 +369,7 @@ def continue_coefficients(k: np.ndarray, coeffs: np.ndarray, steps: int) -> np.n
     return out
 
 
-def end_coefficient_cov(model: Any) -> np.ndarray | None:
+def _end_coefficient_cov(model: Any) -> np.ndarray | None:
     """Cov(k_{N−1}), the posterior covariance of the last estimate, as a (K, K) array.
 
     Reads the compact ``model.cov``: (N, p, p) shared by the output rows
@@ -389,7 +399,7 @@ def end_coefficient_cov(model: Any) -> np.ndarray | None:
     return np.array(cov[-1])
 
 
-def drift_covariance(model: Any) -> np.ndarray | None:
+def _drift_covariance(model: Any) -> np.ndarray | None:
     """The covariance σ² W⁻¹ of the penalty's (Dk)_t per step (norm="sq"), else None.
 
     Row i of Θ_t has drift σ_i² W⁻¹ (σ_i² = ``model.noise_var[i]``), W the
@@ -487,9 +497,9 @@ def forecast_model(
     n, p, K = model.n_outputs, model.n_regressors, model.K
     steps = known.shape[0]
     coeffs = np.array([-1.0, 1.0]) if model.coeffs is None else np.asarray(model.coeffs, float)
-    theta = continue_coefficients(np.asarray(model.k), coeffs, steps).reshape(steps, n, p)
-    coef_cov = end_coefficient_cov(model)
-    drift = drift_covariance(model)
+    theta = _continue_coefficients(np.asarray(model.k), coeffs, steps).reshape(steps, n, p)
+    coef_cov = _end_coefficient_cov(model)
+    drift = _drift_covariance(model)
     if drift is not None:
         drift = drift / coeffs[-1] ** 2  # the recursion adds w_t / c_d
     z = NormalDist().inv_cdf(0.5 + level / 2)

@@ -14,6 +14,8 @@ import numpy as np
 from ..core.covariance import CovarianceBlocks
 from .base import LinearTimeVarying
 
+__all__ = ["KalmanFilterResult", "KalmanSmootherResult"]
+
 
 class _ParameterAccess(LinearTimeVarying):
     """A_t, B_t and the full covariance from ``k`` (N, K), ``cov`` (N, p, p), ``n_states``."""

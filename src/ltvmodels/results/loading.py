@@ -15,6 +15,8 @@ from .arx import ARModel, ARXModel
 from .regression import RegressionModel
 from .statespace import LTVModel
 
+__all__ = ["load"]
+
 MODEL_TYPES = {cls.__name__: cls for cls in (RegressionModel, LTVModel, ARXModel, ARModel)}
 """The model classes a file can hold, by the name it records."""
 

@@ -39,6 +39,17 @@ import numpy as np
 
 from ..errors import ModelFileError, OutputPathError
 
+__all__ = [
+    "MANIFEST",
+    "check_units",
+    "model_file_name",
+    "plain_file_name",
+    "output_directory",
+    "manifest_text",
+    "write_manifest",
+    "read_manifest",
+]
+
 MANIFEST = "manifest.json"
 FORMAT_VERSION = 2
 READ_FORMATS = (1, 2)
@@ -53,7 +64,7 @@ UNIT_TYPES = (
 
 
 # -- units --------------------------------------------------------------------------------
-def type_name(value: Any) -> str:
+def _type_name(value: Any) -> str:
     """``module.Name`` of a value's type (``builtins.`` left out)."""
     kind = type(value)
     return (
@@ -63,7 +74,7 @@ def type_name(value: Any) -> str:
     )
 
 
-def zone_name(zone: Any) -> str | None:
+def _zone_name(zone: Any) -> str | None:
     """The IANA name of a time zone (zoneinfo, pytz, UTC), or None for a fixed offset."""
     if zone is None:
         return None
@@ -75,16 +86,16 @@ def zone_name(zone: Any) -> str | None:
     return None
 
 
-def encoded_instant(kind: str, instant: datetime.datetime) -> dict:
+def _encoded_instant(kind: str, instant: datetime.datetime) -> dict:
     """A date and time (``pandas.Timestamp`` or ``datetime.datetime``) with its time zone."""
     encoded = {"type": kind, "value": instant.isoformat()}
-    zone = zone_name(instant.tzinfo)
+    zone = _zone_name(instant.tzinfo)
     if zone is not None:
         encoded["tz"] = zone
     return encoded
 
 
-def encode_unit(unit: Any) -> Any:
+def _encode_unit(unit: Any) -> Any:
     """A unit as the manifest stores it (see the module docstring).
 
     Parameters
@@ -112,7 +123,7 @@ def encode_unit(unit: Any) -> Any:
     pandas = sys.modules.get("pandas")  # a pandas value means pandas is imported
     if pandas is not None:
         if isinstance(unit, pandas.Timestamp):
-            return encoded_instant("pandas.Timestamp", unit)
+            return _encoded_instant("pandas.Timestamp", unit)
         if isinstance(unit, pandas.Timedelta):
             return {"type": "pandas.Timedelta", "value": unit.isoformat()}
     if isinstance(unit, np.timedelta64):  # a numpy integer too
@@ -126,7 +137,7 @@ def encode_unit(unit: Any) -> Any:
     if isinstance(unit, (float, np.floating)) and not isinstance(unit, np.longdouble):
         return float(unit)
     if isinstance(unit, datetime.datetime):
-        return encoded_instant("datetime.datetime", unit)
+        return _encoded_instant("datetime.datetime", unit)
     if isinstance(unit, datetime.date):
         return {"type": "datetime.date", "value": unit.isoformat()}
     if isinstance(unit, datetime.time) and unit.tzinfo is None:
@@ -145,16 +156,16 @@ def encode_unit(unit: Any) -> Any:
     if isinstance(unit, uuid.UUID):
         return {"type": "uuid.UUID", "value": str(unit)}
     if isinstance(unit, tuple) and type(unit) is tuple:
-        return {"type": "tuple", "value": [encode_unit(item) for item in unit]}
+        return {"type": "tuple", "value": [_encode_unit(item) for item in unit]}
     raise TypeError(
-        f"unit {short_repr(unit)} is of type {type_name(unit)}, which a model set's "
+        f"unit {_short_repr(unit)} is of type {_type_name(unit)}, which a model set's "
         f"manifest cannot store; supported unit types: {UNIT_TYPES}; relabel the units "
         "(e.g. as text)"
     )
 
 
-def decode_unit(value: Any) -> Any:
-    """The unit that :func:`encode_unit` stored as ``value``.
+def _decode_unit(value: Any) -> Any:
+    """The unit that :func:`_encode_unit` stored as ``value``.
 
     Parameters
     ----------
@@ -176,7 +187,7 @@ def decode_unit(value: Any) -> Any:
     if not isinstance(value, dict):
         raise ValueError(
             f"expected a text, a number, a bool, null or an object {{type, value}}, "
-            f"received {short_repr(value)} ({type_name(value)})"
+            f"received {_short_repr(value)} ({_type_name(value)})"
         )
     kind: Any = value.get("type")
     text: Any = value.get("value")
@@ -192,7 +203,7 @@ def decode_unit(value: Any) -> Any:
             return pd.Timedelta(text)
         if kind == "datetime.datetime":
             moment = datetime.datetime.fromisoformat(text)
-            return moment if "tz" not in value else moment.astimezone(time_zone(value["tz"]))
+            return moment if "tz" not in value else moment.astimezone(_time_zone(value["tz"]))
         if kind == "datetime.date":
             return datetime.date.fromisoformat(text)
         if kind == "datetime.time":
@@ -211,13 +222,13 @@ def decode_unit(value: Any) -> Any:
         if kind == "tuple":
             if not isinstance(text, list):
                 raise TypeError(f"expected a list of units, received {text!r}")
-            return tuple(decode_unit(item) for item in text)
+            return tuple(_decode_unit(item) for item in text)
     except (TypeError, ValueError, KeyError, OverflowError, ImportError) as exc:
-        raise ValueError(f"{short_repr(value)} is not a valid {kind} ({exc})") from None
-    raise ValueError(f"unknown unit type {kind!r} in {short_repr(value)}")
+        raise ValueError(f"{_short_repr(value)} is not a valid {kind} ({exc})") from None
+    raise ValueError(f"unknown unit type {kind!r} in {_short_repr(value)}")
 
 
-def time_zone(name: Any) -> datetime.tzinfo:
+def _time_zone(name: Any) -> datetime.tzinfo:
     """The time zone called ``name`` (an IANA name such as "Europe/Paris", or "UTC")."""
     if name == "UTC":
         return datetime.timezone.utc
@@ -244,12 +255,12 @@ def check_units(units: Iterable, name: str) -> None:
     """
     for unit in units:
         try:
-            encode_unit(unit)
+            _encode_unit(unit)
         except TypeError as exc:
             raise TypeError(f"{name}: {exc}") from None
 
 
-def short_repr(value: Any) -> str:
+def _short_repr(value: Any) -> str:
     text = repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
 
@@ -320,7 +331,7 @@ def output_directory(directory: Any, name: str) -> Path:
     if not isinstance(directory, (str, os.PathLike)):
         raise TypeError(
             f"{name}: expected a directory path (str or pathlib.Path), received "
-            f"{short_repr(directory)} ({type_name(directory)})"
+            f"{_short_repr(directory)} ({_type_name(directory)})"
         )
     path = Path(directory)
     what_to_do = "pass an existing directory or one that can be created"
@@ -344,7 +355,7 @@ def output_directory(directory: Any, name: str) -> Path:
 
 
 # -- writing ---------------------------------------------------------------------------------------
-def summary_value(value: Any) -> Any:
+def _summary_value(value: Any) -> Any:
     """A summary value that JSON cannot hold, as JSON keeps it (``json.dumps``'s default)."""
     if isinstance(value, (np.generic, np.ndarray)):
         return value.tolist()
@@ -375,11 +386,11 @@ def manifest_text(by: str, entries: list[dict]) -> str:
     Raises
     ------
     TypeError
-        A unit the manifest cannot store (:func:`encode_unit`).
+        A unit the manifest cannot store (:func:`_encode_unit`).
     """
     stored = [
         {
-            "unit": encode_unit(entry["unit"]),
+            "unit": _encode_unit(entry["unit"]),
             "file": entry["file"],
             "error": entry["error"],
             "summary": {key: value for key, value in entry["summary"].items() if key != "unit"},
@@ -387,7 +398,7 @@ def manifest_text(by: str, entries: list[dict]) -> str:
         for entry in entries
     ]
     manifest = {"format": FORMAT_VERSION, "by": by, "units": stored}
-    return json.dumps(manifest, indent=1, allow_nan=True, default=summary_value)
+    return json.dumps(manifest, indent=1, allow_nan=True, default=_summary_value)
 
 
 def write_manifest(directory: Path, text: str) -> None:
@@ -459,7 +470,7 @@ def read_manifest(path: Path) -> tuple[str, list, list[dict], dict, dict]:
         raise ModelFileError(f"{path}: not a model-set manifest ({exc}); {damaged}") from None
     if not isinstance(manifest, dict):
         raise ModelFileError(
-            f"{path}: not a model-set manifest (a JSON {type_name(manifest)}, expected an "
+            f"{path}: not a model-set manifest (a JSON {_type_name(manifest)}, expected an "
             f"object); {damaged}"
         )
     version = manifest.get("format")
@@ -470,12 +481,12 @@ def read_manifest(path: Path) -> tuple[str, list, list[dict], dict, dict]:
         )
     by = manifest.get("by", "unit")
     if not isinstance(by, str):
-        raise ModelFileError(f"{path}: 'by' must be a text, received {short_repr(by)}; {damaged}")
+        raise ModelFileError(f"{path}: 'by' must be a text, received {_short_repr(by)}; {damaged}")
     entries = manifest.get("units")
     if not isinstance(entries, list):
         raise ModelFileError(
             f"{path}: 'units' must be a list of entries, received "
-            f"{short_repr(entries)} ({type_name(entries)}); {damaged}"
+            f"{_short_repr(entries)} ({_type_name(entries)}); {damaged}"
         )
     units: list = []
     records: list[dict] = []
@@ -487,21 +498,21 @@ def read_manifest(path: Path) -> tuple[str, list, list[dict], dict, dict]:
         if not isinstance(entry, dict):
             raise ModelFileError(
                 f"{where}: expected an object with {', '.join(ENTRY_KEYS)}, received "
-                f"{short_repr(entry)} ({type_name(entry)}); {damaged}"
+                f"{_short_repr(entry)} ({_type_name(entry)}); {damaged}"
             )
         missing = [key for key in ENTRY_KEYS if key not in entry]
         if "unit" in missing:
             raise ModelFileError(f"{where}: no 'unit'; {damaged}")
         try:
-            unit = decode_unit(entry["unit"]) if version >= 2 else entry["unit"]
+            unit = _decode_unit(entry["unit"]) if version >= 2 else entry["unit"]
         except ValueError as exc:
             raise ModelFileError(f"{where}: invalid unit: {exc}; {damaged}") from None
-        if not is_hashable(unit):
+        if not _is_hashable(unit):
             raise ModelFileError(
-                f"{where}: unit {short_repr(entry['unit'])} is not a valid unit (a "
-                f"{type_name(unit)}); {damaged}"
+                f"{where}: unit {_short_repr(entry['unit'])} is not a valid unit (a "
+                f"{_type_name(unit)}); {damaged}"
             )
-        where = f"{where} (unit {short_repr(unit)})"
+        where = f"{where} (unit {_short_repr(unit)})"
         if missing:
             raise ModelFileError(
                 f"{where}: no {', '.join(repr(key) for key in missing)}; {damaged}"
@@ -512,18 +523,18 @@ def read_manifest(path: Path) -> tuple[str, list, list[dict], dict, dict]:
         if file is not None and not plain_file_name(file):
             raise ModelFileError(
                 f"{where}: 'file' must be null or the name of a file in the directory "
-                f"(no path), received {short_repr(file)}; {damaged}"
+                f"(no path), received {_short_repr(file)}; {damaged}"
             )
         if error is not None and not isinstance(error, str):
             raise ModelFileError(
-                f"{where}: 'error' must be null or a text, received {short_repr(error)}; {damaged}"
+                f"{where}: 'error' must be null or a text, received {_short_repr(error)}; {damaged}"
             )
         if file is not None and error:
             raise ModelFileError(f"{where}: has both a model file and an error; {damaged}")
         if not isinstance(summary, dict):
             raise ModelFileError(
-                f"{where}: 'summary' must be an object, received {short_repr(summary)} "
-                f"({type_name(summary)}); {damaged}"
+                f"{where}: 'summary' must be an object, received {_short_repr(summary)} "
+                f"({_type_name(summary)}); {damaged}"
             )
         positions[unit] = index
         units.append(unit)
@@ -535,7 +546,7 @@ def read_manifest(path: Path) -> tuple[str, list, list[dict], dict, dict]:
     return by, units, records, errors, files
 
 
-def is_hashable(value: Any) -> bool:
+def _is_hashable(value: Any) -> bool:
     try:
         hash(value)
     except TypeError:

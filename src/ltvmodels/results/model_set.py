@@ -35,6 +35,8 @@ from .manifest import (
 )
 from .packed import Packed
 
+__all__ = ["ModelSet", "load_many"]
+
 
 class ModelSet(Mapping):
     """Models fitted per unit, a summary row per unit and the units that failed.

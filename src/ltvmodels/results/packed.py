@@ -13,6 +13,8 @@ from __future__ import annotations
 import pickle
 from typing import Any
 
+__all__ = ["Packed"]
+
 
 class Packed:
     """One object, pickled with protocol 5: its stream and its arrays' buffers (see above)."""

@@ -19,6 +19,8 @@ import numpy as np
 from ..core.covariance import CovarianceBlocks
 from .description import DataDescription
 
+__all__ = ["STATUSES", "iterative_status", "FitStatus", "FitRecord"]
+
 STATUSES = {
     "closed_form": "solved exactly by direct linear algebra, without iterations",
     "optimal": "optimal: the optimality conditions hold to the requested tolerance "

@@ -21,6 +21,8 @@ from . import archive
 from .description import DataDescription
 from .record import FitRecord
 
+__all__ = ["RegressionModel"]
+
 ModelT = TypeVar("ModelT", bound="RegressionModel")
 
 

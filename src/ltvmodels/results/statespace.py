@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import warnings
 from numbers import Integral
 from typing import Any
 
@@ -10,7 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..core.simulation import simulate_affine
-from ..errors import DivergenceWarning
+from ..errors import DivergenceWarning, warn
 from ..validation import arrays, options
 from ..validation.arrays import LARGEST_DATA, describe
 from .base import LinearTimeVarying
@@ -24,6 +23,8 @@ from .forecast import (
 )
 from .record import FitRecord
 from .regression import RegressionModel
+
+__all__ = ["LTVModel"]
 
 
 class LTVModel(RegressionModel, LinearTimeVarying):
@@ -381,11 +382,10 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         )
         if not np.all(np.isfinite(out)):
             step = int(np.flatnonzero(~np.all(np.isfinite(out), axis=(0, 2)))[0])
-            warnings.warn(
+            warn(
                 f"the simulation diverged: the state is inf or NaN from time step {step} on "
                 "(the model is unstable along these inputs)",
                 DivergenceWarning,
-                stacklevel=2,
             )
         return out if batch else out[0]
 

@@ -5,3 +5,5 @@
 :class:`ValueError` or :class:`TypeError` with a message that names the
 argument, what was expected and what was received.
 """
+
+__all__: list[str] = []

@@ -14,6 +14,36 @@ from typing import Any
 
 import numpy as np
 
+__all__ = [
+    "LabelledSeries",
+    "describe",
+    "as_float_array",
+    "as_time_series",
+    "trajectories",
+    "LARGEST_DATA",
+    "representable",
+    "is_batch",
+    "column_names",
+    "time_index",
+    "index_values",
+    "recordings",
+    "row_weights",
+    "regressor_rows",
+    "vector",
+    "covariance",
+    "mean_sequence",
+    "initial_state_prior",
+    "lagged_series",
+    "lagged_recordings",
+    "model_series",
+    "simulation_inputs",
+    "dynamics_matrices",
+    "activation_series",
+    "changepoint_indices",
+    "positive_grid",
+    "count_grid",
+]
+
 
 @dataclass(frozen=True)
 class LabelledSeries:
@@ -155,7 +185,7 @@ def trajectories(value: Any, name: str) -> np.ndarray:
         # are fitted one after another); anything the checks below would reject
         # (inf, magnitudes out of range) goes through them for their message.
         arr = value.astype(np.float64)  # a copy: user data are never aliased
-        scale = column_scale(arr if arr.ndim == 2 else arr[:, None])
+        scale = _column_scale(arr if arr.ndim == 2 else arr[:, None])
         if all(not (v > LARGEST_DATA or 0 < v < SMALLEST_DATA) for v in scale.tolist()):
             return _time_series_shape(arr, name, True)[None]  # NaN columns: missing data
     if isinstance(value, (list, tuple)) and value and all(hasattr(item, "shape") for item in value):
@@ -207,7 +237,7 @@ LIGHTEST_WEIGHT = 1e-50
 HEAVIEST_WEIGHT = 1e50
 
 
-def column_scale(arr: np.ndarray) -> np.ndarray:
+def _column_scale(arr: np.ndarray) -> np.ndarray:
     """The largest magnitude in each column (last axis) of a non-empty array, NaN ignored
     (NaN for a column of NaN only)."""
     # numpy reduces a few long columns of a C-ordered array one short row at a time
@@ -235,7 +265,7 @@ def representable(arr: np.ndarray, name: str, *, small: bool = True) -> np.ndarr
     """
     if arr.size == 0:
         return arr
-    scale = column_scale(arr)
+    scale = _column_scale(arr)
     for bad, what in (
         (scale > LARGEST_DATA, "large"),
         ((scale > 0) & (scale < SMALLEST_DATA) & small, "small"),
@@ -293,14 +323,14 @@ def time_index(value: Any, count: int) -> np.ndarray | None:
     if isinstance(value, LabelledSeries):
         if value.time is None or len(value.time) != count:
             return None
-        return time_values(np.asarray(value.time), count)
+        return _time_values(np.asarray(value.time), count)
     index = getattr(value, "index", None)
     dims = getattr(value, "dims", None)
     if isinstance(dims, tuple) and dims and hasattr(value, "indexes"):  # an xarray DataArray
         index = value.indexes[dims[0]] if dims[0] in value.indexes else None
     if index is None or not hasattr(index, "to_numpy") or len(index) != count:
         return None
-    return time_values(index_values(index), count)
+    return _time_values(index_values(index), count)
 
 
 def index_values(index: Any) -> np.ndarray:
@@ -313,7 +343,7 @@ def index_values(index: Any) -> np.ndarray:
     return index.to_numpy()
 
 
-def time_values(values: np.ndarray, count: int) -> np.ndarray | None:
+def _time_values(values: np.ndarray, count: int) -> np.ndarray | None:
     """Time stamps as a model keeps them: datetime64[ns] for dates, float for numbers;
     None for other values and for the default 0, 1, …, count − 1."""
     if np.issubdtype(values.dtype, np.datetime64):

@@ -16,6 +16,51 @@ import numpy as np
 
 from .arrays import as_float_array, describe
 
+__all__ = [
+    "Norm",
+    "SparseNorm",
+    "SelectionNorm",
+    "SelectionMethod",
+    "Loss",
+    "PriorMode",
+    "PenaltyRule",
+    "ManyMethod",
+    "NORMS",
+    "SPARSE_NORMS",
+    "PRIOR_MODES",
+    "choice",
+    "flag",
+    "callback",
+    "is_auto",
+    "integer",
+    "optional_integer",
+    "nonnegative_scalar",
+    "positive_scalar",
+    "noise_variance",
+    "variance",
+    "optional_nonnegative",
+    "fraction",
+    "norm_name",
+    "LOSSES",
+    "loss_options",
+    "huber_delta",
+    "threshold_of",
+    "penalty_weight",
+    "sparse_weights",
+    "scalar_lam",
+    "difference_coefficients",
+    "piecewise_order",
+    "lag_orders",
+    "enough_samples",
+    "enough_rows",
+    "segment_min_size",
+    "segmentable_length",
+    "n_changes_count",
+    "segment_penalty",
+    "segment_mode",
+    "random_generator",
+]
+
 # The option strings of the public functions, as types for their signatures. The
 # checks accept exactly these values (the tuples NORMS, SPARSE_NORMS, LOSSES, … are
 # derived from them).
