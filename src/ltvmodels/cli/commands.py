@@ -8,10 +8,9 @@ dict (printed as JSON with ``--json``) and the lines of the text summary;
 from __future__ import annotations
 
 import argparse
-import contextlib
 import warnings
 import zipfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from typing import Any, Literal
@@ -27,7 +26,6 @@ from ..apps.demos import (
     run_robot_demo,
 )
 from ..apps.rl import QUICK_RUNS
-from ..errors import OutputPathError
 from ..estimators.ar import ar_regressors, fit_ar
 from ..estimators.changepoints import find_changepoints
 from ..estimators.fit import fit
@@ -44,38 +42,23 @@ from ..plotting import (
     plot_simulation,
     plot_spectrogram,
 )
-from ..plotting.figure import image_file, output_file, save_figure
 from ..progress import Progress
 from ..results.arx import ARModel, ARXModel
 from ..results.loading import load
 from ..results.statespace import LTVModel
 from ..validation.arrays import representable
-from .data import read_columns, write_csv
+from .data import read_columns
 from .many import cmd_fit_many
 from .messages import CommandError, DataError, one_line, user_errors
+from .outputs import (
+    Report,
+    Table,
+    check_outputs,
+    figure_errors,
+    record_columns,
+    write_outputs,
+)
 from .report import fmt, info_subset, per_name, rms, rms_columns
-
-Report = tuple[dict[str, Any], list[str]]
-
-
-def _outputs(
-    args: argparse.Namespace,
-    *,
-    image: str = "plot",
-    file: str | None = "out",
-    model_file: bool = False,
-) -> tuple[Path | None, tuple[Path, str] | None]:
-    """Check ``--out`` (any file, or a model file: .npz) and ``--plot`` (an image) before
-    any work."""
-    out = getattr(args, file, None) if file else None
-    plot = getattr(args, image, None)
-    path = output_file(out, file) if file and out is not None else None
-    if model_file and path is not None and path.suffix.lower() != ".npz":
-        raise OutputPathError(
-            f"{file}: a model file is an .npz archive (read it with ltvmodels.load); expected "
-            f"a name ending in .npz, received {str(path)!r}"
-        )
-    return path, image_file(plot, image) if plot is not None else None
 
 
 def _state_space_data(
@@ -104,44 +87,6 @@ def _state_space_data(
             )
         args.transition_weights = column
     return label, x, u, state_names, input_names
-
-
-def _record_columns(
-    model: Any, state_names: list[str], input_names: list[str], time: np.ndarray | None
-) -> None:
-    """The data's columns in the model: to read them again (simulate, predict, forecast),
-    as its signal names (plots, to_frame) and, with --time, as its time index."""
-    model.info["data_columns"] = {"state": state_names, "input": input_names}
-    model.info["signal_names"] = {
-        "state": state_names,
-        **({"input": input_names} if input_names else {}),
-    }
-    if time is not None:
-        model.info["time"] = time
-
-
-def _check_coef_out(args: argparse.Namespace) -> None:
-    """``--coef-out`` is writable (checked before any work)."""
-    if getattr(args, "coef_out", None) is not None:
-        output_file(args.coef_out, "coef-out")
-
-
-def _write_coefficients(
-    model: Any, args: argparse.Namespace, report: dict, lines: list[str]
-) -> None:
-    """``--coef-out``: the coefficients (and standard deviations) as CSV."""
-    path = getattr(args, "coef_out", None)
-    if path is None:
-        return
-    frame = model.to_frame(std=model.std() is not None)
-    try:
-        frame.to_csv(path)
-    except OSError as exc:
-        raise OutputPathError(
-            f"coef-out: cannot write {str(path)!r}: {exc.strerror or exc}"
-        ) from exc
-    report.setdefault("files", {})["coefficients"] = str(path)
-    lines.append(f"wrote {path}")
 
 
 def _detected_changepoints(model: Any) -> tuple[np.ndarray, str]:
@@ -373,43 +318,9 @@ def _time_text(values: np.ndarray) -> list[str]:
     return [str(text) for text in np.datetime_as_string(values, unit=unit)]
 
 
-def _save_model(model: Any, path: Path | None, report: dict, lines: list[str]) -> None:
-    if path is None:
-        return
-    try:
-        model.save(path)
-    except OSError as exc:
-        raise OutputPathError(f"out: cannot write {str(path)!r}: {exc.strerror or exc}") from exc
-    report.setdefault("files", {})["model"] = str(path)
-    lines.append(f"wrote {path}")
-
-
-@contextlib.contextmanager
-def _figure_errors(limit: str | None = None) -> Iterator[None]:
-    """Turn a failure to draw the ``--plot`` figure into a one-line error.
-
-    ``limit``: what the figure is known not to support, when it applies (the
-    likely cause), e.g. "a model with a constant term c_t".
-    """
-    try:
-        yield
-    except (ValueError, TypeError) as exc:
-        hint = f" (the figures do not support {limit} yet); leave out --plot" if limit else ""
-        raise CommandError(f"--plot: cannot draw the figure: {one_line(exc)}{hint}") from None
-
-
-def _save_plot(fig: Any, target: tuple[Path, str] | None, report: dict, lines: list[str]) -> None:
-    if target is None or fig is None:
-        return
-    save_figure(fig, target[0], target[1], option="plot")
-    report.setdefault("files", {})["plot"] = str(target[0])
-    lines.append(f"wrote {target[0]}")
-
-
 def _cmd_fit(args: argparse.Namespace) -> Report:
 
-    out, plot = _outputs(args, model_file=True)
-    _check_coef_out(args)
+    outputs = check_outputs(args, "model")
     label, x, u, state_names, input_names = _state_space_data(args)
     what = "choosing lambda and fitting" if args.lam == "auto" else "fitting"
     with Progress(f"ltvmodels fit: {what}") as bar, user_errors():
@@ -433,7 +344,7 @@ def _cmd_fit(args: argparse.Namespace) -> Report:
             weights=args.transition_weights,
             progress=progress,
         )
-    _record_columns(model, state_names, input_names, args.time_values)
+    record_columns(model, {"state": state_names, "input": input_names}, args.time_values)
     report, lines, changepoints = _state_space_report(
         "fit", label, model, x, u, state_names, input_names
     )
@@ -464,23 +375,19 @@ def _cmd_fit(args: argparse.Namespace) -> Report:
             f"{model.info['duality_gap']:.1e}",
         )
     fig = None
-    if plot is not None:  # drawn before anything is written: it may fail
-        with _figure_errors("a model with a constant term c_t" if model.constant else None):
+    if outputs.plot is not None:  # drawn before anything is written: it may fail
+        with figure_errors("a model with a constant term c_t" if model.constant else None):
             fig = plot_model(model, changepoints=changepoints)
         fig.suptitle(
             f"{label}: norm={args.norm!r}, order={args.order}, "
             f"λ = {float(facts['lam']):.4g}" + (", refined" if args.refine else "")
         )
-    _save_model(model, out, report, lines)
-    _write_coefficients(model, args, report, lines)
-    _save_plot(fig, plot, report, lines)
-    return report, lines
+    return write_outputs(outputs, report, lines, model=model, figure=fig)
 
 
 def _cmd_segments(args: argparse.Namespace) -> Report:
 
-    out, plot = _outputs(args, model_file=True)
-    _check_coef_out(args)
+    outputs = check_outputs(args, "model")
     label, x, u, state_names, input_names = _state_space_data(args)
     how = (
         f"exactly optimal with at most {args.n_changes} changes (dynamic programming)"
@@ -497,7 +404,7 @@ def _cmd_segments(args: argparse.Namespace) -> Report:
             constant=args.constant,
             weights=args.transition_weights,
         )
-    _record_columns(model, state_names, input_names, args.time_values)
+    record_columns(model, {"state": state_names, "input": input_names}, args.time_values)
     report, lines, changepoints = _state_space_report(
         "segments", label, model, x, u, state_names, input_names
     )
@@ -523,23 +430,19 @@ def _cmd_segments(args: argparse.Namespace) -> Report:
         )
     )
     fig = None
-    if plot is not None:  # drawn before anything is written: it may fail
-        with _figure_errors("a model with a constant term c_t" if model.constant else None):
+    if outputs.plot is not None:  # drawn before anything is written: it may fail
+        with figure_errors("a model with a constant term c_t" if model.constant else None):
             fig = plot_model(model, changepoints=changepoints)
         fig.suptitle(
             f"{label}: piecewise-constant model, {info['n_changes']} changes at "
             f"{[int(c) for c in changepoints]}"
         )
-    _save_model(model, out, report, lines)
-    _write_coefficients(model, args, report, lines)
-    _save_plot(fig, plot, report, lines)
-    return report, lines
+    return write_outputs(outputs, report, lines, model=model, figure=fig)
 
 
 def _cmd_ar(args: argparse.Namespace) -> Report:
 
-    out, plot = _outputs(args, model_file=True)
-    _check_coef_out(args)
+    outputs = check_outputs(args, "model")
     T, label, cols = read_columns(args.data, column=args.column, weights=args.weights)
     names, y = cols["column"]
     weights = None
@@ -567,8 +470,7 @@ def _cmd_ar(args: argparse.Namespace) -> Report:
             progress=progress,
         )
         freq = model.root_spectrogram(args.fs)
-    model.info["data_columns"] = {"output": names}
-    model.info["signal_names"] = {"output": names}
+    record_columns(model, {"output": names})
     prediction, ok = _predict(model, y, None)
     err = prediction - y[model.lag :]
     valid = ok[:, None] & np.isfinite(y[model.lag :])
@@ -633,9 +535,9 @@ def _cmd_ar(args: argparse.Namespace) -> Report:
         + (", ".join(fmt(float(f)) for f in tracks) if tracks.size else "(no complex poles)"),
     ]
     fig = None
-    if plot is not None:  # drawn before anything is written: it may fail
+    if outputs.plot is not None:  # drawn before anything is written: it may fail
         stft = y.shape[1] == 1 and T >= 8
-        with _figure_errors():
+        with figure_errors():
             ax = None
             if stft and not any_missing:  # no short-time Fourier spectrum of missing samples
                 ax = plot_spectrogram(y[:, 0], args.fs)
@@ -648,15 +550,12 @@ def _cmd_ar(args: argparse.Namespace) -> Report:
         if ax.get_legend_handles_labels()[1]:  # nothing labelled without complex poles
             ax.legend(loc="upper right", fontsize="small", markerscale=6)
         fig = ax.figure
-    _save_model(model, out, report, lines)
-    _write_coefficients(model, args, report, lines)
-    _save_plot(fig, plot, report, lines)
-    return report, lines
+    return write_outputs(outputs, report, lines, model=model, figure=fig)
 
 
 def _cmd_select_lambda(args: argparse.Namespace) -> Report:
 
-    _, plot = _outputs(args, file=None)
+    outputs = check_outputs(args, None)
     if args.column is not None:
         if args.state is not None or args.input is not None:
             raise CommandError("--column: an AR model takes no --state or --input")
@@ -796,9 +695,8 @@ def _cmd_select_lambda(args: argparse.Namespace) -> Report:
             "(-: not scored: a singular candidate, or for the L-curve one where it "
             "does not bend or the penalty is 0)"
         )
-    if plot is not None:
-        _save_plot(plot_lambda_selection(selection).figure, plot, report, lines)
-    return report, lines
+    fig = None if outputs.plot is None else plot_lambda_selection(selection).figure
+    return write_outputs(outputs, report, lines, figure=fig)
 
 
 def _load_model(path: str) -> Any:
@@ -934,7 +832,7 @@ def _check_simulation_data(data: dict[str, Any], model: Any) -> None:
 
 def _cmd_simulate_or_predict(args: argparse.Namespace) -> Report:
 
-    out, plot = _outputs(args)
+    outputs = check_outputs(args, "table")
     model = _load_model(args.model)
     data = _model_data(args, model)
     kind, y, u, lag = data["kind"], data["y"], data["u"], data["lag"]
@@ -1004,7 +902,7 @@ def _cmd_simulate_or_predict(args: argparse.Namespace) -> Report:
         + ("; the simulation diverges (non-finite values)" if diverged else ""),
     ]
     fig = None
-    if plot is not None:  # drawn before anything is written: it may fail
+    if outputs.plot is not None:  # drawn before anything is written: it may fail
         limit = (
             "missing values"
             if np.isnan(y).any() or report["n_not_computed"]
@@ -1012,21 +910,19 @@ def _cmd_simulate_or_predict(args: argparse.Namespace) -> Report:
             if diverged
             else None
         )
-        with _figure_errors(limit):
+        with figure_errors(limit):
             fig = plot_simulation(y, result, start=start, names=data["names"], label=noun)
         fig.suptitle(f"{args.model} on {data['label']}: {noun}")
-    if out is not None:
-        table = np.column_stack([np.arange(start, start + result.shape[0]), result])
-        write_csv(out, ["t", *data["names"]], table, "out")
-        report.setdefault("files", {})["out"] = str(out)
-        lines.append(f"wrote {out}")
-    _save_plot(fig, plot, report, lines)
-    return report, lines
+    table = Table(
+        ["t", *data["names"]],
+        np.column_stack([np.arange(start, start + result.shape[0]), result]),
+    )
+    return write_outputs(outputs, report, lines, table=table, figure=fig)
 
 
 def _cmd_forecast(args: argparse.Namespace) -> Report:
     """Forecast a saved model after the end of the data it was fitted on."""
-    out, plot = _outputs(args)
+    outputs = check_outputs(args, "table")
     model = _load_model(args.model)
     data = _model_data(args, model)
     kind, y, u, lag, H = data["kind"], data["y"], data["u"], data["lag"], args.steps
@@ -1085,25 +981,21 @@ def _cmd_forecast(args: argparse.Namespace) -> Report:
         )
         lines.append(f"  t = {times[j]}: {cells}")
     fig = None
-    if plot is not None:
-        with _figure_errors(None):
+    if outputs.plot is not None:
+        with figure_errors(None):
             history = y[-min(len(y), max(4 * H, 50)) :]
             fig = forecast.plot(history=history)
             fig.suptitle(f"{args.model} after {data['label']}: forecast, {percent} intervals")
-    if out is not None:
-        columns = [f"{name}{suffix}" for name in names for suffix in ("", "_lower", "_upper")]
-        table = np.column_stack(
-            [
-                part[:, i]
-                for i in range(len(names))
-                for part in (forecast.mean, forecast.lower, forecast.upper)
-            ]
-        )
-        write_csv(out, ["t", *columns], table, "out", index=times)
-        report.setdefault("files", {})["out"] = str(out)
-        lines.append(f"wrote {out}")
-    _save_plot(fig, plot, report, lines)
-    return report, lines
+    columns = [f"{name}{suffix}" for name in names for suffix in ("", "_lower", "_upper")]
+    values = np.column_stack(
+        [
+            part[:, i]
+            for i in range(len(names))
+            for part in (forecast.mean, forecast.lower, forecast.upper)
+        ]
+    )
+    table = Table(["t", *columns], values, row_labels=times)
+    return write_outputs(outputs, report, lines, table=table, figure=fig)
 
 
 def _future_inputs(
