@@ -34,9 +34,12 @@ errors. Without ``--input`` the system is autonomous. A model written by
 ``fit``, ``segments`` or ``ar`` records its data columns, so ``simulate`` and
 ``predict`` find them in new data without ``--state``/``--input``.
 
-Modules: :mod:`.parser` (the options), :mod:`.data` (data files),
-:mod:`.commands` (the subcommands), :mod:`.messages` (one-line user errors),
-:mod:`.report` (report values and JSON), :mod:`.many` (``fit-many``); the demos are
+Modules: :mod:`.parser` (the options), :mod:`.commands` (one module per
+subcommand), :mod:`.data` (data files), :mod:`.recordings` (the columns a
+fit reads), :mod:`.saved` (a saved model and its data), :mod:`.analysis`
+(what the reports compute), :mod:`.report` (report values and JSON),
+:mod:`.outputs` (the output files, written by one shared tail),
+:mod:`.messages` (one-line user errors, progress); the demos are
 :mod:`ltvmodels.apps.demos`.
 
 User errors (unknown options or columns, bad values, a missing or unreadable

@@ -3,7 +3,8 @@
 A command checks its output paths first (:func:`check_outputs`: ``--out``,
 ``--plot``, ``--coef-out``), so that a path that cannot be written fails
 before any work is done. It draws its figure before anything is written,
-since drawing may fail (:func:`figure_errors` makes that failure one line).
+since drawing may fail (:func:`figure_errors` makes that failure one line;
+:func:`model_figure` draws a state-space model).
 Then :func:`write_outputs` writes, always in this order, the model or the
 table (``--out``), the coefficients (``--coef-out``) and the figure
 (``--plot``), each named in the report's ``files`` and in a ``wrote PATH``
@@ -35,6 +36,7 @@ __all__ = [
     "Report",
     "check_outputs",
     "figure_errors",
+    "model_figure",
     "record_columns",
     "write_outputs",
 ]
@@ -123,6 +125,36 @@ def figure_errors(limit: str | None = None) -> Iterator[None]:
     except (ValueError, TypeError) as exc:
         hint = f" (the figures do not support {limit} yet); leave out --plot" if limit else ""
         raise CommandError(f"--plot: cannot draw the figure: {one_line(exc)}{hint}") from None
+
+
+def model_figure(outputs: Outputs, model: Any, changepoints: np.ndarray, title: str) -> Any:
+    """The ``--plot`` figure of a fitted state-space model (``fit``, ``segments``).
+
+    Parameters
+    ----------
+    outputs : Outputs
+        The checked paths; without ``--plot`` nothing is drawn.
+    model : LTVModel
+        The fitted model.
+    changepoints : ndarray
+        The change points to mark.
+    title : str
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure or None
+        Coefficients, activation with the change points, eigenvalues; None
+        without ``--plot``.
+    """
+    if outputs.plot is None:
+        return None
+    from ..plotting import plot_model
+
+    with figure_errors("a model with a constant term c_t" if model.constant else None):
+        fig = plot_model(model, changepoints=changepoints)
+    fig.suptitle(title)
+    return fig
 
 
 def record_columns(

@@ -6,8 +6,8 @@ each unit's rows are sorted by (dates or numbers). The summary (one row per
 unit: see :attr:`ltvmodels.ModelSet.summary`) goes to ``--out`` (CSV, or
 Parquet by its suffix); ``--models-dir`` keeps every model file and the
 manifest that :func:`ltvmodels.load_many` reads. The options of the
-estimator go to the ``--method`` that takes them (:data:`METHOD_OPTIONS`):
-one given with another method is an error, as are outputs that cannot be
+estimator go to the ``--method`` that takes them (``_METHOD_OPTIONS``): one
+given with another method is an error, as are outputs that cannot be
 written, all before any unit is fitted.
 """
 
@@ -20,18 +20,18 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ..estimators.many import fit_many
-from ..plotting.figure import output_file
-from ..results.manifest import output_directory
-from .data import PARQUET_SUFFIXES
-from .messages import CommandError, DataError, user_errors
+from ..data import PARQUET_SUFFIXES
+from ..messages import CommandError, DataError, user_errors
+from ..outputs import Report
+
+__all__ = ["run"]
 
 # How many failed units the text summary lists (--json lists them all).
-LISTED_ERRORS = 5
+_LISTED_ERRORS = 5
 
 # The estimator options of fit-many: their option, and the methods whose estimator takes
 # them (the parser leaves them None when not given).
-METHOD_OPTIONS = {
+_METHOD_OPTIONS = {
     "lam": ("--lam", ("fit",)),
     "norm": ("--norm", ("fit",)),
     "order": ("--order", ("fit",)),
@@ -41,7 +41,7 @@ METHOD_OPTIONS = {
 }
 
 
-def read_table(path: str) -> Any:
+def _read_table(path: str) -> Any:
     """The data file as a pandas DataFrame (CSV, '-' for standard input, or Parquet)."""
     try:
         import pandas as pd
@@ -71,11 +71,12 @@ def read_table(path: str) -> Any:
         raise DataError(f"{path}: cannot read it as a table ({exc})") from None
 
 
-def columns(text: str | None) -> list[str]:
+def _columns(text: str | None) -> list[str]:
+    """The names of a comma-separated ``--state``/``--input`` (none: empty)."""
     return [] if text is None else [name.strip() for name in text.split(",") if name.strip()]
 
 
-def parse_time_column(frame: Any, name: str | None) -> None:
+def _parse_time_column(frame: Any, name: str | None) -> None:
     """Convert a text time column to dates in place (numbers and dates stay as they are)."""
     if name is None or name not in frame.columns or frame[name].dtype.kind in "biufM":
         return
@@ -90,7 +91,7 @@ def parse_time_column(frame: Any, name: str | None) -> None:
         ) from None
 
 
-def connect(address: str | None) -> Any:
+def _connect(address: str | None) -> Any:
     """A dask.distributed Client of the scheduler at ``address`` (None: no cluster)."""
     if address is None:
         return None
@@ -109,7 +110,7 @@ def connect(address: str | None) -> Any:
         ) from None
 
 
-def estimator_options(args: argparse.Namespace) -> dict[str, Any]:
+def _estimator_options(args: argparse.Namespace) -> dict[str, Any]:
     """The options of ``--method``'s estimator; an option it does not take is an error.
 
     Parameters
@@ -130,7 +131,7 @@ def estimator_options(args: argparse.Namespace) -> dict[str, Any]:
         with ``--method segments``); the message names both.
     """
     options: dict[str, Any] = {"constant": args.constant}
-    for name, (flag, methods) in METHOD_OPTIONS.items():
+    for name, (flag, methods) in _METHOD_OPTIONS.items():
         value = getattr(args, name)
         if value is None:
             continue
@@ -147,7 +148,7 @@ def estimator_options(args: argparse.Namespace) -> dict[str, Any]:
     return options
 
 
-def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
+def run(args: argparse.Namespace) -> Report:
     """Run ``fit-many``: returns the report and the text summary.
 
     Parameters
@@ -169,22 +170,26 @@ def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
         data and the outputs (``--out``, ``--models-dir``) are checked before
         any unit is fitted.
     """
-    options = estimator_options(args)
-    frame = read_table(args.data)
-    parse_time_column(frame, args.time)
+    from ...estimators.many import fit_many
+    from ...plotting.figure import output_file
+    from ...results.manifest import output_directory
+
+    options = _estimator_options(args)
+    frame = _read_table(args.data)
+    _parse_time_column(frame, args.time)
     if args.out is not None:
         output_file(args.out, "out")
     if args.models_dir is not None:
         output_directory(args.models_dir, "models-dir")
-    client = connect(args.scheduler)
+    client = _connect(args.scheduler)
     start = time.perf_counter()
     try:
         with user_errors():
             models = fit_many(
                 frame,
                 by=args.by,
-                state=columns(args.state),
-                inputs=columns(args.input) or None,
+                state=_columns(args.state),
+                inputs=_columns(args.input) or None,
                 time=args.time,
                 engine=client,
                 n_jobs=args.jobs,
@@ -212,11 +217,11 @@ def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
         f"{n_units - n_failed} fitted, {n_failed} failed, in {seconds:.1f} s "
         f"({n_units / max(seconds, 1e-9):.3g} units/s) on {where}"
     ]
-    for unit, message in list(models.errors.items())[:LISTED_ERRORS]:
+    for unit, message in list(models.errors.items())[:_LISTED_ERRORS]:
         lines.append(f"  unit {unit!r}: {message}")
-    if n_failed > LISTED_ERRORS:
+    if n_failed > _LISTED_ERRORS:
         lines.append(
-            f"  ... and {n_failed - LISTED_ERRORS} more (see the summary's 'error' column)"
+            f"  ... and {n_failed - _LISTED_ERRORS} more (see the summary's 'error' column)"
         )
     warned = int(summary["warnings"].notna().sum()) if "warnings" in summary else 0
     if warned:
@@ -230,7 +235,7 @@ def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
         "errors": {str(unit): text for unit, text in models.errors.items()},
     }
     if args.out is not None:
-        write_summary(summary, Path(args.out))
+        _write_summary(summary, Path(args.out))
         report["summary"] = str(args.out)
         lines.append(f"summary: {args.out} (one row per unit)")
     if args.models_dir is not None:
@@ -239,7 +244,7 @@ def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
     return report, lines
 
 
-def write_summary(summary: Any, path: Path) -> None:
+def _write_summary(summary: Any, path: Path) -> None:
     """The summary as CSV, or Parquet for a .parquet/.pq path."""
     try:
         if path.suffix.lower() in PARQUET_SUFFIXES:
