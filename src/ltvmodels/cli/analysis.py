@@ -9,12 +9,11 @@ does not load the solvers.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .messages import user_errors
-from .recordings import StateSpaceData
 from .report import (
     fmt,
     info_subset,
@@ -25,6 +24,9 @@ from .report import (
     rms_columns,
     time_text,
 )
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .recordings import StateSpaceData
 
 __all__ = [
     "missing_values",

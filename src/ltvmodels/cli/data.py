@@ -25,12 +25,12 @@ import numpy as np
 from ..errors import OutputPathError
 from .messages import DataError, one_line
 
-__all__ = ["PARQUET_SUFFIXES", "MISSING_HELP", "read_columns", "write_csv"]
+__all__ = ["PARQUET_SUFFIXES", "read_columns", "write_csv"]
 
 PARQUET_SUFFIXES = (".parquet", ".pq")
 _MISSING_TOKENS = ("", "na", "n/a", "nan", "null")
 """CSV fields (compared in lower case, after stripping) that mark a missing value."""
-MISSING_HELP = "an empty cell, NA, N/A, NaN or null"
+_MISSING_HELP = "an empty cell, NA, N/A, NaN or null"
 
 
 @dataclass
@@ -187,13 +187,13 @@ def _parse_csv(text: str, label: str) -> _Source:
                     raise DataError(
                         f"{label}, line {line_numbers[r]}, column {names[i]!r}: "
                         f"{field!r} is not a number; expected a number, or "
-                        f"{MISSING_HELP} for a missing value"
+                        f"{_MISSING_HELP} for a missing value"
                     ) from None
                 if math.isinf(value):
                     raise DataError(
                         f"{label}, line {line_numbers[r]}, column {names[i]!r}: "
                         f"{field!r} is not finite; expected a finite number, or "
-                        f"{MISSING_HELP} for a missing value"
+                        f"{_MISSING_HELP} for a missing value"
                     )
                 out[r, j] = value  # float() also reads 'nan', '-nan': missing
         return out

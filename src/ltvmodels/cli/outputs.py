@@ -29,20 +29,17 @@ import numpy as np
 from ..errors import OutputPathError
 from .data import write_csv
 from .messages import CommandError, one_line
+from .report import Report
 
 __all__ = [
     "Outputs",
     "Table",
-    "Report",
     "check_outputs",
     "figure_errors",
     "model_figure",
     "record_columns",
     "write_outputs",
 ]
-
-Report = tuple[dict[str, Any], list[str]]
-"""What a command returns: the report (printed as JSON with ``--json``) and the text lines."""
 
 
 @dataclass(frozen=True)

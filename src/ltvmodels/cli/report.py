@@ -8,6 +8,7 @@ from typing import Any, Literal
 import numpy as np
 
 __all__ = [
+    "Report",
     "rms",
     "rms_columns",
     "jsonable",
@@ -18,6 +19,9 @@ __all__ = [
     "missing_text",
     "noise_text",
 ]
+
+Report = tuple[dict[str, Any], list[str]]
+"""What a command returns: the report (printed as JSON with ``--json``) and the text lines."""
 
 
 def rms(a: np.ndarray, valid: np.ndarray | None = None) -> float:

@@ -8,13 +8,43 @@ from typing import Any
 
 import numpy as np
 
-from ..analysis import lam_facts, lam_how, missing_values, predict
+from .. import arguments as opt
 from ..messages import running
-from ..outputs import Report, check_outputs, figure_errors, record_columns, write_outputs
-from ..recordings import column_data
-from ..report import fmt, info_subset, missing_text, noise_text, rms, rms_columns
+from ..report import Report, fmt, info_subset, missing_text, noise_text, rms, rms_columns
+from ..subcommand import Subcommand
 
-__all__ = ["run"]
+__all__ = ["COMMAND", "add_arguments", "run"]
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``ar``."""
+    opt.add_data(p)
+    opt.add_column(
+        p,
+        "the signal's column (name or 0-based index; several for a vector AR model)",
+        required=True,
+    )
+    opt.add_na(p, "AR order", required=True)
+    p.add_argument(
+        "--fs",
+        type=opt.positive_float,
+        default=1.0,
+        metavar="HZ",
+        help="sampling frequency (default: 1, frequencies in cycles per sample)",
+    )
+    opt.add_norm(p, "penalty on the coefficient changes (default: sq)")
+    opt.add_order(p)
+    opt.add_lam(p, "regularization lambda or auto (default: auto)")
+    opt.add_noise_var(p, "noise variance, one or one per column (default: estimated)")
+    opt.add_weights(p)
+    opt.add_constant(p, "a time-varying offset c_t")
+    opt.add_sparse_options(p)
+    opt.add_coef_out(p)
+    opt.add_outputs(
+        p,
+        out="model file to write (.npz)",
+        plot="figure: root spectrogram over the short-time Fourier spectrogram",
+    )
 
 
 def run(args: argparse.Namespace) -> Report:
@@ -33,6 +63,9 @@ def run(args: argparse.Namespace) -> Report:
         The text summary.
     """
     from ...estimators.ar import fit_ar
+    from ..analysis import lam_facts, lam_how, missing_values, predict
+    from ..outputs import check_outputs, figure_errors, record_columns, write_outputs
+    from ..recordings import column_data
 
     outputs = check_outputs(args, "model")
     data = column_data(args)
@@ -133,3 +166,11 @@ def run(args: argparse.Namespace) -> Report:
             ax.legend(loc="upper right", fontsize="small", markerscale=6)
         fig = ax.figure
     return write_outputs(outputs, report, lines, model=model, figure=fig)
+
+
+COMMAND = Subcommand(
+    description="Fit a time-varying AR(na) model y[t] = sum_i a_{t,i} y[t-i] + e[t] to "
+    "a column and report its root spectrogram (pole frequencies over time).",
+    add_arguments=add_arguments,
+    run=run,
+)

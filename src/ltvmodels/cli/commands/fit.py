@@ -4,13 +4,58 @@ from __future__ import annotations
 
 import argparse
 
-from ..analysis import lam_facts, lam_how, state_space_report
+from .. import arguments as opt
 from ..messages import running
-from ..outputs import Report, check_outputs, model_figure, record_columns, write_outputs
-from ..recordings import state_space_data
-from ..report import fmt, per_name
+from ..report import Report, fmt, per_name
+from ..subcommand import Subcommand
 
-__all__ = ["run"]
+__all__ = ["COMMAND", "add_arguments", "run"]
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``fit``."""
+    opt.add_data(p)
+    opt.add_state_options(p)
+    opt.add_norm(
+        p,
+        "sq: slowly varying or smooth (default); group: piecewise constant "
+        "(order 1) or linear (order 2); l1: sparse changes per coefficient",
+    )
+    opt.add_order(p)
+    opt.add_lam(
+        p,
+        "regularization lambda, or auto: chosen by the norm's default "
+        "criterion (marginal likelihood for sq, L-curve for group/l1; default)",
+    )
+    opt.add_refine(p, "two-step refinement: refit piecewise between the detected change points")
+    opt.add_loss(
+        p,
+        "loss of the residuals: squared (default), huber (robust to "
+        "outliers) or laplace (absolute values, the most robust); with a robust "
+        "loss, --lam auto is cross-validation scored with that loss",
+    )
+    opt.add_huber_delta(
+        p,
+        "Huber threshold in the units of the states (default: 1.345 x the "
+        "robust scale of the squared-loss residuals)",
+    )
+    opt.add_noise_var(
+        p,
+        "noise variance of the state equations, one or one per state "
+        "(default: estimated); with --norm sq it scales a prior-free fit's "
+        "likelihood and covariances",
+    )
+    opt.add_weights(p)
+    opt.add_time(p)
+    opt.add_constant(p, "a time-varying constant term c_t in x[t+1] = A_t x[t] + B_t u[t] + c_t")
+    opt.add_sparse_options(p)
+    opt.add_coef_out(p)
+    opt.add_outputs(
+        p,
+        out="model file to write (.npz; read it with ltvmodels.load or 'ltvmodels simulate')",
+        plot="figure: coefficients with ±2σ bands, activation with change points, "
+        "eigenvalue magnitudes",
+    )
 
 
 def run(args: argparse.Namespace) -> Report:
@@ -29,6 +74,9 @@ def run(args: argparse.Namespace) -> Report:
         The text summary.
     """
     from ...estimators.fit import fit
+    from ..analysis import lam_facts, lam_how, state_space_report
+    from ..outputs import check_outputs, model_figure, record_columns, write_outputs
+    from ..recordings import state_space_data
 
     outputs = check_outputs(args, "model")
     data = state_space_data(args)
@@ -81,3 +129,13 @@ def run(args: argparse.Namespace) -> Report:
     )
     fig = model_figure(outputs, model, changepoints, title)
     return write_outputs(outputs, report, lines, model=model, figure=fig)
+
+
+COMMAND = Subcommand(
+    description="Identify x[t+1] = A_t x[t] + B_t u[t] (+ c_t) + v_t from a data file: "
+    "print the lambda used, one-step prediction and open-loop simulation RMS, change "
+    "points and solver status; optionally save the model and a figure. Missing values "
+    "in the data leave out the transitions they touch.",
+    add_arguments=add_arguments,
+    run=run,
+)

@@ -17,14 +17,14 @@ import argparse
 import io
 import sys
 import time
-from pathlib import Path
 from typing import Any
 
-from ..data import PARQUET_SUFFIXES
+from .. import arguments as opt
 from ..messages import CommandError, DataError, user_errors
-from ..outputs import Report
+from ..report import Report
+from ..subcommand import Subcommand
 
-__all__ = ["run"]
+__all__ = ["COMMAND", "add_arguments", "run"]
 
 # How many failed units the text summary lists (--json lists them all).
 _LISTED_ERRORS = 5
@@ -41,8 +41,77 @@ _METHOD_OPTIONS = {
 }
 
 
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``fit-many``."""
+    opt.add_data(p, "CSV file ('-' for standard input) or Parquet (.parquet, .pq)")
+    p.add_argument("--by", required=True, metavar="COL", help="the unit column")
+    opt.add_state(p, help="state columns x (comma-separated names)")
+    opt.add_input(p, "input columns u (comma-separated names); none for an autonomous system")
+    opt.add_time(
+        p, "column to sort each unit's rows by: numbers or dates (default: the rows' order)"
+    )
+    p.add_argument(
+        "--method",
+        choices=["fit", "segments", "lti"],
+        default="fit",
+        help="fit (default), segments (exact change points, BIC penalty unless "
+        "--n-changes) or lti (least squares)",
+    )
+    # The estimator options default to None, so that one given to a method that does not
+    # take it is an error (_estimator_options); --method fit's defaults are the library's.
+    opt.add_norm(p, "penalty of --method fit (default: sq)", default=None)
+    opt.add_order(
+        p, "--method fit: order of the time difference penalized (default: 1)", default=None
+    )
+    opt.add_lam(
+        p, "--method fit: regularization lambda, or auto: chosen per unit (default)", default=None
+    )
+    opt.add_refine(p, "--method fit: two-step refinement", default=None)
+    opt.add_loss(p, "--method fit or lti: loss of the residuals (default: squared)", default=None)
+    opt.add_n_changes(p, "--method segments: at most M changes per unit")
+    opt.add_weights(p, "column of weights >= 0 (row t weighs the transition to t + 1)")
+    opt.add_constant(p, "a constant term c_t")
+    opt.add_out(p, "summary file to write (.csv, or .parquet/.pq)")
+    p.add_argument(
+        "--models-dir",
+        metavar="DIR",
+        default=None,
+        help="directory for every unit's model file and the manifest "
+        "(read it with ltvmodels.load_many)",
+    )
+    p.add_argument(
+        "--jobs",
+        type=opt.positive_int,
+        default=None,
+        metavar="N",
+        help="local worker processes (default: all cores for a job large enough to gain "
+        "from them; 1: this process)",
+    )
+    p.add_argument(
+        "--stall-timeout",
+        type=opt.positive_float,
+        default=None,
+        metavar="SECONDS",
+        help="give up on the units without a result when no task has finished for this long "
+        "(default: 600 s until a task has finished, then 60 s or 20 times the longest task; "
+        "600 s on a Dask cluster)",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        default=None,
+        help="address of a Dask scheduler (e.g. tcp://host:8786) to fit on "
+        "its workers instead (needs 'ltvmodels[dask]')",
+    )
+    opt.add_json(p)
+
+
 def _read_table(path: str) -> Any:
     """The data file as a pandas DataFrame (CSV, '-' for standard input, or Parquet)."""
+    from pathlib import Path
+
+    from ..data import PARQUET_SUFFIXES
+
     try:
         import pandas as pd
     except ImportError:
@@ -235,7 +304,7 @@ def run(args: argparse.Namespace) -> Report:
         "errors": {str(unit): text for unit, text in models.errors.items()},
     }
     if args.out is not None:
-        _write_summary(summary, Path(args.out))
+        _write_summary(summary, args.out)
         report["summary"] = str(args.out)
         lines.append(f"summary: {args.out} (one row per unit)")
     if args.models_dir is not None:
@@ -244,8 +313,13 @@ def run(args: argparse.Namespace) -> Report:
     return report, lines
 
 
-def _write_summary(summary: Any, path: Path) -> None:
+def _write_summary(summary: Any, out: str) -> None:
     """The summary as CSV, or Parquet for a .parquet/.pq path."""
+    from pathlib import Path
+
+    from ..data import PARQUET_SUFFIXES
+
+    path = Path(out)
     try:
         if path.suffix.lower() in PARQUET_SUFFIXES:
             summary.to_parquet(path)
@@ -253,3 +327,13 @@ def _write_summary(summary: Any, path: Path) -> None:
             summary.to_csv(path)
     except (OSError, ImportError, ValueError) as exc:
         raise CommandError(f"--out: cannot write {path} ({exc})") from None
+
+
+COMMAND = Subcommand(
+    description="Fit one LTV model per unit of a long table (one row per unit and time "
+    "step) on all local cores or a Dask cluster, and write one summary row per unit: "
+    "lambda, noise variances, log-likelihood, one-step RMS, change points, status, "
+    "seconds, or the error of a unit that failed (one bad unit never stops the others).",
+    add_arguments=add_arguments,
+    run=run,
+)

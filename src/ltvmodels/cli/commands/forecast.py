@@ -4,17 +4,68 @@ from __future__ import annotations
 
 import argparse
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..data import read_columns
+from .. import arguments as opt
 from ..messages import DataError, user_errors
-from ..outputs import Report, Table, check_outputs, figure_errors, write_outputs
-from ..report import fmt, time_text
-from ..saved import ModelData, load_model, model_data
+from ..report import Report, fmt, time_text
+from ..subcommand import Subcommand
 
-__all__ = ["run"]
+if TYPE_CHECKING:  # pragma: no cover
+    from ..saved import ModelData
+
+__all__ = ["COMMAND", "add_arguments", "run"]
+
+
+def _probability(text: str) -> float:
+    """A probability strictly between 0 and 1 (argparse type)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0.0 < value < 1.0:
+        raise argparse.ArgumentTypeError(f"expected a number in (0, 1), received {text!r}")
+    return value
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``forecast``."""
+    opt.add_model_file(p)
+    opt.add_data(p)
+    p.add_argument(
+        "--steps",
+        type=opt.positive_int,
+        required=True,
+        metavar="H",
+        help="number of samples to forecast",
+    )
+    p.add_argument(
+        "--level",
+        type=_probability,
+        default=0.95,
+        metavar="P",
+        help="probability of the prediction intervals (default: 0.95)",
+    )
+    p.add_argument(
+        "--future-input",
+        metavar="FILE",
+        default=None,
+        help="models with inputs: a data file with the input columns after the "
+        "end of DATA, one row per sample, at least H rows (a state-space model "
+        "uses the first H - 1: its first step is driven by DATA's last input)",
+    )
+    opt.add_seed(p, "seed of the Monte Carlo samples beyond the first step (default: 0)")
+    opt.add_model_columns(
+        p,
+        "input columns (in DATA and --future-input); default: those recorded in the model file",
+    )
+    opt.add_outputs(
+        p,
+        out="CSV file to write: t and, per state, the mean, lower and upper bound",
+        plot="figure: the end of the data and the forecast with its band",
+    )
 
 
 def run(args: argparse.Namespace) -> Report:
@@ -33,6 +84,8 @@ def run(args: argparse.Namespace) -> Report:
         The text summary.
     """
     from ...validation.arrays import representable
+    from ..outputs import Table, check_outputs, figure_errors, write_outputs
+    from ..saved import load_model, model_data
 
     outputs = check_outputs(args, "table")
     model = load_model(args.model)
@@ -112,6 +165,8 @@ def run(args: argparse.Namespace) -> Report:
 
 def _future_inputs(args: argparse.Namespace, data: ModelData, H: int) -> np.ndarray | None:
     """The inputs after the end of DATA from --future-input (None for a model without)."""
+    from ..data import read_columns
+
     m = len(data.input_names)
     if not m:
         if args.future_input is not None:
@@ -136,3 +191,14 @@ def _future_inputs(args: argparse.Namespace, data: ModelData, H: int) -> np.ndar
     if not np.all(np.isfinite(values[:needed])):
         raise DataError(f"{label}: the future inputs must be observed (no missing values)")
     return values
+
+
+COMMAND = Subcommand(
+    description="Load a model file (from fit, segments or ar) and forecast the states "
+    "(AR: the outputs) after the end of the data it was fitted on, with prediction "
+    "intervals: the coefficients continue as the penalty's model says, their "
+    "uncertainty and the noise propagate (see ltvmodels.LTVModel.forecast). Data "
+    "columns default to those the model was fitted on.",
+    add_arguments=add_arguments,
+    run=run,
+)

@@ -8,17 +8,30 @@ sample): their options, report, table and figure are the same.
 from __future__ import annotations
 
 import argparse
-from typing import Any
+import functools
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..analysis import first_missing, predict
+from .. import arguments as opt
 from ..messages import DataError, user_errors
-from ..outputs import Report, Table, check_outputs, figure_errors, write_outputs
-from ..report import fmt, per_name, rms, rms_columns
-from ..saved import ModelData, load_model, model_data
+from ..report import Report, fmt, per_name, rms, rms_columns
+from ..subcommand import Subcommand
 
-__all__ = ["run"]
+if TYPE_CHECKING:  # pragma: no cover
+    from ..saved import ModelData
+
+__all__ = ["SIMULATE", "PREDICT", "add_arguments", "run"]
+
+
+def add_arguments(p: argparse.ArgumentParser, noun: str) -> None:
+    """The options of ``simulate`` and ``predict``; ``noun`` says what the command computes."""
+    opt.add_model_file(p)
+    opt.add_data(p)
+    opt.add_model_columns(p, "input columns; default: those recorded in the model file")
+    opt.add_outputs(
+        p, out=f"CSV file to write: t and the {noun}", plot=f"figure: {noun} against the data"
+    )
 
 
 def run(args: argparse.Namespace) -> Report:
@@ -37,6 +50,10 @@ def run(args: argparse.Namespace) -> Report:
     lines : list of str
         The text summary.
     """
+    from ..analysis import predict
+    from ..outputs import Table, check_outputs, figure_errors, write_outputs
+    from ..saved import load_model, model_data
+
     outputs = check_outputs(args, "table")
     model = load_model(args.model)
     data = model_data(args, model)
@@ -140,6 +157,7 @@ def _simulation(model: Any, data: ModelData) -> tuple[np.ndarray, int]:
 def _check_simulation_data(data: ModelData, model: Any) -> None:
     """An open-loop simulation needs the initial state (samples) and every input."""
     from ...validation.arrays import representable
+    from ..analysis import first_missing
 
     ltv = data.kind == "ltv"
     u = data.u
@@ -166,3 +184,20 @@ def _check_simulation_data(data: ModelData, model: Any) -> None:
             f"sample {missing[0]}; the simulation starts from "
             f"{'it' if ltv else 'them'} (fill it in)"
         )
+
+
+def _subcommand(noun: str, how: str) -> Subcommand:
+    """``simulate`` or ``predict``: ``noun`` is what it computes, ``how`` from what."""
+    return Subcommand(
+        description=f"Load a model file (from fit, segments or ar) and compute its {noun} "
+        f"on a data file: {how} Data columns default to those the model was fitted on.",
+        add_arguments=functools.partial(add_arguments, noun=noun),
+        run=run,
+    )
+
+
+SIMULATE = _subcommand(
+    "open-loop simulation",
+    "from the first state (AR: the first na samples) with the data's inputs.",
+)
+PREDICT = _subcommand("one-step predictions", "of every sample from the measured data before it.")

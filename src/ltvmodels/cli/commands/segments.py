@@ -4,13 +4,63 @@ from __future__ import annotations
 
 import argparse
 
-from ..analysis import state_space_report
-from ..messages import running
-from ..outputs import Report, check_outputs, model_figure, record_columns, write_outputs
-from ..recordings import state_space_data
-from ..report import fmt
+import numpy as np
 
-__all__ = ["run"]
+from .. import arguments as opt
+from ..messages import running
+from ..report import Report, fmt
+from ..subcommand import Subcommand
+
+__all__ = ["COMMAND", "add_arguments", "run"]
+
+
+def _penalty(text: str) -> float | str:
+    """A finite cost >= 0 per change, or the rule ``bic`` or ``aic`` (argparse type)."""
+    if text.strip().lower() in ("bic", "aic"):
+        return text.strip().lower()
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a number >= 0, 'bic' or 'aic', received {text!r}"
+        ) from None
+    if not np.isfinite(value) or value < 0:
+        raise argparse.ArgumentTypeError(
+            f"expected a finite number >= 0, 'bic' or 'aic', received {text!r}"
+        )
+    return value
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``segments``."""
+    opt.add_data(p)
+    opt.add_state_options(p)
+    group = p.add_mutually_exclusive_group()
+    opt.add_n_changes(group, "at most M changes")
+    group.add_argument(
+        "--penalty",
+        type=_penalty,
+        default=None,
+        metavar="{B,bic,aic}",
+        help="cost B >= 0 per change (in units of the residual sum of "
+        "squares), or the rule bic or aic (default: bic)",
+    )
+    p.add_argument(
+        "--min-size",
+        type=opt.positive_int,
+        default=None,
+        metavar="S",
+        help="minimum segment length (default: n + m, or n + m + 1 with --constant)",
+    )
+    opt.add_weights(p)
+    opt.add_time(p)
+    opt.add_constant(p, "a constant term c_t per segment")
+    opt.add_coef_out(p)
+    opt.add_outputs(
+        p,
+        out="model file to write (.npz)",
+        plot="figure: coefficients, activation with change points, eigenvalues",
+    )
 
 
 def run(args: argparse.Namespace) -> Report:
@@ -29,6 +79,9 @@ def run(args: argparse.Namespace) -> Report:
         The text summary.
     """
     from ...estimators.segments import fit_segments
+    from ..analysis import state_space_report
+    from ..outputs import check_outputs, model_figure, record_columns, write_outputs
+    from ..recordings import state_space_data
 
     outputs = check_outputs(args, "model")
     data = state_space_data(args)
@@ -76,3 +129,11 @@ def run(args: argparse.Namespace) -> Report:
     )
     fig = model_figure(outputs, model, changepoints, title)
     return write_outputs(outputs, report, lines, model=model, figure=fig)
+
+
+COMMAND = Subcommand(
+    description="Fit a piecewise-constant LTV model whose change points are globally "
+    "optimal: at most M changes (dynamic programming) or a penalty per change (PELT).",
+    add_arguments=add_arguments,
+    run=run,
+)

@@ -7,13 +7,44 @@ from typing import Any
 
 import numpy as np
 
-from ..analysis import missing_transitions, missing_values, transition_terms
+from .. import arguments as opt
 from ..messages import CommandError, running, user_errors
-from ..outputs import Report, check_outputs, write_outputs
-from ..recordings import column_data, state_space_data
-from ..report import fmt, missing_text
+from ..report import Report, fmt, missing_text
+from ..subcommand import Subcommand
 
-__all__ = ["run"]
+__all__ = ["COMMAND", "add_arguments", "run"]
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``select-lambda``: state-space data, or the column of an AR model."""
+    opt.add_data(p)
+    opt.add_state(p, required=False)
+    opt.add_input(p, "input columns u")
+    opt.add_column(p, "instead of --state: the column of an AR model (with --na)")
+    opt.add_na(p, "AR order (with --column)")
+    opt.add_norm(
+        p,
+        "penalty (default: sq); l0 chooses the number of changes of 'ltvmodels segments'",
+        choices=("sq", "group", "l1", "l0"),
+    )
+    opt.add_order(p)
+    p.add_argument(
+        "--method",
+        default=None,
+        help="criterion: sq: ml (default), gcv, lcurve, cv; group/l1: lcurve "
+        "(default), cv; l0: bic (default), aic",
+    )
+    opt.add_loss(
+        p,
+        "loss of the residuals (as fit --loss); a robust loss takes the "
+        "criterion cv, scored with that loss",
+    )
+    opt.add_huber_delta(p, "Huber threshold with --loss huber (default: the robust rule)")
+    opt.add_weights(p)
+    opt.add_constant(
+        p, "a constant term c_t in the models compared (as fit, segments or ar with --constant)"
+    )
+    opt.add_outputs(p, out=None, plot="figure of the criterion (or L-curve) with the choice")
 
 
 def run(args: argparse.Namespace) -> Report:
@@ -35,6 +66,9 @@ def run(args: argparse.Namespace) -> Report:
         The text summary.
     """
     from ...estimators.selection import select_lambda, select_lambda_regression
+    from ..analysis import missing_transitions, missing_values, transition_terms
+    from ..outputs import check_outputs, write_outputs
+    from ..recordings import column_data, state_space_data
 
     outputs = check_outputs(args, None)
     if args.column is not None:
@@ -191,3 +225,12 @@ def _ar_rows(y: np.ndarray, na: int, constant: bool) -> tuple[np.ndarray, np.nda
     left_out = count[t + 1] - count[t - na] > 0
     y_out[left_out], phi[left_out] = np.nan, np.nan
     return y_out, phi, left_out
+
+
+COMMAND = Subcommand(
+    description="Evaluate a criterion on a grid of lambda values (or numbers of changes "
+    "for --norm l0) and report the choice; for state-space data (--state) or an AR "
+    "model of a column (--column, --na).",
+    add_arguments=add_arguments,
+    run=run,
+)
