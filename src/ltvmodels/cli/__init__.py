@@ -34,10 +34,17 @@ errors. Without ``--input`` the system is autonomous. A model written by
 ``fit``, ``segments`` or ``ar`` records its data columns, so ``simulate`` and
 ``predict`` find them in new data without ``--state``/``--input``.
 
-Modules: :mod:`.parser` (the options), :mod:`.data` (data files),
-:mod:`.commands` (the subcommands), :mod:`.messages` (one-line user errors),
-:mod:`.report` (report values and JSON), :mod:`.many` (``fit-many``); the demos are
-:mod:`ltvmodels.apps.demos`.
+Modules: :mod:`.parser` (the parser, a subparser per subcommand),
+:mod:`.commands` (the list of subcommands, and one module per subcommand
+with its options and its work), :mod:`.subcommand` (what such a module
+defines), :mod:`.arguments` (the options several subcommands share),
+:mod:`.data` (data files), :mod:`.recordings` (the columns a fit reads),
+:mod:`.saved` (a saved model and its data), :mod:`.analysis` (what the
+reports compute), :mod:`.report` (report values and JSON), :mod:`.outputs`
+(the output files, written by one shared tail), :mod:`.messages` (one-line
+user errors, progress); the demos are :mod:`ltvmodels.apps.demos`. Importing
+this package, or asking for help, loads neither the solvers nor matplotlib
+nor the applications: a subcommand imports them when it runs.
 
 User errors (unknown options or columns, bad values, a missing or unreadable
 file, data the model cannot use, an output path that cannot be written) print
@@ -57,6 +64,7 @@ import sys
 from collections.abc import Sequence
 
 from ..errors import OutputPathError
+from .commands import load_subcommand
 from .messages import CommandError, DataError, UsageError, collect_warnings, one_line
 from .parser import build_parser
 from .report import jsonable
@@ -99,13 +107,11 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     if "matplotlib.pyplot" not in sys.modules:
         matplotlib.use("Agg")
-    # The commands load the solvers: only now that the arguments are known to be valid.
-    from .commands import COMMANDS
-
     prog = f"ltvmodels {args.command}"
     try:
         with collect_warnings() as caught:
-            report, lines = COMMANDS[args.command](args)
+            # The command loads the solvers: only now that the arguments are known to be valid.
+            report, lines = load_subcommand(args.command).run(args)
     except OutputPathError as exc:
         print(f"{prog}: error: --{one_line(exc)}", file=sys.stderr)
         return 2

@@ -25,10 +25,12 @@ import numpy as np
 from ..errors import OutputPathError
 from .messages import DataError, one_line
 
+__all__ = ["PARQUET_SUFFIXES", "read_columns", "write_csv"]
+
 PARQUET_SUFFIXES = (".parquet", ".pq")
-MISSING_TOKENS = ("", "na", "n/a", "nan", "null")
+_MISSING_TOKENS = ("", "na", "n/a", "nan", "null")
 """CSV fields (compared in lower case, after stripping) that mark a missing value."""
-MISSING_HELP = "an empty cell, NA, N/A, NaN or null"
+_MISSING_HELP = "an empty cell, NA, N/A, NaN or null"
 
 
 @dataclass
@@ -121,7 +123,7 @@ def _open_parquet(path: Path) -> _Source:
 
 def _is_missing(text: str) -> bool:
     """Whether a (stripped) CSV field marks a missing value."""
-    return text.lower() in MISSING_TOKENS
+    return text.lower() in _MISSING_TOKENS
 
 
 def _is_number(text: str) -> bool:
@@ -185,13 +187,13 @@ def _parse_csv(text: str, label: str) -> _Source:
                     raise DataError(
                         f"{label}, line {line_numbers[r]}, column {names[i]!r}: "
                         f"{field!r} is not a number; expected a number, or "
-                        f"{MISSING_HELP} for a missing value"
+                        f"{_MISSING_HELP} for a missing value"
                     ) from None
                 if math.isinf(value):
                     raise DataError(
                         f"{label}, line {line_numbers[r]}, column {names[i]!r}: "
                         f"{field!r} is not finite; expected a finite number, or "
-                        f"{MISSING_HELP} for a missing value"
+                        f"{_MISSING_HELP} for a missing value"
                     )
                 out[r, j] = value  # float() also reads 'nan', '-nan': missing
         return out
@@ -260,10 +262,10 @@ def read_columns(path: Any, **selections: str | None) -> tuple[int, str, dict[st
         if indices is None:
             columns[key] = None
             continue
-        if key == "time":  # dates or numbers, see parse_times
+        if key == "time":  # dates or numbers, see _parse_times
             if len(indices) != 1:
                 raise DataError(f"--time: expected one column, received {selections[key]!r}")
-            values = parse_times(source.text(indices[0]), source.label, source.names[indices[0]])
+            values = _parse_times(source.text(indices[0]), source.label, source.names[indices[0]])
         else:
             values = source.read(indices)
         T = values.shape[0]
@@ -271,7 +273,7 @@ def read_columns(path: Any, **selections: str | None) -> tuple[int, str, dict[st
     return T, source.label, columns
 
 
-def parse_times(fields: list[str], label: str, name: str) -> np.ndarray:
+def _parse_times(fields: list[str], label: str, name: str) -> np.ndarray:
     """A time column: numbers (float), or ISO 8601 dates and times (datetime64[ns]).
 
     Every field must be given (a time cannot be missing) and of one kind.

@@ -1,20 +1,31 @@
-"""The command line's user errors: their types, and one line of text for each.
+"""What the command line tells the user besides the report: errors, warnings, progress.
 
 User errors (unknown options or columns, bad values, a missing or unreadable
 file, data the model cannot use) print one line to stderr and give exit status
-2, without traceback; warnings of the library are one line each.
+2, without traceback; warnings of the library are one line each. Long work
+shows a progress line on stderr (:func:`running`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
 
 from ..errors import OutputPathError, SingularProblemError
+
+__all__ = [
+    "UsageError",
+    "DataError",
+    "CommandError",
+    "one_line",
+    "user_errors",
+    "collect_warnings",
+    "running",
+]
 
 
 class UsageError(Exception):
@@ -26,6 +37,7 @@ class DataError(ValueError):
 
 
 def one_line(message: Any) -> str:
+    """The text of ``message`` on one line (runs of white space made one space)."""
     return " ".join(str(message).split())
 
 
@@ -34,7 +46,7 @@ class CommandError(Exception):
 
 
 # Library argument names → what the user typed on the command line.
-OPTION_NAMES = {
+_OPTION_NAMES = {
     "x": "--state data",
     "u": "--input data",
     "y": "--column data",
@@ -73,8 +85,8 @@ def user_errors(context: str = "") -> Iterator[None]:
     ) as exc:
         text = one_line(exc)
         name, sep, rest = text.partition(":")
-        if sep and name in OPTION_NAMES:
-            text = f"{OPTION_NAMES[name]}:{rest}"
+        if sep and name in _OPTION_NAMES:
+            text = f"{_OPTION_NAMES[name]}:{rest}"
         raise CommandError(f"{context}{text}") from None
 
 
@@ -91,3 +103,28 @@ def collect_warnings() -> Iterator[list[str]]:
                 text = f"{record.category.__name__}: {one_line(record.message)}"
                 if text not in caught:
                     caught.append(text)
+
+
+@contextlib.contextmanager
+def running(label: str) -> Iterator[Callable[[int, int], None]]:
+    """Run an estimator with a progress line, its input errors made user errors.
+
+    Parameters
+    ----------
+    label : str
+        What the progress line says (on stderr when it is a terminal).
+
+    Yields
+    ------
+    callable
+        ``progress(done, total)`` for the estimator's ``progress=`` (the
+        candidates of ``lam="auto"``); it sets the line's count.
+    """
+    from ..progress import Progress
+
+    with Progress(label) as bar, user_errors():
+
+        def progress(done: int, total: int) -> None:
+            bar.total, bar.done = total, done
+
+        yield progress

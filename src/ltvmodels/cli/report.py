@@ -1,11 +1,27 @@
-"""Values of a command's report: RMS errors, numbers as text, and strict JSON."""
+"""Values of a command's report: RMS errors, numbers, times and facts as text, and strict JSON."""
 
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
+
+__all__ = [
+    "Report",
+    "rms",
+    "rms_columns",
+    "jsonable",
+    "info_subset",
+    "per_name",
+    "fmt",
+    "time_text",
+    "missing_text",
+    "noise_text",
+]
+
+Report = tuple[dict[str, Any], list[str]]
+"""What a command returns: the report (printed as JSON with ``--json``) and the text lines."""
 
 
 def rms(a: np.ndarray, valid: np.ndarray | None = None) -> float:
@@ -43,7 +59,7 @@ def info_subset(info: dict) -> dict:
     """The solver facts of ``model.info`` worth reporting (no large arrays)."""
     out: dict[str, Any] = {}
     for key, value in info.items():
-        if key in ("first_step_k", "data_columns"):
+        if key == "first_step_k":
             continue
         if isinstance(value, np.ndarray) and value.size > 100:
             continue
@@ -68,4 +84,26 @@ def per_name(names: list[str], values: Any) -> str:
 
 
 def fmt(value: float) -> str:
+    """A number in 4 significant digits (``nan``, ``inf`` as they are)."""
     return f"{value:.4g}" if math.isfinite(value) else str(value)
+
+
+def time_text(values: np.ndarray) -> list[str]:
+    """Times as text: dates without a time of day as YYYY-MM-DD, else to the second; numbers
+    as numbers."""
+    if not np.issubdtype(values.dtype, np.datetime64):
+        return [fmt(float(value)) for value in values]
+    days = values.astype("datetime64[D]")
+    unit: Literal["D", "s"] = "D" if np.all(days == values) else "s"
+    return [str(text) for text in np.datetime_as_string(values, unit=unit)]
+
+
+def missing_text(n_missing: int, N: int, counts: dict[str, int], noun: str, rule: str) -> str:
+    """``missing: 5 of 199 transitions left out (missing values: x1 2, u 3; rule)``."""
+    values = ", ".join(f"{name} {c}" for name, c in counts.items() if c)
+    return f"missing: {n_missing} of {N} {noun} left out (missing values: {values}; {rule})"
+
+
+def noise_text(model: Any, names: list[str]) -> str:
+    """``noise variance: x1 0.01, x2 0.02 (estimated from the residuals)``."""
+    return f"noise variance: {per_name(names, model.noise_var)} (estimated from the residuals)"

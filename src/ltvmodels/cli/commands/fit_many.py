@@ -6,8 +6,8 @@ each unit's rows are sorted by (dates or numbers). The summary (one row per
 unit: see :attr:`ltvmodels.ModelSet.summary`) goes to ``--out`` (CSV, or
 Parquet by its suffix); ``--models-dir`` keeps every model file and the
 manifest that :func:`ltvmodels.load_many` reads. The options of the
-estimator go to the ``--method`` that takes them (:data:`METHOD_OPTIONS`):
-one given with another method is an error, as are outputs that cannot be
+estimator go to the ``--method`` that takes them (``_METHOD_OPTIONS``): one
+given with another method is an error, as are outputs that cannot be
 written, all before any unit is fitted.
 """
 
@@ -17,21 +17,21 @@ import argparse
 import io
 import sys
 import time
-from pathlib import Path
 from typing import Any
 
-from ..estimators.many import fit_many
-from ..plotting.figure import output_file
-from ..results.manifest import output_directory
-from .data import PARQUET_SUFFIXES
-from .messages import CommandError, DataError, user_errors
+from .. import arguments as opt
+from ..messages import CommandError, DataError, user_errors
+from ..report import Report
+from ..subcommand import Subcommand
+
+__all__ = ["COMMAND", "add_arguments", "run"]
 
 # How many failed units the text summary lists (--json lists them all).
-LISTED_ERRORS = 5
+_LISTED_ERRORS = 5
 
 # The estimator options of fit-many: their option, and the methods whose estimator takes
 # them (the parser leaves them None when not given).
-METHOD_OPTIONS = {
+_METHOD_OPTIONS = {
     "lam": ("--lam", ("fit",)),
     "norm": ("--norm", ("fit",)),
     "order": ("--order", ("fit",)),
@@ -41,8 +41,77 @@ METHOD_OPTIONS = {
 }
 
 
-def read_table(path: str) -> Any:
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``fit-many``."""
+    opt.add_data(p, "CSV file ('-' for standard input) or Parquet (.parquet, .pq)")
+    p.add_argument("--by", required=True, metavar="COL", help="the unit column")
+    opt.add_state(p, help="state columns x (comma-separated names)")
+    opt.add_input(p, "input columns u (comma-separated names); none for an autonomous system")
+    opt.add_time(
+        p, "column to sort each unit's rows by: numbers or dates (default: the rows' order)"
+    )
+    p.add_argument(
+        "--method",
+        choices=["fit", "segments", "lti"],
+        default="fit",
+        help="fit (default), segments (exact change points, BIC penalty unless "
+        "--n-changes) or lti (least squares)",
+    )
+    # The estimator options default to None, so that one given to a method that does not
+    # take it is an error (_estimator_options); --method fit's defaults are the library's.
+    opt.add_norm(p, "penalty of --method fit (default: sq)", default=None)
+    opt.add_order(
+        p, "--method fit: order of the time difference penalized (default: 1)", default=None
+    )
+    opt.add_lam(
+        p, "--method fit: regularization lambda, or auto: chosen per unit (default)", default=None
+    )
+    opt.add_refine(p, "--method fit: two-step refinement", default=None)
+    opt.add_loss(p, "--method fit or lti: loss of the residuals (default: squared)", default=None)
+    opt.add_n_changes(p, "--method segments: at most M changes per unit")
+    opt.add_weights(p, "column of weights >= 0 (row t weighs the transition to t + 1)")
+    opt.add_constant(p, "a constant term c_t")
+    opt.add_out(p, "summary file to write (.csv, or .parquet/.pq)")
+    p.add_argument(
+        "--models-dir",
+        metavar="DIR",
+        default=None,
+        help="directory for every unit's model file and the manifest "
+        "(read it with ltvmodels.load_many)",
+    )
+    p.add_argument(
+        "--jobs",
+        type=opt.positive_int,
+        default=None,
+        metavar="N",
+        help="local worker processes (default: all cores for a job large enough to gain "
+        "from them; 1: this process)",
+    )
+    p.add_argument(
+        "--stall-timeout",
+        type=opt.positive_float,
+        default=None,
+        metavar="SECONDS",
+        help="give up on the units without a result when no task has finished for this long "
+        "(default: 600 s until a task has finished, then 60 s or 20 times the longest task; "
+        "600 s on a Dask cluster)",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        default=None,
+        help="address of a Dask scheduler (e.g. tcp://host:8786) to fit on "
+        "its workers instead (needs 'ltvmodels[dask]')",
+    )
+    opt.add_json(p)
+
+
+def _read_table(path: str) -> Any:
     """The data file as a pandas DataFrame (CSV, '-' for standard input, or Parquet)."""
+    from pathlib import Path
+
+    from ..data import PARQUET_SUFFIXES
+
     try:
         import pandas as pd
     except ImportError:
@@ -71,11 +140,12 @@ def read_table(path: str) -> Any:
         raise DataError(f"{path}: cannot read it as a table ({exc})") from None
 
 
-def columns(text: str | None) -> list[str]:
+def _columns(text: str | None) -> list[str]:
+    """The names of a comma-separated ``--state``/``--input`` (none: empty)."""
     return [] if text is None else [name.strip() for name in text.split(",") if name.strip()]
 
 
-def parse_time_column(frame: Any, name: str | None) -> None:
+def _parse_time_column(frame: Any, name: str | None) -> None:
     """Convert a text time column to dates in place (numbers and dates stay as they are)."""
     if name is None or name not in frame.columns or frame[name].dtype.kind in "biufM":
         return
@@ -90,7 +160,7 @@ def parse_time_column(frame: Any, name: str | None) -> None:
         ) from None
 
 
-def connect(address: str | None) -> Any:
+def _connect(address: str | None) -> Any:
     """A dask.distributed Client of the scheduler at ``address`` (None: no cluster)."""
     if address is None:
         return None
@@ -109,7 +179,7 @@ def connect(address: str | None) -> Any:
         ) from None
 
 
-def estimator_options(args: argparse.Namespace) -> dict[str, Any]:
+def _estimator_options(args: argparse.Namespace) -> dict[str, Any]:
     """The options of ``--method``'s estimator; an option it does not take is an error.
 
     Parameters
@@ -130,7 +200,7 @@ def estimator_options(args: argparse.Namespace) -> dict[str, Any]:
         with ``--method segments``); the message names both.
     """
     options: dict[str, Any] = {"constant": args.constant}
-    for name, (flag, methods) in METHOD_OPTIONS.items():
+    for name, (flag, methods) in _METHOD_OPTIONS.items():
         value = getattr(args, name)
         if value is None:
             continue
@@ -147,7 +217,7 @@ def estimator_options(args: argparse.Namespace) -> dict[str, Any]:
     return options
 
 
-def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
+def run(args: argparse.Namespace) -> Report:
     """Run ``fit-many``: returns the report and the text summary.
 
     Parameters
@@ -169,22 +239,26 @@ def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
         data and the outputs (``--out``, ``--models-dir``) are checked before
         any unit is fitted.
     """
-    options = estimator_options(args)
-    frame = read_table(args.data)
-    parse_time_column(frame, args.time)
+    from ...estimators.many import fit_many
+    from ...plotting.figure import output_file
+    from ...results.manifest import output_directory
+
+    options = _estimator_options(args)
+    frame = _read_table(args.data)
+    _parse_time_column(frame, args.time)
     if args.out is not None:
         output_file(args.out, "out")
     if args.models_dir is not None:
         output_directory(args.models_dir, "models-dir")
-    client = connect(args.scheduler)
+    client = _connect(args.scheduler)
     start = time.perf_counter()
     try:
         with user_errors():
             models = fit_many(
                 frame,
                 by=args.by,
-                state=columns(args.state),
-                inputs=columns(args.input) or None,
+                state=_columns(args.state),
+                inputs=_columns(args.input) or None,
                 time=args.time,
                 engine=client,
                 n_jobs=args.jobs,
@@ -212,11 +286,11 @@ def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
         f"{n_units - n_failed} fitted, {n_failed} failed, in {seconds:.1f} s "
         f"({n_units / max(seconds, 1e-9):.3g} units/s) on {where}"
     ]
-    for unit, message in list(models.errors.items())[:LISTED_ERRORS]:
+    for unit, message in list(models.errors.items())[:_LISTED_ERRORS]:
         lines.append(f"  unit {unit!r}: {message}")
-    if n_failed > LISTED_ERRORS:
+    if n_failed > _LISTED_ERRORS:
         lines.append(
-            f"  ... and {n_failed - LISTED_ERRORS} more (see the summary's 'error' column)"
+            f"  ... and {n_failed - _LISTED_ERRORS} more (see the summary's 'error' column)"
         )
     warned = int(summary["warnings"].notna().sum()) if "warnings" in summary else 0
     if warned:
@@ -230,7 +304,7 @@ def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
         "errors": {str(unit): text for unit, text in models.errors.items()},
     }
     if args.out is not None:
-        write_summary(summary, Path(args.out))
+        _write_summary(summary, args.out)
         report["summary"] = str(args.out)
         lines.append(f"summary: {args.out} (one row per unit)")
     if args.models_dir is not None:
@@ -239,8 +313,13 @@ def cmd_fit_many(args: argparse.Namespace) -> tuple[dict, list[str]]:
     return report, lines
 
 
-def write_summary(summary: Any, path: Path) -> None:
+def _write_summary(summary: Any, out: str) -> None:
     """The summary as CSV, or Parquet for a .parquet/.pq path."""
+    from pathlib import Path
+
+    from ..data import PARQUET_SUFFIXES
+
+    path = Path(out)
     try:
         if path.suffix.lower() in PARQUET_SUFFIXES:
             summary.to_parquet(path)
@@ -248,3 +327,13 @@ def write_summary(summary: Any, path: Path) -> None:
             summary.to_csv(path)
     except (OSError, ImportError, ValueError) as exc:
         raise CommandError(f"--out: cannot write {path} ({exc})") from None
+
+
+COMMAND = Subcommand(
+    description="Fit one LTV model per unit of a long table (one row per unit and time "
+    "step) on all local cores or a Dask cluster, and write one summary row per unit: "
+    "lambda, noise variances, log-likelihood, one-step RMS, change points, status, "
+    "seconds, or the error of a unit that failed (one bad unit never stops the others).",
+    add_arguments=add_arguments,
+    run=run,
+)

@@ -1,0 +1,137 @@
+"""The recordings the commands fit, read from DATA as their arguments choose them.
+
+A state-space recording (``--state``, ``--input``, ``--weights``, ``--time``)
+for ``fit``, ``segments`` and ``select-lambda``; one column of an AR model
+(``--column``, ``--weights``) for ``ar`` and ``select-lambda --column``.
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import dataclass
+
+import numpy as np
+
+from .data import read_columns
+from .messages import DataError
+
+__all__ = ["StateSpaceData", "ColumnData", "state_space_data", "column_data"]
+
+
+@dataclass(frozen=True)
+class StateSpaceData:
+    """The columns of a state-space recording.
+
+    Attributes
+    ----------
+    label : str
+        The data file as the reports name it.
+    x : ndarray
+        (T, n) states; NaN where missing.
+    u : ndarray or None
+        (T, m) inputs, None for an autonomous system.
+    state_names, input_names : list of str
+        The columns' names (no inputs: empty).
+    weights : ndarray or None
+        (T - 1,) the transitions' weights (``--weights``).
+    time : ndarray or None
+        (T,) the samples' times (``--time``).
+    """
+
+    label: str
+    x: np.ndarray
+    u: np.ndarray | None
+    state_names: list[str]
+    input_names: list[str]
+    weights: np.ndarray | None
+    time: np.ndarray | None
+
+
+@dataclass(frozen=True)
+class ColumnData:
+    """The column(s) of an AR model.
+
+    Attributes
+    ----------
+    label : str
+        The data file as the reports name it.
+    names : list of str
+        The columns' names.
+    y : ndarray
+        (T, k) the samples; NaN where missing.
+    weights : ndarray or None
+        (T - na,) the weights of the equations (``--weights``).
+    """
+
+    label: str
+    names: list[str]
+    y: np.ndarray
+    weights: np.ndarray | None
+
+
+def state_space_data(args: argparse.Namespace) -> StateSpaceData:
+    """Read the state-space columns that the arguments choose from DATA.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``data``, ``state``, ``input`` and, where the command has them,
+        ``weights`` and ``time``.
+
+    Returns
+    -------
+    StateSpaceData
+
+    Raises
+    ------
+    DataError
+        A column that cannot be read, or a missing weight.
+    """
+    weights = getattr(args, "weights", None)
+    _, label, cols = read_columns(
+        args.data,
+        state=args.state,
+        input=args.input,
+        weights=weights,
+        time=getattr(args, "time", None),
+    )
+    state_names, x = cols["state"]
+    input_names, u = cols["input"] if cols["input"] is not None else ([], None)
+    transition_weights = None
+    if weights is not None:  # the equation predicting row t has the weight of row t
+        column = cols["weights"][1][1:, 0]
+        if not np.all(np.isfinite(column)):
+            raise DataError(
+                f"--weights: the weights must be observed, received a missing "
+                f"value at row {1 + int(np.flatnonzero(~np.isfinite(column))[0])}"
+            )
+        transition_weights = column
+    time = None if cols.get("time") is None else cols["time"][1]
+    return StateSpaceData(label, x, u, state_names, input_names, transition_weights, time)
+
+
+def column_data(args: argparse.Namespace) -> ColumnData:
+    """Read the column(s) of an AR model of order ``args.na`` from DATA.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``data``, ``column``, ``na`` and ``weights``.
+
+    Returns
+    -------
+    ColumnData
+
+    Raises
+    ------
+    DataError
+        A column that cannot be read, or a missing weight.
+    """
+    _, label, cols = read_columns(args.data, column=args.column, weights=args.weights)
+    weights = None
+    if cols["weights"] is not None:  # the equation predicting row t has row t's weight
+        weights = cols["weights"][1][args.na :, 0]
+        if not np.all(np.isfinite(weights)):
+            raise DataError("--weights: the weights must be observed (no missing values)")
+    names, y = cols["column"]
+    return ColumnData(label, names, y, weights)
