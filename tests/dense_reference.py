@@ -377,6 +377,19 @@ class DenseProblem:
         )
 
 
+def cvxpy_state_space(cp, x, u, order):
+    """For a cvxpy objective of a state-space fit: the coefficient variable k (N, K),
+    the one-step prediction of x[1:] (N, n) in k, the data y = x[1:] and D @ k."""
+    phi = np.hstack([x[:-1], u[:-1]])
+    y = x[1:]
+    N, p = phi.shape
+    n = y.shape[1]
+    k = cp.Variable((N, n * p))
+    rows = [cp.sum(cp.multiply(k[:, i * p : (i + 1) * p], phi), axis=1) for i in range(n)]
+    prediction = cp.hstack([cp.reshape(row, (N, 1), order="C") for row in rows])
+    return k, prediction, y, difference_matrix(N, coefficients(order)) @ k
+
+
 def relerr(a, b) -> float:
     """max |a − b| / max |b|."""
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)

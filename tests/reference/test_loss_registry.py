@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from dense_reference import coefficients, difference_matrix, relerr, simulate_ltv
+from dense_reference import cvxpy_state_space, relerr, simulate_ltv
 
 import ltvmodels as ltv
 from ltvmodels.core import losses
@@ -47,26 +47,13 @@ def outlying_data(seed):
 
 
 def cvxpy_solution(x, u, order, delta, lam, norm):
-    phi = np.hstack([x[:-1], u[:-1]])
-    y = x[1:]
-    N, p = phi.shape
-    n = y.shape[1]
-    D = difference_matrix(N, coefficients(order))
-    k = cp.Variable((N, n * p))
-    pred = cp.hstack(
-        [
-            cp.reshape(
-                cp.sum(cp.multiply(k[:, i * p : (i + 1) * p], phi), axis=1), (N, 1), order="C"
-            )
-            for i in range(n)
-        ]
-    )
+    k, pred, y, dk = cvxpy_state_space(cp, x, u, order)
+    N = y.shape[0]
     loss = 0
-    for i in range(n):
+    for i in range(y.shape[1]):
         e = (y[:, i] - pred[:, i]) / delta[i]
         size = cp.norm(cp.vstack([np.ones((1, N)), cp.reshape(e, (1, N), order="C")]), 2, axis=0)
         loss += 2.0 * delta[i] ** 2 * cp.sum(size - 1.0)
-    dk = D @ k
     penalty = lam**2 * cp.sum_squares(dk) if norm == "sq" else lam * cp.sum(cp.abs(dk))
     problem = cp.Problem(cp.Minimize(loss + penalty))
     problem.solve(solver=cp.CLARABEL, tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10)

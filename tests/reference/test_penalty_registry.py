@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from dense_reference import coefficients, difference_matrix, relerr, simulate_ltv
+from dense_reference import cvxpy_state_space, relerr, simulate_ltv
 
 import ltvmodels as ltv
 from ltvmodels.core import penalties
@@ -61,21 +61,8 @@ def max_norm():
 
 
 def cvxpy_solution(x, u, order, lam):
-    phi = np.hstack([x[:-1], u[:-1]])
-    y = x[1:]
-    N, p = phi.shape
-    n = y.shape[1]
-    D = difference_matrix(N, coefficients(order))
-    k = cp.Variable((N, n * p))
-    pred = cp.hstack(
-        [
-            cp.reshape(
-                cp.sum(cp.multiply(k[:, i * p : (i + 1) * p], phi), axis=1), (N, 1), order="C"
-            )
-            for i in range(n)
-        ]
-    )
-    objective = cp.sum_squares(y - pred) + lam * cp.sum(cp.max(cp.abs(D @ k), axis=1))
+    k, pred, y, dk = cvxpy_state_space(cp, x, u, order)
+    objective = cp.sum_squares(y - pred) + lam * cp.sum(cp.max(cp.abs(dk), axis=1))
     problem = cp.Problem(cp.Minimize(objective))
     problem.solve(solver=cp.CLARABEL, tol_gap_abs=1e-12, tol_gap_rel=1e-12, tol_feas=1e-12)
     assert problem.status == "optimal"

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ConvergenceWarning, warn
-from .losses import Loss
+from .losses import Loss, LossFit
 from .penalties import Penalty
 from .priorterms import PriorTerm
 from .problem import RegressionProblem
@@ -54,18 +54,11 @@ def default_delta(problem: RegressionProblem, theta: np.ndarray) -> np.ndarray:
 
 
 @dataclass
-class RobustSolution:
-    """A robust-loss fit before it becomes a model (:func:`solve_robust`)."""
+class RobustSolution(LossFit):
+    """A robust-loss fit before it becomes a model (:func:`solve_robust`): the loss's
+    solution and how its threshold δ was set."""
 
-    theta: np.ndarray  # (N, n, p)
-    objective: float
-    iterations: int
-    converged: bool
-    stalled: bool
-    solver: str
-    details: dict  # the certificate and loss-specific numbers (FitStatus.details)
-    outliers: np.ndarray | None  # (N, q, n) mask of residuals beyond δ (Huber)
-    delta_rule: str
+    delta_rule: str = "given"
 
 
 def solve_robust(
@@ -132,17 +125,7 @@ def solve_robust(
             f"loss={loss.name!r}: {result.failure}; the model is the last iterate: {remedy}",
             ConvergenceWarning,
         )
-    return RobustSolution(
-        theta=result.theta,
-        objective=result.objective,
-        iterations=result.iterations,
-        converged=result.converged,
-        stalled=result.stalled,
-        solver=result.solver,
-        details=result.details,
-        outliers=result.outliers,
-        delta_rule=rule,
-    )
+    return RobustSolution(**vars(result), delta_rule=rule)
 
 
 def _fits_exactly(problem: RegressionProblem, theta: np.ndarray) -> bool:
@@ -172,6 +155,7 @@ def _exact_fit(problem, W, theta, loss: Loss, delta, rule) -> RobustSolution:
         stalled=False,
         solver="the squared-loss fit (no residual: optimal for any loss)",
         details=details,
+        failure="",
         outliers=outliers,
         delta_rule=rule,
     )

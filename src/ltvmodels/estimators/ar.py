@@ -327,9 +327,9 @@ def _describe(model: Any, y: Any, u: Any, shape: tuple[int, int, int]) -> Any:
         "input": None if u is None else arrays.column_names(u, model.n_inputs),
     }
     time = arrays.time_index(y, T) if R == 1 else None
-    return model.with_data(
-        DataDescription.of(names, time, n_trajectories=R, n_missing=model.data.n_missing)
-    )
+    # the model of this call (no one else holds it): described in place
+    model.data = DataDescription.of(names, time, n_trajectories=R, n_missing=model.n_missing)
+    return model
 
 
 # A mean farther from 0 than this many standard deviations is clearly not zero (a
@@ -389,7 +389,6 @@ def _fit_lagged(
         data_name="y",
         rows_note=f" (T = {y.shape[1]} samples, the first {L} only as lags)",
     )
-    # the rows left out (the names and time are added by the front-end)
-    return model.with_data(
-        DataDescription.of(None, n_missing=problem.N * problem.q - problem.n_observed)
-    )
+    # the rows left out (the front-end adds the names and time)
+    model.data = DataDescription.of(None, n_missing=problem.N * problem.q - problem.n_observed)
+    return model

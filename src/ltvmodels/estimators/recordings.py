@@ -93,8 +93,10 @@ class StateSpaceData:
         )
 
     def describe(self, model: Any) -> Any:
-        """``model`` with :attr:`description` as its ``data``."""
-        return model.with_data(self.description)
+        """``model`` (a new model of this fit, no one else holds it) described in place:
+        :attr:`description` becomes its ``data``."""
+        model.data = self.description
+        return model
 
     @property
     def n_missing(self) -> int:

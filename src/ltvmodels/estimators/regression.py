@@ -139,7 +139,8 @@ def fit_regression(
         or signal_names("phi", problem.p),
         data_name="y",
     )
-    return model.with_data(description)
+    model.data = description  # the model of this call: described in place
+    return model
 
 
 def fit_problem(

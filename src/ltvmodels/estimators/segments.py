@@ -109,7 +109,8 @@ def segment_regression(
         loss="squared",
         delta=None,
         factory=partial(RegressionModel, n_outputs=problem.n, n_regressors=problem.p),
-    ).with_data(regression_description(y, phi, problem))
+    )
+    model.data = regression_description(y, phi, problem)  # the model of this call
     return replace(result, model=_segmentation_model(model, result))
 
 

@@ -87,7 +87,7 @@ class FitSpec:
             An invalid option (the message names it).
         """
         values = {name: arguments.get(name, _DEFAULTS.get(name)) for name in FIT_CONSTRAINTS}
-        return cls(**check_all(FIT_CONSTRAINTS, values))
+        return cls(**check_all(FIT_CONSTRAINTS, values, _DEFAULTS))
 
     @property
     def lam_is_auto(self) -> bool:
