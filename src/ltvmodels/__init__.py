@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 from .errors import (
     ConvergenceWarning,
+    DataWarning,
     DivergenceWarning,
     IdentifiabilityWarning,
     ModelFileError,
@@ -172,6 +173,7 @@ __all__ = [
     "PrecisionWarning",
     "DivergenceWarning",
     "ModelStructureWarning",
+    "DataWarning",
     "ModelFileError",
     "OutputPathError",
     "__version__",

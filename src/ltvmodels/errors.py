@@ -23,6 +23,7 @@ __all__ = [
     "ModelFileError",
     "DivergenceWarning",
     "ModelStructureWarning",
+    "DataWarning",
     "warn",
     "find_stack_level",
 ]
@@ -121,6 +122,11 @@ class DivergenceWarning(UserWarning):
 
     The returned trajectory holds inf or NaN from the step named in the message on.
     """
+
+
+class DataWarning(UserWarning):
+    """The data were read in a way worth knowing: e.g. time stamps missing from a
+    regular grid were inserted as missing samples."""
 
 
 class ModelStructureWarning(UserWarning):

@@ -107,6 +107,24 @@ def state_space_data(args: argparse.Namespace) -> StateSpaceData:
             )
         transition_weights = column
     time = None if cols.get("time") is None else cols["time"][1]
+    if time is not None:  # the library's time rules (ltvmodels.validation.time)
+        from ..errors import DataWarning, warn
+        from ..validation.time import time_grid
+
+        try:
+            grid = time_grid(time, "--time")
+        except ValueError as exc:
+            text = str(exc).replace("(df.sort_index())", "(sort the file by that column)")
+            raise DataError(text) from None
+        if grid.inserted:
+            warn(f"--time: {grid.notice}", DataWarning)
+            x = grid.spread(x[None])[0]
+            u = None if u is None else grid.spread(u[None])[0]
+            spread = grid.spread_rows(
+                None if transition_weights is None else transition_weights[None], 1
+            )
+            transition_weights = None if spread is None else spread[0]
+        time = grid.time
     return StateSpaceData(label, x, u, state_names, input_names, transition_weights, time)
 
 

@@ -41,6 +41,8 @@ from ..results.arx import ARModel, ARXModel
 from ..results.description import DataDescription
 from ..validation import arrays, options
 from ..validation.options import Loss, Norm, PriorMode
+from ..validation.time import TimeGrid
+from .recordings import time_grid_of
 from .regression import fit_problem
 from .spec import FitSpec
 
@@ -208,8 +210,11 @@ def fit_arx(
     na, nb, nk = options.lag_orders(na, nb, nk, min_na=0, min_nb=1)
     constant = options.flag(constant, "constant")
     L = lag_length(na, nb, nk)
-    y_data, u_data = y, u
-    y, u = arrays.lagged_recordings(y, u, L, _structure_text(na, nb, nk), require_inputs=True)
+    y_data, u_data = y, arrays.aligned(y, u, "y", "u")
+    y, u = arrays.lagged_recordings(
+        y_data, u_data, L, _structure_text(na, nb, nk), require_inputs=True
+    )
+    y, u, weights, grid = _on_time_grid(y_data, y, u, weights, L)
     if not constant:
         _warn_if_offset(y)
     n, m = y.shape[2], u.shape[2]
@@ -225,7 +230,7 @@ def fit_arx(
         spec,
         weights,
     )
-    return _describe(model, y_data, u_data, y.shape)
+    return _describe(model, y_data, u_data, y.shape, grid)
 
 
 def fit_ar(
@@ -301,6 +306,7 @@ def fit_ar(
     constant = options.flag(constant, "constant")
     y_data = y
     y, u = arrays.lagged_recordings(y, None, na, _structure_text(na, 0, 1))
+    y, u, weights, grid = _on_time_grid(y_data, y, u, weights, na)
     if not constant:
         _warn_if_offset(y)
     factory = partial(ARModel, n_outputs=y.shape[2], na=na, constant=constant)
@@ -315,18 +321,33 @@ def fit_ar(
         spec,
         weights,
     )
-    return _describe(model, y_data, None, y.shape)
+    return _describe(model, y_data, None, y.shape, grid)
 
 
-def _describe(model: Any, y: Any, u: Any, shape: tuple[int, int, int]) -> Any:
+def _on_time_grid(
+    y_data: Any, y: np.ndarray, u: np.ndarray, weights: Any, lag: int
+) -> tuple[np.ndarray, np.ndarray, Any, TimeGrid | None]:
+    """The validated series y, u (R, T, ·) and the weights of their regression rows placed
+    on the regular grid of y's time index (missing stamps become missing samples), and
+    that grid (None without a time index)."""
+    grid = time_grid_of(y_data, "y")
+    if grid is None or grid.positions is None:
+        return y, u, weights, grid
+    w = arrays.row_weights(weights, y.shape[0], y.shape[1] - lag)
+    return grid.spread(y), grid.spread(u), grid.spread_rows(w, lag), grid
+
+
+def _describe(
+    model: Any, y: Any, u: Any, shape: tuple[int, int, int], grid: TimeGrid | None
+) -> Any:
     """``model`` with the description of its data: the column names of a pandas y (and
-    u), the index of y (one series), the series and the regression rows left out."""
+    u), the time grid of y (one series), the series and the regression rows left out."""
     R, T, n = shape
     names = {
         "output": arrays.column_names(y, n),
         "input": None if u is None else arrays.column_names(u, model.n_inputs),
     }
-    time = arrays.time_index(y, T) if R == 1 else None
+    time = None if grid is None else grid.time
     # the model of this call (no one else holds it): described in place
     model.data = DataDescription.of(names, time, n_trajectories=R, n_missing=model.n_missing)
     return model

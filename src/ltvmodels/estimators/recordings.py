@@ -20,14 +20,17 @@ from typing import Any
 import numpy as np
 
 from ..core.problem import RegressionProblem, state_space_problem, weighted_problem
+from ..errors import DataWarning, warn
 from ..results.base import signal_names
 from ..results.description import DataDescription
 from ..validation import arrays, options
+from ..validation.time import TimeGrid
 
 __all__ = [
     "StateSpaceData",
     "state_space_data",
-    "regression_description",
+    "regression_data",
+    "time_grid_of",
     "regression_problem",
     "require_enough_data",
 ]
@@ -122,11 +125,15 @@ def state_space_data(
     constant : bool
         Add an intercept c_t to every state equation.
     """
-    x_data, u_data = x, u
-    x, u = arrays.recordings(x, u)
+    x_data, u_data = x, arrays.aligned(x, u, "x", "u")
+    grid = time_grid_of(x_data, "x")
+    x, u = arrays.recordings(x_data, u_data)
     R, T, _ = x.shape
-    coeffs = options.difference_coefficients(order, max_degree=T)
     w = arrays.row_weights(weights, R, T - 1)
+    if grid is not None:  # missing stamps of a regular grid become missing samples
+        x, u, w = grid.spread(x), grid.spread(u), grid.spread_rows(w, 1)
+        T = x.shape[1]
+    coeffs = options.difference_coefficients(order, max_degree=T)
     constant = options.flag(constant, "constant")
     problem = state_space_problem(x, u, coeffs, weights=w, constant=constant)
     return StateSpaceData(
@@ -137,8 +144,17 @@ def state_space_data(
         constant,
         state_names=arrays.column_names(x_data, x.shape[2]),
         input_names=arrays.column_names(u_data, u.shape[2]),
-        time=arrays.time_index(x_data, T) if R == 1 else None,
+        time=None if grid is None else grid.time,
     )
+
+
+def time_grid_of(value: Any, name: str) -> TimeGrid | None:
+    """The checked regular grid of a series' time index (None without one), with a
+    :class:`~ltvmodels.DataWarning` where missing stamps become missing samples."""
+    grid = arrays.timed(value, name)
+    if grid is not None and grid.inserted:
+        warn(f"{name}: {grid.notice}", DataWarning)
+    return grid
 
 
 def regression_problem(
@@ -148,8 +164,22 @@ def regression_problem(
 
     ``y`` (N, n), (N,) or (R, N, n) and ``phi`` (N, p), (N,) or (R, N, p), NaN =
     missing (a row enters the data term only if y_t and φ_t are observed);
-    ``weights`` (N,) or (R, N).
+    ``weights`` (N,) or (R, N). The rows of a y with a time index are placed on
+    its regular grid (:mod:`ltvmodels.validation.time`); :func:`regression_description`
+    records that grid.
     """
+    return regression_data(y, phi, order=order, weights=weights)[0]
+
+
+def regression_data(
+    y: Any, phi: Any, *, order: Any = 1, weights: Any = None
+) -> tuple[RegressionProblem, DataDescription]:
+    """:func:`regression_problem` and the description of its data (a fitted model's
+    ``data``): the column names of a pandas y and phi, the time grid of y (one series),
+    the series and the rows left out."""
+    phi = arrays.aligned(y, phi, "y", "phi")
+    grid = time_grid_of(y, "y")
+    names = {"output": y, "regressor": phi}
     y = arrays.trajectories(y, "y")
     phi = arrays.trajectories(phi, "phi")
     if phi.shape[:2] != y.shape[:2]:
@@ -159,23 +189,21 @@ def regression_problem(
             f"phi: expected {expected} rows (one regressor vector per row of y), "
             f"received {received}"
         )
-    coeffs = options.difference_coefficients(order, max_degree=y.shape[1])
     w = arrays.row_weights(weights, y.shape[0], y.shape[1])
-    return weighted_problem(y, phi, coeffs, w)
-
-
-def regression_description(y: Any, phi: Any, problem: RegressionProblem) -> DataDescription:
-    """What regression data say (a fitted model's ``data``): the column names of a pandas
-    y and phi, the index of y (one series), the series and missing rows."""
-    return DataDescription.of(
+    if grid is not None:  # missing stamps of a regular grid become missing rows
+        y, phi, w = grid.spread(y), grid.spread(phi), grid.spread_rows(w, 0)
+    coeffs = options.difference_coefficients(order, max_degree=y.shape[1])
+    problem = weighted_problem(y, phi, coeffs, w)
+    description = DataDescription.of(
         {
-            "output": arrays.column_names(y, problem.n),
-            "regressor": arrays.column_names(phi, problem.p),
+            "output": arrays.column_names(names["output"], problem.n),
+            "regressor": arrays.column_names(names["regressor"], problem.p),
         },
-        arrays.time_index(y, problem.N) if problem.q == 1 else None,
+        None if grid is None else grid.time,
         n_trajectories=problem.q,
         n_missing=problem.N * problem.q - problem.n_observed,
     )
+    return problem, description
 
 
 def require_enough_data(problem: RegressionProblem, data_name: str, rows_note: str = "") -> None:

@@ -36,7 +36,7 @@ from ..validation.options import Loss, Norm, PriorMode
 from .changepoints import find_changepoints, residue_level
 from .piecewise import refine_fit
 from .priors import resolve as resolve_priors
-from .recordings import regression_description, regression_problem, require_enough_data
+from .recordings import regression_data, require_enough_data
 from .robust import robust_model
 from .selection import select_for_problem
 from .spec import FitSpec
@@ -129,8 +129,7 @@ def fit_regression(
     True
     """
     spec = FitSpec.from_arguments(locals())  # every option, checked once
-    problem = regression_problem(y, phi, order=spec.order, weights=weights)
-    description = regression_description(y, phi, problem)
+    problem, description = regression_data(y, phi, order=spec.order, weights=weights)
     model = fit_problem(
         problem,
         spec,

@@ -37,7 +37,7 @@ from ..results.statespace import LTVModel
 from ..validation import options
 from ..validation.options import PenaltyRule
 from .piecewise import fit_piecewise, piecewise_fit
-from .recordings import regression_description, regression_problem, state_space_data
+from .recordings import regression_data, regression_problem, state_space_data
 
 __all__ = ["fit_segments", "segment_regression", "noise_variance_estimate"]
 
@@ -96,7 +96,7 @@ def segment_regression(
         The regressors are linearly dependent over the whole data set, so no
         segment is identifiable.
     """
-    problem = regression_problem(y, phi, weights=weights)
+    problem, description = regression_data(y, phi, weights=weights)
     result = _segment(problem, n_changes, penalty, min_size, data_name="y")
     if problem.n_observed <= (result.n_changes + 1) * problem.p:
         return result  # no residual degree of freedom: no noise estimate, no model
@@ -110,7 +110,7 @@ def segment_regression(
         delta=None,
         factory=partial(RegressionModel, n_outputs=problem.n, n_regressors=problem.p),
     )
-    model.data = regression_description(y, phi, problem)  # the model of this call
+    model.data = description  # the model of this call
     return replace(result, model=_segmentation_model(model, result))
 
 

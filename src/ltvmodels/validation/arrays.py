@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from .time import TimeGrid, time_grid
+
 __all__ = [
     "LabelledSeries",
     "describe",
@@ -28,6 +30,8 @@ __all__ = [
     "index_values",
     "recordings",
     "row_weights",
+    "timed",
+    "aligned",
     "regressor_rows",
     "vector",
     "covariance",
@@ -65,6 +69,9 @@ class LabelledSeries:
     values: np.ndarray
     names: list[str] | None = None
     time: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return self.values.shape[0]
 
     def to_numpy(self) -> np.ndarray:
         return self.values
@@ -400,6 +407,49 @@ def recordings(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
             "drop it or supply its data"
         )
     return x, u
+
+
+def timed(value: Any, name: str) -> TimeGrid | None:
+    """The checked time grid of one series' stamps (its pandas index), or None for data
+    without a time index (see :mod:`ltvmodels.validation.time`)."""
+    index = _pandas_index(value)
+    indexed = isinstance(value, LabelledSeries) or index is not None or hasattr(value, "dims")
+    if not indexed or is_batch(value):
+        return None
+    stamps = time_index(value, len(value))
+    if stamps is None:
+        return None
+    zone = getattr(index, "tz", None)
+    if zone is not None:  # the grid of a zone's days is on its local clock
+        local = value.index.tz_localize(None).to_numpy().astype("datetime64[ns]")
+        return time_grid(local, name, zone)
+    return time_grid(stamps, name)
+
+
+def aligned(value: Any, other: Any, name: str, other_name: str) -> Any:
+    """``other`` with its rows in the order of ``value``'s time stamps where both are
+    pandas objects with time indexes holding the same stamps in another order; an error
+    where their stamps differ. Other data are taken row by row as they are."""
+    index, other_index = _pandas_index(value), _pandas_index(other)
+    if index is None or other_index is None:
+        return other
+    if time_index(value, len(value)) is None or time_index(other, len(other)) is None:
+        return other  # a default index: the rows are matched by position
+    if len(index) == len(other_index) and index.equals(other_index):
+        return other
+    if len(index) == len(other_index) and index.sort_values().equals(other_index.sort_values()):
+        return other.reindex(index)  # the same stamps, in another order: by label
+    raise ValueError(
+        f"{other_name}: its time index differs from the index of {name} (e.g. "
+        f"{other_index[0]!r} against {index[0]!r}); give both the same stamps "
+        f"({other_name}.reindex({name}.index), or select the common rows)"
+    )
+
+
+def _pandas_index(value: Any) -> Any:
+    """The index of a pandas object, else None."""
+    index = getattr(value, "index", None)
+    return index if hasattr(index, "to_numpy") else None
 
 
 def row_weights(weights: Any, R: int, N: int, name: str = "weights") -> np.ndarray | None:

@@ -1,0 +1,193 @@
+"""The time axis of pandas data: sorted, without duplicates, on a regular grid, in every estimator.
+
+Unsorted or repeated stamps are errors that say how to fix them; stamps missing
+from a regular grid (a fixed step or a calendar frequency) become missing
+samples, with a DataWarning; stamps on no grid are an error.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import ltvmodels as ltv
+from ltvmodels.validation.time import time_grid
+
+pd = pytest.importorskip("pandas")
+
+D = ltv.systems.jump_linear(T=200, change_at=100, seed=0)
+DAYS = pd.date_range("2024-01-01", periods=200, freq="D")
+X = pd.DataFrame(D.x, index=DAYS, columns=["p", "v"])
+U = pd.DataFrame(D.u, index=DAYS, columns=["f"])
+GAP = DAYS[80:95]
+
+
+def blanked(frame, stamps):
+    """``frame`` with NaN rows at ``stamps``."""
+    out = frame.copy()
+    out.loc[stamps] = np.nan
+    return out
+
+
+def state_fits(x, u):
+    return {
+        "fit": lambda: ltv.fit(x, u, lam=10.0),
+        "fit group": lambda: ltv.fit(x, u, lam=2.0, norm="group"),
+        "fit_lti": lambda: ltv.fit_lti(x, u),
+        "fit_piecewise": lambda: ltv.fit_piecewise(x, u, [100]),
+        "fit_segments": lambda: ltv.fit_segments(x, u, n_changes=1),
+        "select_lambda": lambda: ltv.select_lambda(x, u, method="gcv"),
+    }
+
+
+PHI = pd.DataFrame({"lag": X["p"].shift(1).fillna(0.0)})  # a regressor of the full series
+
+
+def series_fits(y):
+    phi = PHI.loc[y.index]  # the rows of y (every test's stamps are days of DAYS)
+    if y.isna().any():  # blanked rows: the regressor is missing there too
+        phi = phi.where(y.notna(), np.nan)
+    return {
+        "fit_regression": lambda: ltv.fit_regression(y, phi, lam=10.0),
+        "segment_regression": lambda: ltv.segment_regression(y, phi, n_changes=1),
+        "fit_ar": lambda: ltv.fit_ar(y, 2, lam=10.0),
+        "fit_arx": lambda: ltv.fit_arx(y, phi, 1, 1, lam=10.0),
+    }
+
+
+def all_fits(x, u):
+    return {**state_fits(x, u), **series_fits(x["p"])}
+
+
+@pytest.mark.parametrize("name", sorted(all_fits(X, U)))
+def test_unsorted_stamps_are_an_error_naming_the_row(name):
+    order = np.r_[0:50, 51, 50, 52:200]
+    with pytest.raises(ValueError, match=r"time index is not sorted: row 51 \(2024-02-20\)"):
+        all_fits(X.iloc[order], U.iloc[order])[name]()
+
+
+@pytest.mark.parametrize("name", sorted(all_fits(X, U)))
+def test_a_repeated_stamp_is_an_error_naming_it(name):
+    index = DAYS.delete(60).insert(60, DAYS[59])
+    x, u = X.set_axis(index), U.set_axis(index)
+    with pytest.raises(ValueError, match=r"2024-02-29 appears twice \(rows 59 and 60\)"):
+        all_fits(x, u)[name]()
+
+
+@pytest.mark.parametrize("name", sorted(all_fits(X, U)))
+def test_stamps_missing_from_the_grid_are_missing_samples(name):
+    # The gappy index gives the fit of the same data on the full grid with NaN rows.
+    gappy = all_fits(X.drop(GAP), U.drop(GAP))[name]
+    full = all_fits(blanked(X, GAP), blanked(U, GAP))[name]
+    with pytest.warns(ltv.DataWarning, match="15 time stamps missing from the regular grid"):
+        model = gappy()
+    reference = full()
+    if isinstance(model, ltv.LambdaSelection):
+        assert model.lam == pytest.approx(reference.lam, rel=1e-12)
+        return
+    model = getattr(model, "model", model)  # a Segmentation's model
+    reference = getattr(reference, "model", reference)
+    np.testing.assert_allclose(model.k, reference.k, rtol=0, atol=1e-12)
+    assert model.n_missing == reference.n_missing > 0
+    np.testing.assert_array_equal(model.time, reference.time)
+
+
+def test_calendar_grids_months_and_a_decimal_step():
+    months = pd.date_range("2000-01-01", periods=120, freq="MS")
+    y = pd.Series(D.x[:120, 0], index=months)
+    with pytest.warns(ltv.DataWarning, match="3 time stamps missing"):
+        model = ltv.fit_ar(y.drop(months[50:53]), 2, lam=100.0)
+    np.testing.assert_array_equal(model.time, months.to_numpy())
+    assert model.n_missing == 5  # the rows whose sample or lags fall in the gap
+    tenths = np.round(np.arange(100) * 0.1, 10)
+    x = pd.DataFrame(D.x[:100], index=tenths).drop(index=[2.0, 2.1])
+    with pytest.warns(ltv.DataWarning, match="2 time stamps missing"):
+        model = ltv.fit(x, lam=10.0)
+    np.testing.assert_allclose(model.time, tenths)
+
+
+def test_stamps_on_no_grid_are_an_error_that_says_how_to_resample():
+    stamps = np.cumsum(np.random.default_rng(1).uniform(0.5, 1.5, 200))
+    with pytest.raises(ValueError, match=r"no regular grid .*df\.resample"):
+        ltv.fit(X.set_axis(stamps), lam=10.0)
+    assert ltv.fit(X.set_axis(stamps).to_numpy(), lam=10.0).time is None  # rows consecutive
+
+
+def test_inputs_are_matched_to_the_states_by_their_stamps():
+    ordered = ltv.fit(X, U, lam=10.0)
+    shuffled = ltv.fit(X, U.iloc[::-1], lam=10.0)
+    np.testing.assert_array_equal(shuffled.k, ordered.k)
+    with pytest.raises(ValueError, match=r"u: its time index differs from the index of x"):
+        ltv.fit(X, U.set_axis(DAYS + pd.Timedelta(hours=1)), lam=10.0)
+    positional = ltv.fit(X, U.reset_index(drop=True), lam=10.0)  # no stamps: by position
+    np.testing.assert_array_equal(positional.k, ordered.k)
+
+
+def test_weights_follow_their_transitions_onto_the_grid():
+    weights = np.linspace(0.5, 2.0, 199)
+    kept = ~DAYS.isin(GAP)
+    with pytest.warns(ltv.DataWarning):
+        gappy = ltv.fit(X[kept], U[kept], lam=10.0, weights=weights[kept[:-1]][: kept.sum() - 1])
+    spread = np.ones(199)
+    rows = np.flatnonzero(kept)
+    consecutive = np.diff(rows) == 1
+    spread[rows[:-1][consecutive]] = weights[kept[:-1]][: kept.sum() - 1][consecutive]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ltv.DataWarning)
+        full = ltv.fit(blanked(X, GAP), blanked(U, GAP), lam=10.0, weights=spread)
+    np.testing.assert_allclose(gappy.k, full.k, rtol=0, atol=1e-12)
+
+
+def test_a_zone_keeps_its_local_days_across_daylight_saving_time():
+    local = pd.date_range("2024-03-20", periods=200, freq="D", tz="Europe/Stockholm")
+    x = X.set_axis(local)
+    model = ltv.fit(x, lam=10.0)  # 23-hour and 25-hour days are one day each
+    assert model.time.size == 200 and model.n_missing == 0
+    with pytest.warns(ltv.DataWarning, match="1 time stamp missing"):
+        gappy = ltv.fit(x.drop(local[10]), lam=10.0)
+    np.testing.assert_array_equal(gappy.time, model.time)
+
+
+def test_the_grid_of_stamps_directly():
+    grid = time_grid(np.array([0.0, 1.0, 3.0, 4.0]), "t")
+    np.testing.assert_array_equal(grid.time, [0.0, 1.0, 2.0, 3.0, 4.0])
+    assert grid.inserted == 1 and grid.positions.tolist() == [0, 1, 3, 4]
+    rows = grid.spread(np.arange(4.0).reshape(1, 4, 1))[0, :, 0]
+    np.testing.assert_array_equal(np.isnan(rows), [False, False, True, False, False])
+    assert time_grid(np.array([0.0, 1.0]), "t").inserted == 0
+
+
+def test_fit_many_checks_each_units_stamps():
+    rows = []
+    for unit in range(2):
+        stamps = DAYS[:120].delete(30) if unit else DAYS[:120]
+        for t, stamp in enumerate(stamps):
+            rows.append({"unit": unit, "day": stamp, "p": D.x[t, 0], "v": D.x[t, 1]})
+    table = pd.DataFrame(rows)
+    ms = ltv.fit_many(table, by="unit", state=["p", "v"], time="day", lam=10.0, n_jobs=1)
+    assert ms.summary.loc[0, "missing"] == 0 and ms.summary.loc[1, "missing"] == 2
+    assert "DataWarning: x: 1 time stamp missing" in ms.summary.loc[1, "warnings"]
+    twice = pd.concat([table, table.iloc[[5]]])
+    ms = ltv.fit_many(twice, by="unit", state=["p", "v"], time="day", lam=10.0, n_jobs=1)
+    assert 0 in ms.errors and "duplicated time stamp" in ms.errors[0] and 1 not in ms.errors
+
+
+def test_the_command_line_keeps_the_same_rules(tmp_path, capsys):
+    from ltvmodels.cli import main
+
+    table = pd.DataFrame({"day": DAYS.strftime("%Y-%m-%d"), "p": D.x[:, 0], "v": D.x[:, 1]})
+    swapped = table.iloc[np.r_[0:50, 51, 50, 52:200]]
+    swapped.to_csv(tmp_path / "swapped.csv", index=False)
+    argv = ["--state", "p,v", "--time", "day", "--lam", "10", "--json"]
+    assert main(["fit", str(tmp_path / "swapped.csv"), *argv]) == 2
+    assert "--time: the time index is not sorted: row 51" in capsys.readouterr().err
+    table.drop(range(80, 95)).to_csv(tmp_path / "gappy.csv", index=False)
+    assert main(["fit", str(tmp_path / "gappy.csv"), *argv]) == 0
+    out = capsys.readouterr()
+    assert "15 time stamps missing" in out.err
+    import json
+
+    report = json.loads(out.out)
+    assert report["T"] == 200 and report["n_missing"] == 16
