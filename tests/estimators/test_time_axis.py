@@ -191,3 +191,17 @@ def test_the_command_line_keeps_the_same_rules(tmp_path, capsys):
 
     report = json.loads(out.out)
     assert report["T"] == 200 and report["n_missing"] == 16
+
+
+def test_a_mixture_prior_is_on_the_grid_of_the_fit():
+    pytest.importorskip("sklearn")
+    x, u = X.drop(GAP), U.drop(GAP)
+    with pytest.warns(ltv.DataWarning):
+        prior = ltv.GMMPrior(x, u, n_components=1, seed=0)
+    with pytest.warns(ltv.DataWarning):
+        along = prior.at(x, u)
+    with pytest.warns(ltv.DataWarning):
+        model = ltv.fit(x, u, lam=10.0, prior=along)
+    assert model.N == len(DAYS) - 1
+    with pytest.raises(ValueError, match="time index is not sorted"):
+        ltv.GMMPrior(X.iloc[::-1], U.iloc[::-1])

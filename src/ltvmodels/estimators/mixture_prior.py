@@ -55,6 +55,7 @@ from scipy.special import logsumexp
 from ..errors import ConvergenceWarning, SingularProblemError, warn
 from ..validation import arrays, options
 from .priors import Prior
+from .recordings import timed_recordings
 
 __all__ = ["GMMPrior"]
 
@@ -154,7 +155,7 @@ class GMMPrior:
         max_iter: int = 200,
         seed: int | np.random.Generator | None = 0,
     ) -> None:
-        x, u = arrays.recordings(x, u)
+        x, u = _on_grid(x, u)
         self.n_states, self.n_inputs = x.shape[2], u.shape[2]
         self._fixed_count = options.optional_integer(n_components, "n_components", 1)
         self._max_components = options.integer(max_components, "max_components", 1)
@@ -356,7 +357,7 @@ class GMMPrior:
 
     def _recordings(self, x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
         """Validated recordings with the mixture's numbers of states and inputs."""
-        x, u = arrays.recordings(x, u)
+        x, u = _on_grid(x, u)
         if x.shape[2] != self.n_states:
             raise ValueError(
                 f"x: expected {self.n_states} states (as the transitions the "
@@ -494,3 +495,10 @@ class GMMPrior:
             dev = theta[c] - mean
             cov += step[:, c, None, None] * dev[:, :, None] * dev[:, None, :]
         return Prior(mean, 0.5 * (cov + np.swapaxes(cov, 1, 2)))
+
+
+def _on_grid(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Validated recordings (R, T, ·), their rows on the regular grid of x's time index
+    (the grid a fit of the same data uses)."""
+    x, u, grid = timed_recordings(x, u)
+    return (x, u) if grid is None else (grid.spread(x), grid.spread(u))

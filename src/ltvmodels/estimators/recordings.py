@@ -31,6 +31,7 @@ __all__ = [
     "state_space_data",
     "regression_data",
     "time_grid_of",
+    "timed_recordings",
     "regression_problem",
     "require_enough_data",
 ]
@@ -125,9 +126,8 @@ def state_space_data(
     constant : bool
         Add an intercept c_t to every state equation.
     """
-    x_data, u_data = x, arrays.aligned(x, u, "x", "u")
-    grid = time_grid_of(x_data, "x")
-    x, u = arrays.recordings(x_data, u_data)
+    x_data, u_data = x, u
+    x, u, grid = timed_recordings(x_data, u_data)
     R, T, _ = x.shape
     w = arrays.row_weights(weights, R, T - 1)
     if grid is not None:  # missing stamps of a regular grid become missing samples
@@ -146,6 +146,15 @@ def state_space_data(
         input_names=arrays.column_names(u_data, u.shape[2]),
         time=None if grid is None else grid.time,
     )
+
+
+def timed_recordings(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray, TimeGrid | None]:
+    """:func:`ltvmodels.validation.arrays.recordings` of x and u (matched to x by their
+    time stamps), and the regular grid of x's time index (None without one; its
+    :meth:`~ltvmodels.validation.time.TimeGrid.spread` puts the rows on it)."""
+    grid = time_grid_of(x, "x")
+    x, u = arrays.recordings(x, arrays.aligned(x, u, "x", "u"))
+    return x, u, grid
 
 
 def time_grid_of(value: Any, name: str) -> TimeGrid | None:
