@@ -205,3 +205,50 @@ def test_a_mixture_prior_is_on_the_grid_of_the_fit():
     assert model.N == len(DAYS) - 1
     with pytest.raises(ValueError, match="time index is not sorted"):
         ltv.GMMPrior(X.iloc[::-1], U.iloc[::-1])
+
+
+@pytest.mark.parametrize(
+    ("index", "expected"),
+    [
+        (pd.date_range("2000-01-01", periods=120, freq="MS"), ["2010-01-01", "2010-02-01"]),
+        (pd.date_range("1900-01-01", periods=120, freq="YS"), ["2020-01-01", "2021-01-01"]),
+        (
+            pd.date_range("2024-01-01", periods=120, freq="h"),
+            ["2024-01-06 00:00", "2024-01-06 01:00"],
+        ),
+    ],
+)
+def test_forecasts_continue_the_calendar(index, expected):
+    y = pd.Series(D.x[:120, 0], index=index)
+    forecast = ltv.fit_ar(y, 2, lam=100.0).forecast(y.iloc[-2:], steps=2)
+    np.testing.assert_array_equal(forecast.time, pd.to_datetime(expected).to_numpy())
+
+
+def test_forecasts_continue_a_decimal_step_and_the_command_line_a_month(tmp_path, capsys):
+    y = pd.Series(D.x[:150, 0], index=np.round(np.arange(150) * 0.1, 10))
+    forecast = ltv.fit_ar(y, 2, lam=100.0).forecast(y.iloc[-2:], steps=3)
+    np.testing.assert_allclose(forecast.time, [15.0, 15.1, 15.2], rtol=0, atol=1e-12)
+    from ltvmodels.cli import main
+
+    months = pd.date_range("2000-01-01", periods=120, freq="MS").strftime("%Y-%m-%d")
+    path = tmp_path / "monthly.csv"
+    pd.DataFrame({"date": months, "p": D.x[:120, 0], "v": D.x[:120, 1]}).to_csv(path, index=False)
+    model = tmp_path / "m.npz"
+    argv = [
+        "fit",
+        str(path),
+        "--state",
+        "p,v",
+        "--time",
+        "date",
+        "--lam",
+        "30",
+        "--out",
+        str(model),
+    ]
+    assert main(argv) == 0
+    capsys.readouterr()
+    assert main(["forecast", str(model), str(path), "--steps", "2", "--json"]) == 0
+    import json
+
+    assert json.loads(capsys.readouterr().out)["time"] == ["2010-01-01", "2010-02-01"]

@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike
 from ..core.problem import activation
 from ..validation import arrays, options
 from ..validation.arrays import describe
+from ..validation.time import continued
 from . import archive
 from .description import DataDescription
 from .record import FitRecord
@@ -252,8 +253,8 @@ class RegressionModel:
         """Times of the samples ``first`` … ``first + steps − 1`` of the data's time axis.
 
         Sample indices without a time index; beyond the data, the time index
-        continued by its step when it is regular (every step equal), else the
-        sample indices as well.
+        continued on its regular grid (its step, or its calendar frequency:
+        the months after a monthly series), else the sample indices as well.
         """
         index = np.arange(first, first + steps)
         time = self.time
@@ -262,10 +263,10 @@ class RegressionModel:
         known = index < time.size
         if known.all():
             return time[index]
-        steps_between = np.diff(time)
-        if time.size < 2 or np.any(steps_between != steps_between[0]):
+        after = continued(time, int(index[-1]) - time.size + 1)
+        if after is None:
             return index
-        return time[-1] + (index - (time.size - 1)) * steps_between[0]
+        return np.concatenate([time, after])[index]
 
     @property
     def step_times(self) -> np.ndarray | None:

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["TimeGrid", "time_grid"]
+__all__ = ["TimeGrid", "continued", "time_grid"]
 
 # Steps that differ from a multiple of the smallest one by less than this (relative)
 # are on its grid: decimal steps such as 0.1 are not exact in binary.
@@ -144,6 +144,34 @@ def _in_utc(stamps: np.ndarray, zone: Any, name: str) -> np.ndarray:
             "index to UTC first (df.tz_convert('UTC'))"
         )
     return local.tz_convert("UTC").tz_localize(None).to_numpy().astype("datetime64[ns]")
+
+
+def continued(stamps: np.ndarray, count: int) -> np.ndarray | None:
+    """The ``count`` stamps after the end of the regular grid ``stamps`` (a fixed step or a
+    calendar frequency: a monthly series goes on with the next months), or None where the
+    stamps are on no regular grid (or too few to tell)."""
+    if stamps.size < 2:
+        return None
+    grid = _fixed_step_grid(stamps)
+    if grid is not None and grid.size == stamps.size:
+        if np.issubdtype(stamps.dtype, np.datetime64):
+            step = np.diff(stamps.astype("datetime64[ns]")).min()
+        else:
+            step = (stamps[-1] - stamps[0]) / (stamps.size - 1)  # the mean: no drift
+        return stamps[-1] + step * np.arange(1, count + 1)
+    if stamps.size < 3 or not np.issubdtype(stamps.dtype, np.datetime64):
+        return None
+    try:
+        import pandas as pd
+    except ImportError:  # pragma: no cover - without pandas only fixed steps
+        return None
+    with warnings.catch_warnings():  # pandas' notices about infer_freq's future return type
+        warnings.simplefilter("ignore")
+        frequency = pd.infer_freq(pd.DatetimeIndex(stamps))
+    if frequency is None:
+        return None
+    after = pd.date_range(stamps[-1], periods=count + 1, freq=frequency)[1:]
+    return after.to_numpy().astype("datetime64[ns]")
 
 
 def _check_order(stamps: np.ndarray, name: str) -> None:
