@@ -26,8 +26,6 @@ FRONT_ENDS = {
 }
 TAKES = {  # options a front-end does not take (its signature has no such keyword)
     "fit_regression": {"progress"},
-    "fit_ar": {"refine"},
-    "fit_arx": {"refine"},
 }
 INVALID = [
     (front_end, name, value)
@@ -73,3 +71,15 @@ def test_max_iter_and_tol_are_checked_with_every_norm():
     # They were checked only by the iterative solvers; now a wrong value is never ignored.
     with pytest.raises(ValueError, match="^max_iter: expected an integer >= 1"):
         ltv.fit(DATA.x, DATA.u, lam=10.0, norm="sq", max_iter=0)
+
+
+def test_ar_models_take_the_two_step_refinement_as_every_front_end():
+    rng = np.random.default_rng(0)
+    y = np.r_[np.sin(np.arange(200) / 3), 2 * np.sin(np.arange(200) / 7)]
+    y = y + 0.01 * rng.standard_normal(400)
+    model = ltv.fit_ar(y, 2, lam=5.0, norm="group", refine=True)
+    target, phi = ltv.ar_regressors(y, 2)
+    reference = ltv.fit_regression(target, phi, lam=5.0, norm="group", refine=True)
+    assert model.norm == "piecewise" and model.info["first_step"]["norm"] == "group"
+    np.testing.assert_allclose(model.k, reference.k, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(model.changepoints, reference.changepoints)

@@ -152,6 +152,7 @@ def fit_arx(
     weights: ArrayLike | None = None,
     loss: Loss = "squared",
     huber_delta: float | ArrayLike | None = None,
+    refine: bool = False,
     progress: Callable[[int, int], None] | None = None,
 ) -> ARXModel:
     """Identify a time-varying (V)ARX model.
@@ -182,6 +183,11 @@ def fit_arx(
     lam, norm, order, prior, prior_mode, noise_var, compute_cov, max_iter, tol, loss, huber_delta
         As in :func:`ltvmodels.fit`, with K = n·p parameters per time step,
         p = n·na + m·nb (+ 1).
+    refine : bool
+        The two-step refinement, as in :func:`ltvmodels.fit`: refit with the
+        coefficients constant (order 1) or linear and continuous (order 2)
+        between the change points of this fit (``info["first_step"]``
+        summarizes the first fit).
     progress : callable, optional
         Called as ``progress(done, total)`` while ``lam="auto"`` chooses λ (see
         :func:`ltvmodels.select_lambda`).
@@ -250,6 +256,7 @@ def fit_ar(
     weights: ArrayLike | None = None,
     loss: Loss = "squared",
     huber_delta: float | ArrayLike | None = None,
+    refine: bool = False,
     progress: Callable[[int, int], None] | None = None,
 ) -> ARModel:
     """Identify a time-varying (V)AR(na) model y[t] = Σ_{i=1}^{na} A_{t,i} y[t−i] (+ c_t) + e[t].
@@ -269,6 +276,11 @@ def fit_ar(
         Model order.
     lam, norm, order, prior, prior_mode, noise_var, compute_cov, max_iter, tol, loss, huber_delta
         As in :func:`ltvmodels.fit`, with K = n·p, p = n·na (+ 1).
+    refine : bool
+        The two-step refinement, as in :func:`ltvmodels.fit`: refit with the
+        coefficients constant (order 1) or linear and continuous (order 2)
+        between the change points of this fit (``info["first_step"]``
+        summarizes the first fit).
     progress : callable, optional
         Called as ``progress(done, total)`` while ``lam="auto"`` chooses λ (see
         :func:`ltvmodels.select_lambda`).
