@@ -1200,7 +1200,7 @@ def test_time_column_dates_the_change_points(tmp_path, capsys):
     )
     report = __import__("json").loads(capsys.readouterr().out)
     assert code == 0 and report["changepoints"] == [200]
-    assert report["changepoint_times"] == ["2020-07-19"]
+    assert report["changepoint_times"] == ["2020-07-20"]  # x[201], the first new state
     model = ltvmodels.load(tmp_path / "m.npz")
     np.testing.assert_array_equal(model.time, days.astype("datetime64[ns]"))
     assert model.state_names == ["x1", "x2"] and model.to_frame().index.name == "time"

@@ -410,8 +410,9 @@ def test_dataframe_column_names_name_the_model(tmp_path):
 
 
 def test_a_datetime_index_times_the_model(tmp_path):
-    """The index of x is model.time; change point c is reported at the time of x[c]; it
-    survives save/load and indexes to_frame."""
+    """The index of x is model.time; change point c is reported at the time of x[c + 1]
+    (the first state the new coefficients produce); it survives save/load and indexes
+    to_frame."""
     pd = pytest.importorskip("pandas")
     data = ltv.systems.jump_linear(T=120, change_at=60, seed=0)
     index = pd.date_range("2021-03-01", periods=120, freq="D", tz="Europe/Stockholm")
@@ -421,10 +422,10 @@ def test_a_datetime_index_times_the_model(tmp_path):
     expected = index.tz_convert("UTC").tz_localize(None).to_numpy()
     np.testing.assert_array_equal(model.time, expected)
     assert model.changepoints.tolist() == [60]
-    np.testing.assert_array_equal(model.changepoint_times, expected[[60]])
+    np.testing.assert_array_equal(model.changepoint_times, expected[[61]])
     model.save(tmp_path / "m.npz")
     loaded = ltv.load(tmp_path / "m.npz")
-    np.testing.assert_array_equal(loaded.changepoint_times, expected[[60]])
+    np.testing.assert_array_equal(loaded.changepoint_times, expected[[61]])
     frame = loaded.to_frame()
     assert frame.index.name == "time" and frame.index[0] == pd.Timestamp(expected[0])
     # numbers keep their values; the default index 0 … T−1 is no time
@@ -472,4 +473,4 @@ def test_xarray_dataarrays_name_and_time_the_model():
     model = ltv.fit(x, u, lam=30.0, norm="group")
     assert model.state_names == ["position", "velocity"] and model.input_names == ["force"]
     np.testing.assert_array_equal(model.time, days.to_numpy())
-    assert model.changepoint_times[0] == days[60]
+    assert model.changepoint_times[0] == days[61]

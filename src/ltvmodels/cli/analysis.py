@@ -287,8 +287,8 @@ def state_space_report(
         f"change points: {[int(c) for c in changepoints]} ({rule})",
     ]
     time = model.time
-    if time is not None and len(changepoints):  # change c at the time of x[c]
-        times = time_text(time[np.asarray(changepoints, dtype=int)])
+    if time is not None and len(changepoints):  # change c: x[c + 1] is the first new state
+        times = time_text(time[np.asarray(changepoints, dtype=int) + model.produced_offset])
         report["changepoint_times"] = times
         lines[-1] += f"; at times {', '.join(times)}"
     return report, lines, changepoints

@@ -281,14 +281,23 @@ class RegressionModel:
         return 0
 
     @property
+    def produced_offset(self) -> int:
+        """The sample of the data's time axis that model step t produces is t +
+        ``produced_offset``: row t of a regression, y[lag + t] of an AR/ARX model (both
+        :attr:`step_offset`), x[t + 1] of a state-space model."""
+        return self.step_offset
+
+    @property
     def changepoint_times(self) -> np.ndarray | None:
-        """The times of the change points: change point c (the first step whose
-        coefficients differ; for a state-space model mapping x[c] to x[c+1]) at the time
-        of step c (:attr:`step_times`); None without a time index or change points."""
-        times, changepoints = self.step_times, self.changepoints
-        if times is None or changepoints is None:
+        """The times of the change points: the time of the first observation produced
+        under the new coefficients. For change point c (the first step whose
+        coefficients differ) that is y[c] of a regression, y[lag + c] of an AR/ARX
+        model and x[c + 1] of a state-space model (the first state the new A_c, B_c
+        map to); None without a time index or change points."""
+        time, changepoints = self.time, self.changepoints
+        if time is None or changepoints is None:
             return None
-        return times[np.asarray(changepoints, dtype=int)]
+        return time[np.asarray(changepoints, dtype=int) + self.produced_offset]
 
     @property
     def output_names(self) -> list[str]:

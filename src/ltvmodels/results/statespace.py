@@ -112,6 +112,11 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         self.n_inputs = n_inputs
         self.constant = constant
 
+    @property
+    def produced_offset(self) -> int:
+        """Step t maps x[t] to x[t + 1]: it produces the sample t + 1."""
+        return 1
+
     # -- shapes -------------------------------------------------------------------
     @property
     def A(self) -> np.ndarray:
