@@ -252,3 +252,28 @@ def test_forecasts_continue_a_decimal_step_and_the_command_line_a_month(tmp_path
     import json
 
     assert json.loads(capsys.readouterr().out)["time"] == ["2010-01-01", "2010-02-01"]
+
+
+def test_a_forecast_is_a_frame_on_the_data_calendar():
+    months = pd.date_range("2000-01-01", periods=120, freq="MS")
+    y = pd.Series(D.x[:120, 0], index=months, name="level")
+    forecast = ltv.fit_ar(y, 2, lam=100.0).forecast(y.iloc[-2:], steps=3, level=0.9)
+    frame = forecast.to_frame()
+    assert list(frame.columns) == ["level", "level lower", "level upper"]
+    assert frame.index.name == "time" and frame.index[0] == pd.Timestamp("2010-01-01")
+    np.testing.assert_array_equal(frame["level"].to_numpy(), forecast.mean[:, 0])
+    np.testing.assert_array_equal(frame["level upper"].to_numpy(), forecast.upper[:, 0])
+    plain = ltv.fit_ar(D.x[:120, 0], 2, lam=100.0).forecast(D.x[118:120, 0], steps=2)
+    assert plain.to_frame().index.name == "t" and plain.to_frame().index[0] == 120
+
+
+def test_a_segmentation_of_a_dated_regression_dates_its_changes():
+    y = pd.Series(np.r_[np.ones(100), 3 * np.ones(100)] * D.u[:, 0], index=DAYS)
+    phi = pd.DataFrame({"u": D.u[:, 0]}, index=DAYS)
+    seg = ltv.segment_regression(y, phi, n_changes=1)
+    assert seg.changepoints.tolist() == [100]
+    assert seg.changepoint_times[0] == DAYS[100]  # y[c], the first row of the new segment
+    np.testing.assert_array_equal(seg.model.changepoint_times, seg.changepoint_times)
+    assert (
+        ltv.segment_regression(y.to_numpy(), phi.to_numpy(), n_changes=1).changepoint_times is None
+    )

@@ -98,6 +98,7 @@ def segment_regression(
     """
     problem, description = regression_data(y, phi, weights=weights)
     result = _segment(problem, n_changes, penalty, min_size, data_name="y")
+    result = replace(result, time=description.time)
     if problem.n_observed <= (result.n_changes + 1) * problem.p:
         return result  # no residual degree of freedom: no noise estimate, no model
     model = piecewise_fit(

@@ -158,6 +158,31 @@ class Forecast:
         """(steps, n) standard deviations of the forecast (square roots of diag ``cov``)."""
         return np.sqrt(np.maximum(np.diagonal(self.cov, axis1=1, axis2=2), 0.0))
 
+    def to_frame(self) -> Any:
+        """The forecast as a pandas DataFrame, one row per step.
+
+        Columns "name" (the mean), "name lower" and "name upper" (the bounds of
+        the ``level`` interval) for each state or output, in that order; the
+        index is :attr:`time`, named "time" (or "t" for sample indices). Needs
+        pandas (``pip install pandas``).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Shape (steps, 3n).
+        """
+        try:
+            import pandas as pd
+        except ImportError:  # pragma: no cover - pandas is installed wherever tests run
+            raise ImportError("to_frame needs pandas: pip install pandas") from None
+        columns = {}
+        for j, name in enumerate(self.names):
+            columns[name] = self.mean[:, j]
+            columns[f"{name} lower"] = self.lower[:, j]
+            columns[f"{name} upper"] = self.upper[:, j]
+        indices = np.issubdtype(self.time.dtype, np.integer)
+        return pd.DataFrame(columns, index=pd.Index(self.time, name="t" if indices else "time"))
+
     def plot(self, history: ArrayLike | None = None, *, fig: Any = None):
         """Plot the mean and the interval of each state, one subplot per state.
 

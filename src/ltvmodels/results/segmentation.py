@@ -45,6 +45,9 @@ class Segmentation:
     model : RegressionModel or None
         The least-squares fit on the segments (:func:`ltvmodels.segment_regression`
         sets it when the segments leave a residual degree of freedom).
+    time : ndarray, shape (N,), or None
+        The time of each row of y (the index of a pandas y, on its regular
+        grid); None without one.
     """
 
     changepoints: np.ndarray
@@ -60,6 +63,15 @@ class Segmentation:
     solver: str
     work: int = field(default=0)
     model: Any = None
+    time: np.ndarray | None = None
+
+    @property
+    def changepoint_times(self) -> np.ndarray | None:
+        """The time of the first row of y under each new segment's coefficients, y[c]
+        for change point c; None without a time index."""
+        if self.time is None:
+            return None
+        return self.time[np.asarray(self.changepoints, dtype=int)]
 
     def plot(self, fig: Any = None):
         """Plot the model on the segments (:meth:`RegressionModel.plot`); needs ``model``."""
