@@ -277,3 +277,21 @@ def test_a_segmentation_of_a_dated_regression_dates_its_changes():
     assert (
         ltv.segment_regression(y.to_numpy(), phi.to_numpy(), n_changes=1).changepoint_times is None
     )
+
+
+def test_a_table_is_read_column_by_column():
+    # A text column is named; pandas' missing values (pd.NA, None) are missing samples.
+    table = X.assign(label="k")
+    with pytest.raises(TypeError, match=r"x: column 'label' holds values that are not numbers"):
+        ltv.fit(table, lam=10.0)
+    with pytest.raises(TypeError, match=r"y: expected numbers, received '1\.5'"):
+        ltv.fit_ar(pd.Series(["1.5"] * 50), 2, lam=10.0)
+    reference = ltv.fit(blanked(X, DAYS[3:4]), lam=10.0)
+    objects = X.astype(object)
+    objects.iloc[3] = pd.NA
+    nullable = X.astype("Float64")
+    nullable.iloc[3] = pd.NA
+    for table in (objects, nullable):
+        model = ltv.fit(table, lam=10.0)
+        np.testing.assert_array_equal(model.k, reference.k)
+        assert model.n_missing == 2

@@ -89,6 +89,47 @@ def describe(value: Any) -> str:
     return f"{text} ({type(value).__name__})"
 
 
+def _pandas_numbers(value: Any, name: str) -> np.ndarray:
+    """The values of a pandas DataFrame or Series as floats, pandas' missing values
+    (``pd.NA``, None, NaN) as NaN; a column holding anything else is a TypeError that
+    names it."""
+    frame = value.to_frame() if getattr(value, "ndim", 2) == 1 else value
+    objects = [label for label in frame.columns if frame[label].dtype.kind not in "fiub"]
+    if not objects:  # numbers (nullable ones too), booleans
+        return frame.to_numpy(dtype=np.float64, na_value=np.nan).reshape(np.shape(value))
+    for label in objects:
+        column = frame[label]
+        for row, item in column.items():
+            is_missing = item is None or item is _pandas_na() or _is_nan(item)
+            if not is_missing and (isinstance(item, (str, bytes, bool)) or not _is_real(item)):
+                if getattr(value, "ndim", 2) == 1:
+                    raise TypeError(
+                        f"{name}: expected numbers, received {item!r} at {row!r}; convert "
+                        "the series (pd.to_numeric) or pass numbers"
+                    )
+                raise TypeError(
+                    f"{name}: column {label!r} holds values that are not numbers (e.g. "
+                    f"{item!r} at {row!r}); pass only the numeric columns (select them, or "
+                    "drop the others)"
+                )
+    numbers = frame.astype(object).where(frame.notna(), np.nan)
+    return numbers.to_numpy(dtype=np.float64).reshape(np.shape(value))
+
+
+def _pandas_na() -> Any:
+    import pandas as pd  # (a pandas object was given: pandas is installed)
+
+    return pd.NA
+
+
+def _is_nan(item: Any) -> bool:
+    return isinstance(item, (float, np.floating)) and bool(np.isnan(item))
+
+
+def _is_real(item: Any) -> bool:
+    return isinstance(item, (int, float, np.integer, np.floating))
+
+
 def as_float_array(value: Any, name: str, *, missing: bool = False) -> np.ndarray:
     """Convert lists, numpy arrays and pandas objects to a new float64 array.
 
@@ -105,7 +146,9 @@ def as_float_array(value: Any, name: str, *, missing: bool = False) -> np.ndarra
             return arr
     if value is None:
         raise TypeError(f"{name}: expected an array of numbers, received None")
-    if hasattr(value, "to_numpy"):  # pandas DataFrame / Series
+    if hasattr(value, "to_numpy") and hasattr(value, "index"):  # pandas DataFrame / Series
+        value = _pandas_numbers(value, name)
+    elif hasattr(value, "to_numpy"):  # e.g. an xarray DataArray
         value = value.to_numpy()
     if isinstance(value, np.ma.MaskedArray):
         if missing:  # masked entries are missing samples
