@@ -295,3 +295,34 @@ def test_a_table_is_read_column_by_column():
         model = ltv.fit(table, lam=10.0)
         np.testing.assert_array_equal(model.k, reference.k)
         assert model.n_missing == 2
+
+
+def test_a_refined_fit_shows_the_lambda_that_chose_its_changes():
+    model = ltv.fit(D.x, D.u, lam="auto", norm="group", refine=True)
+    chosen = model.info["lam_selection"]["lam"]
+    assert f"lam={chosen:g} (group, then refined)" in repr(model)
+    assert "lam=inf" not in repr(model) and model.norm == "piecewise"
+
+
+def test_a_forecast_level_needs_a_representable_tail():
+    model = ltv.fit(D.x, D.u, lam=10.0)
+    with pytest.raises(ValueError, match="level: expected a probability in \\(0, 1\\) whose tails"):
+        model.forecast(D.x[-1], np.zeros(3), level=1 - 1e-16)
+    assert model.forecast(D.x[-1], np.zeros(3), level=1 - 1e-12).upper.shape == (3, 2)
+
+
+def test_the_command_line_never_writes_over_its_data_and_says_a_given_noise_variance(
+    tmp_path, capsys
+):
+    from ltvmodels.cli import main
+
+    path = tmp_path / "data.csv"
+    pd.DataFrame({"p": D.x[:, 0], "v": D.x[:, 1], "f": D.u[:, 0]}).to_csv(path, index=False)
+    before = path.read_text()
+    argv = ["fit", str(path), "--state", "p,v", "--input", "f", "--lam", "10"]
+    assert main([*argv, "--coef-out", str(path)]) == 2
+    assert "coef-out:" in capsys.readouterr().err and path.read_text() == before
+    assert main([*argv, "--noise-var", "0.1"]) == 0
+    out = capsys.readouterr().out
+    assert "noise variance: p 0.1, v 0.1 (given)" in out
+    assert main(argv) == 0 and "(estimated from the residuals)" in capsys.readouterr().out

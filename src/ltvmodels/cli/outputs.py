@@ -104,7 +104,22 @@ def check_outputs(args: argparse.Namespace, out: Literal["model", "table"] | Non
     coef_out = getattr(args, "coef_out", None)
     if coef_out is not None:
         output_file(coef_out, "coef-out")
+    _not_the_data(
+        args, {"out": path, "plot": None if plot is None else plot[0], "coef-out": coef_out}
+    )
     return Outputs(path, plot, coef_out)
+
+
+def _not_the_data(args: argparse.Namespace, outputs: dict[str, Any]) -> None:
+    """No output may overwrite an input file (DATA, MODEL): an error before any work."""
+    inputs = [getattr(args, name, None) for name in ("data", "model")]
+    read = {Path(p).resolve() for p in inputs if isinstance(p, (str, Path)) and str(p) != "-"}
+    for option, path in outputs.items():
+        if path is not None and Path(path).resolve() in read:
+            raise OutputPathError(
+                f"{option}: {str(path)!r} is an input of this command; writing it would "
+                "overwrite the data: choose another file name"
+            )
 
 
 @contextlib.contextmanager

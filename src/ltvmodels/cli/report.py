@@ -105,5 +105,7 @@ def missing_text(n_missing: int, N: int, counts: dict[str, int], noun: str, rule
 
 
 def noise_text(model: Any, names: list[str]) -> str:
-    """``noise variance: x1 0.01, x2 0.02 (estimated from the residuals)``."""
-    return f"noise variance: {per_name(names, model.noise_var)} (estimated from the residuals)"
+    """``noise variance: x1 0.01, x2 0.02 (estimated from the residuals)``, or ``(given)``
+    where ``--noise-var`` set it."""
+    how = "estimated from the residuals" if model.info.get("noise_var_estimated", True) else "given"
+    return f"noise variance: {per_name(names, model.noise_var)} ({how})"

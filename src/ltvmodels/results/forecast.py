@@ -216,6 +216,11 @@ def forecast_options(level: Any, n_samples: Any, seed: Any) -> tuple[float, int,
     level = float(level)
     if not 0.0 < level < 1.0:
         raise ValueError(f"level: expected a probability in (0, 1) (e.g. 0.95), received {level}")
+    if (1.0 + level) / 2.0 >= 1.0:  # no tail left in floating point: no interval bound
+        raise ValueError(
+            f"level: expected a probability in (0, 1) whose tails are representable (at most "
+            f"1 - 1e-15), received {level!r}"
+        )
     n_samples = options.integer(n_samples, "n_samples", minimum=2)
     options.random_generator(seed)  # checks it; the generator is made when it is needed
     return level, n_samples, seed

@@ -439,7 +439,11 @@ class RegressionModel:
 
     def __repr__(self) -> str:
         lam = self.lam
-        if lam is None:
+        first = self.info.get("first_step")
+        if isinstance(first, dict) and isinstance(first.get("lam"), (int, float)):
+            # a refined fit: the λ of its first step, which chose the change points
+            lam_text = f"{float(first['lam']):g} ({first.get('norm')}, then refined)"
+        elif lam is None:
             lam_text = "None"
         else:
             lam_text = f"{float(lam):g}" if np.ndim(lam) == 0 else f"array{np.shape(lam)}"
