@@ -425,7 +425,8 @@ def test_load_reads_files_without_model_type(tmp_path, ltv_data):
 def test_plot_root_spectrogram():
     y, _, _ = _tv_ar2(500, seed=2)
     model = ltv.fit_ar(y, 4, lam=50.0)
-    ax = model.plot(fs=100.0)
+    fig = model.plot(fs=100.0)  # a Figure, as every result's plot()
+    ax = fig.axes[0]
     assert ax.get_xlabel() == "time (s)" and ax.get_ylim() == (0.0, 50.0)
     assert len(ax.lines) == 2  # (n·na) // 2 tracks
     with pytest.raises(TypeError, match="root_spectrogram"):

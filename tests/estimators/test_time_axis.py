@@ -326,3 +326,16 @@ def test_the_command_line_never_writes_over_its_data_and_says_a_given_noise_vari
     out = capsys.readouterr().out
     assert "noise variance: p 0.1, v 0.1 (given)" in out
     assert main(argv) == 0 and "(estimated from the residuals)" in capsys.readouterr().out
+
+
+def test_each_trajectory_of_a_list_is_checked_and_placed_on_its_grid():
+    second = X + 0.01
+    with pytest.raises(ValueError, match=r"x\[1\]: the time index is not sorted: row 51"):
+        ltv.fit([X, second.iloc[np.r_[0:50, 51, 50, 52:200]]], lam=10.0)
+    with pytest.raises(ValueError, match=r"x\[1\]: its columns \['a', 'b'\] differ"):
+        ltv.fit([X, second.set_axis(["a", "b"], axis=1)], lam=10.0)
+    with pytest.warns(ltv.DataWarning, match="15 time stamps missing"):
+        gappy = ltv.fit([X.drop(GAP), second.drop(GAP)], [U.drop(GAP), U.drop(GAP)], lam=10.0)
+    full = ltv.fit([blanked(X, GAP), blanked(second, GAP)], [blanked(U, GAP)] * 2, lam=10.0)
+    np.testing.assert_allclose(gappy.k, full.k, rtol=0, atol=1e-12)
+    assert gappy.n_missing == full.n_missing == 32 and gappy.data.n_trajectories == 2

@@ -152,9 +152,42 @@ def timed_recordings(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray, TimeGrid |
     """:func:`ltvmodels.validation.arrays.recordings` of x and u (matched to x by their
     time stamps), and the regular grid of x's time index (None without one; its
     :meth:`~ltvmodels.validation.time.TimeGrid.spread` puts the rows on it)."""
+    if _indexed_trajectories(x):
+        x, u = _trajectories_on_their_grids(x, u)
     grid = time_grid_of(x, "x")
     x, u = arrays.recordings(x, arrays.aligned(x, u, "x", "u"))
     return x, u, grid
+
+
+def _indexed_trajectories(x: Any) -> bool:
+    """Whether x is a list of R pandas trajectories (each with its own index)."""
+    return isinstance(x, (list, tuple)) and bool(x) and all(hasattr(i, "columns") for i in x)
+
+
+def _trajectories_on_their_grids(xs: Any, us: Any) -> tuple[list, Any]:
+    """A list of pandas trajectories (and their inputs), each checked as one series is:
+    the same columns as the first, its time stamps in order and without repeats, the
+    inputs matched by stamp, the missing stamps of its regular grid as NaN rows (the
+    trajectories must then still have a common length)."""
+    first = [str(c) for c in xs[0].columns]
+    if not isinstance(us, (list, tuple)):
+        us = [None] * len(xs) if us is None else us
+    states, inputs = [], []
+    for r, (x, u) in enumerate(zip(xs, us)):
+        if [str(c) for c in x.columns] != first:
+            raise ValueError(
+                f"x[{r}]: its columns {[str(c) for c in x.columns]} differ from those of "
+                f"x[0], {first}; give every trajectory the same state columns"
+            )
+        u = arrays.aligned(x, u, f"x[{r}]", f"u[{r}]")
+        grid = time_grid_of(x, f"x[{r}]")
+        if grid is not None and grid.inserted:  # the trajectory's rows on its grid
+            x = grid.spread(arrays.as_time_series(x, f"x[{r}]", missing=True)[None])[0]
+            if u is not None:
+                u = grid.spread(arrays.as_time_series(u, f"u[{r}]", missing=True)[None])[0]
+        states.append(x)
+        inputs.append(u)
+    return states, None if all(u is None for u in inputs) else inputs
 
 
 def time_grid_of(value: Any, name: str) -> TimeGrid | None:

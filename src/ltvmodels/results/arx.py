@@ -348,10 +348,13 @@ class ARXModel(RegressionModel):
     # arguments.
     def plot(self, fs: float | None = None, ax: Any = None):  # type: ignore[override]
         """Plot the root spectrogram; see :func:`ltvmodels.plotting.plot_root_spectrogram`
-        (``fs`` None: from the model's time index, or cycles per sample)."""
+        (``fs`` None: from the model's time index, or cycles per sample).
+
+        Returns the Figure (as every result's ``plot``); its axes are ``ax`` when given.
+        """
         from ..plotting import plot_root_spectrogram
 
-        return plot_root_spectrogram(self, fs, ax=ax)
+        return plot_root_spectrogram(self, fs, ax=ax).figure
 
     # -- persistence and display ------------------------------------------------------
     def structure(self) -> dict:
