@@ -339,3 +339,26 @@ def test_each_trajectory_of_a_list_is_checked_and_placed_on_its_grid():
     full = ltv.fit([blanked(X, GAP), blanked(second, GAP)], [blanked(U, GAP)] * 2, lam=10.0)
     np.testing.assert_allclose(gappy.k, full.k, rtol=0, atol=1e-12)
     assert gappy.n_missing == full.n_missing == 32 and gappy.data.n_trajectories == 2
+
+
+def test_the_command_line_forecast_of_an_arx_model_is_the_model_forecast(tmp_path, capsys):
+    # The inputs of the forecast: the recorded ones at the lags, then the future ones.
+    from ltvmodels.cli import main
+
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal(200)
+    y = np.zeros(200)
+    for t in range(2, 200):
+        y[t] = 0.5 * y[t - 1] - 0.2 * y[t - 2] + 1.5 * u[t - 1] + 0.05 * rng.standard_normal()
+    model = ltv.fit_arx(pd.Series(y, name="y"), pd.Series(u, name="u"), 2, 1, lam=100.0)
+    model.save(tmp_path / "arx.npz")
+    pd.DataFrame({"y": y, "u": u}).to_csv(tmp_path / "data.csv", index=False)
+    future = rng.standard_normal(3)
+    pd.DataFrame({"u": future}).to_csv(tmp_path / "future.csv", index=False)
+    argv = ["forecast", str(tmp_path / "arx.npz"), str(tmp_path / "data.csv"), "--steps", "3"]
+    assert main([*argv, "--future-input", str(tmp_path / "future.csv"), "--json"]) == 0
+    import json
+
+    report = json.loads(capsys.readouterr().out)
+    expected = model.forecast(y[-model.lag :], np.r_[u[-model.lag :], future], steps=3)
+    np.testing.assert_allclose(np.array(report["mean"])[:, 0], expected.mean[:, 0], rtol=1e-12)

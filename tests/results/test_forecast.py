@@ -428,3 +428,26 @@ def test_forecast_plot_draws_mean_and_band(data):
         f.plot(history=np.zeros((5, 3)))
     with pytest.raises(TypeError, match=r"forecast: expected a Forecast"):
         ltv.plotting.plot_forecast(np.zeros(3))
+
+
+def test_an_ar2_forecast_with_noise_has_the_closed_form_mean_and_covariance():
+    # y[t] = a1 y[t-1] + a2 y[t-2] + e[t], Var e = σ²: the h-step forecast variance is
+    # σ² Σ_{j<h} ψ_j², with ψ_0 = 1, ψ_1 = a1, ψ_2 = a1² + a2 (it needs the covariance
+    # between y[T] and the lags it shares with y[T+1]).
+    a1, a2, s2 = 0.6, -0.3, 0.5
+    model = ltv.ARModel(
+        np.tile([a1, a2], (50, 1)),
+        1,
+        2,
+        False,
+        ltv.FitRecord(noise_var=np.array([s2]), noise_cov=np.array([[s2]])),
+    )
+    forecast = model.forecast(np.array([0.2, -0.1]), steps=3)  # y[T-2], y[T-1]
+    assert forecast.method == "gaussian"
+    psi = [1.0, a1, a1 * a1 + a2]
+    variances = [s2 * sum(p * p for p in psi[:h]) for h in (1, 2, 3)]
+    np.testing.assert_allclose(forecast.cov[:, 0, 0], variances, rtol=1e-12)  # 0.5, 0.68, 0.6818
+    means = [a1 * -0.1 + a2 * 0.2]
+    means.append(a1 * means[0] + a2 * -0.1)
+    means.append(a1 * means[1] + a2 * means[0])
+    np.testing.assert_allclose(forecast.mean[:, 0], means, rtol=1e-12)
