@@ -107,17 +107,18 @@ def state_space_data(args: argparse.Namespace) -> StateSpaceData:
             )
         transition_weights = column
     time = None if cols.get("time") is None else cols["time"][1]
-    if time is not None:  # the library's time rules (ltvmodels.validation.time)
-        from ..errors import DataWarning, warn
-        from ..validation.time import time_grid
+    if time is not None:  # the library's time rules, as for a pandas index
+        from ..estimators.recordings import time_grid_of
+        from ..validation.arrays import LabelledSeries
 
         try:
-            grid = time_grid(time, "--time")
+            grid = time_grid_of(LabelledSeries(x, state_names, time), "--time")
         except ValueError as exc:
             text = str(exc).replace("(df.sort_index())", "(sort the file by that column)")
             raise DataError(text) from None
+        if grid is None:  # the stamps 0, 1, … are consecutive rows: nothing to check
+            return StateSpaceData(label, x, u, state_names, input_names, transition_weights, time)
         if grid.inserted:
-            warn(f"--time: {grid.notice}", DataWarning)
             x = grid.spread(x[None])[0]
             u = None if u is None else grid.spread(u[None])[0]
             spread = grid.spread_rows(

@@ -161,15 +161,11 @@ def continued(stamps: np.ndarray, count: int) -> np.ndarray | None:
         return stamps[-1] + step * np.arange(1, count + 1)
     if stamps.size < 3 or not np.issubdtype(stamps.dtype, np.datetime64):
         return None
-    try:
-        import pandas as pd
-    except ImportError:  # pragma: no cover - without pandas only fixed steps
-        return None
-    with warnings.catch_warnings():  # pandas' notices about infer_freq's future return type
-        warnings.simplefilter("ignore")
-        frequency = pd.infer_freq(pd.DatetimeIndex(stamps))
+    frequency = _frequency(stamps)
     if frequency is None:
         return None
+    import pandas as pd  # (_frequency found one: pandas is there)
+
     after = pd.date_range(stamps[-1], periods=count + 1, freq=frequency)[1:]
     return after.to_numpy().astype("datetime64[ns]")
 
@@ -216,26 +212,33 @@ def _fixed_step_grid(stamps: np.ndarray) -> np.ndarray | None:
 def _calendar_grid(stamps: np.ndarray) -> np.ndarray | None:
     """The grid of a calendar frequency (months, quarters, years, business days) that
     pandas infers from runs of consecutive stamps, if every stamp lies on it."""
-    try:
-        import pandas as pd
-    except ImportError:  # pragma: no cover - without pandas only fixed steps
-        return None
+    if _frequency(stamps) is not None:  # no gaps
+        return stamps.astype("datetime64[ns]")
+    import pandas as pd  # (without pandas _frequency is None: no calendar grid below)
+
+    guesses = Counter(
+        frequency
+        for start in range(0, min(stamps.size - 2, 60))
+        if (frequency := _frequency(stamps[start : start + 3])) is not None
+    )
     index = pd.DatetimeIndex(stamps)
-    with warnings.catch_warnings():  # pandas' notices about infer_freq's future return type
-        warnings.simplefilter("ignore")
-        whole = pd.infer_freq(index)  # no gaps
-        if whole is not None:
-            return stamps.astype("datetime64[ns]")
-        guesses = Counter(
-            frequency
-            for start in range(0, min(index.size - 2, 60))
-            if (frequency := pd.infer_freq(index[start : start + 3])) is not None
-        )
     for frequency, _ in guesses.most_common(2):
         grid = pd.date_range(index[0], index[-1], freq=frequency)
         if grid.size <= 100 * index.size and index.isin(grid).all():
             return grid.to_numpy().astype("datetime64[ns]")
     return None
+
+
+def _frequency(stamps: np.ndarray) -> str | None:
+    """The calendar frequency pandas infers from consecutive dates (None: none, or no
+    pandas)."""
+    try:
+        import pandas as pd
+    except ImportError:  # pragma: no cover - without pandas only fixed steps
+        return None
+    with warnings.catch_warnings():  # pandas' notices about infer_freq's future return type
+        warnings.simplefilter("ignore")
+        return pd.infer_freq(pd.DatetimeIndex(stamps))
 
 
 def _text(value: Any) -> str:
