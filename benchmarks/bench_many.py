@@ -10,7 +10,8 @@ mapping {unit: (x, u)}. For each case (``sq`` with a fixed λ, ``sq`` with
   speed-up over n_jobs=1, target ≥ 1.7× on 2 cores) — with
   ``keep_models=False`` as the bare loop, which drops its models, and again
   with the models kept (target ≥ 1.5×; 10⁴ models of T = 500 are 0.6 GB) —
-  after a first call has started the pool's workers,
+  after a first call has started the pool's workers; each the best of
+  ``--repeat`` runs (3), the five taking turns,
   and ``fit_many`` on a 2-worker ``dask.distributed.LocalCluster``
   (``--no-cluster`` skips it; it runs last, so that no scheduler thread is
   alive in this process during the other timings),
@@ -195,6 +196,9 @@ def main() -> None:
     )
     parser.add_argument("--peer-units", type=int, default=50)
     parser.add_argument("--no-cluster", action="store_true")
+    parser.add_argument(
+        "--repeat", type=int, default=3, help="runs of each timing; the best is printed"
+    )
     parser.add_argument("--small-only", action="store_true", help="only the small-jobs table")
     parser.add_argument("--no-small", action="store_true", help="without the small-jobs table")
     args = parser.parse_args()
@@ -219,7 +223,10 @@ def main() -> None:
     # The pool's workers are started (they stay for later calls): these rows time a
     # session's later calls; the small-jobs table times the first one too ("cold").
     ltv.fit_many(dict(units[:20]), n_jobs=2, lam=LAM, progress=False)
-    print(f"{args.units} jump-linear units, T = {args.T}, n = 2, m = 1 (warm worker pool)")
+    print(
+        f"{args.units} jump-linear units, T = {args.T}, n = 2, m = 1 (warm worker pool), "
+        f"best of {args.repeat}"
+    )
     # No cluster is alive while this process is timed alone: an in-process
     # scheduler's threads take the interpreter lock from the fits (~40 % here).
     single = {}
@@ -236,11 +243,18 @@ def main() -> None:
             )
             assert not ms.errors, ms.errors
 
-        bare, _ = timed(bare_loop)
-        one, _ = timed(lambda: many(1, False))
-        two, _ = timed(lambda: many(2, False))
-        one_kept, _ = timed(lambda: many(1, True))
-        two_kept, _ = timed(lambda: many(2, True))
+        runs = {
+            "bare": bare_loop,
+            "one": lambda: many(1, False),
+            "two": lambda: many(2, False),
+            "one_kept": lambda: many(1, True),
+            "two_kept": lambda: many(2, True),
+        }
+        times: dict[str, list[float]] = {name: [] for name in runs}
+        for _ in range(args.repeat):  # in turns, so that a slow spell of the machine hits all
+            for name, run in runs.items():
+                times[name].append(timed(run)[0])
+        bare, one, two, one_kept, two_kept = (min(times[name]) for name in runs)
         single[case] = one
         print(f"\n{case} {options}")
         print(

@@ -33,7 +33,6 @@ import numpy as np
 from ..progress import Progress
 from ..results.manifest import check_units, model_file_name, output_directory
 from ..results.model_set import ModelSet
-from ..results.packed import Packed
 from ..validation import arrays
 from ..validation import options as checks
 from ..validation.options import ManyMethod
@@ -68,23 +67,13 @@ class _UnitData:
 
 @dataclass(frozen=True)
 class _UnitResult:
-    """What a worker sends back for one unit.
-
-    Pickled (sent from a worker process), its model travels packed: one
-    buffer, unpacked only when :class:`~ltvmodels.ModelSet` is asked for it.
-    """
+    """What a worker sends back for one unit."""
 
     position: int
     unit: Any
     record: dict
     model: Any = None
     error: str | None = None
-
-    def __reduce__(self) -> tuple:
-        model = self.model
-        if model is not None and not isinstance(model, Packed):
-            model = Packed.pack(model)
-        return (_UnitResult, (self.position, self.unit, self.record, model, self.error))
 
 
 @dataclass(frozen=True)

@@ -2,39 +2,52 @@
 
 A task's results (its units' summary records, and their models when they are
 kept) are written by the worker to a new file, and only the file's path goes
-back through loky's pipe. Two reasons:
+back through loky's pipe. Three reasons:
 
 * **no half messages**: a path is a message short enough for one atomic pipe
   write, so a worker killed at any moment never leaves half a message in the
   pipe (loky's reader would wait for the rest of it for good). The file
   appears whole or not at all: it is written under a temporary name, then
   renamed.
-* **no copies**: the results are pickled with protocol 5, their NumPy arrays
-  out of band. The file holds the arrays' bytes (each at a 64-byte boundary),
-  then the pickle stream, then an index. This process maps the file
-  (copy-on-write) and unpickles the stream with the mapped regions as the
-  arrays' buffers, so that 10⁴ models of 60 kB come back without a copy or a
-  parse of their 600 MB: their arrays are views of the mapping, writable
-  (a write copies the page it touches, privately), and the mapping lives as
-  long as one of them does. The file itself is removed once mapped.
+* **no copies**: the results' NumPy arrays are not pickled. The file holds
+  their bytes, then a pickle stream of everything else (in which each array
+  is a reference), then an index. This process maps the file (copy-on-write)
+  and unpickles the stream with the references resolved to views of the
+  mapping, so that 10⁴ models of 60 kB come back without a copy or a parse
+  of their 600 MB: their arrays are writable (a write copies the page it
+  touches, privately), and the mapping lives as long as one of them does.
+  The file itself is removed once mapped.
+* **arrays by kind, not one by one**: the arrays of a task's models come in a
+  few kinds (dtype and shape), the same for every unit. Each kind's arrays lie
+  one after another in the file and are read as one stacked array, whose rows
+  the models get. Pickled one by one, with their arrays inside, the models of
+  a jump-linear fit (0.3 ms) took 38 µs each to pickle and 19 µs to unpickle;
+  this way, a unit's whole result takes about 20 µs to pickle (50 µs with the
+  file written) and 13 µs to read.
 
 The directory is in memory (``/dev/shm``) where the system has it.
 """
 
 from __future__ import annotations
 
+import gc
+import io
 import mmap
 import os
 import pickle
 import tempfile
+import threading
 import uuid
 from typing import Any
+
+import numpy as np
 
 __all__ = ["new_directory", "write", "read"]
 
 ALIGNMENT = 64
 INDEX_LENGTH_BYTES = 8
 WRITE_PIECES = 1024  # buffers per os.writev (IOV_MAX on Linux)
+NUMBER_KINDS = "biufc"  # dtype kinds of the arrays that are stacked
 
 
 def new_directory() -> str:
@@ -44,21 +57,57 @@ def new_directory() -> str:
     return tempfile.mkdtemp(prefix="ltvmodels-pool-", dir=memory)
 
 
+class _ArrayPickler(pickle.Pickler):
+    """Pickles every plain C-contiguous array as a row of its kind's stack; collects the arrays."""
+
+    def __init__(self, file: io.BytesIO) -> None:
+        super().__init__(file, protocol=pickle.HIGHEST_PROTOCOL)
+        self.kinds: dict[tuple[str, tuple[int, ...]], list[np.ndarray]] = {}
+
+    def reducer_override(self, obj: Any) -> Any:
+        # Called for objects other than numbers, strings and built-in containers, so
+        # not for most of what a record holds. Exactly ndarray of numbers: subclasses,
+        # arrays of objects, text or dates (no buffer) and views with gaps are pickled
+        # as usual.
+        if (
+            type(obj) is not np.ndarray
+            or obj.dtype.kind not in NUMBER_KINDS
+            or not obj.flags.c_contiguous
+        ):
+            return NotImplemented
+        rows = self.kinds.setdefault((obj.dtype.str, obj.shape), [])
+        rows.append(obj)
+        return _stacked_row, (obj.dtype.str, obj.shape, len(rows) - 1)
+
+
+# The stacked arrays of the file being read, for _stacked_row (one per thread).
+_reading = threading.local()
+
+
+def _stacked_row(dtype: str, shape: tuple[int, ...], row: int) -> np.ndarray:
+    """While :func:`read` unpickles: the array ``row`` of the kind ``(dtype, shape)``."""
+    return _reading.stacks[dtype, shape][row, ...]
+
+
 def write(results: Any, directory: str) -> str:
     """Write ``results`` to a new file in ``directory``; returns its path."""
-    buffers: list[pickle.PickleBuffer] = []
-    stream = pickle.dumps(results, protocol=5, buffer_callback=buffers.append)
-    path = os.path.join(directory, f"{os.getpid()}-{uuid.uuid4().hex}.results")
+    stream = io.BytesIO()
+    pickler = _ArrayPickler(stream)
+    pickler.dump(results)
     pieces: list[Any] = []  # what the file holds, in order
     regions, size = [], 0
-    for buffer in buffers:
-        raw = buffer.raw()
-        regions.append((size, size + raw.nbytes))
-        padding = -(size + raw.nbytes) % ALIGNMENT
-        pieces += [raw, bytes(padding)] if padding else [raw]
-        size += raw.nbytes + padding
-    index = pickle.dumps((regions, (size, size + len(stream))), protocol=5)
-    pieces += [stream, index, len(index).to_bytes(INDEX_LENGTH_BYTES, "little")]
+    for (dtype, shape), arrays in pickler.kinds.items():
+        regions.append((dtype, shape, len(arrays), size))
+        pieces += [array for array in arrays if array.nbytes]
+        size += sum(array.nbytes for array in arrays)
+        padding = -size % ALIGNMENT
+        if padding:
+            pieces.append(bytes(padding))
+            size += padding
+    stream_bytes = stream.getbuffer()
+    index = pickle.dumps((regions, (size, size + stream_bytes.nbytes)), protocol=5)
+    pieces += [stream_bytes, index, len(index).to_bytes(INDEX_LENGTH_BYTES, "little")]
+    path = os.path.join(directory, f"{os.getpid()}-{uuid.uuid4().hex}.results")
     descriptor = os.open(path + ".part", os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
     try:  # a thousand pieces a system call: the arrays of a task are tens of thousands
         for start in range(0, len(pieces), WRITE_PIECES):
@@ -92,5 +141,20 @@ def read(path: str) -> Any:
     end = len(view) - INDEX_LENGTH_BYTES
     index_length = int.from_bytes(view[end:], "little")
     regions, (stream_start, stream_end) = pickle.loads(view[end - index_length : end])
-    buffers = [view[start:stop] for start, stop in regions]
-    return pickle.loads(view[stream_start:stream_end], buffers=buffers)
+    stacks = {}
+    for dtype, shape, count, offset in regions:
+        length = count * int(np.prod(shape))
+        stack = np.frombuffer(view, dtype, length, offset) if length else np.empty(0, dtype)
+        stacks[dtype, shape] = stack.reshape((count, *shape))
+    _reading.stacks = stacks
+    collecting = gc.isenabled()
+    # Unpickling a task's models makes tens of thousands of objects, none of them
+    # garbage: with the collector on, its passes over every model kept so far
+    # doubled the time of this call (measured: 0.029 against 0.013 ms a unit).
+    gc.disable()
+    try:
+        return pickle.loads(view[stream_start:stream_end])
+    finally:
+        del _reading.stacks
+        if collecting:
+            gc.enable()

@@ -33,7 +33,6 @@ from .manifest import (
     read_manifest,
     write_manifest,
 )
-from .packed import Packed
 
 __all__ = ["ModelSet", "load_many"]
 
@@ -92,10 +91,7 @@ class ModelSet(Mapping):
     # -- the mapping ----------------------------------------------------------------
     def __getitem__(self, unit: Any) -> Any:
         if unit in self._models:
-            model = self._models[unit]
-            if isinstance(model, Packed):  # sent by a worker process: unpacked once, now
-                model = self._models[unit] = model.unpack()
-            return model
+            return self._models[unit]
         if unit in self.errors:
             raise KeyError(f"unit {unit!r} was not fitted: {self.errors[unit]}")
         if unit in self._files and self.directory is not None:
