@@ -31,34 +31,35 @@ def blanked(frame, stamps):
     return out
 
 
-def state_fits(x, u):
+def state_fits(x, u, **extra):
     return {
-        "fit": lambda: ltv.fit(x, u, lam=10.0),
-        "fit group": lambda: ltv.fit(x, u, lam=2.0, norm="group"),
-        "fit_lti": lambda: ltv.fit_lti(x, u),
-        "fit_piecewise": lambda: ltv.fit_piecewise(x, u, [100]),
-        "fit_segments": lambda: ltv.fit_segments(x, u, n_changes=1),
-        "select_lambda": lambda: ltv.select_lambda(x, u, method="gcv"),
+        "fit": lambda: ltv.fit(x, u, lam=10.0, **extra),
+        "fit group": lambda: ltv.fit(x, u, lam=2.0, norm="group", **extra),
+        "fit_lti": lambda: ltv.fit_lti(x, u, **extra),
+        "fit_piecewise": lambda: ltv.fit_piecewise(x, u, [100], **extra),
+        "fit_segments": lambda: ltv.fit_segments(x, u, n_changes=1, **extra),
+        "select_lambda": lambda: ltv.select_lambda(x, u, method="gcv", **extra),
     }
 
 
 PHI = pd.DataFrame({"lag": X["p"].shift(1).fillna(0.0)})  # a regressor of the full series
 
 
-def series_fits(y):
-    phi = PHI.loc[y.index]  # the rows of y (every test's stamps are days of DAYS)
+def series_fits(y, **extra):
+    # the rows of y: by stamp for days of DAYS, else by position (other stamps, same rows)
+    phi = PHI.loc[y.index] if y.index.isin(PHI.index).all() else PHI.set_axis(y.index)
     if y.isna().any():  # blanked rows: the regressor is missing there too
         phi = phi.where(y.notna(), np.nan)
     return {
-        "fit_regression": lambda: ltv.fit_regression(y, phi, lam=10.0),
-        "segment_regression": lambda: ltv.segment_regression(y, phi, n_changes=1),
-        "fit_ar": lambda: ltv.fit_ar(y, 2, lam=10.0),
-        "fit_arx": lambda: ltv.fit_arx(y, phi, 1, 1, lam=10.0),
+        "fit_regression": lambda: ltv.fit_regression(y, phi, lam=10.0, **extra),
+        "segment_regression": lambda: ltv.segment_regression(y, phi, n_changes=1, **extra),
+        "fit_ar": lambda: ltv.fit_ar(y, 2, lam=10.0, **extra),
+        "fit_arx": lambda: ltv.fit_arx(y, phi, 1, 1, lam=10.0, **extra),
     }
 
 
-def all_fits(x, u):
-    return {**state_fits(x, u), **series_fits(x["p"])}
+def all_fits(x, u, **extra):
+    return {**state_fits(x, u, **extra), **series_fits(x["p"], **extra)}
 
 
 @pytest.mark.parametrize("name", sorted(all_fits(X, U)))
@@ -110,9 +111,68 @@ def test_calendar_grids_months_and_a_decimal_step():
 
 def test_stamps_on_no_grid_are_an_error_that_says_how_to_resample():
     stamps = np.cumsum(np.random.default_rng(1).uniform(0.5, 1.5, 200))
-    with pytest.raises(ValueError, match=r"no regular grid .*df\.resample"):
+    with pytest.raises(ValueError, match=r"no regular grid .*df\.resample.*regular=False"):
         ltv.fit(X.set_axis(stamps), lam=10.0)
     assert ltv.fit(X.set_axis(stamps).to_numpy(), lam=10.0).time is None  # rows consecutive
+
+
+def the_model(result):
+    return getattr(result, "model", result)  # a Segmentation's model
+
+
+@pytest.mark.parametrize("name", sorted(all_fits(X, U)))
+def test_regular_false_fits_the_rows_as_consecutive_and_keeps_their_stamps(name):
+    days = np.cumsum(np.r_[0, np.random.default_rng(3).uniform(0.5, 1.5, 199)])  # no grid
+    stamps = DAYS[0] + pd.to_timedelta(days, "D")
+    irregular = all_fits(X.set_axis(stamps), U.set_axis(stamps), regular=False)[name]
+    plain = all_fits(X, U)[name]  # the same rows on a regular daily grid
+    gappy = all_fits(X.drop(GAP), U.drop(GAP), regular=False)[name]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ltv.DataWarning)  # nothing is inserted: no notice
+        model, gappy_model = irregular(), gappy()
+    reference = plain()
+    if isinstance(model, ltv.LambdaSelection):
+        assert model.lam == pytest.approx(reference.lam, rel=1e-12)
+        return
+    model, reference, gappy_model = map(the_model, (model, reference, gappy_model))
+    np.testing.assert_allclose(model.k, reference.k, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(model.time, stamps.to_numpy())
+    assert gappy_model.n_missing == 0  # the rows around the gap are taken as consecutive
+    np.testing.assert_array_equal(gappy_model.time, DAYS.drop(GAP).to_numpy())
+    with pytest.raises(ValueError, match="time index is not sorted"):  # order still counts
+        all_fits(X.iloc[::-1], U.iloc[::-1], regular=False)[name]()
+    with pytest.raises(TypeError, match="regular"):
+        all_fits(X, U, regular="no")[name]()
+
+
+def test_regular_false_in_the_other_front_ends():
+    stamps = np.cumsum(np.random.default_rng(2).uniform(0.5, 1.5, 200))
+    x, u = X.set_axis(stamps), U.set_axis(stamps)
+    with pytest.raises(ValueError, match="no regular grid"):
+        ltv.kalman_smoother(x, u, lam=10.0)
+    values = (D.x, D.u)
+    for function, options in (
+        (ltv.kalman_smoother, {"lam": 10.0}),
+        (ltv.kalman_filter, {"lam": 10.0}),
+        (ltv.fit_path, {"lams": [1.0, 10.0]}),
+    ):
+        ours, plain = function(x, u, regular=False, **options), function(*values, **options)
+        first, second = (ours[-1], plain[-1]) if isinstance(ours, list) else (ours, plain)
+        np.testing.assert_allclose(first.k, second.k, rtol=0, atol=1e-12)
+    assert ltv.lambda_max(x, u, norm="group", regular=False) == pytest.approx(
+        ltv.lambda_max(*values, norm="group"), rel=1e-12
+    )
+    y = x["p"]
+    phi = PHI.set_axis(stamps)
+    selection = ltv.select_lambda_regression(y, phi, method="gcv", regular=False)
+    assert selection.lam == pytest.approx(
+        ltv.select_lambda_regression(y.to_numpy(), phi.to_numpy(), method="gcv").lam, rel=1e-12
+    )
+    prior = ltv.GMMPrior(x, u, n_components=1, regular=False)
+    reference = ltv.GMMPrior(*values, n_components=1)
+    np.testing.assert_allclose(prior.A, reference.A, rtol=1e-10)
+    with pytest.raises(ValueError, match="no regular grid"):
+        ltv.GMMPrior(x, u, n_components=1)
 
 
 def test_inputs_are_matched_to_the_states_by_their_stamps():
@@ -362,3 +422,22 @@ def test_the_command_line_forecast_of_an_arx_model_is_the_model_forecast(tmp_pat
     report = json.loads(capsys.readouterr().out)
     expected = model.forecast(y[-model.lag :], np.r_[u[-model.lag :], future], steps=3)
     np.testing.assert_allclose(np.array(report["mean"])[:, 0], expected.mean[:, 0], rtol=1e-12)
+
+
+def test_fit_many_passes_regular_to_each_unit():
+    rows = []
+    for unit in range(2):
+        d = ltv.systems.jump_linear(T=100, change_at=50, seed=unit)
+        t = np.cumsum(np.random.default_rng(unit).uniform(0.5, 1.5, 100))
+        rows.append(pd.DataFrame({"unit": unit, "t": t, "p": d.x[:, 0], "v": d.x[:, 1]}))
+    table = pd.concat(rows)
+    options = dict(by="unit", state=["p", "v"], time="t", lam=10.0, n_jobs=1, progress=False)
+    refused = ltv.fit_many(table, **options)
+    assert set(refused.errors) == {0, 1}
+    assert all("regular=False" in message for message in refused.errors.values())
+    models = ltv.fit_many(table, regular=False, **options)
+    assert not models.errors
+    for unit, rows_of_unit in zip(range(2), rows):
+        plain = ltv.fit(rows_of_unit[["p", "v"]].to_numpy(), lam=10.0)
+        np.testing.assert_allclose(models[unit].k, plain.k, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(models[unit].time, rows_of_unit["t"].to_numpy())

@@ -154,6 +154,7 @@ def fit_arx(
     huber_delta: float | ArrayLike | None = None,
     refine: bool = False,
     progress: Callable[[int, int], None] | None = None,
+    regular: bool = True,
 ) -> ARXModel:
     """Identify a time-varying (V)ARX model.
 
@@ -195,6 +196,12 @@ def fit_arx(
         Weights >= 0 of the regression rows (model time steps).
     constant : bool, default False
         Include a time-varying constant term c_t.
+    regular : bool, default True
+        Whether the time index of pandas data must lie on a regular grid (a fixed
+        step or a calendar frequency): stamps missing from it become missing
+        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
+        declares the rows consecutive samples whatever their stamps (which must
+        still increase); the model keeps them as its time axis.
 
     Returns
     -------
@@ -220,7 +227,7 @@ def fit_arx(
     y, u = arrays.lagged_recordings(
         y_data, u_data, L, _structure_text(na, nb, nk), require_inputs=True
     )
-    y, u, weights, grid = _on_time_grid(y_data, y, u, weights, L)
+    y, u, weights, grid = _on_time_grid(y_data, y, u, weights, L, regular)
     if not constant:
         _warn_if_offset(y)
     n, m = y.shape[2], u.shape[2]
@@ -258,6 +265,7 @@ def fit_ar(
     huber_delta: float | ArrayLike | None = None,
     refine: bool = False,
     progress: Callable[[int, int], None] | None = None,
+    regular: bool = True,
 ) -> ARModel:
     """Identify a time-varying (V)AR(na) model y[t] = Σ_{i=1}^{na} A_{t,i} y[t−i] (+ c_t) + e[t].
 
@@ -288,6 +296,12 @@ def fit_ar(
         Weights >= 0 of the regression rows (model time steps).
     constant : bool, default False
         Include a time-varying constant term c_t.
+    regular : bool, default True
+        Whether the time index of pandas data must lie on a regular grid (a fixed
+        step or a calendar frequency): stamps missing from it become missing
+        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
+        declares the rows consecutive samples whatever their stamps (which must
+        still increase); the model keeps them as its time axis.
 
     Returns
     -------
@@ -318,7 +332,7 @@ def fit_ar(
     constant = options.flag(constant, "constant")
     y_data = y
     y, u = arrays.lagged_recordings(y, None, na, _structure_text(na, 0, 1))
-    y, u, weights, grid = _on_time_grid(y_data, y, u, weights, na)
+    y, u, weights, grid = _on_time_grid(y_data, y, u, weights, na, regular)
     if not constant:
         _warn_if_offset(y)
     factory = partial(ARModel, n_outputs=y.shape[2], na=na, constant=constant)
@@ -337,12 +351,12 @@ def fit_ar(
 
 
 def _on_time_grid(
-    y_data: Any, y: np.ndarray, u: np.ndarray, weights: Any, lag: int
+    y_data: Any, y: np.ndarray, u: np.ndarray, weights: Any, lag: int, regular: Any
 ) -> tuple[np.ndarray, np.ndarray, Any, TimeGrid | None]:
     """The validated series y, u (R, T, ·) and the weights of their regression rows placed
     on the regular grid of y's time index (missing stamps become missing samples), and
-    that grid (None without a time index)."""
-    grid = time_grid_of(y_data, "y")
+    that grid (None without a time index; ``regular=False``: the rows as they are)."""
+    grid = time_grid_of(y_data, "y", options.flag(regular, "regular"))
     if grid is None or grid.positions is None:
         return y, u, weights, grid
     w = arrays.row_weights(weights, y.shape[0], y.shape[1] - lag)

@@ -44,6 +44,7 @@ def fit_lti(
     constant: bool = False,
     loss: Loss = "squared",
     huber_delta: float | ArrayLike | None = None,
+    regular: bool = True,
 ) -> LTVModel:
     """Least-squares LTI model x[t+1] = A x[t] + B u[t] (+ c) + v_t (paper eqs. lscost, ls).
 
@@ -67,6 +68,12 @@ def fit_lti(
         entries of the residuals instead (to a KKT residual of 1e-10), with
         ``model.outliers``; ``loss="laplace"`` minimizes Σ w|r| (to a relative
         duality gap of 1e-10); then no ``cov``, ``loglik`` None.
+    regular : bool, default True
+        Whether the time index of pandas data must lie on a regular grid (a fixed
+        step or a calendar frequency): stamps missing from it become missing
+        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
+        declares the rows consecutive samples whatever their stamps (which must
+        still increase); the model keeps them as its time axis.
 
     Returns
     -------
@@ -82,7 +89,7 @@ def fit_lti(
     SingularProblemError
         If the regressors are linearly dependent (no unique solution).
     """
-    data = state_space_data(x, u, order=1, weights=weights, constant=constant)
+    data = state_space_data(x, u, order=1, weights=weights, constant=constant, regular=regular)
     problem = data.problem
     n, m = data.n, data.m
     N, p = problem.N, problem.p
@@ -166,6 +173,7 @@ def fit(
     loss: Loss = "squared",
     huber_delta: float | ArrayLike | None = None,
     progress: Callable[[int, int], None] | None = None,
+    regular: bool = True,
 ) -> LTVModel:
     """Identify an LTV model x[t+1] = A_t x[t] + B_t u[t] (+ c_t) + v_t.
 
@@ -296,6 +304,12 @@ def fit(
         With ``lam="auto"``: called as ``progress(done, total)`` after each
         candidate λ is scored (see :func:`ltvmodels.select_lambda`), e.g. to
         draw a progress bar.
+    regular : bool, default True
+        Whether the time index of pandas data must lie on a regular grid (a fixed
+        step or a calendar frequency): stamps missing from it become missing
+        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
+        declares the rows consecutive samples whatever their stamps (which must
+        still increase); the model keeps them as its time axis.
 
     Returns
     -------
@@ -311,7 +325,9 @@ def fit(
         The data do not identify the model (with the reason and remedies).
     """
     spec = FitSpec.from_arguments(locals())  # every option, checked once
-    data = state_space_data(x, u, order=spec.order, weights=weights, constant=constant)
+    data = state_space_data(
+        x, u, order=spec.order, weights=weights, constant=constant, regular=regular
+    )
     model = fit_problem(
         data.problem,
         spec,
@@ -334,6 +350,7 @@ def fit_path(
     tol: float = 1e-6,
     weights: ArrayLike | None = None,
     constant: bool = False,
+    regular: bool = True,
 ) -> list[LTVModel]:
     """Fit one model per scalar λ in ``lams`` (a regularization path).
 
@@ -348,6 +365,12 @@ def fit_path(
         As in :func:`fit`.
     lams : sequence of float
         Scalar λ values (> 0 for "group" and "l1").
+    regular : bool, default True
+        Whether the time index of pandas data must lie on a regular grid (a fixed
+        step or a calendar frequency): stamps missing from it become missing
+        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
+        declares the rows consecutive samples whatever their stamps (which must
+        still increase); the model keeps them as its time axis.
 
     Returns
     -------
@@ -377,11 +400,12 @@ def fit_path(
                 compute_cov=compute_cov,
                 weights=weights,
                 constant=constant,
+                regular=regular,
             )
             for lam in values
         ]
     penalty = penalties.named(norm)
-    data = _identifiable_data(x, u, order, weights, constant)
+    data = _identifiable_data(x, u, order, weights, constant, regular)
     problem = data.problem
     max_iter = options.integer(max_iter, "max_iter", minimum=1)
     tol = options.positive_scalar(tol, "tol")
@@ -409,6 +433,7 @@ def lambda_max(
     order: int | ArrayLike = 1,
     weights: ArrayLike | None = None,
     constant: bool = False,
+    regular: bool = True,
 ) -> float:
     """The smallest λ at which ``fit(x, u, lam=λ, norm=norm, order=order)`` has Dk = 0.
 
@@ -432,6 +457,12 @@ def lambda_max(
         model, so there is no λ_max).
     order, weights, constant
         As in :func:`fit`.
+    regular : bool, default True
+        Whether the time index of pandas data must lie on a regular grid (a fixed
+        step or a calendar frequency): stamps missing from it become missing
+        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
+        declares the rows consecutive samples whatever their stamps (which must
+        still increase); the model keeps them as its time axis.
 
     Returns
     -------
@@ -455,13 +486,15 @@ def lambda_max(
     True
     """
     norm = options.choice(norm, "norm", options.SPARSE_NORMS)
-    problem = _identifiable_data(x, u, order, weights, constant).problem
+    problem = _identifiable_data(x, u, order, weights, constant, regular).problem
     return problem_lambda_max(problem, penalties.named(norm))
 
 
-def _identifiable_data(x: Any, u: Any, order: Any, weights: Any, constant: Any) -> StateSpaceData:
+def _identifiable_data(
+    x: Any, u: Any, order: Any, weights: Any, constant: Any, regular: Any
+) -> StateSpaceData:
     """Validated state-space data, checked for samples and identifiability."""
-    data = state_space_data(x, u, order=order, weights=weights, constant=constant)
+    data = state_space_data(x, u, order=order, weights=weights, constant=constant, regular=regular)
     problem = data.problem
     options.enough_samples(
         problem.N,

@@ -74,10 +74,10 @@ class _Setup:
     prior: tuple[np.ndarray, np.ndarray] | None
 
 
-def _setup(x, u, lam, order, noise_var, init_mean, init_cov) -> _Setup:
+def _setup(x, u, lam, order, noise_var, init_mean, init_cov, regular=True) -> _Setup:
     lam = options.scalar_lam(lam)
     noise_var = options.variance(noise_var, "noise_var")
-    problem = state_space_data(x, u, order=order).problem
+    problem = state_space_data(x, u, order=order, regular=regular).problem
     prior = arrays.initial_state_prior(init_mean, init_cov, problem.degree, problem.n, problem.p)
     return _Setup(
         problem=problem,
@@ -140,6 +140,7 @@ def kalman_filter(
     noise_var: float = 1.0,
     init_mean: ArrayLike | None = None,
     init_cov: float | ArrayLike | None = None,
+    regular: bool = True,
 ) -> KalmanFilterResult:
     """Kalman filter for the parameters of x[t+1] = A_t x[t] + B_t u[t] + v_t.
 
@@ -171,6 +172,12 @@ def kalman_filter(
         Prior covariance of one output row's initial state
         (θ_{0,i}, θ_{−1,i}, …); rows are independent with this covariance. None
         (default, with ``init_mean`` None): exact diffuse initialization.
+    regular : bool, default True
+        Whether the time index of pandas data must lie on a regular grid (a fixed
+        step or a calendar frequency): stamps missing from it become missing
+        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
+        declares the rows consecutive samples whatever their stamps (which must
+        still increase); the model keeps them as its time axis.
 
     Returns
     -------
@@ -178,7 +185,7 @@ def kalman_filter(
         ``k`` (N, K), ``cov`` (N, p, p), ``loglik``, ``first_identified``; N = T − 1.
         Entries before the state is identified are NaN.
     """
-    s = _setup(x, u, lam, order, noise_var, init_mean, init_cov)
+    s = _setup(x, u, lam, order, noise_var, init_mean, init_cov, regular)
     return _filter_result(s, *_run_filter(s))
 
 
@@ -191,6 +198,7 @@ def kalman_smoother(
     noise_var: float = 1.0,
     init_mean: ArrayLike | None = None,
     init_cov: float | ArrayLike | None = None,
+    regular: bool = True,
 ) -> KalmanSmootherResult:
     """Rauch–Tung–Striebel smoother for the parameters of x[t+1] = A_t x[t] + B_t u[t] + v_t.
 
@@ -209,6 +217,12 @@ def kalman_smoother(
     ----------
     x, u, lam, order, noise_var, init_mean, init_cov
         As in :func:`kalman_filter`.
+    regular : bool, default True
+        Whether the time index of pandas data must lie on a regular grid (a fixed
+        step or a calendar frequency): stamps missing from it become missing
+        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
+        declares the rows consecutive samples whatever their stamps (which must
+        still increase); the model keeps them as its time axis.
 
     Returns
     -------
@@ -221,7 +235,7 @@ def kalman_smoother(
         With the diffuse initialization, if the data never identify the state
         (too few or too poorly exciting samples).
     """
-    s = _setup(x, u, lam, order, noise_var, init_mean, init_cov)
+    s = _setup(x, u, lam, order, noise_var, init_mean, init_cov, regular)
     if s.prior is None:
         options.enough_samples(s.problem.N, s.problem.p, s.model.degree)
     vecs, mats, in_info, ell = _run_filter(s)

@@ -115,6 +115,12 @@ class GMMPrior:
     seed : int, numpy.random.Generator or None
         Seeds the k-means initializations; the same seed and the same calls
         give the same mixtures.
+    regular : bool, default True
+        As for :func:`ltvmodels.fit`: whether the time index of pandas data
+        must lie on a regular grid (missing stamps become missing samples), or
+        (False) the rows are consecutive samples. It holds for the recordings
+        given to the mixture's methods too, so that :meth:`at` sees the grid a
+        fit with the same ``regular`` uses.
 
     Attributes
     ----------
@@ -154,8 +160,10 @@ class GMMPrior:
         reg_covar: float = 1e-6,
         max_iter: int = 200,
         seed: int | np.random.Generator | None = 0,
+        regular: bool = True,
     ) -> None:
-        x, u = _on_grid(x, u)
+        self.regular = options.flag(regular, "regular")
+        x, u = _on_grid(x, u, self.regular)
         self.n_states, self.n_inputs = x.shape[2], u.shape[2]
         self._fixed_count = options.optional_integer(n_components, "n_components", 1)
         self._max_components = options.integer(max_components, "max_components", 1)
@@ -357,7 +365,7 @@ class GMMPrior:
 
     def _recordings(self, x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
         """Validated recordings with the mixture's numbers of states and inputs."""
-        x, u = _on_grid(x, u)
+        x, u = _on_grid(x, u, self.regular)
         if x.shape[2] != self.n_states:
             raise ValueError(
                 f"x: expected {self.n_states} states (as the transitions the "
@@ -497,8 +505,8 @@ class GMMPrior:
         return Prior(mean, 0.5 * (cov + np.swapaxes(cov, 1, 2)))
 
 
-def _on_grid(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
+def _on_grid(x: Any, u: Any, regular: bool) -> tuple[np.ndarray, np.ndarray]:
     """Validated recordings (R, T, ·), their rows on the regular grid of x's time index
-    (the grid a fit of the same data uses)."""
-    x, u, grid = timed_recordings(x, u)
+    (the grid a fit of the same data uses; ``regular=False``: the rows as they are)."""
+    x, u, grid = timed_recordings(x, u, regular)
     return (x, u) if grid is None else (grid.spread(x), grid.spread(u))

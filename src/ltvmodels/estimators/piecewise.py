@@ -74,6 +74,7 @@ def fit_piecewise(
     constant: bool = False,
     loss: Loss = "squared",
     huber_delta: float | ArrayLike | None = None,
+    regular: bool = True,
 ) -> LTVModel:
     """Least-squares LTV model that is piecewise constant or linear between given change points.
 
@@ -111,6 +112,12 @@ def fit_piecewise(
         ``info``); then ``cov`` and ``loglik`` are None and ``noise_var`` is
         the residual mean square. The regressors of that regression take
         N·q·(M + 2)·p numbers; beyond ROBUST_MAX_ENTRIES (2e7) it is refused.
+    regular : bool, default True
+        Whether the time index of pandas data must lie on a regular grid (a fixed
+        step or a calendar frequency): stamps missing from it become missing
+        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
+        declares the rows consecutive samples whatever their stamps (which must
+        still increase); the model keeps them as its time axis.
 
     Returns
     -------
@@ -156,7 +163,7 @@ def fit_piecewise(
     >>> model.changepoints.tolist(), model.info["segments"]
     ([200], [[0, 200], [200, 399]])
     """
-    data = state_space_data(x, u, weights=weights, constant=constant)
+    data = state_space_data(x, u, weights=weights, constant=constant, regular=regular)
     order = options.piecewise_order(order)
     if not isinstance(compute_cov, bool):
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")

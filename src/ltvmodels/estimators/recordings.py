@@ -109,7 +109,13 @@ class StateSpaceData:
 
 
 def state_space_data(
-    x: Any, u: Any, *, order: Any = 1, weights: Any = None, constant: Any = False
+    x: Any,
+    u: Any,
+    *,
+    order: Any = 1,
+    weights: Any = None,
+    constant: Any = False,
+    regular: Any = True,
 ) -> StateSpaceData:
     """Validate a recording and build its regression problem (see the module docstring).
 
@@ -125,9 +131,13 @@ def state_space_data(
         Weights >= 0 of the transitions' squared residuals.
     constant : bool
         Add an intercept c_t to every state equation.
+    regular : bool, default True
+        Whether a time index must lie on a regular grid (stamps missing from it
+        become missing samples); False: the rows are consecutive samples, their
+        (increasing) stamps the time axis (:mod:`ltvmodels.validation.time`).
     """
     x_data, u_data = x, u
-    x, u, grid = timed_recordings(x_data, u_data)
+    x, u, grid = timed_recordings(x_data, u_data, regular)
     R, T, _ = x.shape
     w = arrays.row_weights(weights, R, T - 1)
     if grid is not None:  # missing stamps of a regular grid become missing samples
@@ -148,13 +158,17 @@ def state_space_data(
     )
 
 
-def timed_recordings(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray, TimeGrid | None]:
+def timed_recordings(
+    x: Any, u: Any, regular: Any = True
+) -> tuple[np.ndarray, np.ndarray, TimeGrid | None]:
     """:func:`ltvmodels.validation.arrays.recordings` of x and u (matched to x by their
     time stamps), and the regular grid of x's time index (None without one; its
-    :meth:`~ltvmodels.validation.time.TimeGrid.spread` puts the rows on it)."""
+    :meth:`~ltvmodels.validation.time.TimeGrid.spread` puts the rows on it;
+    ``regular``: see :func:`state_space_data`)."""
+    regular = options.flag(regular, "regular")
     if _indexed_trajectories(x):
-        x, u = _trajectories_on_their_grids(x, u)
-    grid = time_grid_of(x, "x")
+        x, u = _trajectories_on_their_grids(x, u, regular)
+    grid = time_grid_of(x, "x", regular)
     x, u = arrays.recordings(x, arrays.aligned(x, u, "x", "u"))
     return x, u, grid
 
@@ -164,7 +178,7 @@ def _indexed_trajectories(x: Any) -> bool:
     return isinstance(x, (list, tuple)) and bool(x) and all(hasattr(i, "columns") for i in x)
 
 
-def _trajectories_on_their_grids(xs: Any, us: Any) -> tuple[list, Any]:
+def _trajectories_on_their_grids(xs: Any, us: Any, regular: bool) -> tuple[list, Any]:
     """A list of pandas trajectories (and their inputs), each checked as one series is:
     the same columns as the first, its time stamps in order and without repeats, the
     inputs matched by stamp, the missing stamps of its regular grid as NaN rows (the
@@ -180,7 +194,7 @@ def _trajectories_on_their_grids(xs: Any, us: Any) -> tuple[list, Any]:
                 f"x[0], {first}; give every trajectory the same state columns"
             )
         u = arrays.aligned(x, u, f"x[{r}]", f"u[{r}]")
-        grid = time_grid_of(x, f"x[{r}]")
+        grid = time_grid_of(x, f"x[{r}]", regular)
         if grid is not None and grid.inserted:  # the trajectory's rows on its grid
             x = grid.spread(arrays.as_time_series(x, f"x[{r}]", missing=True)[None])[0]
             if u is not None:
@@ -190,37 +204,38 @@ def _trajectories_on_their_grids(xs: Any, us: Any) -> tuple[list, Any]:
     return states, None if all(u is None for u in inputs) else inputs
 
 
-def time_grid_of(value: Any, name: str) -> TimeGrid | None:
+def time_grid_of(value: Any, name: str, regular: bool = True) -> TimeGrid | None:
     """The checked regular grid of a series' time index (None without one), with a
-    :class:`~ltvmodels.DataWarning` where missing stamps become missing samples."""
-    grid = arrays.timed(value, name)
+    :class:`~ltvmodels.DataWarning` where missing stamps become missing samples
+    (``regular``: see :func:`state_space_data`)."""
+    grid = arrays.timed(value, name, regular)
     if grid is not None and grid.inserted:
         warn(f"{name}: {grid.notice}", DataWarning)
     return grid
 
 
 def regression_problem(
-    y: Any, phi: Any, *, order: Any = 1, weights: Any = None
+    y: Any, phi: Any, *, order: Any = 1, weights: Any = None, regular: Any = True
 ) -> RegressionProblem:
     """Validate regression data and build its problem: y_t = Θ_t φ_t + e_t.
 
     ``y`` (N, n), (N,) or (R, N, n) and ``phi`` (N, p), (N,) or (R, N, p), NaN =
     missing (a row enters the data term only if y_t and φ_t are observed);
     ``weights`` (N,) or (R, N). The rows of a y with a time index are placed on
-    its regular grid (:mod:`ltvmodels.validation.time`); :func:`regression_description`
-    records that grid.
+    its regular grid (:mod:`ltvmodels.validation.time`; ``regular``: see
+    :func:`state_space_data`); :func:`regression_data` records that grid.
     """
-    return regression_data(y, phi, order=order, weights=weights)[0]
+    return regression_data(y, phi, order=order, weights=weights, regular=regular)[0]
 
 
 def regression_data(
-    y: Any, phi: Any, *, order: Any = 1, weights: Any = None
+    y: Any, phi: Any, *, order: Any = 1, weights: Any = None, regular: Any = True
 ) -> tuple[RegressionProblem, DataDescription]:
     """:func:`regression_problem` and the description of its data (a fitted model's
     ``data``): the column names of a pandas y and phi, the time grid of y (one series),
     the series and the rows left out."""
     phi = arrays.aligned(y, phi, "y", "phi")
-    grid = time_grid_of(y, "y")
+    grid = time_grid_of(y, "y", options.flag(regular, "regular"))
     names = {"output": y, "regressor": phi}
     y = arrays.trajectories(y, "y")
     phi = arrays.trajectories(phi, "phi")

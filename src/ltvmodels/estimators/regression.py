@@ -66,6 +66,7 @@ def fit_regression(
     loss: Loss = "squared",
     huber_delta: float | ArrayLike | None = None,
     refine: bool = False,
+    regular: bool = True,
 ) -> RegressionModel:
     """Identify a time-varying regression y_t = Θ_t φ_t + e_t.
 
@@ -99,6 +100,12 @@ def fit_regression(
         constant (order 1) or linear and continuous (order 2) between the
         change points of this fit, removing the penalty's shrinkage of the
         changes (``info["first_step"]`` summarizes the first fit).
+    regular : bool, default True
+        Whether the time index of pandas data must lie on a regular grid (a fixed
+        step or a calendar frequency): stamps missing from it become missing
+        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
+        declares the rows consecutive samples whatever their stamps (which must
+        still increase); the model keeps them as its time axis.
 
     Returns
     -------
@@ -129,7 +136,9 @@ def fit_regression(
     True
     """
     spec = FitSpec.from_arguments(locals())  # every option, checked once
-    problem, description = regression_data(y, phi, order=spec.order, weights=weights)
+    problem, description = regression_data(
+        y, phi, order=spec.order, weights=weights, regular=regular
+    )
     model = fit_problem(
         problem,
         spec,

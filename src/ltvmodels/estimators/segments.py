@@ -50,6 +50,7 @@ def segment_regression(
     penalty: float | PenaltyRule | None = None,
     min_size: int | None = None,
     weights: ArrayLike | None = None,
+    regular: bool = True,
 ) -> Segmentation:
     """Optimal piecewise-constant segmentation of a regression y_t = Θ_t φ_t + e_t.
 
@@ -78,6 +79,12 @@ def segment_regression(
     weights : array_like, shape (N,) or (R, N), optional
         Weights >= 0 of the rows (y and phi may hold R series, (R, N, ·), and
         NaN for missing rows, as in :func:`ltvmodels.fit_regression`).
+    regular : bool, default True
+        Whether the time index of pandas data must lie on a regular grid (a fixed
+        step or a calendar frequency): stamps missing from it become missing
+        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
+        declares the rows consecutive samples whatever their stamps (which must
+        still increase); the model keeps them as its time axis.
 
     Returns
     -------
@@ -96,7 +103,7 @@ def segment_regression(
         The regressors are linearly dependent over the whole data set, so no
         segment is identifiable.
     """
-    problem, description = regression_data(y, phi, weights=weights)
+    problem, description = regression_data(y, phi, weights=weights, regular=regular)
     result = _segment(problem, n_changes, penalty, min_size, data_name="y")
     result = replace(result, time=description.time)
     if problem.n_observed <= (result.n_changes + 1) * problem.p:
@@ -126,6 +133,7 @@ def fit_segments(
     weights: ArrayLike | None = None,
     constant: bool = False,
     loss: Literal["squared"] = "squared",
+    regular: bool = True,
 ) -> LTVModel:
     """Piecewise-constant LTV model with exactly optimal change points (paper eq:l0).
 
@@ -192,6 +200,12 @@ def fit_segments(
     weights, constant
         As in :func:`ltvmodels.fit`; x and u may also hold R trajectories
         (each segment's cost sums over them) and NaN for missing samples.
+    regular : bool, default True
+        Whether the time index of pandas data must lie on a regular grid (a fixed
+        step or a calendar frequency): stamps missing from it become missing
+        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
+        declares the rows consecutive samples whatever their stamps (which must
+        still increase); the model keeps them as its time axis.
 
     Returns
     -------
@@ -236,7 +250,7 @@ def fit_segments(
             f"loss: fit_segments uses the squared loss only (its exact dynamic program relies "
             f"on it), received {loss!r}; for outliers use ltvmodels.fit(..., loss='huber')"
         )
-    data = state_space_data(x, u, weights=weights, constant=constant)
+    data = state_space_data(x, u, weights=weights, constant=constant, regular=regular)
     if not isinstance(compute_cov, bool):
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
     result = _segment(data.problem, n_changes, penalty, min_size, data_name="x")

@@ -146,6 +146,7 @@ def select_lambda(
     constant: bool = False,
     loss: Loss = "squared",
     huber_delta: float | ArrayLike | None = None,
+    regular: bool = True,
 ) -> LambdaSelection:
     """Choose λ for :func:`ltvmodels.fit` (state-space data) by a documented criterion.
 
@@ -192,6 +193,12 @@ def select_lambda(
     loss, huber_delta
         As in :func:`ltvmodels.fit`; a robust loss takes method="cv" (the
         default then), scored with that loss.
+    regular : bool, default True
+        Whether the time index of pandas data must lie on a regular grid (a fixed
+        step or a calendar frequency): stamps missing from it become missing
+        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
+        declares the rows consecutive samples whatever their stamps (which must
+        still increase); the model keeps them as its time axis.
 
     Returns
     -------
@@ -199,7 +206,12 @@ def select_lambda(
     """
     norm, method, loss = _norm_and_method(norm, method, tuple(METHODS), loss)
     data = state_space_data(
-        x, u, order=1 if norm == "l0" else order, weights=weights, constant=constant
+        x,
+        u,
+        order=1 if norm == "l0" else order,
+        weights=weights,
+        constant=constant,
+        regular=regular,
     )
     _, delta = options.loss_options(loss, huber_delta, data.n)
     if norm == "l0":
@@ -231,6 +243,7 @@ def select_lambda_regression(
     weights: ArrayLike | None = None,
     loss: Loss = "squared",
     huber_delta: float | ArrayLike | None = None,
+    regular: bool = True,
 ) -> LambdaSelection:
     """:func:`select_lambda` for a regression y_t = Θ_t φ_t + e_t (any front-end).
 
@@ -249,6 +262,12 @@ def select_lambda_regression(
     order, method, lams, n_folds, progress, weights, loss, huber_delta
         As in :func:`select_lambda` (NaN = missing, as in
         :func:`ltvmodels.fit_regression`).
+    regular : bool, default True
+        Whether the time index of pandas data must lie on a regular grid (a fixed
+        step or a calendar frequency): stamps missing from it become missing
+        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
+        declares the rows consecutive samples whatever their stamps (which must
+        still increase); the model keeps them as its time axis.
 
     Returns
     -------
@@ -256,7 +275,7 @@ def select_lambda_regression(
         The chosen ``lam``, the candidates and their scores (``plot()`` draws them).
     """
     norm, method, loss = _norm_and_method(norm, method, options.NORMS, loss)
-    problem = regression_problem(y, phi, order=order, weights=weights)
+    problem = regression_problem(y, phi, order=order, weights=weights, regular=regular)
     _, delta = options.loss_options(loss, huber_delta, problem.n)
     return _select_validated(
         problem,

@@ -452,9 +452,10 @@ def recordings(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
     return x, u
 
 
-def timed(value: Any, name: str) -> TimeGrid | None:
+def timed(value: Any, name: str, regular: bool = True) -> TimeGrid | None:
     """The checked time grid of one series' stamps (its pandas index), or None for data
-    without a time index (see :mod:`ltvmodels.validation.time`)."""
+    without a time index (see :mod:`ltvmodels.validation.time`; ``regular``: that of
+    :func:`~ltvmodels.validation.time.time_grid`)."""
     index = _pandas_index(value)
     indexed = isinstance(value, LabelledSeries) or index is not None or hasattr(value, "dims")
     if not indexed or is_batch(value):
@@ -465,8 +466,8 @@ def timed(value: Any, name: str) -> TimeGrid | None:
     zone = getattr(index, "tz", None)
     if zone is not None:  # the grid of a zone's days is on its local clock
         local = value.index.tz_localize(None).to_numpy().astype("datetime64[ns]")
-        return time_grid(local, name, zone)
-    return time_grid(stamps, name)
+        return time_grid(local, name, zone, regular=regular)
+    return time_grid(stamps, name, regular=regular)
 
 
 def aligned(value: Any, other: Any, name: str, other_name: str) -> Any:

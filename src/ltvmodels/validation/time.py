@@ -13,7 +13,9 @@ A series whose rows carry time stamps (a pandas index, or the command line's
   ``model.n_missing``; the estimators say how many in one
   :class:`~ltvmodels.DataWarning` (:attr:`TimeGrid.notice`);
 * stamps on no regular grid are an error that says how to resample them, or
-  to pass the values without their index to fit the rows as consecutive.
+  to declare the rows consecutive samples: ``regular=False`` (every estimator
+  takes it) keeps the stamps, in order, as the model's time axis and inserts
+  nothing.
 
 :class:`TimeGrid` holds the outcome: the grid's stamps and each data row's
 place on it.
@@ -88,7 +90,7 @@ class TimeGrid:
         return out
 
 
-def time_grid(stamps: np.ndarray, name: str, zone: Any = None) -> TimeGrid:
+def time_grid(stamps: np.ndarray, name: str, zone: Any = None, *, regular: bool = True) -> TimeGrid:
     """Check the time stamps of a series and place them on their regular grid.
 
     Parameters
@@ -102,6 +104,9 @@ def time_grid(stamps: np.ndarray, name: str, zone: Any = None) -> TimeGrid:
     zone : tzinfo or str, optional
         The time zone of local ``stamps``; the grid's stamps are returned in UTC
         (without a zone), as a model keeps them.
+    regular : bool, default True
+        False: the rows are consecutive samples whatever their stamps (which must
+        still increase); the grid is the stamps themselves, nothing is inserted.
 
     Returns
     -------
@@ -113,7 +118,7 @@ def time_grid(stamps: np.ndarray, name: str, zone: Any = None) -> TimeGrid:
         Repeated or unsorted stamps; stamps on no regular grid.
     """
     _check_order(stamps, name)
-    if stamps.size < 3:
+    if stamps.size < 3 or not regular:
         return TimeGrid(_in_utc(stamps, zone, name))
     grid = _fixed_step_grid(stamps)
     if grid is None and np.issubdtype(stamps.dtype, np.datetime64):
@@ -123,8 +128,8 @@ def time_grid(stamps: np.ndarray, name: str, zone: Any = None) -> TimeGrid:
         raise ValueError(
             f"{name}: the time index has no regular grid (steps from {_text(steps.min())} to "
             f"{_text(steps.max())}, not multiples of one step); resample it to one "
-            "(df.resample('D').mean(), df.asfreq('h'), …), or pass the values without their "
-            "index (df.to_numpy()) to fit the rows as consecutive samples"
+            "(df.resample('D').mean(), df.asfreq('h'), …), or pass regular=False to fit "
+            "the rows as consecutive samples"
         )
     positions = None if grid.size == stamps.size else np.searchsorted(grid, stamps)
     return TimeGrid(_in_utc(grid, zone, name), positions)
