@@ -183,6 +183,10 @@ def test_inputs_are_matched_to_the_states_by_their_stamps():
         ltv.fit(X, U.set_axis(DAYS + pd.Timedelta(hours=1)), lam=10.0)
     positional = ltv.fit(X, U.reset_index(drop=True), lam=10.0)  # no stamps: by position
     np.testing.assert_array_equal(positional.k, ordered.k)
+    with pytest.raises(ValueError, match=r"\(u has 15 stamps that x lacks, the first 2024-03-21"):
+        ltv.fit(X.drop(GAP), U, lam=10.0)  # the inputs of the dropped days still there
+    with pytest.raises(ValueError, match=r"\(x has 1 stamp that u lacks, the first 2024-01-01"):
+        ltv.fit(X, U.iloc[1:], lam=10.0)
 
 
 def test_weights_follow_their_transitions_onto_the_grid():

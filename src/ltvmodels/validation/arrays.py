@@ -483,10 +483,20 @@ def aligned(value: Any, other: Any, name: str, other_name: str) -> Any:
         return other
     if len(index) == len(other_index) and index.sort_values().equals(other_index.sort_values()):
         return other.reindex(index)  # the same stamps, in another order: by label
+    differences = [
+        f"{owner} has {len(extra)} stamp{'s' if len(extra) > 1 else ''} that {lacking} "
+        f"lacks, the first {extra[0]}"
+        for owner, lacking, extra in (
+            (other_name, name, other_index.difference(index)),
+            (name, other_name, index.difference(other_index)),
+        )
+        if len(extra)
+    ]
+    detail = "; ".join(differences) or "the same stamps, repeated differently"
     raise ValueError(
-        f"{other_name}: its time index differs from the index of {name} (e.g. "
-        f"{other_index[0]!r} against {index[0]!r}); give both the same stamps "
-        f"({other_name}.reindex({name}.index), or select the common rows)"
+        f"{other_name}: its time index differs from the index of {name} ({detail}); "
+        f"give both the same stamps ({other_name}.reindex({name}.index), or select the "
+        "common rows)"
     )
 
 
