@@ -445,3 +445,70 @@ def test_fit_many_passes_regular_to_each_unit():
         plain = ltv.fit(rows_of_unit[["p", "v"]].to_numpy(), lam=10.0)
         np.testing.assert_allclose(models[unit].k, plain.k, rtol=0, atol=1e-12)
         np.testing.assert_array_equal(models[unit].time, rows_of_unit["t"].to_numpy())
+
+
+# -- the parity matrix: every estimator x every kind of index -> the documented outcome --
+T_MATRIX = 200
+INDEX_KINDS = {
+    "daily": ("ok", DAYS),
+    "hourly": ("ok", pd.date_range("2024-01-01", periods=T_MATRIX, freq="h")),
+    "month-start": ("ok", pd.date_range("1990-01-01", periods=T_MATRIX, freq="MS")),
+    "year-start": ("ok", pd.date_range("1800-01-01", periods=T_MATRIX, freq="YS")),
+    "numeric regular": ("ok", pd.Index(1950.0 + 0.5 * np.arange(T_MATRIX))),
+    "numeric with gaps": (
+        "gap",
+        pd.Index(np.delete(np.arange(T_MATRIX + 5.0), [40, 41, 90, 91, 92])),
+    ),
+    "gappy daily": (
+        "gap",
+        DAYS[:50].append(DAYS[55:]).append(pd.date_range(DAYS[-1], periods=6)[1:]),
+    ),
+    "shuffled": ("unsorted", DAYS[np.r_[1, 0, 2:T_MATRIX]]),
+    "duplicated": ("duplicated", DAYS[np.r_[0, 0, 2:T_MATRIX]]),
+    "irregular": (
+        "no grid",
+        DAYS[0]
+        + pd.to_timedelta(np.cumsum(np.random.default_rng(5).uniform(0.5, 1.5, T_MATRIX)), "D"),
+    ),
+}
+OUTCOMES = {
+    "unsorted": "time index is not sorted",
+    "duplicated": "appears twice",
+    "no grid": "has no regular grid",
+}
+
+
+def every_estimator(x, u):
+    """Each estimator that reads data, on states x and inputs u (the AR/regression ones on
+    x's first column)."""
+    fits = all_fits(x, u)
+    fits["kalman_smoother"] = lambda: ltv.kalman_smoother(x, u, lam=10.0)
+    fits["select_lambda_regression"] = lambda: ltv.select_lambda_regression(
+        x["p"], x["v"], method="gcv"
+    )
+    fits["GMMPrior"] = lambda: ltv.GMMPrior(x, u, n_components=1)
+    return fits
+
+
+@pytest.mark.parametrize("kind", sorted(INDEX_KINDS))
+def test_every_estimator_keeps_the_time_rules_on_every_kind_of_index(kind):
+    outcome, index = INDEX_KINDS[kind]
+    x, u = X.set_axis(index), U.set_axis(index)
+    for name, run in every_estimator(x, u).items():
+        if outcome in OUTCOMES:
+            with pytest.raises(ValueError, match=OUTCOMES[outcome]):
+                run()
+            continue
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            result = run()
+        notices = [w for w in caught if issubclass(w.category, ltv.DataWarning)]
+        assert len(notices) == (outcome == "gap"), (name, [str(w.message) for w in notices])
+        model = getattr(result, "model", result)
+        if hasattr(model, "n_missing") and hasattr(model, "time"):
+            assert (model.n_missing > 0) == (outcome == "gap"), name
+            if outcome == "ok":
+                expected = index.to_numpy()
+                if np.issubdtype(expected.dtype, np.datetime64):
+                    expected = expected.astype("datetime64[ns]")
+                np.testing.assert_array_equal(model.time, expected, err_msg=name)
