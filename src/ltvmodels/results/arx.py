@@ -378,6 +378,13 @@ class ARXModel(RegressionModel):
             f"nb={self.nb}, nk={self.nk}, constant={self.constant}"
         )
 
+    def _kind_text(self) -> str:
+        constant = ", with a constant c_t" if self.constant else ""
+        return f"ARX, na = {self.na}, nb = {self.nb}, nk = {self.nk}{constant}"
+
+    def _signal_names(self) -> dict[str, list[str]]:
+        return {"outputs": self.output_names, "inputs": self.input_names}
+
 
 class ARModel(ARXModel):
     """An identified time-varying (V)AR model: an :class:`ARXModel` without inputs.
@@ -459,3 +466,9 @@ class ARModel(ARXModel):
 
     def _repr_sizes(self) -> str:
         return f"n_outputs={self.n_outputs}, na={self.na}, constant={self.constant}"
+
+    def _kind_text(self) -> str:
+        return f"AR, na = {self.na}" + (", with a constant c_t" if self.constant else "")
+
+    def _signal_names(self) -> dict[str, list[str]]:
+        return {"outputs": self.output_names}

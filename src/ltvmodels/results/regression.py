@@ -20,7 +20,9 @@ from ..validation.arrays import describe
 from ..validation.time import continued
 from . import archive
 from .description import DataDescription
+from .model_summary import model_summary, order_text
 from .record import FitRecord
+from .summary import Summary
 
 __all__ = ["RegressionModel"]
 
@@ -447,27 +449,36 @@ class RegressionModel:
             lam_text = "None"
         else:
             lam_text = f"{float(lam):g}" if np.ndim(lam) == 0 else f"array{np.shape(lam)}"
-        order = "-" if self.coeffs is None else _order_text(self.coeffs)
+        order = "-" if self.coeffs is None else order_text(self.coeffs)
         return (
             f"{type(self).__name__}(N={self.N}, {self._repr_sizes()}, "
             f"norm={self.norm!r}, order={order}, lam={lam_text}, "
             f"noise_var={_values_text(self.noise_var)}, loglik={_number_text(self.loglik)})"
         )
 
-    def summary(self) -> str:
-        """Human-readable multi-line summary."""
-        lines = [repr(self)]
-        keys = ("solver", "objective", "n_factorizations", "noise_var_estimated", "prior_mode")
-        for key in keys:
-            if key in self.info:
-                lines.append(f"  {key}: {self.info[key]}")
-        act = self.activation()
-        if act.size:
-            lines.append(
-                f"  activation ‖Dk‖: max {act.max():.3g} at t={int(act.argmax())}, "
-                f"median {np.median(act):.3g}"
-            )
-        return "\n".join(lines)
+    def summary(self) -> Summary:
+        """A report of the data, the penalty and λ, the fit, the noise, the criteria, the
+        change points and the coefficients (see :mod:`ltvmodels.results.model_summary`).
+
+        Returns
+        -------
+        Summary
+            The text report, a ``str`` (``print`` it; its first line is the repr),
+            with :meth:`~ltvmodels.results.summary.Summary.as_html` for notebooks.
+        """
+        return model_summary(self, kind=self._kind_text(), signals=self._signal_names())
+
+    def _repr_html_(self) -> str:
+        """What a notebook shows: the summary's HTML tables."""
+        return self.summary().as_html()
+
+    def _kind_text(self) -> str:
+        """What kind of model this is, in words (the summary's "kind")."""
+        return "regression y_t = Θ_t φ_t + e_t"
+
+    def _signal_names(self) -> dict[str, list[str]]:
+        """The signals' names by role, as the summary lists them."""
+        return {"outputs": self.output_names, "regressors": self.regressor_names}
 
 
 def _number_text(value: float | None) -> str:
@@ -481,11 +492,3 @@ def _values_text(values: np.ndarray | None) -> str:
     if values.size and np.all(values == values[0]):
         return f"{values[0]:.4g}"
     return "[" + ", ".join(f"{v:.4g}" for v in values) + "]"
-
-
-def _order_text(coeffs: np.ndarray) -> str:
-    d = len(coeffs) - 1
-    standard = np.array([1.0])
-    for _ in range(d):
-        standard = np.convolve(standard, [-1.0, 1.0])
-    return str(d) if np.array_equal(coeffs, standard) else str(coeffs.tolist())

@@ -603,6 +603,14 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         extra = ", constant=True" if self.constant else ""
         return f"n_states={self.n_states}, n_inputs={self.n_inputs}{extra}"
 
+    def _kind_text(self) -> str:
+        inputs = " + B_t u[t]" if self.n_inputs else ""
+        constant = " + c_t" if self.constant else ""
+        return f"state space x[t+1] = A_t x[t]{inputs}{constant} + v_t"
+
+    def _signal_names(self) -> dict[str, list[str]]:
+        return {"states": self.state_names, "inputs": self.input_names}
+
     def plot(self, truth: Any = None, *, bands: bool = True, fig: Any = None):
         """Plot the coefficients of [A_t B_t] over time.
 
