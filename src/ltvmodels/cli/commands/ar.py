@@ -34,14 +34,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "second); it scales the frequency axis only. Default: cycles per sample, or with "
         "--time cycles per unit of the time column (per day for dates)",
     )
-    opt.add_time(
-        p,
-        "column of the samples' times: numbers, or ISO 8601 dates "
-        "(YYYY-MM-DD[THH:MM:SS]), strictly increasing; times missing from their regular "
-        "grid become missing samples. Change points are then also reported at the time "
-        "of their first sample, the coefficients (--coef-out) are indexed by time, and "
-        "the model keeps the times (model.time)",
-    )
+    opt.add_time(p)
     opt.add_norm(p, "penalty on the coefficient changes (default: sq)")
     opt.add_order(p)
     opt.add_lam(p, "regularization lambda or auto (default: auto)")

@@ -49,10 +49,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     opt.add_input(p, "input columns u (comma-separated names); none for an autonomous system")
     opt.add_time(
         p,
-        "column of the time stamps: numbers, or ISO 8601 dates (YYYY-MM-DD[THH:MM:SS]) "
-        "as for the other commands; each unit's rows are sorted by it, and times missing "
-        "from a unit's regular grid become missing samples (a warning in the summary's "
-        "warnings column). Default: the rows' order",
+        "times missing from a unit's regular grid become missing samples (a warning in "
+        "the summary's warnings column). Default: the rows' order",
+        rule="column of the time stamps: numbers, or ISO 8601 dates (YYYY-MM-DD[THH:MM:SS]) "
+        "as for the other commands, by which each unit's rows are sorted",
     )
     p.add_argument(
         "--method",
