@@ -1264,3 +1264,136 @@ def test_select_lambda_of_an_ar_column_takes_weights(tmp_path, capsys):
     report = __import__("json").loads(capsys.readouterr().out)
     expected = ltvmodels.select_lambda_regression(*ltvmodels.ar_regressors(y, 2), weights=w[2:])
     assert report["lam"] == pytest.approx(expected.lam)
+
+
+# -- --time: AR change points at their dates; the same rules for every command ----------
+
+
+def _ar2_with_a_change(sample, T=300, seed=0):
+    """An AR(2) series whose coefficients change at ``sample`` (the first sample they
+    produce): (1.5, −0.9) before it, (0.4, 0.3) from it on."""
+    rng = np.random.default_rng(seed)
+    y = np.zeros(T)
+    for t in range(2, T):
+        a1, a2 = (1.5, -0.9) if t < sample else (0.4, 0.3)
+        y[t] = a1 * y[t - 1] + a2 * y[t - 2] + rng.standard_normal()
+    return y
+
+
+def _dated_csv(path, y, days, rows=None):
+    """A CSV of columns date, level; only ``rows`` (default all), in their order."""
+    rows = range(len(y)) if rows is None else rows
+    path.write_text("date,level\n" + "".join(f"{days[t]},{y[t]:.17g}\n" for t in rows))
+    return path
+
+
+DAYS = np.arange("2020-01-01", "2021-01-01", dtype="datetime64[D]")
+
+
+def test_ar_time_column_dates_the_change_point(tmp_path, capsys):
+    """The change at sample 150 (2020-05-30) of a daily AR(2) series: model step 148,
+    sample 150 and its date in the text, the JSON and the model; the coefficients'
+    CSV is indexed by date."""
+    y = _ar2_with_a_change(150)
+    path = _dated_csv(tmp_path / "dated.csv", y, DAYS)
+    base = ["ar", path, "--column", "level", "--na", "2", "--norm", "group", "--lam", "100"]
+    code, out, err = _run([*base, "--time", "date", "--json", "--out", tmp_path / "m.npz"], capsys)
+    assert code == 0, err
+    report = json.loads(out)
+    assert report["changepoints"] == [148]  # model steps: the rows of the regression
+    assert report["changepoint_samples"] == [150]  # y[150], the first new sample
+    assert report["changepoint_times"] == ["2020-05-30"] == [str(DAYS[150])]
+    assert report["fs"] == 1.0 and report["frequency_unit"] == "cycles per day"
+    model = ltvmodels.load(tmp_path / "m.npz")
+    np.testing.assert_array_equal(model.time, DAYS[:300].astype("datetime64[ns]"))
+    np.testing.assert_array_equal(model.changepoint_times, model.time[[150]])
+    code, out, err = _run(
+        [*base, "--time", "date", "--coef-out", tmp_path / "c.csv", "--plot", tmp_path / "a.png"],
+        capsys,
+    )
+    assert code == 0, err
+    assert (
+        "change points: [148] (peaks of the activation ||(Dk)_t|| (ltvmodels.find_changepoints))"
+        "; first samples under the new coefficients: [150], at times 2020-05-30" in out
+    )
+    rows = (tmp_path / "c.csv").read_text().splitlines()
+    assert rows[0].startswith("time,level:level[t-1]") and rows[1].startswith("2020-01-03,")
+    assert len(rows) == 1 + 298 and _is_png(tmp_path / "a.png")
+    # Without --time: the same steps and samples, no dates.
+    code, out, err = _run([*base, "--json"], capsys)
+    report = json.loads(out)
+    assert report["changepoint_samples"] == [150] and "changepoint_times" not in report
+
+
+def test_ar_time_column_with_fs_scales_the_frequencies_only(tmp_path, capsys):
+    """--fs with --time: frequencies in the unit of --fs (cycles per year for 365.25
+    samples per year) instead of the time column's (cycles per day)."""
+    path = _dated_csv(tmp_path / "dated.csv", _ar2_with_a_change(150), DAYS)
+    base = ["ar", path, "--column", "level", "--na", "2", "--lam", "10", "--time", "date"]
+    per_day = json.loads(_run([*base, "--json"], capsys)[1])
+    per_year = json.loads(_run([*base, "--fs", "365.25", "--json"], capsys)[1])
+    assert per_year["fs"] == 365.25 and per_year["frequency_unit"] == "cycles per time unit of --fs"
+    np.testing.assert_allclose(
+        per_year["median_pole_frequencies"],
+        365.25 * np.array(per_day["median_pole_frequencies"]),
+        rtol=1e-12,
+    )
+
+
+def test_ar_time_column_gap_is_missing_samples(tmp_path, capsys):
+    """Days missing from the daily grid become missing samples, with the warning of fit
+    --time; the model is the library's fit of the same dated series."""
+    pd = pytest.importorskip("pandas")
+    y = _ar2_with_a_change(150)
+    kept = [t for t in range(300) if t not in (40, 41, 200)]
+    path = _dated_csv(tmp_path / "gaps.csv", y, DAYS, kept)
+    argv = ["ar", path, "--column", "level", "--na", "2", "--norm", "group", "--lam", "100"]
+    code, out, err = _run([*argv, "--time", "date", "--json", "--out", tmp_path / "m.npz"], capsys)
+    assert code == 0, err
+    report = json.loads(out)
+    notice = "--time: 3 time stamps missing from the regular grid of its index"
+    assert any(notice in text and "DataWarning" in text for text in report["warnings"])
+    assert report["T"] == 300 and report["missing_values"] == {"level": 3}
+    assert report["changepoint_times"] == ["2020-05-30"]  # the grid keeps the dates' places
+    series = pd.Series(y[kept], index=pd.DatetimeIndex(DAYS[kept]))
+    with pytest.warns(ltvmodels.DataWarning, match="3 time stamps missing"):
+        expected = ltvmodels.fit_ar(series, 2, norm="group", lam=100.0)
+    model = ltvmodels.load(tmp_path / "m.npz")
+    assert model.n_missing == expected.n_missing == report["n_missing"] == 7
+    np.testing.assert_allclose(model.k, expected.k, rtol=1e-9, atol=1e-9)
+    code, out, err = _run([*argv, "--time", "date"], capsys)
+    assert code == 0 and f"ltvmodels ar: warning: DataWarning: {notice}" in err
+
+
+TIME_COMMANDS = {
+    "fit": ["fit", "--state", "level", "--lam", "1"],
+    "segments": ["segments", "--state", "level", "--n-changes", "1"],
+    "ar": ["ar", "--column", "level", "--na", "2", "--lam", "1"],
+    "select-lambda --state": ["select-lambda", "--state", "level"],
+    "select-lambda --column": ["select-lambda", "--column", "level", "--na", "2"],
+}
+
+
+@pytest.mark.parametrize("command", TIME_COMMANDS, ids=list(TIME_COMMANDS))
+def test_every_command_reading_a_series_checks_its_time_column(command, tmp_path, capsys):
+    """--time has one meaning everywhere: unsorted times are an error naming the row;
+    days missing from the grid are missing samples, with one warning."""
+    name, *options = TIME_COMMANDS[command]
+    y = _ar2_with_a_change(60, T=120)
+    unsorted = _dated_csv(tmp_path / "unsorted.csv", y, DAYS, [0, 1, 3, 2, *range(4, 120)])
+    code, out, err = _run([name, unsorted, *options, "--time", "date"], capsys)
+    assert code == 2 and out == "" and len(err.strip().splitlines()) == 1
+    assert (
+        f"ltvmodels {name}: error: --time: the time index is not sorted: row 3 (2020-01-03) "
+        "comes after row 2 (2020-01-04); sort the rows by time (sort the file by that column)"
+    ) in err
+    gaps = _dated_csv(tmp_path / "gaps.csv", y, DAYS, [t for t in range(120) if t != 30])
+    code, out, err = _run([name, gaps, *options, "--time", "date", "--json"], capsys)
+    assert code == 0, err
+    report = json.loads(out)
+    assert report["T"] == 120 and report["missing_values"] == {"level": 1}
+    assert report["warnings"] == [
+        "DataWarning: --time: 1 time stamp missing from the regular grid of its index "
+        "(2020-01-01 to 2020-04-29) were inserted as missing samples (NaN rows); "
+        "model.n_missing counts what they leave out"
+    ]

@@ -214,6 +214,75 @@ def test_two_step_refinement_with_the_group_norm():
     assert np.abs(refit.k[inner] - k[inner]).mean() < np.abs(first.k[inner] - k[inner]).mean()
 
 
+# -- change points on the data's axis ---------------------------------------------------
+
+
+def ar2_series_with_a_change(sample: int, T: int = 300, seed: int = 0) -> np.ndarray:
+    """y[t] = a1 y[t−1] + a2 y[t−2] + e[t]: (1.5, −0.9) before ``sample``, (0.4, 0.3) from
+    it on (y[sample] is the first sample the new coefficients produce)."""
+    rng = np.random.default_rng(seed)
+    y = np.zeros(T)
+    for t in range(2, T):
+        a1, a2 = (1.5, -0.9) if t < sample else (0.4, 0.3)
+        y[t] = a1 * y[t - 1] + a2 * y[t - 2] + rng.standard_normal()
+    return y
+
+
+def test_an_ar_change_is_reported_at_its_sample_and_date():
+    """The change of an AR(2) model at sample s is model step s − 2 (its row), reported
+    at sample s and, for a dated series, at the date of sample s."""
+    pd = pytest.importorskip("pandas")
+    s = 150
+    y = ar2_series_with_a_change(s)
+    found = ltv.find_changepoints(ltv.fit_ar(y, 2, lam=100.0, norm="group"))
+    assert found.tolist() == [s - 2]  # the model's steps, as before (fit_piecewise's index)
+    assert found.sample_indices.tolist() == [s] and found.times is None
+    days = pd.date_range("2020-01-01", periods=y.size, freq="D")
+    model = ltv.fit_ar(pd.Series(y, index=days), 2, lam=100.0, norm="group")
+    found = ltv.find_changepoints(model)
+    assert found.sample_indices.tolist() == [s]
+    np.testing.assert_array_equal(found.times, days[[s]].to_numpy())
+    assert str(found.times[0])[:10] == "2020-05-30"
+    np.testing.assert_array_equal(found.times, model.changepoint_times)  # one convention
+
+
+def test_changepoints_on_the_axis_of_each_kind_of_model():
+    """The first observation produced under new coefficients: y[lag + c] of an ARX model,
+    y[c] of a regression, x[c + 1] of a state-space model (exact coefficients)."""
+    k = np.repeat([[0.5, 1.0], [-0.3, 1.0]], [40, 60], axis=0)  # a jump at step 40
+    arx = ltv.ARXModel(k, n_outputs=1, n_inputs=1, na=1, nb=1, nk=3, constant=False)
+    assert arx.lag == 3
+    found = ltv.find_changepoints(arx)
+    assert found.tolist() == [40] and found.sample_indices.tolist() == [43]
+    regression = ltv.RegressionModel(k, n_outputs=1, n_regressors=2)
+    assert ltv.find_changepoints(regression).sample_indices.tolist() == [40]
+    data = ltv.systems.jump_linear(seed=0)
+    model = ltv.fit(data.x, data.u, lam=30.0, norm="group")
+    found = ltv.find_changepoints(model)
+    np.testing.assert_array_equal(found.sample_indices, found.changepoints + 1)
+
+
+def test_changepoints_stay_an_integer_array_of_steps():
+    """Code written for the plain array keeps working: indexing, arithmetic (plain results),
+    fit_piecewise, pickling (with the axis)."""
+    import pickle
+
+    k = np.repeat([[0.5, 0.1], [-0.3, 0.1]], [40, 60], axis=0)
+    found = ltv.find_changepoints(ltv.ARModel(k, n_outputs=1, na=2, constant=False))
+    assert isinstance(found, np.ndarray) and found.dtype == np.int64
+    assert type(found + 1) is np.ndarray and (found + 1).tolist() == [41]
+    assert type(found == 40) is np.ndarray and int(found[0]) == 40
+    assert found[:1].sample_indices.tolist() == [42]
+    again = pickle.loads(pickle.dumps(found))
+    assert again.tolist() == [40] and again.sample_indices.tolist() == [42]
+    assert type(found.changepoints) is np.ndarray
+    assert "sample_indices=[42]" in repr(found)
+    empty = ltv.find_changepoints(ltv.ARModel(k, n_outputs=1, na=2, constant=False), max_changes=0)
+    assert empty.sample_indices.tolist() == []
+    # An activation has no data axis: a plain array of steps, as before.
+    assert type(ltv.find_changepoints(spikes(100, {49: 1.0}))) is np.ndarray
+
+
 # -- bad input ------------------------------------------------------------------------------
 
 

@@ -166,3 +166,20 @@ def test_fit_many_models_dir_that_is_a_file(panel_csv, tmp_path, capsys):
     assert main([*args, "--models-dir", str(tmp_path / "models")]) == 2
     assert "--out: cannot write" in capsys.readouterr().err
     assert not (tmp_path / "models").exists()  # checked before anything was fitted
+
+
+def test_fit_many_reads_times_by_the_rule_of_every_command(panel_csv, tmp_path, capsys):
+    """--time takes numbers or ISO 8601 dates, as fit --time does: dates in another
+    format are an error naming the column (pandas would guess their format)."""
+    _, frame = panel_csv
+    path = tmp_path / "us-dates.csv"
+    frame.assign(date=pd.to_datetime(frame["date"]).dt.strftime("%m/%d/%Y")).to_csv(
+        path, index=False
+    )
+    status = main([*fit_many_args(path, "--time", "date", "--jobs", "1")])
+    err = capsys.readouterr().err
+    assert status == 2 and len(err.strip().splitlines()) == 1
+    assert f"ltvmodels fit-many: error: {path}, column 'date': " in err
+    assert "expected numbers or ISO 8601 dates and times" in err
+    assert main(["fit", str(path), "--state", "x1", "--lam", "1", "--time", "date"]) == 2
+    assert "expected numbers or ISO 8601 dates and times" in capsys.readouterr().err

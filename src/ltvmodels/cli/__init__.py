@@ -2,16 +2,17 @@
 
 Subcommands::
 
-    ltvmodels fit DATA --state COLS [--input COLS] [--norm {sq,group,l1}] [--order N]
-                  [--lam {VALUE,auto}] [--refine] [--constant] [--out MODEL.npz] [--plot FIG]
+    ltvmodels fit DATA --state COLS [--input COLS] [--time COL] [--norm {sq,group,l1}]
+                  [--order N] [--lam {VALUE,auto}] [--refine] [--constant] [--out MODEL.npz]
+                  [--plot FIG] [--json]
+    ltvmodels segments DATA --state COLS [--input COLS] [--time COL] [--n-changes M |
+                  --penalty B] [--min-size S] [--constant] [--out MODEL.npz] [--plot FIG]
                   [--json]
-    ltvmodels segments DATA --state COLS [--input COLS] [--n-changes M | --penalty B]
-                  [--min-size S] [--constant] [--out MODEL.npz] [--plot FIG] [--json]
-    ltvmodels ar DATA --column C --na N [--fs HZ] [--norm ...] [--order N] [--lam {VALUE,auto}]
-                  [--constant] [--out MODEL.npz] [--plot FIG] [--json]
+    ltvmodels ar DATA --column C --na N [--time COL] [--fs HZ] [--norm ...] [--order N]
+                  [--lam {VALUE,auto}] [--constant] [--out MODEL.npz] [--plot FIG] [--json]
     ltvmodels select-lambda DATA (--state COLS [--input COLS] | --column C --na N)
-                  [--norm {sq,group,l1,l0}] [--order N] [--method M] [--constant] [--plot FIG]
-                  [--json]
+                  [--time COL] [--norm {sq,group,l1,l0}] [--order N] [--method M]
+                  [--constant] [--plot FIG] [--json]
     ltvmodels simulate MODEL.npz DATA [--state COLS] [--input COLS] [--out SIM.csv]
                   [--plot FIG] [--json]
     ltvmodels predict MODEL.npz DATA [--state COLS] [--input COLS] [--out PRED.csv]
@@ -30,7 +31,8 @@ chosen columns must be numeric. An empty cell, ``NA``, ``N/A``, ``NaN`` or
 ``null`` (any case; Parquet: a null or NaN) is a missing value, which the fits
 leave out: a transition enters only if x[t], u[t] and x[t+1] are observed (AR:
 y[t] and its lags); the reports say how many were left out. Infinities are
-errors. Without ``--input`` the system is autonomous. A model written by
+errors. Without ``--input`` the system is autonomous. ``--time COL`` gives the
+samples' times (numbers or ISO 8601 dates; see :mod:`.recordings`). A model written by
 ``fit``, ``segments`` or ``ar`` records its data columns, so ``simulate`` and
 ``predict`` find them in new data without ``--state``/``--input``.
 

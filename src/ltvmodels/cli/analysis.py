@@ -1,7 +1,8 @@
 """What the reports compute from the data and a model.
 
 Missing values and what they leave out, one-step predictions that skip the
-samples they cannot use, the λ a fit used, and the report that ``fit`` and
+samples they cannot use, the λ a fit used, a model's change points on the
+data's axis (:func:`changepoint_report`), and the report that ``fit`` and
 ``segments`` share (:func:`state_space_report`). The library's models and
 estimators are imported inside the functions: importing the command line
 does not load the solvers.
@@ -36,6 +37,7 @@ __all__ = [
     "predict",
     "lam_facts",
     "lam_how",
+    "changepoint_report",
     "state_space_report",
 ]
 
@@ -156,15 +158,54 @@ def lam_how(facts: dict[str, Any]) -> str:
     return "given"
 
 
-def _detected_changepoints(model: Any) -> tuple[np.ndarray, str]:
-    """Change points of a model and how they were found."""
-    if model.norm in ("piecewise", "l0", "lti"):
-        return np.asarray(model.changepoints, dtype=int), "segment boundaries of the model"
-    from ..estimators.changepoints import find_changepoints
+def changepoint_report(model: Any) -> tuple[dict[str, Any], str, np.ndarray]:
+    """A fitted model's change points as the reports give them.
 
-    with user_errors("change points: "):
-        found = find_changepoints(model)
-    return found, "peaks of the activation ||(Dk)_t|| (ltvmodels.find_changepoints)"
+    The segment boundaries of a piecewise, L0 or LTI model, else the peaks of
+    its activation (:func:`ltvmodels.find_changepoints`); each as the model
+    step c, the sample of the data it lies at (the first observation
+    produced under the new coefficients: x[c + 1] of a state-space model,
+    y[lag + c] of an AR model) and, with ``--time``, that sample's time.
+
+    Parameters
+    ----------
+    model : LTVModel or ARXModel
+        The fitted model.
+
+    Returns
+    -------
+    facts : dict
+        ``changepoints`` (model steps), ``changepoint_samples``,
+        ``changepoint_rule`` and, with a time axis and change points,
+        ``changepoint_times`` (text: dates or numbers).
+    line : str
+        The text summary's line.
+    changepoints : ndarray of int, shape (M,)
+        The model steps (for the figure).
+    """
+    from ..estimators.changepoints import find_changepoints
+    from ..results.changepoints import Changepoints
+
+    if model.norm in ("piecewise", "l0", "lti"):
+        found = Changepoints.of_model(model.changepoints, model)
+        rule = "segment boundaries of the model"
+    else:
+        with user_errors("change points: "):
+            found = find_changepoints(model)
+        rule = "peaks of the activation ||(Dk)_t|| (ltvmodels.find_changepoints)"
+    steps, samples = found.changepoints, found.sample_indices
+    facts: dict[str, Any] = {
+        "changepoints": steps,
+        "changepoint_samples": samples,
+        "changepoint_rule": rule,
+    }
+    line = f"change points: {steps.tolist()} ({rule})"
+    if steps.size:
+        line += f"; first samples under the new coefficients: {samples.tolist()}"
+    if found.times is not None and steps.size:
+        facts["changepoint_times"] = time_text(found.times)
+        line += f", at times {', '.join(facts['changepoint_times'])}"
+    return facts, line, steps
 
 
 def state_space_report(
@@ -217,7 +258,7 @@ def state_space_report(
         sim_total: float | None = rms(simulation - x, sim_valid)
     else:
         sim_rms = sim_total = None
-    changepoints, rule = _detected_changepoints(model)
+    changepoint_facts, changepoint_line, changepoints = changepoint_report(model)
     info = model.info
     n_missing = model.n_missing
     report: dict[str, Any] = {
@@ -239,8 +280,7 @@ def state_space_report(
             "prediction_per_state": pred_rms,
             "simulation_per_state": sim_rms,
         },
-        "changepoints": changepoints,
-        "changepoint_rule": rule,
+        **changepoint_facts,
         "noise_var": np.atleast_1d(model.noise_var),
         "loglik": model.loglik,
         "solver": info.get("solver"),
@@ -284,11 +324,6 @@ def state_space_report(
         )
         if sim_total is not None
         else f"open-loop simulation: not computed ({skipped})",
-        f"change points: {[int(c) for c in changepoints]} ({rule})",
+        changepoint_line,
     ]
-    time = model.time
-    if time is not None and len(changepoints):  # change c: x[c + 1] is the first new state
-        times = time_text(time[np.asarray(changepoints, dtype=int) + model.produced_offset])
-        report["changepoint_times"] = times
-        lines[-1] += f"; at times {', '.join(times)}"
     return report, lines, changepoints

@@ -170,14 +170,22 @@ def add_na(p: _Container, help: str, *, required: bool = False) -> None:
     p.add_argument("--na", type=positive_int, required=required, default=None, help=help)
 
 
+_TIME_RULE = (
+    "column of the samples' times: numbers, or ISO 8601 dates (YYYY-MM-DD[THH:MM:SS]), "
+    "strictly increasing; times missing from their regular grid become missing samples"
+)
+
+
 def add_time(
     p: _Container,
-    help: str = "column of the samples' times: numbers, or ISO 8601 dates "
-    "(YYYY-MM-DD[THH:MM:SS]); change points are then also reported as times, "
-    "and the model keeps them (model.time)",
+    effect: str = "change points are then also reported at the time of their first "
+    "sample, --coef-out is indexed by time, and the model keeps the times (model.time)",
+    *,
+    rule: str = _TIME_RULE,
 ) -> None:
-    """``--time COL``: the column of the samples' times."""
-    p.add_argument("--time", metavar="COL", default=None, help=help)
+    """``--time COL``: the column of the samples' times (its ``rule``; the same for every
+    command that fits one series) and what it changes in the command (``effect``)."""
+    p.add_argument("--time", metavar="COL", default=None, help=f"{rule}; {effect}")
 
 
 def add_weights(

@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import OutputPathError
 from .messages import DataError, one_line
 
-__all__ = ["PARQUET_SUFFIXES", "read_columns", "write_csv"]
+__all__ = ["PARQUET_SUFFIXES", "parse_times", "read_columns", "write_csv"]
 
 PARQUET_SUFFIXES = (".parquet", ".pq")
 _MISSING_TOKENS = ("", "na", "n/a", "nan", "null")
@@ -262,10 +262,10 @@ def read_columns(path: Any, **selections: str | None) -> tuple[int, str, dict[st
         if indices is None:
             columns[key] = None
             continue
-        if key == "time":  # dates or numbers, see _parse_times
+        if key == "time":  # dates or numbers, see parse_times
             if len(indices) != 1:
                 raise DataError(f"--time: expected one column, received {selections[key]!r}")
-            values = _parse_times(source.text(indices[0]), source.label, source.names[indices[0]])
+            values = parse_times(source.text(indices[0]), source.label, source.names[indices[0]])
         else:
             values = source.read(indices)
         T = values.shape[0]
@@ -273,10 +273,28 @@ def read_columns(path: Any, **selections: str | None) -> tuple[int, str, dict[st
     return T, source.label, columns
 
 
-def _parse_times(fields: list[str], label: str, name: str) -> np.ndarray:
+def parse_times(fields: list[str], label: str, name: str) -> np.ndarray:
     """A time column: numbers (float), or ISO 8601 dates and times (datetime64[ns]).
 
-    Every field must be given (a time cannot be missing) and of one kind.
+    Every field must be given (a time cannot be missing) and of one kind: the
+    rule of every command's ``--time``.
+
+    Parameters
+    ----------
+    fields : list of str
+        The column's fields as text, "" where missing.
+    label, name : str
+        The data file and the column, as the messages name them.
+
+    Returns
+    -------
+    ndarray, shape (T,)
+        float or datetime64[ns].
+
+    Raises
+    ------
+    DataError
+        A missing time, or a field that is neither a number nor an ISO 8601 date.
     """
     if "" in fields:
         row = fields.index("")

@@ -1,19 +1,30 @@
 """The recordings the commands fit, read from DATA as their arguments choose them.
 
 A state-space recording (``--state``, ``--input``, ``--weights``, ``--time``)
-for ``fit``, ``segments`` and ``select-lambda``; one column of an AR model
-(``--column``, ``--weights``) for ``ar`` and ``select-lambda --column``.
+for ``fit``, ``segments`` and ``select-lambda``; the column(s) of an AR model
+(``--column``, ``--weights``, ``--time``) for ``ar`` and ``select-lambda
+--column``. A ``--time`` column follows the library's rules for a time index
+(:mod:`ltvmodels.validation.time`), checked here once for every command: the
+stamps must be strictly increasing, and stamps missing from their regular grid
+become missing samples (NaN rows), with the library's warning.
 """
 
 from __future__ import annotations
 
 import argparse
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .data import read_columns
 from .messages import DataError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..validation.time import TimeGrid
+
+_Column = tuple[list[str], np.ndarray]
+"""A column read from DATA: its names and values (T, k)."""
 
 __all__ = ["StateSpaceData", "ColumnData", "state_space_data", "column_data"]
 
@@ -61,12 +72,15 @@ class ColumnData:
         (T, k) the samples; NaN where missing.
     weights : ndarray or None
         (T - na,) the weights of the equations (``--weights``).
+    time : ndarray or None
+        (T,) the samples' times (``--time``).
     """
 
     label: str
     names: list[str]
     y: np.ndarray
     weights: np.ndarray | None
+    time: np.ndarray | None = None
 
 
 def state_space_data(args: argparse.Namespace) -> StateSpaceData:
@@ -81,52 +95,28 @@ def state_space_data(args: argparse.Namespace) -> StateSpaceData:
     Returns
     -------
     StateSpaceData
+        On the regular grid of the ``--time`` stamps, if given.
 
     Raises
     ------
     DataError
-        A column that cannot be read, or a missing weight.
+        A column that cannot be read, a missing weight, or time stamps out of
+        order or on no regular grid.
     """
-    weights = getattr(args, "weights", None)
     _, label, cols = read_columns(
         args.data,
         state=args.state,
         input=args.input,
-        weights=weights,
+        weights=getattr(args, "weights", None),
         time=getattr(args, "time", None),
     )
     state_names, x = cols["state"]
     input_names, u = cols["input"] if cols["input"] is not None else ([], None)
-    transition_weights = None
-    if weights is not None:  # the equation predicting row t has the weight of row t
-        column = cols["weights"][1][1:, 0]
-        if not np.all(np.isfinite(column)):
-            raise DataError(
-                f"--weights: the weights must be observed, received a missing "
-                f"value at row {1 + int(np.flatnonzero(~np.isfinite(column))[0])}"
-            )
-        transition_weights = column
-    time = None if cols.get("time") is None else cols["time"][1]
-    if time is not None:  # the library's time rules, as for a pandas index
-        from ..estimators.recordings import time_grid_of
-        from ..validation.arrays import LabelledSeries
-
-        try:
-            grid = time_grid_of(LabelledSeries(x, state_names, time), "--time")
-        except ValueError as exc:
-            text = str(exc).replace("(df.sort_index())", "(sort the file by that column)")
-            raise DataError(text) from None
-        if grid is None:  # the stamps 0, 1, … are consecutive rows: nothing to check
-            return StateSpaceData(label, x, u, state_names, input_names, transition_weights, time)
-        if grid.inserted:
-            x = grid.spread(x[None])[0]
-            u = None if u is None else grid.spread(u[None])[0]
-            spread = grid.spread_rows(
-                None if transition_weights is None else transition_weights[None], 1
-            )
-            transition_weights = None if spread is None else spread[0]
-        time = grid.time
-    return StateSpaceData(label, x, u, state_names, input_names, transition_weights, time)
+    weights = _equation_weights(cols["weights"], 1)  # a transition predicts x[t + 1]
+    time, grid = _time_axis(cols["time"], x, state_names)
+    if grid is not None:
+        x, u, weights = _spread(grid, x), _spread(grid, u), _spread_weights(grid, weights, 1)
+    return StateSpaceData(label, x, u, state_names, input_names, weights, time)
 
 
 def column_data(args: argparse.Namespace) -> ColumnData:
@@ -135,22 +125,76 @@ def column_data(args: argparse.Namespace) -> ColumnData:
     Parameters
     ----------
     args : argparse.Namespace
-        ``data``, ``column``, ``na`` and ``weights``.
+        ``data``, ``column``, ``na``, ``weights`` and, where the command has it,
+        ``time``.
 
     Returns
     -------
     ColumnData
+        On the regular grid of the ``--time`` stamps, if given.
 
     Raises
     ------
     DataError
-        A column that cannot be read, or a missing weight.
+        A column that cannot be read, a missing weight, or time stamps out of
+        order or on no regular grid.
     """
-    _, label, cols = read_columns(args.data, column=args.column, weights=args.weights)
-    weights = None
-    if cols["weights"] is not None:  # the equation predicting row t has row t's weight
-        weights = cols["weights"][1][args.na :, 0]
-        if not np.all(np.isfinite(weights)):
-            raise DataError("--weights: the weights must be observed (no missing values)")
+    _, label, cols = read_columns(
+        args.data, column=args.column, weights=args.weights, time=getattr(args, "time", None)
+    )
     names, y = cols["column"]
-    return ColumnData(label, names, y, weights)
+    weights = _equation_weights(cols["weights"], args.na)  # the first na rows are only lags
+    time, grid = _time_axis(cols["time"], y, names)
+    if grid is not None:
+        y, weights = _spread(grid, y), _spread_weights(grid, weights, args.na)
+    return ColumnData(label, names, y, weights, time)
+
+
+def _equation_weights(column: _Column | None, lag: int) -> np.ndarray | None:
+    """The ``--weights`` of the equations that predict rows lag, lag + 1, …: the equation
+    predicting row t has the weight of row t. None without ``--weights``."""
+    if column is None:
+        return None
+    weights = column[1][lag:, 0]
+    if not np.all(np.isfinite(weights)):
+        raise DataError(
+            f"--weights: the weights must be observed, received a missing value at row "
+            f"{lag + int(np.flatnonzero(~np.isfinite(weights))[0])}"
+        )
+    return weights
+
+
+def _time_axis(
+    column: _Column | None, values: np.ndarray, names: list[str]
+) -> tuple[np.ndarray | None, TimeGrid | None]:
+    """The samples' times of a ``--time`` column (None without one) and, where stamps are
+    missing from their regular grid, that grid (its ``spread`` puts the rows on it).
+
+    The library's time rules, as for a pandas index, with its warning where missing
+    stamps become missing samples.
+    """
+    if column is None:
+        return None, None
+    from ..estimators.recordings import time_grid_of
+    from ..validation.arrays import LabelledSeries
+
+    stamps = column[1]
+    try:
+        grid = time_grid_of(LabelledSeries(values, names, stamps), "--time")
+    except ValueError as exc:
+        text = str(exc).replace("(df.sort_index())", "(sort the file by that column)")
+        raise DataError(text) from None
+    if grid is None:  # the stamps 0, 1, … are consecutive rows: nothing to check
+        return stamps, None
+    return grid.time, grid if grid.inserted else None
+
+
+def _spread(grid: TimeGrid, rows: np.ndarray | None) -> np.ndarray | None:
+    """(rows, d) data rows on the grid (T, d), NaN where a stamp was missing."""
+    return None if rows is None else grid.spread(rows[None])[0]
+
+
+def _spread_weights(grid: TimeGrid, weights: np.ndarray | None, lag: int) -> np.ndarray | None:
+    """The weights of the equations predicting rows lag, lag + 1, … on the grid."""
+    spread = None if weights is None else grid.spread_rows(weights[None], lag)
+    return None if spread is None else spread[0]

@@ -49,16 +49,29 @@ An event of another kind is located less precisely: a jump seen through the
 second difference gives two equal activations (t = c − 2 and c − 1) and is
 reported at c − 1. Locate jumps with the first difference and kinks with the
 second.
+
+Model steps and the data's axis
+-------------------------------
+The change points are model steps c (above). Given a model,
+:func:`find_changepoints` returns them as a
+:class:`~ltvmodels.results.changepoints.Changepoints` array that also gives
+where they lie on the data's axis: ``sample_indices``, the sample of the first
+observation produced under the new coefficients (x[c + 1] of a state-space
+model, y[c] of a regression, y[lag + c] of an AR/ARX model — a change in an
+AR(2) model found at step 148 is at sample 150 of the series), and ``times``,
+the time of that sample when the model has a time axis (the convention of
+:attr:`ltvmodels.RegressionModel.changepoint_times`).
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ..core.robust import MAD_TO_STD
+from ..results.changepoints import Changepoints
 from ..results.regression import RegressionModel
 from ..validation import arrays, options
 
@@ -78,6 +91,34 @@ def residue_level(k: np.ndarray) -> float:
 def _changepoint_offset(degree: int) -> int:
     """Offset ⌈d/2⌉ from activation index t to change point c = t + ⌈d/2⌉."""
     return (degree + 1) // 2
+
+
+# A model gives change points on its data's axis; an activation array (no data axis)
+# the plain array of steps.
+@overload
+def find_changepoints(
+    model_or_activation: RegressionModel,
+    *,
+    threshold: float = ...,
+    noise_factor: float | None = ...,
+    min_distance: int = ...,
+    max_changes: int | None = ...,
+    degree: int | None = ...,
+    min_level: float | None = ...,
+) -> Changepoints: ...
+
+
+@overload
+def find_changepoints(
+    model_or_activation: ArrayLike,
+    *,
+    threshold: float = ...,
+    noise_factor: float | None = ...,
+    min_distance: int = ...,
+    max_changes: int | None = ...,
+    degree: int | None = ...,
+    min_level: float | None = ...,
+) -> np.ndarray: ...
 
 
 def find_changepoints(
@@ -150,9 +191,17 @@ def find_changepoints(
 
     Returns
     -------
-    ndarray of int, shape (M,)
+    Changepoints (for a model) or ndarray of int64 (for an activation), shape (M,)
         Sorted change points c in [⌈d/2⌉, N − d − 1 + ⌈d/2⌉] (for d = 1:
-        [1, N − 1]): the model changes between steps c − 1 and c.
+        [1, N − 1]): model steps (regression rows), the model changes between
+        steps c − 1 and c — the index of :func:`ltvmodels.fit_piecewise` and of
+        ``model.changepoints``. For a model they come as a
+        :class:`~ltvmodels.results.changepoints.Changepoints` array (a subclass
+        of ndarray holding the same steps) that also has ``sample_indices``, the
+        sample of the data of the first observation produced under the new
+        coefficients (x[c + 1] of a state-space model, y[c] of a regression,
+        y[lag + c] of an AR/ARX model), and ``times``, their times (None
+        without a time axis), as ``model.changepoint_times``.
 
     Raises
     ------
@@ -167,6 +216,18 @@ def find_changepoints(
     [50, 80]
     >>> find_changepoints(a, max_changes=1).tolist()
     [50]
+
+    The change of an AR(2) model at sample 150 is its step 148:
+
+    >>> import ltvmodels as ltv
+    >>> rng = np.random.default_rng(0)
+    >>> y = np.zeros(300)
+    >>> for t in range(2, 300):
+    ...     a1, a2 = (1.5, -0.9) if t < 150 else (0.4, 0.3)
+    ...     y[t] = a1 * y[t - 1] + a2 * y[t - 2] + rng.standard_normal()
+    >>> found = find_changepoints(ltv.fit_ar(y, 2, lam=100.0, norm="group"))
+    >>> found.tolist(), found.sample_indices.tolist()
+    ([148], [150])
     """
     activation, degree = _activation_and_degree(model_or_activation, degree)
     if min_level is None:
@@ -183,12 +244,16 @@ def find_changepoints(
     max_changes = options.optional_integer(max_changes, "max_changes", 0)
 
     if activation.size == 0 or max_changes == 0:
-        return np.zeros(0, dtype=np.int64)
-    level = max(detection_level(activation, threshold, noise_factor), min_level)
-    peaks = _local_maxima(activation)
-    candidates = peaks[activation[peaks] > level]
-    kept = _suppress_non_maxima(activation, candidates, min_distance, max_changes)
-    return np.sort(kept) + _changepoint_offset(degree)
+        steps = np.zeros(0, dtype=np.int64)
+    else:
+        level = max(detection_level(activation, threshold, noise_factor), min_level)
+        peaks = _local_maxima(activation)
+        candidates = peaks[activation[peaks] > level]
+        kept = _suppress_non_maxima(activation, candidates, min_distance, max_changes)
+        steps = np.sort(kept) + _changepoint_offset(degree)
+    if isinstance(model_or_activation, RegressionModel):
+        return Changepoints.of_model(steps, model_or_activation)
+    return steps
 
 
 def detection_level(activation: np.ndarray, threshold: float, noise_factor: float | None) -> float:

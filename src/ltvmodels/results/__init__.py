@@ -4,7 +4,8 @@
 (:class:`~ltvmodels.FitStatus`, :class:`~ltvmodels.FitRecord`),
 :mod:`.regression` (:class:`~ltvmodels.RegressionModel`), :mod:`.statespace`
 (:class:`~ltvmodels.LTVModel`), :mod:`.arx` (AR/ARX models), :mod:`.kalman`,
-:mod:`.selection`, :mod:`.segmentation`, and the model file (:mod:`.archive`,
+:mod:`.selection`, :mod:`.segmentation`, :mod:`.changepoints` (change points on the
+data's axis), and the model file (:mod:`.archive`,
 :mod:`.loading`).
 """
 

@@ -48,7 +48,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     opt.add_state(p, help="state columns x (comma-separated names)")
     opt.add_input(p, "input columns u (comma-separated names); none for an autonomous system")
     opt.add_time(
-        p, "column to sort each unit's rows by: numbers or dates (default: the rows' order)"
+        p,
+        "times missing from a unit's regular grid become missing samples (a warning in "
+        "the summary's warnings column). Default: the rows' order",
+        rule="column of the time stamps: numbers, or ISO 8601 dates (YYYY-MM-DD[THH:MM:SS]) "
+        "as for the other commands, by which each unit's rows are sorted",
     )
     p.add_argument(
         "--method",
@@ -145,19 +149,16 @@ def _columns(text: str | None) -> list[str]:
     return [] if text is None else [name.strip() for name in text.split(",") if name.strip()]
 
 
-def _parse_time_column(frame: Any, name: str | None) -> None:
-    """Convert a text time column to dates in place (numbers and dates stay as they are)."""
+def _parse_time_column(frame: Any, name: str | None, label: str) -> None:
+    """Convert a text time column in place by the rule of every command's ``--time``
+    (numbers, or ISO 8601 dates); numbers and dates stay as they are."""
     if name is None or name not in frame.columns or frame[name].dtype.kind in "biufM":
         return
-    import pandas as pd
+    from ..data import parse_times
 
-    try:
-        frame[name] = pd.to_datetime(frame[name])
-    except (ValueError, TypeError):
-        raise CommandError(
-            f"--time: column {name!r} holds neither numbers nor dates "
-            f"(first value {frame[name].iloc[0]!r})"
-        ) from None
+    column = frame[name]
+    fields = ["" if missing else str(value) for value, missing in zip(column, column.isna())]
+    frame[name] = parse_times(fields, label, name)
 
 
 def _connect(address: str | None) -> Any:
@@ -245,7 +246,7 @@ def run(args: argparse.Namespace) -> Report:
 
     options = _estimator_options(args)
     frame = _read_table(args.data)
-    _parse_time_column(frame, args.time)
+    _parse_time_column(frame, args.time, args.data)
     if args.out is not None:
         output_file(args.out, "out")
     if args.models_dir is not None:

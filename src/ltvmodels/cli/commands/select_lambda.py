@@ -41,6 +41,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     opt.add_huber_delta(p, "Huber threshold with --loss huber (default: the robust rule)")
     opt.add_weights(p)
+    opt.add_time(p, "the models compared are those of fit --time or ar --time")
     opt.add_constant(
         p, "a constant term c_t in the models compared (as fit, segments or ar with --constant)"
     )
