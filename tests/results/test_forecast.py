@@ -9,10 +9,12 @@ model's own assumptions (random-walk coefficients with drift σ/λ).
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 import pytest
 from dense_reference import simulate_ltv, weight_matrix
+from scipy.linalg import solve_discrete_lyapunov
 
 import ltvmodels as ltv
 
@@ -451,3 +453,94 @@ def test_an_ar2_forecast_with_noise_has_the_closed_form_mean_and_covariance():
     means.append(a1 * means[0] + a2 * -0.1)
     means.append(a1 * means[1] + a2 * means[0])
     np.testing.assert_allclose(forecast.mean[:, 0], means, rtol=1e-12)
+
+
+# -- the Forecast itself -----------------------------------------------------------------------
+
+
+def test_a_diverging_forecast_warns_as_simulate_does():
+    """Probe: a long horizon overflowed to inf/NaN without a word; simulate warned."""
+    unstable = ltv.LTVModel.from_arrays(np.eye(2) * 3.0, steps=700, noise_cov=1.0)
+    with pytest.warns(ltv.DivergenceWarning, match="the simulation diverged"):
+        unstable.simulate([1.0, 1.0], None)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        gaussian = unstable.forecast([1.0, 1.0], steps=700)
+    assert [w.category for w in caught] == [ltv.DivergenceWarning]  # numpy's stay quiet
+    step = int(np.flatnonzero(~np.isfinite(gaussian.upper).all(axis=1))[0])
+    assert f"inf or NaN from step {step} (counted from 0)" in str(caught[0].message)
+    x, u, _ = simulate_ltv(1, T=60, n=2, m=1)
+    sampled = ltv.fit(3.0 * x, u, lam=5.0)  # coefficient uncertainty: Monte Carlo
+    blown = ltv.LTVModel(3.0 * sampled.k, 2, 1, sampled.record)
+    with pytest.warns(ltv.DivergenceWarning, match="the forecast diverged"):
+        assert blown.forecast(x[-1], np.zeros((700, 1)), n_samples=10).method == "monte_carlo"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sampled.forecast(x[-1], np.zeros((5, 1)))  # a finite forecast says nothing
+
+
+def test_long_horizons_do_not_keep_every_path():
+    """Probe: memory grew with steps × n_samples (20,000 steps peaked at 2 GB). The paths of
+    one step are summarized before the next: 1500 steps × 2000 paths peaked at 145 MB (their
+    samples, deviations and quantiles); now at 1 MB, that of one step."""
+    import tracemalloc
+
+    rng = np.random.default_rng(0)
+    x = np.zeros((400, 2))
+    for t in range(399):
+        x[t + 1] = 0.5 * x[t] + 0.1 * rng.standard_normal(2)
+    model = ltv.fit_lti(x)
+    tracemalloc.start()
+    try:
+        forecast = model.forecast(x[-1], steps=1500, n_samples=2000)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert forecast.method == "monte_carlo" and np.all(np.isfinite(forecast.upper))
+    assert peak < 16e6, f"peak {peak / 1e6:.1f} MB"
+    # far ahead: the model's stationary law (mean 0, covariance P = A P Aᵀ + Q), widened a
+    # little by the uncertainty of A
+    stationary = solve_discrete_lyapunov(model.A[-1], model.noise_cov)
+    np.testing.assert_allclose(forecast.mean[-1], 0.0, atol=0.02)
+    np.testing.assert_allclose(forecast.std()[-1], np.sqrt(np.diag(stationary)), rtol=0.08)
+
+
+@pytest.mark.parametrize(
+    "changes, error, pattern",
+    [
+        ({"level": 7.0}, ValueError, r"level: expected a probability in \(0, 1\).*received 7.0"),
+        ({"level": "high"}, TypeError, r"level: expected a probability in \(0, 1\)"),
+        ({"mean": np.zeros(3)}, ValueError, r"mean: expected shape \(steps, n\).*received shape"),
+        ({"lower": np.zeros((3, 1))}, ValueError, r"lower: expected shape \(3, 2\) to fit mean"),
+        ({"upper": np.zeros((2, 2))}, ValueError, r"upper: expected shape \(3, 2\)"),
+        ({"cov": np.zeros((3, 2))}, ValueError, r"cov: expected shape \(3, 2, 2\)"),
+        ({"time": np.arange(4)}, ValueError, r"time: expected shape \(3,\)"),
+        ({"names": ["a"]}, ValueError, r"names: expected 2 names .*received 1"),
+        ({"n_samples": 100}, ValueError, r"n_samples: expected None for method='gaussian'"),
+        (
+            {"method": "monte_carlo", "n_samples": 1},
+            ValueError,
+            r"n_samples: expected an integer >= 2",
+        ),
+        (
+            {"coefficients": np.ones((3, 1, 2))},
+            ValueError,
+            r"coefficients: expected shape \(3, 2, p\)",
+        ),
+    ],
+)
+def test_the_forecast_constructor_checks_its_fields(changes, error, pattern):
+    """Probe: Forecast(...) accepted mismatched shapes and level=7.0."""
+    fields = {
+        "mean": np.zeros((3, 2)),
+        "lower": -np.ones((3, 2)),
+        "upper": np.ones((3, 2)),
+        "cov": np.broadcast_to(np.eye(2), (3, 2, 2)),
+        "level": 0.9,
+        "time": np.arange(3),
+        "names": ["a", "b"],
+        "method": "gaussian",
+    }
+    assert ltv.Forecast(**fields).steps == 3
+    with pytest.raises(error, match=pattern):
+        ltv.Forecast(**{**fields, **changes})

@@ -57,6 +57,14 @@ model without coefficient uncertainty (no covariance and no drift) is linear
 and Gaussian: then every step is propagated exactly (mean and covariance by
 the model's recursion, intervals mean ± z·sd) and nothing is sampled.
 ``Forecast.method`` says which was done.
+
+The paths are simulated one step at a time and each step is summarized (mean,
+covariance, quantiles) before the next, so the memory of a forecast grows
+with ``n_samples`` (the paths of one step: n_samples × K numbers for the
+coefficients) but not with ``steps`` × ``n_samples``; its result holds
+O(steps · n · p) numbers. A forecast whose mean or interval overflows to inf
+or NaN (an unstable model over a long horizon) warns with a
+:class:`~ltvmodels.DivergenceWarning`, as ``simulate`` does.
 """
 
 from __future__ import annotations
@@ -68,6 +76,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..errors import DivergenceWarning, warn
 from ..validation import arrays, options
 from ..validation.arrays import describe
 
@@ -143,11 +152,56 @@ class Forecast:
     def __post_init__(self) -> None:
         if self.method not in METHODS:
             raise ValueError(f"method: expected one of {METHODS}, received {self.method!r}")
-        for name in ("mean", "lower", "upper", "cov", "time", "coefficients"):
-            value = np.array(getattr(self, name))  # a copy: the caller's arrays stay theirs
+        object.__setattr__(self, "level", _probability(self.level, "level"))
+        for name in ("mean", "lower", "upper", "cov", "coefficients"):
+            value = np.array(getattr(self, name), dtype=float)  # a copy: the caller's stays theirs
             value.flags.writeable = False
             object.__setattr__(self, name, value)
-        object.__setattr__(self, "names", list(self.names))
+        time = np.array(self.time)
+        time.flags.writeable = False
+        object.__setattr__(self, "time", time)
+        object.__setattr__(self, "names", [str(name) for name in self.names])
+        self._check_shapes()
+        if self.method == "gaussian" and self.n_samples is not None:
+            raise ValueError(
+                f"n_samples: expected None for method='gaussian' (nothing is sampled), "
+                f"received {self.n_samples!r}"
+            )
+        if self.method == "monte_carlo":
+            object.__setattr__(
+                self, "n_samples", options.integer(self.n_samples, "n_samples", minimum=2)
+            )
+
+    def _check_shapes(self) -> None:
+        """Every array fits ``mean`` (steps, n); the message names the field that does not."""
+        if self.mean.ndim != 2 or self.mean.shape[0] < 1:
+            raise ValueError(
+                f"mean: expected shape (steps, n) with steps >= 1, received shape {self.mean.shape}"
+            )
+        steps, n = self.mean.shape
+        expected = {
+            "lower": (steps, n),
+            "upper": (steps, n),
+            "cov": (steps, n, n),
+            "time": (steps,),
+        }
+        for name, shape in expected.items():
+            found = getattr(self, name).shape
+            if found != shape:
+                raise ValueError(
+                    f"{name}: expected shape {shape} to fit mean {self.mean.shape}, "
+                    f"received shape {found}"
+                )
+        if len(self.names) != n:
+            raise ValueError(
+                f"names: expected {n} names (one per column of mean), received {len(self.names)}"
+            )
+        coefficients = self.coefficients.shape
+        if self.coefficients.size and (len(coefficients) != 3 or coefficients[:2] != (steps, n)):
+            raise ValueError(
+                f"coefficients: expected shape ({steps}, {n}, p) to fit mean {self.mean.shape}, "
+                f"or an empty array, received shape {coefficients}"
+            )
 
     @property
     def steps(self) -> int:
@@ -209,21 +263,28 @@ def forecast_options(level: Any, n_samples: Any, seed: Any) -> tuple[float, int,
     The seed is returned as given after a check (a Generator is used as is),
     so that nothing is drawn from it unless the forecast samples.
     """
-    if isinstance(level, np.ndarray) and level.ndim == 0:
-        level = level.item()
-    if isinstance(level, bool) or not isinstance(level, (int, float, np.integer, np.floating)):
-        raise TypeError(f"level: expected a probability in (0, 1), received {describe(level)}")
-    level = float(level)
-    if not 0.0 < level < 1.0:
-        raise ValueError(f"level: expected a probability in (0, 1) (e.g. 0.95), received {level}")
-    if (1.0 + level) / 2.0 >= 1.0:  # no tail left in floating point: no interval bound
-        raise ValueError(
-            f"level: expected a probability in (0, 1) whose tails are representable (at most "
-            f"1 - 1e-15), received {level!r}"
-        )
+    level = _probability(level, "level")
     n_samples = options.integer(n_samples, "n_samples", minimum=2)
     options.random_generator(seed)  # checks it; the generator is made when it is needed
     return level, n_samples, seed
+
+
+def _probability(value: Any, name: str) -> float:
+    """The probability of a central interval: a real number in (0, 1) with both tails
+    representable."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name}: expected a probability in (0, 1), received {describe(value)}")
+    value = float(value)
+    if not 0.0 < value < 1.0:
+        raise ValueError(f"{name}: expected a probability in (0, 1) (e.g. 0.95), received {value}")
+    if (1.0 + value) / 2.0 >= 1.0:  # no tail left in floating point: no interval bound
+        raise ValueError(
+            f"{name}: expected a probability in (0, 1) whose tails are representable (at most "
+            f"1 - 1e-15), received {value!r}"
+        )
+    return value
 
 
 def _forecast_steps(steps: Any, rows: int | None, lag: int = 0) -> int:
@@ -533,37 +594,41 @@ def forecast_model(
     if drift is not None:
         drift = drift / coeffs[-1] ** 2  # the recursion adds w_t / c_d
     z = NormalDist().inv_cdf(0.5 + level / 2)
-    # step 1, exact: Cov(k_N) = Cov(k_{N−1}) + drift; x0 and φ known
-    phi0 = np.concatenate([initial.ravel(), known[0]])
-    k_cov = _as_matrix(coef_cov, K) + _as_matrix(drift, K)
-    lift = np.kron(np.eye(n), phi0[None, :])  # (n, K): Θ φ = (I ⊗ φᵀ) k
-    mean0 = theta[0] @ phi0
-    cov0 = lift @ k_cov @ lift.T + noise_cov
     coef_factor, drift_factor = _factor(coef_cov), _factor(drift)
-    if coef_factor is not None or drift_factor is not None:
-        mean, cov, lower, upper, drawn = _monte_carlo(
-            theta,
-            coeffs,
-            coef_factor,
-            drift_factor,
-            initial,
-            known,
-            _factor(noise_cov),
-            level,
-            n_samples,
-            seed,
-        )
-        method = "monte_carlo"
-    else:
-        mean, cov = _gaussian(theta, initial, known, noise_cov)
-        lower = upper = None
-        method, drawn = "gaussian", None
-    mean[0], cov[0] = mean0, cov0
-    sd = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
-    if lower is None:
-        lower, upper = mean - z * sd, mean + z * sd
-    else:
-        lower[0], upper[0] = mean0 - z * sd[0], mean0 + z * sd[0]
+    # An unstable model overflows over a long horizon: one DivergenceWarning below says
+    # so, instead of numpy's warnings from deep inside the propagation.
+    with np.errstate(over="ignore", invalid="ignore"):
+        # step 1, exact: Cov(k_N) = Cov(k_{N−1}) + drift; x0 and φ known
+        phi0 = np.concatenate([initial.ravel(), known[0]])
+        k_cov = _as_matrix(coef_cov, K) + _as_matrix(drift, K)
+        lift = np.kron(np.eye(n), phi0[None, :])  # (n, K): Θ φ = (I ⊗ φᵀ) k
+        mean0 = theta[0] @ phi0
+        cov0 = lift @ k_cov @ lift.T + noise_cov
+        if coef_factor is not None or drift_factor is not None:
+            mean, cov, lower, upper, drawn = _monte_carlo(
+                theta,
+                coeffs,
+                coef_factor,
+                drift_factor,
+                initial,
+                known,
+                _factor(noise_cov),
+                level,
+                n_samples,
+                seed,
+            )
+            method = "monte_carlo"
+        else:
+            mean, cov = _gaussian(theta, initial, known, noise_cov)
+            lower = upper = None
+            method, drawn = "gaussian", None
+        mean[0], cov[0] = mean0, cov0
+        sd = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
+        if lower is None:
+            lower, upper = mean - z * sd, mean + z * sd
+        else:
+            lower[0], upper[0] = mean0 - z * sd[0], mean0 + z * sd[0]
+    _warn_if_diverged(mean, lower, upper)
     return Forecast(
         mean=mean,
         lower=lower,
@@ -576,6 +641,19 @@ def forecast_model(
         n_samples=drawn,
         coefficients=theta,
     )
+
+
+def _warn_if_diverged(mean: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
+    """A :class:`~ltvmodels.DivergenceWarning` when the forecast overflowed (as ``simulate``)."""
+    finite = np.isfinite(mean) & np.isfinite(lower) & np.isfinite(upper)
+    if not finite.all():
+        step = int(np.flatnonzero(~finite.all(axis=1))[0])
+        warn(
+            f"the forecast diverged: its mean or interval is inf or NaN from step {step} "
+            "(counted from 0) on: the model is unstable along these inputs over this horizon; "
+            "forecast fewer steps",
+            DivergenceWarning,
+        )
 
 
 def _gaussian(
@@ -634,17 +712,22 @@ def _monte_carlo(
     error = draw(coef_factor, K)  # k_{N−1} − its estimate, carried by the recursion
     history = [error] * d  # the last d coefficient deviations
     lags = np.broadcast_to(initial.ravel(), (S, D)).copy()
-    samples = np.empty((steps, S, n))
+    # Each step's paths are summarized before the next step is drawn: memory grows with
+    # n_samples, not with steps × n_samples.
+    mean = np.empty((steps, n))
+    cov = np.empty((steps, n, n))
+    lower = np.empty((steps, n))
+    upper = np.empty((steps, n))
     for s in range(steps):
         # deviation of k at this step: Σ_j c_j dev_{t+j} = w_t, with w / c_d drawn as `drift`
         dev = -sum(coeffs[j] * history[j] for j in range(d)) / coeffs[d] + draw(drift_factor, K)
         history = history[1:] + [dev]
         phi = np.concatenate([lags, np.broadcast_to(known[s], (S, known.shape[1]))], axis=1)
         out = phi @ theta[s].T + np.einsum("sij,sj->si", dev.reshape(S, n, p), phi)
-        samples[s] = out + draw(noise_factor, n)
-        lags = np.concatenate([samples[s], lags[:, : D - n]], axis=1) if D else lags
-    mean = samples.mean(axis=1)
-    centred = samples - mean[:, None, :]
-    cov = np.einsum("tsi,tsj->tij", centred, centred) / (S - 1)
-    lower, upper = np.quantile(samples, [0.5 - level / 2, 0.5 + level / 2], axis=1)
+        sample = out + draw(noise_factor, n)  # (S, n): the paths at this step
+        mean[s] = sample.mean(axis=0)
+        centred = sample - mean[s]
+        cov[s] = centred.T @ centred / (S - 1)
+        lower[s], upper[s] = np.quantile(sample, [0.5 - level / 2, 0.5 + level / 2], axis=0)
+        lags = np.concatenate([sample, lags[:, : D - n]], axis=1) if D else lags
     return mean, cov, lower, upper, S
