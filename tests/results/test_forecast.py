@@ -455,6 +455,123 @@ def test_an_ar2_forecast_with_noise_has_the_closed_form_mean_and_covariance():
     np.testing.assert_allclose(forecast.mean[:, 0], means, rtol=1e-12)
 
 
+# -- from the end of the data: forecast(steps=H, u=future) ------------------------------------
+
+
+def test_a_fitted_model_continues_the_end_of_its_data(data):
+    """The report: forecast(x0, u) needed u[0] to be the last recorded input. Now a fitted
+    model remembers x[T−1] and u[T−1], and u holds only the inputs after the data."""
+    x, u = data
+    future = np.array([[0.3], [-1.0], [0.5], [0.2]])  # u[T] … u[T+3]
+    for model in (
+        ltv.fit(x, u, lam=5.0),
+        ltv.fit(x, u, lam=1.0, norm="group", refine=True),
+        ltv.fit_lti(x, u),
+        ltv.fit_piecewise(x, u, [20]),
+        ltv.fit_segments(x, u, n_changes=1),
+    ):
+        np.testing.assert_array_equal(model.data.tail.outputs, x[-1:])
+        np.testing.assert_array_equal(model.data.tail.inputs, u[-1:])
+        assert model.tail_lengths == (1, 1) and model.future_input_rows(5) == 4
+        # x[T] = A x[T−1] + B u[T−1]: the recorded input first, then u[T] … u[T+3]
+        explicit = model.forecast(x[-1], np.r_[u[-1:], future], level=0.9, seed=3)
+        for rows in (future, np.r_[future, [[7.0]]]):  # a 5th row, u[T+4], is unused
+            continued = model.forecast(steps=5, u=rows, level=0.9, seed=3)
+            for name in ("mean", "lower", "upper", "cov", "time"):
+                np.testing.assert_array_equal(getattr(continued, name), getattr(explicit, name))
+    model = ltv.fit(x, u, lam=5.0)
+    one = model.forecast(steps=1)  # x[T] needs no input after the data
+    np.testing.assert_allclose(one.mean[0], model.theta[-1] @ np.r_[x[-1], u[-1]], rtol=1e-12)
+    assert model.forecast(u=future).steps == 4  # steps defaults to len(u)
+    autonomous = ltv.fit(x, None, lam=5.0)
+    np.testing.assert_array_equal(
+        autonomous.forecast(steps=3).mean, autonomous.forecast(x[-1], steps=3).mean
+    )
+
+
+@pytest.mark.parametrize(
+    "kwargs, error, pattern",
+    [
+        (
+            {"steps": 5, "u": np.ones((3, 1))},
+            ValueError,
+            r"u: expected 4 rows of inputs after the data for steps=5, u\[T\] … u\[T\+3\] "
+            r"\(x\[T\] is driven by the last recorded input u\[T−1\].*up to 5.*received 3",
+        ),
+        ({"steps": 5, "u": np.ones((6, 1))}, ValueError, r"u: expected 4 rows .*received 6"),
+        (
+            {"steps": 5},
+            TypeError,
+            r"u: expected the inputs after the data, u\[T\] … u\[T\+3\], shape \(4, 1\), "
+            r"for steps=5 .*received None",
+        ),
+        ({}, TypeError, r"steps: expected the number of steps .* or u, .*received neither"),
+        ({"u": np.ones((0, 1))}, ValueError, r"u: expected at least one input after the data"),
+        ({"u": np.ones((3, 2))}, ValueError, r"u: expected the inputs after the data.*\(3, 2\)"),
+        ({"u": [[1.0], [np.nan]]}, ValueError, r"u: expected finite values"),
+    ],
+)
+def test_inputs_after_the_data_are_checked(data, kwargs, error, pattern):
+    x, u = data
+    model = ltv.fit(x, u, lam=5.0)
+    with pytest.raises(error, match=pattern):
+        model.forecast(**kwargs)
+
+
+def test_models_without_one_end_ask_for_x0_and_say_why(data):
+    x, u = data
+    missing_state, missing_input = x.copy(), u.copy()
+    missing_state[-1, 0] = np.nan
+    missing_input[-1] = np.nan
+    cases = [
+        ("it was fitted on 2 trajectories", ltv.fit(np.stack([x, x]), np.stack([u, u]), lam=5.0)),
+        (
+            "built from given coefficients",
+            ltv.LTVModel.from_arrays(np.eye(2) * 0.5, [[0.0], [1.0]], steps=5, noise_cov=0.1),
+        ),
+        ("its data ended with a missing sample", ltv.fit(missing_state, u, lam=5.0)),
+        ("its data ended with a missing sample", ltv.fit(x, missing_input, lam=5.0)),
+    ]
+    for why, model in cases:
+        assert model.data.tail is None
+        with pytest.raises(TypeError, match=rf"x0: received None, .*\(.*{why}.*pass x0=, the"):
+            model.forecast(steps=2, u=[[0.0]])
+        assert model.forecast(x[-2], [[0.5], [0.0]]).mean.shape == (2, 2)  # explicit x0 works
+
+
+def test_ar_and_arx_models_continue_the_end_of_their_data():
+    rng = np.random.default_rng(6)
+    T = 300
+    u = rng.standard_normal(T)
+    y = np.zeros(T)
+    for t in range(3, T):
+        y[t] = 0.5 * y[t - 1] + u[t - 2] + 0.3 * u[t - 3] + 0.05 * rng.standard_normal()
+    arx = ltv.fit_arx(y, u, 1, 2, 2, lam=30.0)  # y[t] reads y[t−1], u[t−2], u[t−3]: L = 3
+    assert arx.lag == 3 and arx.tail_lengths == (1, 3) and arx.future_input_rows(5) == 3
+    np.testing.assert_array_equal(arx.data.tail.outputs, y[-1:, None])
+    np.testing.assert_array_equal(arx.data.tail.inputs, u[-3:, None])
+    future = rng.standard_normal(5)  # u[T] … u[T+4]; y[T+4] reads up to u[T+2]
+    explicit = arx.forecast(y[-3:], np.r_[u[-3:], future], seed=2)
+    for rows in (future[:3], future):
+        continued = arx.forecast(steps=5, u=rows, seed=2)
+        np.testing.assert_array_equal(continued.mean, explicit.mean)
+        np.testing.assert_array_equal(continued.upper, explicit.upper)
+    with pytest.raises(
+        ValueError, match=r"u: expected 3 rows .*reads the inputs up to u\[T\+j−2\]"
+    ):
+        arx.forecast(steps=5, u=future[:2])
+    ar = ltv.fit_ar(y, 2, lam=30.0)
+    np.testing.assert_array_equal(ar.data.tail.outputs, y[-2:, None])
+    np.testing.assert_array_equal(ar.forecast(steps=4).mean, ar.forecast(y[-2:], steps=4).mean)
+    gap = y.copy()
+    gap[-2] = np.nan  # y[T−2] is a lag of y[T]
+    with pytest.raises(TypeError, match=r"y_last: received None, .*pass y_last=, the last 2"):
+        ltv.fit_ar(gap, 2, lam=30.0).forecast(steps=2)
+    old = y.copy()
+    old[-3] = np.nan  # older than every lag of y[T]: the end is still whole
+    assert ltv.fit_ar(old, 2, lam=30.0).data.tail is not None
+
+
 # -- the Forecast itself -----------------------------------------------------------------------
 
 

@@ -65,10 +65,27 @@ coefficients) but not with ``steps`` × ``n_samples``; its result holds
 O(steps · n · p) numbers. A forecast whose mean or interval overflows to inf
 or NaN (an unstable model over a long horizon) warns with a
 :class:`~ltvmodels.DivergenceWarning`, as ``simulate`` does.
+
+Where a forecast starts
+-----------------------
+Both models forecast in two ways:
+
+* from the end of their data, which a fitted model remembers
+  (``model.data.tail``, a :class:`~ltvmodels.results.description.DataTail`):
+  ``model.forecast(steps=H, u=future)``, where ``future`` holds only the
+  inputs after the data, u[T], u[T+1], … (row j at the forecast sample T + j;
+  see :func:`inputs_after_data` for how many rows H steps need);
+* from a given start: ``model.forecast(x0, u)`` (a state-space model: x0 =
+  x[T−1], u[0] = the last recorded input u[T−1]) or ``model.forecast(y_last,
+  u)`` (AR/ARX: the last L samples and their inputs first).
+
+The command line's ``forecast`` continues its DATA through the first way (the
+end of DATA given to the model as the end of its data), so the two agree.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from statistics import NormalDist
 from typing import Any
@@ -79,6 +96,7 @@ from numpy.typing import ArrayLike
 from ..errors import DivergenceWarning, warn
 from ..validation import arrays, options
 from ..validation.arrays import describe
+from .description import DataTail
 
 __all__ = [
     "DEFAULT_SAMPLES",
@@ -87,6 +105,8 @@ __all__ = [
     "noise_covariance",
     "state_space_inputs",
     "lagged_inputs",
+    "remembered_tail",
+    "inputs_after_data",
     "forecast_model",
 ]
 
@@ -423,6 +443,136 @@ def _future_inputs(u: Any, steps: Any, *, m: int, lag: int, meaning: str) -> tup
     arrays.representable(u, "u", small=False)
     steps = _forecast_steps(steps, u.shape[0] - lag, lag)
     return u, steps
+
+
+def remembered_tail(model: Any, name: str, instead: str) -> DataTail:
+    """The end of ``model``'s data (``model.data.tail``), where a forecast without a
+    given start begins.
+
+    Parameters
+    ----------
+    model : LTVModel or ARXModel
+        ``data``, ``tail_lengths`` (a, b), ``n_outputs``, ``n_inputs``.
+    name, instead : str
+        The argument that gives the start (x0, y_last) and what to pass in it,
+        for the message.
+
+    Raises
+    ------
+    TypeError
+        The model does not remember the end of its data (the message says why
+        and what to pass instead).
+    ValueError
+        The end it remembers does not fit it (a description given by ``with_data``).
+    """
+    lengths, n, m = model.tail_lengths, model.n_outputs, model.n_inputs
+    tail = model.data.tail
+    if tail is None and lengths == (0, 0):  # nothing before the first forecast is needed
+        return DataTail(np.zeros((0, n)), np.zeros((0, m)))
+    if tail is None:
+        trajectories = model.data.n_trajectories
+        if trajectories > 1:
+            why = f"it was fitted on {trajectories} trajectories, each with an end of its own"
+        else:
+            why = (
+                "a model keeps it when fitted on one series whose last samples are observed; "
+                "this one was built from given coefficients, its data ended with a missing "
+                "sample, or it was read from a model file written before models kept it"
+            )
+        raise TypeError(
+            f"{name}: received None, and the model does not remember the end of its data to "
+            f"start from ({why}); pass {name}=, {instead}"
+        )
+    if not tail.fits(lengths, n, m):
+        a, b = lengths
+        raise ValueError(
+            f"data: the model's data tail holds outputs of shape {tail.outputs.shape} and "
+            f"inputs of shape {tail.inputs.shape}, expected ({a}, {n}) and ({b}, {m}); give "
+            "the model the tail of data it fits (DataTail.of with its tail_lengths)"
+        )
+    return tail
+
+
+def inputs_after_data(
+    u: Any, steps: Any, *, m: int, needed: Callable[[int], int], reach: str
+) -> tuple[np.ndarray, int]:
+    """Validate the inputs of a forecast from the end of the data: only those after it.
+
+    ``u`` holds u[T], u[T+1], …: row j is the input at the forecast's sample
+    T + j (``Forecast.time[j]``). The forecast of ``steps`` samples reads the
+    first ``needed(steps)`` of them (a state-space model steps − 1: x[T] is
+    driven by the recorded u[T−1]; an AR/ARX model steps − nk); up to
+    ``steps`` rows are accepted, the rest unused. ``steps`` defaults to
+    ``len(u)``.
+
+    Parameters
+    ----------
+    u : array_like, shape (rows, m), or (rows,) for m = 1; None without inputs
+    steps : int or None
+    m : int
+        The number of inputs.
+    needed : callable
+        ``needed(steps)``, the rows read by a forecast of ``steps`` samples.
+    reach : str
+        Why that many, for the messages.
+
+    Returns
+    -------
+    future : ndarray, shape (needed(steps), m)
+    steps : int
+    """
+    if m == 0:
+        if u is not None:
+            raise ValueError(f"u: the model has no inputs, expected None, received {describe(u)}")
+        steps = _forecast_steps(steps, None)
+        return np.zeros((0, 0)), steps
+    if u is None:
+        if steps is None:
+            raise TypeError(
+                "steps: expected the number of steps to forecast (an integer >= 1), or u, "
+                "the inputs after the data (one row per step), received neither"
+            )
+        steps = options.integer(steps, "steps", minimum=1)
+        rows = needed(steps)
+        if rows:
+            raise TypeError(
+                f"u: expected the inputs after the data, {_rows_text(rows)}, shape ({rows}, {m}), "
+                f"for steps={steps} ({reach}), received None"
+            )
+        return np.zeros((0, m)), steps
+    u = arrays.as_float_array(u, "u")
+    if u.ndim == 1 and m == 1:
+        u = u[:, None]
+    if u.ndim != 2 or u.shape[1] != m:
+        expected = f"(rows, {m})" + (" or (rows,)" if m == 1 else "")
+        raise ValueError(
+            f"u: expected the inputs after the data, one row per forecast sample, shape "
+            f"{expected}, received shape {u.shape}"
+        )
+    arrays.representable(u, "u", small=False)
+    if steps is None:
+        if u.shape[0] == 0:
+            raise ValueError(
+                "u: expected at least one input after the data (steps defaults to len(u)), "
+                "received none"
+            )
+        steps = u.shape[0]
+    steps = options.integer(steps, "steps", minimum=1)
+    rows = needed(steps)
+    if not rows <= u.shape[0] <= steps:
+        accepted = f"; up to {steps}, one per forecast sample, are accepted" if rows < steps else ""
+        raise ValueError(
+            f"u: expected {rows} rows of inputs after the data for steps={steps}, "
+            f"{_rows_text(rows)} ({reach}{accepted}), received {u.shape[0]}"
+        )
+    return u[:rows], steps
+
+
+def _rows_text(rows: int) -> str:
+    """The inputs u[T] … of ``rows`` rows after the data, in words."""
+    if rows == 0:
+        return "none"
+    return "u[T]" if rows == 1 else f"u[T] … u[T+{rows - 1}]"
 
 
 # -- the coefficients after the data ---------------------------------------------------------
