@@ -1099,6 +1099,87 @@ def test_forecast_command_of_an_ar_model(tmp_path, capsys):
     assert "--level" in capsys.readouterr().err
 
 
+def _fitted_series(kind: str):
+    """A model of ``kind`` fitted on named columns, its data (T, ·) and column names."""
+    pd = pytest.importorskip("pandas")
+    rng = np.random.default_rng(7)
+    if kind == "ltv":
+        sim = ltvmodels.systems.jump_linear(T=150, change_at=75, seed=0)
+        frame = pd.DataFrame(np.c_[sim.x, sim.u], columns=["x1", "x2", "u1"])
+        return ltvmodels.fit(frame[["x1", "x2"]], frame[["u1"]], lam=10.0), frame
+    u = rng.standard_normal(200)
+    y = np.zeros(200)
+    for t in range(3, 200):
+        y[t] = 0.6 * y[t - 1] - 0.2 * y[t - 2] + (kind == "arx") * (u[t - 2] + 0.5 * u[t - 3])
+        y[t] += 0.05 * rng.standard_normal()
+    frame = pd.DataFrame({"y": y, "u": u})
+    if kind == "arx":  # y[t] reads u[t−2], u[t−3]: nk = 2
+        return ltvmodels.fit_arx(frame["y"], frame["u"], 2, 2, 2, lam=30.0), frame
+    return ltvmodels.fit_ar(frame["y"], 2, lam=30.0), frame[["y"]]
+
+
+@pytest.mark.parametrize("kind", ["ltv", "arx", "ar"])
+def test_forecast_command_is_the_python_forecast_from_the_end_of_the_data(kind, tmp_path, capsys):
+    """The report: Python's forecast(x0, u) took the last recorded input as u[0], the
+    command line's --future-input only the rows after DATA. Both now take only the
+    inputs after the data and give the same forecast."""
+    model, frame = _fitted_series(kind)
+    model.save(tmp_path / "m.npz")
+    frame.to_csv(tmp_path / "data.csv", index=False)
+    H = 6
+    future = np.random.default_rng(8).standard_normal((H, 1))  # u[T] … u[T+5]
+    argv = ["forecast", str(tmp_path / "m.npz"), str(tmp_path / "data.csv"), "--steps", str(H)]
+    argv += ["--level", "0.8", "--seed", "5", "--json"]
+    inputs: dict = {}
+
+    def write_future(rows):
+        np.savetxt(
+            tmp_path / "future.csv", rows, delimiter=",", header=frame.columns[-1], comments=""
+        )
+
+    if kind != "ar":
+        write_future(future)
+        argv += ["--future-input", str(tmp_path / "future.csv")]
+        inputs = {"u": future}
+    assert main(argv) == 0, capsys.readouterr().err
+    report = json.loads(capsys.readouterr().out)
+    expected = model.forecast(steps=H, **inputs, level=0.8, seed=5)
+    for name in ("mean", "lower", "upper"):
+        np.testing.assert_allclose(report[name], getattr(expected, name), rtol=1e-12, atol=1e-12)
+    if kind != "ar":  # only the rows the forecast reads are needed: H − 1, H − nk
+        needed = model.future_input_rows(H)
+        assert needed == {"ltv": H - 1, "arx": H - 2}[kind]
+        write_future(future[:needed])
+        assert main(argv) == 0, capsys.readouterr().err
+        assert json.loads(capsys.readouterr().out)["mean"] == report["mean"]
+        write_future(future[: needed - 1])
+        assert main(argv) == 2
+        assert f"expected at least {needed} rows of future inputs" in capsys.readouterr().err
+
+
+def test_forecast_command_continues_the_end_of_its_data_file(tmp_path, capsys):
+    """DATA need not be the data of the fit: the forecast starts from DATA's end."""
+    model, _ = _fitted_series("ltv")
+    model.save(tmp_path / "m.npz")
+    other = ltvmodels.systems.jump_linear(T=150, change_at=75, seed=1)
+    path = tmp_path / "other.csv"
+    np.savetxt(path, np.c_[other.x, other.u], delimiter=",", header="x1,x2,u1", comments="")
+    future = np.full((3, 1), 0.5)
+    np.savetxt(tmp_path / "future.csv", future, delimiter=",", header="u1", comments="")
+    argv = ["forecast", str(tmp_path / "m.npz"), str(path), "--steps", "4", "--json"]
+    assert main([*argv, "--future-input", str(tmp_path / "future.csv")]) == 0
+    report = json.loads(capsys.readouterr().out)
+    expected = model.forecast(other.x[-1], np.r_[other.u[-1:], future])
+    np.testing.assert_allclose(report["mean"], expected.mean, rtol=1e-12, atol=1e-12)
+    gap = other.x.copy()
+    gap[-1, 1] = np.nan
+    np.savetxt(path, np.c_[gap, other.u], delimiter=",", header="x1,x2,u1", comments="")
+    assert main([*argv, "--future-input", str(tmp_path / "future.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "other.csv: the forecast continues the end of DATA, which has missing values" in err
+    assert "(the last row of its state columns and the last row of its input columns)" in err
+
+
 def test_fit_options_match_the_python_api(tmp_path, capsys):
     """--weights COL, --noise-var and --coef-out on fit; --loss and --weights on
     select-lambda; each the same as the library call."""

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
-from ltvmodels.results.description import DataDescription
+from ltvmodels.results.description import DataDescription, DataTail
 
 D = ltv.systems.jump_linear(T=80, change_at=40, seed=0)
 
@@ -73,3 +73,16 @@ def test_names_of_a_role_are_used_only_when_they_fit_the_count():
     assert description.names_of("state", 2) == ["a", "b"]
     assert description.names_of("state", 3) is None
     assert "state=['a', 'b']" in repr(description)
+
+
+def test_the_tail_is_kept_by_renaming_and_replaced_by_with_tail():
+    model = ltv.fit(D.x, D.u, lam=10.0)
+    renamed = model.data.renamed({"state": ["p", "v"], "input": ["f"]})
+    assert renamed.tail is model.data.tail and "tail=DataTail(" in repr(renamed)
+    other = DataTail.of(D.x[None, :40], D.u[None, :40], model.tail_lengths)
+    np.testing.assert_array_equal(model.data.with_tail(other).tail.outputs, D.x[39:40])
+    assert model.data.with_tail(None).tail is None
+    with pytest.raises(TypeError, match="tail: expected a DataTail or None, received ndarray"):
+        model.data.with_tail(D.x[-1:])
+    with pytest.raises(ValueError, match="outputs: expected the last samples .* missing"):
+        DataTail(np.full((1, 2), np.nan), np.zeros((1, 1)))

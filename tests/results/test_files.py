@@ -132,3 +132,49 @@ def test_unreadable_versions_are_rejected(tmp_path):
     np.savez(path, **arrays)
     with pytest.raises(ValueError, match="unsupported model file version 99"):
         ltv.load(path)
+
+
+def test_files_keep_the_end_of_the_data_and_load_without_it_when_older(tmp_path):
+    path = tmp_path / "m.npz"
+    future = np.zeros((4, 1))
+    cases = [  # each model, and its start for the same forecast (recorded inputs first)
+        (ltv.fit(X, U, lam=10.0), X[-1], np.r_[U[-1:], future[:3]]),
+        (FITS["arx"](), X[-2:, 0], np.r_[U[-2:], future]),
+    ]
+    for model, start, inputs in cases:
+        model.save(path)
+        loaded = ltv.load(path)
+        np.testing.assert_array_equal(loaded.data.tail.outputs, model.data.tail.outputs)
+        np.testing.assert_array_equal(loaded.data.tail.inputs, model.data.tail.inputs)
+        np.testing.assert_array_equal(
+            loaded.forecast(steps=4, u=future).mean, model.forecast(steps=4, u=future).mean
+        )
+        # a version-3 file written before models kept their end: the same model, no tail
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {key: data[key] for key in data.files if not key.startswith("data_tail")}
+        np.savez(path, **arrays)
+        older = ltv.load(path)
+        assert older.data.tail is None
+        with pytest.raises(TypeError, match="does not remember the end of its data"):
+            older.forecast(steps=4, u=future)
+        assert older.forecast(start, inputs).steps == 4
+    assert ltv.load(DATA_DIR / "v0.1_ltv_sq.npz").data.tail is None
+
+
+@pytest.mark.parametrize(
+    "outputs, inputs",
+    [
+        (np.zeros((1, 3)), np.zeros((1, 1))),
+        (np.zeros((1, 2)), np.zeros((2, 1))),
+        (np.full((1, 2), np.nan), np.zeros((1, 1))),
+    ],
+)
+def test_a_damaged_data_tail_is_a_model_file_error(tmp_path, outputs, inputs):
+    path = tmp_path / "m.npz"
+    ltv.fit(X, U, lam=10.0).save(path)
+    with np.load(path, allow_pickle=False) as data:
+        arrays = {key: data[key] for key in data.files}
+    arrays["data_tail_outputs"], arrays["data_tail_inputs"] = outputs, inputs
+    np.savez(path, **arrays)
+    with pytest.raises(ltv.ModelFileError, match=r"m\.npz"):
+        ltv.load(path)

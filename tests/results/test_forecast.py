@@ -9,10 +9,12 @@ model's own assumptions (random-walk coefficients with drift σ/λ).
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 import pytest
 from dense_reference import simulate_ltv, weight_matrix
+from scipy.linalg import solve_discrete_lyapunov
 
 import ltvmodels as ltv
 
@@ -451,3 +453,211 @@ def test_an_ar2_forecast_with_noise_has_the_closed_form_mean_and_covariance():
     means.append(a1 * means[0] + a2 * -0.1)
     means.append(a1 * means[1] + a2 * means[0])
     np.testing.assert_allclose(forecast.mean[:, 0], means, rtol=1e-12)
+
+
+# -- from the end of the data: forecast(steps=H, u=future) ------------------------------------
+
+
+def test_a_fitted_model_continues_the_end_of_its_data(data):
+    """The report: forecast(x0, u) needed u[0] to be the last recorded input. Now a fitted
+    model remembers x[T−1] and u[T−1], and u holds only the inputs after the data."""
+    x, u = data
+    future = np.array([[0.3], [-1.0], [0.5], [0.2]])  # u[T] … u[T+3]
+    for model in (
+        ltv.fit(x, u, lam=5.0),
+        ltv.fit(x, u, lam=1.0, norm="group", refine=True),
+        ltv.fit_lti(x, u),
+        ltv.fit_piecewise(x, u, [20]),
+        ltv.fit_segments(x, u, n_changes=1),
+    ):
+        np.testing.assert_array_equal(model.data.tail.outputs, x[-1:])
+        np.testing.assert_array_equal(model.data.tail.inputs, u[-1:])
+        assert model.tail_lengths == (1, 1) and model.future_input_rows(5) == 4
+        # x[T] = A x[T−1] + B u[T−1]: the recorded input first, then u[T] … u[T+3]
+        explicit = model.forecast(x[-1], np.r_[u[-1:], future], level=0.9, seed=3)
+        for rows in (future, np.r_[future, [[7.0]]]):  # a 5th row, u[T+4], is unused
+            continued = model.forecast(steps=5, u=rows, level=0.9, seed=3)
+            for name in ("mean", "lower", "upper", "cov", "time"):
+                np.testing.assert_array_equal(getattr(continued, name), getattr(explicit, name))
+    model = ltv.fit(x, u, lam=5.0)
+    one = model.forecast(steps=1)  # x[T] needs no input after the data
+    np.testing.assert_allclose(one.mean[0], model.theta[-1] @ np.r_[x[-1], u[-1]], rtol=1e-12)
+    assert model.forecast(u=future).steps == 4  # steps defaults to len(u)
+    autonomous = ltv.fit(x, None, lam=5.0)
+    np.testing.assert_array_equal(
+        autonomous.forecast(steps=3).mean, autonomous.forecast(x[-1], steps=3).mean
+    )
+
+
+@pytest.mark.parametrize(
+    "kwargs, error, pattern",
+    [
+        (
+            {"steps": 5, "u": np.ones((3, 1))},
+            ValueError,
+            r"u: expected 4 rows of inputs after the data for steps=5, u\[T\] … u\[T\+3\] "
+            r"\(x\[T\] is driven by the last recorded input u\[T−1\].*up to 5.*received 3",
+        ),
+        ({"steps": 5, "u": np.ones((6, 1))}, ValueError, r"u: expected 4 rows .*received 6"),
+        (
+            {"steps": 5},
+            TypeError,
+            r"u: expected the inputs after the data, u\[T\] … u\[T\+3\], shape \(4, 1\), "
+            r"for steps=5 .*received None",
+        ),
+        ({}, TypeError, r"steps: expected the number of steps .* or u, .*received neither"),
+        ({"u": np.ones((0, 1))}, ValueError, r"u: expected at least one input after the data"),
+        ({"u": np.ones((3, 2))}, ValueError, r"u: expected the inputs after the data.*\(3, 2\)"),
+        ({"u": [[1.0], [np.nan]]}, ValueError, r"u: expected finite values"),
+    ],
+)
+def test_inputs_after_the_data_are_checked(data, kwargs, error, pattern):
+    x, u = data
+    model = ltv.fit(x, u, lam=5.0)
+    with pytest.raises(error, match=pattern):
+        model.forecast(**kwargs)
+
+
+def test_models_without_one_end_ask_for_x0_and_say_why(data):
+    x, u = data
+    missing_state, missing_input = x.copy(), u.copy()
+    missing_state[-1, 0] = np.nan
+    missing_input[-1] = np.nan
+    cases = [
+        ("it was fitted on 2 trajectories", ltv.fit(np.stack([x, x]), np.stack([u, u]), lam=5.0)),
+        (
+            "built from given coefficients",
+            ltv.LTVModel.from_arrays(np.eye(2) * 0.5, [[0.0], [1.0]], steps=5, noise_cov=0.1),
+        ),
+        ("its data ended with a missing sample", ltv.fit(missing_state, u, lam=5.0)),
+        ("its data ended with a missing sample", ltv.fit(x, missing_input, lam=5.0)),
+    ]
+    for why, model in cases:
+        assert model.data.tail is None
+        with pytest.raises(TypeError, match=rf"x0: received None, .*\(.*{why}.*pass x0=, the"):
+            model.forecast(steps=2, u=[[0.0]])
+        assert model.forecast(x[-2], [[0.5], [0.0]]).mean.shape == (2, 2)  # explicit x0 works
+
+
+def test_ar_and_arx_models_continue_the_end_of_their_data():
+    rng = np.random.default_rng(6)
+    T = 300
+    u = rng.standard_normal(T)
+    y = np.zeros(T)
+    for t in range(3, T):
+        y[t] = 0.5 * y[t - 1] + u[t - 2] + 0.3 * u[t - 3] + 0.05 * rng.standard_normal()
+    arx = ltv.fit_arx(y, u, 1, 2, 2, lam=30.0)  # y[t] reads y[t−1], u[t−2], u[t−3]: L = 3
+    assert arx.lag == 3 and arx.tail_lengths == (1, 3) and arx.future_input_rows(5) == 3
+    np.testing.assert_array_equal(arx.data.tail.outputs, y[-1:, None])
+    np.testing.assert_array_equal(arx.data.tail.inputs, u[-3:, None])
+    future = rng.standard_normal(5)  # u[T] … u[T+4]; y[T+4] reads up to u[T+2]
+    explicit = arx.forecast(y[-3:], np.r_[u[-3:], future], seed=2)
+    for rows in (future[:3], future):
+        continued = arx.forecast(steps=5, u=rows, seed=2)
+        np.testing.assert_array_equal(continued.mean, explicit.mean)
+        np.testing.assert_array_equal(continued.upper, explicit.upper)
+    with pytest.raises(
+        ValueError, match=r"u: expected 3 rows .*reads the inputs up to u\[T\+j−2\]"
+    ):
+        arx.forecast(steps=5, u=future[:2])
+    ar = ltv.fit_ar(y, 2, lam=30.0)
+    np.testing.assert_array_equal(ar.data.tail.outputs, y[-2:, None])
+    np.testing.assert_array_equal(ar.forecast(steps=4).mean, ar.forecast(y[-2:], steps=4).mean)
+    gap = y.copy()
+    gap[-2] = np.nan  # y[T−2] is a lag of y[T]
+    with pytest.raises(TypeError, match=r"y_last: received None, .*pass y_last=, the last 2"):
+        ltv.fit_ar(gap, 2, lam=30.0).forecast(steps=2)
+    old = y.copy()
+    old[-3] = np.nan  # older than every lag of y[T]: the end is still whole
+    assert ltv.fit_ar(old, 2, lam=30.0).data.tail is not None
+
+
+# -- the Forecast itself -----------------------------------------------------------------------
+
+
+def test_a_diverging_forecast_warns_as_simulate_does():
+    """Probe: a long horizon overflowed to inf/NaN without a word; simulate warned."""
+    unstable = ltv.LTVModel.from_arrays(np.eye(2) * 3.0, steps=700, noise_cov=1.0)
+    with pytest.warns(ltv.DivergenceWarning, match="the simulation diverged"):
+        unstable.simulate([1.0, 1.0], None)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        gaussian = unstable.forecast([1.0, 1.0], steps=700)
+    assert [w.category for w in caught] == [ltv.DivergenceWarning]  # numpy's stay quiet
+    step = int(np.flatnonzero(~np.isfinite(gaussian.upper).all(axis=1))[0])
+    assert f"inf or NaN from step {step} (counted from 0)" in str(caught[0].message)
+    x, u, _ = simulate_ltv(1, T=60, n=2, m=1)
+    sampled = ltv.fit(3.0 * x, u, lam=5.0)  # coefficient uncertainty: Monte Carlo
+    blown = ltv.LTVModel(3.0 * sampled.k, 2, 1, sampled.record)
+    with pytest.warns(ltv.DivergenceWarning, match="the forecast diverged"):
+        assert blown.forecast(x[-1], np.zeros((700, 1)), n_samples=10).method == "monte_carlo"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sampled.forecast(x[-1], np.zeros((5, 1)))  # a finite forecast says nothing
+
+
+def test_long_horizons_do_not_keep_every_path():
+    """Probe: memory grew with steps × n_samples (20,000 steps peaked at 2 GB). The paths of
+    one step are summarized before the next: 1500 steps × 2000 paths peaked at 145 MB (their
+    samples, deviations and quantiles); now at 1 MB, that of one step."""
+    import tracemalloc
+
+    rng = np.random.default_rng(0)
+    x = np.zeros((400, 2))
+    for t in range(399):
+        x[t + 1] = 0.5 * x[t] + 0.1 * rng.standard_normal(2)
+    model = ltv.fit_lti(x)
+    tracemalloc.start()
+    try:
+        forecast = model.forecast(x[-1], steps=1500, n_samples=2000)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert forecast.method == "monte_carlo" and np.all(np.isfinite(forecast.upper))
+    assert peak < 16e6, f"peak {peak / 1e6:.1f} MB"
+    # far ahead: the model's stationary law (mean 0, covariance P = A P Aᵀ + Q), widened a
+    # little by the uncertainty of A
+    stationary = solve_discrete_lyapunov(model.A[-1], model.noise_cov)
+    np.testing.assert_allclose(forecast.mean[-1], 0.0, atol=0.02)
+    np.testing.assert_allclose(forecast.std()[-1], np.sqrt(np.diag(stationary)), rtol=0.08)
+
+
+@pytest.mark.parametrize(
+    "changes, error, pattern",
+    [
+        ({"level": 7.0}, ValueError, r"level: expected a probability in \(0, 1\).*received 7.0"),
+        ({"level": "high"}, TypeError, r"level: expected a probability in \(0, 1\)"),
+        ({"mean": np.zeros(3)}, ValueError, r"mean: expected shape \(steps, n\).*received shape"),
+        ({"lower": np.zeros((3, 1))}, ValueError, r"lower: expected shape \(3, 2\) to fit mean"),
+        ({"upper": np.zeros((2, 2))}, ValueError, r"upper: expected shape \(3, 2\)"),
+        ({"cov": np.zeros((3, 2))}, ValueError, r"cov: expected shape \(3, 2, 2\)"),
+        ({"time": np.arange(4)}, ValueError, r"time: expected shape \(3,\)"),
+        ({"names": ["a"]}, ValueError, r"names: expected 2 names .*received 1"),
+        ({"n_samples": 100}, ValueError, r"n_samples: expected None for method='gaussian'"),
+        (
+            {"method": "monte_carlo", "n_samples": 1},
+            ValueError,
+            r"n_samples: expected an integer >= 2",
+        ),
+        (
+            {"coefficients": np.ones((3, 1, 2))},
+            ValueError,
+            r"coefficients: expected shape \(3, 2, p\)",
+        ),
+    ],
+)
+def test_the_forecast_constructor_checks_its_fields(changes, error, pattern):
+    """Probe: Forecast(...) accepted mismatched shapes and level=7.0."""
+    fields = {
+        "mean": np.zeros((3, 2)),
+        "lower": -np.ones((3, 2)),
+        "upper": np.ones((3, 2)),
+        "cov": np.broadcast_to(np.eye(2), (3, 2, 2)),
+        "level": 0.9,
+        "time": np.arange(3),
+        "names": ["a", "b"],
+        "method": "gaussian",
+    }
+    assert ltv.Forecast(**fields).steps == 3
+    with pytest.raises(error, match=pattern):
+        ltv.Forecast(**{**fields, **changes})

@@ -38,7 +38,7 @@ from ..core.lags import lag_length, lag_regressor_names, lagged_regressors
 from ..core.problem import weighted_problem
 from ..errors import ModelStructureWarning, warn
 from ..results.arx import ARModel, ARXModel
-from ..results.description import DataDescription
+from ..results.description import DataDescription, DataTail
 from ..validation import arrays, options
 from ..validation.options import Loss, Norm, PriorMode
 from ..validation.time import TimeGrid
@@ -243,7 +243,7 @@ def fit_arx(
         spec,
         weights,
     )
-    return _describe(model, y_data, u_data, y.shape, grid)
+    return _describe(model, y_data, u_data, y, u, grid)
 
 
 def fit_ar(
@@ -347,7 +347,7 @@ def fit_ar(
         spec,
         weights,
     )
-    return _describe(model, y_data, None, y.shape, grid)
+    return _describe(model, y_data, None, y, u, grid)
 
 
 def _on_time_grid(
@@ -364,18 +364,29 @@ def _on_time_grid(
 
 
 def _describe(
-    model: Any, y: Any, u: Any, shape: tuple[int, int, int], grid: TimeGrid | None
+    model: Any,
+    y_data: Any,
+    u_data: Any,
+    y: np.ndarray,
+    u: np.ndarray,
+    grid: TimeGrid | None,
 ) -> Any:
     """``model`` with the description of its data: the column names of a pandas y (and
-    u), the time grid of y (one series), the series and the regression rows left out."""
-    R, T, n = shape
+    u), the time grid of y (one series), the series, the regression rows left out and the
+    end of the data that its forecast continues (validated y (R, T, n), u (R, T, m))."""
     names = {
-        "output": arrays.column_names(y, n),
-        "input": None if u is None else arrays.column_names(u, model.n_inputs),
+        "output": arrays.column_names(y_data, y.shape[2]),
+        "input": None if u_data is None else arrays.column_names(u_data, model.n_inputs),
     }
     time = None if grid is None else grid.time
     # the model of this call (no one else holds it): described in place
-    model.data = DataDescription.of(names, time, n_trajectories=R, n_missing=model.n_missing)
+    model.data = DataDescription.of(
+        names,
+        time,
+        n_trajectories=y.shape[0],
+        n_missing=model.n_missing,
+        tail=DataTail.of(y, u, model.tail_lengths),
+    )
     return model
 
 

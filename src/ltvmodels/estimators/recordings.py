@@ -22,7 +22,7 @@ import numpy as np
 from ..core.problem import RegressionProblem, state_space_problem, weighted_problem
 from ..errors import DataWarning, warn
 from ..results.base import signal_names
-from ..results.description import DataDescription
+from ..results.description import DataDescription, DataTail
 from ..validation import arrays, options
 from ..validation.time import TimeGrid
 
@@ -98,8 +98,10 @@ class StateSpaceData:
 
     def describe(self, model: Any) -> Any:
         """``model`` (a new model of this fit, no one else holds it) described in place:
-        :attr:`description` becomes its ``data``."""
-        model.data = self.description
+        :attr:`description` becomes its ``data``, with the end of the data that its
+        forecast continues (none for several trajectories or a missing last sample)."""
+        tail = DataTail.of(self.x, self.u, model.tail_lengths)
+        model.data = self.description.with_tail(tail)
         return model
 
     @property

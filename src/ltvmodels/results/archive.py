@@ -7,14 +7,18 @@ with the format version, the model class, its sizes (``model.structure()``),
 ``norm``, ``noise_var``, ``loglik`` (null where not estimated or not defined),
 the JSON part of ``info``, (from version 2) the fit status and (from version
 3) the data description (``model.data``: names, trajectories, missing rows;
-its time axis is the member ``data_time``). Files are read with
-``allow_pickle=False``: loading a model never executes code from the file.
+its time axis is the member ``data_time``, the end of the data that forecasts
+continue, where the model has one, the optional members ``data_tail_outputs``
+and ``data_tail_inputs``). Files are read with ``allow_pickle=False``: loading
+a model never executes code from the file.
 
 Version history: 1 (ltvmodels 0.1), 2 (adds the fit status), 3 (adds the data
 description, which earlier versions kept in ``info`` as "signal_names", "time"
-and "n_missing"). Earlier versions are read too: the status of a version-1
-file is reconstructed from ``info``, the description of version 1 and 2 files
-from those ``info`` entries.
+and "n_missing"; the data tail members were added later as optional members of
+version 3: files without them load with no tail, and readers that predate them
+ignore them). Earlier versions are read too: the status of a version-1 file is
+reconstructed from ``info``, the description of version 1 and 2 files from
+those ``info`` entries.
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ import numpy as np
 
 from ..core.covariance import CovarianceBlocks
 from ..validation.arrays import describe
-from .description import DataDescription
+from .description import DataDescription, DataTail
 from .record import FitRecord, FitStatus, iterative_status
 
 __all__ = ["ModelFile", "write", "read"]
@@ -105,6 +109,9 @@ def write(model: Any, path: str | Path) -> None:
     }
     if fit.data is not None and fit.data.time is not None:
         arrays["data_time"] = fit.data.time
+    if fit.data is not None and fit.data.tail is not None:
+        arrays["data_tail_outputs"] = fit.data.tail.outputs
+        arrays["data_tail_inputs"] = fit.data.tail.inputs
     arrays["meta"] = np.array(json.dumps(meta))
     with open(path, "wb") as fh:
         # mypy matches the unpacked names against savez's keyword allow_pickle (numpy >= 2.1),
@@ -143,7 +150,10 @@ def read(path: str | Path) -> ModelFile:
             description = None
         else:
             time = data["data_time"] if "data_time" in files else None
-            description = DataDescription.from_json(meta["data"], time)
+            tail = None
+            if {"data_tail_outputs", "data_tail_inputs"} <= files:
+                tail = DataTail(data["data_tail_outputs"], data["data_tail_inputs"])
+            description = DataDescription.from_json(meta["data"], time, tail)
         fit = FitRecord(
             norm=meta["norm"],
             coeffs=data["coeffs"] if "coeffs" in files else None,

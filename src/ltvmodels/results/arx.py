@@ -21,8 +21,10 @@ from .forecast import (
     Forecast,
     forecast_model,
     forecast_options,
+    inputs_after_data,
     lagged_inputs,
     noise_covariance,
+    remembered_tail,
 )
 from .record import FitRecord
 from .regression import RegressionModel
@@ -270,9 +272,27 @@ class ARXModel(RegressionModel):
         )
         return y[:, 0] if self.n_outputs == 1 else y
 
+    @property
+    def tail_lengths(self) -> tuple[int, int]:
+        """(na, nk + nb − 1): a forecast continues from the last na outputs and the last
+        inputs its regressors reach at the samples after the data (none without
+        inputs); see :class:`~ltvmodels.results.description.DataTail`."""
+        return self.na, self._input_memory
+
+    @property
+    def _input_memory(self) -> int:
+        """The recorded inputs that samples after the data still read: y[T] reads
+        u[T−nk−nb+1] … u[T−nk], so the last nk + nb − 1 (none without inputs)."""
+        return self.nk + self.nb - 1 if self.n_inputs and self.nb else 0
+
+    def future_input_rows(self, steps: int) -> int:
+        """The inputs after the data that ``forecast(steps=steps, u=…)`` reads: steps − nk
+        (y[T+j] reads the inputs up to u[T+j−nk]); 0 without inputs."""
+        return max(int(steps) - self.nk, 0) if self.n_inputs and self.nb else 0
+
     def forecast(
         self,
-        y_last: ArrayLike,
+        y_last: ArrayLike | None = None,
         u: ArrayLike | None = None,
         *,
         steps: int | None = None,
@@ -285,7 +305,7 @@ class ARXModel(RegressionModel):
 
         The AR/ARX counterpart of :meth:`ltvmodels.LTVModel.forecast`: for a
         series of T = N + L samples the model continues
-        y[t] = Θ_t φ_t + e[t] for t = T, T+1, …, from the last L samples of y
+        y[t] = Θ_t φ_t + e[t] for t = T, T+1, …, from the last samples of y
         (L = ``lag``), with the coefficients continued by the penalty's
         difference operator, their uncertainty (the last estimate's posterior
         covariance and, for norm="sq", the drift σ²/λ² per step) and noise
@@ -293,18 +313,40 @@ class ARXModel(RegressionModel):
         the others come from seeded Monte Carlo simulation (exact where the
         coefficients are certain). See :mod:`ltvmodels.results.forecast`.
 
+        Two ways to say where it starts:
+
+        ``forecast(steps=H, u=future)``
+            From the end of the data the model was fitted on (it remembers
+            the last na outputs and the last nk + nb − 1 inputs:
+            ``model.data.tail``); ``u`` holds only the inputs after the data,
+            u[T] … u[T+H−1−nk]: H − nk rows (up to H accepted, the rest
+            unused).
+        ``forecast(y_last, u)``
+            From the given last L samples y[T−L] … y[T−1]; ``u`` = u[T−L] …
+            u[T+H−1]: L + H rows, the recorded inputs first (the last nk
+            unused).
+
+        The first form needs a model that remembers the end of its data: one
+        fitted on a single series whose last samples are observed.
+
         Parameters
         ----------
-        y_last : array_like, shape (L, n), or (L,) for n = 1
+        y_last : array_like, shape (L, n), or (L,) for n = 1, optional
             The last L samples y[T−L] … y[T−1], oldest first (as ``y0`` of
-            :meth:`simulate`); None when L = 0.
-        u : array_like, shape (L + steps, m), or (L + steps,) for m = 1; None for an AR model
-            The inputs at the samples of ``y_last`` and at the forecast
-            samples: u[T−L] … u[T+steps−1] (the rows that no regressor reaches,
-            with nk >= 1 the last nk, are unused, as in :meth:`simulate`).
+            :meth:`simulate`). Default: the end of the data the model
+            remembers (then ``u`` holds only the inputs after the data).
+        u : array_like, shape (rows, m), or (rows,) for m = 1; None for an AR model
+            With ``y_last``: the inputs at the samples of ``y_last`` and at
+            the forecast samples, u[T−L] … u[T+steps−1], L + steps rows (the
+            rows that no regressor reaches, with nk >= 1 the last nk, are
+            unused, as in :meth:`simulate`). Without it: only the inputs after
+            the data, u[T], u[T+1], … (row j at the forecast sample y[T+j]);
+            ``steps − nk`` rows are read (``future_input_rows``), up to
+            ``steps`` accepted.
         steps : int, optional
             Number of samples to forecast, >= 1. Required for an AR model;
-            with inputs it defaults to ``len(u) − L`` (and must equal it).
+            with inputs it defaults to ``len(u) − L`` with ``y_last``, to
+            ``len(u)`` without (and with ``y_last`` must equal it).
         level : float, default 0.95
             Probability of the central prediction intervals, in (0, 1).
         n_samples : int, default 2000
@@ -320,17 +362,55 @@ class ARXModel(RegressionModel):
             ``mean``, ``lower``, ``upper`` of shape (steps, n) and ``cov``
             (steps, n, n) — with the output axis also for n = 1, unlike
             :meth:`predict` — for y[T] … y[T+steps−1] (``time``).
+
+        Raises
+        ------
+        TypeError, ValueError
+            As :meth:`ltvmodels.LTVModel.forecast`: the message names the
+            argument; no ``y_last`` for a model that does not remember the
+            end of its data.
+
+        Warns
+        -----
+        DivergenceWarning
+            If the forecast overflows to inf or NaN.
         """
         n, m, L = self.n_outputs, self.n_inputs, self.lag
-        y_last, u, steps = lagged_inputs(y_last, u, steps, n=n, m=m, lag=L)
+        memory = self._input_memory
+        if y_last is None and L > 0:
+            tail = remembered_tail(
+                self,
+                "y_last",
+                f"the last {L} samples of y (oldest first), with u starting at their {L} "
+                "recorded inputs",
+            )
+            reach = (
+                f"y[T+j] reads the inputs up to u[T+j−{self.nk}]"
+                if self.nk
+                else "y[T+j] reads u[T+j]"
+            )
+            future, steps = inputs_after_data(
+                u, steps, m=m, needed=self.future_input_rows, reach=reach
+            )
+            lags = tail.outputs
+            inputs = np.concatenate([tail.inputs, future]) if m else np.zeros((steps, 0))
+        else:  # with L = 0 nothing before the forecast is needed: both forms are one
+            y_last, u, steps = lagged_inputs(y_last, u, steps, n=n, m=m, lag=L)
+            lags = y_last[L - self.na :]
+            inputs = u[L - memory :]
         level, n_samples, seed = forecast_options(level, n_samples, seed)
         noise = noise_covariance(noise_cov, self.noise_cov, n)
-        # φ = [y[t−1]; …; y[t−na]; u[t−nk]; …; u[t−nk−nb+1]; 1], u row L + s is sample T + s
-        columns = [u[L - self.nk - j : L - self.nk - j + steps] for j in range(self.nb)]
+        # φ = [y[t−1]; …; y[t−na]; u[t−nk]; …; u[t−nk−nb+1]; 1]; inputs row memory + s is
+        # sample T + s
+        columns = (
+            [inputs[memory - self.nk - j : memory - self.nk - j + steps] for j in range(self.nb)]
+            if m
+            else []
+        )
         if self.constant:
             columns.append(np.ones((steps, 1)))
         known = np.concatenate(columns, axis=1) if columns else np.zeros((steps, 0))
-        initial = y_last[::-1][: self.na]  # the lags y[T−1], …, y[T−na], newest first
+        initial = lags[::-1]  # the lags y[T−1], …, y[T−na], newest first
         T = self.N + L
         return forecast_model(
             self,
@@ -434,7 +514,7 @@ class ARModel(ARXModel):
 
     def forecast(  # type: ignore[override]
         self,
-        y_last: ArrayLike,
+        y_last: ArrayLike | None = None,
         *,
         steps: int,
         level: float = 0.95,
@@ -442,7 +522,8 @@ class ARModel(ARXModel):
         seed: int | np.random.Generator | None = 0,
         noise_cov: float | ArrayLike | None = None,
     ) -> Forecast:
-        """Forecast y[T] … y[T+steps−1] from the last na samples y_last (na, n) or (na,).
+        """Forecast y[T] … y[T+steps−1] from the last na samples y_last (na, n) or (na,),
+        or (``y_last`` None) from the end of the data the model remembers.
 
         :meth:`ARXModel.forecast` without inputs; ``steps`` is required.
         """

@@ -57,10 +57,35 @@ model without coefficient uncertainty (no covariance and no drift) is linear
 and Gaussian: then every step is propagated exactly (mean and covariance by
 the model's recursion, intervals mean ± z·sd) and nothing is sampled.
 ``Forecast.method`` says which was done.
+
+The paths are simulated one step at a time and each step is summarized (mean,
+covariance, quantiles) before the next, so the memory of a forecast grows
+with ``n_samples`` (the paths of one step: n_samples × K numbers for the
+coefficients) but not with ``steps`` × ``n_samples``; its result holds
+O(steps · n · p) numbers. A forecast whose mean or interval overflows to inf
+or NaN (an unstable model over a long horizon) warns with a
+:class:`~ltvmodels.DivergenceWarning`, as ``simulate`` does.
+
+Where a forecast starts
+-----------------------
+Both models forecast in two ways:
+
+* from the end of their data, which a fitted model remembers
+  (``model.data.tail``, a :class:`~ltvmodels.results.description.DataTail`):
+  ``model.forecast(steps=H, u=future)``, where ``future`` holds only the
+  inputs after the data, u[T], u[T+1], … (row j at the forecast sample T + j;
+  see :func:`inputs_after_data` for how many rows H steps need);
+* from a given start: ``model.forecast(x0, u)`` (a state-space model: x0 =
+  x[T−1], u[0] = the last recorded input u[T−1]) or ``model.forecast(y_last,
+  u)`` (AR/ARX: the last L samples and their inputs first).
+
+The command line's ``forecast`` continues its DATA through the first way (the
+end of DATA given to the model as the end of its data), so the two agree.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from statistics import NormalDist
 from typing import Any
@@ -68,8 +93,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..errors import DivergenceWarning, warn
 from ..validation import arrays, options
 from ..validation.arrays import describe
+from .description import DataTail
 
 __all__ = [
     "DEFAULT_SAMPLES",
@@ -78,6 +105,8 @@ __all__ = [
     "noise_covariance",
     "state_space_inputs",
     "lagged_inputs",
+    "remembered_tail",
+    "inputs_after_data",
     "forecast_model",
 ]
 
@@ -143,11 +172,56 @@ class Forecast:
     def __post_init__(self) -> None:
         if self.method not in METHODS:
             raise ValueError(f"method: expected one of {METHODS}, received {self.method!r}")
-        for name in ("mean", "lower", "upper", "cov", "time", "coefficients"):
-            value = np.array(getattr(self, name))  # a copy: the caller's arrays stay theirs
+        object.__setattr__(self, "level", _probability(self.level, "level"))
+        for name in ("mean", "lower", "upper", "cov", "coefficients"):
+            value = np.array(getattr(self, name), dtype=float)  # a copy: the caller's stays theirs
             value.flags.writeable = False
             object.__setattr__(self, name, value)
-        object.__setattr__(self, "names", list(self.names))
+        time = np.array(self.time)
+        time.flags.writeable = False
+        object.__setattr__(self, "time", time)
+        object.__setattr__(self, "names", [str(name) for name in self.names])
+        self._check_shapes()
+        if self.method == "gaussian" and self.n_samples is not None:
+            raise ValueError(
+                f"n_samples: expected None for method='gaussian' (nothing is sampled), "
+                f"received {self.n_samples!r}"
+            )
+        if self.method == "monte_carlo":
+            object.__setattr__(
+                self, "n_samples", options.integer(self.n_samples, "n_samples", minimum=2)
+            )
+
+    def _check_shapes(self) -> None:
+        """Every array fits ``mean`` (steps, n); the message names the field that does not."""
+        if self.mean.ndim != 2 or self.mean.shape[0] < 1:
+            raise ValueError(
+                f"mean: expected shape (steps, n) with steps >= 1, received shape {self.mean.shape}"
+            )
+        steps, n = self.mean.shape
+        expected = {
+            "lower": (steps, n),
+            "upper": (steps, n),
+            "cov": (steps, n, n),
+            "time": (steps,),
+        }
+        for name, shape in expected.items():
+            found = getattr(self, name).shape
+            if found != shape:
+                raise ValueError(
+                    f"{name}: expected shape {shape} to fit mean {self.mean.shape}, "
+                    f"received shape {found}"
+                )
+        if len(self.names) != n:
+            raise ValueError(
+                f"names: expected {n} names (one per column of mean), received {len(self.names)}"
+            )
+        coefficients = self.coefficients.shape
+        if self.coefficients.size and (len(coefficients) != 3 or coefficients[:2] != (steps, n)):
+            raise ValueError(
+                f"coefficients: expected shape ({steps}, {n}, p) to fit mean {self.mean.shape}, "
+                f"or an empty array, received shape {coefficients}"
+            )
 
     @property
     def steps(self) -> int:
@@ -209,21 +283,28 @@ def forecast_options(level: Any, n_samples: Any, seed: Any) -> tuple[float, int,
     The seed is returned as given after a check (a Generator is used as is),
     so that nothing is drawn from it unless the forecast samples.
     """
-    if isinstance(level, np.ndarray) and level.ndim == 0:
-        level = level.item()
-    if isinstance(level, bool) or not isinstance(level, (int, float, np.integer, np.floating)):
-        raise TypeError(f"level: expected a probability in (0, 1), received {describe(level)}")
-    level = float(level)
-    if not 0.0 < level < 1.0:
-        raise ValueError(f"level: expected a probability in (0, 1) (e.g. 0.95), received {level}")
-    if (1.0 + level) / 2.0 >= 1.0:  # no tail left in floating point: no interval bound
-        raise ValueError(
-            f"level: expected a probability in (0, 1) whose tails are representable (at most "
-            f"1 - 1e-15), received {level!r}"
-        )
+    level = _probability(level, "level")
     n_samples = options.integer(n_samples, "n_samples", minimum=2)
     options.random_generator(seed)  # checks it; the generator is made when it is needed
     return level, n_samples, seed
+
+
+def _probability(value: Any, name: str) -> float:
+    """The probability of a central interval: a real number in (0, 1) with both tails
+    representable."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name}: expected a probability in (0, 1), received {describe(value)}")
+    value = float(value)
+    if not 0.0 < value < 1.0:
+        raise ValueError(f"{name}: expected a probability in (0, 1) (e.g. 0.95), received {value}")
+    if (1.0 + value) / 2.0 >= 1.0:  # no tail left in floating point: no interval bound
+        raise ValueError(
+            f"{name}: expected a probability in (0, 1) whose tails are representable (at most "
+            f"1 - 1e-15), received {value!r}"
+        )
+    return value
 
 
 def _forecast_steps(steps: Any, rows: int | None, lag: int = 0) -> int:
@@ -362,6 +443,136 @@ def _future_inputs(u: Any, steps: Any, *, m: int, lag: int, meaning: str) -> tup
     arrays.representable(u, "u", small=False)
     steps = _forecast_steps(steps, u.shape[0] - lag, lag)
     return u, steps
+
+
+def remembered_tail(model: Any, name: str, instead: str) -> DataTail:
+    """The end of ``model``'s data (``model.data.tail``), where a forecast without a
+    given start begins.
+
+    Parameters
+    ----------
+    model : LTVModel or ARXModel
+        ``data``, ``tail_lengths`` (a, b), ``n_outputs``, ``n_inputs``.
+    name, instead : str
+        The argument that gives the start (x0, y_last) and what to pass in it,
+        for the message.
+
+    Raises
+    ------
+    TypeError
+        The model does not remember the end of its data (the message says why
+        and what to pass instead).
+    ValueError
+        The end it remembers does not fit it (a description given by ``with_data``).
+    """
+    lengths, n, m = model.tail_lengths, model.n_outputs, model.n_inputs
+    tail = model.data.tail
+    if tail is None and lengths == (0, 0):  # nothing before the first forecast is needed
+        return DataTail(np.zeros((0, n)), np.zeros((0, m)))
+    if tail is None:
+        trajectories = model.data.n_trajectories
+        if trajectories > 1:
+            why = f"it was fitted on {trajectories} trajectories, each with an end of its own"
+        else:
+            why = (
+                "a model keeps it when fitted on one series whose last samples are observed; "
+                "this one was built from given coefficients, its data ended with a missing "
+                "sample, or it was read from a model file written before models kept it"
+            )
+        raise TypeError(
+            f"{name}: received None, and the model does not remember the end of its data to "
+            f"start from ({why}); pass {name}=, {instead}"
+        )
+    if not tail.fits(lengths, n, m):
+        a, b = lengths
+        raise ValueError(
+            f"data: the model's data tail holds outputs of shape {tail.outputs.shape} and "
+            f"inputs of shape {tail.inputs.shape}, expected ({a}, {n}) and ({b}, {m}); give "
+            "the model the tail of data it fits (DataTail.of with its tail_lengths)"
+        )
+    return tail
+
+
+def inputs_after_data(
+    u: Any, steps: Any, *, m: int, needed: Callable[[int], int], reach: str
+) -> tuple[np.ndarray, int]:
+    """Validate the inputs of a forecast from the end of the data: only those after it.
+
+    ``u`` holds u[T], u[T+1], …: row j is the input at the forecast's sample
+    T + j (``Forecast.time[j]``). The forecast of ``steps`` samples reads the
+    first ``needed(steps)`` of them (a state-space model steps − 1: x[T] is
+    driven by the recorded u[T−1]; an AR/ARX model steps − nk); up to
+    ``steps`` rows are accepted, the rest unused. ``steps`` defaults to
+    ``len(u)``.
+
+    Parameters
+    ----------
+    u : array_like, shape (rows, m), or (rows,) for m = 1; None without inputs
+    steps : int or None
+    m : int
+        The number of inputs.
+    needed : callable
+        ``needed(steps)``, the rows read by a forecast of ``steps`` samples.
+    reach : str
+        Why that many, for the messages.
+
+    Returns
+    -------
+    future : ndarray, shape (needed(steps), m)
+    steps : int
+    """
+    if m == 0:
+        if u is not None:
+            raise ValueError(f"u: the model has no inputs, expected None, received {describe(u)}")
+        steps = _forecast_steps(steps, None)
+        return np.zeros((0, 0)), steps
+    if u is None:
+        if steps is None:
+            raise TypeError(
+                "steps: expected the number of steps to forecast (an integer >= 1), or u, "
+                "the inputs after the data (one row per step), received neither"
+            )
+        steps = options.integer(steps, "steps", minimum=1)
+        rows = needed(steps)
+        if rows:
+            raise TypeError(
+                f"u: expected the inputs after the data, {_rows_text(rows)}, shape ({rows}, {m}), "
+                f"for steps={steps} ({reach}), received None"
+            )
+        return np.zeros((0, m)), steps
+    u = arrays.as_float_array(u, "u")
+    if u.ndim == 1 and m == 1:
+        u = u[:, None]
+    if u.ndim != 2 or u.shape[1] != m:
+        expected = f"(rows, {m})" + (" or (rows,)" if m == 1 else "")
+        raise ValueError(
+            f"u: expected the inputs after the data, one row per forecast sample, shape "
+            f"{expected}, received shape {u.shape}"
+        )
+    arrays.representable(u, "u", small=False)
+    if steps is None:
+        if u.shape[0] == 0:
+            raise ValueError(
+                "u: expected at least one input after the data (steps defaults to len(u)), "
+                "received none"
+            )
+        steps = u.shape[0]
+    steps = options.integer(steps, "steps", minimum=1)
+    rows = needed(steps)
+    if not rows <= u.shape[0] <= steps:
+        accepted = f"; up to {steps}, one per forecast sample, are accepted" if rows < steps else ""
+        raise ValueError(
+            f"u: expected {rows} rows of inputs after the data for steps={steps}, "
+            f"{_rows_text(rows)} ({reach}{accepted}), received {u.shape[0]}"
+        )
+    return u[:rows], steps
+
+
+def _rows_text(rows: int) -> str:
+    """The inputs u[T] … of ``rows`` rows after the data, in words."""
+    if rows == 0:
+        return "none"
+    return "u[T]" if rows == 1 else f"u[T] … u[T+{rows - 1}]"
 
 
 # -- the coefficients after the data ---------------------------------------------------------
@@ -533,37 +744,41 @@ def forecast_model(
     if drift is not None:
         drift = drift / coeffs[-1] ** 2  # the recursion adds w_t / c_d
     z = NormalDist().inv_cdf(0.5 + level / 2)
-    # step 1, exact: Cov(k_N) = Cov(k_{N−1}) + drift; x0 and φ known
-    phi0 = np.concatenate([initial.ravel(), known[0]])
-    k_cov = _as_matrix(coef_cov, K) + _as_matrix(drift, K)
-    lift = np.kron(np.eye(n), phi0[None, :])  # (n, K): Θ φ = (I ⊗ φᵀ) k
-    mean0 = theta[0] @ phi0
-    cov0 = lift @ k_cov @ lift.T + noise_cov
     coef_factor, drift_factor = _factor(coef_cov), _factor(drift)
-    if coef_factor is not None or drift_factor is not None:
-        mean, cov, lower, upper, drawn = _monte_carlo(
-            theta,
-            coeffs,
-            coef_factor,
-            drift_factor,
-            initial,
-            known,
-            _factor(noise_cov),
-            level,
-            n_samples,
-            seed,
-        )
-        method = "monte_carlo"
-    else:
-        mean, cov = _gaussian(theta, initial, known, noise_cov)
-        lower = upper = None
-        method, drawn = "gaussian", None
-    mean[0], cov[0] = mean0, cov0
-    sd = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
-    if lower is None:
-        lower, upper = mean - z * sd, mean + z * sd
-    else:
-        lower[0], upper[0] = mean0 - z * sd[0], mean0 + z * sd[0]
+    # An unstable model overflows over a long horizon: one DivergenceWarning below says
+    # so, instead of numpy's warnings from deep inside the propagation.
+    with np.errstate(over="ignore", invalid="ignore"):
+        # step 1, exact: Cov(k_N) = Cov(k_{N−1}) + drift; x0 and φ known
+        phi0 = np.concatenate([initial.ravel(), known[0]])
+        k_cov = _as_matrix(coef_cov, K) + _as_matrix(drift, K)
+        lift = np.kron(np.eye(n), phi0[None, :])  # (n, K): Θ φ = (I ⊗ φᵀ) k
+        mean0 = theta[0] @ phi0
+        cov0 = lift @ k_cov @ lift.T + noise_cov
+        if coef_factor is not None or drift_factor is not None:
+            mean, cov, lower, upper, drawn = _monte_carlo(
+                theta,
+                coeffs,
+                coef_factor,
+                drift_factor,
+                initial,
+                known,
+                _factor(noise_cov),
+                level,
+                n_samples,
+                seed,
+            )
+            method = "monte_carlo"
+        else:
+            mean, cov = _gaussian(theta, initial, known, noise_cov)
+            lower = upper = None
+            method, drawn = "gaussian", None
+        mean[0], cov[0] = mean0, cov0
+        sd = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
+        if lower is None:
+            lower, upper = mean - z * sd, mean + z * sd
+        else:
+            lower[0], upper[0] = mean0 - z * sd[0], mean0 + z * sd[0]
+    _warn_if_diverged(mean, lower, upper)
     return Forecast(
         mean=mean,
         lower=lower,
@@ -576,6 +791,19 @@ def forecast_model(
         n_samples=drawn,
         coefficients=theta,
     )
+
+
+def _warn_if_diverged(mean: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
+    """A :class:`~ltvmodels.DivergenceWarning` when the forecast overflowed (as ``simulate``)."""
+    finite = np.isfinite(mean) & np.isfinite(lower) & np.isfinite(upper)
+    if not finite.all():
+        step = int(np.flatnonzero(~finite.all(axis=1))[0])
+        warn(
+            f"the forecast diverged: its mean or interval is inf or NaN from step {step} "
+            "(counted from 0) on: the model is unstable along these inputs over this horizon; "
+            "forecast fewer steps",
+            DivergenceWarning,
+        )
 
 
 def _gaussian(
@@ -634,17 +862,22 @@ def _monte_carlo(
     error = draw(coef_factor, K)  # k_{N−1} − its estimate, carried by the recursion
     history = [error] * d  # the last d coefficient deviations
     lags = np.broadcast_to(initial.ravel(), (S, D)).copy()
-    samples = np.empty((steps, S, n))
+    # Each step's paths are summarized before the next step is drawn: memory grows with
+    # n_samples, not with steps × n_samples.
+    mean = np.empty((steps, n))
+    cov = np.empty((steps, n, n))
+    lower = np.empty((steps, n))
+    upper = np.empty((steps, n))
     for s in range(steps):
         # deviation of k at this step: Σ_j c_j dev_{t+j} = w_t, with w / c_d drawn as `drift`
         dev = -sum(coeffs[j] * history[j] for j in range(d)) / coeffs[d] + draw(drift_factor, K)
         history = history[1:] + [dev]
         phi = np.concatenate([lags, np.broadcast_to(known[s], (S, known.shape[1]))], axis=1)
         out = phi @ theta[s].T + np.einsum("sij,sj->si", dev.reshape(S, n, p), phi)
-        samples[s] = out + draw(noise_factor, n)
-        lags = np.concatenate([samples[s], lags[:, : D - n]], axis=1) if D else lags
-    mean = samples.mean(axis=1)
-    centred = samples - mean[:, None, :]
-    cov = np.einsum("tsi,tsj->tij", centred, centred) / (S - 1)
-    lower, upper = np.quantile(samples, [0.5 - level / 2, 0.5 + level / 2], axis=1)
+        sample = out + draw(noise_factor, n)  # (S, n): the paths at this step
+        mean[s] = sample.mean(axis=0)
+        centred = sample - mean[s]
+        cov[s] = centred.T @ centred / (S - 1)
+        lower[s], upper[s] = np.quantile(sample, [0.5 - level / 2, 0.5 + level / 2], axis=0)
+        lags = np.concatenate([sample, lags[:, : D - n]], axis=1) if D else lags
     return mean, cov, lower, upper, S

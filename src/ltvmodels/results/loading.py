@@ -153,6 +153,11 @@ def _invalid_record(model: RegressionModel) -> str | None:
                 expected_ok &= scale.shape == (n,) and bool(np.all(np.isfinite(scale)))
         if not expected_ok or not np.all(np.isfinite(blocks)):
             return "covariance ('cov_blocks', 'cov_row_group', 'cov_row_scale')"
+    tail = model.data.tail
+    if tail is not None and not (  # a regression has no dynamics, so no end to continue
+        isinstance(model, (LTVModel, ARXModel)) and tail.fits(model.tail_lengths, n, model.n_inputs)
+    ):
+        return "data tail ('data_tail_outputs', 'data_tail_inputs')"
     bad = _nan_entry(model.info)
     if bad:
         return f"'info' entry {bad!r} (NaN)"

@@ -18,7 +18,9 @@ from .forecast import (
     Forecast,
     forecast_model,
     forecast_options,
+    inputs_after_data,
     noise_covariance,
+    remembered_tail,
     state_space_inputs,
 )
 from .record import FitRecord
@@ -394,9 +396,20 @@ class LTVModel(RegressionModel, LinearTimeVarying):
             )
         return out if batch else out[0]
 
+    @property
+    def tail_lengths(self) -> tuple[int, int]:
+        """(1, 1): a forecast continues from the last state x[T−1] and the last input
+        u[T−1] (which drives x[T]); see :class:`~ltvmodels.results.description.DataTail`."""
+        return 1, 1
+
+    def future_input_rows(self, steps: int) -> int:
+        """The inputs after the data that ``forecast(steps=steps, u=…)`` reads: steps − 1
+        (u[T] … u[T+steps−2]; x[T] is driven by the recorded u[T−1]), 0 without inputs."""
+        return max(int(steps) - 1, 0) if self.n_inputs else 0
+
     def forecast(
         self,
-        x0: ArrayLike,
+        x0: ArrayLike | None = None,
         u: ArrayLike | None = None,
         *,
         steps: int | None = None,
@@ -407,29 +420,51 @@ class LTVModel(RegressionModel, LinearTimeVarying):
     ) -> Forecast:
         """Forecast the states after the end of the data, with prediction intervals.
 
-        From the last recorded state x0 = x[T−1] (= x[N]) the model continues
-        x[t+1] = A_t x[t] + B_t u[t] + c_t + v_t for t = N, N+1, …: the
-        coefficients after the data follow the recursion of the penalty's
-        difference operator (order 1: they stay at the last estimate; order
-        2: they continue its straight line), with their uncertainty (the
-        posterior covariance of the last estimate and, for norm="sq", the
-        drift σ_i²/λ² per step of the penalty's random walk); v_t has the
-        covariance ``noise_cov``. The first step is exact and Gaussian, the
-        others come from seeded Monte Carlo simulation, or are exact where
-        the coefficients are certain (no covariance, no drift). See
-        :mod:`ltvmodels.results.forecast` for the model and the method.
+        For T recorded states x[0] … x[T−1] (N = T − 1 transitions) the model
+        continues x[t+1] = A_t x[t] + B_t u[t] + c_t + v_t for t = T−1, T, …:
+        the first forecast is x[T] = A x[T−1] + B u[T−1] (+ c) + v, driven by
+        the last *recorded* input u[T−1] (the data's last input drives no
+        fitted transition). The coefficients after the data follow the
+        recursion of the penalty's difference operator (order 1: they stay
+        at the last estimate; order 2: they continue its straight line),
+        with their uncertainty (the posterior covariance of the last estimate
+        and, for norm="sq", the drift σ_i²/λ² per step of the penalty's random
+        walk); v_t has the covariance ``noise_cov``. The first step is exact
+        and Gaussian, the others come from seeded Monte Carlo simulation, or
+        are exact where the coefficients are certain (no covariance, no
+        drift). See :mod:`ltvmodels.results.forecast` for the model and the
+        method.
+
+        Two ways to say where it starts, with the same timing:
+
+        ``forecast(steps=H, u=future)``
+            From the end of the data the model was fitted on (it remembers
+            x[T−1] and u[T−1]: ``model.data.tail``); ``u`` holds only the
+            inputs after the data, u[T] … u[T+H−2]: H − 1 rows (an H-th,
+            u[T+H−1], is accepted and unused).
+        ``forecast(x0, u)``
+            From a given state x0 = x[T−1]; ``u`` = u[T−1], u[T], …, u[T+H−2]:
+            H rows, the last recorded input first.
+
+        The first form needs a model that remembers the end of its data: one
+        fitted on a single series whose last state and input are observed
+        (not several trajectories, not ``from_arrays``).
 
         Parameters
         ----------
-        x0 : array_like, shape (n,)
-            The state at the end of the data, x[T−1].
-        u : array_like, shape (steps, m), or (steps,) when m = 1; None without inputs
-            The future inputs u[T−1], u[T], …: row j drives the step from
-            x[T−1+j] to x[T+j] (the data's last input u[T−1] drives no fitted
-            transition, so it is the first one here).
+        x0 : array_like, shape (n,), optional
+            The state at the end of the data, x[T−1]. Default: the one the
+            model remembers (then ``u`` holds only the inputs after the data).
+        u : array_like, shape (rows, m), or (rows,) when m = 1; None without inputs
+            With ``x0``: the inputs u[T−1], u[T], … (steps rows): row j drives
+            the step from x[T−1+j] to x[T+j], the first is the last recorded
+            input. Without ``x0``: only the inputs after the data, u[T], u[T+1],
+            … (row j at the forecast sample x[T+j]); ``steps − 1`` rows are
+            read (``future_input_rows``), ``steps`` are accepted; None for one
+            step.
         steps : int, optional
             Number of steps, >= 1. Required without inputs; with inputs it
-            defaults to ``len(u)`` (and must equal it when given).
+            defaults to ``len(u)`` (and with ``x0`` must equal it when given).
         level : float, default 0.95
             Probability of the central prediction intervals, in (0, 1).
         n_samples : int, default 2000
@@ -451,17 +486,54 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         ------
         TypeError, ValueError
             Inputs of the wrong type or shape (the message names the
-            argument); a model without a noise covariance and no
+            argument); no ``x0`` for a model that does not remember the end
+            of its data; a model without a noise covariance and no
             ``noise_cov``; a norm="sq" model fitted with λ = 0 for some
             coefficient (its drift is unbounded).
+
+        Warns
+        -----
+        DivergenceWarning
+            If the forecast overflows to inf or NaN (an unstable model over a
+            long horizon).
+
+        Examples
+        --------
+        Continue the data the model was fitted on for 5 steps, given the
+        inputs u[T] … u[T+3] after it; the same forecast from an explicit
+        start takes the last recorded input first:
+
+        >>> model = ltv.fit(x, u, lam=10.0)                          # doctest: +SKIP
+        >>> f = model.forecast(steps=5, u=future[:4])                # doctest: +SKIP
+        >>> g = model.forecast(x[-1], np.r_[u[-1:], future[:4]])     # doctest: +SKIP
         """
-        x0, future, steps = state_space_inputs(x0, u, steps, n=self.n_states, m=self.n_inputs)
+        n, m = self.n_states, self.n_inputs
+        if x0 is None:
+            tail = remembered_tail(
+                self,
+                "x0",
+                f"the state x[T−1] at the end of the data, shape ({n},), with u starting at "
+                "the last recorded input u[T−1]",
+            )
+            future, steps = inputs_after_data(
+                u,
+                steps,
+                m=m,
+                needed=self.future_input_rows,
+                reach="x[T] is driven by the last recorded input u[T−1], which the model "
+                "keeps, so x[T+j] needs u[T+j−1]",
+            )
+            start = tail.outputs[-1]
+            # u[T−1] from the data, then those after it: the explicit form's inputs
+            inputs = np.concatenate([tail.inputs, future]) if m else np.zeros((steps, 0))
+        else:
+            start, inputs, steps = state_space_inputs(x0, u, steps, n=n, m=m)
         level, n_samples, seed = forecast_options(level, n_samples, seed)
-        noise = noise_covariance(noise_cov, self.noise_cov, self.n_states)
-        known = np.concatenate([future, np.ones((steps, 1))], axis=1) if self.constant else future
+        noise = noise_covariance(noise_cov, self.noise_cov, n)
+        known = np.concatenate([inputs, np.ones((steps, 1))], axis=1) if self.constant else inputs
         return forecast_model(
             self,
-            x0[None, :],
+            start[None, :],
             known,
             level=level,
             n_samples=n_samples,

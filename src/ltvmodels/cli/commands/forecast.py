@@ -53,8 +53,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="FILE",
         default=None,
         help="models with inputs: a data file with the input columns after the "
-        "end of DATA, one row per sample, at least H rows (a state-space model "
-        "uses the first H - 1: its first step is driven by DATA's last input)",
+        "end of DATA, one row per sample (row j at the forecast sample T + j), as "
+        "model.forecast(steps=H, u=...) takes them: a state-space model reads the "
+        "first H - 1 (its first step is driven by DATA's last input), an ARX model "
+        "the first H - nk; further rows are unused",
     )
     opt.add_seed(p, "seed of the Monte Carlo samples beyond the first step (default: 0)")
     opt.add_model_columns(
@@ -69,7 +71,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> Report:
-    """Forecast a saved model after the end of the data it was fitted on.
+    """Forecast a saved model after the end of DATA (the data it was fitted on, or other
+    data of the same length): DATA's last samples start it, as a model's own do in
+    ``model.forecast(steps=H, u=future)``.
 
     Parameters
     ----------
@@ -83,6 +87,7 @@ def run(args: argparse.Namespace) -> Report:
     lines : list of str
         The text summary.
     """
+    from ...results.description import DataTail
     from ...validation.arrays import representable
     from ..outputs import Table, check_outputs, figure_errors, write_outputs
     from ..saved import load_model, model_data
@@ -91,25 +96,26 @@ def run(args: argparse.Namespace) -> Report:
     model = load_model(args.model)
     data = model_data(args, model)
     kind, y, u, lag, H = data.kind, data.y, data.u, data.lag, args.steps
-    future = _future_inputs(args, data, H)
+    future = _future_inputs(args, data, model.future_input_rows(H))
     with user_errors(f"{data.label}: "):
         representable(y[-lag:], "--state" if kind == "ltv" else "--column")
+    # DATA's end becomes the end of the model's data, and the model continues it as
+    # model.forecast(steps=H, u=future) continues its own: one convention, one code path.
+    tail = DataTail.of(y[None], None if u is None else u[None], model.tail_lengths)
+    if tail is None:
+        outputs, inputs = model.tail_lengths
+        where = f"the last {_rows(outputs)} of its {'state' if kind == 'ltv' else 'output'} columns"
+        where += f" and the last {_rows(inputs)} of its input columns" if inputs else ""
+        raise DataError(
+            f"{data.label}: the forecast continues the end of DATA, which has missing values "
+            f"in the samples it starts from ({where}); give DATA whose last samples are observed"
+        )
+    continued = model.with_data(model.data.with_tail(tail))
     with user_errors():
-        if kind == "ltv":
-            inputs = (
-                None if u is None or future is None else np.concatenate([u[-1:], future[: H - 1]])
-            )
-            forecast = model.forecast(y[-1], inputs, steps=H, level=args.level, seed=args.seed)
-        elif kind == "arx" and u is not None and future is not None:  # it has inputs: both set
-            forecast = model.forecast(
-                y[-lag:],
-                np.concatenate([u[-lag:], future[:H]]),
-                steps=H,
-                level=args.level,
-                seed=args.seed,
-            )
+        if future is None:
+            forecast = continued.forecast(steps=H, level=args.level, seed=args.seed)
         else:
-            forecast = model.forecast(y[-lag:], steps=H, level=args.level, seed=args.seed)
+            forecast = continued.forecast(steps=H, u=future, level=args.level, seed=args.seed)
     names = data.names
     forecast = replace(forecast, names=names)  # the data's column names
     times = time_text(forecast.time)  # sample indices, or the dates of a dated model
@@ -163,8 +169,14 @@ def run(args: argparse.Namespace) -> Report:
     return write_outputs(outputs, report, lines, table=table, figure=fig)
 
 
-def _future_inputs(args: argparse.Namespace, data: ModelData, H: int) -> np.ndarray | None:
-    """The inputs after the end of DATA from --future-input (None for a model without)."""
+def _rows(count: int) -> str:
+    """``count`` rows in words: "row" for one, else "<count> rows"."""
+    return "row" if count == 1 else f"{count} rows"
+
+
+def _future_inputs(args: argparse.Namespace, data: ModelData, needed: int) -> np.ndarray | None:
+    """The ``needed`` inputs after the end of DATA from --future-input (None for a model
+    without inputs)."""
     from ..data import read_columns
 
     m = len(data.input_names)
@@ -172,7 +184,6 @@ def _future_inputs(args: argparse.Namespace, data: ModelData, H: int) -> np.ndar
         if args.future_input is not None:
             raise DataError("--future-input: the model has no inputs")
         return None
-    needed = H - 1 if data.kind == "ltv" else H
     if args.future_input is None:
         if needed == 0:
             return np.zeros((0, m))
@@ -186,19 +197,20 @@ def _future_inputs(args: argparse.Namespace, data: ModelData, H: int) -> np.ndar
     if rows < needed:
         raise DataError(
             f"{label}: expected at least {needed} rows of future inputs for "
-            f"--steps {H}, received {rows}"
+            f"--steps {args.steps}, received {rows}"
         )
     if not np.all(np.isfinite(values[:needed])):
         raise DataError(f"{label}: the future inputs must be observed (no missing values)")
-    return values
+    return values[:needed]
 
 
 COMMAND = Subcommand(
     description="Load a model file (from fit, segments or ar) and forecast the states "
-    "(AR: the outputs) after the end of the data it was fitted on, with prediction "
-    "intervals: the coefficients continue as the penalty's model says, their "
-    "uncertainty and the noise propagate (see ltvmodels.LTVModel.forecast). Data "
-    "columns default to those the model was fitted on.",
+    "(AR: the outputs) after the end of DATA (the data it was fitted on, or other data "
+    "of the same length), with prediction intervals: the coefficients continue as the "
+    "penalty's model says, their uncertainty and the noise propagate. The same "
+    "forecast as model.forecast(steps=H, u=future) in Python, DATA's last samples "
+    "starting it. Data columns default to those the model was fitted on.",
     add_arguments=add_arguments,
     run=run,
 )
