@@ -36,6 +36,8 @@ class StateSpaceData:
         (T - 1,) the transitions' weights (``--weights``).
     time : ndarray or None
         (T,) the samples' times (``--time``).
+    time_name : str or None
+        The name of the ``--time`` column.
     """
 
     label: str
@@ -45,6 +47,7 @@ class StateSpaceData:
     input_names: list[str]
     weights: np.ndarray | None
     time: np.ndarray | None
+    time_name: str | None = None
 
 
 @dataclass(frozen=True)
@@ -107,6 +110,7 @@ def state_space_data(args: argparse.Namespace) -> StateSpaceData:
             )
         transition_weights = column
     time = None if cols.get("time") is None else cols["time"][1]
+    time_name = None if cols.get("time") is None else cols["time"][0][0]
     if time is not None:  # the library's time rules, as for a pandas index
         from ..estimators.recordings import time_grid_of
         from ..validation.arrays import LabelledSeries
@@ -117,7 +121,9 @@ def state_space_data(args: argparse.Namespace) -> StateSpaceData:
             text = str(exc).replace("(df.sort_index())", "(sort the file by that column)")
             raise DataError(text) from None
         if grid is None:  # the stamps 0, 1, … are consecutive rows: nothing to check
-            return StateSpaceData(label, x, u, state_names, input_names, transition_weights, time)
+            return StateSpaceData(
+                label, x, u, state_names, input_names, transition_weights, time, time_name
+            )
         if grid.inserted:
             x = grid.spread(x[None])[0]
             u = None if u is None else grid.spread(u[None])[0]
@@ -126,7 +132,9 @@ def state_space_data(args: argparse.Namespace) -> StateSpaceData:
             )
             transition_weights = None if spread is None else spread[0]
         time = grid.time
-    return StateSpaceData(label, x, u, state_names, input_names, transition_weights, time)
+    return StateSpaceData(
+        label, x, u, state_names, input_names, transition_weights, time, time_name
+    )
 
 
 def column_data(args: argparse.Namespace) -> ColumnData:

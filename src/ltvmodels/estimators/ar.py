@@ -361,7 +361,13 @@ def _describe(
     }
     time = None if grid is None else grid.time
     # the model of this call (no one else holds it): described in place
-    model.data = DataDescription.of(names, time, n_trajectories=R, n_missing=model.n_missing)
+    model.data = DataDescription.of(
+        names,
+        time,
+        n_trajectories=R,
+        n_missing=model.n_missing,
+        time_name=arrays.time_name(y),
+    )
     return model
 
 

@@ -37,6 +37,10 @@ class DataDescription:
         The time of each sample of one series (a pandas index: dates as
         datetime64[ns], or numbers); None without a time index or for several
         trajectories.
+    time_name : str or None
+        The name of the time axis: the pandas index's name, or the time column's
+        (``fit_many``'s ``time=``, the command line's ``--time``); None when it
+        had none. Figures label their time axis with it.
     n_trajectories : int
         R, the number of time-aligned trajectories (series) the fit shared.
     n_missing : int
@@ -49,6 +53,7 @@ class DataDescription:
     time: np.ndarray | None = None
     n_trajectories: int = 1
     n_missing: int = 0
+    time_name: str | None = None
 
     @classmethod
     def of(
@@ -58,6 +63,7 @@ class DataDescription:
         *,
         n_trajectories: int = 1,
         n_missing: int = 0,
+        time_name: Any = None,
     ) -> DataDescription:
         """A description from names by role (lists, or None for a role without names)."""
         kept = {
@@ -66,16 +72,27 @@ class DataDescription:
             if values is not None and role in ROLES
         }
         return cls(
-            kept, None if time is None else np.array(time), int(n_trajectories), int(n_missing)
+            kept,
+            None if time is None else np.array(time),
+            int(n_trajectories),
+            int(n_missing),
+            None if time is None or time_name is None else str(time_name),
         )
 
-    def renamed(self, names: Mapping[str, Any], time: np.ndarray | None = None) -> DataDescription:
-        """This description with other names by role (and, if given, another time axis)."""
+    def renamed(
+        self,
+        names: Mapping[str, Any],
+        time: np.ndarray | None = None,
+        time_name: str | None = None,
+    ) -> DataDescription:
+        """This description with other names by role (and, if given, another time axis and
+        its name)."""
         return DataDescription.of(
             names,
             self.time if time is None else time,
             n_trajectories=self.n_trajectories,
             n_missing=self.n_missing,
+            time_name=self.time_name if time is None else time_name,
         )
 
     def names_of(self, role: str, count: int) -> list[str] | None:
@@ -85,12 +102,16 @@ class DataDescription:
 
     # -- model files ---------------------------------------------------------------
     def to_json(self) -> dict:
-        """Everything but the time axis, as JSON values (the file keeps ``time`` as an array)."""
-        return {
+        """Everything but the time axis, as JSON values (the file keeps ``time`` as an array;
+        ``time_name`` only where there is one, so that older readers see no new key)."""
+        value: dict[str, Any] = {
             "names": {role: list(values) for role, values in self.names.items()},
             "n_trajectories": self.n_trajectories,
             "n_missing": self.n_missing,
         }
+        if self.time_name is not None:
+            value["time_name"] = self.time_name
+        return value
 
     @classmethod
     def from_json(cls, value: Mapping[str, Any], time: np.ndarray | None) -> DataDescription:
@@ -100,11 +121,14 @@ class DataDescription:
             time,
             n_trajectories=value.get("n_trajectories", 1),
             n_missing=value.get("n_missing", 0),
+            time_name=value.get("time_name"),
         )
 
     def __repr__(self) -> str:
         names = ", ".join(f"{role}={list(values)}" for role, values in self.names.items())
         time = "None" if self.time is None else f"array({self.time.dtype}, {self.time.size})"
+        if self.time_name is not None:
+            time += f", time_name={self.time_name!r}"
         return (
             f"DataDescription({names + ', ' if names else ''}time={time}, "
             f"n_trajectories={self.n_trajectories}, n_missing={self.n_missing})"
