@@ -529,3 +529,29 @@ def test_the_time_axis_name_is_kept_with_the_model(tmp_path):
     assert models["a"].data.time_name == "date"
     assert models["a"].plot().axes[-1].get_xlabel() == "date"
 
+
+def test_every_result_plot_returns_a_figure(data):
+    """Models, forecasts and segmentations return their Figure already; the λ selection and
+    the Kalman results do too, and a fig= fills a given figure where ax= existed."""
+    selection = ltv.select_lambda(data.x, data.u, norm="sq", lams=[1.0, 10.0, 100.0])
+    fig = selection.plot()
+    assert isinstance(fig, Figure) and len(fig.axes) == 1
+    ax = Figure().subplots(1, 2)[1]
+    assert selection.plot(ax=ax) is ax.figure and len(ax.lines) >= 1
+    given = Figure()
+    given.add_subplot()
+    assert selection.plot(fig=given) is given and len(given.axes) == 1
+    with pytest.raises(TypeError, match=r"^fig, ax: expected one of them, received both"):
+        selection.plot(ax=ax, fig=given)
+    armodel = ltv.fit_ar(_ar2_series(), 2, lam=30.0)
+    assert armodel.plot(fig=given) is given and given.axes[0].get_title().startswith("Root")
+    for result in (
+        ltv.kalman_filter(data.x, data.u, lam=30.0),
+        ltv.kalman_smoother(data.x, data.u, lam=30.0),
+    ):
+        fig = result.plot(truth=data)
+        assert isinstance(fig, Figure) and len(fig.axes) == 6
+        assert all(len(ax.collections) == 1 for ax in fig.axes)  # the ±2σ bands
+        np.testing.assert_array_equal(fig.axes[0].lines[0].get_xdata(), np.arange(1, data.T))
+        full = np.sqrt(np.diagonal(result.cov_full(), axis1=1, axis2=2))
+        np.testing.assert_allclose(result.std(), full, rtol=1e-12)
