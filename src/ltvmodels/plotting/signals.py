@@ -177,9 +177,9 @@ def plot_forecast(
     matplotlib.figure.Figure
         With n axes stacked vertically (a shared time axis, labelled with
         ``forecast.time_name``, else the name of a pandas ``history_time``'s
-        index, else "time", or "sample" for sample indices), each with the state's name as y label,
-        the mean as a line and the interval as a band
-        (``ax.collections[0]``).
+        index, else "time", or "sample" for sample indices), each with the
+        state's name as y label, the mean as a line and the interval as a
+        band (``ax.collections[0]``).
 
     Raises
     ------

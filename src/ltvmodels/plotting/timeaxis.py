@@ -109,7 +109,9 @@ class TimeAxis:
 
     def text(self, positions: np.ndarray) -> list[str]:
         """Positions of this axis as text (legends): dates as YYYY-MM-DD (to the second with
-        a time of day), numbers as numbers."""
+        a time of day), sample indices as integers, numbers as numbers."""
+        if np.issubdtype(np.asarray(positions).dtype, np.integer):
+            return [str(int(value)) for value in positions]
         if not self.dated:
             return [f"{value:g}" for value in np.asarray(positions, dtype=float)]
         positions = np.asarray(positions).astype("datetime64[ns]")

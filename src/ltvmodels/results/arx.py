@@ -346,7 +346,9 @@ class ARXModel(RegressionModel):
 
     # A different plot from the regression's (the roots, not the coefficients): its own
     # arguments.
-    def plot(self, fs: float | None = None, ax: Any = None, *, fig: Any = None):  # type: ignore[override]
+    def plot(  # type: ignore[override]
+        self, fs: float | None = None, ax: Any = None, *, fig: Any = None
+    ):
         """Plot the root spectrogram against the data's time axis; see
         :func:`ltvmodels.plotting.plot_root_spectrogram` (``fs`` None: frequencies in
         cycles per unit of the model's time axis, or per sample).

@@ -150,10 +150,8 @@ def run(args: argparse.Namespace) -> Report:
         with figure_errors(None):
             # the model's last samples, at their times: the forecast's are those after them
             end = model.N + model.produced_offset
-            shown = min(len(y), end, max(4 * H, 50))
-            fig = forecast.plot(
-                history=y[-shown:], history_time=model.times_after(end - shown, shown)
-            )
+            rows = min(len(y), end, max(4 * H, 50))
+            fig = forecast.plot(history=y[-rows:], history_time=model.times_after(end - rows, rows))
             fig.suptitle(f"{args.model} after {data.label}: forecast, {percent} intervals")
     columns = [f"{name}{suffix}" for name in names for suffix in ("", "_lower", "_upper")]
     values = np.column_stack(
