@@ -1247,12 +1247,11 @@ def test_fit_options_match_the_python_api(tmp_path, capsys):
     assert "--noise-var" in capsys.readouterr().err
 
 
-def test_time_column_dates_the_change_points(tmp_path, capsys):
-    """--time parses ISO dates (or numbers); change points are reported at the date of
-    x[c]; the model keeps the times and indexes its coefficients by them."""
+def _dated_recording(path):
+    """The jump-linear recording (change at step 200) with a "date" column, one day per
+    sample from 2020-01-01, written to ``path``; returns the data and the days."""
     data = ltvmodels.systems.jump_linear(seed=0)
     days = np.arange("2020-01-01", "2021-02-04", dtype="datetime64[D]")[:400]
-    path = tmp_path / "dated.csv"
     path.write_text(
         "date,x1,x2,u1\n"
         + "".join(
@@ -1260,6 +1259,14 @@ def test_time_column_dates_the_change_points(tmp_path, capsys):
             for t in range(400)
         )
     )
+    return data, days
+
+
+def test_time_column_dates_the_change_points(tmp_path, capsys):
+    """--time parses ISO dates (or numbers); change points are reported at the date of
+    x[c]; the model keeps the times and indexes its coefficients by them."""
+    path = tmp_path / "dated.csv"
+    data, days = _dated_recording(path)
     code = main(
         [
             "fit",
@@ -1288,6 +1295,39 @@ def test_time_column_dates_the_change_points(tmp_path, capsys):
     path.write_text("date,x1\n01/02/2020,1\n01/03/2020,2\n01/04/2020,3\n")
     assert main(["fit", str(path), "--state", "x1", "--lam", "1", "--time", "date"]) == 2
     assert "expected numbers or ISO 8601 dates" in capsys.readouterr().err
+
+
+def _svg_texts(path):
+    """The texts of an SVG figure written by matplotlib (each drawn text follows a comment
+    that holds it)."""
+    import re
+
+    return re.findall(r"<!-- (.*?) -->", path.read_text())
+
+
+def test_plots_of_a_dated_recording_show_its_dates(tmp_path, capsys):
+    """--plot with --time: the figures of fit, segments and forecast are drawn against the
+    dates, the x axis named by the time column."""
+    path = tmp_path / "dated.csv"
+    _dated_recording(path)
+    columns = ["--state", "x1,x2", "--input", "u1", "--time", "date"]
+    model_file = tmp_path / "m.npz"
+    fit = ["fit", str(path), *columns, "--norm", "group", "--lam", "30"]
+    assert main([*fit, "--out", str(model_file), "--plot", str(tmp_path / "fit.svg")]) == 0
+    segments = ["segments", str(path), *columns, "--n-changes", "1"]
+    assert main([*segments, "--plot", str(tmp_path / "segments.svg")]) == 0
+    forecast = ["forecast", str(model_file), str(path), "--steps", "2"]
+    future = tmp_path / "future.csv"
+    future.write_text("u1\n0\n0\n")
+    forecast += ["--future-input", str(future), "--plot", str(tmp_path / "forecast.svg")]
+    assert main(forecast) == 0
+    capsys.readouterr()
+    for figure in ("fit", "segments", "forecast"):
+        texts = _svg_texts(tmp_path / f"{figure}.svg")
+        assert "date" in texts and "sample" not in texts and "t" not in texts, figure
+        assert "2021" in texts or "Jan" in texts, (figure, texts)  # date ticks, not numbers
+    # the change points' dates label the activation (x[201], the first new state)
+    assert "detected: 2020-07-20" in _svg_texts(tmp_path / "fit.svg")
 
 
 def _weighted_ar_series(path, T, seed, name):

@@ -117,13 +117,18 @@ def test_plot_activation_marks_changepoints(model):
     found = ltv.find_changepoints(model)
     ax = plotting.plot_activation(model, changepoints=[30, 60])
     np.testing.assert_allclose(ax.lines[0].get_ydata(), model.activation())
-    # order 1: a change at c shows at activation index c − 1
-    assert [line.get_xdata()[0] for line in ax.lines[1:]] == [29, 59]
-    assert ax.get_legend() is not None and "30, 60" in ax.get_legend().get_title().get_text()
+    # order 1: a change at c shows at activation index c − 1, drawn where step c is: at
+    # sample c + 1, the first state the new coefficients produce (no time axis: samples)
+    np.testing.assert_array_equal(ax.lines[0].get_xdata(), np.arange(2, model.N + 1))
+    assert [line.get_xdata()[0] for line in ax.lines[1:]] == [31, 61]
+    assert ax.get_xlabel() == "sample"
+    assert ax.get_legend() is not None and "31, 61" in ax.get_legend().get_title().get_text()
     ax = plotting.plot_activation(model, changepoints=found[:0])
     assert "none" in ax.get_legend().get_title().get_text()
     with pytest.raises(ValueError, match="changepoints"):
         plotting.plot_activation(model, changepoints=[1.5])
+    with pytest.raises(ValueError, match=r"changepoints: expected step indices c \(integers 0"):
+        plotting.plot_activation(model, changepoints=[model.N])
 
 
 def test_plot_poles_unit_circle(model):
@@ -189,8 +194,9 @@ def test_plot_model_overview(model, data):
     fig.savefig(buf, format="png")
     assert buf.getvalue()[:8] == b"\x89PNG\r\n\x1a\n"
     segmented = ltv.fit_segments(data.x, data.u, n_changes=1)
-    fig = plotting.plot_model(segmented)  # change points of the model itself
-    assert "60" in fig.subfigs[1].axes[0].get_legend().get_title().get_text()
+    assert list(segmented.changepoints) == [60]
+    fig = plotting.plot_model(segmented)  # change points of the model itself, at x[c + 1]
+    assert "61" in fig.subfigs[1].axes[0].get_legend().get_title().get_text()
 
 
 def test_plot_model_marks_the_change_points_the_fit_found(data):
@@ -199,7 +205,8 @@ def test_plot_model_marks_the_change_points_the_fit_found(data):
     assert group.changepoints.size
     fig = plotting.plot_model(group)
     legend = fig.subfigs[1].axes[0].get_legend().get_title().get_text()
-    assert legend == "detected: " + ", ".join(str(int(c)) for c in group.changepoints)
+    # at the first state each change produces, x[c + 1]
+    assert legend == "detected: " + ", ".join(str(int(c) + 1) for c in group.changepoints)
     smooth = ltv.fit(data.x, data.u, lam=10.0)  # norm="sq": no change points of its own
     activation_ax = plotting.plot_model(smooth).subfigs[1].axes[0]
     assert activation_ax.get_legend() is None and len(activation_ax.lines) == 1
@@ -238,22 +245,313 @@ def test_every_model_kind_plots():
     assert [ax.get_title() for ax in segmentation.plot().axes] == ["y0:phi0", "y0:phi1"]
 
 
-def test_root_spectrogram_takes_its_units_from_the_time_index():
+# -- the data's time axis -----------------------------------------------------------------
+
+TIME_AXES = ["daily", "monthly", "quarterly", "annual", "tenths", "none"]
+"""Time axes of the data: a DatetimeIndex named "date" (daily), monthly ("MS") and quarterly
+("QS") ones without a name, years as numbers in an index named "year", tenths of a time
+unit, and none (sample indices)."""
+
+LABELS = {
+    "daily": "date",
+    "monthly": "time",
+    "quarterly": "time",
+    "annual": "year",
+    "tenths": "time",
+    "none": "sample",
+}
+"""The x label of each time axis: its name, "time" without one, "sample" without an axis."""
+
+RATES = {
+    "daily": (1.0, "cycles per day"),
+    "monthly": (1.0, "cycles per month"),
+    "quarterly": (4.0, "cycles per year"),
+    "annual": (1.0, "cycles per year"),
+    "tenths": (10.0, "cycles per time unit"),
+    "none": (1.0, "cycles per sample"),
+}
+"""The sampling rate of each time axis in cycles per its unit, and the frequency unit."""
+
+
+def _time_index(kind, T):
+    """The pandas index of T samples of a time axis of ``TIME_AXES`` (None: no axis)."""
     pd = pytest.importorskip("pandas")
-    rng = np.random.default_rng(1)
-    y = np.zeros(300)
-    for t in range(2, 300):
+    return {
+        "daily": lambda: pd.date_range("2021-01-01", periods=T, freq="D", name="date"),
+        "monthly": lambda: pd.date_range("1990-01-01", periods=T, freq="MS"),
+        "quarterly": lambda: pd.date_range("1950-01-01", periods=T, freq="QS"),
+        "annual": lambda: pd.Index(1900.0 + np.arange(T), name="year"),
+        "tenths": lambda: pd.Index(0.1 * np.arange(T)),
+        "none": lambda: None,
+    }[kind]()
+
+
+def _x(values):
+    """matplotlib's x data of time values: date numbers for dates, else the values."""
+    values = np.asarray(values)
+    if np.issubdtype(values.dtype, np.datetime64):
+        return matplotlib.dates.date2num(values)
+    return values
+
+
+def _samples(index, samples):
+    """The x data of sample indices on the time axis ``index`` (None: the indices)."""
+    return np.asarray(samples) if index is None else _x(index.to_numpy()[samples])
+
+
+def _assert_time_axis(ax, kind):
+    """Dates get a date locator and a concise formatter; numbers keep number ticks."""
+    locator, formatter = ax.xaxis.get_major_locator(), ax.xaxis.get_major_formatter()
+    dated = kind in ("daily", "monthly", "quarterly")
+    assert isinstance(locator, matplotlib.dates.AutoDateLocator) == dated
+    assert isinstance(formatter, matplotlib.dates.ConciseDateFormatter) == dated
+
+
+def _recording(kind, T=120):
+    """A jump-linear recording (change at step 60) as DataFrames on a time axis (arrays for
+    "none"), and that axis."""
+    data = systems.jump_linear(T=T, change_at=60, seed=0)
+    index = _time_index(kind, T)
+    if index is None:
+        return data, data.x, data.u, None
+    import pandas as pd
+
+    x = pd.DataFrame(data.x, index=index, columns=["p", "v"])
+    return data, x, pd.DataFrame(data.u, index=index, columns=["f"]), index
+
+
+@pytest.mark.parametrize("kind", TIME_AXES)
+def test_a_state_space_model_plots_against_its_time_axis(kind):
+    """Coefficients, activation and eigenvalues are drawn at the times of the data (step t
+    at x[t + 1], which it produces), the change points at model.changepoint_times."""
+    data, x, u, index = _recording(kind)
+    model = ltv.fit_segments(x, u, n_changes=1)
+    assert list(model.changepoints) == [60]
+    steps = _samples(index, np.arange(1, data.T))
+    change = _samples(index, [61])
+    if index is not None:
+        np.testing.assert_array_equal(change, _x(model.changepoint_times))
+    fig = model.plot()
+    assert isinstance(fig, Figure)
+    if index is not None:  # the data's column names
+        assert [ax.get_title() for ax in fig.axes[:3]] == ["A[p,p]", "A[p,v]", "B[p,f]"]
+    for ax in fig.axes:
+        estimate, *marks = ax.lines
+        np.testing.assert_allclose(estimate.get_xdata(orig=False), steps)
+        assert [mark.get_xdata(orig=False)[0] for mark in marks] == list(change)
+        _assert_time_axis(ax, kind)
+    assert [ax.get_xlabel() for ax in fig.axes] == ["", "", "", *[LABELS[kind]] * 3]
+    activation, eigenvalues = plotting.plot_model(model).subfigs[1].axes
+    # order 1: activation index t compares k_t and k_{t+1}: drawn where step t + 1 is
+    np.testing.assert_allclose(activation.lines[0].get_xdata(orig=False), steps[1:])
+    np.testing.assert_allclose(activation.lines[1].get_xdata(orig=False)[0], change[0])
+    title = activation.get_legend().get_title().get_text()
+    expected = {"daily": "2021-03-03", "monthly": "1995-02-01", "quarterly": "1965-04-01"}
+    assert title == "detected: " + expected.get(kind, f"{_samples(index, [61])[0]:g}")
+    np.testing.assert_allclose(eigenvalues.lines[0].get_xdata(orig=False), steps)
+    assert activation.get_xlabel() == eigenvalues.get_xlabel() == LABELS[kind]
+    _assert_time_axis(activation, kind)
+
+
+def test_a_regression_and_its_segmentation_plot_against_the_times_of_the_rows():
+    """A regression's row t is y[t]: drawn at its date, a change at y[c]."""
+    pd = pytest.importorskip("pandas")
+    rng = np.random.default_rng(3)
+    days = pd.date_range("2022-01-01", periods=150, freq="D", name="day")
+    phi = pd.DataFrame({"price": rng.standard_normal(150), "1": np.ones(150)}, index=days)
+    slope = np.where(np.arange(150) < 90, 1.0, -1.0)
+    y = pd.Series(slope * phi["price"] + 0.05 * rng.standard_normal(150), index=days, name="sales")
+    segmentation = ltv.segment_regression(y, phi, n_changes=1)
+    assert list(segmentation.changepoints) == [90]
+    fig = segmentation.plot()
+    assert isinstance(fig, Figure)
+    assert [ax.get_title() for ax in fig.axes] == ["sales:price", "sales:1"]
+    for ax in fig.axes:
+        estimate, mark = ax.lines
+        np.testing.assert_allclose(estimate.get_xdata(orig=False), _x(days.to_numpy()))
+        np.testing.assert_allclose(
+            mark.get_xdata(orig=False), _x(segmentation.changepoint_times).repeat(2)
+        )  # a vertical line: (x, x)
+        assert ax.get_xlabel() == "day"
+        _assert_time_axis(ax, "daily")
+
+
+def _ar2_series(T=300, seed=1):
+    rng = np.random.default_rng(seed)
+    y = np.zeros(T)
+    for t in range(2, T):
         y[t] = 1.5 * y[t - 1] - 0.9 * y[t - 2] + 0.1 * rng.standard_normal()
-    yearly = ltv.fit_ar(pd.Series(y, index=1700.0 + np.arange(300), name="level"), 2, lam=30.0)
-    ax = yearly.plot().axes[0]
-    assert ax.get_ylabel() == "frequency (cycles per unit of time)"
-    assert ax.get_xlabel() == "time" and ax.lines[0].get_xdata()[0] == 1702.0
-    daily = ltv.fit_ar(
-        pd.Series(y, index=pd.date_range("2020-01-01", periods=300, freq="2D")), 2, lam=30.0
+    return y
+
+
+@pytest.mark.parametrize("kind", TIME_AXES)
+def test_spectrograms_are_in_cycles_per_unit_of_the_time_axis(kind):
+    """The root spectrogram and the spectrogram: frequencies in cycles per unit of the time
+    axis (1 / its step), against that axis; an explicit fs keeps Hz."""
+    pd = pytest.importorskip("pandas")
+    y = _ar2_series()
+    index = _time_index(kind, y.size)
+    series = y if index is None else pd.Series(y, index=index, name="level")
+    model = ltv.fit_ar(series, 2, lam=30.0)
+    fs, unit = RATES[kind]
+    fig = model.plot()
+    assert isinstance(fig, Figure)
+    ax = fig.axes[0]
+    assert ax.get_ylabel() == f"frequency ({unit})" and ax.get_xlabel() == LABELS[kind]
+    np.testing.assert_allclose(ax.get_ylim()[1], fs / 2, rtol=1e-12)
+    per_sample = model.root_spectrogram(1.0)[:, 0]
+    np.testing.assert_allclose(ax.lines[0].get_ydata(), per_sample * fs, rtol=1e-12)
+    # step j describes y[2 + j]
+    np.testing.assert_allclose(
+        ax.lines[0].get_xdata(orig=False), _samples(index, np.arange(2, 300))
     )
-    ax = daily.plot().axes[0]
-    assert ax.get_ylabel() == "frequency (cycles per day)" and ax.get_ylim()[1] == 0.25
-    ax = yearly.plot(fs=100.0).axes[0]  # an explicit sampling frequency keeps seconds and Hz
-    assert ax.get_ylabel() == "frequency (Hz)" and ax.get_xlabel() == "time (s)"
-    plain = ltv.fit_ar(y, 2, lam=30.0)
-    assert plain.plot().axes[0].get_ylabel() == "frequency (cycles per sample)"
+    _assert_time_axis(ax, kind)
+    ax = plotting.plot_spectrogram(series, nperseg=64)  # the time axis of a pandas series
+    assert ax.get_ylabel() == f"frequency ({unit})" and ax.get_xlabel() == LABELS[kind]
+    _assert_time_axis(ax, kind)
+    edges = ax.collections[0].get_coordinates()  # cells around f = 0 … fs/2, fs/64 apart
+    np.testing.assert_allclose(edges[..., 1].max(), fs / 2 + fs / 128, rtol=1e-9)
+    inside = _samples(index, [0, 299])
+    assert inside[0] < edges[..., 0].min() < edges[..., 0].max() < inside[1]
+    assert plotting.plot_root_spectrogram(model, ax=ax) is ax  # drawn over it, same units
+    if index is not None:  # the times given as an argument instead
+        given = plotting.plot_spectrogram(y, nperseg=64, time=index)
+        np.testing.assert_allclose(given.collections[0].get_coordinates(), edges)
+    ax = model.plot(fs=100.0).axes[0]  # a given sampling frequency: Hz
+    assert ax.get_ylabel() == "frequency (Hz)" and ax.get_ylim()[1] == 50.0
+    assert ax.get_xlabel() == ("time (s)" if index is None else LABELS[kind])
+
+
+@pytest.mark.parametrize("kind", TIME_AXES)
+def test_a_forecast_and_its_history_share_the_time_axis(kind):
+    data, x, u, index = _recording(kind)
+    model = ltv.fit(x, u, lam=10.0)
+    forecast = model.forecast(data.x[-1], np.zeros(5))
+    fig = forecast.plot(history=data.x[-10:])
+    assert isinstance(fig, Figure)
+    for ax in fig.axes:
+        history, joint, mean = ax.lines
+        np.testing.assert_allclose(history.get_xdata(orig=False), _samples(index, range(110, 120)))
+        np.testing.assert_allclose(mean.get_xdata(orig=False), _x(forecast.time))
+        np.testing.assert_allclose(
+            joint.get_xdata(orig=False), [_samples(index, [119])[0], _x(forecast.time[:1])[0]]
+        )
+        _assert_time_axis(ax, kind)
+    assert fig.axes[-1].get_xlabel() == LABELS[kind]
+    if index is not None:
+        assert [ax.get_ylabel() for ax in fig.axes] == ["p", "v"]
+
+
+def test_a_short_dated_forecast_takes_the_times_of_its_history():
+    """Two monthly forecast dates do not tell a month from 31 days: the history's times are
+    given (or come with a pandas history), never guessed."""
+    data, x, u, index = _recording("monthly")
+    model = ltv.fit(x, u, lam=10.0)
+    forecast = model.forecast(data.x[-1], np.zeros(2))
+    with pytest.raises(ValueError, match="^history_time: the times of the history cannot be"):
+        forecast.plot(history=data.x[-10:])
+    expected = _x(model.time[-10:])
+    fig = forecast.plot(history=data.x[-10:], history_time=model.time[-10:])
+    np.testing.assert_allclose(fig.axes[0].lines[0].get_xdata(orig=False), expected)
+    fig = forecast.plot(history=x.iloc[-10:])  # a DataFrame's index
+    np.testing.assert_allclose(fig.axes[0].lines[0].get_xdata(orig=False), expected)
+    with pytest.raises(ValueError, match=r"^history_time: expected dates as the forecast's"):
+        forecast.plot(history=data.x[-3:], history_time=[1.0, 2.0, 3.0])
+    late = np.concatenate([model.time[-2:], forecast.time[:1]])
+    with pytest.raises(ValueError, match=r"^history_time: expected times before the forecast"):
+        forecast.plot(history=data.x[-3:], history_time=late)
+    with pytest.raises(ValueError, match=r"^history_time: expected 3 times"):
+        forecast.plot(history=data.x[-3:], history_time=model.time[-4:])
+
+
+def test_a_simulation_is_drawn_against_the_times_of_the_data():
+    pd = pytest.importorskip("pandas")
+    data, x, u, index = _recording("daily")
+    model = ltv.fit(x, u, lam=10.0)
+    prediction = model.predict(data.x, data.u)
+    fig = plotting.plot_simulation(x, prediction, start=1, label="one-step prediction")
+    assert [ax.get_title().split(":")[0] for ax in fig.axes] == ["p", "v"]  # its columns
+    data_line, prediction_line = fig.axes[0].lines
+    np.testing.assert_allclose(data_line.get_xdata(orig=False), _x(index.to_numpy()))
+    np.testing.assert_allclose(prediction_line.get_xdata(orig=False), _x(index.to_numpy()[1:]))
+    assert fig.axes[-1].get_xlabel() == "date"
+    _assert_time_axis(fig.axes[-1], "daily")
+    years = pd.Index(1900.0 + np.arange(data.T), name="year")
+    fig = plotting.plot_simulation(data.x, prediction, start=1, time=years)
+    np.testing.assert_allclose(fig.axes[0].lines[1].get_xdata(), years[1:])
+    assert fig.axes[-1].get_xlabel() == "year"
+    with pytest.raises(ValueError, match=r"^time: expected 120 times \(one per sample\)"):
+        plotting.plot_simulation(data.x, prediction, start=1, time=years[1:])
+    with pytest.raises(ValueError, match=r"^time: expected strictly increasing times"):
+        plotting.plot_simulation(data.x, prediction, start=1, time=years[::-1])
+    with pytest.raises(TypeError, match=r"^time: expected dates .* or numbers"):
+        plotting.plot_simulation(data.x, prediction, start=1, time=["a"] * data.T)
+
+
+@pytest.mark.parametrize("freq", ["D", "MS", "QS"])
+def test_date_tick_labels_do_not_overlap(freq):
+    """Five narrow coefficient panels per row still get readable, separate date labels."""
+    pd = pytest.importorskip("pandas")
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    rw = systems.random_walk_system(T=200, seed=0)  # n = 3, m = 2: five columns
+    days = pd.date_range("2001-01-01", periods=rw.T, freq=freq)
+    model = ltv.fit(pd.DataFrame(rw.x, index=days), pd.DataFrame(rw.u, index=days), lam=30.0)
+    fig = plotting.plot_model(model)
+    FigureCanvasAgg(fig).draw()
+    renderer = fig.canvas.get_renderer()
+    bottom = [ax for ax in fig.axes if any(t.get_text() for t in ax.get_xticklabels())]
+    assert len(bottom) == 5 + 2  # the last row of coefficients, activation, eigenvalues
+    for ax in bottom:
+        _assert_time_axis(ax, "daily")
+        labels = [label for label in ax.get_xticklabels() if label.get_text()]
+        boxes = sorted((label.get_window_extent(renderer) for label in labels), key=lambda b: b.x0)
+        assert len(boxes) >= 2
+        assert all(left.x1 < right.x0 for left, right in zip(boxes, boxes[1:]))
+
+
+def test_the_time_axis_name_is_kept_with_the_model(tmp_path):
+    """The index's (time column's) name is part of model.data: saved, loaded, and carried by
+    fit_many's models; figures label their time axis with it."""
+    pytest.importorskip("pandas")
+    data, x, u, index = _recording("daily")
+    model = ltv.fit(x, u, lam=10.0)
+    assert model.data.time_name == "date"
+    model.save(tmp_path / "m.npz")
+    loaded = ltv.load(tmp_path / "m.npz")
+    assert loaded.data.time_name == "date" and loaded.plot().axes[-1].get_xlabel() == "date"
+    unnamed = ltv.fit(x.rename_axis(None), u.rename_axis(None), lam=10.0)
+    assert unnamed.data.time_name is None and unnamed.plot().axes[-1].get_xlabel() == "time"
+    frame = x.reset_index().assign(f=data.u[:, 0], unit="a")
+    models = ltv.fit_many(
+        frame, by="unit", state=["p", "v"], inputs="f", time="date", lam=10.0, n_jobs=1
+    )
+    assert models["a"].data.time_name == "date"
+    assert models["a"].plot().axes[-1].get_xlabel() == "date"
+
+
+def test_every_result_plot_returns_a_figure(data):
+    """Models, forecasts and segmentations return their Figure already; the λ selection and
+    the Kalman results do too, and a fig= fills a given figure where ax= existed."""
+    selection = ltv.select_lambda(data.x, data.u, norm="sq", lams=[1.0, 10.0, 100.0])
+    fig = selection.plot()
+    assert isinstance(fig, Figure) and len(fig.axes) == 1
+    ax = Figure().subplots(1, 2)[1]
+    assert selection.plot(ax=ax) is ax.figure and len(ax.lines) >= 1
+    given = Figure()
+    given.add_subplot()
+    assert selection.plot(fig=given) is given and len(given.axes) == 1
+    with pytest.raises(TypeError, match=r"^fig, ax: expected one of them, received both"):
+        selection.plot(ax=ax, fig=given)
+    armodel = ltv.fit_ar(_ar2_series(), 2, lam=30.0)
+    assert armodel.plot(fig=given) is given and given.axes[0].get_title().startswith("Root")
+    for result in (
+        ltv.kalman_filter(data.x, data.u, lam=30.0),
+        ltv.kalman_smoother(data.x, data.u, lam=30.0),
+    ):
+        fig = result.plot(truth=data)
+        assert isinstance(fig, Figure) and len(fig.axes) == 6
+        assert all(len(ax.collections) == 1 for ax in fig.axes)  # the ±2σ bands
+        np.testing.assert_array_equal(fig.axes[0].lines[0].get_xdata(), np.arange(1, data.T))
+        full = np.sqrt(np.diagonal(result.cov_full(), axis1=1, axis2=2))
+        np.testing.assert_allclose(result.std(), full, rtol=1e-12)

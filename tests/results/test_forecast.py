@@ -419,7 +419,7 @@ def test_forecast_plot_draws_mean_and_band(data):
     fig = f.plot(history=x[-20:])
     assert isinstance(fig, Figure) and len(fig.axes) == 2
     assert [ax.get_ylabel() for ax in fig.axes] == ["x0", "x1"]
-    assert fig.axes[-1].get_xlabel() == "t"
+    assert fig.axes[-1].get_xlabel() == "sample"  # no time axis: sample indices
     for ax in fig.axes:
         assert len(ax.collections) == 1  # the band
         assert any(np.array_equal(line.get_xdata(), f.time) for line in ax.lines)

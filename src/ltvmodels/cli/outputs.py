@@ -170,7 +170,10 @@ def model_figure(outputs: Outputs, model: Any, changepoints: np.ndarray, title: 
 
 
 def record_columns(
-    model: Any, columns: dict[str, list[str]], time: np.ndarray | None = None
+    model: Any,
+    columns: dict[str, list[str]],
+    time: np.ndarray | None = None,
+    time_name: str | None = None,
 ) -> Any:
     """The fitted model described by the data's columns (a new model; ``model`` is unchanged).
 
@@ -187,10 +190,12 @@ def record_columns(
         inputs may be empty) or ``{"output": ...}``.
     time : ndarray, optional
         The samples' times (``--time``).
+    time_name : str, optional
+        The name of their column (figures label the time axis with it).
     """
     # An autonomous model has no input signals to name.
     names = {role: names for role, names in columns.items() if names or role != "input"}
-    return model.with_data(model.data.renamed(names, time))
+    return model.with_data(model.data.renamed(names, time, time_name))
 
 
 def write_outputs(

@@ -47,6 +47,8 @@ class StateSpaceData:
         (T - 1,) the transitions' weights (``--weights``).
     time : ndarray or None
         (T,) the samples' times (``--time``).
+    time_name : str or None
+        The name of the ``--time`` column.
     """
 
     label: str
@@ -56,6 +58,7 @@ class StateSpaceData:
     input_names: list[str]
     weights: np.ndarray | None
     time: np.ndarray | None
+    time_name: str | None = None
 
 
 @dataclass(frozen=True)
@@ -114,9 +117,10 @@ def state_space_data(args: argparse.Namespace) -> StateSpaceData:
     input_names, u = cols["input"] if cols["input"] is not None else ([], None)
     weights = _equation_weights(cols["weights"], 1)  # a transition predicts x[t + 1]
     time, grid = _time_axis(cols["time"], x, state_names)
+    time_name = None if cols.get("time") is None else cols["time"][0][0]
     if grid is not None:
         x, u, weights = _spread(grid, x), _spread(grid, u), _spread_weights(grid, weights, 1)
-    return StateSpaceData(label, x, u, state_names, input_names, weights, time)
+    return StateSpaceData(label, x, u, state_names, input_names, weights, time, time_name)
 
 
 def column_data(args: argparse.Namespace) -> ColumnData:

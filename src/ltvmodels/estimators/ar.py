@@ -385,6 +385,7 @@ def _describe(
         time,
         n_trajectories=y.shape[0],
         n_missing=model.n_missing,
+        time_name=arrays.time_name(y_data),
         tail=DataTail.of(y, u, model.tail_lengths),
     )
     return model

@@ -393,6 +393,7 @@ def _table_units(
     bounds = np.searchsorted(codes[order], np.arange(len(uniques) + 1))
     state_names = [str(name) for name in state]
     input_names = [str(name) for name in inputs]
+    time_name = str(time_column[0]) if time_column else None
     units = []
     for position, unit in enumerate(uniques.tolist()):
         a, b = int(bounds[position]), int(bounds[position + 1])
@@ -409,10 +410,10 @@ def _table_units(
             _UnitData(
                 unit,
                 position,
-                arrays.LabelledSeries(x_all[a:b], state_names, unit_time),
+                arrays.LabelledSeries(x_all[a:b], state_names, unit_time, time_name),
                 None
                 if u_all is None
-                else arrays.LabelledSeries(u_all[a:b], input_names, unit_time),
+                else arrays.LabelledSeries(u_all[a:b], input_names, unit_time, time_name),
                 None if w_all is None else w_all[a : b - 1],
                 T=b - a,
                 error=error,

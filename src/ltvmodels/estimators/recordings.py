@@ -53,6 +53,8 @@ class StateSpaceData:
         The column names of pandas inputs (None: the data had none).
     time : ndarray, shape (T,), or None
         The index of a pandas ``x`` (dates as datetime64[ns], or numbers).
+    time_name : str or None
+        The name of that index.
     """
 
     problem: RegressionProblem
@@ -63,6 +65,7 @@ class StateSpaceData:
     state_names: list[str] | None = None
     input_names: list[str] | None = None
     time: np.ndarray | None = None
+    time_name: str | None = None
 
     @property
     def n(self) -> int:
@@ -94,6 +97,7 @@ class StateSpaceData:
             self.time,
             n_trajectories=self.x.shape[0],
             n_missing=self.n_missing,
+            time_name=self.time_name,
         )
 
     def describe(self, model: Any) -> Any:
@@ -157,6 +161,7 @@ def state_space_data(
         state_names=arrays.column_names(x_data, x.shape[2]),
         input_names=arrays.column_names(u_data, u.shape[2]),
         time=None if grid is None else grid.time,
+        time_name=arrays.time_name(x_data),
     )
 
 
@@ -261,6 +266,7 @@ def regression_data(
         None if grid is None else grid.time,
         n_trajectories=problem.q,
         n_missing=problem.N * problem.q - problem.n_observed,
+        time_name=arrays.time_name(names["output"]),
     )
     return problem, description
 

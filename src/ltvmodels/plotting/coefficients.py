@@ -9,6 +9,7 @@ from numpy.typing import ArrayLike
 
 from ..validation import arrays
 from .figure import ESTIMATE_COLOR, new_axes, new_figure
+from .timeaxis import step_axis
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
@@ -18,6 +19,41 @@ __all__ = ["plot_coefficients", "plot_activation", "plot_eigenvalues", "plot_pol
 
 MODELS_WITH_CHANGEPOINTS = ("group", "l1", "piecewise", "l0", "lti")
 """Norms of the models whose ``changepoints`` were found by the fit itself."""
+
+CHANGE_COLOR = "C3"
+"""Colour of the change-point markers."""
+
+
+def _own_changepoints(model: Any) -> np.ndarray | None:
+    """The change points the fit of ``model`` found itself (sparse norms, and models
+    piecewise constant by construction); None for the others (a squared-norm fit)."""
+    if getattr(model, "norm", None) in MODELS_WITH_CHANGEPOINTS:
+        return np.asarray(model.changepoints)
+    return None
+
+
+def _changepoint_steps(changepoints: ArrayLike, N: int) -> np.ndarray:
+    """Change points as step indices 0 … N − 1 (a new array), or an error naming them."""
+    marks = arrays.as_float_array(changepoints, "changepoints").ravel()
+    if np.any(marks != np.round(marks)) or np.any(marks < 0) or np.any(marks > N - 1):
+        raise ValueError(
+            f"changepoints: expected step indices c (integers 0 … {N - 1}, as "
+            f"model.changepoints), received {marks.tolist()}"
+        )
+    return marks.astype(int)
+
+
+def _mark_changes(ax: Axes, positions: np.ndarray) -> None:
+    """Dashed vertical lines at the change points' ``positions`` on the time axis (the
+    first labelled for the legend)."""
+    for i, position in enumerate(positions):
+        ax.axvline(
+            position,
+            color=CHANGE_COLOR,
+            linestyle="--",
+            linewidth=1.0,
+            label="change points" if i == 0 else None,
+        )
 
 
 def _model_theta(model: Any) -> tuple[np.ndarray, list[list[str]]]:
@@ -87,9 +123,22 @@ def _truth_theta(truth: Any, N: int, n: int, p: int) -> np.ndarray:
 
 
 def plot_coefficients(
-    model: Any, truth: Any = None, *, bands: bool = True, fig: Figure | None = None
+    model: Any,
+    truth: Any = None,
+    *,
+    bands: bool = True,
+    changepoints: ArrayLike | None = None,
+    fig: Figure | None = None,
 ) -> Figure:
     """Plot every coefficient of [A_t B_t] (or of Θ_t) over time, one subplot each.
+
+    The time axis is the data's (:mod:`ltvmodels.plotting.timeaxis`): dates on a
+    date axis or numbers, labelled with the time axis' name, or the sample index
+    ("sample") without one. Θ_t is drawn at the sample it produces (x[t + 1] of a
+    state-space model, y[t] of a regression, y[lag + t] of an AR/ARX model), so a
+    change shows where ``model.changepoint_times`` marks it. (For a state-space
+    model that is one sample after ``model.step_times``, the time of x[t] that
+    indexes ``model.to_frame()``.)
 
     Parameters
     ----------
@@ -107,6 +156,12 @@ def plot_coefficients(
         Shade ±2 posterior standard deviations (``model.std()``) around the
         estimates, when the model has covariances (``norm="sq"`` fits with
         ``compute_cov=True``); otherwise no bands are drawn.
+    changepoints : array_like of int, optional
+        Change points c (step indices, as ``model.changepoints``) to mark with
+        dashed red vertical lines at the sample each first produces (for the
+        model's own: ``model.changepoint_times``). Default: those the model
+        found itself (norms "group", "l1", "piecewise", "l0", "lti"); none for
+        a squared-norm fit. An empty sequence marks none.
     fig : matplotlib.figure.Figure, optional
         Figure to draw into; it is cleared first. Default: a new
         :class:`~matplotlib.figure.Figure` (no pyplot, no display needed).
@@ -116,8 +171,9 @@ def plot_coefficients(
     matplotlib.figure.Figure
         With n × (n + m) axes in row-major order, titled ``"A[x0,x1]"`` /
         ``"B[x0,u0]"`` by the model's state and input names (a regression:
-        n × p axes titled "output:regressor"); the x axis is the model index
-        t = 0 … N − 1.
+        n × p axes titled "output:regressor"); in each, the estimate is
+        ``ax.lines[0]`` (x data: the times of the N steps), the truth
+        ``ax.lines[1]`` and the change points follow.
 
     Raises
     ------
@@ -129,6 +185,9 @@ def plot_coefficients(
     theta, names = _model_theta(model)
     N, n, p = theta.shape
     truth_theta = None if truth is None else _truth_theta(truth, N, n, p)
+    if changepoints is None:
+        changepoints = _own_changepoints(model)
+    marks = None if changepoints is None else _changepoint_steps(changepoints, N)
     std = None
     if bands and callable(getattr(model, "std", None)):
         std = model.std()
@@ -144,7 +203,8 @@ def plot_coefficients(
     else:
         fig.clear()
     axes = fig.subplots(n, p, sharex=True, squeeze=False)
-    t = np.arange(N)
+    axis = step_axis(model, N)
+    t = axis.values
     for i in range(n):
         for j in range(p):
             ax = axes[i, j]
@@ -170,12 +230,13 @@ def plot_coefficients(
                     linewidth=1.2,
                     label="truth",
                 )
+            if marks is not None:
+                _mark_changes(ax, t[marks])
             ax.set_title(names[i][j])
             ax.grid(True, alpha=0.3)
             if j == 0:
                 ax.set_ylabel("coefficient")
-            if i == n - 1:
-                ax.set_xlabel("t")
+            axis.draw_on(ax, label=i == n - 1)
     axes[0, 0].legend(fontsize="small", loc="best")
     return fig
 
@@ -186,7 +247,11 @@ def plot_activation(
     """Plot the activation ‖(Dk)_t‖ of the model over time.
 
     Large values mark where the coefficients change (paper Section III); with
-    a sparse norm they are the change points.
+    a sparse norm they are the change points. The time axis is the data's, as
+    in :func:`plot_coefficients`: point t, which compares k_t … k_{t+d}, is
+    drawn where step t + ⌈d/2⌉ is (d the degree of the model's difference
+    operator), so that a change between k_{c−1} and k_c peaks at step c, where
+    its marker is.
 
     Parameters
     ----------
@@ -196,19 +261,19 @@ def plot_activation(
     ax : matplotlib.axes.Axes, optional
         Axes to draw into. Default: the single axes of a new Figure.
     changepoints : array_like of int, optional
-        Change points c to mark (e.g. :func:`ltvmodels.find_changepoints` of
-        the model, or ``model.changepoints``), drawn as dashed red vertical
-        lines at activation index t = c − ⌈d/2⌉, where a change between
-        k_{c−1} and k_c shows (d the degree of the model's difference
-        operator, 1 when it has none); an empty sequence draws a legend entry
-        only.
+        Change points c (step indices: e.g. :func:`ltvmodels.find_changepoints`
+        of the model, or ``model.changepoints``), drawn as dashed red vertical
+        lines at the sample step c produces (``model.changepoint_times`` for the
+        model's own), where a change between k_{c−1} and k_c shows (activation
+        index t = c − ⌈d/2⌉, d the degree of the model's difference operator, 1
+        when it has none); the legend's title lists those times. An empty
+        sequence draws a legend entry only.
 
     Returns
     -------
     matplotlib.axes.Axes
         The axes (``ax.figure`` is its figure). Point t shows ‖(Dk)_t‖, where
-        (Dk)_t = Σ_j c_j k_{t+j} involves k_t … k_{t+d}; for order 1 a jump
-        between k_{c−1} and k_c shows at t = c − 1. ``ax.lines[0]`` is the
+        (Dk)_t = Σ_j c_j k_{t+j} involves k_t … k_{t+d}. ``ax.lines[0]`` is the
         activation, the change-point lines follow it.
     """
     if not callable(getattr(model, "activation", None)):
@@ -216,36 +281,30 @@ def plot_activation(
             f"model: expected an object with an activation() method such as an "
             f"LTVModel, received {type(model).__name__}"
         )
-    marks = None
-    if changepoints is not None:
-        marks = arrays.as_float_array(changepoints, "changepoints").ravel()
-        if np.any(marks != np.round(marks)):
-            raise ValueError(f"changepoints: expected integers, received {marks.tolist()}")
     act = np.asarray(model.activation(), dtype=float)
+    coeffs = getattr(model, "coeffs", None)
+    degree = 1 if coeffs is None else max(len(np.atleast_1d(coeffs)) - 1, 1)
+    shift = (degree + 1) // 2
+    axis = step_axis(model, act.shape[0] + degree)  # N steps give N − d activations
+    marks = None if changepoints is None else _changepoint_steps(changepoints, axis.values.size)
     if ax is None:
         ax = new_axes((7.0, 2.8))
     ax.plot(
-        np.arange(act.shape[0]), act, color=ESTIMATE_COLOR, linewidth=1.2, label=r"$\|(Dk)_t\|$"
+        axis.values[shift : shift + act.shape[0]],
+        act,
+        color=ESTIMATE_COLOR,
+        linewidth=1.2,
+        label=r"$\|(Dk)_t\|$",
     )
     if marks is not None:
-        coeffs = getattr(model, "coeffs", None)
-        degree = 1 if coeffs is None else max(len(np.atleast_1d(coeffs)) - 1, 1)
-        shift = (degree + 1) // 2
-        for i, c in enumerate(marks.astype(int)):
-            ax.axvline(
-                c - shift,
-                color="C3",
-                linestyle="--",
-                linewidth=1.0,
-                label="change points" if i == 0 else None,
-            )
-        found = ", ".join(str(int(c)) for c in marks) if marks.size else "none"
-        if not marks.size:
-            ax.plot([], [], color="C3", linestyle="--", linewidth=1.0, label="change points")
+        _mark_changes(ax, axis.values[marks])
+        found = ", ".join(axis.text(axis.values[marks])) if marks.size else "none"
+        if not marks.size:  # a legend entry only
+            ax.plot([], [], color=CHANGE_COLOR, linestyle="--", label="change points")
         ax.legend(
             fontsize="small", loc="upper right", title=f"detected: {found}", title_fontsize="small"
         )
-    ax.set_xlabel("t")
+    axis.draw_on(ax)
     ax.set_ylabel(r"$\|(Dk)_t\|$")
     ax.set_title("Activation")
     ax.set_ylim(bottom=0)
@@ -267,8 +326,9 @@ def _dynamics_eigenvalues(model: Any) -> tuple[np.ndarray, str, str]:
 def plot_eigenvalues(model: Any, ax: Axes | None = None) -> Axes:
     """Plot the magnitudes of the eigenvalues of A_t over time.
 
-    Curve i is the i-th largest abs(λ(A_t)) at each t; the dotted line marks the
-    frozen-time stability limit abs(λ) = 1.
+    Curve i is the i-th largest abs(λ(A_t)) at each t, on the data's time axis
+    as in :func:`plot_coefficients`; the dotted line marks the frozen-time
+    stability limit abs(λ) = 1.
 
     Parameters
     ----------
@@ -287,11 +347,11 @@ def plot_eigenvalues(model: Any, ax: Axes | None = None) -> Axes:
     mag = np.sort(np.abs(eig), axis=1)[:, ::-1]  # (N, n), largest first
     if ax is None:
         ax = new_axes((7.0, 2.8))
-    t = np.arange(mag.shape[0])
+    axis = step_axis(model, mag.shape[0])
     for i in range(mag.shape[1]):
-        ax.plot(t, mag[:, i], linewidth=1.2, label=rf"$|\lambda_{{{i + 1}}}|$")
+        ax.plot(axis.values, mag[:, i], linewidth=1.2, label=rf"$|\lambda_{{{i + 1}}}|$")
     ax.axhline(1.0, color="black", linestyle=":", linewidth=1.0, label=r"$|\lambda| = 1$")
-    ax.set_xlabel("t")
+    axis.draw_on(ax)
     ax.set_ylabel(rf"$|\lambda({symbol})|$")
     ax.set_title(f"Magnitudes of the {title}")
     ax.set_ylim(bottom=0, top=max(1.1, float(mag.max(initial=0.0)) * 1.05))
@@ -373,12 +433,12 @@ def plot_model(
     truth : optional
         As in :func:`plot_coefficients`.
     changepoints : array_like of int, optional
-        Change points to mark on the activation. Default: the change points
-        the model found itself (``model.changepoints`` for the sparse norms
-        "group" and "l1", and for models piecewise constant by construction:
-        "piecewise", "l0", "lti"); none for a squared-norm fit, whose
-        activation has no sparse peaks: pass
-        ``changepoints=ltvmodels.find_changepoints(model)`` to mark the
+        Change points to mark on the coefficients and the activation.
+        Default: the change points the model found itself
+        (``model.changepoints`` for the sparse norms "group" and "l1", and for
+        models piecewise constant by construction: "piecewise", "l0", "lti");
+        none for a squared-norm fit, whose activation has no sparse peaks:
+        pass ``changepoints=ltvmodels.find_changepoints(model)`` to mark the
         detected ones.
     fig : matplotlib.figure.Figure, optional
         Figure to draw into; it is cleared first. Default: a new Figure.
@@ -391,8 +451,8 @@ def plot_model(
     """
     theta, _ = _model_theta(model)
     _, n, p = theta.shape
-    if changepoints is None and getattr(model, "norm", None) in MODELS_WITH_CHANGEPOINTS:
-        changepoints = np.asarray(model.changepoints)
+    if changepoints is None:
+        changepoints = _own_changepoints(model)
     if fig is None:
         fig = new_figure((min(2.6 * p + 0.6, 18.0), min(1.9 * n + 0.5, 14.0) + 2.8))
     else:
@@ -400,7 +460,9 @@ def plot_model(
     top, bottom = fig.subfigures(
         2, 1, squeeze=False, height_ratios=[min(1.9 * n + 0.5, 14.0), 2.8]
     )[:, 0]
-    plot_coefficients(model, truth=truth, fig=top)
+    plot_coefficients(
+        model, truth=truth, changepoints=[] if changepoints is None else changepoints, fig=top
+    )
     dynamics = hasattr(model, "A") or callable(getattr(model, "poles", None))
     axes = bottom.subplots(1, 2 if dynamics else 1, squeeze=False)[0]
     plot_activation(model, ax=axes[0], changepoints=changepoints)

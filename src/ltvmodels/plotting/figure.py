@@ -20,7 +20,15 @@ if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-__all__ = ["ESTIMATE_COLOR", "new_figure", "new_axes", "output_file", "image_file", "save_figure"]
+__all__ = [
+    "ESTIMATE_COLOR",
+    "new_figure",
+    "new_axes",
+    "axes_in",
+    "output_file",
+    "image_file",
+    "save_figure",
+]
 
 ESTIMATE_COLOR = "C0"
 """Colour of estimated quantities in every figure."""
@@ -36,6 +44,26 @@ def new_figure(figsize: tuple[float, float]) -> Figure:
 def new_axes(figsize: tuple[float, float]) -> Axes:
     """The single Axes of a new :func:`new_figure`."""
     return new_figure(figsize).add_subplot()
+
+
+def axes_in(fig: Any, ax: Any) -> Axes | None:
+    """The axes a one-panel figure draws into: ``ax``; or the single axes of ``fig``, which
+    is cleared first; or None (the figure function makes a new figure).
+
+    Raises
+    ------
+    TypeError
+        Both ``fig`` and ``ax``.
+    """
+    if fig is None:
+        return ax
+    if ax is not None:
+        raise TypeError(
+            "fig, ax: expected one of them, received both; pass ax to draw into one axes "
+            "of a figure, or fig to fill a whole figure"
+        )
+    fig.clear()
+    return fig.add_subplot()
 
 
 def output_file(out: Any, option: str = "out") -> Path:

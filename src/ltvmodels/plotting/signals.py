@@ -9,7 +9,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..validation import arrays, options
+from ..validation.time import preceding
 from .figure import ESTIMATE_COLOR, new_axes, new_figure
+from .timeaxis import SAMPLE_LABEL, TIME_LABEL, TimeAxis, given_axis, spectral_units, step_axis
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
@@ -25,6 +27,7 @@ def plot_simulation(
     start: int = 0,
     names: Sequence[str] | None = None,
     label: str = "simulation",
+    time: ArrayLike | None = None,
     fig: Figure | None = None,
 ) -> Figure:
     """Plot a simulation or prediction against the recorded data, one subplot per signal.
@@ -32,7 +35,9 @@ def plot_simulation(
     Parameters
     ----------
     data : array_like, shape (T, n) or (T,)
-        Recorded signals (e.g. the states x), drawn solid.
+        Recorded signals (e.g. the states x), drawn solid. A pandas DataFrame
+        (or named Series) names the subplots with its columns and, with a time
+        index, gives the time axis.
     simulation : array_like, shape (S, n) or (S,)
         Simulated or predicted signals, drawn dashed; row j belongs to time
         ``start + j`` of ``data`` (``model.simulate(x[0], u)``: start 0;
@@ -42,17 +47,23 @@ def plot_simulation(
         Time index of the first row of ``simulation``, with
         ``start + S <= T``.
     names : sequence of str, optional
-        Titles of the n subplots (default "x[0]", "x[1]", …).
+        Titles of the n subplots. Default: the columns of a pandas ``data``,
+        else "x[0]", "x[1]", ….
     label : str, default "simulation"
         Legend label of the dashed curves (e.g. "one-step prediction").
+    time : array_like, shape (T,), or pandas Index, optional
+        The time of each row of ``data`` (dates or numbers, increasing; e.g.
+        ``model.time``); a pandas Index names the axis. Default: the time
+        index of a pandas ``data``, else the sample indices ("sample").
     fig : matplotlib.figure.Figure, optional
         Figure to draw into; it is cleared first. Default: a new Figure.
 
     Returns
     -------
     matplotlib.figure.Figure
-        With n axes stacked vertically (shared time axis); each title gives
-        the RMS error of the simulation against the data over its rows.
+        With n axes stacked vertically (shared time axis: dates on a date
+        axis, numbers, or samples); each title gives the RMS error of the
+        simulation against the data over its rows.
 
     Raises
     ------
@@ -78,8 +89,9 @@ def plot_simulation(
             f"simulation: rows start .. start + S = {start} .. {start + S} do not "
             f"fit in the T = {T} rows of data"
         )
+    axis = _series_axis(data, time, T, "time")
     if names is None:
-        names = [f"x[{i}]" for i in range(n)]
+        names = arrays.column_names(data, n) or [f"x[{i}]" for i in range(n)]
     else:
         if isinstance(names, str):
             raise TypeError(f"names: expected a sequence of {n} strings, received {names!r}")
@@ -93,8 +105,8 @@ def plot_simulation(
     else:
         fig.clear()
     axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
-    t_data = np.arange(T)
-    t_sim = start + np.arange(S)
+    t_data = axis.values
+    t_sim = axis.values[start : start + S]
     with np.errstate(over="ignore", invalid="ignore"):
         err = sim - x[start : start + S]
         rms = np.sqrt(np.mean(err**2, axis=0)) if S else np.full(n, np.nan)
@@ -110,15 +122,34 @@ def plot_simulation(
         high = min(float(finite.max()), x[:, i].max() + 2 * span)
         pad = 0.05 * ((high - low) or 1.0)
         ax.set_ylim(low - pad, high + pad)
-    axes[-1].set_xlabel("t")
+        axis.draw_on(ax, label=ax is axes[-1])
     axes[0].legend(fontsize="small", loc="best")
     return fig
 
 
+def _series_axis(data: Any, time: Any, count: int, name: str) -> TimeAxis:
+    """The time axis of ``count`` rows of ``data``: ``time`` (the argument ``name``) when
+    given, else the time index of a pandas ``data``, else the sample indices."""
+    if time is not None:
+        return given_axis(time, count, name)
+    stamps = arrays.time_index(data, count)
+    if stamps is None:
+        return TimeAxis(np.arange(count), SAMPLE_LABEL)
+    return TimeAxis(stamps, arrays.time_name(data) or TIME_LABEL)
+
+
 def plot_forecast(
-    forecast: Any, *, history: ArrayLike | None = None, fig: Figure | None = None
+    forecast: Any,
+    *,
+    history: ArrayLike | None = None,
+    history_time: ArrayLike | None = None,
+    fig: Figure | None = None,
 ) -> Figure:
     """Plot a forecast: its mean and prediction interval, one subplot per state (output).
+
+    The forecast is drawn at its times (``forecast.time``: the model's time axis
+    continued, dates on a date axis, or sample indices), the history before it
+    on the same axis.
 
     Parameters
     ----------
@@ -126,28 +157,36 @@ def plot_forecast(
         From :meth:`ltvmodels.LTVModel.forecast` or
         :meth:`ltvmodels.ARXModel.forecast` (any object with ``mean``,
         ``lower``, ``upper`` (steps, n), ``time`` (steps,), ``level`` and
-        ``names``).
+        ``names``; optionally ``time_name``, the name of the time axis).
     history : array_like, shape (H, n) or (H,), optional
-        Recorded samples leading up to the forecast, drawn solid in black:
-        row i belongs to time ``time[0] − (H − i)·Δ`` with Δ one sample (for a
-        dated forecast the step between its first two times) (pass the end of
-        the data, e.g. ``x[-50:]``). A line joins the last of them to the
-        first forecast.
+        Recorded samples leading up to the forecast, drawn solid in black
+        (pass the end of the data, e.g. ``x[-50:]``, or of a pandas
+        DataFrame, whose index gives their times). A line joins the last of
+        them to the first forecast.
+    history_time : array_like, shape (H,), or pandas Index, optional
+        The times of the rows of ``history`` (e.g. ``model.time[-50:]``).
+        Default: the index of a pandas ``history``; else the samples before
+        ``forecast.time`` on its grid: sample indices, the step of numbers,
+        the frequency of dates (which at least three forecast times tell;
+        pass ``history_time`` for a shorter dated forecast).
     fig : matplotlib.figure.Figure, optional
         Figure to draw into; it is cleared first. Default: a new Figure.
 
     Returns
     -------
     matplotlib.figure.Figure
-        With n axes stacked vertically (shared time axis "t"), each with the
+        With n axes stacked vertically (a shared time axis, labelled with
+        ``forecast.time_name``, else the name of a pandas ``history_time``'s
+        index, else "time", or "sample" for sample indices), each with the
         state's name as y label, the mean as a line and the interval as a
         band (``ax.collections[0]``).
 
     Raises
     ------
     TypeError, ValueError
-        A ``forecast`` without those attributes, or a ``history`` whose
-        columns do not match.
+        A ``forecast`` without those attributes, a ``history`` whose columns
+        do not match, or history times that are not of the forecast's kind,
+        do not come before it, or cannot be told.
     """
     needed = ("mean", "lower", "upper", "time", "level", "names")
     if not all(hasattr(forecast, name) for name in needed):
@@ -158,10 +197,8 @@ def plot_forecast(
     mean = np.asarray(forecast.mean, dtype=float)
     lower = np.asarray(forecast.lower, dtype=float)
     upper = np.asarray(forecast.upper, dtype=float)
-    time = np.asarray(forecast.time)
-    dated = np.issubdtype(time.dtype, np.datetime64)
-    if not dated:
-        time = time.astype(float)
+    axis = _forecast_axis(np.asarray(forecast.time), getattr(forecast, "time_name", None))
+    time = axis.values
     steps, n = mean.shape
     names = list(forecast.names)
     past = None
@@ -173,6 +210,9 @@ def plot_forecast(
                 f"history: expected shape (H, {n}) (one column per state of the "
                 f"forecast), received {past.shape}"
             )
+        past_axis = _history_axis(history, history_time, past.shape[0], axis)
+        if axis.label == TIME_LABEL:  # a forecast without the name of its axis
+            axis = TimeAxis(axis.values, past_axis.label)
     if fig is None:
         fig = new_figure((8.0, min(1.9 * n + 0.6, 14.0)))
     else:
@@ -190,13 +230,7 @@ def plot_forecast(
             label=band,
         )
         if past is not None and past.shape[0]:
-            # one sample per step before the forecast (for dates: the forecast's step)
-            step = (
-                (time[1] - time[0])
-                if dated and steps > 1
-                else (np.timedelta64(1, "D") if dated else 1.0)
-            )
-            t_past = time[0] - (past.shape[0] - np.arange(past.shape[0])) * step
+            t_past = past_axis.values
             ax.plot(t_past, past[:, i], color="black", linewidth=1.0, label="data")
             ax.plot(
                 [t_past[-1], time[0]],
@@ -215,12 +249,52 @@ def plot_forecast(
         )
         ax.set_ylabel(names[i])
         ax.grid(True, alpha=0.3)
-    axes[-1].set_xlabel("time" if dated else "t")
-    if dated:
-        fig.autofmt_xdate()
+        axis.draw_on(ax, label=ax is axes[-1])
     axes[0].set_title(f"Forecast, {steps} step{'s' if steps > 1 else ''}", fontsize="medium")
     axes[0].legend(fontsize="small", loc="best")
     return fig
+
+
+def _forecast_axis(time: np.ndarray, name: str | None) -> TimeAxis:
+    """The time axis of a forecast's times: dates or numbers (named ``name``), or sample
+    indices (integers)."""
+    if np.issubdtype(time.dtype, np.integer):
+        return TimeAxis(time, SAMPLE_LABEL)
+    if np.issubdtype(time.dtype, np.datetime64):
+        return TimeAxis(time.astype("datetime64[ns]"), name or TIME_LABEL)
+    return TimeAxis(time.astype(float), name or TIME_LABEL)
+
+
+def _history_axis(history: Any, history_time: Any, count: int, forecast: TimeAxis) -> TimeAxis:
+    """The times of the ``count`` rows of a forecast's history (see :func:`plot_forecast`)."""
+    if history_time is not None or arrays.time_index(history, count) is not None:
+        axis = _series_axis(history, history_time, count, "history_time")
+        if axis.dated != forecast.dated:
+            kinds = ("numbers", "dates")
+            raise ValueError(
+                f"history_time: expected {kinds[forecast.dated]} as the forecast's times, "
+                f"received {kinds[axis.dated]}; pass the times of the history on the "
+                "forecast's time axis (e.g. model.time[-H:])"
+            )
+        if count and not axis.values[-1] < forecast.values[0]:
+            raise ValueError(
+                f"history_time: expected times before the forecast's first "
+                f"({forecast.text(forecast.values[:1])[0]}), received "
+                f"{axis.text(axis.values[-1:])[0]} for the last row of history"
+            )
+        return axis
+    if forecast.samples:
+        return TimeAxis(forecast.values[0] - np.arange(count, 0, -1), SAMPLE_LABEL)
+    before = preceding(forecast.values, count)
+    if before is None:
+        times = ", ".join(forecast.text(forecast.values))
+        raise ValueError(
+            f"history_time: the times of the history cannot be told from the "
+            f"forecast's {forecast.values.size} time(s) ({times}); "
+            "pass them (history_time=model.time[-H:] for the last H samples) or a "
+            "pandas history with its time index"
+        )
+    return TimeAxis(before, forecast.label)
 
 
 def plot_root_spectrogram(model: Any, fs: float | None = None, *, ax: Axes | None = None) -> Axes:
@@ -229,28 +303,33 @@ def plot_root_spectrogram(model: Any, fs: float | None = None, *, ax: Axes | Non
     Each complex-conjugate pair of poles of 1/A_t(z) is one dot per time step
     at its frequency (:meth:`ltvmodels.ARXModel.root_spectrogram`), so the
     resonances of the time-varying model appear as tracks, a parametric
-    counterpart of a spectrogram (draw it over
-    :func:`scipy.signal.spectrogram` for comparison).
+    counterpart of a spectrogram (draw it over :func:`plot_spectrogram` for
+    comparison: give both the same ``fs``, or none).
 
     Parameters
     ----------
     model : ARModel or ARXModel
         Any object with ``root_spectrogram(fs)`` → (N, r) and
-        ``sample_index`` (N,) (and, optionally, ``step_times``: the time index
-        of the data).
+        ``sample_index`` (N,) (and, optionally, ``time``: the time axis of the
+        data, and ``data.time_name``, its name).
     fs : float, optional
-        Sampling frequency (Hz); the time axis is then ``sample_index / fs``
-        seconds. Default: from the model's time index when it is regular —
-        dates: cycles per day against the dates; numbers (e.g. years): cycles
-        per unit of the index against it — else cycles per sample against the
-        sample.
+        Sampling frequency in Hz: frequencies in Hz; without a time axis the
+        time axis is then ``sample_index / fs`` seconds. Default: from the
+        model's time axis — numbers (e.g. years): 1 / step, in cycles per the
+        unit its name is ("year", "month", "day", …; else "time unit");
+        dates: cycles per month for monthly data, per year for quarterly or
+        yearly data, per day (hour, …) for a fixed step — else cycles per
+        sample against the sample (:func:`ltvmodels.plotting.timeaxis.spectral_units`).
     ax : matplotlib.axes.Axes, optional
         Axes to draw into. Default: the single axes of a new Figure.
 
     Returns
     -------
     matplotlib.axes.Axes
-        The axes (``ax.figure`` is its figure); the y axis spans 0 … fs/2.
+        The axes (``ax.figure`` is its figure); the y axis spans 0 … fs/2,
+        labelled "frequency (unit)"; the x axis is the data's time axis (dates
+        on a date axis, labelled with its name), where step j is drawn at the
+        time of y[lag + j], the sample it describes.
     """
     if not callable(getattr(model, "root_spectrogram", None)) or not hasattr(model, "sample_index"):
         raise TypeError(
@@ -259,16 +338,14 @@ def plot_root_spectrogram(model: Any, fs: float | None = None, *, ax: Axes | Non
         )
     if fs is not None:
         fs = options.positive_scalar(fs, "fs")
-        time = np.asarray(model.sample_index, dtype=float) / fs
-        time_label, unit = "time (s)", "Hz"
-    else:
-        fs, time, time_label, unit = _index_frequency(model)
+    # step j describes y[lag + j]: its produced sample, where step_axis draws it
+    fs, unit, axis = spectral_units(step_axis(model, len(model.sample_index)), fs)
     freq = np.asarray(model.root_spectrogram(fs), dtype=float)
     if ax is None:
         ax = new_axes((7.0, 3.2))
     for i in range(freq.shape[1]):
         ax.plot(
-            time,
+            axis.values,
             freq[:, i],
             linestyle="none",
             marker=".",
@@ -276,61 +353,57 @@ def plot_root_spectrogram(model: Any, fs: float | None = None, *, ax: Axes | Non
             color=ESTIMATE_COLOR,
             label="pole frequencies" if i == 0 else None,
         )
-    ax.set_xlabel(time_label)
+    axis.draw_on(ax)
     ax.set_ylabel(f"frequency ({unit})")
-    ax.set_title("Root spectrogram")
+    outputs = getattr(model, "output_names", None)
+    ax.set_title("Root spectrogram" + (f" of {', '.join(outputs)}" if outputs else ""))
     ax.set_ylim(0, fs / 2)
     ax.grid(True, alpha=0.3)
     return ax
 
 
-def _index_frequency(model: Any) -> tuple[float, np.ndarray, str, str]:
-    """(fs, time axis, its label, the frequency unit) from a model's regular time index."""
-    times = getattr(model, "step_times", None)
-    samples = np.asarray(model.sample_index, dtype=float)
-    if times is None or len(times) < 2:
-        return 1.0, samples, "sample", "cycles per sample"
-    steps = np.diff(times)
-    if np.any(steps != steps[0]):
-        return 1.0, samples, "sample", "cycles per sample"
-    if np.issubdtype(times.dtype, np.datetime64):
-        day = float(steps[0] / np.timedelta64(1, "D"))
-        return 1.0 / day, times, "time", "cycles per day"
-    return 1.0 / float(steps[0]), times, "time", "cycles per unit of time"
-
-
 def plot_spectrogram(
     y: ArrayLike,
-    fs: float,
+    fs: float | None = None,
     *,
     ax: Axes | None = None,
     nperseg: int = 256,
     dynamic_range: float = 80.0,
+    time: ArrayLike | None = None,
 ) -> Axes:
     """Draw the short-time Fourier spectrogram of a scalar signal in grey.
 
     The non-parametric counterpart of :func:`plot_root_spectrogram`; draw the
-    root spectrogram over it (same ``ax``) to compare them. Uses
-    :func:`scipy.signal.spectrogram` with 75 % overlapping Hann windows.
+    root spectrogram over it (same ``ax``, same ``fs`` or none) to compare
+    them. Uses :func:`scipy.signal.spectrogram` with 75 % overlapping Hann
+    windows.
 
     Parameters
     ----------
     y : array_like, shape (T,) or (T, 1)
-        The signal.
-    fs : float
-        Sampling frequency (Hz).
+        The signal; a pandas Series with a time index gives the time axis.
+    fs : float, optional
+        Sampling frequency in Hz: frequencies in Hz, and without a time axis
+        times in seconds. Default: from the time axis, in cycles per its unit
+        as :func:`plot_root_spectrogram`; without one, cycles per sample.
     ax : matplotlib.axes.Axes, optional
         Axes to draw into. Default: the single axes of a new Figure.
     nperseg : int, default 256
         Window length (samples), >= 8; shortened to T for short signals.
     dynamic_range : float, default 80.0
         Power range shown (dB below the maximum), > 0.
+    time : array_like, shape (T,), or pandas Index, optional
+        The time of each sample (dates or numbers, increasing; e.g.
+        ``model.time``); a pandas Index names the axis. Default: the time
+        index of a pandas ``y``, else none (sample indices, or seconds with
+        ``fs``).
 
     Returns
     -------
     matplotlib.axes.Axes
-        With the spectrogram as ``ax.collections[0]`` (a QuadMesh); the axes
-        are time (s) and frequency (Hz).
+        With the spectrogram as ``ax.collections[0]`` (a QuadMesh) at the
+        windows' centres on the time axis, frequency 0 … fs/2 labelled
+        "frequency (unit)".
     """
     from scipy.signal import spectrogram
 
@@ -341,18 +414,28 @@ def plot_spectrogram(
         raise ValueError(
             f"y: expected a 1-d signal of at least 8 samples, received shape {arr.shape}"
         )
-    fs = options.positive_scalar(fs, "fs")
+    if fs is not None:
+        fs = options.positive_scalar(fs, "fs")
     nperseg = min(options.integer(nperseg, "nperseg", minimum=8), arr.shape[0])
     dynamic_range = options.positive_scalar(dynamic_range, "dynamic_range")
-    freq, time, power = spectrogram(arr, fs=fs, nperseg=nperseg, noverlap=(3 * nperseg) // 4)
+    fs, unit, axis = spectral_units(_series_axis(y, time, arr.shape[0], "time"), fs)
+    # in samples and cycles per sample, then on the time axis and in its unit
+    freq, centres, power = spectrogram(arr, fs=1.0, nperseg=nperseg, noverlap=(3 * nperseg) // 4)
     power_db = 10 * np.log10(power + 1e-300)
     top = float(power_db.max())
     if ax is None:
         ax = new_axes((7.0, 3.2))
     ax.pcolormesh(
-        time, freq, power_db, cmap="Greys", shading="auto", vmin=top - dynamic_range, vmax=top
+        axis.at(centres),
+        freq * fs,
+        power_db,
+        cmap="Greys",
+        shading="auto",
+        vmin=top - dynamic_range,
+        vmax=top,
     )
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("frequency (Hz)")
-    ax.set_title("Spectrogram")
+    axis.draw_on(ax)
+    ax.set_ylabel(f"frequency ({unit})")
+    name = arrays.column_names(y, 1)
+    ax.set_title("Spectrogram" + (f" of {name[0]}" if name else ""))
     return ax

@@ -426,15 +426,20 @@ class ARXModel(RegressionModel):
 
     # A different plot from the regression's (the roots, not the coefficients): its own
     # arguments.
-    def plot(self, fs: float | None = None, ax: Any = None):  # type: ignore[override]
-        """Plot the root spectrogram; see :func:`ltvmodels.plotting.plot_root_spectrogram`
-        (``fs`` None: from the model's time index, or cycles per sample).
+    def plot(  # type: ignore[override]
+        self, fs: float | None = None, ax: Any = None, *, fig: Any = None
+    ):
+        """Plot the root spectrogram against the data's time axis; see
+        :func:`ltvmodels.plotting.plot_root_spectrogram` (``fs`` None: frequencies in
+        cycles per unit of the model's time axis, or per sample).
 
-        Returns the Figure (as every result's ``plot``); its axes are ``ax`` when given.
+        Returns the Figure (as every result's ``plot``): ``fig`` (cleared, one axes)
+        when given, the figure of ``ax`` when given, else a new one.
         """
         from ..plotting import plot_root_spectrogram
+        from ..plotting.figure import axes_in
 
-        return plot_root_spectrogram(self, fs, ax=ax).figure
+        return plot_root_spectrogram(self, fs, ax=axes_in(fig, ax)).figure
 
     # -- persistence and display ------------------------------------------------------
     def structure(self) -> dict:

@@ -57,6 +57,12 @@ class LinearTimeVarying:
         return self.n * (self.n + self.m)
 
     @property
+    def produced_offset(self) -> int:
+        """Step t maps x[t] to x[t + 1]: it produces the sample t + 1 (figures draw step t
+        there, as change points are timed)."""
+        return 1
+
+    @property
     def state_names(self) -> list[str]:
         """Names of the states: the data's column names where it had them (a pandas
         DataFrame, recorded in ``data.names``), else ``["x0", "x1", …]``."""

@@ -114,6 +114,10 @@ class DataDescription:
         The time of each sample of one series (a pandas index: dates as
         datetime64[ns], or numbers); None without a time index or for several
         trajectories.
+    time_name : str or None
+        The name of the time axis: the pandas index's name, or the time column's
+        (``fit_many``'s ``time=``, the command line's ``--time``); None when it
+        had none. Figures label their time axis with it.
     n_trajectories : int
         R, the number of time-aligned trajectories (series) the fit shared.
     n_missing : int
@@ -132,6 +136,7 @@ class DataDescription:
     time: np.ndarray | None = None
     n_trajectories: int = 1
     n_missing: int = 0
+    time_name: str | None = None
     tail: DataTail | None = None
 
     @classmethod
@@ -142,6 +147,7 @@ class DataDescription:
         *,
         n_trajectories: int = 1,
         n_missing: int = 0,
+        time_name: Any = None,
         tail: DataTail | None = None,
     ) -> DataDescription:
         """A description from names by role (lists, or None for a role without names)."""
@@ -155,16 +161,24 @@ class DataDescription:
             None if time is None else np.array(time),
             int(n_trajectories),
             int(n_missing),
+            None if time is None or time_name is None else str(time_name),
             tail,
         )
 
-    def renamed(self, names: Mapping[str, Any], time: np.ndarray | None = None) -> DataDescription:
-        """This description with other names by role (and, if given, another time axis)."""
+    def renamed(
+        self,
+        names: Mapping[str, Any],
+        time: np.ndarray | None = None,
+        time_name: str | None = None,
+    ) -> DataDescription:
+        """This description with other names by role (and, if given, another time axis and
+        its name)."""
         return DataDescription.of(
             names,
             self.time if time is None else time,
             n_trajectories=self.n_trajectories,
             n_missing=self.n_missing,
+            time_name=self.time_name if time is None else time_name,
             tail=self.tail,
         )
 
@@ -183,12 +197,16 @@ class DataDescription:
     # -- model files ---------------------------------------------------------------
     def to_json(self) -> dict:
         """Everything but the time axis and the tail, as JSON values (the file keeps those
-        as arrays)."""
-        return {
+        as arrays; ``time_name`` only where there is one, so that older readers see no new
+        key)."""
+        value: dict[str, Any] = {
             "names": {role: list(values) for role, values in self.names.items()},
             "n_trajectories": self.n_trajectories,
             "n_missing": self.n_missing,
         }
+        if self.time_name is not None:
+            value["time_name"] = self.time_name
+        return value
 
     @classmethod
     def from_json(
@@ -200,12 +218,15 @@ class DataDescription:
             time,
             n_trajectories=value.get("n_trajectories", 1),
             n_missing=value.get("n_missing", 0),
+            time_name=value.get("time_name"),
             tail=tail,
         )
 
     def __repr__(self) -> str:
         names = ", ".join(f"{role}={list(values)}" for role, values in self.names.items())
         time = "None" if self.time is None else f"array({self.time.dtype}, {self.time.size})"
+        if self.time_name is not None:
+            time += f", time_name={self.time_name!r}"
         tail = "" if self.tail is None else f", tail={self.tail!r}"
         return (
             f"DataDescription({names + ', ' if names else ''}time={time}, "

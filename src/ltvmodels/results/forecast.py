@@ -156,6 +156,9 @@ class Forecast:
     coefficients : ndarray, shape (steps, n, p)
         The continued mean coefficients Θ̄_t used at each step (for an
         LTVModel [A_t B_t (c_t)]).
+    time_name : str or None
+        The name of the model's time axis (``model.data.time_name``; figures
+        label their time axis with it), None where it had none.
     """
 
     mean: np.ndarray
@@ -168,6 +171,7 @@ class Forecast:
     method: str
     n_samples: int | None = None
     coefficients: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 0)))
+    time_name: str | None = None
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -257,14 +261,21 @@ class Forecast:
         indices = np.issubdtype(self.time.dtype, np.integer)
         return pd.DataFrame(columns, index=pd.Index(self.time, name="t" if indices else "time"))
 
-    def plot(self, history: ArrayLike | None = None, *, fig: Any = None):
-        """Plot the mean and the interval of each state, one subplot per state.
+    def plot(
+        self,
+        history: ArrayLike | None = None,
+        *,
+        history_time: ArrayLike | None = None,
+        fig: Any = None,
+    ):
+        """Plot the mean and the interval of each state, one subplot per state, at
+        :attr:`time` (after ``history`` at ``history_time``, on the same axis).
 
         See :func:`ltvmodels.plotting.plot_forecast`; returns the Figure.
         """
         from ..plotting import plot_forecast
 
-        return plot_forecast(self, history=history, fig=fig)
+        return plot_forecast(self, history=history, history_time=history_time, fig=fig)
 
     def __repr__(self) -> str:
         samples = "" if self.n_samples is None else f", n_samples={self.n_samples}"
@@ -790,6 +801,7 @@ def forecast_model(
         method=method,
         n_samples=drawn,
         coefficients=theta,
+        time_name=model.data.time_name,
     )
 
 

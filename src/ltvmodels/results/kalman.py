@@ -7,7 +7,7 @@ Produced by :func:`ltvmodels.kalman_filter` and :func:`ltvmodels.kalman_smoother
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -45,6 +45,20 @@ class _ParameterAccess(LinearTimeVarying):
         n = self.n_states
         shared = CovarianceBlocks(self.cov[None], np.zeros(n, dtype=int))
         return shared.full(n, self.cov.shape[1])
+
+    def std(self) -> np.ndarray:
+        """(N, K) standard deviations of the entries of k_t (every row of Θ_t has those
+        of ``cov``); NaN where ``k`` is."""
+        per_row = np.sqrt(np.maximum(np.diagonal(self.cov, axis1=1, axis2=2), 0.0))
+        return np.tile(per_row, (1, self.n_states))
+
+    def plot(self, truth: Any = None, *, bands: bool = True, fig: Any = None):
+        """Plot the estimates of [A_t B_t] over time with ±2σ bands (step t at the sample
+        x[t + 1] it produces); see :func:`ltvmodels.plotting.plot_coefficients`. Returns
+        the Figure."""
+        from ..plotting import plot_coefficients
+
+        return plot_coefficients(self, truth, bands=bands, fig=fig)
 
 
 @dataclass(frozen=True)

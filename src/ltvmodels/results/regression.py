@@ -381,12 +381,20 @@ class RegressionModel:
             )
         return frame
 
-    def plot(self, truth: Any = None, *, bands: bool = True, fig: Any = None):
-        """Plot the coefficients Θ_t over time with ±2σ bands
+    def plot(
+        self,
+        truth: Any = None,
+        *,
+        bands: bool = True,
+        changepoints: ArrayLike | None = None,
+        fig: Any = None,
+    ):
+        """Plot the coefficients Θ_t (of a state-space model: [A_t B_t]) against the data's
+        time axis, with ±2σ bands and the change points
         (:func:`ltvmodels.plotting.plot_coefficients`); returns the Figure."""
         from ..plotting import plot_coefficients
 
-        return plot_coefficients(self, truth, bands=bands, fig=fig)
+        return plot_coefficients(self, truth, bands=bands, changepoints=changepoints, fig=fig)
 
     # -- use ----------------------------------------------------------------------
     def predict(self, phi: ArrayLike) -> np.ndarray:

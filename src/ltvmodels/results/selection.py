@@ -63,12 +63,14 @@ class LambdaSelection:
     def maximize(self) -> bool:
         return self.method in ("ml", "lcurve")
 
-    def plot(self, ax: Any = None):
+    def plot(self, ax: Any = None, *, fig: Any = None):
         """Plot the criterion against λ (or the L-curve), the choice marked.
 
-        See :func:`ltvmodels.plotting.plot_lambda_selection`; returns the
-        matplotlib Axes (a new figure if ``ax`` is None).
+        See :func:`ltvmodels.plotting.plot_lambda_selection` (which returns the
+        Axes). Returns the Figure, as every result's ``plot``: ``fig`` (cleared,
+        one axes) when given, the figure of ``ax`` when given, else a new one.
         """
         from ..plotting import plot_lambda_selection
+        from ..plotting.figure import axes_in
 
-        return plot_lambda_selection(self, ax=ax)
+        return plot_lambda_selection(self, ax=axes_in(fig, ax)).figure

@@ -114,10 +114,9 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         self.n_inputs = n_inputs
         self.constant = constant
 
-    @property
-    def produced_offset(self) -> int:
-        """Step t maps x[t] to x[t + 1]: it produces the sample t + 1."""
-        return 1
+    # x[t + 1] is produced by step t: the state-space timing, not RegressionModel's (which
+    # comes first in the method resolution order)
+    produced_offset = LinearTimeVarying.produced_offset
 
     # -- shapes -------------------------------------------------------------------
     @property
@@ -682,15 +681,6 @@ class LTVModel(RegressionModel, LinearTimeVarying):
 
     def _signal_names(self) -> dict[str, list[str]]:
         return {"states": self.state_names, "inputs": self.input_names}
-
-    def plot(self, truth: Any = None, *, bands: bool = True, fig: Any = None):
-        """Plot the coefficients of [A_t B_t] over time.
-
-        See :func:`ltvmodels.plotting.plot_coefficients`; returns the Figure.
-        """
-        from ..plotting import plot_coefficients
-
-        return plot_coefficients(self, truth=truth, bands=bands, fig=fig)
 
 
 def _coefficient_array(value: Any, name: str) -> np.ndarray:

@@ -27,6 +27,7 @@ __all__ = [
     "is_batch",
     "column_names",
     "time_index",
+    "time_name",
     "index_values",
     "recordings",
     "row_weights",
@@ -64,11 +65,14 @@ class LabelledSeries:
         The d column names.
     time : ndarray, shape (T,), optional
         Time stamps (datetime64 or numbers).
+    time_name : str, optional
+        The name of the time stamps (the table's time column).
     """
 
     values: np.ndarray
     names: list[str] | None = None
     time: np.ndarray | None = None
+    time_name: str | None = None
 
     def __len__(self) -> int:
         return self.values.shape[0]
@@ -381,6 +385,20 @@ def time_index(value: Any, count: int) -> np.ndarray | None:
     if index is None or not hasattr(index, "to_numpy") or len(index) != count:
         return None
     return _time_values(index_values(index), count)
+
+
+def time_name(value: Any) -> str | None:
+    """The name of the time index of a pandas object (of the first dimension of an xarray
+    DataArray, of a :class:`LabelledSeries`' stamps), as a string; None where it has none."""
+    if isinstance(value, LabelledSeries):
+        name = value.time_name
+    else:
+        dims = getattr(value, "dims", None)
+        if isinstance(dims, tuple) and dims and hasattr(value, "indexes"):  # an xarray DataArray
+            name = None if str(dims[0]) == "dim_0" else dims[0]  # "dim_0": xarray's default
+        else:
+            name = getattr(_pandas_index(value), "name", None)
+    return None if name is None else str(name)
 
 
 def index_values(index: Any) -> np.ndarray:

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["TimeGrid", "continued", "time_grid"]
+__all__ = ["TimeGrid", "continued", "preceding", "time_grid"]
 
 # Steps that differ from a multiple of the smallest one by less than this (relative)
 # are on its grid: decimal steps such as 0.1 are not exact in binary.
@@ -173,6 +173,32 @@ def continued(stamps: np.ndarray, count: int) -> np.ndarray | None:
 
     after = pd.date_range(stamps[-1], periods=count + 1, freq=frequency)[1:]
     return after.to_numpy().astype("datetime64[ns]")
+
+
+def preceding(stamps: np.ndarray, count: int) -> np.ndarray | None:
+    """The ``count`` stamps before the start of the regular grid ``stamps``, oldest first, or
+    None where they cannot be told for certain.
+
+    Numbers go back by their step (at least two stamps); dates by the frequency pandas
+    infers from at least three of them (two dates do not tell a month from 31 days) or,
+    without one, by a fixed step.
+    """
+    dated = np.issubdtype(stamps.dtype, np.datetime64)
+    if stamps.size < (3 if dated else 2):
+        return None
+    if dated and (frequency := _frequency(stamps)) is not None:
+        import pandas as pd  # (_frequency found one: pandas is there)
+
+        before = pd.date_range(end=stamps[0], periods=count + 1, freq=frequency)[:-1]
+        return before.to_numpy().astype("datetime64[ns]")
+    grid = _fixed_step_grid(stamps)
+    if grid is None or grid.size != stamps.size:
+        return None
+    if dated:
+        step = np.diff(stamps.astype("datetime64[ns]")).min()
+    else:
+        step = (stamps[-1] - stamps[0]) / (stamps.size - 1)  # the mean: no drift
+    return stamps[0] - step * np.arange(count, 0, -1)
 
 
 def _check_order(stamps: np.ndarray, name: str) -> None:

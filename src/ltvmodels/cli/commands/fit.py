@@ -98,7 +98,12 @@ def run(args: argparse.Namespace) -> Report:
             weights=data.weights,
             progress=progress,
         )
-    model = record_columns(model, {"state": data.state_names, "input": data.input_names}, data.time)
+    model = record_columns(
+        model,
+        {"state": data.state_names, "input": data.input_names},
+        data.time,
+        data.time_name,
+    )
     report, lines, changepoints = state_space_report("fit", data, model)
     facts = lam_facts(model, args.lam)
     report.update(facts, norm=args.norm, order=args.order, refine=args.refine, loss=args.loss)

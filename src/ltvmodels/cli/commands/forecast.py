@@ -154,8 +154,10 @@ def run(args: argparse.Namespace) -> Report:
     fig = None
     if outputs.plot is not None:
         with figure_errors(None):
-            history = y[-min(len(y), max(4 * H, 50)) :]
-            fig = forecast.plot(history=history)
+            # the model's last samples, at their times: the forecast's are those after them
+            end = model.N + model.produced_offset
+            rows = min(len(y), end, max(4 * H, 50))
+            fig = forecast.plot(history=y[-rows:], history_time=model.times_after(end - rows, rows))
             fig.suptitle(f"{args.model} after {data.label}: forecast, {percent} intervals")
     columns = [f"{name}{suffix}" for name in names for suffix in ("", "_lower", "_upper")]
     values = np.column_stack(

@@ -100,7 +100,12 @@ def run(args: argparse.Namespace) -> Report:
             constant=args.constant,
             weights=data.weights,
         )
-    model = record_columns(model, {"state": data.state_names, "input": data.input_names}, data.time)
+    model = record_columns(
+        model,
+        {"state": data.state_names, "input": data.input_names},
+        data.time,
+        data.time_name,
+    )
     report, lines, changepoints = state_space_report("segments", data, model)
     info = model.info
     report.update(
