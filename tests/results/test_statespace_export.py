@@ -453,6 +453,35 @@ def test_steps():
             ltv.LTVModel.from_arrays(np.eye(2), steps=steps)
 
 
+def test_steps_beyond_the_memory_are_an_error_before_allocating():
+    # numpy was asked for 29.1 TiB (a MemoryError about an array nobody named).
+    with pytest.raises(
+        ValueError,
+        match=r"^steps: expected at most \d+ \(what fits in this machine's .* of memory\), "
+        r"received 1000000000000: the coefficients of 1000000000000 steps \(4 numbers each\) "
+        r"would need 29.1 TiB; pass fewer steps$",
+    ):
+        ltv.LTVModel.from_arrays(np.eye(2), steps=10**12)
+
+
+def test_the_bound_of_steps_is_the_physical_memory(monkeypatch):
+    from ltvmodels.validation import memory
+
+    monkeypatch.setattr(memory, "physical_memory", lambda: 1000)  # bytes
+    # n = 2, m = 1 and c: K = 2·(2 + 1 + 1) = 8 numbers, 64 bytes a step
+    assert ltv.LTVModel.from_arrays(np.eye(2), np.ones((2, 1)), c=np.ones(2), steps=15).N == 15
+    with pytest.raises(ValueError, match=r"^steps: expected at most 15 .* received 16: .* 1.0 KiB"):
+        ltv.LTVModel.from_arrays(np.eye(2), np.ones((2, 1)), c=np.ones(2), steps=16)
+
+
+def test_the_physical_memory_and_its_text():
+    from ltvmodels.validation import memory
+
+    assert memory.physical_memory() >= 2**20  # a real machine's, in bytes
+    texts = [memory.size_text(n) for n in (512, 1536, 2**30, 32 * 10**12)]
+    assert texts == ["512 B", "1.5 KiB", "1.0 GiB", "29.1 TiB"]
+
+
 @pytest.mark.parametrize(
     "B, match",
     [

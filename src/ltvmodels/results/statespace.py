@@ -10,7 +10,7 @@ from numpy.typing import ArrayLike
 
 from ..core.simulation import simulate_affine
 from ..errors import DivergenceWarning, warn
-from ..validation import arrays, options
+from ..validation import arrays, memory, options
 from ..validation.arrays import LARGEST_DATA, describe
 from .base import LinearTimeVarying
 from .forecast import (
@@ -202,7 +202,10 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         steps : int, optional
             N, the number of time steps (transitions), >= 1. Required when A is
             one (n, n) matrix; with an (N, n, n) A it may be given and must
-            equal N.
+            equal N. The model stores N·K coefficients (K = n·(n + m), + n
+            with ``c``): a ``steps`` whose coefficients would exceed the
+            machine's physical memory is an error, before anything is
+            allocated.
         noise_cov : array_like, shape (n, n), optional
             Covariance of the process noise v_t (a scalar or (n,) variances: a
             diagonal); symmetric positive semidefinite. Stored as
@@ -231,7 +234,9 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         ValueError
             A shape that does not fit the others, non-finite entries or
             magnitudes above 1e100 (which model files reject), an invalid
-            ``noise_cov`` or ``order``; the message names the argument.
+            ``noise_cov`` or ``order``, ``steps`` whose coefficients (N·K
+            numbers) would not fit in the machine's physical memory; the
+            message names the argument.
 
         Examples
         --------
@@ -290,6 +295,15 @@ class LTVModel(RegressionModel, LinearTimeVarying):
                 f"for a model of N = {N} steps, received {coeffs.size}"
             )
         noise = None if noise_cov is None else noise_covariance(noise_cov, None, n)
+        K = n * (n + B.shape[2] + (c is not None))
+        if steps is not None:  # A repeated over ``steps``: the first array of that size is k
+            memory.affordable_count(
+                steps,
+                "steps",
+                item_bytes=K * np.dtype(np.float64).itemsize,
+                what=f"the coefficients of {steps} steps ({K} numbers each)",
+                remedy="pass fewer steps",
+            )
         fit = FitRecord(
             coeffs=coeffs,
             noise_cov=noise,
