@@ -157,6 +157,42 @@ def test_labels_are_the_data_column_names(control, data):
     assert sys_t.input_labels == ["const", "const_"]
 
 
+@pytest.mark.parametrize(
+    "states, inputs, state_labels, input_labels",
+    [
+        (["pos.x", "pos.y"], ["f.x"], ["pos_x", "pos_y"], ["f_x", "const"]),
+        ([1.5, 2.5], [0.5], ["1_5", "2_5"], ["0_5", "const"]),
+        (["p.v", "p_v"], ["const"], ["p_v", "p_v_"], ["const", "const_"]),
+    ],
+)
+def test_names_python_control_cannot_take_are_exported_as_valid_labels(
+    control, data, states, inputs, state_labels, input_labels
+):
+    # A "." in a name (a float column name has one) made python-control raise
+    # "invalid signal name"; the model keeps its own names.
+    pd = pytest.importorskip("pandas")
+    x = pd.DataFrame(data.x, columns=states)
+    u = pd.DataFrame(data.u, columns=inputs)
+    model = ltv.fit(x, u, lam=LAM, constant=True)
+    sys_t = model.to_statespace()
+    assert sys_t.state_labels == sys_t.output_labels == state_labels
+    assert sys_t.input_labels == input_labels
+    assert model.state_names == [str(name) for name in states]
+    np.testing.assert_array_equal(sys_t.A, model.A[-1])
+
+
+def test_repeated_column_names_are_an_error_when_the_data_are_read(data):
+    # ['p', 'p'] gave a system of 2 states labelled ['p'] (python-control keeps one
+    # signal per name), and an AttributeError for a table with a text column.
+    pd = pytest.importorskip("pandas")
+    with pytest.raises(
+        ValueError, match=r"^x: column 'p' appears twice \(columns 0 and 1\); rename one"
+    ):
+        ltv.fit(pd.DataFrame(data.x, columns=["p", "p"]), data.u, lam=LAM)
+    with pytest.raises(ValueError, match=r"^u: column '1' appears twice \(columns 0 and 1\)"):
+        ltv.fit(data.x, pd.DataFrame(np.c_[data.u, data.u], columns=[1, "1"]), lam=LAM)
+
+
 def test_model_without_inputs_gives_a_system_without_inputs(control, data):
     model = ltv.fit(data.x, None, lam=LAM)
     sys_t = model.to_statespace(-1)

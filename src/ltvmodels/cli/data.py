@@ -229,6 +229,14 @@ def _resolve(source: _Source, spec: str, option: str) -> list[int]:
             raise DataError(f"{option}: no {what} {token!r} in {source.label} (columns: {shown})")
     if len(set(indices)) != len(indices):
         raise DataError(f"{option}: a column is selected twice in {spec!r}")
+    for position, i in enumerate(indices):  # (selected by index: names need not differ)
+        same = [j for j in indices[:position] if source.names[j] == source.names[i]]
+        if same:
+            raise DataError(
+                f"{option}: columns {same[0]} and {i} of {source.label} are both named "
+                f"{source.names[i]!r}, and the model names its signals by their columns; "
+                "rename one of them in the file"
+            )
     return indices
 
 

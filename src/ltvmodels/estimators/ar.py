@@ -356,8 +356,8 @@ def _describe(
     u), the time grid of y (one series), the series and the regression rows left out."""
     R, T, n = shape
     names = {
-        "output": arrays.column_names(y, n),
-        "input": None if u is None else arrays.column_names(u, model.n_inputs),
+        "output": arrays.column_names(y, n, "y"),
+        "input": None if u is None else arrays.column_names(u, model.n_inputs, "u"),
     }
     time = None if grid is None else grid.time
     # the model of this call (no one else holds it): described in place

@@ -142,8 +142,8 @@ def state_space_data(
         u,
         w,
         constant,
-        state_names=arrays.column_names(x_data, x.shape[2]),
-        input_names=arrays.column_names(u_data, u.shape[2]),
+        state_names=arrays.column_names(x_data, x.shape[2], "x"),
+        input_names=arrays.column_names(u_data, u.shape[2], "u"),
         time=None if grid is None else grid.time,
     )
 
@@ -238,8 +238,8 @@ def regression_data(
     problem = weighted_problem(y, phi, coeffs, w)
     description = DataDescription.of(
         {
-            "output": arrays.column_names(names["output"], problem.n),
-            "regressor": arrays.column_names(names["regressor"], problem.p),
+            "output": arrays.column_names(names["output"], problem.n, "y"),
+            "regressor": arrays.column_names(names["regressor"], problem.p, "phi"),
         },
         None if grid is None else grid.time,
         n_trajectories=problem.q,

@@ -506,6 +506,13 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         (keep it in mind for gains and controllability, which then count it
         as an input).
 
+        Signal names: python-control names a signal of a system "sys.u" and
+        keeps one signal per name, so a name with a "." (``"pos.x"``, or a
+        float column name ``1.5``) is exported with "_" for each "."
+        (``"pos_x"``, ``"1_5"``), and a label that then repeats an earlier one
+        of the same kind gets "_" appended until it is new. The model's own
+        names are unchanged.
+
         Parameters
         ----------
         t : int, default -1
@@ -522,7 +529,8 @@ class LTVModel(RegressionModel, LinearTimeVarying):
             A (n, n) = ``model.A[t]``; B (n, m) = ``model.B[t]``, or
             [B_t c_t] (n, m + 1) with the intercept; C = I_n; D = 0 of B's
             shape; ``dt``; labelled with ``state_names`` (states and outputs) and
-            ``input_names`` (+ ``"const"``), named ``"ltv_t<t>"`` with t
+            ``input_names`` (+ ``"const"``), as python-control takes them (see
+            above), named ``"ltv_t<t>"`` with t
             counted from 0. A model without inputs (m = 0, no intercept)
             gives a system with zero inputs (B of shape (n, 0)).
 
@@ -572,21 +580,16 @@ class LTVModel(RegressionModel, LinearTimeVarying):
             )
         n = self.n_states
         B = self.theta[step, :, n:]  # [B_t] or [B_t c_t]
-        inputs = self.input_names
-        if self.constant:
-            label = "const"
-            while label in inputs:  # the data named an input "const"
-                label += "_"
-            inputs = inputs + [label]
+        states = _signal_labels(self.state_names)
         return control.StateSpace(
             np.array(self.A[step]),
             np.array(B),
             np.eye(n),
             np.zeros((n, B.shape[1])),
             dt,
-            inputs=inputs,
-            outputs=self.state_names,
-            states=self.state_names,
+            inputs=_signal_labels(self.input_names + (["const"] if self.constant else [])),
+            outputs=states,
+            states=states,
             name=f"ltv_t{step}",
         )
 
@@ -625,6 +628,23 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         from ..plotting import plot_coefficients
 
         return plot_coefficients(self, truth=truth, bands=bands, fig=fig)
+
+
+def _signal_labels(names: list[str]) -> list[str]:
+    """Signal names as python-control takes them, in their order.
+
+    python-control rejects a "." in a signal name (it separates a system's name from
+    its signal's, "sys.u") and keeps one signal per name: each "." becomes "_", and a
+    name that then repeats an earlier one gets "_" appended until it is new (so an
+    intercept input "const" becomes "const_" next to an input named "const").
+    """
+    labels: list[str] = []
+    for name in names:
+        label = name.replace(".", "_")
+        while label in labels:
+            label += "_"
+        labels.append(label)
+    return labels
 
 
 def _coefficient_array(value: Any, name: str) -> np.ndarray:

@@ -26,6 +26,7 @@ __all__ = [
     "representable",
     "is_batch",
     "column_names",
+    "distinct_columns",
     "time_index",
     "index_values",
     "recordings",
@@ -94,6 +95,7 @@ def _pandas_numbers(value: Any, name: str) -> np.ndarray:
     (``pd.NA``, None, NaN) as NaN; a column holding anything else is a TypeError that
     names it."""
     frame = value.to_frame() if getattr(value, "ndim", 2) == 1 else value
+    distinct_columns(frame.columns, name)  # a repeated label selects a table, not a column
     objects = [label for label in frame.columns if frame[label].dtype.kind not in "fiub"]
     if not objects:  # numbers (nullable ones too), booleans
         return frame.to_numpy(dtype=np.float64, na_value=np.nan).reshape(np.shape(value))
@@ -338,22 +340,64 @@ def is_batch(value: Any) -> bool:
     return np.ndim(value) == 3
 
 
-def column_names(value: Any, count: int) -> list[str] | None:
+def distinct_columns(labels: Any, name: str, *, used: Any = None) -> None:
+    """Reject a table whose columns repeat a name (compared as text, as a model keeps its
+    names): its signals could be told apart by position only, and python-control, plots
+    and files know them by name.
+
+    Parameters
+    ----------
+    labels : sequence
+        The table's column labels.
+    name : str
+        The argument the table comes from (the start of the message).
+    used : collection, optional
+        Only these labels must be distinct (the columns a selection takes from a wider
+        table); default: all.
+
+    Raises
+    ------
+    ValueError
+        Naming the repeated column and its first two positions in ``labels``.
+    """
+    texts = [str(label) for label in labels]
+    if len(set(texts)) == len(texts):
+        return
+    wanted = None if used is None else {str(label) for label in used}
+    first: dict[str, int] = {}
+    for j, text in enumerate(texts):
+        if wanted is not None and text not in wanted:
+            continue
+        if text in first:
+            raise ValueError(
+                f"{name}: column {text!r} appears twice (columns {first[text]} and {j}); "
+                "rename one of them or drop the copy"
+            )
+        first[text] = j
+
+
+def column_names(value: Any, count: int, name: str) -> list[str] | None:
     """The column names of a pandas DataFrame (or a named Series) with ``count`` columns,
     or the coordinate of an xarray DataArray's second dimension (its name for one
-    dimension), as strings; None for anything else (arrays, lists, unnamed series)."""
+    dimension), as strings; None for anything else (arrays, lists, unnamed series).
+
+    Raises
+    ------
+    ValueError
+        Names that repeat (:func:`distinct_columns`; ``name`` is the argument).
+    """
     if isinstance(value, LabelledSeries):
         names = value.names
-        return [str(name) for name in names] if names and len(names) == count else None
+        return _distinct(names, name) if names and len(names) == count else None
     dims = getattr(value, "dims", None)
     if isinstance(dims, tuple) and hasattr(value, "coords"):  # an xarray DataArray
         if len(dims) == 2 and dims[1] in value.coords and value.shape[1] == count:
-            return [str(name) for name in np.asarray(value.coords[dims[1]].values)]
-        name = getattr(value, "name", None)
-        return [str(name)] if len(dims) == 1 and name is not None and count == 1 else None
+            return _distinct(np.asarray(value.coords[dims[1]].values), name)
+        label = getattr(value, "name", None)
+        return [str(label)] if len(dims) == 1 and label is not None and count == 1 else None
     columns = getattr(value, "columns", None)
     if columns is not None and getattr(value, "ndim", 0) == 2 and len(columns) == count:
-        return [str(name) for name in columns]
+        return _distinct(columns, name)
     name = getattr(value, "name", None)
     if (
         name is not None
@@ -363,6 +407,12 @@ def column_names(value: Any, count: int) -> list[str] | None:
     ):
         return [str(name)]
     return None
+
+
+def _distinct(labels: Any, name: str) -> list[str]:
+    """The labels as text, checked by :func:`distinct_columns`."""
+    distinct_columns(labels, name)
+    return [str(label) for label in labels]
 
 
 def time_index(value: Any, count: int) -> np.ndarray | None:
