@@ -362,3 +362,49 @@ def test_the_command_line_forecast_of_an_arx_model_is_the_model_forecast(tmp_pat
     report = json.loads(capsys.readouterr().out)
     expected = model.forecast(y[-model.lag :], np.r_[u[-model.lag :], future], steps=3)
     np.testing.assert_allclose(np.array(report["mean"])[:, 0], expected.mean[:, 0], rtol=1e-12)
+
+
+def test_a_decimal_step_is_the_sampling_period_and_continues_in_forecasts():
+    # np.arange(T) * 0.1 has steps that differ in their last bits: to_statespace took
+    # them for an irregular axis and exported dt = 1.
+    pytest.importorskip("control.statesp")
+    x = pd.DataFrame(D.x, index=np.arange(200) * 0.1, columns=["p", "v"])
+    model = ltv.fit(x, U.set_axis(x.index), lam=10.0)
+    assert model.to_statespace().dt == pytest.approx(0.1, rel=1e-12)
+    forecast = model.forecast(D.x[-1], D.u[-3:], noise_cov=np.eye(2))
+    np.testing.assert_allclose(forecast.time, [20.0, 20.1, 20.2], rtol=0, atol=1e-12)
+
+
+def test_time_spans_are_kept_in_seconds():
+    # A TimedeltaIndex of 10 ms was kept in numpy's raw unit (10000.0 microseconds):
+    # model.time, forecast times and the exported dt were in that unit.
+    pytest.importorskip("control.statesp")
+    spans = pd.to_timedelta(np.arange(200) * 10, unit="ms")
+    model = ltv.fit(X.set_axis(spans), U.set_axis(spans), lam=10.0)
+    np.testing.assert_allclose(model.time, np.arange(200) * 0.01, rtol=0, atol=1e-12)
+    assert model.to_statespace().dt == pytest.approx(0.01, rel=1e-12)
+    forecast = model.forecast(D.x[-1], D.u[-2:], noise_cov=np.eye(2))
+    np.testing.assert_allclose(forecast.time, [2.0, 2.01], rtol=0, atol=1e-12)
+    with pytest.warns(ltv.DataWarning, match="2 time stamps missing"):  # on the grid as numbers
+        gappy = ltv.fit(X.set_axis(spans).drop(spans[[50, 51]]), lam=10.0)
+    np.testing.assert_allclose(gappy.time, model.time, rtol=0, atol=1e-12)
+
+
+def test_fit_many_keeps_a_time_span_column_in_seconds():
+    # The column's nanoseconds became the models' times and the summary's change times.
+    spans = pd.to_timedelta(np.arange(200) * 10, unit="ms")
+    table = pd.DataFrame({"unit": "a", "t": spans, "p": D.x[:, 0], "v": D.x[:, 1], "f": D.u[:, 0]})
+    ms = ltv.fit_many(
+        table,
+        by="unit",
+        state=["p", "v"],
+        inputs="f",
+        time="t",
+        method="segments",
+        n_changes=1,
+        n_jobs=1,
+    )
+    model = ms["a"]
+    np.testing.assert_allclose(model.time, np.arange(200) * 0.01, rtol=0, atol=1e-12)
+    (change,) = ms.summary.loc["a", "change_times"]
+    assert change == pytest.approx(model.changepoint_times[0]) and 0.5 < change < 1.5

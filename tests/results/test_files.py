@@ -199,3 +199,11 @@ def test_ar_orders_edited_to_be_invalid_are_rejected_naming_them(tmp_path, key, 
     path = edited_file(tmp_path, model, **{f"meta_{key}": value})
     with pytest.raises(ltv.ModelFileError, match=rf"{key}: expected an integer >= 0"):
         ltv.load(path)
+
+
+def test_a_time_axis_edited_to_decrease_is_rejected_on_loading(tmp_path):
+    # It loaded, and to_statespace took its negative step for the sampling period.
+    model = ltv.fit(X, U, lam=10.0).with_data(ltv.DataDescription.of(time=np.arange(100) * 0.5))
+    path = edited_file(tmp_path, model, data_time=np.arange(100)[::-1] * 0.5)
+    with pytest.raises(ltv.ModelFileError, match=r"invalid 'data_time' \(expected increasing"):
+        ltv.load(path)

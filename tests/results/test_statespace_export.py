@@ -193,6 +193,17 @@ def test_repeated_column_names_are_an_error_when_the_data_are_read(data):
         ltv.fit(data.x, pd.DataFrame(np.c_[data.u, data.u], columns=[1, "1"]), lam=LAM)
 
 
+@pytest.mark.parametrize("time", [np.arange(400)[::-1] * 1.0, np.full(400, 3.0)])
+def test_a_time_index_that_does_not_increase_gives_no_sampling_period(control, fitted, time):
+    # Set by hand (a fit checks the time order): the step is no sampling period.
+    model = fitted.with_data(ltv.DataDescription.of(time=time))
+    with pytest.raises(ValueError, match=r"^dt: the model's time index .* does not increase"):
+        model.to_statespace()
+    assert model.to_statespace(dt=0.5).dt == 0.5
+    one_sample = fitted.with_data(ltv.DataDescription.of(time=np.array([2.0])))
+    assert one_sample.to_statespace().dt == 1
+
+
 def test_model_without_inputs_gives_a_system_without_inputs(control, data):
     model = ltv.fit(data.x, None, lam=LAM)
     sys_t = model.to_statespace(-1)

@@ -52,7 +52,8 @@ class StateSpaceData:
     state_names, input_names : list of str or None
         The column names of pandas inputs (None: the data had none).
     time : ndarray, shape (T,), or None
-        The index of a pandas ``x`` (dates as datetime64[ns], or numbers).
+        The index of a pandas ``x`` (dates as datetime64[ns], numbers, or time
+        spans as seconds).
     """
 
     problem: RegressionProblem

@@ -35,8 +35,8 @@ class DataDescription:
         entry has the default names (x0, u0, y0, phi0, …).
     time : ndarray, shape (T,), or None
         The time of each sample of one series (a pandas index: dates as
-        datetime64[ns], or numbers); None without a time index or for several
-        trajectories.
+        datetime64[ns], numbers, or time spans as seconds); None without a time
+        index or for several trajectories.
     n_trajectories : int
         R, the number of time-aligned trajectories (series) the fit shared.
     n_missing : int

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..errors import ModelFileError
 from ..validation.arrays import LARGEST_DATA, describe
+from ..validation.time import increasing
 from . import archive
 from .arx import ARModel, ARXModel
 from .forecast import noise_covariance
@@ -127,6 +128,11 @@ def _invalid_record(model: RegressionModel) -> str | None:
     noise = _invalid_noise(fit.noise_var, fit.noise_cov, n)
     if noise:
         return noise
+    time = model.data.time
+    if time is not None and (
+        time.ndim != 1 or time.dtype.kind not in "iufM" or not increasing(time)
+    ):  # (forecasts continue it, to_statespace takes its step as dt)
+        return "'data_time' (expected increasing numbers or dates, one per sample)"
     if fit.loglik is not None and not np.isfinite(fit.loglik):
         return f"'loglik' {fit.loglik}"
     if fit.lam is not None:

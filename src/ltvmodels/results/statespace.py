@@ -12,6 +12,7 @@ from ..core.simulation import simulate_affine
 from ..errors import DivergenceWarning, warn
 from ..validation import arrays, memory, options
 from ..validation.arrays import LARGEST_DATA, describe
+from ..validation.time import increasing, sampling_period
 from .base import LinearTimeVarying
 from .forecast import (
     DEFAULT_SAMPLES,
@@ -156,17 +157,21 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         return names
 
     def _index_step(self) -> float:
-        """The step of a regular time index (dates in seconds), else 1."""
+        """The step of a regular time index (dates in seconds), else 1; an error for a time
+        index that does not increase (set by hand or in an edited file: a fit checks it)."""
         time = self.time
         if time is None or time.size < 2:
             return 1.0
-        steps = np.diff(time)
-        if np.any(steps != steps[0]):
-            return 1.0
-        if np.issubdtype(time.dtype, np.datetime64):
-            return float(steps[0] / np.timedelta64(1, "s"))
-        step = float(steps[0])
-        return step if step > 0 else 1.0
+        step = sampling_period(time)
+        if step is not None:
+            return step
+        if not increasing(time):
+            raise ValueError(
+                f"dt: the model's time index (model.time, from {time[0]} to {time[-1]}) does "
+                "not increase, so its step is no sampling period; pass dt=, the sampling "
+                "period > 0"
+            )
+        return 1.0
 
     @classmethod
     def from_arrays(
@@ -521,7 +526,8 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         dt : float, optional
             Sampling period of the discrete-time system, > 0. Default: the
             step of the model's time index when it is regular (numbers: in
-            their unit; dates: in seconds), else 1 (one model step).
+            their unit, e.g. 0.1 for an index 0, 0.1, 0.2, …; dates and time
+            spans: in seconds), else 1 (one model step).
 
         Returns
         -------
@@ -541,7 +547,9 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         TypeError
             ``t`` is not an integer, ``dt`` not a real number.
         ValueError
-            ``t`` outside [-N, N − 1], ``dt`` not > 0.
+            ``t`` outside [-N, N − 1], ``dt`` not > 0; no ``dt`` for a model
+            whose time index does not increase (set by hand, e.g. with
+            :meth:`with_data`: a fit checks the time order).
 
         Examples
         --------

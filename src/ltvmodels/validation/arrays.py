@@ -64,7 +64,7 @@ class LabelledSeries:
     names : list of str, optional
         The d column names.
     time : ndarray, shape (T,), optional
-        Time stamps (datetime64 or numbers).
+        Time stamps (datetime64, timedelta64 or numbers).
     """
 
     values: np.ndarray
@@ -419,7 +419,8 @@ def time_index(value: Any, count: int) -> np.ndarray | None:
     """The index of a pandas object (or the coordinate of an xarray DataArray's first
     dimension) with ``count`` rows as an array: datetime64[ns] for
     dates (time zones dropped after conversion to UTC, periods at their start), float
-    for numbers; None for other data and for the default index 0, 1, …"""
+    for numbers, float seconds for time spans (a TimedeltaIndex); None for other data
+    and for the default index 0, 1, …"""
     if isinstance(value, LabelledSeries):
         if value.time is None or len(value.time) != count:
             return None
@@ -444,10 +445,14 @@ def index_values(index: Any) -> np.ndarray:
 
 
 def _time_values(values: np.ndarray, count: int) -> np.ndarray | None:
-    """Time stamps as a model keeps them: datetime64[ns] for dates, float for numbers;
-    None for other values and for the default 0, 1, …, count − 1."""
+    """Time stamps as a model keeps them: datetime64[ns] for dates, float for numbers and
+    float seconds for time spans (a pandas TimedeltaIndex: its raw numbers would be in
+    whatever unit numpy holds them); None for other values and for the default
+    0, 1, …, count − 1."""
     if np.issubdtype(values.dtype, np.datetime64):
         return values.astype("datetime64[ns]")
+    if np.issubdtype(values.dtype, np.timedelta64):
+        return values / np.timedelta64(1, "s")
     if not np.issubdtype(values.dtype, np.number):
         return None
     values = values.astype(float)
