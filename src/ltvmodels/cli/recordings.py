@@ -90,6 +90,7 @@ def state_space_data(args: argparse.Namespace) -> StateSpaceData:
     weights = getattr(args, "weights", None)
     _, label, cols = read_columns(
         args.data,
+        header=args.header,
         state=args.state,
         input=args.input,
         weights=weights,
@@ -146,7 +147,9 @@ def column_data(args: argparse.Namespace) -> ColumnData:
     DataError
         A column that cannot be read, or a missing weight.
     """
-    _, label, cols = read_columns(args.data, column=args.column, weights=args.weights)
+    _, label, cols = read_columns(
+        args.data, header=args.header, column=args.column, weights=args.weights
+    )
     weights = None
     if cols["weights"] is not None:  # the equation predicting row t has row t's weight
         weights = cols["weights"][1][args.na :, 0]

@@ -54,7 +54,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=None,
         help="models with inputs: a data file with the input columns after the "
         "end of DATA, one row per sample, at least H rows (a state-space model "
-        "uses the first H - 1: its first step is driven by DATA's last input)",
+        "uses the first H - 1: its first step is driven by DATA's last input); "
+        "its first line is read as DATA's (--header, --no-header)",
     )
     opt.add_seed(p, "seed of the Monte Carlo samples beyond the first step (default: 0)")
     opt.add_model_columns(
@@ -181,7 +182,9 @@ def _future_inputs(args: argparse.Namespace, data: ModelData, H: int) -> np.ndar
             f"); give a data file with those columns for the {needed} samples "
             "after the end of the data"
         )
-    rows, label, cols = read_columns(args.future_input, input=",".join(data.input_names))
+    rows, label, cols = read_columns(
+        args.future_input, header=args.header, input=",".join(data.input_names)
+    )
     values = cols["input"][1]
     if rows < needed:
         raise DataError(
