@@ -408,3 +408,12 @@ def test_fit_many_keeps_a_time_span_column_in_seconds():
     np.testing.assert_allclose(model.time, np.arange(200) * 0.01, rtol=0, atol=1e-12)
     (change,) = ms.summary.loc["a", "change_times"]
     assert change == pytest.approx(model.changepoint_times[0]) and 0.5 < change < 1.5
+
+
+def test_fit_many_rejects_a_used_column_name_that_the_table_repeats():
+    # frame["p"] is then a table, and the split failed with an AttributeError.
+    table = pd.DataFrame(np.c_[np.zeros(200), D.x, D.x[:, 0]], columns=["unit", "p", "v", "p"])
+    with pytest.raises(ValueError, match=r"^state: column 'p' appears twice \(columns 1 and 3\)"):
+        ltv.fit_many(table, by="unit", state=["p", "v"], lam=10.0, n_jobs=1)
+    unused = table.set_axis(["unit", "p", "note", "note"], axis=1)  # a repeat left aside
+    assert ltv.fit_many(unused, by="unit", state=["p"], lam=10.0, n_jobs=1).errors == {}
