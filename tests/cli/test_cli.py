@@ -1327,3 +1327,39 @@ def test_columns_of_the_same_name_cannot_be_selected_together(tmp_path, capsys):
     assert code == 2
     assert f"--state: columns 0 and 1 of {path} are both named 'p'" in err
     assert "rename one of them in the file" in err
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["fit", "--state", "p,v", "--lam", "1"], "--state data: state 'v' has no observed"),
+        (["segments", "--state", "p,v", "--n-changes", "1"], "--state data: state 'v' has no"),
+        (["select-lambda", "--state", "p,v"], "--state data: state 'v' has no observed"),
+        (["ar", "--column", "v", "--na", "1", "--lam", "1"], "--column data: output 'v' has no"),
+        (["select-lambda", "--column", "v", "--na", "1"], "--column data: output 'v' has no"),
+        (["fit", "--state", "p,big", "--lam", "1"], "--state data: column 'big' has values of"),
+        (["ar", "--column", "big", "--na", "1", "--lam", "1"], "--column data: column 'big' has"),
+        (
+            ["fit", "--state", "p,w", "--weights", "gap", "--lam", "1"],
+            "--weights: the weights must be observed, received a missing value in column "
+            "'gap' at row 5",
+        ),
+        (
+            ["ar", "--column", "p", "--na", "2", "--weights", "gap", "--lam", "1"],
+            "--weights: the weights must be observed, received a missing value in column "
+            "'gap' at row 5",
+        ),
+    ],
+)
+def test_rejected_columns_are_named_as_in_the_file(argv, message, tmp_path, capsys):
+    # The library's messages named them by position in the selection ("state 1", "column 1").
+    data = systems.jump_linear(T=60, change_at=30, seed=1)
+    path = tmp_path / "data.csv"
+    lines = ["p,v,big,w,gap"] + [
+        f"{x0:.10g},NA,{x1 * 1e200:.10g},{x1:.10g},{'NA' if t == 5 else 1}"
+        for t, (x0, x1) in enumerate(data.x)
+    ]
+    path.write_text("\n".join(lines) + "\n")
+    code, out, err = _run([argv[0], path, *argv[1:]], capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert message in err, err

@@ -417,3 +417,56 @@ def test_fit_many_rejects_a_used_column_name_that_the_table_repeats():
         ltv.fit_many(table, by="unit", state=["p", "v"], lam=10.0, n_jobs=1)
     unused = table.set_axis(["unit", "p", "note", "note"], axis=1)  # a repeat left aside
     assert ltv.fit_many(unused, by="unit", state=["p"], lam=10.0, n_jobs=1).errors == {}
+
+
+@pytest.mark.parametrize(
+    "call, message",
+    [
+        (
+            lambda x, u: ltv.fit(
+                x.assign(v=np.where(np.arange(200) == 3, np.inf, x["v"])), u, lam=1.0
+            ),
+            r"^x: expected finite values or NaN \(missing\), received inf \(first in column "
+            r"'v', at row Timestamp\('2024-01-04 00:00:00'\)\)",
+        ),
+        (
+            lambda x, u: ltv.fit(x.assign(v=x["v"] * 1e200), u, lam=1.0),
+            r"^x: column 'v' has values of magnitude up to .* too large",
+        ),
+        (
+            lambda x, u: ltv.fit(x.assign(v=np.nan), u, lam=1.0),
+            r"^x: state 'v' has no observed samples",
+        ),
+        (
+            lambda x, u: ltv.fit(x, u.assign(f=np.nan), lam=1.0),
+            r"^u: input 'f' has no observed samples",
+        ),
+        (
+            lambda x, u: ltv.fit_regression(x[["p"]], x.assign(v=np.nan), lam=1.0),
+            r"^phi: regressor 'v' has no observed samples",
+        ),
+        (
+            lambda x, u: ltv.fit_ar(x.assign(v=np.nan), 1, lam=1.0),
+            r"^y: output 'v' has no observed samples",
+        ),
+        (
+            lambda x, u: ltv.fit_arx(x["p"], u.assign(f=np.nan), 1, 1, lam=1.0),
+            r"^u: input 'f' has no observed samples",
+        ),
+        (
+            lambda x, u: ltv.ar_regressors(x.assign(v=x["v"] * 1e-200), 1),
+            r"^y: column 'v' has values of magnitude up to .* too small",
+        ),
+    ],
+)
+def test_every_rejection_of_a_table_names_the_column(call, message):
+    # They said "column 1", "state 1" (positions), "at index (3, 1)", or blamed y for a
+    # regressor that is never observed ("too few observed samples").
+    with pytest.raises(ValueError, match=message):
+        call(X, U)
+
+
+def test_fit_many_names_the_column_of_a_unit_that_fails():
+    table = pd.DataFrame({"unit": "a", "p": D.x[:, 0], "v": D.x[:, 1] * 1e200})
+    ms = ltv.fit_many(table, by="unit", state=["p", "v"], lam=10.0, n_jobs=1)
+    assert "x: column 'v' has values of magnitude up to" in ms.errors["a"]

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..validation.arrays import LabelledSeries
 from .data import read_columns
 from .messages import DataError
 
@@ -46,6 +47,17 @@ class StateSpaceData:
     weights: np.ndarray | None
     time: np.ndarray | None
 
+    @property
+    def states(self) -> LabelledSeries:
+        """x with its columns' names, as the estimators take it: their errors then name
+        the columns of the file."""
+        return LabelledSeries(self.x, self.state_names)
+
+    @property
+    def inputs(self) -> LabelledSeries | None:
+        """u with its columns' names (None for an autonomous system)."""
+        return None if self.u is None else LabelledSeries(self.u, self.input_names)
+
 
 @dataclass(frozen=True)
 class ColumnData:
@@ -67,6 +79,12 @@ class ColumnData:
     names: list[str]
     y: np.ndarray
     weights: np.ndarray | None
+
+    @property
+    def series(self) -> LabelledSeries:
+        """y with its columns' names, as the estimators take it: their errors then name
+        the columns of the file."""
+        return LabelledSeries(self.y, self.names)
 
 
 def state_space_data(args: argparse.Namespace) -> StateSpaceData:
@@ -100,17 +118,17 @@ def state_space_data(args: argparse.Namespace) -> StateSpaceData:
     input_names, u = cols["input"] if cols["input"] is not None else ([], None)
     transition_weights = None
     if weights is not None:  # the equation predicting row t has the weight of row t
-        column = cols["weights"][1][1:, 0]
+        (name,), values = cols["weights"]
+        column = values[1:, 0]
         if not np.all(np.isfinite(column)):
             raise DataError(
-                f"--weights: the weights must be observed, received a missing "
-                f"value at row {1 + int(np.flatnonzero(~np.isfinite(column))[0])}"
+                f"--weights: the weights must be observed, received a missing value in "
+                f"column {name!r} at row {1 + int(np.flatnonzero(~np.isfinite(column))[0])}"
             )
         transition_weights = column
     time = None if cols.get("time") is None else cols["time"][1]
     if time is not None:  # the library's time rules, as for a pandas index
         from ..estimators.recordings import time_grid_of
-        from ..validation.arrays import LabelledSeries
 
         try:
             grid = time_grid_of(LabelledSeries(x, state_names, time), "--time")
@@ -152,8 +170,12 @@ def column_data(args: argparse.Namespace) -> ColumnData:
     )
     weights = None
     if cols["weights"] is not None:  # the equation predicting row t has row t's weight
-        weights = cols["weights"][1][args.na :, 0]
+        (name,), values = cols["weights"]
+        weights = values[args.na :, 0]
         if not np.all(np.isfinite(weights)):
-            raise DataError("--weights: the weights must be observed (no missing values)")
+            raise DataError(
+                f"--weights: the weights must be observed, received a missing value in "
+                f"column {name!r} at row {args.na + int(np.flatnonzero(~np.isfinite(weights))[0])}"
+            )
     names, y = cols["column"]
     return ColumnData(label, names, y, weights)

@@ -225,6 +225,8 @@ def regression_data(
     names = {"output": y, "regressor": phi}
     y = arrays.trajectories(y, "y")
     phi = arrays.trajectories(phi, "phi")
+    arrays.observed_columns(y, "y", "output", names["output"])
+    arrays.observed_columns(phi, "phi", "regressor", names["regressor"])
     if phi.shape[:2] != y.shape[:2]:
         expected = y.shape[1] if y.shape[0] == 1 else y.shape[:2]
         received = phi.shape[1] if phi.shape[0] == 1 else phi.shape[:2]

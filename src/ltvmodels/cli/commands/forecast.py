@@ -94,7 +94,7 @@ def run(args: argparse.Namespace) -> Report:
     kind, y, u, lag, H = data.kind, data.y, data.u, data.lag, args.steps
     future = _future_inputs(args, data, H)
     with user_errors(f"{data.label}: "):
-        representable(y[-lag:], "--state" if kind == "ltv" else "--column")
+        representable(y[-lag:], "--state" if kind == "ltv" else "--column", names=data.names)
     with user_errors():
         if kind == "ltv":
             inputs = (
