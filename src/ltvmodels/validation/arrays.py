@@ -79,6 +79,12 @@ class LabelledSeries:
     def to_numpy(self) -> np.ndarray:
         return self.values
 
+    def __array__(self, dtype: Any = None, copy: bool | None = None) -> np.ndarray:
+        """The values for numpy (``np.asarray``): a labelled series is array-like, as the
+        estimators' ``ArrayLike`` arguments say (the command line hands its columns to
+        them this way)."""
+        return np.array(self.values, dtype=dtype, copy=copy)
+
 
 def describe(value: Any) -> str:
     """Short description of a received value for error messages."""
@@ -199,13 +205,12 @@ def as_float_array(value: Any, name: str, *, missing: bool = False) -> np.ndarra
 def _entry_text(source: Any, position: tuple[int, ...], name: str) -> str:
     """Where the entry at ``position`` of the data ``source`` lies, as messages say it: in
     its named column (a table's, at its row's label) or at its array index."""
-    index = getattr(source, "index", None)
+    index: Any = getattr(source, "index", None)
     labelled_rows = hasattr(index, "to_numpy")  # a pandas object's
     if len(position) == 1 and labelled_rows:  # a Series
         return f"at row {index[position[0]]!r}"
     if len(position) == 2:
-        values = source.values if isinstance(source, LabelledSeries) else source
-        names = column_names(source, np.shape(values)[1], name)
+        names = column_names(source, np.shape(source)[1], name)
         if names is not None:
             row = index[position[0]] if labelled_rows else position[0]
             return f"in column {names[position[1]]!r}, at row {row!r}"
@@ -427,14 +432,14 @@ def column_names(value: Any, count: int, name: str) -> list[str] | None:
     columns = getattr(value, "columns", None)
     if columns is not None and getattr(value, "ndim", 0) == 2 and len(columns) == count:
         return _distinct(columns, name)
-    name = getattr(value, "name", None)
+    label = getattr(value, "name", None)
     if (
-        name is not None
+        label is not None
         and getattr(value, "ndim", 0) == 1
         and count == 1
         and hasattr(value, "index")
     ):
-        return [str(name)]
+        return [str(label)]
     return None
 
 
