@@ -376,7 +376,8 @@ def test_headerless_csv_stdin_and_semicolons(tmp_path, monkeypatch, capsys):
     text = "\n".join(";".join(f"{v:.10g}" for v in row) for row in np.hstack([data.x, data.u]))
     monkeypatch.setattr(sys, "stdin", io.StringIO("# a comment\n" + text + "\n"))
     code, out, err = _run(
-        ["fit", "-", "--state", "0,1", "--input", "2", "--lam", "10", "--json"], capsys
+        ["fit", "-", "--no-header", "--state", "0,1", "--input", "2", "--lam", "10", "--json"],
+        capsys,
     )
     assert code == 0, err
     report = json.loads(out)
@@ -778,7 +779,7 @@ def test_predict_with_missing_values(missing_csv, workdir, tmp_path, capsys):
 
 
 def test_headerless_csv_with_a_missing_first_cell(tmp_path, monkeypatch, capsys):
-    """A first row with an empty cell or NA is data, not a header."""
+    """With --no-header, a first row with an empty cell or NA is data."""
     data = systems.jump_linear(T=60, change_at=30, seed=1)
     values = np.hstack([data.x, data.u])
     rows = [",".join(f"{v:.10g}" for v in row) for row in values]
@@ -786,7 +787,8 @@ def test_headerless_csv_with_a_missing_first_cell(tmp_path, monkeypatch, capsys)
     rows[1] = "," + rows[1].split(",", 1)[1]
     monkeypatch.setattr(sys, "stdin", io.StringIO("\n".join(rows) + "\n"))
     code, out, err = _run(
-        ["fit", "-", "--state", "0,1", "--input", "2", "--lam", "10", "--json"], capsys
+        ["fit", "-", "--no-header", "--state", "0,1", "--input", "2", "--lam", "10", "--json"],
+        capsys,
     )
     assert code == 0, err
     report = json.loads(out)
@@ -1518,3 +1520,100 @@ def test_every_command_reading_a_series_checks_its_time_column(command, tmp_path
         "(2020-01-01 to 2020-04-29) were inserted as missing samples (NaN rows); "
         "model.n_missing counts what they leave out"
     ]
+
+
+@pytest.mark.parametrize("first_line", ["1,2,3", "NA,nan,null", "0,1,NA"])
+def test_a_first_line_of_numbers_or_missing_values_must_be_declared(first_line, tmp_path, capsys):
+    # It was read as a data row: a header 0,1,2 (pandas' integer column names) became
+    # a sample, and NA,nan,null a sample with no values.
+    data = systems.jump_linear(T=60, change_at=30, seed=1)
+    rows = [",".join(f"{v:.10g}" for v in row) for row in np.hstack([data.x, data.u])]
+    path = tmp_path / "data.csv"
+    path.write_text("\n".join([first_line, *rows]) + "\n")
+    names = first_line.split(",")
+    argv = ["fit", path, "--state", f"{names[0]},{names[1]}", "--lam", "10", "--json"]
+    code, out, err = _run(argv, capsys)
+    assert code == 2 and out == ""
+    assert err.strip() == (
+        f"ltvmodels fit: error: {path}, line 1: the first line {first_line!r} holds only "
+        "numbers and missing values, so it could be column names or data; pass --header "
+        "if it names the columns, --no-header if it is the first data row"
+    )
+    code, out, err = _run([*argv, "--header"], capsys)
+    assert code == 0, err
+    report = json.loads(out)
+    assert report["T"] == 60 and report["state"] == names[:2]
+    if first_line == "1,2,3":  # the data row: its columns 1 and 2, selected by index
+        code, out, err = _run([*argv, "--no-header"], capsys)
+        assert code == 0, err
+        assert json.loads(out)["T"] == 61
+
+
+def test_a_text_header_is_a_header_and_no_header_reads_it_as_data(workdir, capsys):
+    root, _ = workdir
+    argv = ["fit", root / "data.csv", "--state", "2,3", "--input", "4", "--lam", "10"]
+    code, out, err = _run([*argv, "--json"], capsys)
+    assert code == 0 and json.loads(out)["state"] == ["x1", "x2"], err
+    code, out, err = _run([*argv, "--no-header"], capsys)
+    assert code == 2
+    assert "line 1, column '2': 'x1' is not a number" in err
+
+
+def test_header_options_are_for_csv_files(workdir, tmp_path, capsys):
+    pd = pytest.importorskip("pandas")
+    pytest.importorskip("pyarrow")
+    _, data = workdir
+    pd.DataFrame({"x1": data.x[:, 0], "x2": data.x[:, 1]}).to_parquet(tmp_path / "d.parquet")
+    code, out, err = _run(
+        ["fit", tmp_path / "d.parquet", "--state", "x1,x2", "--lam", "1", "--no-header"], capsys
+    )
+    assert code == 2
+    assert "--no-header: " in err and "is a Parquet file, whose columns always have names" in err
+
+
+def test_columns_of_the_same_name_cannot_be_selected_together(tmp_path, capsys):
+    # Selected by index, they gave a model of two states both named 'p'.
+    data = systems.jump_linear(T=60, change_at=30, seed=1)
+    rows = [",".join(f"{v:.10g}" for v in row) for row in np.hstack([data.x, data.u])]
+    path = tmp_path / "twice.csv"
+    path.write_text("\n".join(["p,p,u", *rows]) + "\n")
+    code, out, err = _run(["fit", path, "--state", "0,1", "--input", "u", "--lam", "10"], capsys)
+    assert code == 2
+    assert f"--state: columns 0 and 1 of {path} are both named 'p'" in err
+    assert "rename one of them in the file" in err
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["fit", "--state", "p,v", "--lam", "1"], "--state data: state 'v' has no observed"),
+        (["segments", "--state", "p,v", "--n-changes", "1"], "--state data: state 'v' has no"),
+        (["select-lambda", "--state", "p,v"], "--state data: state 'v' has no observed"),
+        (["ar", "--column", "v", "--na", "1", "--lam", "1"], "--column data: output 'v' has no"),
+        (["select-lambda", "--column", "v", "--na", "1"], "--column data: output 'v' has no"),
+        (["fit", "--state", "p,big", "--lam", "1"], "--state data: column 'big' has values of"),
+        (["ar", "--column", "big", "--na", "1", "--lam", "1"], "--column data: column 'big' has"),
+        (
+            ["fit", "--state", "p,w", "--weights", "gap", "--lam", "1"],
+            "--weights: the weights must be observed, received a missing value in column "
+            "'gap' at row 5",
+        ),
+        (
+            ["ar", "--column", "p", "--na", "2", "--weights", "gap", "--lam", "1"],
+            "--weights: the weights must be observed, received a missing value in column "
+            "'gap' at row 5",
+        ),
+    ],
+)
+def test_rejected_columns_are_named_as_in_the_file(argv, message, tmp_path, capsys):
+    # The library's messages named them by position in the selection ("state 1", "column 1").
+    data = systems.jump_linear(T=60, change_at=30, seed=1)
+    path = tmp_path / "data.csv"
+    lines = ["p,v,big,w,gap"] + [
+        f"{x0:.10g},NA,{x1 * 1e200:.10g},{x1:.10g},{'NA' if t == 5 else 1}"
+        for t, (x0, x1) in enumerate(data.x)
+    ]
+    path.write_text("\n".join(lines) + "\n")
+    code, out, err = _run([argv[0], path, *argv[1:]], capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert message in err, err

@@ -184,7 +184,8 @@ def test_inputs_are_matched_to_the_states_by_their_stamps():
     positional = ltv.fit(X, U.reset_index(drop=True), lam=10.0)  # no stamps: by position
     np.testing.assert_array_equal(positional.k, ordered.k)
     with pytest.raises(ValueError, match=r"\(u has 15 stamps that x lacks, the first 2024-03-21"):
-        ltv.fit(X.drop(GAP), U, lam=10.0)  # the inputs of the dropped days still there
+        with pytest.warns(ltv.DataWarning):  # (x's own gap, announced before u is matched)
+            ltv.fit(X.drop(GAP), U, lam=10.0)  # the inputs of the dropped days still there
     with pytest.raises(ValueError, match=r"\(x has 1 stamp that u lacks, the first 2024-01-01"):
         ltv.fit(X, U.iloc[1:], lam=10.0)
 
@@ -512,3 +513,111 @@ def test_every_estimator_keeps_the_time_rules_on_every_kind_of_index(kind):
                 if np.issubdtype(expected.dtype, np.datetime64):
                     expected = expected.astype("datetime64[ns]")
                 np.testing.assert_array_equal(model.time, expected, err_msg=name)
+
+
+def test_a_decimal_step_is_the_sampling_period_and_continues_in_forecasts():
+    # np.arange(T) * 0.1 has steps that differ in their last bits: to_statespace took
+    # them for an irregular axis and exported dt = 1.
+    pytest.importorskip("control.statesp")
+    x = pd.DataFrame(D.x, index=np.arange(200) * 0.1, columns=["p", "v"])
+    model = ltv.fit(x, U.set_axis(x.index), lam=10.0)
+    assert model.to_statespace().dt == pytest.approx(0.1, rel=1e-12)
+    forecast = model.forecast(D.x[-1], D.u[-3:], noise_cov=np.eye(2))
+    np.testing.assert_allclose(forecast.time, [20.0, 20.1, 20.2], rtol=0, atol=1e-12)
+
+
+def test_time_spans_are_kept_in_seconds():
+    # A TimedeltaIndex of 10 ms was kept in numpy's raw unit (10000.0 microseconds):
+    # model.time, forecast times and the exported dt were in that unit.
+    pytest.importorskip("control.statesp")
+    spans = pd.to_timedelta(np.arange(200) * 10, unit="ms")
+    model = ltv.fit(X.set_axis(spans), U.set_axis(spans), lam=10.0)
+    np.testing.assert_allclose(model.time, np.arange(200) * 0.01, rtol=0, atol=1e-12)
+    assert model.to_statespace().dt == pytest.approx(0.01, rel=1e-12)
+    forecast = model.forecast(D.x[-1], D.u[-2:], noise_cov=np.eye(2))
+    np.testing.assert_allclose(forecast.time, [2.0, 2.01], rtol=0, atol=1e-12)
+    with pytest.warns(ltv.DataWarning, match="2 time stamps missing"):  # on the grid as numbers
+        gappy = ltv.fit(X.set_axis(spans).drop(spans[[50, 51]]), lam=10.0)
+    np.testing.assert_allclose(gappy.time, model.time, rtol=0, atol=1e-12)
+
+
+def test_fit_many_keeps_a_time_span_column_in_seconds():
+    # The column's nanoseconds became the models' times and the summary's change times.
+    spans = pd.to_timedelta(np.arange(200) * 10, unit="ms")
+    table = pd.DataFrame({"unit": "a", "t": spans, "p": D.x[:, 0], "v": D.x[:, 1], "f": D.u[:, 0]})
+    ms = ltv.fit_many(
+        table,
+        by="unit",
+        state=["p", "v"],
+        inputs="f",
+        time="t",
+        method="segments",
+        n_changes=1,
+        n_jobs=1,
+    )
+    model = ms["a"]
+    np.testing.assert_allclose(model.time, np.arange(200) * 0.01, rtol=0, atol=1e-12)
+    (change,) = ms.summary.loc["a", "change_times"]
+    assert change == pytest.approx(model.changepoint_times[0]) and 0.5 < change < 1.5
+
+
+def test_fit_many_rejects_a_used_column_name_that_the_table_repeats():
+    # frame["p"] is then a table, and the split failed with an AttributeError.
+    table = pd.DataFrame(np.c_[np.zeros(200), D.x, D.x[:, 0]], columns=["unit", "p", "v", "p"])
+    with pytest.raises(ValueError, match=r"^state: column 'p' appears twice \(columns 1 and 3\)"):
+        ltv.fit_many(table, by="unit", state=["p", "v"], lam=10.0, n_jobs=1)
+    unused = table.set_axis(["unit", "p", "note", "note"], axis=1)  # a repeat left aside
+    assert ltv.fit_many(unused, by="unit", state=["p"], lam=10.0, n_jobs=1).errors == {}
+
+
+@pytest.mark.parametrize(
+    "call, message",
+    [
+        (
+            lambda x, u: ltv.fit(
+                x.assign(v=np.where(np.arange(200) == 3, np.inf, x["v"])), u, lam=1.0
+            ),
+            r"^x: expected finite values or NaN \(missing\), received inf \(first in column "
+            r"'v', at row Timestamp\('2024-01-04 00:00:00'\)\)",
+        ),
+        (
+            lambda x, u: ltv.fit(x.assign(v=x["v"] * 1e200), u, lam=1.0),
+            r"^x: column 'v' has values of magnitude up to .* too large",
+        ),
+        (
+            lambda x, u: ltv.fit(x.assign(v=np.nan), u, lam=1.0),
+            r"^x: state 'v' has no observed samples",
+        ),
+        (
+            lambda x, u: ltv.fit(x, u.assign(f=np.nan), lam=1.0),
+            r"^u: input 'f' has no observed samples",
+        ),
+        (
+            lambda x, u: ltv.fit_regression(x[["p"]], x.assign(v=np.nan), lam=1.0),
+            r"^phi: regressor 'v' has no observed samples",
+        ),
+        (
+            lambda x, u: ltv.fit_ar(x.assign(v=np.nan), 1, lam=1.0),
+            r"^y: output 'v' has no observed samples",
+        ),
+        (
+            lambda x, u: ltv.fit_arx(x["p"], u.assign(f=np.nan), 1, 1, lam=1.0),
+            r"^u: input 'f' has no observed samples",
+        ),
+        (
+            lambda x, u: ltv.ar_regressors(x.assign(v=x["v"] * 1e-200), 1),
+            r"^y: column 'v' has values of magnitude up to .* too small",
+        ),
+    ],
+)
+def test_every_rejection_of_a_table_names_the_column(call, message):
+    # They said "column 1", "state 1" (positions), "at index (3, 1)", or blamed y for a
+    # regressor that is never observed ("too few observed samples").
+    with pytest.raises(ValueError, match=message):
+        call(X, U)
+
+
+def test_fit_many_names_the_column_of_a_unit_that_fails():
+    table = pd.DataFrame({"unit": "a", "p": D.x[:, 0], "v": D.x[:, 1] * 1e200})
+    ms = ltv.fit_many(table, by="unit", state=["p", "v"], lam=10.0, n_jobs=1)
+    assert "x: column 'v' has values of magnitude up to" in ms.errors["a"]

@@ -178,3 +178,78 @@ def test_a_damaged_data_tail_is_a_model_file_error(tmp_path, outputs, inputs):
     np.savez(path, **arrays)
     with pytest.raises(ltv.ModelFileError, match=r"m\.npz"):
         ltv.load(path)
+
+
+def edited_file(tmp_path, model, **members):
+    """``model`` saved, with ``members`` replaced (arrays) or, for "meta_<key>", the JSON
+    entry <key> of its meta replaced: a file edited by hand."""
+    path = tmp_path / "edited.npz"
+    model.save(path)
+    with np.load(path, allow_pickle=False) as data:
+        arrays = {key: data[key] for key in data.files}
+    meta = json.loads(str(arrays["meta"]))
+    for key, value in members.items():
+        if key.startswith("meta_"):
+            meta[key[len("meta_") :]] = value
+        else:
+            arrays[key] = value
+    arrays["meta"] = np.array(json.dumps(meta))
+    np.savez(path, **arrays)
+    return path
+
+
+@pytest.mark.parametrize(
+    "noise_cov, problem",
+    [
+        (-np.eye(2), r"positive semidefinite matrix, received one with eigenvalue -1"),
+        (np.array([[1.0, 2.0], [2.0, 1.0]]), r"positive semidefinite .* eigenvalue -1"),
+        (np.array([[1.0, 0.5], [0.0, 1.0]]), r"expected a symmetric matrix"),
+        (np.array([[1.0, np.inf], [np.inf, 1.0]]), r"expected finite values"),
+        (np.eye(3), r"expected a \(2, 2\) matrix, received shape \(3, 3\)"),
+    ],
+)
+def test_a_noise_covariance_edited_to_be_invalid_is_rejected_on_loading(
+    tmp_path, noise_cov, problem
+):
+    # Such a file used to load and forecast a negative covariance.
+    model = ltv.LTVModel.from_arrays(0.5 * np.eye(2), steps=5, noise_cov=np.eye(2))
+    path = edited_file(tmp_path, model, noise_cov=noise_cov)
+    with pytest.raises(
+        ltv.ModelFileError, match=rf"^path: .* holds an invalid 'noise_cov' .*{problem}"
+    ):
+        ltv.load(path)
+
+
+@pytest.mark.parametrize("value, text", [(-1.0, "-1"), (None, "nan")])
+def test_a_noise_variance_edited_to_be_invalid_is_rejected_naming_the_value(tmp_path, value, text):
+    path = edited_file(tmp_path, ltv.fit(X, U, lam=10.0), meta_noise_var=[0.1, value])
+    with pytest.raises(
+        ltv.ModelFileError,
+        match=rf"invalid 'noise_var' \(expected 2 finite variances >= 0, received {text} at "
+        "position 1\\)",
+    ):
+        ltv.load(path)
+
+
+def test_fitted_noise_covariances_load_as_they_were_saved(tmp_path):
+    for model in (ltv.fit(X, U, lam=10.0), ltv.fit_arx(X[:, 0], U, na=2, nb=1, lam=10.0)):
+        path = tmp_path / "m.npz"
+        model.save(path)
+        np.testing.assert_array_equal(ltv.load(path).noise_cov, model.noise_cov)
+
+
+@pytest.mark.parametrize("key, value", [("na", 1.5), ("nk", -1)])
+def test_ar_orders_edited_to_be_invalid_are_rejected_naming_them(tmp_path, key, value):
+    # The sizes of an AR/ARX model were taken as int(value): 1.5 read as 1.
+    model = ltv.fit_arx(X[:, 0], U, na=2, nb=1, lam=10.0)
+    path = edited_file(tmp_path, model, **{f"meta_{key}": value})
+    with pytest.raises(ltv.ModelFileError, match=rf"{key}: expected an integer >= 0"):
+        ltv.load(path)
+
+
+def test_a_time_axis_edited_to_decrease_is_rejected_on_loading(tmp_path):
+    # It loaded, and to_statespace took its negative step for the sampling period.
+    model = ltv.fit(X, U, lam=10.0).with_data(ltv.DataDescription.of(time=np.arange(100) * 0.5))
+    path = edited_file(tmp_path, model, data_time=np.arange(100)[::-1] * 0.5)
+    with pytest.raises(ltv.ModelFileError, match=r"invalid 'data_time' \(expected increasing"):
+        ltv.load(path)

@@ -157,6 +157,53 @@ def test_labels_are_the_data_column_names(control, data):
     assert sys_t.input_labels == ["const", "const_"]
 
 
+@pytest.mark.parametrize(
+    "states, inputs, state_labels, input_labels",
+    [
+        (["pos.x", "pos.y"], ["f.x"], ["pos_x", "pos_y"], ["f_x", "const"]),
+        ([1.5, 2.5], [0.5], ["1_5", "2_5"], ["0_5", "const"]),
+        (["p.v", "p_v"], ["const"], ["p_v", "p_v_"], ["const", "const_"]),
+    ],
+)
+def test_names_python_control_cannot_take_are_exported_as_valid_labels(
+    control, data, states, inputs, state_labels, input_labels
+):
+    # A "." in a name (a float column name has one) made python-control raise
+    # "invalid signal name"; the model keeps its own names.
+    pd = pytest.importorskip("pandas")
+    x = pd.DataFrame(data.x, columns=states)
+    u = pd.DataFrame(data.u, columns=inputs)
+    model = ltv.fit(x, u, lam=LAM, constant=True)
+    sys_t = model.to_statespace()
+    assert sys_t.state_labels == sys_t.output_labels == state_labels
+    assert sys_t.input_labels == input_labels
+    assert model.state_names == [str(name) for name in states]
+    np.testing.assert_array_equal(sys_t.A, model.A[-1])
+
+
+def test_repeated_column_names_are_an_error_when_the_data_are_read(data):
+    # ['p', 'p'] gave a system of 2 states labelled ['p'] (python-control keeps one
+    # signal per name), and an AttributeError for a table with a text column.
+    pd = pytest.importorskip("pandas")
+    with pytest.raises(
+        ValueError, match=r"^x: column 'p' appears twice \(columns 0 and 1\); rename one"
+    ):
+        ltv.fit(pd.DataFrame(data.x, columns=["p", "p"]), data.u, lam=LAM)
+    with pytest.raises(ValueError, match=r"^u: column '1' appears twice \(columns 0 and 1\)"):
+        ltv.fit(data.x, pd.DataFrame(np.c_[data.u, data.u], columns=[1, "1"]), lam=LAM)
+
+
+@pytest.mark.parametrize("time", [np.arange(400)[::-1] * 1.0, np.full(400, 3.0)])
+def test_a_time_index_that_does_not_increase_gives_no_sampling_period(control, fitted, time):
+    # Set by hand (a fit checks the time order): the step is no sampling period.
+    model = fitted.with_data(ltv.DataDescription.of(time=time))
+    with pytest.raises(ValueError, match=r"^dt: the model's time index .* does not increase"):
+        model.to_statespace()
+    assert model.to_statespace(dt=0.5).dt == 0.5
+    one_sample = fitted.with_data(ltv.DataDescription.of(time=np.array([2.0])))
+    assert one_sample.to_statespace().dt == 1
+
+
 def test_model_without_inputs_gives_a_system_without_inputs(control, data):
     model = ltv.fit(data.x, None, lam=LAM)
     sys_t = model.to_statespace(-1)
@@ -451,6 +498,35 @@ def test_steps():
     for steps in (0, -1, 2.0, True):
         with pytest.raises(ValueError, match="^steps: expected an integer >= 1"):
             ltv.LTVModel.from_arrays(np.eye(2), steps=steps)
+
+
+def test_steps_beyond_the_memory_are_an_error_before_allocating():
+    # numpy was asked for 29.1 TiB (a MemoryError about an array nobody named).
+    with pytest.raises(
+        ValueError,
+        match=r"^steps: expected at most \d+ \(what fits in this machine's .* of memory\), "
+        r"received 1000000000000: the coefficients of 1000000000000 steps \(4 numbers each\) "
+        r"would need 29.1 TiB; pass fewer steps$",
+    ):
+        ltv.LTVModel.from_arrays(np.eye(2), steps=10**12)
+
+
+def test_the_bound_of_steps_is_the_physical_memory(monkeypatch):
+    from ltvmodels.validation import memory
+
+    monkeypatch.setattr(memory, "physical_memory", lambda: 1000)  # bytes
+    # n = 2, m = 1 and c: K = 2·(2 + 1 + 1) = 8 numbers, 64 bytes a step
+    assert ltv.LTVModel.from_arrays(np.eye(2), np.ones((2, 1)), c=np.ones(2), steps=15).N == 15
+    with pytest.raises(ValueError, match=r"^steps: expected at most 15 .* received 16: .* 1.0 KiB"):
+        ltv.LTVModel.from_arrays(np.eye(2), np.ones((2, 1)), c=np.ones(2), steps=16)
+
+
+def test_the_physical_memory_and_its_text():
+    from ltvmodels.validation import memory
+
+    assert memory.physical_memory() >= 2**20  # a real machine's, in bytes
+    texts = [memory.size_text(n) for n in (512, 1536, 2**30, 32 * 10**12)]
+    assert texts == ["512 B", "1.5 KiB", "1.0 GiB", "29.1 TiB"]
 
 
 @pytest.mark.parametrize(

@@ -23,9 +23,12 @@ Subcommands::
     ltvmodels demo {jump-linear,robot,chirp,rl,pendulum} [--seed S] [--out PATH] ...
 
 DATA is a CSV file (comma, semicolon or tab separated, detected from the first
-line; a header row of column names is optional; lines starting with ``#`` are
-comments), ``-`` for CSV on standard input, or a Parquet file (``.parquet``,
-``.pq``; needs pandas with pyarrow or fastparquet). Columns are chosen by name
+line; lines starting with ``#`` are comments), ``-`` for CSV on standard input,
+or a Parquet file (``.parquet``, ``.pq``; needs pandas with pyarrow or
+fastparquet). A CSV file's first line is its header of column names when a
+field is not a number; a first line of numbers and missing values only is an
+error unless ``--header`` (names) or ``--no-header`` (data) declares it (the
+``fit-many`` TABLE always has a header). Columns are chosen by name
 or 0-based index, comma-separated (``--state x1,x2``, ``--input 3``); only the
 chosen columns must be numeric. An empty cell, ``NA``, ``N/A``, ``NaN`` or
 ``null`` (any case; Parquet: a null or NaN) is a missing value, which the fits

@@ -111,9 +111,9 @@ def _lam_or_auto(text: str) -> float | str:
 
 
 _DATA_HELP = (
-    "CSV file (header row optional; comma, semicolon or tab separated), '-' for CSV "
-    "on standard input, or Parquet (.parquet, .pq; needs pandas and pyarrow); an "
-    "empty cell, NA, N/A, NaN or null is a missing value"
+    "CSV file (a header row of column names, or --no-header; comma, semicolon or tab "
+    "separated), '-' for CSV on standard input, or Parquet (.parquet, .pq; needs pandas "
+    "and pyarrow); an empty cell, NA, N/A, NaN or null is a missing value"
 )
 _COLS_HELP = "comma-separated column names or 0-based indices"
 _MODEL_COLUMNS_HELP = (
@@ -121,9 +121,20 @@ _MODEL_COLUMNS_HELP = (
 )
 
 
-def add_data(p: _Container, help: str = _DATA_HELP) -> None:
-    """The positional DATA: a CSV or Parquet file, or '-' for CSV on standard input."""
+def add_data(p: _Container, help: str = _DATA_HELP, *, header: bool = True) -> None:
+    """The positional DATA: a CSV or Parquet file, or '-' for CSV on standard input; with
+    ``header``, ``--header``/``--no-header``: how to read a CSV's first line."""
     p.add_argument("data", metavar="DATA", help=help)
+    if header:
+        p.add_argument(
+            "--header",
+            action=argparse.BooleanOptionalAction,
+            default=None,
+            help="whether the first line of a CSV file names the columns (default: it "
+            "does when a field is not a number; a first line of numbers and missing "
+            "values only must be declared: --header for names, --no-header for data, "
+            "whose columns are then selected by 0-based index)",
+        )
 
 
 def add_model_file(p: _Container) -> None:

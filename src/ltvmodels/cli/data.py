@@ -1,10 +1,17 @@
 """Data files of the command line: CSV (a file or standard input) and Parquet, by column.
 
 DATA is a CSV file (comma, semicolon or tab separated, detected from the first
-line; a header row of column names is optional; lines starting with ``#`` are
-comments), ``-`` for CSV on standard input, or a Parquet file (``.parquet``,
-``.pq``; needs pandas with pyarrow or fastparquet). Columns are chosen by name
-or 0-based index, comma-separated; only the chosen columns must be numeric.
+line; lines starting with ``#`` are comments), ``-`` for CSV on standard input,
+or a Parquet file (``.parquet``, ``.pq``; needs pandas with pyarrow or
+fastparquet). Columns are chosen by name or 0-based index, comma-separated; only
+the chosen columns must be numeric.
+
+The first line of a CSV file is its header of column names when one of its
+fields is not a number. A first line of numbers and missing values only is
+ambiguous — a header ``0,1,2`` as pandas writes integer column names, or the
+first data row — and an error unless ``--header`` (it names the columns) or
+``--no-header`` (it is data; the columns are named by their 0-based index)
+says which; both options also override the rule above.
 An empty cell, ``NA``, ``N/A``, ``NaN`` or ``null`` (any case) is a missing value
 and reads as NaN (Parquet: a null or NaN); the estimators leave out the
 transitions it touches. Infinities are errors.
@@ -47,8 +54,10 @@ def _display(path: Any) -> str:
     return "standard input" if str(path) == "-" else str(path)
 
 
-def _open_source(path: Any) -> _Source:
-    """Open DATA (CSV, '-' for CSV on stdin, or Parquet) and read its column names."""
+def _open_source(path: Any, header: bool | None) -> _Source:
+    """Open DATA (CSV, '-' for CSV on stdin, or Parquet) and read its column names;
+    ``header`` says whether a CSV's first line names the columns (None: see the module
+    docstring)."""
     label = _display(path)
     if str(path) != "-":
         p = Path(path)
@@ -57,6 +66,11 @@ def _open_source(path: Any) -> _Source:
         if p.is_dir():
             raise DataError(f"{label}: is a directory, expected a data file")
         if p.suffix.lower() in PARQUET_SUFFIXES:
+            if header is not None:
+                raise DataError(
+                    f"--{'' if header else 'no-'}header: {label} is a Parquet file, whose "
+                    "columns always have names; leave the option out"
+                )
             return _open_parquet(p)
         try:
             with open(p, encoding="utf-8-sig", newline="") as fh:
@@ -69,7 +83,7 @@ def _open_source(path: Any) -> _Source:
         text = sys.stdin.read()
         if text.startswith("\ufeff"):
             text = text[1:]
-    return _parse_csv(text, label)
+    return _parse_csv(text, label, header)
 
 
 def _open_parquet(path: Path) -> _Source:
@@ -137,7 +151,7 @@ def _is_number(text: str) -> bool:
     return True
 
 
-def _parse_csv(text: str, label: str) -> _Source:
+def _parse_csv(text: str, label: str, header: bool | None) -> _Source:
     """Split CSV text into rows (lazily converted per column) and find the header."""
     lines = text.splitlines()
     numbered = [
@@ -155,13 +169,12 @@ def _parse_csv(text: str, label: str) -> _Source:
         rows = [[field.strip() for field in row] for row in reader]
     except csv.Error as exc:
         raise DataError(f"{label}: not a valid CSV file: {exc}") from None
-    header = rows[0]
-    has_header = not all(_is_number(field) for field in header)
+    has_header = _has_header(rows[0], numbered[0], label) if header is None else header
     if has_header:
-        names = header
+        names = rows[0]
         data_rows, line_numbers = rows[1:], [n for n, _ in numbered[1:]]
     else:
-        names = [str(i) for i in range(len(header))]
+        names = [str(i) for i in range(len(rows[0]))]
         data_rows, line_numbers = rows, [n for n, _ in numbered]
     if not data_rows:
         raise DataError(f"{label}: no data rows after the header")
@@ -204,6 +217,21 @@ def _parse_csv(text: str, label: str) -> _Source:
     return _Source(label, names, read, column_text)
 
 
+def _has_header(fields: list[str], first: tuple[int, str], label: str) -> bool:
+    """Whether a CSV's first line (its ``fields``; ``first``: its number and text) is a
+    header: yes when a field is not a number; a line of numbers and missing values only
+    is an error, which says how to declare it."""
+    if not all(_is_number(field) for field in fields):
+        return True
+    number, line = first
+    shown = line if len(line) <= 40 else line[:37] + "..."
+    raise DataError(
+        f"{label}, line {number}: the first line {shown!r} holds only numbers and missing "
+        "values, so it could be column names or data; pass --header if it names the "
+        "columns, --no-header if it is the first data row"
+    )
+
+
 def _resolve(source: _Source, spec: str, option: str) -> list[int]:
     """Column indices of a comma-separated list of names or 0-based indices."""
     tokens = [token.strip() for token in spec.split(",")]
@@ -229,18 +257,30 @@ def _resolve(source: _Source, spec: str, option: str) -> list[int]:
             raise DataError(f"{option}: no {what} {token!r} in {source.label} (columns: {shown})")
     if len(set(indices)) != len(indices):
         raise DataError(f"{option}: a column is selected twice in {spec!r}")
+    for position, i in enumerate(indices):  # (selected by index: names need not differ)
+        same = [j for j in indices[:position] if source.names[j] == source.names[i]]
+        if same:
+            raise DataError(
+                f"{option}: columns {same[0]} and {i} of {source.label} are both named "
+                f"{source.names[i]!r}, and the model names its signals by their columns; "
+                "rename one of them in the file"
+            )
     return indices
 
 
-def read_columns(path: Any, **selections: str | None) -> tuple[int, str, dict[str, Any]]:
+def read_columns(
+    path: Any, *, header: bool | None, **selections: str | None
+) -> tuple[int, str, dict[str, Any]]:
     """Read the selected numeric columns of DATA (see the module docstring).
 
+    ``header`` says whether a CSV file's first line names its columns (``--header``,
+    ``--no-header``; None: when a field is not a number, see the module docstring).
     ``selections`` maps an option name (``state="x1,x2"``) to comma-separated
     column names or 0-based indices, or None. Returns (T, the file's label,
     {option: (names, values (T, k)) or None}). A column may be in one
     selection only; every user error is a :class:`DataError`.
     """
-    source = _open_source(path)
+    source = _open_source(path, header)
     resolved: dict[str, list[int] | None] = {}
     seen: dict[int, str] = {}
     for key, spec in selections.items():

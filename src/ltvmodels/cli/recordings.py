@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..validation.arrays import LabelledSeries
 from .data import read_columns
 from .messages import DataError
 
@@ -60,6 +61,17 @@ class StateSpaceData:
     time: np.ndarray | None
     time_name: str | None = None
 
+    @property
+    def states(self) -> LabelledSeries:
+        """x with its columns' names, as the estimators take it: their errors then name
+        the columns of the file."""
+        return LabelledSeries(self.x, self.state_names)
+
+    @property
+    def inputs(self) -> LabelledSeries | None:
+        """u with its columns' names (None for an autonomous system)."""
+        return None if self.u is None else LabelledSeries(self.u, self.input_names)
+
 
 @dataclass(frozen=True)
 class ColumnData:
@@ -85,6 +97,12 @@ class ColumnData:
     weights: np.ndarray | None
     time: np.ndarray | None = None
 
+    @property
+    def series(self) -> LabelledSeries:
+        """y with its columns' names, as the estimators take it: their errors then name
+        the columns of the file."""
+        return LabelledSeries(self.y, self.names)
+
 
 def state_space_data(args: argparse.Namespace) -> StateSpaceData:
     """Read the state-space columns that the arguments choose from DATA.
@@ -108,6 +126,7 @@ def state_space_data(args: argparse.Namespace) -> StateSpaceData:
     """
     _, label, cols = read_columns(
         args.data,
+        header=args.header,
         state=args.state,
         input=args.input,
         weights=getattr(args, "weights", None),
@@ -144,7 +163,11 @@ def column_data(args: argparse.Namespace) -> ColumnData:
         order or on no regular grid.
     """
     _, label, cols = read_columns(
-        args.data, column=args.column, weights=args.weights, time=getattr(args, "time", None)
+        args.data,
+        header=args.header,
+        column=args.column,
+        weights=args.weights,
+        time=getattr(args, "time", None),
     )
     names, y = cols["column"]
     weights = _equation_weights(cols["weights"], args.na)  # the first na rows are only lags
@@ -159,11 +182,12 @@ def _equation_weights(column: _Column | None, lag: int) -> np.ndarray | None:
     predicting row t has the weight of row t. None without ``--weights``."""
     if column is None:
         return None
-    weights = column[1][lag:, 0]
+    (name,), values = column
+    weights = values[lag:, 0]
     if not np.all(np.isfinite(weights)):
         raise DataError(
-            f"--weights: the weights must be observed, received a missing value at row "
-            f"{lag + int(np.flatnonzero(~np.isfinite(weights))[0])}"
+            f"--weights: the weights must be observed, received a missing value in column "
+            f"{name!r} at row {lag + int(np.flatnonzero(~np.isfinite(weights))[0])}"
         )
     return weights
 
@@ -180,7 +204,6 @@ def _time_axis(
     if column is None:
         return None, None
     from ..estimators.recordings import time_grid_of
-    from ..validation.arrays import LabelledSeries
 
     stamps = column[1]
     try:

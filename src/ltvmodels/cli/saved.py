@@ -145,7 +145,9 @@ def model_data(args: argparse.Namespace, model: Any) -> ModelData:
         )
     if not m and args.input is not None:
         raise DataError(f"--input: the model has no inputs, received {args.input!r}")
-    T, label, cols = read_columns(args.data, state=state, input=inputs if m else None)
+    T, label, cols = read_columns(
+        args.data, header=args.header, state=state, input=inputs if m else None
+    )
     names, y = cols["state"]
     if y.shape[1] != n:
         what = "states" if kind == "ltv" else "outputs"

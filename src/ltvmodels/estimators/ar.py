@@ -375,8 +375,8 @@ def _describe(
     u), the time grid of y (one series), the series, the regression rows left out and the
     end of the data that its forecast continues (validated y (R, T, n), u (R, T, m))."""
     names = {
-        "output": arrays.column_names(y_data, y.shape[2]),
-        "input": None if u_data is None else arrays.column_names(u_data, model.n_inputs),
+        "output": arrays.column_names(y_data, y.shape[2], "y"),
+        "input": None if u_data is None else arrays.column_names(u_data, model.n_inputs, "u"),
     }
     time = None if grid is None else grid.time
     # the model of this call (no one else holds it): described in place

@@ -231,8 +231,8 @@ def _column_list(value: Any, name: str, columns: Any, *, required: bool) -> list
     TypeError
         None where a name is required.
     ValueError
-        No name where one is required, a name that is not a column, or a
-        name given twice.
+        No name where one is required, a name that is not a column, a name
+        given twice, or a name that two columns of the table have.
     """
     if value is None:
         if required:
@@ -253,6 +253,7 @@ def _column_list(value: Any, name: str, columns: Any, *, required: bool) -> list
             f"{name}: column {missing[0]!r} is not in data; its columns are "
             f"{shown}{', ...' if len(columns) > 12 else ''}"
         )
+    arrays.distinct_columns(columns, name, used=names)
     return names
 
 

@@ -52,7 +52,8 @@ class StateSpaceData:
     state_names, input_names : list of str or None
         The column names of pandas inputs (None: the data had none).
     time : ndarray, shape (T,), or None
-        The index of a pandas ``x`` (dates as datetime64[ns], or numbers).
+        The index of a pandas ``x`` (dates as datetime64[ns], numbers, or time
+        spans as seconds).
     time_name : str or None
         The name of that index.
     """
@@ -158,8 +159,8 @@ def state_space_data(
         u,
         w,
         constant,
-        state_names=arrays.column_names(x_data, x.shape[2]),
-        input_names=arrays.column_names(u_data, u.shape[2]),
+        state_names=arrays.column_names(x_data, x.shape[2], "x"),
+        input_names=arrays.column_names(u_data, u.shape[2], "u"),
         time=None if grid is None else grid.time,
         time_name=arrays.time_name(x_data),
     )
@@ -246,6 +247,8 @@ def regression_data(
     names = {"output": y, "regressor": phi}
     y = arrays.trajectories(y, "y")
     phi = arrays.trajectories(phi, "phi")
+    arrays.observed_columns(y, "y", "output", names["output"])
+    arrays.observed_columns(phi, "phi", "regressor", names["regressor"])
     if phi.shape[:2] != y.shape[:2]:
         expected = y.shape[1] if y.shape[0] == 1 else y.shape[:2]
         received = phi.shape[1] if phi.shape[0] == 1 else phi.shape[:2]
@@ -260,8 +263,8 @@ def regression_data(
     problem = weighted_problem(y, phi, coeffs, w)
     description = DataDescription.of(
         {
-            "output": arrays.column_names(names["output"], problem.n),
-            "regressor": arrays.column_names(names["regressor"], problem.p),
+            "output": arrays.column_names(names["output"], problem.n, "y"),
+            "regressor": arrays.column_names(names["regressor"], problem.p, "phi"),
         },
         None if grid is None else grid.time,
         n_trajectories=problem.q,

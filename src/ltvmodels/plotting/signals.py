@@ -91,7 +91,7 @@ def plot_simulation(
         )
     axis = _series_axis(data, time, T, "time")
     if names is None:
-        names = arrays.column_names(data, n) or [f"x[{i}]" for i in range(n)]
+        names = arrays.column_names(data, n, "data") or [f"x[{i}]" for i in range(n)]
     else:
         if isinstance(names, str):
             raise TypeError(f"names: expected a sequence of {n} strings, received {names!r}")
@@ -436,6 +436,6 @@ def plot_spectrogram(
     )
     axis.draw_on(ax)
     ax.set_ylabel(f"frequency ({unit})")
-    name = arrays.column_names(y, 1)
+    name = arrays.column_names(y, 1, "y")
     ax.set_title("Spectrogram" + (f" of {name[0]}" if name else ""))
     return ax

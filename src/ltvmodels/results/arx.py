@@ -76,6 +76,19 @@ class ARXModel(RegressionModel):
 
     All attributes of :class:`~ltvmodels.RegressionModel` (``k``, ``cov``,
     ``noise_var``, ``loglik``, ``info``, ``save``, ...) are available.
+
+    Parameters
+    ----------
+    k : array_like, shape (N, K)
+        Parameter vectors k_t = Θ_t.ravel(), K = n·p, p = n·na + m·nb (+ 1).
+    n_outputs, n_inputs : int
+        n >= 1 and m >= 0.
+    na, nb, nk : int
+        The orders and the input delay, integers >= 0.
+    constant : bool
+        Whether Θ_t ends with the constant term c_t.
+    fit : FitRecord, optional
+        What the estimator computed besides k; default: nothing (given coefficients).
     """
 
     def __init__(
@@ -89,10 +102,11 @@ class ARXModel(RegressionModel):
         constant: bool,
         fit: FitRecord | None = None,
     ) -> None:
-        self.n_inputs = int(n_inputs)
-        self.na, self.nb, self.nk = int(na), int(nb), int(nk)
-        self.constant = bool(constant)
-        p = int(n_outputs) * self.na + self.n_inputs * self.nb + int(self.constant)
+        self.n_inputs = options.integer(n_inputs, "n_inputs", minimum=0)
+        self.na, self.nb, self.nk = options.lag_orders(na, nb, nk, min_na=0, min_nb=0)
+        self.constant = options.flag(constant, "constant")
+        n_outputs = options.integer(n_outputs, "n_outputs", minimum=1)
+        p = n_outputs * self.na + self.n_inputs * self.nb + int(self.constant)
         super().__init__(k, n_outputs, p, fit)
 
     # -- structure --------------------------------------------------------------------

@@ -112,8 +112,8 @@ class DataDescription:
         entry has the default names (x0, u0, y0, phi0, …).
     time : ndarray, shape (T,), or None
         The time of each sample of one series (a pandas index: dates as
-        datetime64[ns], or numbers); None without a time index or for several
-        trajectories.
+        datetime64[ns], numbers, or time spans as seconds); None without a time
+        index or for several trajectories.
     time_name : str or None
         The name of the time axis: the pandas index's name, or the time column's
         (``fit_many``'s ``time=``, the command line's ``--time``); None when it

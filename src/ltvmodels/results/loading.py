@@ -5,13 +5,16 @@ from __future__ import annotations
 import os
 import zipfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..errors import ModelFileError
 from ..validation.arrays import LARGEST_DATA, describe
+from ..validation.time import increasing
 from . import archive
 from .arx import ARModel, ARXModel
+from .forecast import noise_covariance
 from .regression import RegressionModel
 from .statespace import LTVModel
 
@@ -47,7 +50,9 @@ def load(path: str | Path) -> RegressionModel:
     ModelFileError
         (a ValueError) The file is not a model file, is damaged, or holds
         invalid content (an unknown format version or model type, shapes that
-        do not fit, non-finite coefficients); the message names the file.
+        do not fit, non-finite coefficients, negative noise variances, a noise
+        covariance that is not symmetric positive semidefinite); the message
+        names the file and the field.
     """
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(
@@ -120,14 +125,14 @@ def _invalid_record(model: RegressionModel) -> str | None:
             or np.any(np.diff(cp) <= 0)
         ):
             return f"'changepoints' (expected increasing integers in [1, {N - 1}])"
-    if fit.noise_var is not None:
-        v = np.asarray(fit.noise_var, dtype=float)
-        if v.shape != (n,) or not np.all(np.isfinite(v)) or np.any(v < 0):
-            return f"'noise_var' (expected {n} finite variances >= 0)"
-    if fit.noise_cov is not None:
-        c = np.asarray(fit.noise_cov)
-        if c.shape != (n, n) or not np.all(np.isfinite(c)):
-            return f"'noise_cov' (expected a finite ({n}, {n}) matrix)"
+    noise = _invalid_noise(fit.noise_var, fit.noise_cov, n)
+    if noise:
+        return noise
+    time = model.data.time
+    if time is not None and (
+        time.ndim != 1 or time.dtype.kind not in "iufM" or not increasing(time)
+    ):  # (forecasts continue it, to_statespace takes its step as dt)
+        return "'data_time' (expected increasing numbers or dates, one per sample)"
     if fit.loglik is not None and not np.isfinite(fit.loglik):
         return f"'loglik' {fit.loglik}"
     if fit.lam is not None:
@@ -161,6 +166,31 @@ def _invalid_record(model: RegressionModel) -> str | None:
     bad = _nan_entry(model.info)
     if bad:
         return f"'info' entry {bad!r} (NaN)"
+    return None
+
+
+def _invalid_noise(noise_var: Any, noise_cov: Any, n: int) -> str | None:
+    """What is wrong with the noise of a loaded model of n outputs (None: nothing): the
+    variances must be finite and >= 0, the covariance a symmetric positive semidefinite
+    (n, n) matrix (forecasts draw from it)."""
+    if noise_var is not None:
+        v = np.asarray(noise_var, dtype=float)
+        if v.shape != (n,):
+            return f"'noise_var' (expected {n} variances, received shape {v.shape})"
+        bad = np.flatnonzero(~(np.isfinite(v) & (v >= 0)))
+        if bad.size:
+            return (
+                f"'noise_var' (expected {n} finite variances >= 0, received "
+                f"{v[bad[0]]:g} at position {int(bad[0])})"
+            )
+    if noise_cov is not None:
+        c = np.asarray(noise_cov)
+        if c.shape != (n, n):
+            return f"'noise_cov' (expected a ({n}, {n}) matrix, received shape {c.shape})"
+        try:  # the check of a noise_cov given to forecast or from_arrays
+            noise_covariance(c, None, n)
+        except (TypeError, ValueError) as exc:
+            return f"'noise_cov' ({str(exc).removeprefix('noise_cov: ')})"
     return None
 
 

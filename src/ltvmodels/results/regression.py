@@ -246,8 +246,10 @@ class RegressionModel:
     # -- names, time and export ------------------------------------------------------
     @property
     def time(self) -> np.ndarray | None:
-        """The time index of the data (a pandas index: dates as datetime64[ns], or
-        numbers), or None; for a state-space model one value per sample x[t], (N + 1,)."""
+        """The time index of the data (a pandas index: dates as datetime64[ns], numbers,
+        or time spans — a TimedeltaIndex, a timedelta ``time`` column of
+        :func:`~ltvmodels.fit_many` — as float seconds), or None; for a state-space model
+        one value per sample x[t], (N + 1,)."""
         value = self.data.time
         return None if value is None else np.array(value)
 

@@ -10,8 +10,9 @@ from numpy.typing import ArrayLike
 
 from ..core.simulation import simulate_affine
 from ..errors import DivergenceWarning, warn
-from ..validation import arrays, options
+from ..validation import arrays, memory, options
 from ..validation.arrays import LARGEST_DATA, describe
+from ..validation.time import increasing, sampling_period
 from .base import LinearTimeVarying
 from .forecast import (
     DEFAULT_SAMPLES,
@@ -157,17 +158,21 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         return names
 
     def _index_step(self) -> float:
-        """The step of a regular time index (dates in seconds), else 1."""
+        """The step of a regular time index (dates in seconds), else 1; an error for a time
+        index that does not increase (set by hand or in an edited file: a fit checks it)."""
         time = self.time
         if time is None or time.size < 2:
             return 1.0
-        steps = np.diff(time)
-        if np.any(steps != steps[0]):
-            return 1.0
-        if np.issubdtype(time.dtype, np.datetime64):
-            return float(steps[0] / np.timedelta64(1, "s"))
-        step = float(steps[0])
-        return step if step > 0 else 1.0
+        step = sampling_period(time)
+        if step is not None:
+            return step
+        if not increasing(time):
+            raise ValueError(
+                f"dt: the model's time index (model.time, from {time[0]} to {time[-1]}) does "
+                "not increase, so its step is no sampling period; pass dt=, the sampling "
+                "period > 0"
+            )
+        return 1.0
 
     @classmethod
     def from_arrays(
@@ -203,7 +208,10 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         steps : int, optional
             N, the number of time steps (transitions), >= 1. Required when A is
             one (n, n) matrix; with an (N, n, n) A it may be given and must
-            equal N.
+            equal N. The model stores N·K coefficients (K = n·(n + m), + n
+            with ``c``): a ``steps`` whose coefficients would exceed the
+            machine's physical memory is an error, before anything is
+            allocated.
         noise_cov : array_like, shape (n, n), optional
             Covariance of the process noise v_t (a scalar or (n,) variances: a
             diagonal); symmetric positive semidefinite. Stored as
@@ -232,7 +240,9 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         ValueError
             A shape that does not fit the others, non-finite entries or
             magnitudes above 1e100 (which model files reject), an invalid
-            ``noise_cov`` or ``order``; the message names the argument.
+            ``noise_cov`` or ``order``, ``steps`` whose coefficients (N·K
+            numbers) would not fit in the machine's physical memory; the
+            message names the argument.
 
         Examples
         --------
@@ -291,6 +301,15 @@ class LTVModel(RegressionModel, LinearTimeVarying):
                 f"for a model of N = {N} steps, received {coeffs.size}"
             )
         noise = None if noise_cov is None else noise_covariance(noise_cov, None, n)
+        K = n * (n + B.shape[2] + (c is not None))
+        if steps is not None:  # A repeated over ``steps``: the first array of that size is k
+            memory.affordable_count(
+                steps,
+                "steps",
+                item_bytes=K * np.dtype(np.float64).itemsize,
+                what=f"the coefficients of {steps} steps ({K} numbers each)",
+                remedy="pass fewer steps",
+            )
         fit = FitRecord(
             coeffs=coeffs,
             noise_cov=noise,
@@ -563,6 +582,13 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         (keep it in mind for gains and controllability, which then count it
         as an input).
 
+        Signal names: python-control names a signal of a system "sys.u" and
+        keeps one signal per name, so a name with a "." (``"pos.x"``, or a
+        float column name ``1.5``) is exported with "_" for each "."
+        (``"pos_x"``, ``"1_5"``), and a label that then repeats an earlier one
+        of the same kind gets "_" appended until it is new. The model's own
+        names are unchanged.
+
         Parameters
         ----------
         t : int, default -1
@@ -571,7 +597,8 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         dt : float, optional
             Sampling period of the discrete-time system, > 0. Default: the
             step of the model's time index when it is regular (numbers: in
-            their unit; dates: in seconds), else 1 (one model step).
+            their unit, e.g. 0.1 for an index 0, 0.1, 0.2, …; dates and time
+            spans: in seconds), else 1 (one model step).
 
         Returns
         -------
@@ -579,7 +606,8 @@ class LTVModel(RegressionModel, LinearTimeVarying):
             A (n, n) = ``model.A[t]``; B (n, m) = ``model.B[t]``, or
             [B_t c_t] (n, m + 1) with the intercept; C = I_n; D = 0 of B's
             shape; ``dt``; labelled with ``state_names`` (states and outputs) and
-            ``input_names`` (+ ``"const"``), named ``"ltv_t<t>"`` with t
+            ``input_names`` (+ ``"const"``), as python-control takes them (see
+            above), named ``"ltv_t<t>"`` with t
             counted from 0. A model without inputs (m = 0, no intercept)
             gives a system with zero inputs (B of shape (n, 0)).
 
@@ -590,7 +618,9 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         TypeError
             ``t`` is not an integer, ``dt`` not a real number.
         ValueError
-            ``t`` outside [-N, N − 1], ``dt`` not > 0.
+            ``t`` outside [-N, N − 1], ``dt`` not > 0; no ``dt`` for a model
+            whose time index does not increase (set by hand, e.g. with
+            :meth:`with_data`: a fit checks the time order).
 
         Examples
         --------
@@ -629,21 +659,16 @@ class LTVModel(RegressionModel, LinearTimeVarying):
             )
         n = self.n_states
         B = self.theta[step, :, n:]  # [B_t] or [B_t c_t]
-        inputs = self.input_names
-        if self.constant:
-            label = "const"
-            while label in inputs:  # the data named an input "const"
-                label += "_"
-            inputs = inputs + [label]
+        states = _signal_labels(self.state_names)
         return control.StateSpace(
             np.array(self.A[step]),
             np.array(B),
             np.eye(n),
             np.zeros((n, B.shape[1])),
             dt,
-            inputs=inputs,
-            outputs=self.state_names,
-            states=self.state_names,
+            inputs=_signal_labels(self.input_names + (["const"] if self.constant else [])),
+            outputs=states,
+            states=states,
             name=f"ltv_t{step}",
         )
 
@@ -681,6 +706,23 @@ class LTVModel(RegressionModel, LinearTimeVarying):
 
     def _signal_names(self) -> dict[str, list[str]]:
         return {"states": self.state_names, "inputs": self.input_names}
+
+
+def _signal_labels(names: list[str]) -> list[str]:
+    """Signal names as python-control takes them, in their order.
+
+    python-control rejects a "." in a signal name (it separates a system's name from
+    its signal's, "sys.u") and keeps one signal per name: each "." becomes "_", and a
+    name that then repeats an earlier one gets "_" appended until it is new (so an
+    intercept input "const" becomes "const_" next to an input named "const").
+    """
+    labels: list[str] = []
+    for name in names:
+        label = name.replace(".", "_")
+        while label in labels:
+            label += "_"
+        labels.append(label)
+    return labels
 
 
 def _coefficient_array(value: Any, name: str) -> np.ndarray:

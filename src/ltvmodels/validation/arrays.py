@@ -9,6 +9,7 @@ aliased by a returned model. Scalar options and counts are checked in
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -26,6 +27,7 @@ __all__ = [
     "representable",
     "is_batch",
     "column_names",
+    "distinct_columns",
     "time_index",
     "time_name",
     "index_values",
@@ -40,6 +42,7 @@ __all__ = [
     "initial_state_prior",
     "lagged_series",
     "lagged_recordings",
+    "observed_columns",
     "model_series",
     "simulation_inputs",
     "dynamics_matrices",
@@ -64,7 +67,7 @@ class LabelledSeries:
     names : list of str, optional
         The d column names.
     time : ndarray, shape (T,), optional
-        Time stamps (datetime64 or numbers).
+        Time stamps (datetime64, timedelta64 or numbers).
     time_name : str, optional
         The name of the time stamps (the table's time column).
     """
@@ -79,6 +82,12 @@ class LabelledSeries:
 
     def to_numpy(self) -> np.ndarray:
         return self.values
+
+    def __array__(self, dtype: Any = None, copy: bool | None = None) -> np.ndarray:
+        """The values for numpy (``np.asarray``): a labelled series is array-like, as the
+        estimators' ``ArrayLike`` arguments say (the command line hands its columns to
+        them this way)."""
+        return np.array(self.values, dtype=dtype, copy=copy)
 
 
 def describe(value: Any) -> str:
@@ -98,6 +107,7 @@ def _pandas_numbers(value: Any, name: str) -> np.ndarray:
     (``pd.NA``, None, NaN) as NaN; a column holding anything else is a TypeError that
     names it."""
     frame = value.to_frame() if getattr(value, "ndim", 2) == 1 else value
+    distinct_columns(frame.columns, name)  # a repeated label selects a table, not a column
     objects = [label for label in frame.columns if frame[label].dtype.kind not in "fiub"]
     if not objects:  # numbers (nullable ones too), booleans
         return frame.to_numpy(dtype=np.float64, na_value=np.nan).reshape(np.shape(value))
@@ -150,6 +160,7 @@ def as_float_array(value: Any, name: str, *, missing: bool = False) -> np.ndarra
             return arr
     if value is None:
         raise TypeError(f"{name}: expected an array of numbers, received None")
+    source = value  # for its column names and row labels in messages
     if hasattr(value, "to_numpy") and hasattr(value, "index"):  # pandas DataFrame / Series
         value = _pandas_numbers(value, name)
     elif hasattr(value, "to_numpy"):  # e.g. an xarray DataArray
@@ -184,16 +195,36 @@ def as_float_array(value: Any, name: str, *, missing: bool = False) -> np.ndarra
         raise TypeError(expected()) from exc
     bad_values = np.isinf(arr) if missing else ~np.isfinite(arr)
     if np.any(bad_values):
-        bad = tuple(int(i) for i in np.argwhere(bad_values)[0])
+        first = tuple(int(i) for i in np.argwhere(bad_values)[0])
+        where = _entry_text(source, first, name)
         if missing:
             raise ValueError(
-                f"{name}: expected finite values or NaN (missing), received inf (first at "
-                f"index {bad}); mark a missing sample with NaN"
+                f"{name}: expected finite values or NaN (missing), received inf (first "
+                f"{where}); mark a missing sample with NaN"
             )
-        raise ValueError(
-            f"{name}: expected finite values, received NaN or inf (first at index {bad})"
-        )
+        raise ValueError(f"{name}: expected finite values, received NaN or inf (first {where})")
     return arr
+
+
+def _entry_text(source: Any, position: tuple[int, ...], name: str) -> str:
+    """Where the entry at ``position`` of the data ``source`` lies, as messages say it: in
+    its named column (a table's, at its row's label) or at its array index."""
+    index: Any = getattr(source, "index", None)
+    labelled_rows = hasattr(index, "to_numpy")  # a pandas object's
+    if len(position) == 1 and labelled_rows:  # a Series
+        return f"at row {index[position[0]]!r}"
+    if len(position) == 2:
+        names = column_names(source, np.shape(source)[1], name)
+        if names is not None:
+            row = index[position[0]] if labelled_rows else position[0]
+            return f"in column {names[position[1]]!r}, at row {row!r}"
+    return f"at index {position}"
+
+
+def _column_text(names: Sequence[str] | None, j: int) -> str:
+    """Column j as messages name it: by its name where the data have names, else by its
+    position."""
+    return f"{j}" if names is None else f"{names[j]!r}"
 
 
 def as_time_series(
@@ -263,7 +294,8 @@ def trajectories(value: Any, name: str) -> np.ndarray:
             ) from None
         raise
     if arr.ndim in (1, 2):
-        return representable(_time_series_shape(arr, name, True)[None], name)
+        series = _time_series_shape(arr, name, True)[None]
+        return representable(series, name, names=column_names(value, series.shape[2], name))
     if arr.ndim != 3:
         raise ValueError(
             f"{name}: expected shape (T, d) with time on axis 0, or (R, T, d) for R "
@@ -310,12 +342,15 @@ def _column_scale(arr: np.ndarray) -> np.ndarray:
     return parts[0] if len(parts) == 1 else np.fmax(parts[0], parts[1])
 
 
-def representable(arr: np.ndarray, name: str, *, small: bool = True) -> np.ndarray:
+def representable(
+    arr: np.ndarray, name: str, *, small: bool = True, names: Sequence[str] | None = None
+) -> np.ndarray:
     """Reject columns (last axis) whose magnitudes overflow or underflow when squared.
 
     A column that is all zero passes (the identifiability checks name it);
     ``small=False`` checks only the upper limit (for values where tiny is fine,
-    e.g. a prior mean). Returns ``arr``.
+    e.g. a prior mean); ``names``, the columns' names, for the message (default:
+    their positions). Returns ``arr``.
     """
     if arr.size == 0:
         return arr
@@ -327,7 +362,8 @@ def representable(arr: np.ndarray, name: str, *, small: bool = True) -> np.ndarr
         if bad.any():
             j = int(np.flatnonzero(bad)[0])
             raise ValueError(
-                f"{name}: column {j} has values of magnitude up to {scale[j]:.3g}, too {what} "
+                f"{name}: column {_column_text(names, j)} has values of magnitude up to "
+                f"{scale[j]:.3g}, too {what} "
                 f"to fit in double precision (expected magnitudes between {SMALLEST_DATA:g} "
                 f"and {LARGEST_DATA:g}); rescale it, e.g. divide by {scale[j]:.0e}: "
                 "the fitted coefficients scale accordingly"
@@ -342,38 +378,87 @@ def is_batch(value: Any) -> bool:
     return np.ndim(value) == 3
 
 
-def column_names(value: Any, count: int) -> list[str] | None:
+def distinct_columns(labels: Any, name: str, *, used: Any = None) -> None:
+    """Reject a table whose columns repeat a name (compared as text, as a model keeps its
+    names): its signals could be told apart by position only, and python-control, plots
+    and files know them by name.
+
+    Parameters
+    ----------
+    labels : sequence
+        The table's column labels.
+    name : str
+        The argument the table comes from (the start of the message).
+    used : collection, optional
+        Only these labels must be distinct (the columns a selection takes from a wider
+        table); default: all.
+
+    Raises
+    ------
+    ValueError
+        Naming the repeated column and its first two positions in ``labels``.
+    """
+    texts = [str(label) for label in labels]
+    if len(set(texts)) == len(texts):
+        return
+    wanted = None if used is None else {str(label) for label in used}
+    first: dict[str, int] = {}
+    for j, text in enumerate(texts):
+        if wanted is not None and text not in wanted:
+            continue
+        if text in first:
+            raise ValueError(
+                f"{name}: column {text!r} appears twice (columns {first[text]} and {j}); "
+                "rename one of them or drop the copy"
+            )
+        first[text] = j
+
+
+def column_names(value: Any, count: int, name: str) -> list[str] | None:
     """The column names of a pandas DataFrame (or a named Series) with ``count`` columns,
     or the coordinate of an xarray DataArray's second dimension (its name for one
-    dimension), as strings; None for anything else (arrays, lists, unnamed series)."""
+    dimension), as strings; None for anything else (arrays, lists, unnamed series).
+
+    Raises
+    ------
+    ValueError
+        Names that repeat (:func:`distinct_columns`; ``name`` is the argument).
+    """
     if isinstance(value, LabelledSeries):
         names = value.names
-        return [str(name) for name in names] if names and len(names) == count else None
+        return _distinct(names, name) if names and len(names) == count else None
     dims = getattr(value, "dims", None)
     if isinstance(dims, tuple) and hasattr(value, "coords"):  # an xarray DataArray
         if len(dims) == 2 and dims[1] in value.coords and value.shape[1] == count:
-            return [str(name) for name in np.asarray(value.coords[dims[1]].values)]
-        name = getattr(value, "name", None)
-        return [str(name)] if len(dims) == 1 and name is not None and count == 1 else None
+            return _distinct(np.asarray(value.coords[dims[1]].values), name)
+        label = getattr(value, "name", None)
+        return [str(label)] if len(dims) == 1 and label is not None and count == 1 else None
     columns = getattr(value, "columns", None)
     if columns is not None and getattr(value, "ndim", 0) == 2 and len(columns) == count:
-        return [str(name) for name in columns]
-    name = getattr(value, "name", None)
+        return _distinct(columns, name)
+    label = getattr(value, "name", None)
     if (
-        name is not None
+        label is not None
         and getattr(value, "ndim", 0) == 1
         and count == 1
         and hasattr(value, "index")
     ):
-        return [str(name)]
+        return [str(label)]
     return None
+
+
+def _distinct(labels: Any, name: str) -> list[str]:
+    """The labels as text, checked by :func:`distinct_columns`."""
+    distinct_columns(labels, name)
+    return [str(label) for label in labels]
 
 
 def time_index(value: Any, count: int) -> np.ndarray | None:
     """The index of a pandas object (or the coordinate of an xarray DataArray's first
     dimension) with ``count`` rows as an array: datetime64[ns] for
     dates (time zones dropped after conversion to UTC, periods at their start), float
-    for numbers; None for other data and for the default index 0, 1, …"""
+    for numbers, float seconds for time spans (a TimedeltaIndex); None for other data
+    and for the default index 0, 1, …"""
     if isinstance(value, LabelledSeries):
         if value.time is None or len(value.time) != count:
             return None
@@ -412,10 +497,14 @@ def index_values(index: Any) -> np.ndarray:
 
 
 def _time_values(values: np.ndarray, count: int) -> np.ndarray | None:
-    """Time stamps as a model keeps them: datetime64[ns] for dates, float for numbers;
-    None for other values and for the default 0, 1, …, count − 1."""
+    """Time stamps as a model keeps them: datetime64[ns] for dates, float for numbers and
+    float seconds for time spans (a pandas TimedeltaIndex: its raw numbers would be in
+    whatever unit numpy holds them); None for other values and for the default
+    0, 1, …, count − 1."""
     if np.issubdtype(values.dtype, np.datetime64):
         return values.astype("datetime64[ns]")
+    if np.issubdtype(values.dtype, np.timedelta64):
+        return values / np.timedelta64(1, "s")
     if not np.issubdtype(values.dtype, np.number):
         return None
     values = values.astype(float)
@@ -434,7 +523,7 @@ def recordings(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
 
     Returns float64 copies x (R, T, n) and u (R, T, m) (m = 0 when None).
     """
-    x = trajectories(x, "x")
+    source, x = x, trajectories(x, "x")
     R, T, n = x.shape
     if T < n:
         shape = x.shape[1:] if R == 1 else x.shape
@@ -445,15 +534,10 @@ def recordings(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
         )
     if T < 2:
         raise ValueError(f"x: expected at least 2 time steps, received T={T}")
-    empty = np.all(np.isnan(x), axis=(0, 1)) if np.isnan(x.sum()) else np.zeros(n, bool)
-    if empty.any():
-        raise ValueError(
-            f"x: state {int(np.flatnonzero(empty)[0])} has no observed samples (all NaN); "
-            "drop it or supply its data"
-        )
+    observed_columns(x, "x", "state", source)
     if u is None:
         return x, np.zeros((R, T, 0))
-    u = trajectories(u, "u")
+    inputs, u = u, trajectories(u, "u")
     if u.shape[:2] != (R, T):
         expected = "" if R == 1 else f" in each of the {R} trajectories, shape ({R}, {T}, m)"
         received = u.shape[1:] if u.shape[0] == 1 else u.shape
@@ -461,13 +545,39 @@ def recordings(x: Any, u: Any) -> tuple[np.ndarray, np.ndarray]:
             f"u: expected {T} rows (one input per state sample, as x){expected}, "
             f"received shape {received}"
         )
-    empty = np.all(np.isnan(u), axis=(0, 1)) if np.isnan(u.sum()) else np.zeros(u.shape[2], bool)
-    if empty.any():
-        raise ValueError(
-            f"u: input {int(np.flatnonzero(empty)[0])} has no observed samples (all NaN); "
-            "drop it or supply its data"
-        )
+    observed_columns(u, "u", "input", inputs)
     return x, u
+
+
+def observed_columns(arr: np.ndarray, name: str, what: str, source: Any = None) -> None:
+    """Reject a column (last axis of ``arr``, (R, T, d)) that has no observed sample in any
+    trajectory: it leaves out every row of the data term it enters.
+
+    Parameters
+    ----------
+    arr : ndarray, shape (R, T, d)
+        Validated data, NaN = missing.
+    name : str
+        The argument (the start of the message).
+    what : str
+        What a column is ("state", "input", "output", "regressor").
+    source : object, optional
+        The data as given, whose column names (a table's) the message uses.
+
+    Raises
+    ------
+    ValueError
+        Naming the first such column.
+    """
+    if not np.isnan(arr.sum()):  # the common case: nothing missing
+        return
+    empty = np.all(np.isnan(arr), axis=(0, 1))
+    if empty.any():
+        j = int(np.flatnonzero(empty)[0])
+        label = _column_text(column_names(source, arr.shape[2], name), j)
+        raise ValueError(
+            f"{name}: {what} {label} has no observed samples (all NaN); drop it or supply its data"
+        )
 
 
 def timed(value: Any, name: str, regular: bool = True) -> TimeGrid | None:
@@ -691,7 +801,8 @@ def lagged_series(
     "na = 2, nb = 1, nk = 1") in the too-short message. NaN marks a missing
     sample. Returns float64 copies, u of shape (T, 0) when None.
     """
-    y = representable(as_time_series(y, "y", allow_1d=True, missing=True), "y")
+    outputs, y = y, as_time_series(y, "y", allow_1d=True, missing=True)
+    representable(y, "y", names=column_names(outputs, y.shape[1], "y"))
     T = y.shape[0]
     if u is None:
         if require_inputs:
@@ -699,7 +810,8 @@ def lagged_series(
             raise TypeError(f"u: expected inputs of shape {expected}, received None")
         u = np.zeros((T, 0))
     else:
-        u = representable(as_time_series(u, "u", allow_1d=True, missing=True), "u")
+        inputs, u = u, as_time_series(u, "u", allow_1d=True, missing=True)
+        representable(u, "u", names=column_names(inputs, u.shape[1], "u"))
         if u.shape[0] != T:
             raise ValueError(f"u: expected {T} rows (one per sample of y), received {u.shape[0]}")
         if n_inputs is not None and u.shape[1] != n_inputs:
@@ -725,20 +837,22 @@ def lagged_recordings(
     ``y`` (T, n), (T,) or (R, T, n); ``u`` likewise or None. Returns float64
     copies y (R, T, n) and u (R, T, m) (m = 0 when None).
     """
-    y = trajectories(y, "y")
+    outputs, y = y, trajectories(y, "y")
+    observed_columns(y, "y", "output", outputs)
     R, T, _ = y.shape
     if u is None:
         if require_inputs:
             raise TypeError(f"u: expected inputs of shape ({T}, m) or ({T},), received None")
         u = np.zeros((R, T, 0))
     else:
-        u = trajectories(u, "u")
+        inputs, u = u, trajectories(u, "u")
         if u.shape[:2] != (R, T):
             raise ValueError(
                 f"u: expected {T} rows (one per sample of y)"
                 + (f" for each of the {R} series" if R > 1 else "")
                 + f", received shape {u.shape[1:] if u.shape[0] == 1 else u.shape}"
             )
+        observed_columns(u, "u", "input", inputs)
     if T <= lag:
         raise ValueError(
             f"y: the series is shorter than the lag structure: {structure} reaches back "

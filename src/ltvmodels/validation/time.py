@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["TimeGrid", "continued", "preceding", "time_grid"]
+__all__ = ["TimeGrid", "continued", "increasing", "preceding", "sampling_period", "time_grid"]
 
 # Steps that differ from a multiple of the smallest one by less than this (relative)
 # are on its grid: decimal steps such as 0.1 are not exact in binary.
@@ -155,14 +155,8 @@ def continued(stamps: np.ndarray, count: int) -> np.ndarray | None:
     """The ``count`` stamps after the end of the regular grid ``stamps`` (a fixed step or a
     calendar frequency: a monthly series goes on with the next months), or None where the
     stamps are on no regular grid (or too few to tell)."""
-    if stamps.size < 2:
-        return None
-    grid = _fixed_step_grid(stamps)
-    if grid is not None and grid.size == stamps.size:
-        if np.issubdtype(stamps.dtype, np.datetime64):
-            step = np.diff(stamps.astype("datetime64[ns]")).min()
-        else:
-            step = (stamps[-1] - stamps[0]) / (stamps.size - 1)  # the mean: no drift
+    step = _grid_step(stamps)
+    if step is not None:
         return stamps[-1] + step * np.arange(1, count + 1)
     if stamps.size < 3 or not np.issubdtype(stamps.dtype, np.datetime64):
         return None
@@ -201,12 +195,45 @@ def preceding(stamps: np.ndarray, count: int) -> np.ndarray | None:
     return stamps[0] - step * np.arange(count, 0, -1)
 
 
+def sampling_period(stamps: np.ndarray) -> float | None:
+    """The fixed step of increasing stamps without gaps, as a number: in the stamps' unit
+    (seconds for dates); None for fewer than two stamps, stamps that do not increase, or
+    steps that differ (a calendar frequency, an irregular axis). Steps equal up to the
+    rounding of decimal steps such as 0.1 (:data:`STEP_TOLERANCE`) are one step: their
+    mean."""
+    step = _grid_step(stamps)
+    if step is None:
+        return None
+    if np.issubdtype(stamps.dtype, np.datetime64):
+        return float(step / np.timedelta64(1, "s"))
+    return float(step)
+
+
+def _grid_step(stamps: np.ndarray) -> Any:
+    """The step of increasing stamps on a fixed-step grid without gaps (a timedelta64 for
+    dates, else a float: the mean step, which does not drift), or None."""
+    if stamps.size < 2 or not increasing(stamps):
+        return None
+    grid = _fixed_step_grid(stamps)
+    if grid is None or grid.size != stamps.size:
+        return None
+    if np.issubdtype(stamps.dtype, np.datetime64):
+        return np.diff(stamps.astype("datetime64[ns]")).min()
+    return (stamps[-1] - stamps[0]) / (stamps.size - 1)
+
+
+def increasing(stamps: np.ndarray) -> bool:
+    """Whether the stamps increase strictly."""
+    steps = np.diff(stamps)
+    return bool(np.all(steps > np.zeros((), dtype=steps.dtype)))
+
+
 def _check_order(stamps: np.ndarray, name: str) -> None:
     """Strictly increasing stamps, or an error naming the first row that is not."""
+    if increasing(stamps):
+        return
     steps = np.diff(stamps)
     zero = np.zeros((), dtype=steps.dtype)
-    if np.all(steps > zero):
-        return
     first = int(np.flatnonzero(~(steps > zero))[0]) + 1
     if steps[first - 1] == zero:
         raise ValueError(

@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> Report:
     what = "choosing lambda and fitting" if args.lam == "auto" else "fitting"
     with running(f"ltvmodels ar: {what}") as progress:  # the candidates of lam=auto
         model = fit_ar(
-            y[:, 0] if y.shape[1] == 1 else y,
+            data.series,
             args.na,
             lam=args.lam,
             norm=args.norm,

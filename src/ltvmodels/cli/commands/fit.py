@@ -83,8 +83,8 @@ def run(args: argparse.Namespace) -> Report:
     what = "choosing lambda and fitting" if args.lam == "auto" else "fitting"
     with running(f"ltvmodels fit: {what}") as progress:  # the candidates of lam=auto
         model = fit(
-            data.x,
-            data.u,
+            data.states,
+            data.inputs,
             lam=args.lam,
             norm=args.norm,
             order=args.order,

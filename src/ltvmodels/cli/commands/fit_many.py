@@ -43,7 +43,12 @@ _METHOD_OPTIONS = {
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """The options of ``fit-many``."""
-    opt.add_data(p, "CSV file ('-' for standard input) or Parquet (.parquet, .pq)")
+    opt.add_data(
+        p,
+        "CSV file with a header row of column names ('-' for standard input) or "
+        "Parquet (.parquet, .pq)",
+        header=False,
+    )
     p.add_argument("--by", required=True, metavar="COL", help="the unit column")
     opt.add_state(p, help="state columns x (comma-separated names)")
     opt.add_input(p, "input columns u (comma-separated names); none for an autonomous system")

@@ -56,7 +56,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "end of DATA, one row per sample (row j at the forecast sample T + j), as "
         "model.forecast(steps=H, u=...) takes them: a state-space model reads the "
         "first H - 1 (its first step is driven by DATA's last input), an ARX model "
-        "the first H - nk; further rows are unused",
+        "the first H - nk; further rows are unused; its first line is read as DATA's "
+        "(--header, --no-header)",
     )
     opt.add_seed(p, "seed of the Monte Carlo samples beyond the first step (default: 0)")
     opt.add_model_columns(
@@ -98,7 +99,7 @@ def run(args: argparse.Namespace) -> Report:
     kind, y, u, lag, H = data.kind, data.y, data.u, data.lag, args.steps
     future = _future_inputs(args, data, model.future_input_rows(H))
     with user_errors(f"{data.label}: "):
-        representable(y[-lag:], "--state" if kind == "ltv" else "--column")
+        representable(y[-lag:], "--state" if kind == "ltv" else "--column", names=data.names)
     # DATA's end becomes the end of the model's data, and the model continues it as
     # model.forecast(steps=H, u=future) continues its own: one convention, one code path.
     tail = DataTail.of(y[None], None if u is None else u[None], model.tail_lengths)
@@ -194,7 +195,9 @@ def _future_inputs(args: argparse.Namespace, data: ModelData, needed: int) -> np
             f"); give a data file with those columns for the {needed} samples "
             "after the end of the data"
         )
-    rows, label, cols = read_columns(args.future_input, input=",".join(data.input_names))
+    rows, label, cols = read_columns(
+        args.future_input, header=args.header, input=",".join(data.input_names)
+    )
     values = cols["input"][1]
     if rows < needed:
         raise DataError(

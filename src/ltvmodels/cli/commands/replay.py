@@ -162,9 +162,9 @@ def _check_simulation_data(data: ModelData, model: Any) -> None:
     ltv = data.kind == "ltv"
     u = data.u
     with user_errors(f"{data.label}: "):  # as predict checks them: no inf in the report
-        representable(data.y, "--state" if ltv else "--column")
+        representable(data.y, "--state" if ltv else "--column", names=data.names)
         if u is not None:
-            representable(u, "--input")
+            representable(u, "--input", names=data.input_names)
     if u is not None and ltv:
         u = u[: model.N]  # u[T-1] drives no transition
     missing = first_missing(u, data.input_names)

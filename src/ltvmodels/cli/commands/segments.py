@@ -92,8 +92,8 @@ def run(args: argparse.Namespace) -> Report:
     )
     with running("ltvmodels segments: searching change points"):
         model = fit_segments(
-            data.x,
-            data.u,
+            data.states,
+            data.inputs,
             n_changes=args.n_changes,
             penalty=args.penalty,
             min_size=args.min_size,

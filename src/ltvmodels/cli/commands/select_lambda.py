@@ -67,6 +67,7 @@ def run(args: argparse.Namespace) -> Report:
         The text summary.
     """
     from ...estimators.selection import select_lambda, select_lambda_regression
+    from ...validation.arrays import LabelledSeries
     from ..analysis import missing_transitions, missing_values, transition_terms
     from ..outputs import check_outputs, write_outputs
     from ..recordings import column_data, state_space_data
@@ -120,7 +121,7 @@ def run(args: argparse.Namespace) -> Report:
         robust = {"loss": args.loss, "huber_delta": args.huber_delta}
         if args.column is not None:
             selection = select_lambda_regression(
-                y_out,
+                LabelledSeries(y_out, names),
                 phi,
                 norm=args.norm,
                 order=args.order,
@@ -131,8 +132,8 @@ def run(args: argparse.Namespace) -> Report:
             )
         elif args.norm == "l0":  # one dynamic program: no steps to count
             selection = select_lambda(
-                x,
-                u,
+                data.states,
+                data.inputs,
                 norm=args.norm,
                 method=args.method,
                 constant=args.constant,
@@ -141,8 +142,8 @@ def run(args: argparse.Namespace) -> Report:
             )
         else:
             selection = select_lambda(
-                x,
-                u,
+                data.states,
+                data.inputs,
                 norm=args.norm,
                 order=args.order,
                 method=args.method,
