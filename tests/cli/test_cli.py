@@ -1617,3 +1617,34 @@ def test_rejected_columns_are_named_as_in_the_file(argv, message, tmp_path, caps
     code, out, err = _run([argv[0], path, *argv[1:]], capsys)
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert message in err, err
+
+
+def test_irregular_times_are_read_as_consecutive_rows_with_irregular(tmp_path, capsys):
+    """--time stamps on no grid are an error whose remedies are the command line's; with
+    --irregular the rows are fitted as consecutive samples (Python's regular=False)."""
+    pd = pytest.importorskip("pandas")
+    d = ltvmodels.systems.jump_linear(T=120, change_at=60, seed=0)
+    stamps = np.cumsum(np.random.default_rng(0).uniform(0.5, 1.5, 120))
+    path = tmp_path / "irregular.csv"
+    path.write_text(
+        "t,p,v,f\n"
+        + "".join(
+            f"{t:.17g},{p:.17g},{v:.17g},{f:.17g}\n" for t, (p, v), f in zip(stamps, d.x, d.u[:, 0])
+        )
+    )
+    base = ["fit", path, "--state", "p,v", "--input", "f", "--lam", "10", "--time", "t"]
+    code, _, err = _run(base, capsys)
+    assert code == 2
+    assert "no regular grid" in err and "--irregular" in err
+    assert "regular=False" not in err and "df.resample" not in err
+    code, _, err = _run([*base, "--irregular", "--out", tmp_path / "m.npz"], capsys)
+    assert code == 0, err
+    model = ltvmodels.load(tmp_path / "m.npz")
+    frame = pd.DataFrame({"p": d.x[:, 0], "v": d.x[:, 1]}, index=stamps)
+    reference = ltvmodels.fit(
+        frame, pd.DataFrame({"f": d.u[:, 0]}, index=stamps), lam=10.0, regular=False
+    )
+    np.testing.assert_allclose(model.k, reference.k, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(model.time, stamps)
+    code, _, err = _run(["fit", path, "--state", "p,v", "--lam", "10", "--irregular"], capsys)
+    assert code == 2 and "--irregular" in err and "give --time" in err

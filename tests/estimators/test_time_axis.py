@@ -404,6 +404,7 @@ def test_each_trajectory_of_a_list_is_checked_and_placed_on_its_grid():
     full = ltv.fit([blanked(X, GAP), blanked(second, GAP)], [blanked(U, GAP)] * 2, lam=10.0)
     np.testing.assert_allclose(gappy.k, full.k, rtol=0, atol=1e-12)
     assert gappy.n_missing == full.n_missing == 32 and gappy.data.n_trajectories == 2
+    assert gappy.state_names == ["p", "v"] and gappy.input_names == ["f"]  # the tables' names
 
 
 def test_the_command_line_forecast_of_an_arx_model_is_the_model_forecast(tmp_path, capsys):

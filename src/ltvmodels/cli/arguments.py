@@ -195,8 +195,16 @@ def add_time(
     rule: str = _TIME_RULE,
 ) -> None:
     """``--time COL``: the column of the samples' times (its ``rule``; the same for every
-    command that fits one series) and what it changes in the command (``effect``)."""
+    command that fits one series) and what it changes in the command (``effect``); and
+    ``--irregular``, which declares the rows consecutive samples whatever their times."""
     p.add_argument("--time", metavar="COL", default=None, help=f"{rule}; {effect}")
+    p.add_argument(
+        "--irregular",
+        action="store_true",
+        help="with --time: the rows are consecutive samples whatever their times (which "
+        "must still increase); nothing is inserted, and the model keeps the times "
+        "(regular=False in Python). Default: the times must lie on a regular grid",
+    )
 
 
 def add_weights(

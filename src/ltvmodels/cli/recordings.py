@@ -135,7 +135,7 @@ def state_space_data(args: argparse.Namespace) -> StateSpaceData:
     state_names, x = cols["state"]
     input_names, u = cols["input"] if cols["input"] is not None else ([], None)
     weights = _equation_weights(cols["weights"], 1)  # a transition predicts x[t + 1]
-    time, grid = _time_axis(cols["time"], x, state_names)
+    time, grid = _time_axis(cols["time"], x, state_names, args)
     time_name = None if cols.get("time") is None else cols["time"][0][0]
     if grid is not None:
         x, u, weights = _spread(grid, x), _spread(grid, u), _spread_weights(grid, weights, 1)
@@ -171,7 +171,7 @@ def column_data(args: argparse.Namespace) -> ColumnData:
     )
     names, y = cols["column"]
     weights = _equation_weights(cols["weights"], args.na)  # the first na rows are only lags
-    time, grid = _time_axis(cols["time"], y, names)
+    time, grid = _time_axis(cols["time"], y, names, args)
     if grid is not None:
         y, weights = _spread(grid, y), _spread_weights(grid, weights, args.na)
     return ColumnData(label, names, y, weights, time)
@@ -193,27 +193,38 @@ def _equation_weights(column: _Column | None, lag: int) -> np.ndarray | None:
 
 
 def _time_axis(
-    column: _Column | None, values: np.ndarray, names: list[str]
+    column: _Column | None, values: np.ndarray, names: list[str], args: argparse.Namespace
 ) -> tuple[np.ndarray | None, TimeGrid | None]:
     """The samples' times of a ``--time`` column (None without one) and, where stamps are
     missing from their regular grid, that grid (its ``spread`` puts the rows on it).
 
     The library's time rules, as for a pandas index, with its warning where missing
-    stamps become missing samples.
+    stamps become missing samples; ``--irregular``: the rows as they are.
     """
+    irregular = getattr(args, "irregular", False)
     if column is None:
+        if irregular:
+            raise DataError("--irregular: it says how to read the --time column; give --time")
         return None, None
     from ..estimators.recordings import time_grid_of
 
     stamps = column[1]
     try:
-        grid = time_grid_of(LabelledSeries(values, names, stamps), "--time")
+        grid = time_grid_of(LabelledSeries(values, names, stamps), "--time", not irregular)
     except ValueError as exc:
-        text = str(exc).replace("(df.sort_index())", "(sort the file by that column)")
-        raise DataError(text) from None
+        raise DataError(_command_line_remedies(str(exc))) from None
     if grid is None:  # the stamps 0, 1, … are consecutive rows: nothing to check
         return stamps, None
     return grid.time, grid if grid.inserted else None
+
+
+def _command_line_remedies(message: str) -> str:
+    """A time-rule error of the library with the remedies of the command line (the file's
+    rows and ``--irregular``, not pandas calls and ``regular=False``)."""
+    return message.replace("(df.sort_index())", "(sort the file by that column)").replace(
+        "(df.resample('D').mean(), df.asfreq('h'), …), or pass regular=False",
+        "before reading it, or pass --irregular",
+    )
 
 
 def _spread(grid: TimeGrid, rows: np.ndarray | None) -> np.ndarray | None:

@@ -159,8 +159,8 @@ def state_space_data(
         u,
         w,
         constant,
-        state_names=arrays.column_names(x_data, x.shape[2], "x"),
-        input_names=arrays.column_names(u_data, u.shape[2], "u"),
+        state_names=arrays.column_names(_first_table(x_data), x.shape[2], "x"),
+        input_names=arrays.column_names(_first_table(u_data), u.shape[2], "u"),
         time=None if grid is None else grid.time,
         time_name=arrays.time_name(x_data),
     )
@@ -179,6 +179,12 @@ def timed_recordings(
     grid = time_grid_of(x, "x", regular)
     x, u = arrays.recordings(x, arrays.aligned(x, u, "x", "u"))
     return x, u, grid
+
+
+def _first_table(value: Any) -> Any:
+    """The first of a list of pandas trajectories (whose columns every one shares, as
+    :func:`_trajectories_on_their_grids` checks), where its names are; else ``value``."""
+    return value[0] if _indexed_trajectories(value) else value
 
 
 def _indexed_trajectories(x: Any) -> bool:
