@@ -69,11 +69,8 @@ def fit_lti(
         ``model.outliers``; ``loss="laplace"`` minimizes Σ w|r| (to a relative
         duality gap of 1e-10); then no ``cov``, ``loglik`` None.
     regular : bool, default True
-        Whether the time index of pandas data must lie on a regular grid (a fixed
-        step or a calendar frequency): stamps missing from it become missing
-        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
-        declares the rows consecutive samples whatever their stamps (which must
-        still increase); the model keeps them as its time axis.
+        As in :func:`ltvmodels.fit` (False: the rows of a time index are
+        consecutive samples, whatever their stamps).
 
     Returns
     -------
@@ -366,11 +363,8 @@ def fit_path(
     lams : sequence of float
         Scalar λ values (> 0 for "group" and "l1").
     regular : bool, default True
-        Whether the time index of pandas data must lie on a regular grid (a fixed
-        step or a calendar frequency): stamps missing from it become missing
-        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
-        declares the rows consecutive samples whatever their stamps (which must
-        still increase); the model keeps them as its time axis.
+        As in :func:`ltvmodels.fit` (False: the rows of a time index are
+        consecutive samples, whatever their stamps).
 
     Returns
     -------
@@ -458,11 +452,8 @@ def lambda_max(
     order, weights, constant
         As in :func:`fit`.
     regular : bool, default True
-        Whether the time index of pandas data must lie on a regular grid (a fixed
-        step or a calendar frequency): stamps missing from it become missing
-        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
-        declares the rows consecutive samples whatever their stamps (which must
-        still increase); the model keeps them as its time axis.
+        As in :func:`ltvmodels.fit` (False: the rows of a time index are
+        consecutive samples, whatever their stamps).
 
     Returns
     -------

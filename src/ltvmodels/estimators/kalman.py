@@ -173,11 +173,8 @@ def kalman_filter(
         (θ_{0,i}, θ_{−1,i}, …); rows are independent with this covariance. None
         (default, with ``init_mean`` None): exact diffuse initialization.
     regular : bool, default True
-        Whether the time index of pandas data must lie on a regular grid (a fixed
-        step or a calendar frequency): stamps missing from it become missing
-        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
-        declares the rows consecutive samples whatever their stamps (which must
-        still increase); the model keeps them as its time axis.
+        As in :func:`ltvmodels.fit` (False: the rows of a time index are
+        consecutive samples, whatever their stamps).
 
     Returns
     -------
@@ -218,11 +215,8 @@ def kalman_smoother(
     x, u, lam, order, noise_var, init_mean, init_cov
         As in :func:`kalman_filter`.
     regular : bool, default True
-        Whether the time index of pandas data must lie on a regular grid (a fixed
-        step or a calendar frequency): stamps missing from it become missing
-        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
-        declares the rows consecutive samples whatever their stamps (which must
-        still increase); the model keeps them as its time axis.
+        As in :func:`ltvmodels.fit` (False: the rows of a time index are
+        consecutive samples, whatever their stamps).
 
     Returns
     -------

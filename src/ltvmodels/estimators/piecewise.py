@@ -113,11 +113,8 @@ def fit_piecewise(
         the residual mean square. The regressors of that regression take
         N·q·(M + 2)·p numbers; beyond ROBUST_MAX_ENTRIES (2e7) it is refused.
     regular : bool, default True
-        Whether the time index of pandas data must lie on a regular grid (a fixed
-        step or a calendar frequency): stamps missing from it become missing
-        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
-        declares the rows consecutive samples whatever their stamps (which must
-        still increase); the model keeps them as its time axis.
+        As in :func:`ltvmodels.fit` (False: the rows of a time index are
+        consecutive samples, whatever their stamps).
 
     Returns
     -------

@@ -80,11 +80,8 @@ def segment_regression(
         Weights >= 0 of the rows (y and phi may hold R series, (R, N, ·), and
         NaN for missing rows, as in :func:`ltvmodels.fit_regression`).
     regular : bool, default True
-        Whether the time index of pandas data must lie on a regular grid (a fixed
-        step or a calendar frequency): stamps missing from it become missing
-        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
-        declares the rows consecutive samples whatever their stamps (which must
-        still increase); the model keeps them as its time axis.
+        As in :func:`ltvmodels.fit` (False: the rows of a time index are
+        consecutive samples, whatever their stamps).
 
     Returns
     -------
@@ -201,11 +198,8 @@ def fit_segments(
         As in :func:`ltvmodels.fit`; x and u may also hold R trajectories
         (each segment's cost sums over them) and NaN for missing samples.
     regular : bool, default True
-        Whether the time index of pandas data must lie on a regular grid (a fixed
-        step or a calendar frequency): stamps missing from it become missing
-        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
-        declares the rows consecutive samples whatever their stamps (which must
-        still increase); the model keeps them as its time axis.
+        As in :func:`ltvmodels.fit` (False: the rows of a time index are
+        consecutive samples, whatever their stamps).
 
     Returns
     -------

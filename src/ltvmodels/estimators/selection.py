@@ -194,11 +194,8 @@ def select_lambda(
         As in :func:`ltvmodels.fit`; a robust loss takes method="cv" (the
         default then), scored with that loss.
     regular : bool, default True
-        Whether the time index of pandas data must lie on a regular grid (a fixed
-        step or a calendar frequency): stamps missing from it become missing
-        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
-        declares the rows consecutive samples whatever their stamps (which must
-        still increase); the model keeps them as its time axis.
+        As in :func:`ltvmodels.fit` (False: the rows of a time index are
+        consecutive samples, whatever their stamps).
 
     Returns
     -------
@@ -263,11 +260,8 @@ def select_lambda_regression(
         As in :func:`select_lambda` (NaN = missing, as in
         :func:`ltvmodels.fit_regression`).
     regular : bool, default True
-        Whether the time index of pandas data must lie on a regular grid (a fixed
-        step or a calendar frequency): stamps missing from it become missing
-        samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
-        declares the rows consecutive samples whatever their stamps (which must
-        still increase); the model keeps them as its time axis.
+        As in :func:`ltvmodels.fit` (False: the rows of a time index are
+        consecutive samples, whatever their stamps).
 
     Returns
     -------
