@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..core import segmentation as search
+from ..core.breaks import segment_moments
 from ..core.problem import RegressionProblem
 from ..errors import SingularProblemError
 from ..results.base import signal_names
@@ -105,6 +106,8 @@ def segment_regression(
     result = replace(result, time=description.time)
     if problem.n_observed <= (result.n_changes + 1) * problem.p:
         return result  # no residual degree of freedom: no noise estimate, no model
+    moments = segment_moments(problem.y, problem.phi, problem.observed, result.changepoints)
+    result = replace(result, moments=moments)
     model = piecewise_fit(
         problem,
         result.changepoints,

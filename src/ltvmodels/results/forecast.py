@@ -176,7 +176,7 @@ class Forecast:
     def __post_init__(self) -> None:
         if self.method not in METHODS:
             raise ValueError(f"method: expected one of {METHODS}, received {self.method!r}")
-        object.__setattr__(self, "level", _probability(self.level, "level"))
+        object.__setattr__(self, "level", options.interval_level(self.level, "level"))
         for name in ("mean", "lower", "upper", "cov", "coefficients"):
             value = np.array(getattr(self, name), dtype=float)  # a copy: the caller's stays theirs
             value.flags.writeable = False
@@ -294,28 +294,10 @@ def forecast_options(level: Any, n_samples: Any, seed: Any) -> tuple[float, int,
     The seed is returned as given after a check (a Generator is used as is),
     so that nothing is drawn from it unless the forecast samples.
     """
-    level = _probability(level, "level")
+    level = options.interval_level(level, "level")
     n_samples = options.integer(n_samples, "n_samples", minimum=2)
     options.random_generator(seed)  # checks it; the generator is made when it is needed
     return level, n_samples, seed
-
-
-def _probability(value: Any, name: str) -> float:
-    """The probability of a central interval: a real number in (0, 1) with both tails
-    representable."""
-    if isinstance(value, np.ndarray) and value.ndim == 0:
-        value = value.item()
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name}: expected a probability in (0, 1), received {describe(value)}")
-    value = float(value)
-    if not 0.0 < value < 1.0:
-        raise ValueError(f"{name}: expected a probability in (0, 1) (e.g. 0.95), received {value}")
-    if (1.0 + value) / 2.0 >= 1.0:  # no tail left in floating point: no interval bound
-        raise ValueError(
-            f"{name}: expected a probability in (0, 1) whose tails are representable (at most "
-            f"1 - 1e-15), received {value!r}"
-        )
-    return value
 
 
 def _forecast_steps(steps: Any, rows: int | None, lag: int = 0) -> int:

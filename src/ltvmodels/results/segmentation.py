@@ -48,6 +48,11 @@ class Segmentation:
     time : ndarray, shape (N,), or None
         The time of each row of y (the index of a pandas y, on its regular
         grid); None without one.
+    moments : dict or None
+        Each segment's least-squares coefficients, regressor second moments,
+        noise variance and rows, and the whole sample's
+        (:func:`ltvmodels.core.breaks.segment_moments`), which :meth:`confint`
+        uses; None where the segmentation did not keep them.
     """
 
     changepoints: np.ndarray
@@ -64,6 +69,7 @@ class Segmentation:
     work: int = field(default=0)
     model: Any = None
     time: np.ndarray | None = None
+    moments: dict | None = field(default=None, repr=False, compare=False)
 
     @property
     def changepoint_times(self) -> np.ndarray | None:
@@ -72,6 +78,170 @@ class Segmentation:
         if self.time is None:
             return None
         return self.time[np.asarray(self.changepoints, dtype=int)]
+
+    def confint(
+        self, level: float = 0.95, *, het_reg: bool = True, het_err: bool = True
+    ) -> np.ndarray:
+        """Confidence intervals of the break dates (Bai 1997), as R's strucchange.
+
+        For each change point c the interval of the date where the new
+        segment's coefficients start, from the limit distribution of the
+        estimated date (:mod:`ltvmodels.core.breaks`), with strucchange's
+        ``confint.breakpointsfull`` conventions: the same numbers on the same
+        data (the row index c here is strucchange's break number).
+
+        Parameters
+        ----------
+        level : float, default 0.95
+            The coverage, in (0, 1).
+        het_reg : bool, default True
+            Each segment's own regressor second moments (False: the whole
+            sample's), strucchange's ``het.reg``.
+        het_err : bool, default True
+            Each segment's own noise variance (False: one for all segments),
+            strucchange's ``het.err``.
+
+        Returns
+        -------
+        ndarray of float, shape (M, 3)
+            Rows [lower, c, upper] in the row indices of y (the first row of
+            the new segment at the lower end, the latest at the upper end). A
+            bound that cannot be computed (P(argmax ≤ 0) outside the
+            interval's tails, strucchange's "cannot be computed") is NaN, with
+            a warning.
+
+        Raises
+        ------
+        ValueError
+            No change points, several outputs (the interval is that of one
+            regression equation), a level outside (0, 1), or a segmentation
+            without its moments (a model-free one: too few rows).
+        """
+        import math
+
+        from ..core.breaks import break_interval
+        from ..errors import warn
+        from ..validation import options
+
+        level = options.interval_level(level, "level")
+        moments = self._interval_moments()
+        intervals = np.full((self.n_changes, 3), np.nan)
+        for i, c in enumerate(np.asarray(self.changepoints, dtype=int)):
+            delta = moments["coefficients"][i + 1, :, 0] - moments["coefficients"][i, :, 0]
+            pooled_q, pooled_var = moments["pooled_second_moment"], moments["pooled_variance"][0]
+            offsets = break_interval(
+                delta,
+                moments["second_moments"][i] if het_reg else pooled_q,
+                moments["second_moments"][i + 1] if het_reg else pooled_q,
+                moments["variances"][i, 0] if het_err else pooled_var,
+                moments["variances"][i + 1, 0] if het_err else pooled_var,
+                level,
+            )
+            intervals[i, 1] = c
+            if offsets is None:
+                warn(
+                    f"the confidence interval of change point {c} cannot be computed: the "
+                    "limit distribution of its date puts less than the interval's tail on "
+                    "one side (a small or ill-determined change)",
+                    RuntimeWarning,
+                )
+                continue
+            lower, upper = offsets
+            intervals[i, 0], intervals[i, 2] = c - math.ceil(upper), c - math.floor(lower)
+        return intervals
+
+    def confint_times(
+        self, level: float = 0.95, *, het_reg: bool = True, het_err: bool = True
+    ) -> np.ndarray | None:
+        """:meth:`confint` as times of the rows of y (dates for a dated y), (M, 3); None
+        without a time index. A bound outside the data is clipped to its first or last
+        row; one that cannot be computed is NaT (dates) or NaN."""
+        if self.time is None:
+            return None
+        intervals = self.confint(level, het_reg=het_reg, het_err=het_err)
+        missing = np.isnan(intervals)
+        rows = np.clip(np.nan_to_num(intervals), 0, self.time.size - 1).astype(int)
+        times = self.time[rows]
+        if missing.any():
+            times = times.astype(times.dtype if times.dtype.kind == "M" else float)
+            times[missing] = np.datetime64("NaT") if times.dtype.kind == "M" else np.nan
+        return times
+
+    def criteria(self) -> dict[str, np.ndarray]:
+        """Information criteria of the optimal segmentations with 0 … M changes.
+
+        With ``n_changes=M`` the search found the optimal residual sum of
+        squares RSS_m for every m ≤ M (:attr:`costs_by_n_changes`); this ranks
+        them as Bai and Perron (2003) and R's strucchange do, for one output,
+        n observed rows and p regressors:
+
+        * the Gaussian log-likelihood ℓ_m = −n/2 (log(RSS_m/n) + 1 + log 2π);
+        * BIC_m = −2ℓ_m + (p + 1)(m + 1) log n, counting the coefficients, the
+          break dates and the noise variance (strucchange's ``summary`` table);
+        * LWZ_m = log(RSS_m/(n − p*)) + p* · 0.299 (log n)^2.1 / n with
+          p* = (m + 1)p + m (Liu, Wu and Zidek 1997, as Bai and Perron use it).
+
+        Returns
+        -------
+        dict
+            ``n_changes`` (M + 1,) = 0 … M, ``rss``, ``loglik``, ``bic``, ``lwz``
+            (M + 1,) each (inf / nan where no segmentation has m changes), and
+            ``best_bic``, ``best_lwz``: the m that minimizes each.
+
+        Raises
+        ------
+        ValueError
+            A segmentation with a penalty (no costs for each m), several outputs,
+            or no residual degree of freedom.
+        """
+        if self.costs_by_n_changes is None:
+            raise ValueError(
+                "criteria: this segmentation was found with a penalty, so it has no "
+                "optimal cost for each number of changes; segment with n_changes=M "
+                "(the most changes to consider)"
+            )
+        moments = self._moments("criteria")
+        rows, p = int(moments["rows"].sum()), moments["coefficients"].shape[1]
+        rss = np.asarray(self.costs_by_n_changes, dtype=float)
+        m = np.arange(rss.size)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            loglik = -0.5 * rows * (np.log(rss / rows) + 1 + np.log(2 * np.pi))
+            bic = -2 * loglik + (p + 1) * (m + 1) * np.log(rows)
+            free = (m + 1) * p + m
+            lwz = np.log(rss / (rows - free)) + free * 0.299 * np.log(rows) ** 2.1 / rows
+        return {
+            "n_changes": m,
+            "rss": rss,
+            "loglik": loglik,
+            "bic": bic,
+            "lwz": lwz,
+            "best_bic": int(np.nanargmin(bic)),
+            "best_lwz": int(np.nanargmin(lwz)),
+        }
+
+    def _interval_moments(self) -> dict:
+        if self.n_changes == 0:
+            raise ValueError(
+                "confint: the segmentation has no change points; there are no break "
+                "dates to give intervals for"
+            )
+        return self._moments("confint")
+
+    def _moments(self, name: str) -> dict:
+        """The segments' moments, for ``name`` (the method that needs them)."""
+        if self.moments is None:
+            raise ValueError(
+                f"{name}: this segmentation did not keep its segments' moments (its "
+                "segments leave no residual degree of freedom); give more rows per "
+                "segment (min_size)"
+            )
+        outputs = self.moments["coefficients"].shape[2]
+        if outputs != 1:
+            raise ValueError(
+                f"{name}: it is defined for one regression equation; this segmentation "
+                f"has {outputs} outputs: segment each output on its own"
+            )
+        return self.moments
 
     def plot(self, fig: Any = None):
         """Plot the model on the segments (:meth:`RegressionModel.plot`); needs ``model``."""

@@ -29,6 +29,7 @@ __all__ = [
     "SPARSE_NORMS",
     "PRIOR_MODES",
     "choice",
+    "interval_level",
     "flag",
     "callback",
     "is_auto",
@@ -194,6 +195,24 @@ def variance(value: Any, name: str) -> float:
 def optional_nonnegative(value: Any, name: str) -> float | None:
     """Validate None or a finite real number >= 0."""
     return None if value is None else nonnegative_scalar(value, name)
+
+
+def interval_level(value: Any, name: str) -> float:
+    """The probability of a central interval: a real number in (0, 1) with both tails
+    representable."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name}: expected a probability in (0, 1), received {describe(value)}")
+    value = float(value)
+    if not 0.0 < value < 1.0:
+        raise ValueError(f"{name}: expected a probability in (0, 1) (e.g. 0.95), received {value}")
+    if (1.0 + value) / 2.0 >= 1.0:  # no tail left in floating point: no interval bound
+        raise ValueError(
+            f"{name}: expected a probability in (0, 1) whose tails are representable (at most "
+            f"1 - 1e-15), received {value!r}"
+        )
+    return value
 
 
 def fraction(value: Any, name: str) -> float:

@@ -1,0 +1,112 @@
+"""Break-date confidence intervals against R's strucchange (``confint.breakpointsfull``).
+
+The reference values, with their data, are in ``strucchange/confint.json``, written by
+``strucchange/confint.R``: Nile ~ 1, the UK seat-belt regression
+(log10 deaths ~ lag 1 + lag 12, ``h = 0.1``), and two generated series (two breaks;
+one break with a noise level that changes). Where ``Rscript`` and strucchange are
+installed, the script is also run live and its values compared to ours.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import ltvmodels as ltv
+
+HERE = Path(__file__).parent / "strucchange"
+
+
+def matrix(value: dict) -> np.ndarray:
+    values = np.array([np.nan if v is None else v for v in value["values"]], dtype=float)
+    return values.reshape(value["rows"], value["cols"])
+
+
+def intervals(value: dict) -> np.ndarray:
+    return matrix(value).reshape(-1, 3)
+
+
+def our_segmentation(case: dict) -> ltv.Segmentation:
+    y = np.asarray(case["y"], dtype=float)
+    regressors = matrix(case["X"]) if case["X"]["cols"] else np.zeros((y.size, 0))
+    phi = np.column_stack([np.ones(y.size), regressors])
+    min_size = int(np.floor(case["h"][0] * y.size))  # strucchange's h: floor(h·n) rows
+    return ltv.segment_regression(y, phi, n_changes=len(case["breakpoints"]), min_size=min_size)
+
+
+def check_case(case: dict) -> None:
+    segmentation = our_segmentation(case)
+    np.testing.assert_array_equal(segmentation.changepoints, case["breakpoints"])
+    np.testing.assert_array_equal(segmentation.confint(0.95), intervals(case["confint_95"]))
+    np.testing.assert_array_equal(segmentation.confint(0.90), intervals(case["confint_90"]))
+    np.testing.assert_array_equal(
+        segmentation.confint(0.95, het_reg=False, het_err=False),
+        intervals(case["confint_95_homogeneous"]),
+    )
+
+
+REFERENCE = json.loads((HERE / "confint.json").read_text())
+
+
+@pytest.mark.parametrize("case", REFERENCE["cases"], ids=lambda case: case["name"])
+def test_break_date_intervals_equal_strucchange(case):
+    check_case(case)
+
+
+@pytest.mark.skipif(shutil.which("Rscript") is None, reason="R is not installed")
+def test_break_date_intervals_equal_a_live_strucchange():
+    run = subprocess.run(
+        ["Rscript", str(HERE / "confint.R")], capture_output=True, text=True, timeout=120
+    )
+    if "there is no package called" in run.stderr:
+        pytest.skip("R's strucchange is not installed (Debian: r-cran-strucchange)")
+    assert run.returncode == 0, run.stderr
+    live = json.loads(run.stdout)
+    for case in live["cases"]:
+        check_case(case)
+
+
+def test_intervals_are_dated_and_refused_where_they_cannot_be():
+    case = REFERENCE["cases"][0]  # the Nile, 1871-1970
+    years = np.arange(1871, 1971)
+    import pandas as pd
+
+    y = pd.Series(case["y"], index=pd.Index(years.astype(float), name="year"))
+    segmentation = ltv.segment_regression(y, np.ones((100, 1)), n_changes=1, min_size=15)
+    np.testing.assert_array_equal(segmentation.confint_times(), [[1896.0, 1899.0, 1903.0]])
+    with pytest.raises(ValueError, match="level: expected a probability"):
+        segmentation.confint(1.5)
+    none = ltv.segment_regression(y, np.ones((100, 1)), n_changes=0)
+    with pytest.raises(ValueError, match="no change points"):
+        none.confint()
+    two_outputs = ltv.segment_regression(
+        np.column_stack([case["y"], case["y"]]), np.ones((100, 1)), n_changes=1
+    )
+    with pytest.raises(ValueError, match="for one regression equation"):
+        two_outputs.confint()
+
+
+def test_the_rss_and_bic_table_equals_strucchange_and_lwz_its_formula():
+    # strucchange's summary(breakpoints(y ~ ylag1 + ylag12, h = 0.1), breaks = 8) on the
+    # seat-belt data: the RSS of the optimal segmentation with 0 … 8 breaks and its
+    # BIC, which counts the coefficients, the break dates and the noise variance; it
+    # picks 0 breaks.
+    case = next(case for case in REFERENCE["cases"] if case["name"] == "seatbelt")
+    y = np.asarray(case["y"])
+    phi = np.column_stack([np.ones(y.size), matrix(case["X"])])
+    segmentation = ltv.segment_regression(y, phi, n_changes=8, min_size=18)
+    table = segmentation.criteria()
+    np.testing.assert_allclose(table["rss"], case["rss_table"], rtol=1e-9)
+    np.testing.assert_allclose(table["bic"], case["bic_table"], rtol=1e-9)
+    assert table["best_bic"] == int(np.argmin(case["bic_table"])) == 0
+    n, m = y.size, np.arange(9)
+    free = 3 * (m + 1) + m  # LWZ's p*: the coefficients and the break dates
+    lwz = np.log(table["rss"] / (n - free)) + free * 0.299 * np.log(n) ** 2.1 / n
+    np.testing.assert_allclose(table["lwz"], lwz, rtol=1e-12)
+    with pytest.raises(ValueError, match="found with a penalty"):
+        ltv.segment_regression(y, phi, penalty="bic", min_size=18).criteria()
