@@ -1648,3 +1648,15 @@ def test_irregular_times_are_read_as_consecutive_rows_with_irregular(tmp_path, c
     np.testing.assert_allclose(model.time, stamps)
     code, _, err = _run(["fit", path, "--state", "p,v", "--lam", "10", "--irregular"], capsys)
     assert code == 2 and "--irregular" in err and "give --time" in err
+
+
+def test_segments_trim_is_a_fraction_of_the_transitions(workdir, capsys):
+    root, _ = workdir
+    base = ["segments", root / "data.csv", "--state", "x1,x2", "--input", "u"]
+    code, out, err = _run([*base, "--n-changes", "1", "--trim", "0.15", "--json"], capsys)
+    assert code == 0, err
+    report = json.loads(out)
+    samples = len((root / "data.csv").read_text().splitlines()) - 1  # after the header
+    assert report["info"]["min_size"] == int(0.15 * (samples - 1))
+    code, _, err = _run([*base, "--trim", "0.15", "--min-size", "5"], capsys)
+    assert code == 2 and "trim, min_size: both give" in err

@@ -35,8 +35,7 @@ def our_segmentation(case: dict) -> ltv.Segmentation:
     y = np.asarray(case["y"], dtype=float)
     regressors = matrix(case["X"]) if case["X"]["cols"] else np.zeros((y.size, 0))
     phi = np.column_stack([np.ones(y.size), regressors])
-    min_size = int(np.floor(case["h"][0] * y.size))  # strucchange's h: floor(h·n) rows
-    return ltv.segment_regression(y, phi, n_changes=len(case["breakpoints"]), min_size=min_size)
+    return ltv.segment_regression(y, phi, n_changes=len(case["breakpoints"]), trim=case["h"][0])
 
 
 def check_case(case: dict) -> None:
@@ -99,7 +98,8 @@ def test_the_rss_and_bic_table_equals_strucchange_and_lwz_its_formula():
     case = next(case for case in REFERENCE["cases"] if case["name"] == "seatbelt")
     y = np.asarray(case["y"])
     phi = np.column_stack([np.ones(y.size), matrix(case["X"])])
-    segmentation = ltv.segment_regression(y, phi, n_changes=8, min_size=18)
+    segmentation = ltv.segment_regression(y, phi, n_changes=8, trim=0.1)  # h = 0.1: 18 rows
+    assert segmentation.min_size == 18
     table = segmentation.criteria()
     np.testing.assert_allclose(table["rss"], case["rss_table"], rtol=1e-9)
     np.testing.assert_allclose(table["bic"], case["bic_table"], rtol=1e-9)
@@ -110,3 +110,17 @@ def test_the_rss_and_bic_table_equals_strucchange_and_lwz_its_formula():
     np.testing.assert_allclose(table["lwz"], lwz, rtol=1e-12)
     with pytest.raises(ValueError, match="found with a penalty"):
         ltv.segment_regression(y, phi, penalty="bic", min_size=18).criteria()
+
+
+def test_trim_is_a_fraction_of_the_rows_and_excludes_min_size():
+    y = np.asarray(REFERENCE["cases"][0]["y"])
+    ones = np.ones((y.size, 1))
+    assert ltv.segment_regression(y, ones, n_changes=1, trim=0.15).min_size == 15
+    assert ltv.segment_regression(y, ones, n_changes=1, trim=0.001).min_size == 1  # p
+    with pytest.raises(ValueError, match="trim, min_size: both give"):
+        ltv.segment_regression(y, ones, n_changes=1, trim=0.15, min_size=15)
+    with pytest.raises(ValueError, match=r"trim: expected a fraction of the rows in \(0, 0.5\)"):
+        ltv.segment_regression(y, ones, n_changes=1, trim=0.5)
+    d = ltv.systems.jump_linear(seed=0)
+    model = ltv.fit_segments(d.x, d.u, n_changes=1, trim=0.15)
+    assert model.info["min_size"] == int(0.15 * 399)

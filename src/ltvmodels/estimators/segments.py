@@ -52,6 +52,7 @@ def segment_regression(
     min_size: int | None = None,
     weights: ArrayLike | None = None,
     regular: bool = True,
+    trim: float | None = None,
 ) -> Segmentation:
     """Optimal piecewise-constant segmentation of a regression y_t = Θ_t φ_t + e_t.
 
@@ -77,6 +78,10 @@ def segment_regression(
         when neither ``n_changes`` nor ``penalty`` is given.
     min_size : int, optional
         Minimum number of rows per segment, >= p. Default p.
+    trim : float, optional
+        The minimum segment length as a fraction of the rows, in (0, 0.5):
+        ⌊trim · N⌋ rows (at least p), strucchange's ``h`` (Bai and Perron use
+        0.15). Give ``min_size`` or ``trim``, not both.
     weights : array_like, shape (N,) or (R, N), optional
         Weights >= 0 of the rows (y and phi may hold R series, (R, N, ·), and
         NaN for missing rows, as in :func:`ltvmodels.fit_regression`).
@@ -102,6 +107,7 @@ def segment_regression(
         segment is identifiable.
     """
     problem, description = regression_data(y, phi, weights=weights, regular=regular)
+    min_size = options.trimmed_min_size(trim, min_size, problem.N, problem.p)
     result = _segment(problem, n_changes, penalty, min_size, data_name="y")
     result = replace(result, time=description.time)
     if problem.n_observed <= (result.n_changes + 1) * problem.p:
@@ -134,6 +140,7 @@ def fit_segments(
     constant: bool = False,
     loss: Literal["squared"] = "squared",
     regular: bool = True,
+    trim: float | None = None,
 ) -> LTVModel:
     """Piecewise-constant LTV model with exactly optimal change points (paper eq:l0).
 
@@ -190,6 +197,10 @@ def fit_segments(
         linearly dependent (smallest eigenvalue of their Gram matrix, with
         each regressor scaled to unit RMS over the whole data, at most
         1e-10 · N) are excluded as well.
+    trim : float, optional
+        The minimum segment length as a fraction of the N = T − 1 transitions,
+        in (0, 0.5): ⌊trim · N⌋ (at least p), as strucchange's ``h``. Give
+        ``min_size`` or ``trim``, not both.
     compute_cov : bool, default True
         Compute the covariances of the per-segment estimates.
     loss : {"squared"}
@@ -250,6 +261,7 @@ def fit_segments(
     data = state_space_data(x, u, weights=weights, constant=constant, regular=regular)
     if not isinstance(compute_cov, bool):
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
+    min_size = options.trimmed_min_size(trim, min_size, data.problem.N, data.problem.p)
     result = _segment(data.problem, n_changes, penalty, min_size, data_name="x")
     n_params = (result.n_changes + 1) * data.problem.p
     if data.problem.n_observed <= n_params:

@@ -30,6 +30,7 @@ __all__ = [
     "PRIOR_MODES",
     "choice",
     "interval_level",
+    "trimmed_min_size",
     "flag",
     "callback",
     "is_auto",
@@ -560,6 +561,27 @@ def _enough(N, p, d, observed, n_rows, name, rows, note, total_hint, offset) -> 
             f"difference operator of degree {d} need at least {needed}; supply more data "
             "or fill the gaps"
         )
+
+
+def trimmed_min_size(trim: Any, min_size: Any, N: int, p: int) -> Any:
+    """``min_size`` as given, or ⌊trim · N⌋ (at least ``p``, the smallest well-posed
+    segment) for a trimming fraction ``trim`` in (0, 0.5) (strucchange's ``h``); both
+    given is an error."""
+    if trim is None:
+        return min_size
+    if min_size is not None:
+        raise ValueError(
+            "trim, min_size: both give the minimum segment length (trim as a fraction of "
+            f"the rows, min_size as a count); give one, received trim={trim!r} and "
+            f"min_size={min_size!r}"
+        )
+    fraction = positive_scalar(trim, "trim")
+    if fraction >= 0.5:
+        raise ValueError(
+            f"trim: expected a fraction of the rows in (0, 0.5) (e.g. 0.15), received {trim!r}; "
+            "two segments of at least half the rows each leave no room for a change"
+        )
+    return max(p, int(np.floor(fraction * N)))
 
 
 def segment_min_size(value: Any, p: int) -> int:

@@ -52,6 +52,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="S",
         help="minimum segment length (default: n + m, or n + m + 1 with --constant)",
     )
+    p.add_argument(
+        "--trim",
+        type=float,
+        default=None,
+        metavar="H",
+        help="minimum segment length as a fraction of the transitions, in (0, 0.5) "
+        "(strucchange's h, e.g. 0.15); instead of --min-size",
+    )
     opt.add_weights(p)
     opt.add_time(p)
     opt.add_constant(p, "a constant term c_t per segment")
@@ -97,6 +105,7 @@ def run(args: argparse.Namespace) -> Report:
             n_changes=args.n_changes,
             penalty=args.penalty,
             min_size=args.min_size,
+            trim=args.trim,
             constant=args.constant,
             weights=data.weights,
         )
