@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+
+from ..core.breaks import break_interval
+from ..errors import warn
+from ..validation import options
 
 __all__ = ["Segmentation"]
 
@@ -117,12 +122,6 @@ class Segmentation:
             regression equation), a level outside (0, 1), or a segmentation
             without its moments (a model-free one: too few rows).
         """
-        import math
-
-        from ..core.breaks import break_interval
-        from ..errors import warn
-        from ..validation import options
-
         level = options.interval_level(level, "level")
         moments = self._interval_moments()
         intervals = np.full((self.n_changes, 3), np.nan)
