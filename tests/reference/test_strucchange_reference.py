@@ -124,3 +124,21 @@ def test_trim_is_a_fraction_of_the_rows_and_excludes_min_size():
     d = ltv.systems.jump_linear(seed=0)
     model = ltv.fit_segments(d.x, d.u, n_changes=1, trim=0.15)
     assert model.info["min_size"] == int(0.15 * 399)
+
+
+def test_the_summary_reports_the_breaks_their_intervals_and_the_criteria():
+    case = REFERENCE["cases"][0]  # the Nile, 1871-1970
+    import pandas as pd
+
+    y = pd.Series(case["y"], index=pd.Index(np.arange(1871.0, 1971.0), name="year"))
+    segmentation = ltv.segment_regression(y, np.ones((100, 1)), n_changes=2, trim=0.15)
+    report = segmentation.summary()
+    lines = report.splitlines()
+    header = next(line for line in lines if "95 % from" in line).split()
+    assert header[:5] == ["break", "95", "%", "from", "row"]
+    first = next(line for line in lines if line.strip().startswith("1 "))
+    lower, row, upper = segmentation.confint()[0]
+    assert first.split()[1:4] == [f"{lower:g}", f"{row:g}", f"{upper:g}"]
+    assert "BIC picks            1" in report  # as strucchange: one break for the Nile
+    assert "segment 1 of 3" in report  # the model's coefficients per segment
+    assert "<table" in segmentation._repr_html_()

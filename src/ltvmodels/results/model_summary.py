@@ -31,7 +31,7 @@ from .description import DataDescription
 from .record import FitStatus
 from .summary import Section, Summary, Table
 
-__all__ = ["SummarizedModel", "model_summary", "order_text"]
+__all__ = ["SummarizedModel", "model_summary", "number_text", "order_text", "time_text"]
 
 SAME_TOLERANCE = 1e-8
 """Coefficients within a segment are constant when they differ by at most this much
@@ -166,7 +166,7 @@ def model_summary(
 
 
 # -- text of values ------------------------------------------------------------------------
-def _number(value: Any, digits: int = 4) -> str:
+def number_text(value: Any, digits: int = 4) -> str:
     """A number in ``digits`` significant digits; "—" for None or NaN, "∞" for inf."""
     if value is None or np.isnan(value):
         return "—"
@@ -175,12 +175,12 @@ def _number(value: Any, digits: int = 4) -> str:
     return f"{float(value):.{digits}g}"
 
 
-def _time_text(values: np.ndarray) -> list[str]:
+def time_text(values: np.ndarray) -> list[str]:
     """Times as people read them: dates without a time of day as YYYY-MM-DD, else with
     the time to the minute, second or finer as needed; numbers as numbers."""
     values = np.asarray(values)
     if not np.issubdtype(values.dtype, np.datetime64):
-        return [_number(value, 6) for value in values]
+        return [number_text(value, 6) for value in values]
     unit = next(
         (unit for unit in TIME_UNITS if np.all(values.astype(f"datetime64[{unit}]") == values)),
         TIME_UNITS[-1],
@@ -200,11 +200,13 @@ def order_text(coeffs: np.ndarray) -> str:
 
 
 def _per_name(names: Sequence[str], values: np.ndarray) -> str:
-    return ", ".join(f"{name} {_number(value)}" for name, value in zip(names, values, strict=True))
+    return ", ".join(
+        f"{name} {number_text(value)}" for name, value in zip(names, values, strict=True)
+    )
 
 
 def _span(times: np.ndarray) -> str:
-    first, last = _time_text(np.asarray([times[0], times[-1]]))
+    first, last = time_text(np.asarray([times[0], times[-1]]))
     return first if first == last else f"{first} – {last}"
 
 
@@ -254,14 +256,14 @@ def _loss_text(info: dict) -> str:
     delta = info.get("huber_delta")
     if loss != "huber" or delta is None:
         return loss
-    values = ", ".join(_number(value) for value in np.atleast_1d(delta))
+    values = ", ".join(number_text(value) for value in np.atleast_1d(delta))
     return f"huber, threshold δ = {values} ({info.get('huber_delta_rule', 'given')})"
 
 
 def _lam_value(lam: Any) -> str:
     if lam is None:
         return "—"
-    return _number(float(lam)) if np.ndim(lam) == 0 else f"array of shape {np.shape(lam)}"
+    return number_text(float(lam)) if np.ndim(lam) == 0 else f"array of shape {np.shape(lam)}"
 
 
 def _lam_text(model: SummarizedModel) -> str:
@@ -295,7 +297,7 @@ def _segmentation_text(info: dict) -> str:
     if penalty is None:
         return f"{found} (n_changes given)"
     rule = info.get("penalty_rule")
-    return f"{found}, penalty β = {_number(penalty)} per change ({rule or 'given'})"
+    return f"{found}, penalty β = {number_text(penalty)} per change ({rule or 'given'})"
 
 
 def _fit_section(status: FitStatus | None) -> Section:
@@ -308,7 +310,7 @@ def _fit_section(status: FitStatus | None) -> Section:
             ("message", status.message),
             ("solver", status.solver),
             ("iterations", str(status.iterations)),
-            ("objective", _number(status.objective, 6)),
+            ("objective", number_text(status.objective, 6)),
             ("certificate", _certificate_text(status)),
         ),
     )
@@ -317,7 +319,7 @@ def _fit_section(status: FitStatus | None) -> Section:
 def _certificate_text(status: FitStatus) -> str:
     details = status.details
     parts = [
-        f"{label} {_number(details[key], 3)}"
+        f"{label} {number_text(details[key], 3)}"
         for key, label in CERTIFICATES.items()
         if isinstance(details.get(key), (int, float))
     ]
@@ -354,7 +356,7 @@ def _criteria_section(model: SummarizedModel) -> Section:
             ),
         )
     marginal = " (log marginal likelihood)" if model.norm == "sq" else ""
-    fields = [("log-likelihood", _number(model.loglik, 6) + marginal)]
+    fields = [("log-likelihood", number_text(model.loglik, 6) + marginal)]
     count = _parameter_count(model)
     if count is None:
         fields.append(("AIC, BIC", "not defined (a penalized fit has no parameter count)"))
@@ -363,8 +365,8 @@ def _criteria_section(model: SummarizedModel) -> Section:
     aic = -2.0 * model.loglik + 2.0 * parameters
     bic = -2.0 * model.loglik + np.log(observations) * parameters
     fields += [
-        ("AIC", _number(aic, 6)),
-        ("BIC", f"{_number(bic, 6)} ({observations} observations)"),
+        ("AIC", number_text(aic, 6)),
+        ("BIC", f"{number_text(bic, 6)} ({observations} observations)"),
         ("parameters", f"{parameters}: {parts}"),
     ]
     return Section("Criteria", tuple(fields))
@@ -411,8 +413,8 @@ def _changes_section(model: SummarizedModel) -> Section:
             fields.append(
                 (
                     "activation ‖Dk‖",
-                    f"max {_number(activation.max(), 3)} at t={int(activation.argmax())}, "
-                    f"median {_number(float(np.median(activation)), 3)}",
+                    f"max {number_text(activation.max(), 3)} at t={int(activation.argmax())}, "
+                    f"median {number_text(float(np.median(activation)), 3)}",
                 )
             )
         return Section("Change points", tuple(fields))
@@ -424,7 +426,7 @@ def _changes_section(model: SummarizedModel) -> Section:
     fields = [("steps", ", ".join(str(c) for c in shown) + rest)]
     times = model.changepoint_times
     if times is not None:
-        fields.append(("times", ", ".join(_time_text(times[: shown.size])) + rest))
+        fields.append(("times", ", ".join(time_text(times[: shown.size])) + rest))
     return Section("Change points", tuple(fields))
 
 
@@ -434,7 +436,7 @@ def _coefficients_section(model: SummarizedModel) -> Section:
     segments = _constant_segments(k, np.asarray(model.changepoints, dtype=int))
     if segments is None:
         rows = tuple(
-            (name, *(_number(v) for v in (column[0], column[-1], column.min(), column.max())))
+            (name, *(number_text(v) for v in (column[0], column[-1], column.min(), column.max())))
             for name, column in zip(names, k.T, strict=True)
         )
         caption = f"varying over the steps 0–{model.N - 1}"
@@ -464,8 +466,8 @@ def _coefficients_section(model: SummarizedModel) -> Section:
 
 def _coefficient_row(name: str, estimate: float, error: float | None) -> tuple[str, ...]:
     if error is None or not error > 0:
-        return (name, _number(estimate), "—", "—")
-    return (name, _number(estimate), _number(error), _number(estimate / error, 3))
+        return (name, number_text(estimate), "—", "—")
+    return (name, number_text(estimate), number_text(error), number_text(estimate / error, 3))
 
 
 def _constant_segments(k: np.ndarray, changepoints: np.ndarray) -> list[tuple[int, int]] | None:

@@ -11,6 +11,8 @@ import numpy as np
 from ..core.breaks import break_interval
 from ..errors import warn
 from ..validation import options
+from .model_summary import number_text, time_text
+from .summary import Section, Summary, Table
 
 __all__ = ["Segmentation"]
 
@@ -217,6 +219,80 @@ class Segmentation:
             "best_bic": int(np.nanargmin(bic)),
             "best_lwz": int(np.nanargmin(lwz)),
         }
+
+    def summary(self, level: float = 0.95) -> Summary:
+        """A report: the search, each break with its confidence interval (and dates),
+        the criteria for 0 … M changes where known, and the model on the segments
+        (its coefficients per segment with standard errors).
+
+        Parameters
+        ----------
+        level : float, default 0.95
+            The coverage of the break-date intervals (:meth:`confint`).
+
+        Returns
+        -------
+        Summary
+            The text report (a ``str``), with ``as_html()`` for notebooks.
+        """
+        how = f"{self.n_changes} change{'s' if self.n_changes != 1 else ''} " + (
+            "(n_changes given)" if self.penalty is None else f"(penalty {self.penalty:.4g})"
+        )
+        search = Section(
+            "Segmentation",
+            (
+                ("changes", how),
+                ("solver", self.solver),
+                ("RSS", number_text(self.cost, 6)),
+                ("minimum segment", f"{self.min_size} rows"),
+            ),
+        )
+        sections = [search]
+        if self.n_changes and self.moments is not None and self._single_output:
+            sections.append(self._breaks_section(level))
+        if self.costs_by_n_changes is not None and self.moments is not None and self._single_output:
+            table = self.criteria()
+            rows = tuple(
+                (str(m), number_text(rss, 6), number_text(bic, 6), number_text(lwz, 6))
+                for m, rss, bic, lwz in zip(
+                    table["n_changes"], table["rss"], table["bic"], table["lwz"]
+                )
+            )
+            sections.append(
+                Section(
+                    "Number of changes",
+                    (("BIC picks", str(table["best_bic"])), ("LWZ picks", str(table["best_lwz"]))),
+                    (Table("criteria", ("changes", "RSS", "BIC", "LWZ"), rows),),
+                )
+            )
+        if self.model is not None:
+            sections += self.model.summary().sections
+        return Summary(f"Segmentation({how}, solver={self.solver!r})", sections)
+
+    def _repr_html_(self) -> str:
+        return self.summary().as_html()
+
+    @property
+    def _single_output(self) -> bool:
+        return self.moments is not None and self.moments["coefficients"].shape[2] == 1
+
+    def _breaks_section(self, level: float) -> Section:
+        """The change points with their confidence intervals (rows, and times)."""
+        intervals = self.confint(level)
+        percent = f"{100 * level:g} %"
+        header: tuple[str, ...] = ("break", f"{percent} from", "row", "to")
+        cells = [[number_text(value, 12) for value in row] for row in intervals]
+        times = self.confint_times(level)
+        if times is not None:
+            header += ("from (time)", "time", "to (time)")
+            for row, stamps in zip(cells, times):
+                row += time_text(stamps)
+        rows = tuple((str(i + 1), *row) for i, row in enumerate(cells))
+        return Section(
+            "Breaks",
+            (("intervals", f"Bai (1997), {percent}, per-segment moments (as strucchange)"),),
+            (Table("break dates", header, rows),),
+        )
 
     def _interval_moments(self) -> dict:
         if self.n_changes == 0:
