@@ -143,7 +143,8 @@ class Segmentation:
                 warn(
                     f"the confidence interval of change point {c} cannot be computed: the "
                     "limit distribution of its date puts less than the interval's tail on "
-                    "one side (a small or ill-determined change)",
+                    "one side of it (noise levels or regressor moments that differ greatly "
+                    "across the break; het_err=False or het_reg=False pools them)",
                     RuntimeWarning,
                 )
                 continue
