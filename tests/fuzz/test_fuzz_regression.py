@@ -9,6 +9,8 @@ drawn valid or invalid. :func:`fuzz_oracle.check_call` judges each outcome.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from fuzz_oracle import check_call, expect
 from fuzz_strategies import (
@@ -244,6 +246,10 @@ def _regressor_inspector(result, call, context):
     return "finite"
 
 
+TRIM = Opt(
+    st.one_of(st.floats(0.01, 0.49), st.just(0.15)),
+    choice_of(0.0, 0.5, -0.1, 1.0, np.nan, "h", True),
+)
 SEG_PENALTY = Opt(
     st.one_of(st.floats(0.0, 50.0), choice_of("bic", "aic", 0.0)),
     choice_of("BIC", "hq", -1.0, np.inf, np.nan, 1e300, None, True),
@@ -255,6 +261,7 @@ SEG_PENALTY = Opt(
     st.one_of(
         options(n_changes=counts(0, 4), min_size=counts(1, 10), weights=WEIGHTS),
         options(penalty=SEG_PENALTY, min_size=counts(1, 10), weights=WEIGHTS),
+        options(n_changes=counts(0, 4), trim=TRIM, regular=BOOL),
     ),
     valid=(
         datasets(max_T=50, forms=False),
@@ -269,7 +276,17 @@ def test_segment_regression(data, kwargs):
     """ltv.segment_regression: exact L0 segmentation of any regression."""
     y, phi = data.regression()
     kw = {k: resolve(v, K=1, n=data.n, N=data.N, R=data.R) for k, v in kwargs.items()}
-    check_call(ltv.segment_regression, y, phi, **kw)
+    result = check_call(ltv.segment_regression, y, phi, **kw)
+    if result is None or result.moments is None or result.n_changes == 0 or data.n != 1:
+        return
+    # break-date intervals: around their break, or NaN where they cannot be computed
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        intervals = result.confint()
+    np.testing.assert_array_equal(intervals[:, 1], result.changepoints)
+    found = ~np.isnan(intervals[:, 0])
+    assert np.all(intervals[found, 0] <= intervals[found, 1])
+    assert np.all(intervals[found, 1] <= intervals[found, 2])
 
 
 @fuzz_test(
