@@ -16,6 +16,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from .messages import CommandError
+
 __all__ = [
     "positive_int",
     "positive_float",
@@ -28,6 +30,7 @@ __all__ = [
     "add_column",
     "add_na",
     "add_time",
+    "regular_time",
     "add_weights",
     "add_constant",
     "add_norm",
@@ -205,6 +208,16 @@ def add_time(
         "must still increase); nothing is inserted, and the model keeps the times "
         "(regular=False in Python). Default: the times must lie on a regular grid",
     )
+
+
+def regular_time(args: argparse.Namespace) -> bool:
+    """Whether the ``--time`` stamps must lie on a regular grid: False where
+    ``--irregular`` declares the rows consecutive (``regular=`` of the library)."""
+    if not getattr(args, "irregular", False):
+        return True
+    if getattr(args, "time", None) is None:
+        raise CommandError("--irregular: it says how to read the --time column; give --time")
+    return False
 
 
 def add_weights(

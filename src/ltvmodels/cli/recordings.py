@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..validation.arrays import LabelledSeries
+from .arguments import regular_time
 from .data import read_columns
 from .messages import DataError
 
@@ -201,16 +202,14 @@ def _time_axis(
     The library's time rules, as for a pandas index, with its warning where missing
     stamps become missing samples; ``--irregular``: the rows as they are.
     """
-    irregular = getattr(args, "irregular", False)
+    regular = regular_time(args)
     if column is None:
-        if irregular:
-            raise DataError("--irregular: it says how to read the --time column; give --time")
         return None, None
     from ..estimators.recordings import time_grid_of
 
     stamps = column[1]
     try:
-        grid = time_grid_of(LabelledSeries(values, names, stamps), "--time", not irregular)
+        grid = time_grid_of(LabelledSeries(values, names, stamps), "--time", regular)
     except ValueError as exc:
         raise DataError(_command_line_remedies(str(exc))) from None
     if grid is None:  # the stamps 0, 1, … are consecutive rows: nothing to check

@@ -350,7 +350,7 @@ def _on_time_grid(
     """The validated series y, u (R, T, ·) and the weights of their regression rows placed
     on the regular grid of y's time index (missing stamps become missing samples), and
     that grid (None without a time index; ``regular=False``: the rows as they are)."""
-    grid = time_grid_of(y_data, "y", options.flag(regular, "regular"))
+    grid = time_grid_of(y_data, "y", regular)
     if grid is None or grid.positions is None:
         return y, u, weights, grid
     w = arrays.row_weights(weights, y.shape[0], y.shape[1] - lag)

@@ -173,7 +173,6 @@ def timed_recordings(
     time stamps), and the regular grid of x's time index (None without one; its
     :meth:`~ltvmodels.validation.time.TimeGrid.spread` puts the rows on it;
     ``regular``: see :func:`state_space_data`)."""
-    regular = options.flag(regular, "regular")
     if _indexed_trajectories(x):
         x, u = _trajectories_on_their_grids(x, u, regular)
     grid = time_grid_of(x, "x", regular)
@@ -192,7 +191,7 @@ def _indexed_trajectories(x: Any) -> bool:
     return isinstance(x, (list, tuple)) and bool(x) and all(hasattr(i, "columns") for i in x)
 
 
-def _trajectories_on_their_grids(xs: Any, us: Any, regular: bool) -> tuple[list, Any]:
+def _trajectories_on_their_grids(xs: Any, us: Any, regular: Any) -> tuple[list, Any]:
     """A list of pandas trajectories (and their inputs), each checked as one series is:
     the same columns as the first, its time stamps in order and without repeats, the
     inputs matched by stamp, the missing stamps of its regular grid as NaN rows (the
@@ -218,11 +217,12 @@ def _trajectories_on_their_grids(xs: Any, us: Any, regular: bool) -> tuple[list,
     return states, None if all(u is None for u in inputs) else inputs
 
 
-def time_grid_of(value: Any, name: str, regular: bool = True) -> TimeGrid | None:
+def time_grid_of(value: Any, name: str, regular: Any = True) -> TimeGrid | None:
     """The checked regular grid of a series' time index (None without one), with a
     :class:`~ltvmodels.DataWarning` where missing stamps become missing samples
-    (``regular``: see :func:`state_space_data`)."""
-    grid = arrays.timed(value, name, regular)
+    (``regular``: see :func:`state_space_data`; checked here, where every front-end's
+    time axis passes)."""
+    grid = arrays.timed(value, name, options.flag(regular, "regular"))
     if grid is not None and grid.inserted:
         warn(f"{name}: {grid.notice}", DataWarning)
     return grid
@@ -249,7 +249,7 @@ def regression_data(
     ``data``): the column names of a pandas y and phi, the time grid of y (one series),
     the series and the rows left out."""
     phi = arrays.aligned(y, phi, "y", "phi")
-    grid = time_grid_of(y, "y", options.flag(regular, "regular"))
+    grid = time_grid_of(y, "y", regular)
     names = {"output": y, "regressor": phi}
     y = arrays.trajectories(y, "y")
     phi = arrays.trajectories(phi, "phi")

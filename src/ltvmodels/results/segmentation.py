@@ -249,9 +249,9 @@ class Segmentation:
             ),
         )
         sections = [search]
-        if self.n_changes and self.moments is not None and self._single_output:
+        if self.n_changes and self._single_output:
             sections.append(self._breaks_section(level))
-        if self.costs_by_n_changes is not None and self.moments is not None and self._single_output:
+        if self.costs_by_n_changes is not None and self._single_output:
             table = self.criteria()
             rows = tuple(
                 (str(m), number_text(rss, 6), number_text(bic, 6), number_text(lwz, 6))
@@ -275,6 +275,8 @@ class Segmentation:
 
     @property
     def _single_output(self) -> bool:
+        """Whether the segments' moments are kept, for one output (what intervals and
+        criteria need)."""
         return self.moments is not None and self.moments["coefficients"].shape[2] == 1
 
     def _breaks_section(self, level: float) -> Section:

@@ -220,9 +220,7 @@ def _estimator_options(args: argparse.Namespace) -> dict[str, Any]:
         options.setdefault("lam", "auto")
     if args.weights is not None:
         options["weights"] = args.weights
-    if args.irregular:  # every method takes it; fit_many passes it to each unit
-        if args.time is None:
-            raise CommandError("--irregular: it says how to read the --time column; give --time")
+    if not opt.regular_time(args):  # every method takes it; fit_many passes it to each unit
         options["regular"] = False
     return options
 
