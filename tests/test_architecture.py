@@ -33,6 +33,7 @@ LAYERS = {
     "results": 2,
     "estimators": 3,
     "systems": 3,
+    "datasets": 3,
     "control": 3,
     "plotting": 4,
     "apps": 5,

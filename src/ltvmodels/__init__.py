@@ -78,7 +78,7 @@ _API = {
     "load_many": "results.model_set",
 }
 # Public modules, imported on first attribute access.
-_MODULES = ("systems", "plotting", "control")
+_MODULES = ("systems", "datasets", "plotting", "control")
 # Former names of modules that moved, with their new place (a DeprecationWarning on use).
 _MOVED = {"rl": "ltvmodels.apps.rl", "gym_rl": "ltvmodels.apps.gym_rl"}
 
@@ -86,6 +86,7 @@ if TYPE_CHECKING:
     # What a type checker sees of the names above, which load on first use at run
     # time (tests/test_architecture.py keeps this block equal to _API and _MODULES).
     from . import control as control
+    from . import datasets as datasets
     from . import plotting as plotting
     from . import systems as systems
     from .control import ilqg as ilqg
