@@ -28,7 +28,8 @@ def test_uk_driver_deaths_equals_the_seatbelt_regression_data():
     assert deaths.size == 192 and deaths.index.freqstr == "MS"
     assert deaths.index[0] == pd.Timestamp("1969-01-01")
     assert deaths.index[-1] == pd.Timestamp("1984-12-01")
-    seatbelt = next(c for c in json.loads(REFERENCE.read_text())["cases"] if c["name"] == "seatbelt")
+    cases = json.loads(REFERENCE.read_text())["cases"]
+    seatbelt = next(case for case in cases if case["name"] == "seatbelt")
     # strucchange's example: log10 deaths from 1970 on, regressed on lags 1 and 12
     np.testing.assert_allclose(np.log10(deaths.to_numpy()[12:]), seatbelt["y"], rtol=1e-15)
     lags = np.reshape(seatbelt["X"]["values"], (-1, 2))
