@@ -28,7 +28,14 @@ if TYPE_CHECKING:  # pragma: no cover
 _Column = tuple[list[str], np.ndarray]
 """A column read from DATA: its names and values (T, k)."""
 
-__all__ = ["StateSpaceData", "ColumnData", "state_space_data", "column_data"]
+__all__ = [
+    "StateSpaceData",
+    "ColumnData",
+    "RegressionData",
+    "state_space_data",
+    "column_data",
+    "regression_data",
+]
 
 
 @dataclass(frozen=True)
@@ -105,6 +112,29 @@ class ColumnData:
         return LabelledSeries(self.y, self.names)
 
 
+@dataclass(frozen=True)
+class RegressionData:
+    """One regression equation y_t = θ_tᵀ φ_t + e_t read from DATA (``segments --response``).
+
+    Attributes
+    ----------
+    label : str
+        The data file as the reports name it.
+    y : LabelledSeries
+        (N, 1) the response, with its name and the rows' times (``--time``).
+    phi : LabelledSeries
+        (N, p) the regressors: the ``--regressors`` columns, then the response's
+        ``--lags``, then the ``--constant`` column "const".
+    weights : ndarray or None
+        (N,) the rows' weights (``--weights``).
+    """
+
+    label: str
+    y: LabelledSeries
+    phi: LabelledSeries
+    weights: np.ndarray | None
+
+
 def state_space_data(args: argparse.Namespace) -> StateSpaceData:
     """Read the state-space columns that the arguments choose from DATA.
 
@@ -176,6 +206,67 @@ def column_data(args: argparse.Namespace) -> ColumnData:
     if grid is not None:
         y, weights = _spread(grid, y), _spread_weights(grid, weights, args.na)
     return ColumnData(label, names, y, weights, time)
+
+
+def regression_data(args: argparse.Namespace) -> RegressionData:
+    """Read the regression that ``--response``, ``--regressors``, ``--lags`` and
+    ``--constant`` choose from DATA.
+
+    The lags y_{t−l} are taken on the time grid (after missing stamps became
+    missing rows), so the first max(lags) rows, which have no lagged values, are
+    left out.
+
+    Raises
+    ------
+    DataError
+        A column that cannot be read, a response of several columns, no
+        regressor at all, lags that leave no row, a missing weight, or time
+        stamps out of order or on no regular grid.
+    """
+    _, label, cols = read_columns(
+        args.data,
+        header=args.header,
+        response=args.response,
+        regressors=args.regressors,
+        weights=args.weights,
+        time=args.time,
+    )
+    names, y = cols["response"]
+    if len(names) != 1:
+        raise DataError(
+            f"--response: expected one column (the response y of the regression), "
+            f"received {len(names)}: {', '.join(names)}"
+        )
+    regressor_names, phi = cols["regressors"] or ([], np.empty((y.shape[0], 0)))
+    weights = _equation_weights(cols["weights"], 0)
+    time, grid = _time_axis(cols["time"], y, names, args)
+    if grid is not None:
+        y, phi, weights = _spread(grid, y), _spread(grid, phi), _spread_weights(grid, weights, 0)
+    lags = sorted(set(args.lags or []))
+    first = max(lags, default=0)
+    if first >= y.shape[0]:
+        raise DataError(
+            f"--lags: a lag of {first} rows leaves none of the {y.shape[0]} rows with its "
+            "lagged values; use smaller lags"
+        )
+    lagged = [y[first - lag : y.shape[0] - lag] for lag in lags]
+    columns = [phi[first:], *lagged]
+    regressor_names = regressor_names + [f"{names[0]}[t-{lag}]" for lag in lags]
+    if args.constant:
+        columns.append(np.ones((y.shape[0] - first, 1)))
+        regressor_names.append("const")
+    if not regressor_names:
+        raise DataError(
+            "--regressors: the regression has no regressor; give --regressors COLS, "
+            "--lags L (lagged responses) or --constant (a level per segment)"
+        )
+    time_name = None if cols["time"] is None else cols["time"][0][0]
+    return RegressionData(
+        label,
+        LabelledSeries(y[first:], names, None if time is None else time[first:], time_name),
+        LabelledSeries(np.hstack(columns), regressor_names),
+        None if weights is None else weights[first:],
+    )
 
 
 def _equation_weights(column: _Column | None, lag: int) -> np.ndarray | None:

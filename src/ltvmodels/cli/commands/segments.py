@@ -1,14 +1,23 @@
-"""``ltvmodels segments``: a piecewise-constant model with exactly optimal change points."""
+"""``ltvmodels segments``: a piecewise-constant model with exactly optimal change points.
+
+Two kinds of data: a state-space recording (``--state``, ``--input``: the
+library's :func:`~ltvmodels.fit_segments`), or one regression equation
+(``--response`` with ``--regressors``, ``--lags`` and ``--constant``:
+:func:`~ltvmodels.segment_regression`), for which the report adds what R's
+strucchange gives around the breaks: their confidence intervals
+(``--confint``) and the information criteria for 0 … M changes.
+"""
 
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 import numpy as np
 
 from .. import arguments as opt
-from ..messages import running
-from ..report import Report, fmt
+from ..messages import CommandError, running
+from ..report import Report, fmt, time_text
 from ..subcommand import Subcommand
 
 __all__ = ["COMMAND", "add_arguments", "run"]
@@ -31,10 +40,58 @@ def _penalty(text: str) -> float | str:
     return value
 
 
+def _level(text: str) -> float:
+    """A coverage in (0, 1) (argparse type)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = np.nan
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(
+            f"expected a level in (0, 1), e.g. 0.95, received {text!r}"
+        )
+    return value
+
+
+def _lags(text: str) -> list[int]:
+    """Comma-separated lags >= 1 (argparse type)."""
+    try:
+        lags = [int(item) for item in text.split(",")]
+    except ValueError:
+        lags = []
+    if not lags or min(lags) < 1:
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated integers >= 1, e.g. 1,12, received {text!r}"
+        )
+    return lags
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """The options of ``segments``."""
     opt.add_data(p)
-    opt.add_state_options(p)
+    data = p.add_argument_group(
+        "data", "a state-space recording (--state, --input) or one regression (--response)"
+    )
+    opt.add_state(data, required=False, help="state columns x (a state-space recording)")
+    opt.add_input(data)
+    data.add_argument(
+        "--response",
+        metavar="COL",
+        default=None,
+        help="instead of --state: the response y of one regression y_t = θ_t φ_t + e_t, "
+        "whose regressors φ_t are --regressors, --lags and --constant",
+    )
+    data.add_argument(
+        "--regressors", metavar="COLS", default=None, help="with --response: regressor columns"
+    )
+    data.add_argument(
+        "--lags",
+        type=_lags,
+        default=None,
+        metavar="L",
+        help="with --response: the response's lags as regressors, e.g. 1,12 (y_{t-1}, "
+        "y_{t-12}); the first max(L) rows are left out",
+    )
     group = p.add_mutually_exclusive_group()
     opt.add_n_changes(group, "at most M changes")
     group.add_argument(
@@ -62,12 +119,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     opt.add_weights(p)
     opt.add_time(p)
-    opt.add_constant(p, "a constant term c_t per segment")
+    opt.add_constant(p, "a constant term c_t per segment (with --response: the regressor 'const')")
+    p.add_argument(
+        "--confint",
+        type=_level,
+        default=None,
+        metavar="LEVEL",
+        help="with --response: confidence intervals of the break dates at this level, "
+        "e.g. 0.95 (Bai 1997, as R's strucchange)",
+    )
     opt.add_coef_out(p)
     opt.add_outputs(
         p,
         out="model file to write (.npz)",
-        plot="figure: coefficients, activation with change points, eigenvalues",
+        plot="figure: coefficients, activation with change points, eigenvalues "
+        "(with --response: the coefficients per segment)",
     )
 
 
@@ -86,6 +152,20 @@ def run(args: argparse.Namespace) -> Report:
     lines : list of str
         The text summary.
     """
+    if (args.state is None) == (args.response is None):
+        raise CommandError(
+            "--state, --response: expected one of them (--state COLS for a state-space "
+            "recording, --response COL for one regression), received "
+            + ("both" if args.state is not None else "neither")
+        )
+    if args.response is not None:
+        return _run_regression(args)
+    for option in ("regressors", "lags", "confint"):
+        if getattr(args, option) is not None:
+            raise CommandError(
+                f"--{option}: it belongs to one regression (--response COL); with --state "
+                "the change points are those of the whole state-space model"
+            )
     from ...estimators.segments import fit_segments
     from ..analysis import state_space_report
     from ..outputs import check_outputs, model_figure, record_columns, write_outputs
@@ -145,9 +225,74 @@ def run(args: argparse.Namespace) -> Report:
     return write_outputs(outputs, report, lines, model=model, figure=fig)
 
 
+def _run_regression(args: argparse.Namespace) -> Report:
+    """``segments --response``: the exact segmentation of one regression, its break
+    dates with intervals and the criteria for each number of changes."""
+    from ...estimators.segments import segment_regression
+    from ..outputs import check_outputs, figure_errors, write_outputs
+    from ..recordings import regression_data
+
+    if args.input is not None:
+        raise CommandError(
+            "--input: it belongs to a state-space recording (--state); with --response "
+            "give the regressors as --regressors COLS"
+        )
+    outputs = check_outputs(args, "model")
+    data = regression_data(args)
+    with running("ltvmodels segments: searching change points"):
+        seg = segment_regression(
+            data.y,
+            data.phi,
+            n_changes=args.n_changes,
+            penalty=args.penalty,
+            min_size=args.min_size,
+            trim=args.trim,
+            weights=data.weights,
+            regular=opt.regular_time(args),
+        )
+    level = 0.95 if args.confint is None else args.confint
+    report: dict[str, Any] = {
+        "command": "segments",
+        "data": data.label,
+        "response": data.y.names[0],
+        "regressors": data.phi.names,
+        "rows": len(data.y),
+        "changepoints": seg.changepoints,
+        "cost": seg.cost,
+        "objective": seg.objective,
+        "n_changes": seg.n_changes,
+        "penalty": seg.penalty,
+        "penalty_rule": seg.penalty_rule,
+        "min_size": seg.min_size,
+        "solver": seg.solver,
+    }
+    times = seg.changepoint_times
+    if times is not None:
+        report["changepoint_times"] = time_text(times)
+    if args.confint is not None and seg.n_changes and seg.moments is not None:
+        report["confint"] = {"level": level, "rows": seg.confint(level)}
+        interval_times = seg.confint_times(level)
+        if interval_times is not None:
+            report["confint"]["times"] = [time_text(row) for row in interval_times]
+    if seg.costs_by_n_changes is not None and seg.moments is not None:
+        table = seg.criteria()
+        report["criteria"] = {key: table[key] for key in ("rss", "bic", "lwz")}
+        report["criteria"].update(best_bic=table["best_bic"], best_lwz=table["best_lwz"])
+    regression = f"{data.y.names[0]} ~ {' + '.join(data.phi.names)}"
+    lines = [f"ltvmodels segments: {data.label}, {regression}, {len(data.y)} rows"]
+    lines += str(seg.summary(level)).splitlines()
+    figure = None
+    if outputs.plot is not None and seg.model is not None:
+        with figure_errors():
+            figure = seg.plot()
+    return write_outputs(outputs, report, lines, model=seg.model, figure=figure)
+
+
 COMMAND = Subcommand(
-    description="Fit a piecewise-constant LTV model whose change points are globally "
-    "optimal: at most M changes (dynamic programming) or a penalty per change (PELT).",
+    description="Fit a piecewise-constant LTV model (--state) or regression (--response) "
+    "whose change points are globally optimal: at most M changes (dynamic programming) "
+    "or a penalty per change (PELT); with --response, the break dates' confidence "
+    "intervals and the criteria for each number of changes.",
     add_arguments=add_arguments,
     run=run,
 )

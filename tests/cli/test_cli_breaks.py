@@ -1,0 +1,84 @@
+"""``ltvmodels segments --response``: one regression's breaks, their intervals and criteria,
+equal to the library's (and so to strucchange's, tests/reference)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import ltvmodels as ltv
+from ltvmodels.cli import main
+
+pd = pytest.importorskip("pandas")
+
+
+def _run(argv, capsys):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def seatbelt_csv(tmp_path_factory):
+    """log10 of the UK driver deaths with a date column, as a user's file would have it."""
+    deaths = np.log10(ltv.datasets.uk_driver_deaths())
+    frame = pd.DataFrame({"month": deaths.index.strftime("%Y-%m-%d"), "y": deaths.to_numpy()})
+    path = tmp_path_factory.mktemp("breaks") / "seatbelt.csv"
+    frame.to_csv(path, index=False)
+    return path, deaths
+
+
+def test_seatbelt_regression_equals_the_library(seatbelt_csv, capsys):
+    path, deaths = seatbelt_csv
+    argv = ["segments", path, "--response", "y", "--lags", "1,12", "--constant", "--time"]
+    argv += ["month", "--n-changes", "2", "--trim", "0.1", "--confint", "0.9", "--json"]
+    code, out, err = _run(argv, capsys)
+    assert code == 0, err
+    report = json.loads(out)
+    # the library on the same regression: y_t on y_{t-1}, y_{t-12} and 1, from 1970 on
+    values = deaths.to_numpy()
+    phi = np.column_stack([values[11:-1], values[:-12], np.ones(values.size - 12)])
+    y = pd.Series(values[12:], index=deaths.index[12:])
+    seg = ltv.segment_regression(y, phi, n_changes=2, trim=0.1)
+    assert report["regressors"] == ["y[t-1]", "y[t-12]", "const"]
+    assert report["changepoints"] == seg.changepoints.tolist() == [46, 157]
+    assert report["changepoint_times"] == ["1973-11-01", "1983-02-01"]
+    np.testing.assert_array_equal(report["confint"]["rows"], seg.confint(0.9))
+    assert report["confint"]["times"][0][1] == "1973-11-01"
+    np.testing.assert_allclose(report["criteria"]["bic"], seg.criteria()["bic"], rtol=1e-12)
+    assert report["criteria"]["best_bic"] == 0
+
+
+def test_text_report_has_the_intervals_and_the_criteria(seatbelt_csv, capsys):
+    path, _ = seatbelt_csv
+    argv = ["segments", path, "--response", "y", "--lags", "1,12", "--constant"]
+    code, out, err = _run([*argv, "--n-changes", "2", "--trim", "0.1", "--confint", "0.95"], capsys)
+    assert code == 0, err
+    assert "y ~ y[t-1] + y[t-12] + const" in out
+    assert "33   46   56" in out  # strucchange's 95 % interval of the first break
+    assert "BIC picks            0" in out
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--state", "y"], "--state, --response: expected one of them"),
+        ([], "--regressors: the regression has no regressor"),
+        (["--constant", "--input", "month"], "--input: it belongs to a state-space recording"),
+        (["--constant", "--confint", "1.5"], "--confint: expected a level in (0, 1)"),
+        (["--constant", "--lags", "0"], "--lags: expected comma-separated integers >= 1"),
+        (["--constant", "--lags", "500"], "--lags: a lag of 500 rows leaves none"),
+    ],
+)
+def test_regression_errors(seatbelt_csv, capsys, extra, message):
+    path, _ = seatbelt_csv
+    code, _, err = _run(["segments", path, "--response", "y", *extra], capsys)
+    assert code == 2 and message in err, err
+
+
+def test_regression_options_need_a_response(seatbelt_csv, capsys):
+    path, _ = seatbelt_csv
+    code, _, err = _run(["segments", path, "--state", "y", "--confint", "0.9"], capsys)
+    assert code == 2 and "--confint: it belongs to one regression" in err
