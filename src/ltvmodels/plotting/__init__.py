@@ -19,6 +19,7 @@ from .coefficients import (
     plot_model,
     plot_poles,
 )
+from .segments import plot_breaks, plot_criteria
 from .selection import plot_lambda_selection
 from .signals import plot_forecast, plot_root_spectrogram, plot_simulation, plot_spectrogram
 
@@ -33,4 +34,6 @@ __all__ = [
     "plot_forecast",
     "plot_lambda_selection",
     "plot_model",
+    "plot_breaks",
+    "plot_criteria",
 ]
