@@ -23,6 +23,7 @@ PAGES = [page for page in PAGES if "_build" not in page.parts]
 # Modules whose public names (their __all__) have API pages besides the top level.
 DOCUMENTED_MODULES = [
     "ltvmodels.systems",
+    "ltvmodels.datasets",
     "ltvmodels.plotting",
     "ltvmodels.control",
     "ltvmodels.apps.robot",
