@@ -510,8 +510,8 @@ def _segment(
             if beta_spec is None
             else _penalty_value(problem, beta_spec, min_size, data_name, p - len(fixed))
         )
-        result = _segment_partial(problem, scaled, fixed, M, penalty_value, min_size, a_max)
-        return replace(result, fixed=fixed)
+        partial_result = _segment_partial(problem, scaled, fixed, M, penalty_value, min_size, a_max)
+        return replace(partial_result, fixed=fixed)
 
     if beta_spec is None:  # n_changes given: M >= 0 changes
         if M == 1:  # O(N): one forward and one backward pass
