@@ -70,6 +70,8 @@ __all__ = [
     "pelt",
     "backtrack_layers",
     "backtrack_last",
+    "add_row",
+    "add_step",
 ]
 
 FEASIBILITY_TOL = 1e-10  # τ = FEASIBILITY_TOL · N on the unit-RMS-scaled Gram matrix
@@ -153,6 +155,12 @@ def _add_step(W, v, data, t, p, q):  # pragma: no cover - compiled
             v[j] = data[t, r, j]
         inc += _add_row(W, v, p, q)
     return inc
+
+
+# The Givens kernels, for the other searches built on the same sequential QR
+# (:mod:`ltvmodels.core.partial_change`).
+add_row = _add_row
+add_step = _add_step
 
 
 @numba.njit(cache=True)

@@ -190,9 +190,14 @@ def piecewise_fit(
     loss: str,
     delta: np.ndarray | None,
     factory: Callable[..., Any],
+    fixed: tuple[int, ...] = (),
 ) -> Any:
     """:func:`fit_piecewise` on a validated regression problem (any front-end): the model
-    ``factory(k, fit=FitRecord(...))``; ``changepoints`` are validated here."""
+    ``factory(k, fit=FitRecord(...))``; ``changepoints`` are validated here.
+
+    ``fixed`` (order 1, squared loss): the regressor columns whose coefficients are
+    common to all segments (the partial structural-change model; see
+    :func:`_fit_constant_partial`), validated by the caller."""
     n = problem.n
     N, p = problem.N, problem.p
     note = "; order=2 needs a sample after the last knot" if order == 2 else ""
@@ -201,10 +206,14 @@ def piecewise_fit(
     bounds = np.concatenate([[0], changepoints, [N]])
     segments = [[int(a), int(b)] for a, b in itertools.pairwise(bounds)]
 
-    if order == 1:
+    if order == 1 and fixed:
+        theta, unit_cov = _fit_constant_partial(phi, y, problem.observed, bounds, names, fixed)
+        n_params = (len(changepoints) + 1) * (p - len(fixed)) + len(fixed)
+        info_extra: dict[str, Any] = {"fixed": list(fixed)}
+    elif order == 1:
         theta, unit_cov = _fit_constant(phi, y, problem.observed, bounds, names)
         n_params = (len(changepoints) + 1) * p
-        info_extra: dict[str, Any] = {}
+        info_extra = {}
     else:
         knots = np.concatenate([[0], changepoints, [N - 1]])
         theta, unit_cov = _fit_linear(phi, y, problem.n_observed, knots, names)
@@ -502,6 +511,100 @@ def _fit_constant(
         r_inv = np.linalg.solve(r, np.eye(p))
         theta[start:stop] = theta_s
         unit_cov[start:stop] = r_inv @ r_inv.T  # (Φ_sᵀΦ_s)⁻¹ = R⁻¹R⁻ᵀ
+    return theta, unit_cov
+
+
+def _fit_constant_partial(
+    phi: np.ndarray,
+    y: np.ndarray,
+    observed: np.ndarray,
+    bounds: np.ndarray,
+    names: list[str],
+    fixed: tuple[int, ...],
+) -> tuple[np.ndarray, np.ndarray]:
+    """Joint least squares with the ``fixed`` columns' coefficients common to all segments.
+
+    With z the changing and x the fixed columns of φ, the model on segment s is
+    y_t = Θ_s z_t + Γ x_t; the design has one block of z columns per segment and
+    one x block, P = (M + 1)·p_z + p_x unknowns per output row. It is solved by
+    block elimination on QR factors, O(N p²) time and O(M p² + N p²) memory,
+    never forming the P × P matrix: a QR of each segment's [Z_s X_s Y_s] gives
+    [R_s A_s a_s; 0 B_s b_s]; the stacked [B_s b_s] give Γ by one more QR
+    ([C c]: Γᵀ = C⁻¹c), and Θ_sᵀ = R_s⁻¹(a_s − A_s Γᵀ). The unit covariances
+    (the inverse of the joint normal matrix, by blocks) are
+    cov(Γ) = (CᵀC)⁻¹, cov(Θ_s) = (R_sᵀR_s)⁻¹ + D_s (CᵀC)⁻¹ D_sᵀ and
+    cov(Θ_s, Γ) = −D_s (CᵀC)⁻¹ with D_s = R_s⁻¹A_s.
+
+    Returns theta (N, n, p) and unit_cov (N, p, p) as :func:`_fit_constant`, the
+    x columns the same on every segment.
+    """
+    N, _, p = phi.shape
+    n = y.shape[2]
+    fixed_index = np.array(fixed, dtype=int)
+    changing = np.setdiff1d(np.arange(p), fixed_index)
+    pz, px = changing.size, fixed_index.size
+    single = len(bounds) == 2
+    factors = []
+    lower, lower_rhs = [], []
+    for s, (start, stop) in enumerate(itertools.pairwise(bounds)):
+        where = _segment_text(s, start, stop, single)
+        kept = observed[start:stop].reshape(-1)
+        rows_phi = phi[start:stop].reshape(-1, p)[kept]
+        z, x = rows_phi[:, changing], rows_phi[:, fixed_index]
+        rows_y = y[start:stop].reshape(-1, n)[kept]
+        if z.shape[0] < pz:
+            raise ValueError(
+                f"{where} has {z.shape[0]} row(s) with data, fewer than the p_z = {pz} changing "
+                f"regressors, so its coefficients are not determined; "
+                f"{_remedy(single, 'segment', pz)}"
+            )
+        min_eig, direction = scaled_min_eig(z.T @ z)
+        if min_eig <= SINGULAR_TOL:
+            raise SingularProblemError(
+                f"{where}: the changing regressors are linearly dependent on this segment (the "
+                f"combination {describe_direction(direction, [names[i] for i in changing])} "
+                f"is numerically zero), so its coefficients are not identifiable; "
+                f"{_remedy(single, 'segment', pz)}"
+            )
+        _warn_if_ill_conditioned(min_eig, where)
+        _, r = np.linalg.qr(np.concatenate([z, x, rows_y], axis=1), mode="reduced")
+        if r.shape[0] < pz + px + n:  # fewer rows than columns: pad the factor with zeros
+            r = np.vstack([r, np.zeros((pz + px + n - r.shape[0], r.shape[1]))])
+        factors.append(r)
+        lower.append(r[pz : pz + px, pz : pz + px])
+        lower_rhs.append(r[pz : pz + px, pz + px :])
+    gram_fixed = sum(block.T @ block for block in lower)
+    min_eig, direction = scaled_min_eig(gram_fixed)
+    if min_eig <= SINGULAR_TOL:
+        raise SingularProblemError(
+            f"{'phi' if single else 'changepoints'}: the fixed regressors are not determined "
+            f"beside the segments' changing ones (the combination "
+            f"{describe_direction(direction, [names[i] for i in fixed_index])} of the fixed "
+            "regressors is explained by the changing regressors on every segment); fix fewer "
+            "regressors or move the change points"
+        )
+    _, c_full = np.linalg.qr(
+        np.concatenate([np.vstack(lower), np.vstack(lower_rhs)], axis=1), mode="reduced"
+    )
+    c, c_rhs = c_full[:px, :px], c_full[:px, px:]
+    gamma_t = np.linalg.solve(c, c_rhs)  # (p_x, n)
+    c_inv = np.linalg.solve(c, np.eye(px))
+    cov_gamma = c_inv @ c_inv.T
+    theta = np.empty((N, n, p))
+    unit_cov = np.empty((N, p, p))
+    for (start, stop), r in zip(itertools.pairwise(bounds), factors):
+        r_z, a, a_rhs = r[:pz, :pz], r[:pz, pz : pz + px], r[:pz, pz + px :]
+        theta_t = np.linalg.solve(r_z, a_rhs - a @ gamma_t)  # (p_z, n)
+        d = np.linalg.solve(r_z, a)
+        r_inv = np.linalg.solve(r_z, np.eye(pz))
+        cov = np.empty((p, p))
+        cov[np.ix_(changing, changing)] = r_inv @ r_inv.T + d @ cov_gamma @ d.T
+        cov[np.ix_(changing, fixed_index)] = -d @ cov_gamma
+        cov[np.ix_(fixed_index, changing)] = (-d @ cov_gamma).T
+        cov[np.ix_(fixed_index, fixed_index)] = cov_gamma
+        theta[start:stop][:, :, changing] = theta_t.T
+        theta[start:stop][:, :, fixed_index] = gamma_t.T
+        unit_cov[start:stop] = cov
     return theta, unit_cov
 
 

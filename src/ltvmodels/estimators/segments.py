@@ -26,6 +26,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core import partial_change
 from ..core import segmentation as search
 from ..core.breaks import segment_moments
 from ..core.problem import RegressionProblem
@@ -53,6 +54,7 @@ def segment_regression(
     weights: ArrayLike | None = None,
     regular: bool = True,
     trim: float | None = None,
+    fixed: Any = None,
 ) -> Segmentation:
     """Optimal piecewise-constant segmentation of a regression y_t = Θ_t φ_t + e_t.
 
@@ -64,6 +66,22 @@ def segment_regression(
     by dynamic programming; with ``penalty=β`` it minimizes
     Σ_t ‖y_t − Θ_t φ_t‖² + β · (number of changes) by PELT. Both are exact
     (global optima); see :func:`fit_segments` for the details.
+
+    With ``fixed`` columns (Bai and Perron's partial structural change) the
+    model is y_t = Θ_j z_t + Γ x_t + e_t on segment j, z the changing and x the
+    fixed regressors, Γ common to all segments, and the objective the total
+    residual sum of squares over the break dates, Θ_1 … Θ_{M+1} and Γ. One
+    change is found exactly (every admissible date, each with the joint least
+    squares, O(N (p_z + p_x)²); :mod:`ltvmodels.core.partial_change`). More
+    changes, and ``penalty``, use Bai and Perron's (2003) iterated procedure:
+    alternate the exact search for the breaks of y − Γx on z (dynamic
+    programming, or PELT) and the joint least squares of (Θ_j, Γ) given the
+    breaks, until the objective decreases by less than 1e-10 of itself (at
+    most 100 alternations). No step increases the objective, but the fixed
+    point can be a local optimum: two starts are run and the better one kept,
+    Γ of the joint fit at the full-change optimum with as many changes (as
+    Bai and Perron) and Γ of the fit without changes. ``costs_by_n_changes[m]``
+    is then exact for m <= 1 and the iterated optimum for m >= 2.
 
     Parameters
     ----------
@@ -88,6 +106,14 @@ def segment_regression(
     regular : bool, default True
         As in :func:`ltvmodels.fit` (False: the rows of a time index are
         consecutive samples, whatever their stamps).
+    fixed : int, str or sequence of them, optional
+        Regressor columns whose coefficients are common to all segments: indices
+        into the columns of phi (negative ones count from the end, as in numpy)
+        or column names of a pandas phi (default names "phi0", "phi1", …). At
+        least one column must be left to change. ``min_size`` then defaults to,
+        and must be at least, the number p_z of changing regressors, and
+        segments are feasible when the changing regressors identify their
+        coefficients.
 
     Returns
     -------
@@ -101,19 +127,21 @@ def segment_regression(
     ------
     ValueError, TypeError
         Invalid input, n_changes < 0 or too large for N and min_size, β < 0,
-        both n_changes and penalty given.
+        both n_changes and penalty given, a ``fixed`` column repeated, out of
+        range, unknown, or every column fixed.
     SingularProblemError
         The regressors are linearly dependent over the whole data set, so no
         segment is identifiable.
     """
     problem, description = regression_data(y, phi, weights=weights, regular=regular)
-    min_size = options.trimmed_min_size(trim, min_size, problem.N, problem.p)
-    result = _segment(problem, n_changes, penalty, min_size, data_name="y")
+    names = description.names_of("regressor", problem.p) or signal_names("phi", problem.p)
+    fixed_columns = options.fixed_columns(fixed, names, "the columns of phi")
+    n_changing = problem.p - len(fixed_columns)
+    min_size = options.trimmed_min_size(trim, min_size, problem.N, n_changing)
+    result = _segment(problem, n_changes, penalty, min_size, data_name="y", fixed=fixed_columns)
     result = replace(result, time=description.time)
-    if problem.n_observed <= (result.n_changes + 1) * problem.p:
+    if problem.n_observed <= (result.n_changes + 1) * n_changing + len(fixed_columns):
         return result  # no residual degree of freedom: no noise estimate, no model
-    moments = segment_moments(problem.y, problem.phi, problem.observed, result.changepoints)
-    result = replace(result, moments=moments)
     model = piecewise_fit(
         problem,
         result.changepoints,
@@ -123,8 +151,11 @@ def segment_regression(
         loss="squared",
         delta=None,
         factory=partial(RegressionModel, n_outputs=problem.n, n_regressors=problem.p),
+        fixed=fixed_columns,
     )
     model.data = description  # the model of this call
+    moments = _moments(problem, result.changepoints, fixed_columns, model.k)
+    result = replace(result, moments=moments)
     return replace(result, model=_segmentation_model(model, result))
 
 
@@ -141,6 +172,7 @@ def fit_segments(
     loss: Literal["squared"] = "squared",
     regular: bool = True,
     trim: float | None = None,
+    fixed: Any = None,
 ) -> LTVModel:
     """Piecewise-constant LTV model with exactly optimal change points (paper eq:l0).
 
@@ -214,6 +246,14 @@ def fit_segments(
     regular : bool, default True
         As in :func:`ltvmodels.fit` (False: the rows of a time index are
         consecutive samples, whatever their stamps).
+    fixed : int, str or sequence of them, optional
+        Columns of φ_t = [x_t; u_t (; 1)] whose coefficients are common to all
+        segments (Bai and Perron's partial structural change; see
+        :func:`segment_regression`): indices (negative from the end) or names,
+        the state and input names (the columns of pandas x and u, else "x0", …,
+        "u0", …) and "1" for the intercept of ``constant=True``. The fixed
+        coefficient of column i is the same in every state equation's segments;
+        ``min_size`` defaults to the number of changing regressors.
 
     Returns
     -------
@@ -232,7 +272,10 @@ def fit_segments(
           optimal cost with exactly m changes, m = 0 … M (inf if infeasible);
         * "penalty": β (None with n_changes), "penalty_rule": "bic", "aic" or
           None, "noise_var_estimate": σ̂² of the rule (None otherwise);
-        * "solver": "dynamic programming" or "PELT"; "min_size".
+        * "solver": "dynamic programming" or "PELT" (with ``fixed``: see
+          :class:`~ltvmodels.Segmentation`); "min_size";
+        * with ``fixed``: "fixed" (the column indices), "iterations",
+          "converged" and "tolerance" of the iterated procedure.
 
     Raises
     ------
@@ -261,16 +304,35 @@ def fit_segments(
     data = state_space_data(x, u, weights=weights, constant=constant, regular=regular)
     if not isinstance(compute_cov, bool):
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
-    min_size = options.trimmed_min_size(trim, min_size, data.problem.N, data.problem.p)
-    result = _segment(data.problem, n_changes, penalty, min_size, data_name="x")
-    n_params = (result.n_changes + 1) * data.problem.p
+    fixed_columns = options.fixed_columns(
+        fixed, data.regressor_names, "the state, input and intercept names"
+    )
+    n_changing = data.problem.p - len(fixed_columns)
+    min_size = options.trimmed_min_size(trim, min_size, data.problem.N, n_changing)
+    result = _segment(
+        data.problem, n_changes, penalty, min_size, data_name="x", fixed=fixed_columns
+    )
+    n_params = (result.n_changes + 1) * n_changing + len(fixed_columns)
     if data.problem.n_observed <= n_params:
         raise ValueError(
             f"penalty: the {result.n_changes + 1} segments found use "
             f"{n_params} coefficients per equation for {data.problem.n_observed} observed "
             "transitions, leaving no residual degree of freedom to estimate the noise; use a "
-            f"larger penalty, fewer n_changes or min_size > {data.problem.p}"
+            f"larger penalty, fewer n_changes or min_size > {n_changing}"
         )
+    if fixed_columns:
+        model = piecewise_fit(
+            data.problem,
+            result.changepoints,
+            order=1,
+            compute_cov=compute_cov,
+            names=data.regressor_names,
+            loss="squared",
+            delta=None,
+            factory=partial(LTVModel, n_states=data.n, n_inputs=data.m, constant=data.constant),
+            fixed=fixed_columns,
+        )
+        return _segmentation_model(data.describe(model), result)
     model = fit_piecewise(
         data.x,
         data.inputs,
@@ -301,7 +363,37 @@ def _segmentation_model(model: Any, result: Segmentation) -> Any:
     )
     if result.costs_by_n_changes is not None:
         model.info["costs_by_n_changes"] = result.costs_by_n_changes
+    if result.fixed:
+        model.info.update(
+            {
+                "fixed": list(result.fixed),
+                "iterations": result.iterations,
+                "converged": result.converged,
+                "tolerance": result.tolerance,
+            }
+        )
     return model
+
+
+def _moments(
+    problem: RegressionProblem, changepoints: np.ndarray, fixed: tuple[int, ...], k: np.ndarray
+) -> dict:
+    """The segments' moments for the break-date intervals and the criteria.
+
+    Without fixed regressors those of each segment's own least squares. With them
+    (partial change, Bai and Perron 1998) those of the changing regressors z on
+    y − Γ̂x, Γ̂ the common coefficients of the joint fit (the rows of ``k``, (N, n·p)):
+    each segment's least squares there is the joint fit's Θ̂_j, its residuals the
+    joint residuals, and the second moments are those of z, so that the intervals
+    use the change of the changing coefficients only.
+    """
+    if not fixed:
+        return segment_moments(problem.y, problem.phi, problem.observed, changepoints)
+    index = np.array(fixed)
+    changing = np.setdiff1d(np.arange(problem.p), index)
+    gamma = np.asarray(k)[0].reshape(problem.n, problem.p)[:, index]  # (n, p_x)
+    adjusted = problem.y - problem.phi[..., index] @ gamma.T
+    return segment_moments(adjusted, problem.phi[..., changing], problem.observed, changepoints)
 
 
 def noise_variance_estimate(y: ArrayLike, phi: ArrayLike, min_size: int | None = None) -> float:
@@ -382,12 +474,14 @@ def _segment(
     min_size: Any,
     *,
     data_name: str,
+    fixed: tuple[int, ...] = (),
 ) -> Segmentation:
-    """Validate the options and run the dynamic program or PELT on a validated problem."""
-    N, n, p = problem.N, problem.n, problem.p
+    """Validate the options and run the dynamic program or PELT on a validated problem
+    (with ``fixed`` columns, validated: the partial-change searches)."""
+    N, p = problem.N, problem.p
     y, phi = problem.y, problem.phi
     options.segment_mode(n_changes, penalty)
-    min_size = options.segment_min_size(min_size, p)
+    min_size = options.segment_min_size(min_size, p - len(fixed))
     options.segmentable_length(N, min_size, data_name)
     if n_changes is not None:
         M = options.n_changes_count(n_changes, N, min_size)
@@ -410,6 +504,14 @@ def _segment(
             "or fewer regressors is needed"
         )
     unit = scaled.y_scale**2
+    if fixed:
+        penalty_value = (
+            None
+            if beta_spec is None
+            else _penalty_value(problem, beta_spec, min_size, data_name, p - len(fixed))
+        )
+        partial_result = _segment_partial(problem, scaled, fixed, M, penalty_value, min_size, a_max)
+        return replace(partial_result, fixed=fixed)
 
     if beta_spec is None:  # n_changes given: M >= 0 changes
         if M == 1:  # O(N): one forward and one backward pass
@@ -435,18 +537,7 @@ def _segment(
             work=2 * N if M == 1 else N * (N + 1) // 2,
         )
     else:
-        if isinstance(beta_spec, str):
-            sigma2 = _noise_variance(
-                problem,
-                min_size,
-                remedy=f"{data_name}: more samples, or a number for "
-                f"penalty (the rule {beta_spec!r} needs the noise variance)",
-            )
-            K = n * p
-            beta = K * np.log(N) * sigma2 if beta_spec == "bic" else 2.0 * K * sigma2
-            rule: str | None = beta_spec
-        else:
-            beta, sigma2, rule = float(beta_spec), None, None
+        beta, sigma2, rule = _penalty_value(problem, beta_spec, min_size, data_name, p)
         margin = search.PRUNE_MARGIN * float(np.sum(scaled.data[..., p:] ** 2))
         last, _, work = search.pelt(scaled.data, p, beta / unit, min_size, a_max, margin)
         changepoints = search.backtrack_last(last)
@@ -469,6 +560,175 @@ def _segment(
         segments=[[int(a), int(b)] for a, b in itertools.pairwise(bounds)],
         n_changes=len(changepoints),
         min_size=min_size,
+        **result,
+    )
+
+
+def _penalty_value(
+    problem: RegressionProblem,
+    beta_spec: float | str,
+    min_size: int,
+    data_name: str,
+    n_changing: int,
+) -> tuple[float, float | None, str | None]:
+    """β in the units of the cost, the noise variance of its rule and the rule's name.
+
+    A rule counts the K = n · ``n_changing`` coefficients one more segment adds.
+    """
+    if not isinstance(beta_spec, str):
+        return float(beta_spec), None, None
+    sigma2 = _noise_variance(
+        problem,
+        min_size,
+        remedy=f"{data_name}: more samples, or a number for "
+        f"penalty (the rule {beta_spec!r} needs the noise variance)",
+    )
+    K = problem.n * n_changing
+    N = problem.N
+    beta = K * np.log(N) * sigma2 if beta_spec == "bic" else 2.0 * K * sigma2
+    return float(beta), sigma2, beta_spec
+
+
+# -- partial structural change (fixed regressors) -------------------------------------------
+
+
+def _segment_partial(
+    problem: RegressionProblem,
+    scaled: search.ScaledData,
+    fixed: tuple[int, ...],
+    M: int,
+    penalty_value: tuple[float, float | None, str | None] | None,
+    min_size: int,
+    a_max_full: np.ndarray,
+) -> Segmentation:
+    """The partial structural-change searches (see :func:`segment_regression`).
+
+    ``M`` changes (exact for M <= 1, iterated beyond) or, with ``penalty_value``
+    (β, σ̂², rule), the iterated PELT. ``a_max_full`` is the feasibility of the
+    whole regressor set, for the full-change start.
+    """
+    N, n, p = problem.N, problem.n, problem.p
+    index = np.array(fixed)
+    changing = np.setdiff1d(np.arange(p), index)
+    pz, px = changing.size, index.size
+    order = np.concatenate([changing, index, p + np.arange(n)])
+    data = np.ascontiguousarray(scaled.data[..., order])  # rows [z̃ x̃ ỹ]
+    tau = search.FEASIBILITY_TOL * N
+    no_gamma = np.zeros((n, px))
+    a_max = search.feasible_starts(
+        partial_change.adjusted_data(data, pz, px, no_gamma), pz, min_size, tau
+    )
+    unit = scaled.y_scale**2
+    rss0, factor0 = partial_change.joint_fit(data, pz, px, np.array([0, N]))
+    gamma_lti = partial_change.fixed_solution(factor0, px)
+    work = 0
+
+    def alternate(start_gamma, start_changepoints, start_objective, m, beta):
+        nonlocal work
+        run = partial_change.alternate(
+            data,
+            pz,
+            px,
+            start_gamma,
+            start_changepoints,
+            start_objective,
+            n_changes=m,
+            beta=beta,
+            min_size=min_size,
+            a_max=a_max,
+        )
+        work += run.work
+        return run
+
+    def joint(changepoints):
+        bounds = np.concatenate([[0], changepoints, [N]])
+        rss, factor = partial_change.joint_fit(data, pz, px, bounds)
+        return rss, partial_change.fixed_solution(factor, px)
+
+    no_breaks = np.zeros(0, dtype=np.int64)
+    if penalty_value is None:
+        costs = np.full(M + 1, np.inf)
+        runs: list[partial_change.Alternation | None] = [None] * (M + 1)
+        costs[0] = rss0
+        runs[0] = partial_change.Alternation(no_breaks, rss0, 0, True, [rss0])
+        if M >= 1:  # exact: every break date with the joint least squares
+            profile, _ = partial_change.one_change_partial(data, pz, px, a_max)
+            work += 2 * N
+            k = int(np.argmin(profile))
+            if np.isfinite(profile[k]):
+                costs[1] = profile[k]
+                runs[1] = partial_change.Alternation(
+                    np.array([k], dtype=np.int64), profile[k], 0, True, []
+                )
+        if M >= 2:
+            full, full_starts = search.dynamic_program(scaled.data, p, M, min_size, a_max_full)
+            work += N * (N + 1) // 2
+            for m in range(2, M + 1):
+                candidates = [alternate(gamma_lti, None, np.inf, m, None)]
+                if np.isfinite(full[m]):  # Bai and Perron's start: the full-change optimum
+                    start = search.backtrack_layers(full_starts, m)
+                    rss, gamma = joint(start)
+                    candidates.append(alternate(gamma, start, rss, m, None))
+                run = min(candidates, key=lambda candidate: candidate.objective)
+                if np.isfinite(run.objective):
+                    costs[m], runs[m] = run.objective, run
+        costs = costs * unit
+        finite = np.isfinite(costs)
+        lowest = costs[finite].min()
+        tol = 1e-12 * lowest + 1e-14 * float(np.sum(problem.y**2))
+        m_opt = int(np.flatnonzero(finite & (costs <= lowest + tol)).max())
+        chosen = runs[m_opt]
+        assert chosen is not None  # a finite cost has its run
+        cost = float(costs[m_opt])
+        result: dict[str, Any] = dict(
+            cost=cost,
+            objective=cost,
+            costs_by_n_changes=costs,
+            penalty=None,
+            penalty_rule=None,
+            noise_var=None,
+        )
+        exact = m_opt <= 1
+    else:
+        beta, sigma2, rule = penalty_value
+        margin = search.PRUNE_MARGIN * float(np.sum(scaled.data[..., p:] ** 2))
+        last, _, rows = search.pelt(scaled.data, p, beta / unit, min_size, a_max_full, margin)
+        work += int(rows)
+        start = search.backtrack_last(last)
+        rss, gamma = joint(start)
+        candidates = [
+            alternate(gamma_lti, None, np.inf, 0, beta / unit),
+            alternate(gamma, start, rss + beta / unit * len(start), 0, beta / unit),
+        ]
+        chosen = min(candidates, key=lambda candidate: candidate.objective)
+        cost = float(joint(chosen.changepoints)[0] * unit)
+        result = dict(
+            cost=cost,
+            objective=cost + beta * len(chosen.changepoints),
+            costs_by_n_changes=None,
+            penalty=float(beta),
+            penalty_rule=rule,
+            noise_var=sigma2,
+        )
+        exact = False
+    changepoints = np.asarray(chosen.changepoints, dtype=np.int64)
+    bounds = np.concatenate([[0], changepoints, [N]])
+    if exact:
+        solver = "dynamic programming (partial, exact)"
+    elif penalty_value is None:
+        solver = "iterated dynamic programming (Bai–Perron)"
+    else:
+        solver = "iterated PELT (Bai–Perron)"
+    return Segmentation(
+        changepoints=changepoints,
+        segments=[[int(a), int(b)] for a, b in itertools.pairwise(bounds)],
+        n_changes=len(changepoints),
+        min_size=min_size,
+        solver=solver,
+        work=work,
+        iterations=chosen.iterations,
+        converged=chosen.converged,
+        tolerance=None if exact else partial_change.TOLERANCE,
         **result,
     )
 

@@ -46,7 +46,9 @@ class Segmentation:
     min_size : int
         Minimum segment length used.
     solver : str
-        "dynamic programming" or "PELT".
+        "dynamic programming" or "PELT"; with ``fixed`` regressors
+        "dynamic programming (partial, exact)" (at most one change: an exact scan),
+        "iterated dynamic programming (Bai–Perron)" or "iterated PELT (Bai–Perron)".
     work : int
         Rows rotated into a segment factor (about N²/2 for the dynamic program).
     model : RegressionModel or None
@@ -59,7 +61,24 @@ class Segmentation:
         Each segment's least-squares coefficients, regressor second moments,
         noise variance and rows, and the whole sample's
         (:func:`ltvmodels.core.breaks.segment_moments`), which :meth:`confint`
-        uses; None where the segmentation did not keep them.
+        uses; None where the segmentation did not keep them. With ``fixed``
+        regressors: those of the changing regressors z on y − Γ̂x (Γ̂ the common
+        coefficients of the joint fit), so the intervals use the change δ of
+        the changing coefficients, the second moments of z on each segment and
+        the joint residuals' variances (Bai and Perron 1998, partial change).
+    fixed : tuple of int
+        The regressor columns whose coefficients are common to all segments
+        (``fixed=``, the partial structural-change model), sorted; () when
+        every coefficient may change.
+    iterations : int
+        The alternations of Bai and Perron's iterated procedure behind the
+        reported optimum (0 for an exact search).
+    converged : bool
+        Whether that procedure stopped on its tolerance (True for an exact
+        search); False after its maximum number of iterations.
+    tolerance : float or None
+        Its tolerance on the relative decrease of the objective per iteration
+        (None for an exact search).
     """
 
     changepoints: np.ndarray
@@ -77,6 +96,10 @@ class Segmentation:
     model: Any = None
     time: np.ndarray | None = None
     moments: dict | None = field(default=None, repr=False, compare=False)
+    fixed: tuple = ()
+    iterations: int = 0
+    converged: bool = True
+    tolerance: float | None = None
 
     @property
     def changepoint_times(self) -> np.ndarray | None:
@@ -175,13 +198,19 @@ class Segmentation:
         With ``n_changes=M`` the search found the optimal residual sum of
         squares RSS_m for every m ≤ M (:attr:`costs_by_n_changes`); this ranks
         them as Bai and Perron (2003) and R's strucchange do, for one output,
-        n observed rows and p regressors:
+        n observed rows and p regressors, p_x of them ``fixed`` (0 by default)
+        and p_z = p − p_x changing:
 
         * the Gaussian log-likelihood ℓ_m = −n/2 (log(RSS_m/n) + 1 + log 2π);
-        * BIC_m = −2ℓ_m + (p + 1)(m + 1) log n, counting the coefficients, the
-          break dates and the noise variance (strucchange's ``summary`` table);
+        * BIC_m = −2ℓ_m + (p_x + (p_z + 1)(m + 1)) log n, counting the
+          coefficients, the break dates and the noise variance (strucchange's
+          ``summary`` table when p_x = 0);
         * LWZ_m = log(RSS_m/(n − p*)) + p* · 0.299 (log n)^2.1 / n with
-          p* = (m + 1)p + m (Liu, Wu and Zidek 1997, as Bai and Perron use it).
+          p* = (m + 1)p_z + m + p_x (Liu, Wu and Zidek 1997, as Bai and Perron
+          use it).
+
+        With fixed regressors RSS_m for m >= 2 is the iterated procedure's
+        (a local optimum at worst, see :func:`ltvmodels.segment_regression`).
 
         Returns
         -------
@@ -204,12 +233,13 @@ class Segmentation:
             )
         moments = self._moments("criteria")
         rows, p = int(moments["rows"].sum()), moments["coefficients"].shape[1]
+        n_fixed = len(self.fixed)  # the moments are those of the p changing regressors
         rss = np.asarray(self.costs_by_n_changes, dtype=float)
         m = np.arange(rss.size)
         with np.errstate(divide="ignore", invalid="ignore"):
             loglik = -0.5 * rows * (np.log(rss / rows) + 1 + np.log(2 * np.pi))
-            bic = -2 * loglik + (p + 1) * (m + 1) * np.log(rows)
-            free = (m + 1) * p + m
+            bic = -2 * loglik + (n_fixed + (p + 1) * (m + 1)) * np.log(rows)
+            free = (m + 1) * p + m + n_fixed
             lwz = np.log(rss / (rows - free)) + free * 0.299 * np.log(rows) ** 2.1 / rows
         return {
             "n_changes": m,
@@ -246,6 +276,14 @@ class Segmentation:
                 ("solver", self.solver),
                 ("RSS", number_text(self.cost, 6)),
                 ("minimum segment", f"{self.min_size} rows"),
+            )
+            + (
+                (
+                    ("fixed regressors", ", ".join(str(c) for c in self.fixed)),
+                    ("iterations", f"{self.iterations} (converged: {self.converged})"),
+                )
+                if self.fixed
+                else ()
             ),
         )
         sections = [search]

@@ -60,6 +60,7 @@ __all__ = [
     "n_changes_count",
     "segment_penalty",
     "segment_mode",
+    "fixed_columns",
     "random_generator",
 ]
 
@@ -668,3 +669,55 @@ def random_generator(seed: Any) -> np.random.Generator:
     raise TypeError(
         f"seed: expected a non-negative integer, a numpy Generator or None, received {seed!r}"
     )
+
+
+def fixed_columns(value: Any, names: Sequence[str], remedy_names: str) -> tuple[int, ...]:
+    """The regressor columns whose coefficients are common to all segments (``fixed=``).
+
+    ``value`` is None, one column or a sequence of columns, each an integer index
+    (negative counts from the end, as in numpy) or a regressor name from ``names``
+    (the p regressor names; ``remedy_names`` says where they come from). Returns the
+    sorted nonnegative indices, empty for None or an empty sequence. Duplicates,
+    indices out of range, unknown names and all p columns fixed are errors.
+    """
+    if value is None:
+        return ()
+    p = len(names)
+    items = [value] if isinstance(value, (str, Integral)) else value
+    expected = (
+        f"None, or regressor columns as integer indices in [-{p}, {p - 1}] or names "
+        f"({remedy_names}: {list(names)})"
+    )
+    if isinstance(items, (bytes, dict, set)) or not hasattr(items, "__iter__"):
+        raise TypeError(f"fixed: expected {expected}, received {describe(value)}")
+    columns: list[int] = []
+    for item in list(items):
+        if isinstance(item, str):
+            if item not in names:
+                raise ValueError(
+                    f"fixed: expected {expected}, received the unknown name {item!r}; use one "
+                    "of the names listed"
+                )
+            column = list(names).index(item)
+        elif isinstance(item, Integral) and not isinstance(item, bool):
+            if not -p <= int(item) < p:
+                raise ValueError(
+                    f"fixed: expected {expected}, received the index {int(item)}, out of range "
+                    f"for p = {p} regressors"
+                )
+            column = int(item) % p
+        else:
+            raise TypeError(f"fixed: expected {expected}, received {describe(item)} in {value!r}")
+        if column in columns:
+            raise ValueError(
+                f"fixed: expected each column once, received column {column} "
+                f"({names[column]!r}) twice in {value!r}; list it once"
+            )
+        columns.append(column)
+    if len(columns) == p:
+        raise ValueError(
+            f"fixed: all {p} regressors are fixed ({value!r}), so no coefficient can change "
+            "and there is nothing to segment; leave at least one regressor out of fixed, or "
+            "fit one model without segments (ltvmodels.fit_lti / a least-squares regression)"
+        )
+    return tuple(sorted(columns))
