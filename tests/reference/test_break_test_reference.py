@@ -28,7 +28,9 @@ KINDS = ("supF", "aveF", "expF")
 def regression(case: dict) -> tuple[np.ndarray, np.ndarray]:
     y = np.asarray(case["y"], dtype=float)
     X = case["X"]
-    regressors = np.reshape(X["values"], (X["rows"], X["cols"])) if X["cols"] else np.zeros((y.size, 0))
+    regressors = (
+        np.reshape(X["values"], (X["rows"], X["cols"])) if X["cols"] else np.zeros((y.size, 0))
+    )
     return y, np.column_stack([np.ones(y.size), regressors])
 
 
@@ -58,7 +60,11 @@ def test_the_seatbelt_supf_is_strucchanges():
     case = next(case for case in REFERENCE["cases"] if case["name"] == "seatbelt")
     y, phi = regression(case)
     test = ltv.break_test(y, phi, trim=0.1)
-    assert (round(test.statistic, 3), round(test.pvalue, 4), test.break_index) == (19.333, 0.0067, 46)
+    assert (round(test.statistic, 3), round(test.pvalue, 4), test.break_index) == (
+        19.333,
+        0.0067,
+        46,
+    )
 
 
 @pytest.mark.skipif(shutil.which("Rscript") is None, reason="R is not installed")
@@ -91,8 +97,9 @@ def test_hansen_pvalues_equal_strucchanges_pvalue_fstats():
     check_pvalue_grid(REFERENCE["pvalues"])
     changed = sum(
         abs(breaktests.hansen_pvalue(s, t, int(k), lam) - p) > 1e-10
-        for s, k, lam, t, p in zip(*(REFERENCE["pvalues"][key] for key in
-                                     ("statistic", "k", "lambda", "type", "pvalue")))
+        for s, k, lam, t, p in zip(
+            *(REFERENCE["pvalues"][key] for key in ("statistic", "k", "lambda", "type", "pvalue"))
+        )
     )
     assert changed < 0.05 * len(REFERENCE["pvalues"]["pvalue"])  # only the large statistics
 
@@ -122,7 +129,11 @@ def test_the_tables_load_from_the_installed_package():
     from importlib import resources
 
     names = [entry.name for entry in resources.files("ltvmodels.core").joinpath("tables").iterdir()]
-    assert {"hansen_1997_sup.txt", "hansen_1997_ave.txt", "hansen_1997_exp.txt",
-            "bai_perron_2003.txt"} <= set(names)
-    assert breaktests._hansen_table("supF").shape == (1000, 3)
-    assert breaktests._hansen_table("expF").shape == (1000, 5)
+    assert {
+        "hansen_1997_sup.txt",
+        "hansen_1997_ave.txt",
+        "hansen_1997_exp.txt",
+        "bai_perron_2003.txt",
+    } <= set(names)
+    assert breaktests.hansen_table("supF").shape == (1000, 3)
+    assert breaktests.hansen_table("expF").shape == (1000, 5)

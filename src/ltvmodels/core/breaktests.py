@@ -69,6 +69,7 @@ __all__ = [
     "candidate_range",
     "f_statistics",
     "aggregate",
+    "hansen_table",
     "hansen_pvalue",
     "fstats_pvalue",
     "critical_value",
@@ -86,10 +87,10 @@ _HANSEN_ROWS = 25  # per number of regressors: τ = 0.49, 0.47, …, 0.01
 
 
 @functools.cache
-def _hansen_table(kind: str) -> np.ndarray:
+def hansen_table(kind: str) -> np.ndarray:
     """Hansen's coefficients for ``kind`` ("supF", "aveF" or "expF"), shape (1000, m + 1)."""
     name = f"hansen_1997_{kind[:3]}.txt"
-    with resources.files("ltvmodels.core").joinpath("tables", name).open() as file:
+    with resources.files("ltvmodels.core").joinpath("tables").joinpath(name).open() as file:
         return np.loadtxt(file, comments="#")
 
 
@@ -102,7 +103,7 @@ def _hansen_peaks(kind: str) -> np.ndarray:
     polynomial is evaluated at the peak, so the p-value never increases with
     the statistic (it stays at the smallest value the fit reaches).
     """
-    beta = _hansen_table(kind)
+    beta = hansen_table(kind)
     m = beta.shape[1] - 1
     peaks = np.full(beta.shape[0], np.inf)
     for i, row in enumerate(beta[:, :m]):
@@ -120,7 +121,7 @@ def _hansen_peaks(kind: str) -> np.ndarray:
 @functools.cache
 def _bai_perron_table() -> np.ndarray:
     """Rows [trim, level, q, cv(l = 0) … cv(l = 9)], shape (200, 13)."""
-    path = resources.files("ltvmodels.core").joinpath("tables", "bai_perron_2003.txt")
+    path = resources.files("ltvmodels.core").joinpath("tables").joinpath("bai_perron_2003.txt")
     with path.open() as file:
         return np.loadtxt(file, comments="#")
 
@@ -220,7 +221,7 @@ def hansen_pvalue(
     float
         The p-value.
     """
-    beta = _hansen_table(kind)
+    beta = hansen_table(kind)
     m = beta.shape[1] - 1
     tau = lam if lam < 1 else 1.0 / (1.0 + math.sqrt(lam))
     rows = beta[(k - 1) * _HANSEN_ROWS : k * _HANSEN_ROWS]

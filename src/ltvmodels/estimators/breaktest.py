@@ -54,8 +54,9 @@ def break_test(
       asymptotic p-values. All F_c cost O(n) together.
     * ``kind="sequential"``: Bai and Perron's (1998) sequential selection of
       the number of breaks. For l = 0, 1, …, given the optimal segmentation
-      with l breaks and segments of at least h = ⌊trim · N⌋ rows (the exact
-      dynamic program of :func:`segment_regression`), supF(l + 1 | l) is the
+      with l breaks and segments of at least h = ⌊trim · N⌋ rows (at least
+      p + 1; the exact dynamic program of :func:`segment_regression`),
+      supF(l + 1 | l) is the
       largest over its segments of (T_i − 2p)(C_i − C_i')/C_i', C_i the
       residual sum of squares of segment i (T_i rows) and C_i' that of its
       best split into two parts of at least h rows (the statistic of the
@@ -124,7 +125,7 @@ def break_test(
     >>> r.break_index, r.pvalue < 0.01
     (60, True)
     """
-    kind = options.break_test_kind(kind)
+    kind_name = options.break_test_kind(kind)
     trim = options.trim_fraction(trim)
     level = options.significance_level(level)
     problem, description = regression_data(y, phi, weights=weights, regular=regular)
@@ -141,14 +142,15 @@ def break_test(
             "phi: the regressors are linearly dependent over the whole data set (or "
             "numerically so), so no fit is unique; more excitation or fewer regressors is needed"
         )
-    if kind == "sequential":
+    if kind_name == "sequential":
         return _sequential(problem, scaled, a_max, trim, max_breaks, level, description.time)
     if max_breaks is not None:
         raise TypeError(
-            f"max_breaks: only the 'sequential' test selects a number of breaks; kind={kind!r} "
-            f"tests one break against none, received max_breaks={max_breaks!r}"
+            f"max_breaks: only the 'sequential' test selects a number of breaks; "
+            f"kind={kind_name!r} tests one break against none, received "
+            f"max_breaks={max_breaks!r}; leave it out or use kind='sequential'"
         )
-    return _one_break(problem, scaled, a_max, kind, trim, level, description.time)
+    return _one_break(problem, scaled, a_max, kind_name, trim, level, description.time)
 
 
 def _one_break(
@@ -240,7 +242,8 @@ def _sequential(
             f"{breaktests.SEQUENTIAL_MAX_REGRESSORS} regressors, received p = {p}; use fewer "
             "regressors, or kind='supF' (p-values for up to 40)"
         )
-    h = options.trimmed_min_size(trim, None, N, p)
+    # as strucchange's from: at least p + 1 rows, so that every fit has a residual
+    h = max(p + 1, int(np.floor(trim * N)))
     most = min(breaktests.SEQUENTIAL_MAX_BREAKS, N // h - 1)
     if most < 1 or problem.n_observed <= 2 * p:
         raise ValueError(
@@ -262,11 +265,11 @@ def _sequential(
     observed_rows = np.concatenate([[0], np.cumsum(problem.observed.sum(axis=1))])
     table = breaktests.bai_perron_critical_values(tabulated[0], p, levels[0])
     statistics = np.full(L, np.nan)
-    for l in range(L):
-        if not np.isfinite(best[l]):
+    for breaks in range(L):
+        if not np.isfinite(best[breaks]):
             break  # no feasible segmentation with l breaks: nothing to test from here on
-        changepoints = search.backtrack_layers(starts, l)
-        statistics[l], _ = breaktests.supf_next(
+        changepoints = search.backtrack_layers(starts, breaks)
+        statistics[breaks], _ = breaktests.supf_next(
             scaled.data, p, observed_rows, changepoints, h, a_max
         )
     critical_values = table[:L]

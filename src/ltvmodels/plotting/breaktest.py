@@ -46,10 +46,10 @@ def plot_break_test(test: BreakTest, ax: Axes | None = None) -> Axes:
     percent = f"{100 * test.level:g} %"
     if test.kind == "sequential":
         assert test.statistics is not None and test.critical_values is not None
-        l = np.arange(test.statistics.size)
-        ax.plot(l, test.statistics, "o-", color=ESTIMATE_COLOR, label="supF(l+1|l)")
-        ax.plot(l, test.critical_values, "s--", color="C3", label=f"critical value, {percent}")
-        ax.set_xticks(l)
+        nulls = np.arange(test.statistics.size)
+        ax.plot(nulls, test.statistics, "o-", color=ESTIMATE_COLOR, label="supF(l+1|l)")
+        ax.plot(nulls, test.critical_values, "s--", color="C3", label=f"critical value, {percent}")
+        ax.set_xticks(nulls)
         ax.set_xlabel("breaks under the null, l")
         ax.set_ylabel("statistic")
         ax.set_title(f"Sequential test: {test.n_breaks} break(s)")

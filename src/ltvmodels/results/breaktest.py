@@ -50,7 +50,8 @@ class BreakTest:
         The trimming fraction.
     min_size : int
         The shortest segment: the first candidate row for supF/aveF/expF
-        (strucchange's ``from``), h = ⌊trim · N⌋ for "sequential".
+        (strucchange's ``from``), h = ⌊trim · N⌋ (at least p + 1) for
+        "sequential".
     n_regressors : int
         p.
     n_observations : int
@@ -112,7 +113,7 @@ class BreakTest:
 
     @property
     def break_times(self) -> np.ndarray | None:
-        """"sequential": the times of y at ``breaks``; None without a time index."""
+        """ "sequential": the times of y at ``breaks``; None without a time index."""
         if self.time is None or self.breaks is None:
             return None
         return self.time[np.asarray(self.breaks, dtype=int)]
@@ -142,12 +143,12 @@ class BreakTest:
                     fields.append(("break times", ", ".join(time_text(times))))
             rows = tuple(
                 (
-                    f"supF({l + 1}|{l})",
+                    f"supF({nulls + 1}|{nulls})",
                     number_text(stat, 6),
                     number_text(cv, 4),
                     "yes" if stat > cv else "no",
                 )
-                for l, (stat, cv) in enumerate(zip(self.statistics, self.critical_values))
+                for nulls, (stat, cv) in enumerate(zip(self.statistics, self.critical_values))
             )
             header = ("test", "statistic", f"critical value ({100 * self.level:g} %)", "rejects")
             tables = (Table("sequential tests", header, rows),)

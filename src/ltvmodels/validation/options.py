@@ -31,6 +31,10 @@ __all__ = [
     "choice",
     "interval_level",
     "trimmed_min_size",
+    "trim_fraction",
+    "break_test_kind",
+    "BREAK_TEST_KINDS",
+    "significance_level",
     "flag",
     "callback",
     "is_auto",
@@ -695,8 +699,12 @@ def significance_level(value: Any) -> float:
     if isinstance(value, np.ndarray) and value.ndim == 0:
         value = value.item()
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"level: expected a significance level in (0, 1), received {describe(value)}")
+        raise TypeError(
+            f"level: expected a significance level in (0, 1), received {describe(value)}"
+        )
     level = float(value)
     if not 0.0 < level < 1.0:
-        raise ValueError(f"level: expected a significance level in (0, 1) (e.g. 0.05), received {level}")
+        raise ValueError(
+            f"level: expected a significance level in (0, 1) (e.g. 0.05), received {level}"
+        )
     return level
