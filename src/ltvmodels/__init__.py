@@ -50,6 +50,7 @@ _API = {
     "fit_segments": "estimators.segments",
     "segment_regression": "estimators.segments",
     "noise_variance_estimate": "estimators.segments",
+    "break_test": "estimators.breaktest",
     "find_changepoints": "estimators.changepoints",
     "select_lambda": "estimators.selection",
     "select_lambda_regression": "estimators.selection",
@@ -68,6 +69,7 @@ _API = {
     "DataDescription": "results.description",
     "LambdaSelection": "results.selection",
     "Segmentation": "results.segmentation",
+    "BreakTest": "results.breaktest",
     "KalmanFilterResult": "results.kalman",
     "KalmanSmootherResult": "results.kalman",
     "Forecast": "results.forecast",
@@ -102,6 +104,7 @@ if TYPE_CHECKING:
     from .estimators.ar import (
         fit_arx as fit_arx,
     )
+    from .estimators.breaktest import break_test as break_test
     from .estimators.changepoints import find_changepoints as find_changepoints
     from .estimators.fit import (
         fit as fit,
@@ -147,6 +150,7 @@ if TYPE_CHECKING:
     )
     from .results.arx import ARModel as ARModel
     from .results.arx import ARXModel as ARXModel
+    from .results.breaktest import BreakTest as BreakTest
     from .results.description import DataDescription as DataDescription
     from .results.forecast import Forecast as Forecast
     from .results.kalman import (

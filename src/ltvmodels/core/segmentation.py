@@ -67,6 +67,7 @@ __all__ = [
     "feasible_starts",
     "dynamic_program",
     "one_change",
+    "split_costs",
     "pelt",
     "backtrack_layers",
     "backtrack_last",
@@ -279,25 +280,49 @@ def dynamic_program(data, p, n_changes, min_size, a_max):  # pragma: no cover - 
 
 
 @numba.njit(cache=True)
-def one_change(data, p, a_max):  # pragma: no cover - compiled
-    """The dynamic program for M = 1 in O(N): one forward and one backward pass.
+def split_costs(data, p):  # pragma: no cover - compiled
+    """The costs of both sides of every split of the data, in O(N).
 
     C(0, b) for every b comes from rotating rows 0, 1, … in turn, C(b, N)
-    from rows N−1, N−2, …; the best split minimizes their sum over the b
-    with both segments feasible. Returns the same as :func:`dynamic_program`.
+    from rows N−1, N−2, … (sequential QR, see the module docstring).
+
+    Parameters
+    ----------
+    data : ndarray, shape (N, q, p + n)
+        Scaled rows [φ̃ ỹ] (any contiguous range of rows of a series).
+    p : int
+
+    Returns
+    -------
+    head, tail : ndarray, shape (N + 1,)
+        head[b] = C(0, b) and tail[b] = C(b, N) (scaled units; meaningful
+        where the segment is feasible).
     """
     N = data.shape[0]
     q = data.shape[2]
     W = np.zeros((p, q))
     v = np.empty(q)
-    head = np.empty(N + 1)  # head[b] = C(0, b)
+    head = np.empty(N + 1)
     head[0] = 0.0
     rss = 0.0
     for b in range(1, N + 1):
         rss += _add_step(W, v, data, b - 1, p, q)
         head[b] = rss
-    tail = np.empty(N + 1)  # tail[a] = C(a, N)
+    tail = np.empty(N + 1)
+    tail[N] = 0.0
     _segment_costs_ending_at(data, p, N, 0, tail, W, v)
+    return head, tail
+
+
+@numba.njit(cache=True)
+def one_change(data, p, a_max):  # pragma: no cover - compiled
+    """The dynamic program for M = 1 in O(N): one forward and one backward pass.
+
+    The best split minimizes C(0, b) + C(b, N) (:func:`split_costs`) over the
+    b with both segments feasible. Returns the same as :func:`dynamic_program`.
+    """
+    N = data.shape[0]
+    head, tail = split_costs(data, p)
     best = np.full(2, np.inf)
     starts = np.full((2, N + 1), -1, dtype=np.int64)
     best[0] = head[N]

@@ -12,6 +12,7 @@ attributes they use (:class:`ltvmodels.LTVModel` has them all), arrays, or a
 :class:`~ltvmodels.LambdaSelection`. They never fit anything.
 """
 
+from .breaktest import plot_break_test
 from .coefficients import (
     plot_activation,
     plot_coefficients,
@@ -36,4 +37,5 @@ __all__ = [
     "plot_model",
     "plot_breaks",
     "plot_criteria",
+    "plot_break_test",
 ]

@@ -31,6 +31,10 @@ __all__ = [
     "choice",
     "interval_level",
     "trimmed_min_size",
+    "trim_fraction",
+    "break_test_kind",
+    "BREAK_TEST_KINDS",
+    "significance_level",
     "flag",
     "callback",
     "is_auto",
@@ -576,13 +580,7 @@ def trimmed_min_size(trim: Any, min_size: Any, N: int, p: int) -> Any:
             f"the rows, min_size as a count); give one, received trim={trim!r} and "
             f"min_size={min_size!r}"
         )
-    fraction = positive_scalar(trim, "trim")
-    if fraction >= 0.5:
-        raise ValueError(
-            f"trim: expected a fraction of the rows in (0, 0.5) (e.g. 0.15), received {trim!r}; "
-            "two segments of at least half the rows each leave no room for a change"
-        )
-    return max(p, int(np.floor(fraction * N)))
+    return max(p, int(np.floor(trim_fraction(trim) * N)))
 
 
 def segment_min_size(value: Any, p: int) -> int:
@@ -721,3 +719,45 @@ def fixed_columns(value: Any, names: Sequence[str], remedy_names: str) -> tuple[
             "fit one model without segments (ltvmodels.fit_lti / a least-squares regression)"
         )
     return tuple(sorted(columns))
+
+
+BREAK_TEST_KINDS = ("supF", "aveF", "expF", "sequential")
+
+
+def break_test_kind(value: Any) -> str:
+    """The kind of a structural-break test: one of :data:`BREAK_TEST_KINDS`."""
+    if not isinstance(value, str):
+        raise TypeError(f"kind: expected one of {BREAK_TEST_KINDS}, received {describe(value)}")
+    if value not in BREAK_TEST_KINDS:
+        raise ValueError(
+            f"kind: expected one of {BREAK_TEST_KINDS}, received {value!r}; supF, aveF and "
+            "expF test for one break, 'sequential' selects the number of breaks"
+        )
+    return value
+
+
+def trim_fraction(value: Any) -> float:
+    """A trimming fraction: a real number in (0, 0.5)."""
+    fraction = positive_scalar(value, "trim")
+    if fraction >= 0.5:
+        raise ValueError(
+            f"trim: expected a fraction of the rows in (0, 0.5) (e.g. 0.15), received "
+            f"{value!r}; two segments of at least half the rows each leave no room for a change"
+        )
+    return fraction
+
+
+def significance_level(value: Any) -> float:
+    """A test's significance level: a real number in (0, 1)."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(
+            f"level: expected a significance level in (0, 1), received {describe(value)}"
+        )
+    level = float(value)
+    if not 0.0 < level < 1.0:
+        raise ValueError(
+            f"level: expected a significance level in (0, 1) (e.g. 0.05), received {level}"
+        )
+    return level
