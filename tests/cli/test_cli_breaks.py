@@ -82,3 +82,59 @@ def test_regression_options_need_a_response(seatbelt_csv, capsys):
     path, _ = seatbelt_csv
     code, _, err = _run(["segments", path, "--state", "y", "--confint", "0.9"], capsys)
     assert code == 2 and "--confint: it belongs to one regression" in err
+
+
+def _seatbelt_regression(deaths):
+    values = deaths.to_numpy()
+    phi = np.column_stack([values[11:-1], values[:-12], np.ones(values.size - 12)])
+    return pd.Series(values[12:], index=deaths.index[12:]), phi
+
+
+@pytest.mark.parametrize("kind", ["supF", "sequential"])
+def test_break_test_equals_the_library(seatbelt_csv, capsys, kind):
+    path, deaths = seatbelt_csv
+    argv = ["segments", path, "--response", "y", "--lags", "1,12", "--constant", "--time"]
+    code, out, err = _run([*argv, "month", "--trim", "0.1", "--test", kind, "--json"], capsys)
+    assert code == 0, err
+    report = json.loads(out)["test"]
+    y, phi = _seatbelt_regression(deaths)
+    test = ltv.break_test(y, phi, kind=kind, trim=0.1)
+    assert report["statistic"] == pytest.approx(test.statistic, rel=1e-12)
+    if kind == "supF":  # strucchange: supF 19.333, p = 0.0067, at 46
+        assert report["pvalue"] == pytest.approx(test.pvalue, rel=1e-12)
+        assert report["break_index"] == 46 and report["break_time"] == "1973-11-01"
+    else:
+        assert report["n_breaks"] == test.n_breaks
+        np.testing.assert_allclose(report["statistics"], test.statistics, rtol=1e-12)
+
+
+def test_fixed_regressors_by_name_and_index(seatbelt_csv, capsys):
+    path, deaths = seatbelt_csv
+    argv = ["segments", path, "--response", "y", "--lags", "1,12", "--constant"]
+    argv += ["--n-changes", "2", "--trim", "0.1", "--json", "--fixed"]
+    code, out, err = _run([*argv, "y[t-12],2"], capsys)
+    assert code == 0, err
+    report = json.loads(out)
+    y, phi = _seatbelt_regression(deaths)
+    seg = ltv.segment_regression(y.to_numpy(), phi, n_changes=2, trim=0.1, fixed=[1, 2])
+    assert report["fixed"] == ["y[t-12]", "const"]
+    assert report["changepoints"] == seg.changepoints.tolist()
+    assert report["cost"] == pytest.approx(seg.cost, rel=1e-12)
+    code, _, err = _run([*argv, "y[t-12]", "--test", "supF"], capsys)
+    assert code == 2 and "--test: the tests are for a regression whose coefficients" in err
+    code, _, err = _run([*argv, "nonesuch"], capsys)
+    assert code == 2 and "fixed: expected" in err and "nonesuch" in err
+
+
+def test_fixed_inputs_of_a_state_space_recording(tmp_path, capsys):
+    data = ltv.systems.jump_linear(seed=0)
+    path = tmp_path / "jl.csv"
+    frame = pd.DataFrame({"x1": data.x[:, 0], "x2": data.x[:, 1], "u": data.u[:, 0]})
+    frame.to_csv(path, index=False)
+    argv = ["segments", path, "--state", "x1,x2", "--input", "u", "--n-changes", "1"]
+    code, out, err = _run([*argv, "--fixed", "u", "--json"], capsys)
+    assert code == 0, err
+    model = ltv.fit_segments(data.x, data.u, n_changes=1, fixed=[2])
+    report = json.loads(out)
+    assert report["changepoints"] == model.changepoints.tolist() == [200]
+    assert report["cost"] == pytest.approx(model.info["cost"], rel=1e-12)

@@ -279,7 +279,7 @@ class Segmentation:
             )
             + (
                 (
-                    ("fixed regressors", ", ".join(str(c) for c in self.fixed)),
+                    ("fixed regressors", ", ".join(self._regressor_name(c) for c in self.fixed)),
                     ("iterations", f"{self.iterations} (converged: {self.converged})"),
                 )
                 if self.fixed
@@ -310,6 +310,11 @@ class Segmentation:
 
     def _repr_html_(self) -> str:
         return self.summary().as_html()
+
+    def _regressor_name(self, column: int) -> str:
+        """Regressor ``column`` by its name where the model knows it, else its index."""
+        names = getattr(self.model, "regressor_names", None)
+        return f"{names[column]} ({column})" if names else str(column)
 
     @property
     def _single_output(self) -> bool:

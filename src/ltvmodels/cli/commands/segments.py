@@ -128,6 +128,22 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="with --response: confidence intervals of the break dates at this level, "
         "e.g. 0.95 (Bai 1997, as R's strucchange)",
     )
+    p.add_argument(
+        "--fixed",
+        metavar="COLS",
+        default=None,
+        help="regressor columns (names or 0-based indices among the regressors) whose "
+        "coefficients are common to all segments: Bai and Perron's partial structural "
+        "change (e.g. seasonal terms)",
+    )
+    p.add_argument(
+        "--test",
+        choices=["supF", "aveF", "expF", "sequential"],
+        default=None,
+        help="with --response: test for structural breaks, as strucchange's sctest (supF, "
+        "aveF, expF: one break against none) or Bai and Perron's sequential supF(l+1|l) "
+        "tests; trimmed by --trim (default 0.15)",
+    )
     opt.add_coef_out(p)
     opt.add_outputs(
         p,
@@ -160,7 +176,7 @@ def run(args: argparse.Namespace) -> Report:
         )
     if args.response is not None:
         return _run_regression(args)
-    for option in ("regressors", "lags", "confint"):
+    for option in ("regressors", "lags", "confint", "test"):
         if getattr(args, option) is not None:
             raise CommandError(
                 f"--{option}: it belongs to one regression (--response COL); with --state "
@@ -188,6 +204,7 @@ def run(args: argparse.Namespace) -> Report:
             trim=args.trim,
             constant=args.constant,
             weights=data.weights,
+            fixed=_fixed(args.fixed, [*data.state_names, *data.input_names]),
         )
     model = record_columns(
         model,
@@ -225,9 +242,45 @@ def run(args: argparse.Namespace) -> Report:
     return write_outputs(outputs, report, lines, model=model, figure=fig)
 
 
+def _fixed(text: str | None, names: list[str]) -> list[str | int] | None:
+    """``--fixed``'s columns: each a regressor name, or a 0-based index among the
+    regressors where it is not a name (the library checks both)."""
+    if text is None:
+        return None
+    items = [item.strip() for item in text.split(",")]
+    return [
+        int(item) if item not in names and item.lstrip("-").isdigit() else item for item in items
+    ]
+
+
+def _test_report(test: Any) -> dict[str, Any]:
+    """What ``--json`` reports of a break test."""
+    report = {
+        "kind": test.kind,
+        "statistic": test.statistic,
+        "pvalue": test.pvalue,
+        "level": test.level,
+        "reject": test.reject,
+        "critical_value": test.critical_value,
+    }
+    if test.kind == "sequential":
+        report.update(
+            n_breaks=test.n_breaks,
+            statistics=test.statistics,
+            critical_values=test.critical_values,
+            breaks=test.breaks,
+        )
+    else:
+        report["break_index"] = test.break_index
+        if test.break_time is not None:
+            report["break_time"] = time_text(np.array([test.break_time]))[0]
+    return report
+
+
 def _run_regression(args: argparse.Namespace) -> Report:
     """``segments --response``: the exact segmentation of one regression, its break
     dates with intervals and the criteria for each number of changes."""
+    from ...estimators.breaktest import break_test
     from ...estimators.segments import segment_regression
     from ..outputs import check_outputs, figure_errors, write_outputs
     from ..recordings import regression_data
@@ -247,6 +300,22 @@ def _run_regression(args: argparse.Namespace) -> Report:
             penalty=args.penalty,
             min_size=args.min_size,
             trim=args.trim,
+            weights=data.weights,
+            regular=opt.regular_time(args),
+            fixed=_fixed(args.fixed, data.phi.names),
+        )
+    test = None
+    if args.test is not None:
+        if args.fixed is not None:
+            raise CommandError(
+                "--test: the tests are for a regression whose coefficients all change at a "
+                "break; leave out --fixed to test, or --test to segment a partial model"
+            )
+        test = break_test(
+            data.y,
+            data.phi,
+            kind=args.test,
+            trim=0.15 if args.trim is None else args.trim,
             weights=data.weights,
             regular=opt.regular_time(args),
         )
@@ -278,9 +347,15 @@ def _run_regression(args: argparse.Namespace) -> Report:
         table = seg.criteria()
         report["criteria"] = {key: table[key] for key in ("rss", "bic", "lwz")}
         report["criteria"].update(best_bic=table["best_bic"], best_lwz=table["best_lwz"])
+    if seg.fixed:
+        report["fixed"] = [data.phi.names[i] for i in seg.fixed]
+    if test is not None:
+        report["test"] = _test_report(test)
     regression = f"{data.y.names[0]} ~ {' + '.join(data.phi.names)}"
     lines = [f"ltvmodels segments: {data.label}, {regression}, {len(data.y)} rows"]
     lines += str(seg.summary(level)).splitlines()
+    if test is not None:
+        lines += str(test.summary()).splitlines()
     figure = None
     if outputs.plot is not None and seg.model is not None:
         with figure_errors():
