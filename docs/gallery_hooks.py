@@ -25,6 +25,7 @@ ORDER = [
     "rl_cartpole",
     "chirp_spectrogram",
     "gym_pendulum",
+    "structural_breaks",
 ]
 
 # Options of each example's quick mode (the default for a script not named: none).

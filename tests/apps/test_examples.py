@@ -20,11 +20,13 @@ EXPECTED_OUTPUT = {
     "chirp_spectrogram": "order 2: mean error",
     "rl_cartpole": "Median cost over 1 runs",
     "gym_pendulum": "gymnasium's usual good return",
+    "structural_breaks": "ours:        0 breaks (-602.86)",
 }
 # Examples that need an optional dependency (skipped without it).
 REQUIRES = {
     "gym_pendulum": ("gymnasium", "sklearn"),
     "rl_cartpole": ("sklearn",),
+    "structural_breaks": ("pandas",),
 }
 # Figures beside --out for examples that write several.
 EXTRA_FIGURES = {
