@@ -28,7 +28,11 @@ class Segmentation:
     segments : list of [start, stop]
         The M + 1 segments [start, stop) of row indices.
     cost : float
-        Residual sum of squares Σ_t ‖y_t − Θ_t φ_t‖² of the optimal segmentation.
+        The cost of the optimal segmentation, in the units of ``cost_name``:
+        the residual sum of squares Σ_t ‖y_t − Θ_t φ_t‖² ("rss"), or
+        Σ_s Σ_i [n_s log σ̂²_si + RSS_si / σ̂²_si], −2 × the maximized Gaussian
+        log-likelihood without the constant N · n · log 2π ("normal"; N the
+        observed rows).
     objective : float
         ``cost`` for a given number of changes; ``cost + penalty · M`` with a penalty.
     n_changes : int
@@ -60,6 +64,12 @@ class Segmentation:
         noise variance and rows, and the whole sample's
         (:func:`ltvmodels.core.breaks.segment_moments`), which :meth:`confint`
         uses; None where the segmentation did not keep them.
+    cost_name : {"rss", "normal"}
+        The segment cost that was minimized.
+    segment_variances : ndarray, shape (M + 1, n), or None
+        With ``cost_name="normal"``: each segment's noise variance per output
+        σ̂²_si = max(RSS_si / n_s, σ²_floor,i) (maximum likelihood, floored);
+        None with "rss".
     """
 
     changepoints: np.ndarray
@@ -77,6 +87,8 @@ class Segmentation:
     model: Any = None
     time: np.ndarray | None = None
     moments: dict | None = field(default=None, repr=False, compare=False)
+    cost_name: str = "rss"
+    segment_variances: np.ndarray | None = field(default=None, compare=False)
 
     @property
     def changepoint_times(self) -> np.ndarray | None:
@@ -183,12 +195,23 @@ class Segmentation:
         * LWZ_m = log(RSS_m/(n − p*)) + p* · 0.299 (log n)^2.1 / n with
           p* = (m + 1)p + m (Liu, Wu and Zidek 1997, as Bai and Perron use it).
 
+        With ``cost_name="normal"`` the optimal cost C_m is already −2ℓ_m
+        without its n · log 2π term, with a noise variance per segment (floored:
+        see :func:`ltvmodels.fit_segments`), so
+
+        * ℓ_m = −(C_m + n log 2π) / 2;
+        * BIC_m = −2ℓ_m + ((p + 1)(m + 1) + m) log n: the coefficients and the
+          noise variance of each of the m + 1 segments, and the m break dates;
+
+        LWZ, a criterion for one common noise variance, is not given.
+
         Returns
         -------
         dict
-            ``n_changes`` (M + 1,) = 0 … M, ``rss``, ``loglik``, ``bic``, ``lwz``
-            (M + 1,) each (inf / nan where no segmentation has m changes), and
-            ``best_bic``, ``best_lwz``: the m that minimizes each.
+            ``n_changes`` (M + 1,) = 0 … M, ``cost`` (the optimal costs),
+            ``loglik``, ``bic`` (M + 1,) each (inf / nan where no segmentation
+            has m changes) and ``best_bic``, the m that minimizes BIC; with
+            "rss" also ``rss`` (= ``cost``), ``lwz`` and ``best_lwz``.
 
         Raises
         ------
@@ -206,6 +229,16 @@ class Segmentation:
         rows, p = int(moments["rows"].sum()), moments["coefficients"].shape[1]
         rss = np.asarray(self.costs_by_n_changes, dtype=float)
         m = np.arange(rss.size)
+        if self.cost_name == "normal":
+            loglik = -0.5 * (rss + rows * np.log(2 * np.pi))
+            bic = -2 * loglik + ((p + 1) * (m + 1) + m) * np.log(rows)
+            return {
+                "n_changes": m,
+                "cost": rss,
+                "loglik": loglik,
+                "bic": bic,
+                "best_bic": int(np.nanargmin(bic)),
+            }
         with np.errstate(divide="ignore", invalid="ignore"):
             loglik = -0.5 * rows * (np.log(rss / rows) + 1 + np.log(2 * np.pi))
             bic = -2 * loglik + (p + 1) * (m + 1) * np.log(rows)
@@ -213,6 +246,7 @@ class Segmentation:
             lwz = np.log(rss / (rows - free)) + free * 0.299 * np.log(rows) ** 2.1 / rows
         return {
             "n_changes": m,
+            "cost": rss,
             "rss": rss,
             "loglik": loglik,
             "bic": bic,
@@ -244,14 +278,14 @@ class Segmentation:
             (
                 ("changes", how),
                 ("solver", self.solver),
-                ("RSS", number_text(self.cost, 6)),
+                self._cost_line(),
                 ("minimum segment", f"{self.min_size} rows"),
             ),
         )
         sections = [search]
         if self.n_changes and self._single_output:
             sections.append(self._breaks_section(level))
-        if self.costs_by_n_changes is not None and self._single_output:
+        if self.costs_by_n_changes is not None and self._single_output and self.cost_name == "rss":
             table = self.criteria()
             rows = tuple(
                 (str(m), number_text(rss, 6), number_text(bic, 6), number_text(lwz, 6))
@@ -266,9 +300,28 @@ class Segmentation:
                     (Table("criteria", ("changes", "RSS", "BIC", "LWZ"), rows),),
                 )
             )
+        elif self.costs_by_n_changes is not None and self._single_output:
+            table = self.criteria()
+            lines = tuple(
+                (str(m), number_text(cost, 6), number_text(bic, 6))
+                for m, cost, bic in zip(table["n_changes"], table["cost"], table["bic"])
+            )
+            sections.append(
+                Section(
+                    "Number of changes",
+                    (("BIC picks", str(table["best_bic"])),),
+                    (Table("criteria", ("changes", "−2 log L − n log 2π", "BIC"), lines),),
+                )
+            )
         if self.model is not None:
             sections += self.model.summary().sections
         return Summary(f"Segmentation({how}, solver={self.solver!r})", sections)
+
+    def _cost_line(self) -> tuple[str, str]:
+        """The summary's line for the optimal cost, named after the cost."""
+        if self.cost_name == "normal":
+            return ("−2 log L − n log 2π", number_text(self.cost, 6))
+        return ("RSS", number_text(self.cost, 6))
 
     def _repr_html_(self) -> str:
         return self.summary().as_html()
