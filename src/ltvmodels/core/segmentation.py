@@ -41,8 +41,10 @@ C(a, b) = C(a + 1, b) + ‖left-over‖²: every cost of every start for that en
 in O(p (p + n)) operations per start, with no p×p inverse, no normal
 equations and no difference of large prefix sums (the usual
 Σyᵀy − tr(SφyᵀSφφ⁻¹Sφy) loses every digit when the fit is good). All output
-rows share the rotations of φ. The costs are sums of nonnegative terms, so
-they are never negative and never decrease as a segment grows.
+rows share the rotations of φ. The residual sums of squares are sums of
+nonnegative terms, so they are never negative and never decrease as a
+segment grows. The squares of the left-over's entries, summed per output,
+are the RSS_i of the Gaussian cost.
 
 Feasible segments
 -----------------
@@ -67,7 +69,8 @@ which [b, b') is feasible (pruning constant K = 0). With a minimum size and
 infeasible stretches that is not every b' > b: the candidate is dropped only
 from the first end b' with a_max(b') >= b on (feasibility is monotone, so then
 for all later ends too), which keeps PELT exact. A tiny margin (1e-12 of the
-total sum of squares) keeps roundoff from pruning an optimal start.
+total sum of squares; for the Gaussian cost, of the number of its terms times
+their size) keeps roundoff from pruning an optimal start.
 """
 
 from __future__ import annotations
