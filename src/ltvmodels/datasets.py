@@ -57,7 +57,7 @@ def uk_driver_deaths() -> Any:
 
 def _columns(filename: str, time_type: Any) -> tuple[np.ndarray, np.ndarray]:
     """The time column (as ``time_type``) and the value column (floats) of a data file."""
-    text = resources.files(__package__).joinpath("data", filename).read_text()
+    text = resources.files(__package__).joinpath("data").joinpath(filename).read_text()
     rows = [line.split(",") for line in text.split()[1:]]
     times = np.array([row[0] for row in rows]).astype(time_type)
     return times, np.array([float(row[1]) for row in rows])

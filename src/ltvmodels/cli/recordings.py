@@ -134,6 +134,16 @@ class RegressionData:
     phi: LabelledSeries
     weights: np.ndarray | None
 
+    @property
+    def response_name(self) -> str:
+        """The response's column name."""
+        return (self.y.names or ["y"])[0]
+
+    @property
+    def regressor_names(self) -> list[str]:
+        """The regressors' names, in the order of phi's columns."""
+        return list(self.phi.names or [])
+
 
 def state_space_data(args: argparse.Namespace) -> StateSpaceData:
     """Read the state-space columns that the arguments choose from DATA.

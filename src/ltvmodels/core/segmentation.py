@@ -10,6 +10,26 @@ and the solvers minimize Σ_j C(τ_j, τ_{j+1}) over all segmentations with M
 changes (dynamic programming, every M' = 0 … M at once) or with a penalty β
 per change (PELT).
 
+The Gaussian cost (``cost=NORMAL``)
+-----------------------------------
+The residual sum of squares cannot see a change of the noise level. With a
+noise variance per segment and output, −2 × the maximized Gaussian
+log-likelihood of the segment (without the constant n_s · n · log 2π) is
+
+    C(a, b) = Σ_{i=1}^{n} [ n_s log σ̂²_i + RSS_i(a, b) / σ̂²_i ],
+    σ̂²_i = max(RSS_i(a, b) / n_s, σ²_floor,i),
+
+with n_s the observed rows of [a, b) (missing rows, zero in the data, do
+not count; each row counts once whatever its weight: a weight is a
+precision multiplier, its log is a constant of the data) and RSS_i the
+least-squares residual sum of squares of output i. The floor keeps a
+segment that the regression fits exactly from a cost of −∞. It is a
+minimum over Θ and over σ²_i >= σ²_floor,i of a sum of per-row terms
+log σ²_i + r_ti² / σ²_i, so it is superadditive like the residual sum of
+squares, and the PELT argument below (K = 0) holds unchanged. Scaling y by
+y_scale shifts it by n_s · n · log y_scale² per segment (and scales the
+floor by y_scale²): by N_obs · n · log y_scale² for every segmentation.
+
 How a segment cost is computed
 ------------------------------
 For a fixed segment end b the starts a = b-1, b-2, … are visited in turn and
@@ -21,8 +41,10 @@ C(a, b) = C(a + 1, b) + ‖left-over‖²: every cost of every start for that en
 in O(p (p + n)) operations per start, with no p×p inverse, no normal
 equations and no difference of large prefix sums (the usual
 Σyᵀy − tr(SφyᵀSφφ⁻¹Sφy) loses every digit when the fit is good). All output
-rows share the rotations of φ. The costs are sums of nonnegative terms, so
-they are never negative and never decrease as a segment grows.
+rows share the rotations of φ. The residual sums of squares are sums of
+nonnegative terms, so they are never negative and never decrease as a
+segment grows. The squares of the left-over's entries, summed per output,
+are the RSS_i of the Gaussian cost.
 
 Feasible segments
 -----------------
@@ -47,7 +69,8 @@ which [b, b') is feasible (pruning constant K = 0). With a minimum size and
 infeasible stretches that is not every b' > b: the candidate is dropped only
 from the first end b' with a_max(b') >= b on (feasibility is monotone, so then
 for all later ends too), which keeps PELT exact. A tiny margin (1e-12 of the
-total sum of squares) keeps roundoff from pruning an optimal start.
+total sum of squares; for the Gaussian cost, of the number of its terms times
+their size) keeps roundoff from pruning an optimal start.
 """
 
 from __future__ import annotations
@@ -60,6 +83,8 @@ import numpy as np
 from .dense import cholesky
 
 __all__ = [
+    "RSS",
+    "NORMAL",
     "FEASIBILITY_TOL",
     "PRUNE_MARGIN",
     "ScaledData",
@@ -77,6 +102,8 @@ __all__ = [
 
 FEASIBILITY_TOL = 1e-10  # τ = FEASIBILITY_TOL · N on the unit-RMS-scaled Gram matrix
 PRUNE_MARGIN = 1e-12  # relative to the total sum of squares of the scaled outputs
+RSS = 0  # cost codes of the kernels: the residual sum of squares
+NORMAL = 1  # the Gaussian cost with a noise variance per segment (module docstring)
 
 
 @dataclass(frozen=True)
@@ -148,20 +175,62 @@ def _add_row(W, v, p, q):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _add_step(W, v, data, t, p, q):  # pragma: no cover - compiled
-    """Rotate the rows of time step t (data[t], one per trajectory) into W; the RSS increase."""
+def _add_step(W, v, data, t, p, q, floor, acc):  # pragma: no cover - compiled
+    """Rotate the rows of time step t (data[t], one per trajectory) into W; the RSS increase.
+
+    With a ``floor`` (the Gaussian cost) the increase of each output's residual
+    sum of squares is added to ``acc`` (n,) as well; with None (the residual sum
+    of squares) numba prunes that branch when it compiles, so that cost's loops
+    are the plain ones.
+    """
     inc = 0.0
     for r in range(data.shape[1]):
         for j in range(q):
             v[j] = data[t, r, j]
         inc += _add_row(W, v, p, q)
+        if floor is not None:
+            for k in range(p, q):
+                acc[k - p] += v[k] * v[k]
     return inc
 
 
 # The Givens kernels, for the other searches built on the same sequential QR
 # (:mod:`ltvmodels.core.partial_change`).
 add_row = _add_row
-add_step = _add_step
+
+
+@numba.njit(cache=True)
+def add_step(W, v, data, t, p, q):  # pragma: no cover - compiled
+    """Rotate the rows of time step t into W; the increase of the residual sum of squares."""
+    return _add_step(W, v, data, t, p, q, None, v[:0])
+
+
+@numba.njit(cache=True)
+def _cost(rss, acc, counts, a, b, floor):  # pragma: no cover - compiled
+    """The cost of [a, b): ``rss`` without a floor, or the Gaussian cost from the residual
+    sums of squares ``acc`` (n,) per output over its counts[b] − counts[a] observed rows."""
+    if floor is None:
+        return rss
+    rows = counts[b] - counts[a]
+    if rows == 0:  # no data: never a feasible segment
+        return 0.0
+    total = 0.0
+    for i in range(acc.shape[0]):
+        var = acc[i] / rows
+        if var < floor[i]:
+            var = floor[i]
+        total += rows * np.log(var) + acc[i] / var
+    return total
+
+
+@numba.njit(cache=True)
+def _reset(W, acc):  # pragma: no cover - compiled
+    """Zero the factor and the per-output sums: an empty segment."""
+    for i in range(W.shape[0]):
+        for j in range(W.shape[1]):
+            W[i, j] = 0.0
+    for i in range(acc.shape[0]):
+        acc[i] = 0.0
 
 
 @numba.njit(cache=True)
@@ -216,38 +285,23 @@ def _first_feasible_ends(a_max):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _segment_costs_ending_at(data, p, b, lowest, costs, W, v):  # pragma: no cover - compiled
+def _segment_costs_ending_at(
+    data, p, b, lowest, costs, W, v, acc, counts, floor
+):  # pragma: no cover - compiled
     """costs[a] = C(a, b) for a = b−1 down to ``lowest`` (one sequential-QR pass)."""
     q = data.shape[2]
-    for i in range(p):
-        for j in range(q):
-            W[i, j] = 0.0
+    _reset(W, acc)
     rss = 0.0
     for a in range(b - 1, lowest - 1, -1):
-        rss += _add_step(W, v, data, a, p, q)
-        costs[a] = rss
+        rss += _add_step(W, v, data, a, p, q, floor, acc)
+        costs[a] = _cost(rss, acc, counts, a, b, floor)
 
 
 @numba.njit(cache=True)
-def dynamic_program(data, p, n_changes, min_size, a_max):  # pragma: no cover - compiled
-    """Optimal segmentations with 0 … M changes (segment neighbourhood, Bellman).
-
-    Parameters
-    ----------
-    data : ndarray, shape (N, q, p + n)
-    p, n_changes, min_size : int
-    a_max : ndarray of int64, shape (N + 1,)
-        From :func:`feasible_starts`.
-
-    Returns
-    -------
-    best : ndarray, shape (M + 1,)
-        best[m]: the smallest total cost with exactly m changes (inf if none is
-        feasible).
-    starts : ndarray of int64, shape (M + 1, N + 1)
-        starts[m, b]: the start of the last segment of the optimal
-        segmentation of [0, b) with m changes (−1 if none).
-    """
+def _dynamic_program(
+    data, p, n_changes, min_size, a_max, counts, floor
+):  # pragma: no cover - compiled
+    """:func:`dynamic_program` with every argument given."""
     N = data.shape[0]
     q = data.shape[2]
     M = n_changes
@@ -256,11 +310,12 @@ def dynamic_program(data, p, n_changes, min_size, a_max):  # pragma: no cover - 
     costs = np.empty(N + 1)
     W = np.zeros((p, q))
     v = np.empty(q)
+    acc = np.zeros(q - p)
     for b in range(min_size, N + 1):
         amax = a_max[b]
         if amax < 0:
             continue
-        _segment_costs_ending_at(data, p, b, 0, costs, W, v)
+        _segment_costs_ending_at(data, p, b, 0, costs, W, v, acc, counts, floor)
         F[0, b] = costs[0]
         starts[0, b] = 0
         # layer M is needed at b = N only; m changes need (m + 1) · min_size samples
@@ -280,8 +335,27 @@ def dynamic_program(data, p, n_changes, min_size, a_max):  # pragma: no cover - 
 
 
 @numba.njit(cache=True)
-def split_costs(data, p):  # pragma: no cover - compiled
-    """The costs of both sides of every split of the data, in O(N).
+def _split_costs(data, p, counts, floor):  # pragma: no cover - compiled
+    """:func:`split_costs` with every argument given."""
+    N = data.shape[0]
+    q = data.shape[2]
+    W = np.zeros((p, q))
+    v = np.empty(q)
+    acc = np.zeros(q - p)
+    head = np.empty(N + 1)  # head[b] = C(0, b)
+    head[0] = 0.0
+    rss = 0.0
+    for b in range(1, N + 1):
+        rss += _add_step(W, v, data, b - 1, p, q, floor, acc)
+        head[b] = _cost(rss, acc, counts, 0, b, floor)
+    tail = np.empty(N + 1)  # tail[a] = C(a, N)
+    tail[N] = 0.0
+    _segment_costs_ending_at(data, p, N, 0, tail, W, v, acc, counts, floor)
+    return head, tail
+
+
+def split_costs(data: np.ndarray, p: int) -> tuple[np.ndarray, np.ndarray]:
+    """The residual sums of squares of both sides of every split of the data, in O(N).
 
     C(0, b) for every b comes from rotating rows 0, 1, … in turn, C(b, N)
     from rows N−1, N−2, … (sequential QR, see the module docstring).
@@ -298,31 +372,14 @@ def split_costs(data, p):  # pragma: no cover - compiled
         head[b] = C(0, b) and tail[b] = C(b, N) (scaled units; meaningful
         where the segment is feasible).
     """
-    N = data.shape[0]
-    q = data.shape[2]
-    W = np.zeros((p, q))
-    v = np.empty(q)
-    head = np.empty(N + 1)
-    head[0] = 0.0
-    rss = 0.0
-    for b in range(1, N + 1):
-        rss += _add_step(W, v, data, b - 1, p, q)
-        head[b] = rss
-    tail = np.empty(N + 1)
-    tail[N] = 0.0
-    _segment_costs_ending_at(data, p, N, 0, tail, W, v)
-    return head, tail
+    return _split_costs(data, p, *_cost_arrays(data, p, RSS, None, None))
 
 
 @numba.njit(cache=True)
-def one_change(data, p, a_max):  # pragma: no cover - compiled
-    """The dynamic program for M = 1 in O(N): one forward and one backward pass.
-
-    The best split minimizes C(0, b) + C(b, N) (:func:`split_costs`) over the
-    b with both segments feasible. Returns the same as :func:`dynamic_program`.
-    """
+def _one_change(data, p, a_max, counts, floor):  # pragma: no cover - compiled
+    """:func:`one_change` with every argument given."""
     N = data.shape[0]
-    head, tail = split_costs(data, p)
+    head, tail = _split_costs(data, p, counts, floor)
     best = np.full(2, np.inf)
     starts = np.full((2, N + 1), -1, dtype=np.int64)
     best[0] = head[N]
@@ -338,18 +395,8 @@ def one_change(data, p, a_max):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def pelt(data, p, beta, min_size, a_max, margin):  # pragma: no cover - compiled
-    """Minimize Σ C + β · #changes exactly by PELT (see the module docstring).
-
-    Returns
-    -------
-    last : ndarray of int64, shape (N + 1,)
-        last[b]: start of the last segment of the optimal segmentation of [0, b).
-    objective : float
-        F(N) = optimal cost + β · #changes (scaled units).
-    n_evaluations : int
-        Rows rotated in (the work done).
-    """
+def _pelt(data, p, beta, min_size, a_max, margin, counts, floor):  # pragma: no cover - compiled
+    """:func:`pelt` with every argument given."""
     N = data.shape[0]
     q = data.shape[2]
     first_end = _first_feasible_ends(a_max)
@@ -363,6 +410,7 @@ def pelt(data, p, beta, min_size, a_max, margin):  # pragma: no cover - compiled
     cval = np.empty(N + 1)  # C(cand[i], b) for the current b
     W = np.zeros((p, q))
     v = np.empty(q)
+    acc = np.zeros(q - p)
     n_rows = 0
     for b in range(1, N + 1):
         # drop the candidates whose pruning applies from this end on
@@ -378,16 +426,14 @@ def pelt(data, p, beta, min_size, a_max, margin):  # pragma: no cover - compiled
         while nvalid < ncand and cand[nvalid] <= amax:
             nvalid += 1
         if nvalid > 0:
-            for i in range(p):
-                for j in range(q):
-                    W[i, j] = 0.0
+            _reset(W, acc)
             rss = 0.0
             i = nvalid - 1
             lowest = cand[0]
             for a in range(b - 1, lowest - 1, -1):
-                rss += _add_step(W, v, data, a, p, q)
+                rss += _add_step(W, v, data, a, p, q, floor, acc)
                 if a == cand[i]:
-                    cval[i] = rss
+                    cval[i] = _cost(rss, acc, counts, a, b, floor)
                     i -= 1
             n_rows += b - lowest
             best = np.inf
@@ -409,6 +455,112 @@ def pelt(data, p, beta, min_size, a_max, margin):  # pragma: no cover - compiled
             cand[ncand] = b
             ncand += 1
     return last, F[N], n_rows
+
+
+def dynamic_program(
+    data: np.ndarray,
+    p: int,
+    n_changes: int,
+    min_size: int,
+    a_max: np.ndarray,
+    code: int = RSS,
+    counts: np.ndarray | None = None,
+    floor: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Optimal segmentations with 0 … M changes (segment neighbourhood, Bellman).
+
+    Parameters
+    ----------
+    data : ndarray, shape (N, q, p + n)
+    p, n_changes, min_size : int
+    a_max : ndarray of int64, shape (N + 1,)
+        From :func:`feasible_starts`.
+    code : int
+        The segment cost: :data:`RSS` or :data:`NORMAL`.
+    counts : ndarray of int64, shape (N + 1,), optional
+        counts[t]: the observed rows before time step t (NORMAL's n_s);
+        default every row observed, counts[t] = q · t.
+    floor : ndarray, shape (n,), optional
+        σ²_floor per output, in the units of the scaled data; needed for NORMAL.
+
+    Returns
+    -------
+    best : ndarray, shape (M + 1,)
+        best[m]: the smallest total cost with exactly m changes (inf if none is
+        feasible).
+    starts : ndarray of int64, shape (M + 1, N + 1)
+        starts[m, b]: the start of the last segment of the optimal
+        segmentation of [0, b) with m changes (−1 if none).
+    """
+    return _dynamic_program(
+        data, p, n_changes, min_size, a_max, *_cost_arrays(data, p, code, counts, floor)
+    )
+
+
+def _cost_arrays(
+    data: np.ndarray, p: int, code: int, counts: np.ndarray | None, floor: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """The compiled kernels' ``counts`` and ``floor`` (see :func:`dynamic_program`): the
+    floor is None for RSS, which selects that cost's specialization of each kernel."""
+    if code not in (RSS, NORMAL):
+        raise ValueError(f"code: expected RSS ({RSS}) or NORMAL ({NORMAL}), received {code!r}")
+    N, q, width = data.shape
+    if counts is None:
+        counts = q * np.arange(N + 1, dtype=np.int64)
+    counts = np.ascontiguousarray(counts, dtype=np.int64)
+    if code == RSS:
+        return counts, None
+    if floor is None:
+        raise TypeError("floor: the Gaussian cost needs the variance floor per output")
+    return counts, np.ascontiguousarray(floor, dtype=float)
+
+
+def one_change(
+    data: np.ndarray,
+    p: int,
+    a_max: np.ndarray,
+    code: int = RSS,
+    counts: np.ndarray | None = None,
+    floor: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The dynamic program for M = 1 in O(N): one forward and one backward pass.
+
+    C(0, b) for every b comes from rotating rows 0, 1, … in turn, C(b, N)
+    from rows N−1, N−2, …; the best split minimizes their sum over the b
+    with both segments feasible. ``code``, ``counts`` and ``floor`` as in
+    :func:`dynamic_program`, whose result it returns.
+    """
+    return _one_change(data, p, a_max, *_cost_arrays(data, p, code, counts, floor))
+
+
+def pelt(
+    data: np.ndarray,
+    p: int,
+    beta: float,
+    min_size: int,
+    a_max: np.ndarray,
+    margin: float,
+    code: int = RSS,
+    counts: np.ndarray | None = None,
+    floor: np.ndarray | None = None,
+) -> tuple[np.ndarray, float, int]:
+    """Minimize Σ C + β · #changes exactly by PELT (see the module docstring).
+
+    ``code``, ``counts`` and ``floor`` as in :func:`dynamic_program`; ``beta``
+    and ``margin`` in the units of the scaled cost.
+
+    Returns
+    -------
+    last : ndarray of int64, shape (N + 1,)
+        last[b]: start of the last segment of the optimal segmentation of [0, b).
+    objective : float
+        F(N) = optimal cost + β · #changes (scaled units).
+    n_evaluations : int
+        Rows rotated in (the work done).
+    """
+    return _pelt(
+        data, p, beta, min_size, a_max, margin, *_cost_arrays(data, p, code, counts, floor)
+    )
 
 
 def backtrack_layers(starts: np.ndarray, m: int) -> np.ndarray:

@@ -11,6 +11,19 @@ problems are searches over change-point placements, solved exactly by
 dynamic programming (fixed M) and PELT (penalty). The searches are in
 :mod:`ltvmodels.core.segmentation`.
 
+The squared loss cannot see a change of the noise level alone. With
+``cost="normal"`` each segment s has its own noise variance per output and
+the cost minimized is −2 × the maximized Gaussian log-likelihood (without the
+constant N · n · log 2π),
+
+    Σ_s Σ_{i=1}^{n} [ n_s log σ̂²_si + RSS_si / σ̂²_si ],  σ̂²_si = max(RSS_si / n_s, σ²_floor,i),
+
+with n_s the observed rows of segment s and RSS_si the least-squares residual
+sum of squares of its output i. The floor σ²_floor,i is 10⁻⁶ times a robust
+noise variance of output i (:data:`VARIANCE_FLOOR`), so that a segment the
+regression fits exactly costs a finite amount. Both costs are superadditive,
+so both searches stay exact.
+
 * :func:`fit_segments` — state-space front-end, returns an :class:`LTVModel`;
 * :func:`segment_regression` — the same on any regression (y, φ) (AR, ARX or
   user-built regressors), returns a :class:`~ltvmodels.Segmentation`.
@@ -37,11 +50,17 @@ from ..results.regression import RegressionModel
 from ..results.segmentation import Segmentation
 from ..results.statespace import LTVModel
 from ..validation import options
-from ..validation.options import PenaltyRule
+from ..validation.options import PenaltyRule, SegmentCost
 from .piecewise import fit_piecewise, piecewise_fit
 from .recordings import regression_data, regression_problem, state_space_data
 
-__all__ = ["fit_segments", "segment_regression", "noise_variance_estimate"]
+__all__ = ["fit_segments", "segment_regression", "noise_variance_estimate", "VARIANCE_FLOOR"]
+
+VARIANCE_FLOOR = 1e-6
+"""σ²_floor,i of ``cost="normal"`` as a fraction of output i's robust noise variance (the
+median over windows of the least-squares residual variance, as in
+:func:`noise_variance_estimate`): a segment whose noise standard deviation is below
+10⁻³ times the typical one is costed as if it were that."""
 
 
 def segment_regression(
@@ -55,6 +74,7 @@ def segment_regression(
     regular: bool = True,
     trim: float | None = None,
     fixed: Any = None,
+    cost: SegmentCost = "rss",
 ) -> Segmentation:
     """Optimal piecewise-constant segmentation of a regression y_t = Θ_t φ_t + e_t.
 
@@ -65,7 +85,10 @@ def segment_regression(
 
     by dynamic programming; with ``penalty=β`` it minimizes
     Σ_t ‖y_t − Θ_t φ_t‖² + β · (number of changes) by PELT. Both are exact
-    (global optima); see :func:`fit_segments` for the details.
+    (global optima); see :func:`fit_segments` for the details. With
+    ``cost="normal"`` the residual sum of squares is replaced by the Gaussian
+    −2 log-likelihood with a noise variance per segment and output, which also
+    finds changes of the noise level (see ``cost``).
 
     With ``fixed`` columns (Bai and Perron's partial structural change) the
     model is y_t = Θ_j z_t + Γ x_t + e_t on segment j, z the changing and x the
@@ -95,11 +118,13 @@ def segment_regression(
         β >= 0 per change, or a rule (see :func:`fit_segments`). Default "bic"
         when neither ``n_changes`` nor ``penalty`` is given.
     min_size : int, optional
-        Minimum number of rows per segment, >= p. Default p.
+        Minimum number of rows per segment, >= p (>= p + 1 with
+        ``cost="normal"``). Default p (max(2p, p + 5) with ``cost="normal"``).
     trim : float, optional
         The minimum segment length as a fraction of the rows, in (0, 0.5):
-        ⌊trim · N⌋ rows (at least p), strucchange's ``h`` (Bai and Perron use
-        0.15). Give ``min_size`` or ``trim``, not both.
+        ⌊trim · N⌋ rows (at least p, or p + 1 with ``cost="normal"``),
+        strucchange's ``h`` (Bai and Perron use 0.15). Give ``min_size`` or
+        ``trim``, not both.
     weights : array_like, shape (N,) or (R, N), optional
         Weights >= 0 of the rows (y and phi may hold R series, (R, N, ·), and
         NaN for missing rows, as in :func:`ltvmodels.fit_regression`).
@@ -114,6 +139,14 @@ def segment_regression(
         and must be at least, the number p_z of changing regressors, and
         segments are feasible when the changing regressors identify their
         coefficients.
+    cost : {"rss", "normal"}, default "rss"
+        The cost of a segment, as in :func:`fit_segments`: "rss" its residual
+        sum of squares; "normal" Σ_i [n_s log σ̂²_i + RSS_i / σ̂²_i] with
+        σ̂²_i = max(RSS_i / n_s, σ²_floor,i) over its n_s observed rows (a weight
+        is a precision multiplier, each row counts once), −2 × the maximized
+        Gaussian log-likelihood of the segment without the n_s · n · log 2π
+        constant. ``Segmentation.cost``, ``costs_by_n_changes`` and ``penalty``
+        are in the units of the cost; ``segment_variances`` holds the σ̂².
 
     Returns
     -------
@@ -133,12 +166,16 @@ def segment_regression(
         The regressors are linearly dependent over the whole data set, so no
         segment is identifiable.
     """
+    cost = options.segment_cost(cost)
     problem, description = regression_data(y, phi, weights=weights, regular=regular)
     names = description.names_of("regressor", problem.p) or signal_names("phi", problem.p)
     fixed_columns = options.fixed_columns(fixed, names, "the columns of phi")
     n_changing = problem.p - len(fixed_columns)
-    min_size = options.trimmed_min_size(trim, min_size, problem.N, n_changing)
-    result = _segment(problem, n_changes, penalty, min_size, data_name="y", fixed=fixed_columns)
+    smallest = options.smallest_segment(n_changing, cost)
+    min_size = options.trimmed_min_size(trim, min_size, problem.N, smallest)
+    result = _segment(
+        problem, n_changes, penalty, min_size, cost=cost, data_name="y", fixed=fixed_columns
+    )
     result = replace(result, time=description.time)
     if problem.n_observed <= (result.n_changes + 1) * n_changing + len(fixed_columns):
         return result  # no residual degree of freedom: no noise estimate, no model
@@ -173,6 +210,7 @@ def fit_segments(
     regular: bool = True,
     trim: float | None = None,
     fixed: Any = None,
+    cost: SegmentCost = "rss",
 ) -> LTVModel:
     """Piecewise-constant LTV model with exactly optimal change points (paper eq:l0).
 
@@ -198,6 +236,25 @@ def fit_segments(
     evaluates only unpruned starts, near-linear when changes are frequent and
     up to quadratic when they are rare.
 
+    Noise-level changes (``cost="normal"``): each segment gets its own noise
+    variance per output and the search minimizes, exactly as well,
+
+        Σ_s Σ_{i=1}^{n} [ n_s log σ̂²_si + RSS_si / σ̂²_si ]  (+ β · #changes),
+        σ̂²_si = max(RSS_si / n_s, σ²_floor,i),
+
+    −2 × the maximized Gaussian log-likelihood with a diagonal noise
+    covariance per segment, without the constant N · n · log 2π (n_s: the
+    observed transitions of segment s; RSS_si: the residual sum of squares of
+    its output i, from the same QR updates). The floor σ²_floor,i =
+    :data:`VARIANCE_FLOOR` · (output i's median windowed residual variance,
+    as :func:`noise_variance_estimate` computes it) keeps a segment that fits
+    exactly from a cost of −∞. The cost is a minimum over Θ and σ² >= floor of
+    a sum of per-sample terms, hence superadditive, so PELT's pruning (K = 0,
+    with the minimum size and feasibility rule of
+    :mod:`ltvmodels.core.segmentation`) stays exact. The per-segment models
+    are least squares as with "rss" (the maximum-likelihood Θ under either
+    cost).
+
     Parameters
     ----------
     x : array_like, shape (T, n)
@@ -209,8 +266,9 @@ def fit_segments(
         strictly better, which only min_size or infeasible segments can
         cause). Needs (M + 1) · min_size <= N = T − 1.
     penalty : float or {"bic", "aic"}, optional
-        β >= 0, the cost of one change in the units of the residual sum of
-        squares. The rules scale with a noise variance estimate σ̂² per output
+        β >= 0, the cost of one change in the units of the cost (the residual
+        sum of squares, or with ``cost="normal"`` the −2 log-likelihood). With
+        "rss" the rules scale with a noise variance estimate σ̂² per output
         (:func:`noise_variance_estimate`: median over short windows of the
         least-squares residual variance, so that the changes do not inflate
         it):
@@ -220,19 +278,27 @@ def fit_segments(
           the Bayesian information criterion RSS/σ² + (#parameters) · log N
           multiplied by σ² to be in the units of the cost;
         * "aic": β = 2 · K · σ̂².
+
+        With ``cost="normal"`` the cost is a likelihood, so no σ̂²: "bic" is
+        β = K · log N and "aic" β = 2K with K = n·p + n + 1, the coefficients,
+        the noise variances and the date of one more segment.
     min_size : int, optional
         Minimum number of transitions per segment. Default p = n + m, the
         smallest size for which a segment's least squares is well posed;
         a segment of exactly p samples fits perfectly (zero cost), so with
         noisy data a larger min_size (say 2p to 5p) avoids short segments
-        that only absorb outliers. Segments whose regressors are numerically
+        that only absorb outliers. With ``cost="normal"`` at least p + 1 (a
+        segment of p samples has no noise variance), default max(2p, p + 5):
+        at least max(p, 5) residual degrees of freedom per segment variance,
+        whose log otherwise has a long lower tail that makes a short segment
+        look like a quiet stretch. Segments whose regressors are numerically
         linearly dependent (smallest eigenvalue of their Gram matrix, with
         each regressor scaled to unit RMS over the whole data, at most
         1e-10 · N) are excluded as well.
     trim : float, optional
         The minimum segment length as a fraction of the N = T − 1 transitions,
-        in (0, 0.5): ⌊trim · N⌋ (at least p), as strucchange's ``h``. Give
-        ``min_size`` or ``trim``, not both.
+        in (0, 0.5): ⌊trim · N⌋ (at least p, or p + 1 with ``cost="normal"``),
+        as strucchange's ``h``. Give ``min_size`` or ``trim``, not both.
     compute_cov : bool, default True
         Compute the covariances of the per-segment estimates.
     loss : {"squared"}
@@ -254,6 +320,10 @@ def fit_segments(
         "u0", …) and "1" for the intercept of ``constant=True``. The fixed
         coefficient of column i is the same in every state equation's segments;
         ``min_size`` defaults to the number of changing regressors.
+    cost : {"rss", "normal"}, default "rss"
+        The cost of a segment: its residual sum of squares, or the Gaussian
+        −2 log-likelihood with a noise variance per segment and output (see
+        above), which also finds changes of the noise level alone.
 
     Returns
     -------
@@ -265,7 +335,12 @@ def fit_segments(
         means k_c ≠ k_{c−1}). ``info`` has, in addition to the keys of
         :func:`fit_piecewise`:
 
-        * "cost": the optimal residual sum of squares;
+        * "cost": the optimal cost (the residual sum of squares, or the
+          −2 log-likelihood without the 2π constant);
+        * with ``cost="normal"`` only: "cost_name": "normal" (absent: the
+          residual sum of squares) and "segment_variances": ndarray (M + 1, n),
+          the σ̂² of each segment and output (the model's ``noise_var`` is one
+          pooled variance per output);
         * "objective": cost, plus β · n_changes with a penalty;
         * "n_changes": the number of changes of the optimum;
         * "costs_by_n_changes" (with n_changes=M): ndarray (M + 1,), the
@@ -282,7 +357,8 @@ def fit_segments(
     ValueError, TypeError
         Invalid input (the message names the argument): n_changes < 0 or
         more than the data can hold with min_size, β < 0, an unknown penalty
-        rule, min_size < p, both n_changes and penalty given, too few samples.
+        rule or cost, min_size < p (<= p with "normal"), both n_changes and
+        penalty given, too few samples.
     SingularProblemError
         The regressors are linearly dependent over the whole data set.
 
@@ -301,6 +377,7 @@ def fit_segments(
             f"loss: fit_segments uses the squared loss only (its exact dynamic program relies "
             f"on it), received {loss!r}; for outliers use ltvmodels.fit(..., loss='huber')"
         )
+    cost = options.segment_cost(cost)
     data = state_space_data(x, u, weights=weights, constant=constant, regular=regular)
     if not isinstance(compute_cov, bool):
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
@@ -308,9 +385,10 @@ def fit_segments(
         fixed, data.regressor_names, "the state, input and intercept names"
     )
     n_changing = data.problem.p - len(fixed_columns)
-    min_size = options.trimmed_min_size(trim, min_size, data.problem.N, n_changing)
+    smallest = options.smallest_segment(n_changing, cost)
+    min_size = options.trimmed_min_size(trim, min_size, data.problem.N, smallest)
     result = _segment(
-        data.problem, n_changes, penalty, min_size, data_name="x", fixed=fixed_columns
+        data.problem, n_changes, penalty, min_size, cost=cost, data_name="x", fixed=fixed_columns
     )
     n_params = (result.n_changes + 1) * n_changing + len(fixed_columns)
     if data.problem.n_observed <= n_params:
@@ -372,6 +450,9 @@ def _segmentation_model(model: Any, result: Segmentation) -> Any:
                 "tolerance": result.tolerance,
             }
         )
+    if result.cost_name != "rss":  # the default's info (and its files) stay as they were
+        model.info["cost_name"] = result.cost_name
+        model.info["segment_variances"] = result.segment_variances
     return model
 
 
@@ -433,23 +514,9 @@ def _noise_variance(problem: RegressionProblem, min_size: int | None, remedy: st
 
     ``remedy`` ("argument: what to do") ends the error when no window can be fitted.
     """
-    N, n, p = problem.N, problem.n, problem.p
-    y, phi, observed = problem.y, problem.phi, problem.observed
-    w = max(4 * p, 20, min_size or 0)
-    if N < 2 * w:
-        bounds = [0, N]
-    else:  # windows of w rows, the last one takes the remainder (w <= length < 2w)
-        bounds = [i * w for i in range(N // w)] + [N]
+    n, p, y = problem.n, problem.p, problem.y
     ratios, dofs = [], []
-    for a, b in itertools.pairwise(bounds):
-        rows = int(observed[a:b].sum())
-        if rows <= p:
-            continue
-        phi_w, y_w = phi[a:b].reshape(-1, p), y[a:b].reshape(-1, n)
-        coef, _, rank, _ = np.linalg.lstsq(phi_w, y_w, rcond=None)
-        if rank < p:
-            continue
-        resid = y_w - phi_w @ coef
+    for resid, rows in _window_fits(problem, min_size):
         dof = n * (rows - p)
         ratios.append(float(np.sum(resid**2)) / dof)
         dofs.append(dof)
@@ -464,6 +531,49 @@ def _noise_variance(problem: RegressionProblem, min_size: int | None, remedy: st
     return max(sigma2, 1e-12 * float(np.sum(y**2)) / max(problem.n_observed * n, 1))
 
 
+def _window_fits(problem: RegressionProblem, min_size: int | None):
+    """The least-squares residuals (rows·q, n) and observed rows of each window of
+    :func:`noise_variance_estimate` with more rows than regressors and full rank."""
+    N, n, p = problem.N, problem.n, problem.p
+    y, phi, observed = problem.y, problem.phi, problem.observed
+    w = max(4 * p, 20, min_size or 0)
+    if N < 2 * w:
+        bounds = [0, N]
+    else:  # windows of w rows, the last one takes the remainder (w <= length < 2w)
+        bounds = [i * w for i in range(N // w)] + [N]
+    for a, b in itertools.pairwise(bounds):
+        rows = int(observed[a:b].sum())
+        if rows <= p:
+            continue
+        phi_w, y_w = phi[a:b].reshape(-1, p), y[a:b].reshape(-1, n)
+        coef, _, rank, _ = np.linalg.lstsq(phi_w, y_w, rcond=None)
+        if rank < p:
+            continue
+        yield y_w - phi_w @ coef, rows
+
+
+def _variance_floor(problem: RegressionProblem, min_size: int) -> np.ndarray:
+    """σ²_floor (n,) of ``cost="normal"``: :data:`VARIANCE_FLOOR` times each output's
+    median windowed residual variance (the windows of :func:`noise_variance_estimate`,
+    which the changes do not inflate, unlike the whole data's residual or variance).
+
+    Where that median is zero (most windows fit exactly) the mean over the windows is
+    used, then the mean square of the output, then 1: the floor must be positive.
+    """
+    n, p = problem.n, problem.p
+    ratios = [
+        np.sum(resid**2, axis=0) / (rows - p) for resid, rows in _window_fits(problem, min_size)
+    ]
+    scale = np.zeros(n)
+    if ratios:
+        stacked = np.array(ratios)
+        scale = np.median(stacked, axis=0)
+        scale = np.where(scale > 0, scale, stacked.mean(axis=0))
+    mean_square = np.sum(problem.y**2, axis=(0, 1)) / max(problem.n_observed, 1)
+    scale = np.where(scale > 0, scale, mean_square)
+    return VARIANCE_FLOOR * np.where(scale > 0, scale, 1.0)
+
+
 # -- shared driver -----------------------------------------------------------------------
 
 
@@ -473,15 +583,23 @@ def _segment(
     penalty: Any,
     min_size: Any,
     *,
+    cost: SegmentCost,
     data_name: str,
     fixed: tuple[int, ...] = (),
 ) -> Segmentation:
     """Validate the options and run the dynamic program or PELT on a validated problem
-    (with ``fixed`` columns, validated: the partial-change searches)."""
-    N, p = problem.N, problem.p
+    (with ``fixed`` columns, validated: the partial-change searches; ``cost`` validated by
+    the caller)."""
+    N, n, p = problem.N, problem.n, problem.p
     y, phi = problem.y, problem.phi
+    if fixed and cost != "rss":
+        raise ValueError(
+            f"fixed, cost: the partial structural-change search minimizes the residual sum "
+            f"of squares only, received fixed columns {list(fixed)} with cost={cost!r}; use "
+            "cost='rss' with fixed, or segment with cost='normal' without fixed"
+        )
     options.segment_mode(n_changes, penalty)
-    min_size = options.segment_min_size(min_size, p - len(fixed))
+    min_size = options.segment_min_size(min_size, p - len(fixed), cost)
     options.segmentable_length(N, min_size, data_name)
     if n_changes is not None:
         M = options.n_changes_count(n_changes, N, min_size)
@@ -512,23 +630,34 @@ def _segment(
         )
         partial_result = _segment_partial(problem, scaled, fixed, M, penalty_value, min_size, a_max)
         return replace(partial_result, fixed=fixed)
+    normal = cost == "normal"
+    # n_s of a segment [a, b) is counts[b] − counts[a]: the observed rows, not weight sums
+    counts = np.zeros(N + 1, dtype=np.int64)
+    np.cumsum(np.count_nonzero(problem.observed, axis=1), out=counts[1:])
+    floor = _variance_floor(problem, min_size) if normal else np.ones(n)
+    kernel_cost = (search.NORMAL, counts, floor / unit) if normal else (search.RSS, counts, floor)
+    # the Gaussian cost of the scaled data is shifted by n_s · n · log y_scale² per segment
+    shift = problem.n_observed * n * np.log(unit) if normal else 0.0
 
     if beta_spec is None:  # n_changes given: M >= 0 changes
         if M == 1:  # O(N): one forward and one backward pass
-            best, starts = search.one_change(scaled.data, p, a_max)
+            best, starts = search.one_change(scaled.data, p, a_max, *kernel_cost)
         else:
-            best, starts = search.dynamic_program(scaled.data, p, M, min_size, a_max)
-        costs = best * unit
+            best, starts = search.dynamic_program(scaled.data, p, M, min_size, a_max, *kernel_cost)
+        costs = best + shift if normal else best * unit
         finite = np.isfinite(costs)
         lowest = costs[finite].min()
         # the largest m within roundoff of the best (exactly M in the usual case)
-        tol = 1e-12 * lowest + 1e-14 * float(np.sum(y**2))
+        if normal:  # a log-likelihood: its roundoff scales with the number of terms
+            tol = 1e-12 * (abs(lowest) + problem.n_observed * n)
+        else:
+            tol = 1e-12 * lowest + 1e-14 * float(np.sum(y**2))
         m_opt = int(np.flatnonzero(finite & (costs <= lowest + tol)).max())
         changepoints = search.backtrack_layers(starts, m_opt)
-        cost = float(costs[m_opt])
-        result = dict(
-            cost=cost,
-            objective=cost,
+        total = float(costs[m_opt])
+        result: dict[str, Any] = dict(
+            cost=total,
+            objective=total,
             costs_by_n_changes=costs,
             penalty=None,
             penalty_rule=None,
@@ -537,15 +666,32 @@ def _segment(
             work=2 * N if M == 1 else N * (N + 1) // 2,
         )
     else:
-        beta, sigma2, rule = _penalty_value(problem, beta_spec, min_size, data_name, p)
-        margin = search.PRUNE_MARGIN * float(np.sum(scaled.data[..., p:] ** 2))
-        last, _, work = search.pelt(scaled.data, p, beta / unit, min_size, a_max, margin)
+        rule: str | None
+        if isinstance(beta_spec, str) and normal:  # a likelihood: no noise variance scaling
+            K = n * p + n + 1  # coefficients, noise variances and date of one more segment
+            beta = K * np.log(N) if beta_spec == "bic" else 2.0 * K
+            sigma2, rule = None, beta_spec
+        else:
+            beta, sigma2, rule = _penalty_value(problem, beta_spec, min_size, data_name, p)
+        if normal:  # roundoff of a sum of n_s · n terms of size about 1 + |log σ²|
+            size = 1.0 + abs(float(np.log(floor.min() / unit))) + np.log(problem.n_observed * n)
+            margin = search.PRUNE_MARGIN * problem.n_observed * n * size
+            beta_scaled = beta
+        else:
+            margin = search.PRUNE_MARGIN * float(np.sum(scaled.data[..., p:] ** 2))
+            beta_scaled = beta / unit
+        last, _, work = search.pelt(
+            scaled.data, p, beta_scaled, min_size, a_max, margin, *kernel_cost
+        )
         changepoints = search.backtrack_last(last)
         # the cost itself, not objective − β·M (which cancels when β dominates)
-        cost = _residual_sum_of_squares(y, phi, changepoints)
-        objective = cost + beta * len(changepoints)
+        if normal:
+            total = _normal_cost(problem, changepoints, floor)
+        else:
+            total = _residual_sum_of_squares(y, phi, changepoints)
+        objective = total + beta * len(changepoints)
         result = dict(
-            cost=cost,
+            cost=total,
             objective=objective,
             costs_by_n_changes=None,
             penalty=float(beta),
@@ -560,6 +706,8 @@ def _segment(
         segments=[[int(a), int(b)] for a, b in itertools.pairwise(bounds)],
         n_changes=len(changepoints),
         min_size=min_size,
+        cost_name=cost,
+        segment_variances=_segment_variances(problem, changepoints, floor) if normal else None,
         **result,
     )
 
@@ -731,6 +879,37 @@ def _segment_partial(
         tolerance=None if exact else partial_change.TOLERANCE,
         **result,
     )
+
+
+def _segment_residuals(
+    problem: RegressionProblem, changepoints: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each segment's least-squares residual sum of squares per output (M + 1, n), by QR,
+    and its observed rows (M + 1,)."""
+    y, phi, observed = problem.y, problem.phi, problem.observed
+    bounds = np.concatenate([[0], changepoints, [y.shape[0]]])
+    rss, rows = [], []
+    for a, b in itertools.pairwise(bounds):
+        phi_s, y_s = phi[a:b].reshape(-1, phi.shape[2]), y[a:b].reshape(-1, y.shape[2])
+        q, _ = np.linalg.qr(phi_s)
+        rss.append(np.sum((y_s - q @ (q.T @ y_s)) ** 2, axis=0))
+        rows.append(np.count_nonzero(observed[a:b]))
+    return np.array(rss), np.array(rows)
+
+
+def _segment_variances(
+    problem: RegressionProblem, changepoints: np.ndarray, floor: np.ndarray
+) -> np.ndarray:
+    """σ̂² = max(RSS / n_s, σ²_floor) of each segment and output, (M + 1, n)."""
+    rss, rows = _segment_residuals(problem, changepoints)
+    return np.maximum(rss / rows[:, None], floor)
+
+
+def _normal_cost(problem: RegressionProblem, changepoints: np.ndarray, floor: np.ndarray) -> float:
+    """Σ_s Σ_i n_s log σ̂²_si + RSS_si / σ̂²_si, the Gaussian cost of a segmentation."""
+    rss, rows = _segment_residuals(problem, changepoints)
+    variances = np.maximum(rss / rows[:, None], floor)
+    return float(np.sum(rows[:, None] * np.log(variances) + rss / variances))
 
 
 def _residual_sum_of_squares(y: np.ndarray, phi: np.ndarray, changepoints: np.ndarray) -> float:

@@ -82,9 +82,9 @@ def plot_breaks(
             )
         fitted = segmentation.model.predict(phi)[:, 0]
         ax.plot(axis.values, fitted, color="C0", lw=1.8, label="fitted segments")
-    intervals = None
+    intervals, interval_label = None, ""
     if level is not None and segmentation.n_changes:
-        intervals = segmentation.confint(level)
+        intervals, interval_label = segmentation.confint(level), f"{100 * level:g} % intervals"
     for i, c in enumerate(np.asarray(segmentation.changepoints, dtype=int)):
         first = i == 0
         ax.axvline(
@@ -103,7 +103,7 @@ def plot_breaks(
                 color="C3",
                 alpha=0.12,
                 lw=0,
-                label=f"{100 * level:g} % intervals" if first else None,
+                label=interval_label if first else None,
             )
     axis.draw_on(ax)
     ax.set_ylabel(_response_name(segmentation))

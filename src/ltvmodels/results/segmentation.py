@@ -28,7 +28,11 @@ class Segmentation:
     segments : list of [start, stop]
         The M + 1 segments [start, stop) of row indices.
     cost : float
-        Residual sum of squares Σ_t ‖y_t − Θ_t φ_t‖² of the optimal segmentation.
+        The cost of the optimal segmentation, in the units of ``cost_name``:
+        the residual sum of squares Σ_t ‖y_t − Θ_t φ_t‖² ("rss"), or
+        Σ_s Σ_i [n_s log σ̂²_si + RSS_si / σ̂²_si], −2 × the maximized Gaussian
+        log-likelihood without the constant N · n · log 2π ("normal"; N the
+        observed rows).
     objective : float
         ``cost`` for a given number of changes; ``cost + penalty · M`` with a penalty.
     n_changes : int
@@ -79,6 +83,12 @@ class Segmentation:
     tolerance : float or None
         Its tolerance on the relative decrease of the objective per iteration
         (None for an exact search).
+    cost_name : {"rss", "normal"}
+        The segment cost that was minimized.
+    segment_variances : ndarray, shape (M + 1, n), or None
+        With ``cost_name="normal"``: each segment's noise variance per output
+        σ̂²_si = max(RSS_si / n_s, σ²_floor,i) (maximum likelihood, floored);
+        None with "rss".
     """
 
     changepoints: np.ndarray
@@ -100,6 +110,8 @@ class Segmentation:
     iterations: int = 0
     converged: bool = True
     tolerance: float | None = None
+    cost_name: str = "rss"
+    segment_variances: np.ndarray | None = field(default=None, compare=False)
 
     @property
     def changepoint_times(self) -> np.ndarray | None:
@@ -115,7 +127,9 @@ class Segmentation:
         """Confidence intervals of the break dates (Bai 1997), as R's strucchange.
 
         For each change point c the interval of the date where the new
-        segment's coefficients start, from the limit distribution of the
+        segment's coefficients start (a change of the coefficients: with
+        ``cost="normal"``, a change of the noise level alone has no interval
+        here), from the limit distribution of the
         estimated date (:mod:`ltvmodels.core.breaks`), with strucchange's
         ``confint.breakpointsfull`` conventions: the same numbers on the same
         data (the row index c here is strucchange's break number).
@@ -212,12 +226,23 @@ class Segmentation:
         With fixed regressors RSS_m for m >= 2 is the iterated procedure's
         (a local optimum at worst, see :func:`ltvmodels.segment_regression`).
 
+        With ``cost_name="normal"`` the optimal cost C_m is already −2ℓ_m
+        without its n · log 2π term, with a noise variance per segment (floored:
+        see :func:`ltvmodels.fit_segments`), so
+
+        * ℓ_m = −(C_m + n log 2π) / 2;
+        * BIC_m = −2ℓ_m + ((p + 1)(m + 1) + m) log n: the coefficients and the
+          noise variance of each of the m + 1 segments, and the m break dates;
+
+        LWZ, a criterion for one common noise variance, is not given.
+
         Returns
         -------
         dict
-            ``n_changes`` (M + 1,) = 0 … M, ``rss``, ``loglik``, ``bic``, ``lwz``
-            (M + 1,) each (inf / nan where no segmentation has m changes), and
-            ``best_bic``, ``best_lwz``: the m that minimizes each.
+            ``n_changes`` (M + 1,) = 0 … M, ``cost`` (the optimal costs),
+            ``loglik``, ``bic`` (M + 1,) each (inf / nan where no segmentation
+            has m changes) and ``best_bic``, the m that minimizes BIC; with
+            "rss" also ``rss`` (= ``cost``), ``lwz`` and ``best_lwz``.
 
         Raises
         ------
@@ -236,6 +261,16 @@ class Segmentation:
         n_fixed = len(self.fixed)  # the moments are those of the p changing regressors
         rss = np.asarray(self.costs_by_n_changes, dtype=float)
         m = np.arange(rss.size)
+        if self.cost_name == "normal":
+            loglik = -0.5 * (rss + rows * np.log(2 * np.pi))
+            bic = -2 * loglik + ((p + 1) * (m + 1) + m) * np.log(rows)
+            return {
+                "n_changes": m,
+                "cost": rss,
+                "loglik": loglik,
+                "bic": bic,
+                "best_bic": int(np.nanargmin(bic)),
+            }
         with np.errstate(divide="ignore", invalid="ignore"):
             loglik = -0.5 * rows * (np.log(rss / rows) + 1 + np.log(2 * np.pi))
             bic = -2 * loglik + (n_fixed + (p + 1) * (m + 1)) * np.log(rows)
@@ -243,6 +278,7 @@ class Segmentation:
             lwz = np.log(rss / (rows - free)) + free * 0.299 * np.log(rows) ** 2.1 / rows
         return {
             "n_changes": m,
+            "cost": rss,
             "rss": rss,
             "loglik": loglik,
             "bic": bic,
@@ -274,7 +310,7 @@ class Segmentation:
             (
                 ("changes", how),
                 ("solver", self.solver),
-                ("RSS", number_text(self.cost, 6)),
+                self._cost_line(),
                 ("minimum segment", f"{self.min_size} rows"),
             )
             + (
@@ -287,9 +323,11 @@ class Segmentation:
             ),
         )
         sections = [search]
-        if self.n_changes and self._single_output:
+        if self.segment_variances is not None:
+            sections.append(self._variances_section())
+        elif self.n_changes and self._single_output:
             sections.append(self._breaks_section(level))
-        if self.costs_by_n_changes is not None and self._single_output:
+        if self.costs_by_n_changes is not None and self._single_output and self.cost_name == "rss":
             table = self.criteria()
             rows = tuple(
                 (str(m), number_text(rss, 6), number_text(bic, 6), number_text(lwz, 6))
@@ -304,9 +342,49 @@ class Segmentation:
                     (Table("criteria", ("changes", "RSS", "BIC", "LWZ"), rows),),
                 )
             )
+        elif self.costs_by_n_changes is not None and self._single_output:
+            table = self.criteria()
+            lines = tuple(
+                (str(m), number_text(cost, 6), number_text(bic, 6))
+                for m, cost, bic in zip(table["n_changes"], table["cost"], table["bic"])
+            )
+            sections.append(
+                Section(
+                    "Number of changes",
+                    (("BIC picks", str(table["best_bic"])),),
+                    (Table("criteria", ("changes", "−2 log L − n log 2π", "BIC"), lines),),
+                )
+            )
         if self.model is not None:
             sections += self.model.summary().sections
         return Summary(f"Segmentation({how}, solver={self.solver!r})", sections)
+
+    def _variances_section(self) -> Section:
+        """Each segment's rows (and times) with its noise variances (``cost="normal"``):
+        the break-date intervals of :meth:`confint` are those of a change of the
+        coefficients, not of the noise level, so they are not reported here."""
+        variances = np.asarray(self.segment_variances)
+        header: tuple[str, ...] = ("segment", "rows")
+        if self.time is not None:
+            header += ("from (time)",)
+        header += tuple(f"σ² output {i}" for i in range(variances.shape[1]))
+        rows = []
+        for j, (a, b) in enumerate(self.segments):
+            row = [str(j + 1), f"{a}–{b - 1}"]
+            if self.time is not None:
+                row += time_text(self.time[[a]])
+            rows.append((*row, *(number_text(v, 6) for v in variances[j])))
+        return Section(
+            "Segments",
+            (("noise", "a variance per segment and output (maximum likelihood, floored)"),),
+            (Table("noise variances", header, tuple(rows)),),
+        )
+
+    def _cost_line(self) -> tuple[str, str]:
+        """The summary's line for the optimal cost, named after the cost."""
+        if self.cost_name == "normal":
+            return ("−2 log L − n log 2π", number_text(self.cost, 6))
+        return ("RSS", number_text(self.cost, 6))
 
     def _repr_html_(self) -> str:
         return self.summary().as_html()

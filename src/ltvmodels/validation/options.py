@@ -24,6 +24,7 @@ __all__ = [
     "Loss",
     "PriorMode",
     "PenaltyRule",
+    "SegmentCost",
     "ManyMethod",
     "NORMS",
     "SPARSE_NORMS",
@@ -59,6 +60,8 @@ __all__ = [
     "lag_orders",
     "enough_samples",
     "enough_rows",
+    "segment_cost",
+    "smallest_segment",
     "segment_min_size",
     "segmentable_length",
     "n_changes_count",
@@ -85,12 +88,16 @@ PriorMode = Literal["exact", "posthoc"]
 """How a prior enters a fit with the squared norm."""
 PenaltyRule = Literal["bic", "aic"]
 """The rules for the penalty per change of a segmentation."""
+SegmentCost = Literal["rss", "normal"]
+"""The cost of a segment: its residual sum of squares, or its Gaussian −2 log-likelihood
+with its own noise variance."""
 ManyMethod = Literal["fit", "segments", "lti"]
 """The estimators :func:`ltvmodels.fit_many` runs by name."""
 
 NORMS: tuple[Norm, ...] = get_args(Norm)
 SPARSE_NORMS: tuple[SparseNorm, ...] = get_args(SparseNorm)
 PENALTY_RULES: tuple[PenaltyRule, ...] = get_args(PenaltyRule)
+SEGMENT_COSTS: tuple[SegmentCost, ...] = get_args(SegmentCost)
 PRIOR_MODES: tuple[PriorMode, ...] = get_args(PriorMode)
 
 
@@ -569,9 +576,9 @@ def _enough(N, p, d, observed, n_rows, name, rows, note, total_hint, offset) -> 
 
 
 def trimmed_min_size(trim: Any, min_size: Any, N: int, p: int) -> Any:
-    """``min_size`` as given, or ⌊trim · N⌋ (at least ``p``, the smallest well-posed
-    segment) for a trimming fraction ``trim`` in (0, 0.5) (strucchange's ``h``); both
-    given is an error."""
+    """``min_size`` as given, or ⌊trim · N⌋ (at least ``p``, the smallest segment
+    allowed: :func:`smallest_segment`) for a trimming fraction ``trim`` in (0, 0.5)
+    (strucchange's ``h``); both given is an error."""
     if trim is None:
         return min_size
     if min_size is not None:
@@ -583,23 +590,54 @@ def trimmed_min_size(trim: Any, min_size: Any, N: int, p: int) -> Any:
     return max(p, int(np.floor(trim_fraction(trim) * N)))
 
 
-def segment_min_size(value: Any, p: int) -> int:
-    """Minimum segment length: None (→ p) or an integer >= p.
+def segment_cost(value: Any) -> SegmentCost:
+    """The cost of a segment: "rss" or "normal"."""
+    if not isinstance(value, str) or value not in SEGMENT_COSTS:
+        raise ValueError(
+            f"cost: expected one of {SEGMENT_COSTS} ('rss': the residual sum of squares; "
+            "'normal': the Gaussian likelihood with a noise variance per segment, which also "
+            f"sees changes of the noise level), received {describe(value)}; use one of them"
+        )
+    return value  # one of the options
+
+
+def smallest_segment(p: int, cost: SegmentCost) -> int:
+    """The smallest ``min_size`` a cost allows: p for "rss" (least squares is well
+    posed), p + 1 for "normal" (a segment of p rows fits exactly: its noise variance is
+    zero)."""
+    return p if cost == "rss" else p + 1
+
+
+def segment_min_size(value: Any, p: int, cost: SegmentCost = "rss") -> int:
+    """Minimum segment length: None (→ the default of the cost) or an integer >= the
+    smallest the cost allows (:func:`smallest_segment`).
 
     A segment with fewer samples than the p regressors of each output row has
-    no unique least-squares fit.
+    no unique least-squares fit; one of exactly p rows has a zero residual, so no
+    noise variance. The default is p for "rss" and max(2p, p + 5) for "normal":
+    each segment's variance then rests on at least max(p, 5) residual degrees of
+    freedom, so that a short segment's chance small residual (log σ̂² has a long
+    lower tail with few degrees of freedom) does not pass for a change of the noise
+    level.
     """
+    bound = f"p = {p}" if cost == "rss" else f"p + 1 = {p + 1}"
     if value is None:
-        return p
+        return p if cost == "rss" else max(2 * p, p + 5)
     if isinstance(value, bool) or not isinstance(value, Integral):
         raise TypeError(
-            f"min_size: expected None or an integer >= p = {p}, received {describe(value)}"
+            f"min_size: expected None or an integer >= {bound}, received {describe(value)}"
         )
-    if value < p:
+    if value < smallest_segment(p, cost):
+        if cost == "rss":
+            raise ValueError(
+                f"min_size: expected an integer >= p = {p} (a segment needs at least as many "
+                f"samples as regressors for its least squares to be well posed), received "
+                f"{int(value)}"
+            )
         raise ValueError(
-            f"min_size: expected an integer >= p = {p} (a segment needs at least as many "
-            f"samples as regressors for its least squares to be well posed), received "
-            f"{int(value)}"
+            f"min_size: expected an integer >= p + 1 = {p + 1} with cost='normal' (a segment "
+            f"of p samples fits exactly, so it has no noise variance), received {int(value)}; "
+            "give a larger min_size, or leave it out for the default max(2p, p + 5)"
         )
     return int(value)
 

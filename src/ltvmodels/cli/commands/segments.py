@@ -302,7 +302,7 @@ def _run_regression(args: argparse.Namespace) -> Report:
             trim=args.trim,
             weights=data.weights,
             regular=opt.regular_time(args),
-            fixed=_fixed(args.fixed, data.phi.names),
+            fixed=_fixed(args.fixed, data.regressor_names),
         )
     test = None
     if args.test is not None:
@@ -323,8 +323,8 @@ def _run_regression(args: argparse.Namespace) -> Report:
     report: dict[str, Any] = {
         "command": "segments",
         "data": data.label,
-        "response": data.y.names[0],
-        "regressors": data.phi.names,
+        "response": data.response_name,
+        "regressors": data.regressor_names,
         "rows": len(data.y),
         "changepoints": seg.changepoints,
         "cost": seg.cost,
@@ -348,10 +348,10 @@ def _run_regression(args: argparse.Namespace) -> Report:
         report["criteria"] = {key: table[key] for key in ("rss", "bic", "lwz")}
         report["criteria"].update(best_bic=table["best_bic"], best_lwz=table["best_lwz"])
     if seg.fixed:
-        report["fixed"] = [data.phi.names[i] for i in seg.fixed]
+        report["fixed"] = [data.regressor_names[i] for i in seg.fixed]
     if test is not None:
         report["test"] = _test_report(test)
-    regression = f"{data.y.names[0]} ~ {' + '.join(data.phi.names)}"
+    regression = f"{data.response_name} ~ {' + '.join(data.regressor_names)}"
     lines = [f"ltvmodels segments: {data.label}, {regression}, {len(data.y)} rows"]
     lines += str(seg.summary(level)).splitlines()
     if test is not None:
