@@ -138,3 +138,34 @@ def test_fixed_inputs_of_a_state_space_recording(tmp_path, capsys):
     report = json.loads(out)
     assert report["changepoints"] == model.changepoints.tolist() == [200]
     assert report["cost"] == pytest.approx(model.info["cost"], rel=1e-12)
+
+
+def test_cost_normal_finds_a_change_of_the_noise_level(tmp_path, capsys):
+    rng = np.random.default_rng(2)
+    level = np.r_[rng.normal(0, 1, 300), rng.normal(0, 3, 300)]
+    path = tmp_path / "noise.csv"
+    pd.DataFrame({"level": level}).to_csv(path, index=False)
+    argv = ["segments", path, "--response", "level", "--constant", "--n-changes", "3"]
+    code, out, err = _run([*argv, "--cost", "normal", "--json"], capsys)
+    assert code == 0, err
+    report = json.loads(out)
+    seg = ltv.segment_regression(level, np.ones(600), n_changes=3, cost="normal")
+    assert report["cost_name"] == "normal" and report["changepoints"] == seg.changepoints.tolist()
+    np.testing.assert_allclose(report["segment_variances"], seg.segment_variances, rtol=1e-12)
+    table = seg.criteria()
+    assert report["criteria"]["best_bic"] == table["best_bic"]
+    assert "lwz" not in report["criteria"]  # one noise variance for all segments is LWZ's model
+    # a state-space recording: x[t+1] = 0.5 x[t] + e with the noise level changing
+    x = np.zeros(600)
+    for t in range(599):
+        x[t + 1] = 0.5 * x[t] + (1.0 if t < 300 else 3.0) * rng.standard_normal()
+    pd.DataFrame({"x": x}).to_csv(path, index=False)
+    code, out, err = _run(
+        ["segments", path, "--state", "x", "--n-changes", "1", "--cost", "normal", "--json"], capsys
+    )
+    assert code == 0, err
+    report = json.loads(out)
+    model = ltv.fit_segments(x, n_changes=1, cost="normal")
+    assert report["changepoints"] == model.changepoints.tolist()
+    assert abs(report["changepoints"][0] - 300) <= 12
+    assert report["cost_name"] == "normal"

@@ -137,6 +137,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "change (e.g. seasonal terms)",
     )
     p.add_argument(
+        "--cost",
+        choices=["rss", "normal"],
+        default="rss",
+        help="the cost of a segment: its residual sum of squares (default), or normal: "
+        "the Gaussian likelihood with a noise variance per segment, which also finds "
+        "changes of the noise level",
+    )
+    p.add_argument(
         "--test",
         choices=["supF", "aveF", "expF", "sequential"],
         default=None,
@@ -205,6 +213,7 @@ def run(args: argparse.Namespace) -> Report:
             constant=args.constant,
             weights=data.weights,
             fixed=_fixed(args.fixed, [*data.state_names, *data.input_names]),
+            cost=args.cost,
         )
     model = record_columns(
         model,
@@ -218,6 +227,7 @@ def run(args: argparse.Namespace) -> Report:
         {
             k: info.get(k)
             for k in ("cost", "objective", "n_changes", "penalty", "penalty_rule", "min_size")
+            + (("cost_name", "segment_variances") if args.cost != "rss" else ())
         }
     )
     lines.insert(
@@ -303,6 +313,7 @@ def _run_regression(args: argparse.Namespace) -> Report:
             weights=data.weights,
             regular=opt.regular_time(args),
             fixed=_fixed(args.fixed, data.regressor_names),
+            cost=args.cost,
         )
     test = None
     if args.test is not None:
@@ -334,7 +345,10 @@ def _run_regression(args: argparse.Namespace) -> Report:
         "penalty_rule": seg.penalty_rule,
         "min_size": seg.min_size,
         "solver": seg.solver,
+        "cost_name": seg.cost_name,
     }
+    if seg.segment_variances is not None:
+        report["segment_variances"] = seg.segment_variances
     times = seg.changepoint_times
     if times is not None:
         report["changepoint_times"] = time_text(times)
@@ -345,8 +359,9 @@ def _run_regression(args: argparse.Namespace) -> Report:
             report["confint"]["times"] = [time_text(row) for row in interval_times]
     if seg.costs_by_n_changes is not None and seg.moments is not None:
         table = seg.criteria()
-        report["criteria"] = {key: table[key] for key in ("rss", "bic", "lwz")}
-        report["criteria"].update(best_bic=table["best_bic"], best_lwz=table["best_lwz"])
+        report["criteria"] = {
+            key: value for key, value in table.items() if key not in ("n_changes", "loglik")
+        }
     if seg.fixed:
         report["fixed"] = [data.regressor_names[i] for i in seg.fixed]
     if test is not None:
