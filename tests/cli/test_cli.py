@@ -503,7 +503,7 @@ def test_warnings_are_one_line_each(workdir, capsys):
         (["fit", "{tmp}/d.parquet", "--state", "a"], "d.parquet"),
         (
             ["segments", "{data}", "--state", "x1", "--n-changes", "1", "--penalty", "2"],
-            "not allowed with",
+            "n_changes, penalty: expected one of them",
         ),
         (["segments", "{data}", "--state", "x1", "--n-changes", "500"], "--n-changes: 500"),
         (["ar", "{data}", "--column", "x1", "--na", "500"], "--column data: the series is"),

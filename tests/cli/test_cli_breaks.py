@@ -169,3 +169,15 @@ def test_cost_normal_finds_a_change_of_the_noise_level(tmp_path, capsys):
     assert report["changepoints"] == model.changepoints.tolist()
     assert abs(report["changepoints"][0] - 300) <= 12
     assert report["cost_name"] == "normal"
+
+
+def test_bic_chooses_the_number_of_breaks_as_strucchange(seatbelt_csv, capsys):
+    path, _ = seatbelt_csv
+    argv = ["segments", path, "--response", "y", "--lags", "1,12", "--constant", "--trim", "0.1"]
+    code, out, err = _run([*argv, "--n-changes", "8", "--penalty", "bic", "--json"], capsys)
+    assert code == 0, err
+    report = json.loads(out)
+    assert report["n_changes"] == 0 and report["penalty_rule"] == "bic"  # strucchange: 0
+    code, out, err = _run([*argv, "--n-changes", "8", "--penalty", "lwz"], capsys)
+    assert code == 0, err
+    assert "LWZ picks among 0 … 8" in out

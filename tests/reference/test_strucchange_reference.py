@@ -110,6 +110,10 @@ def test_the_rss_and_bic_table_equals_strucchange_and_lwz_its_formula():
     np.testing.assert_allclose(table["lwz"], lwz, rtol=1e-12)
     with pytest.raises(ValueError, match="found with a penalty"):
         ltv.segment_regression(y, phi, penalty="bic", min_size=18).criteria()
+    # strucchange's breakpoints(bp) picks by that BIC; so does n_changes=8 with penalty="bic"
+    chosen = ltv.segment_regression(y, phi, n_changes=8, trim=0.1, penalty="bic")
+    assert chosen.n_changes == 0 and chosen.penalty_rule == "bic" and chosen.penalty is None
+    np.testing.assert_allclose(chosen.costs_by_n_changes, case["rss_table"], rtol=1e-9)
 
 
 def test_trim_is_a_fraction_of_the_rows_and_excludes_min_size():

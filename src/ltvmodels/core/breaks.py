@@ -23,7 +23,7 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.special import log_ndtr
 
-__all__ = ["argmax_cdf", "break_interval", "segment_moments"]
+__all__ = ["argmax_cdf", "break_interval", "segment_moments", "information_criteria"]
 
 # The search for a bracket of the quantiles widens by this many units at a time,
 # at most this many times (strucchange widens by 1000 without a bound).
@@ -184,3 +184,74 @@ def segment_moments(
         "pooled_second_moment": np.tensordot(rows_array, moments_array, axes=1) / total,
         "pooled_variance": np.sum(rss, axis=0) / total,
     }
+
+
+def information_criteria(
+    costs: np.ndarray,
+    rows: int,
+    n_outputs: int,
+    n_changing: int,
+    n_fixed: int = 0,
+    cost: str = "rss",
+) -> dict[str, np.ndarray | int]:
+    """Information criteria of the optimal segmentations with 0 … M changes.
+
+    With the optimal cost C_m of each number of changes m (``costs``, from the
+    dynamic program), over ``rows`` observed rows of n outputs, p_z changing
+    and p_x fixed regressors per output:
+
+    * ``cost="rss"`` (C_m a residual sum of squares, one noise variance for
+      all segments and outputs): ℓ_m = −(r/2) (log(C_m / r) + 1 + log 2π),
+      r = rows · n; BIC_m = −2ℓ_m + k_m log(rows) with
+      k_m = n p_x + n p_z (m + 1) + m + 1 (the coefficients, the break dates
+      and the variance: strucchange's count, Bai and Perron 2003); LWZ_m =
+      log(C_m / (r − k*)) + k* · 0.299 (log r)^2.1 / r with k* = k_m − 1 (Liu,
+      Wu and Zidek 1997); AIC_m = −2ℓ_m + 2 k_m.
+    * ``cost="normal"`` (C_m = −2ℓ_m − r log 2π, a variance per segment and
+      output): ℓ_m = −(C_m + r log 2π)/2, k_m = n p_x + (n p_z + n)(m + 1) + m;
+      no LWZ (it assumes one variance).
+
+    Parameters
+    ----------
+    costs : ndarray, shape (M + 1,)
+        C_0 … C_M (inf where no segmentation has m changes).
+    rows : int
+        The observed rows.
+    n_outputs, n_changing, n_fixed : int
+        n, p_z and p_x.
+    cost : {"rss", "normal"}
+
+    Returns
+    -------
+    dict
+        ``n_changes`` (0 … M), ``loglik``, ``bic``, ``aic`` (and ``lwz`` for
+        "rss"), each (M + 1,), and ``best_bic``, ``best_aic`` (``best_lwz``):
+        the m that minimizes each.
+    """
+    costs = np.asarray(costs, dtype=float)
+    m = np.arange(costs.size)
+    n, observations = n_outputs, rows * n_outputs
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if cost == "normal":
+            loglik = -0.5 * (costs + observations * np.log(2 * np.pi))
+            params = n * n_fixed + (n * n_changing + n) * (m + 1) + m
+        else:
+            loglik = -0.5 * observations * (np.log(costs / observations) + 1 + np.log(2 * np.pi))
+            params = n * n_fixed + n * n_changing * (m + 1) + m + 1
+        table: dict[str, np.ndarray | int] = {
+            "n_changes": m,
+            "loglik": loglik,
+            "bic": -2 * loglik + params * np.log(rows),
+            "aic": -2 * loglik + 2 * params,
+        }
+        if cost != "normal":
+            free = params - 1
+            table["lwz"] = (
+                np.log(costs / (observations - free))
+                + free * 0.299 * np.log(observations) ** 2.1 / observations
+            )
+    for name in ("bic", "aic", "lwz"):
+        if name in table:
+            values = np.asarray(table[name])
+            table[f"best_{name}"] = int(np.nanargmin(np.where(np.isfinite(values), values, np.nan)))
+    return table

@@ -41,7 +41,7 @@ from numpy.typing import ArrayLike
 
 from ..core import partial_change
 from ..core import segmentation as search
-from ..core.breaks import segment_moments
+from ..core.breaks import information_criteria, segment_moments
 from ..core.problem import RegressionProblem
 from ..errors import SingularProblemError
 from ..results.base import signal_names
@@ -50,7 +50,7 @@ from ..results.regression import RegressionModel
 from ..results.segmentation import Segmentation
 from ..results.statespace import LTVModel
 from ..validation import options
-from ..validation.options import PenaltyRule, SegmentCost
+from ..validation.options import PenaltyRule, SegmentCost, SegmentCriterion
 from .piecewise import fit_piecewise, piecewise_fit
 from .recordings import regression_data, regression_problem, state_space_data
 
@@ -68,7 +68,7 @@ def segment_regression(
     phi: ArrayLike,
     *,
     n_changes: int | None = None,
-    penalty: float | PenaltyRule | None = None,
+    penalty: float | PenaltyRule | SegmentCriterion | None = None,
     min_size: int | None = None,
     weights: ArrayLike | None = None,
     regular: bool = True,
@@ -114,9 +114,13 @@ def segment_regression(
         Regressors, shared by all output rows.
     n_changes : int, optional
         M >= 0, the largest number of changes.
-    penalty : float or {"bic", "aic"}, optional
+    penalty : float or {"bic", "aic", "lwz"}, optional
         β >= 0 per change, or a rule (see :func:`fit_segments`). Default "bic"
-        when neither ``n_changes`` nor ``penalty`` is given.
+        when neither ``n_changes`` nor ``penalty`` is given. With
+        ``n_changes=M`` a criterion "bic", "aic" or "lwz" chooses the number of
+        changes among 0 … M, as strucchange's ``breakpoints`` does with its BIC
+        (:meth:`Segmentation.criteria`: the coefficients, the break dates and the
+        noise variance counted).
     min_size : int, optional
         Minimum number of rows per segment, >= p (>= p + 1 with
         ``cost="normal"``). Default p (max(2p, p + 5) with ``cost="normal"``).
@@ -201,7 +205,7 @@ def fit_segments(
     u: ArrayLike | None = None,
     *,
     n_changes: int | None = None,
-    penalty: float | PenaltyRule | None = None,
+    penalty: float | PenaltyRule | SegmentCriterion | None = None,
     min_size: int | None = None,
     compute_cov: bool = True,
     weights: ArrayLike | None = None,
@@ -278,6 +282,13 @@ def fit_segments(
           the Bayesian information criterion RSS/σ² + (#parameters) · log N
           multiplied by σ² to be in the units of the cost;
         * "aic": β = 2 · K · σ̂².
+
+        With ``n_changes=M`` instead a criterion, "bic", "aic" or "lwz" (Liu,
+        Wu and Zidek's, as Bai and Perron), that chooses the number of changes
+        among 0 … M from the optimal cost of each (the dynamic program's
+        ``costs_by_n_changes``), with the noise variance estimated for each
+        number and counted among the parameters, with the break dates, as R's
+        strucchange does (:meth:`ltvmodels.Segmentation.criteria`).
 
         With ``cost="normal"`` the cost is a likelihood, so no σ̂²: "bic" is
         β = K · log N and "aic" β = 2K with K = n·p + n + 1, the coefficients,
@@ -598,7 +609,8 @@ def _segment(
             f"of squares only, received fixed columns {list(fixed)} with cost={cost!r}; use "
             "cost='rss' with fixed, or segment with cost='normal' without fixed"
         )
-    options.segment_mode(n_changes, penalty)
+    criterion = options.segment_criterion(n_changes, penalty, cost)
+    options.segment_mode(n_changes, None if criterion else penalty)
     min_size = options.segment_min_size(min_size, p - len(fixed), cost)
     options.segmentable_length(N, min_size, data_name)
     if n_changes is not None:
@@ -628,7 +640,9 @@ def _segment(
             if beta_spec is None
             else _penalty_value(problem, beta_spec, min_size, data_name, p - len(fixed))
         )
-        partial_result = _segment_partial(problem, scaled, fixed, M, penalty_value, min_size, a_max)
+        partial_result = _segment_partial(
+            problem, scaled, fixed, M, penalty_value, min_size, a_max, criterion
+        )
         return replace(partial_result, fixed=fixed)
     normal = cost == "normal"
     # n_s of a segment [a, b) is counts[b] − counts[a]: the observed rows, not weight sums
@@ -645,14 +659,7 @@ def _segment(
         else:
             best, starts = search.dynamic_program(scaled.data, p, M, min_size, a_max, *kernel_cost)
         costs = best + shift if normal else best * unit
-        finite = np.isfinite(costs)
-        lowest = costs[finite].min()
-        # the largest m within roundoff of the best (exactly M in the usual case)
-        if normal:  # a log-likelihood: its roundoff scales with the number of terms
-            tol = 1e-12 * (abs(lowest) + problem.n_observed * n)
-        else:
-            tol = 1e-12 * lowest + 1e-14 * float(np.sum(y**2))
-        m_opt = int(np.flatnonzero(finite & (costs <= lowest + tol)).max())
+        m_opt = _number_of_changes(costs, problem, criterion, n_changing=p, cost=cost)
         changepoints = search.backtrack_layers(starts, m_opt)
         total = float(costs[m_opt])
         result: dict[str, Any] = dict(
@@ -660,7 +667,7 @@ def _segment(
             objective=total,
             costs_by_n_changes=costs,
             penalty=None,
-            penalty_rule=None,
+            penalty_rule=criterion,
             noise_var=None,
             solver="dynamic programming",
             work=2 * N if M == 1 else N * (N + 1) // 2,
@@ -712,6 +719,33 @@ def _segment(
     )
 
 
+def _number_of_changes(
+    costs: np.ndarray,
+    problem: RegressionProblem,
+    criterion: str | None,
+    *,
+    n_changing: int,
+    n_fixed: int = 0,
+    cost: str = "rss",
+) -> int:
+    """The number of changes of the optimum among 0 … M (``costs`` the optimal cost of
+    each): the one ``criterion`` picks (:func:`ltvmodels.core.breaks.information_criteria`),
+    or, without one, the largest within roundoff of the lowest cost (exactly M in the
+    usual case)."""
+    if criterion is not None:
+        table = information_criteria(
+            costs, problem.n_observed, problem.n, n_changing, n_fixed, cost
+        )
+        return int(table[f"best_{criterion}"])
+    finite = np.isfinite(costs)
+    lowest = costs[finite].min()
+    if cost == "normal":  # a log-likelihood: its roundoff scales with the number of terms
+        tol = 1e-12 * (abs(lowest) + problem.n_observed * problem.n)
+    else:
+        tol = 1e-12 * lowest + 1e-14 * float(np.sum(problem.y**2))
+    return int(np.flatnonzero(finite & (costs <= lowest + tol)).max())
+
+
 def _penalty_value(
     problem: RegressionProblem,
     beta_spec: float | str,
@@ -748,12 +782,14 @@ def _segment_partial(
     penalty_value: tuple[float, float | None, str | None] | None,
     min_size: int,
     a_max_full: np.ndarray,
+    criterion: str | None,
 ) -> Segmentation:
     """The partial structural-change searches (see :func:`segment_regression`).
 
-    ``M`` changes (exact for M <= 1, iterated beyond) or, with ``penalty_value``
-    (β, σ̂², rule), the iterated PELT. ``a_max_full`` is the feasibility of the
-    whole regressor set, for the full-change start.
+    ``M`` changes (exact for M <= 1, iterated beyond; the number chosen among
+    0 … M by ``criterion`` when given) or, with ``penalty_value`` (β, σ̂², rule),
+    the iterated PELT. ``a_max_full`` is the feasibility of the whole regressor
+    set, for the full-change start.
     """
     N, n, p = problem.N, problem.n, problem.p
     index = np.array(fixed)
@@ -821,10 +857,7 @@ def _segment_partial(
                 if np.isfinite(run.objective):
                     costs[m], runs[m] = run.objective, run
         costs = costs * unit
-        finite = np.isfinite(costs)
-        lowest = costs[finite].min()
-        tol = 1e-12 * lowest + 1e-14 * float(np.sum(problem.y**2))
-        m_opt = int(np.flatnonzero(finite & (costs <= lowest + tol)).max())
+        m_opt = _number_of_changes(costs, problem, criterion, n_changing=pz, n_fixed=px, cost="rss")
         chosen = runs[m_opt]
         assert chosen is not None  # a finite cost has its run
         cost = float(costs[m_opt])
@@ -833,7 +866,7 @@ def _segment_partial(
             objective=cost,
             costs_by_n_changes=costs,
             penalty=None,
-            penalty_rule=None,
+            penalty_rule=criterion,
             noise_var=None,
         )
         exact = m_opt <= 1

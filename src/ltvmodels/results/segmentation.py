@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.breaks import break_interval
+from ..core.breaks import break_interval, information_criteria
 from ..errors import warn
 from ..validation import options
 from .model_summary import number_text, time_text
@@ -44,7 +44,9 @@ class Segmentation:
     penalty : float or None
         β in the units of the cost (None with ``n_changes``).
     penalty_rule : str or None
-        "bic", "aic", or None (a number was given, or ``n_changes``).
+        "bic", "aic" (the rule of β, or with ``n_changes`` the criterion that
+        chose the number of changes), "lwz" (such a criterion), or None (a
+        number was given, or ``n_changes`` alone).
     noise_var : float or None
         The noise variance estimate σ̂² a penalty rule was scaled with.
     min_size : int
@@ -206,49 +208,50 @@ class Segmentation:
             times[missing] = np.datetime64("NaT") if times.dtype.kind == "M" else np.nan
         return times
 
-    def criteria(self) -> dict[str, np.ndarray]:
+    def criteria(self) -> dict[str, Any]:
         """Information criteria of the optimal segmentations with 0 … M changes.
 
-        With ``n_changes=M`` the search found the optimal residual sum of
-        squares RSS_m for every m ≤ M (:attr:`costs_by_n_changes`); this ranks
-        them as Bai and Perron (2003) and R's strucchange do, for one output,
-        n observed rows and p regressors, p_x of them ``fixed`` (0 by default)
-        and p_z = p − p_x changing:
+        With ``n_changes=M`` the search found the optimal cost C_m for every
+        m ≤ M (:attr:`costs_by_n_changes`); this ranks them as Bai and Perron
+        (2003) and R's strucchange do
+        (:func:`ltvmodels.core.breaks.information_criteria`). For one output,
+        r observed rows and p regressors, p_x of them ``fixed`` (0 by default)
+        and p_z = p − p_x changing, with the residual sum of squares:
 
-        * the Gaussian log-likelihood ℓ_m = −n/2 (log(RSS_m/n) + 1 + log 2π);
-        * BIC_m = −2ℓ_m + (p_x + (p_z + 1)(m + 1)) log n, counting the
+        * the Gaussian log-likelihood ℓ_m = −r/2 (log(C_m/r) + 1 + log 2π);
+        * BIC_m = −2ℓ_m + (p_x + (p_z + 1)(m + 1)) log r, counting the
           coefficients, the break dates and the noise variance (strucchange's
-          ``summary`` table when p_x = 0);
-        * LWZ_m = log(RSS_m/(n − p*)) + p* · 0.299 (log n)^2.1 / n with
+          ``summary`` table when p_x = 0), and AIC_m with 2 for log r;
+        * LWZ_m = log(C_m/(r − p*)) + p* · 0.299 (log r)^2.1 / r with
           p* = (m + 1)p_z + m + p_x (Liu, Wu and Zidek 1997, as Bai and Perron
           use it).
 
-        With fixed regressors RSS_m for m >= 2 is the iterated procedure's
-        (a local optimum at worst, see :func:`ltvmodels.segment_regression`).
+        With n outputs the n p coefficients of each segment count, and one noise
+        variance over the r · n residuals. With fixed regressors C_m for m >= 2
+        is the iterated procedure's (a local optimum at worst, see
+        :func:`ltvmodels.segment_regression`).
 
         With ``cost_name="normal"`` the optimal cost C_m is already −2ℓ_m
-        without its n · log 2π term, with a noise variance per segment (floored:
-        see :func:`ltvmodels.fit_segments`), so
-
-        * ℓ_m = −(C_m + n log 2π) / 2;
-        * BIC_m = −2ℓ_m + ((p + 1)(m + 1) + m) log n: the coefficients and the
-          noise variance of each of the m + 1 segments, and the m break dates;
-
+        without its r · n · log 2π term, with a noise variance per segment and
+        output (floored: see :func:`ltvmodels.fit_segments`), so
+        ℓ_m = −(C_m + r n log 2π) / 2 and the variances count among the
+        parameters: BIC_m = −2ℓ_m + ((p + 1)(m + 1) + m) log r for one output.
         LWZ, a criterion for one common noise variance, is not given.
 
         Returns
         -------
         dict
             ``n_changes`` (M + 1,) = 0 … M, ``cost`` (the optimal costs),
-            ``loglik``, ``bic`` (M + 1,) each (inf / nan where no segmentation
-            has m changes) and ``best_bic``, the m that minimizes BIC; with
-            "rss" also ``rss`` (= ``cost``), ``lwz`` and ``best_lwz``.
+            ``loglik``, ``bic``, ``aic`` (M + 1,) each (inf / nan where no
+            segmentation has m changes) and ``best_bic``, ``best_aic``, the m that
+            minimizes each; with "rss" also ``rss`` (= ``cost``), ``lwz`` and
+            ``best_lwz``.
 
         Raises
         ------
         ValueError
-            A segmentation with a penalty (no costs for each m), several outputs,
-            or no residual degree of freedom.
+            A segmentation with a penalty (no costs for each m), or without its
+            segments' moments (no residual degree of freedom).
         """
         if self.costs_by_n_changes is None:
             raise ValueError(
@@ -256,36 +259,15 @@ class Segmentation:
                 "optimal cost for each number of changes; segment with n_changes=M "
                 "(the most changes to consider)"
             )
-        moments = self._moments("criteria")
-        rows, p = int(moments["rows"].sum()), moments["coefficients"].shape[1]
-        n_fixed = len(self.fixed)  # the moments are those of the p changing regressors
-        rss = np.asarray(self.costs_by_n_changes, dtype=float)
-        m = np.arange(rss.size)
-        if self.cost_name == "normal":
-            loglik = -0.5 * (rss + rows * np.log(2 * np.pi))
-            bic = -2 * loglik + ((p + 1) * (m + 1) + m) * np.log(rows)
-            return {
-                "n_changes": m,
-                "cost": rss,
-                "loglik": loglik,
-                "bic": bic,
-                "best_bic": int(np.nanargmin(bic)),
-            }
-        with np.errstate(divide="ignore", invalid="ignore"):
-            loglik = -0.5 * rows * (np.log(rss / rows) + 1 + np.log(2 * np.pi))
-            bic = -2 * loglik + (n_fixed + (p + 1) * (m + 1)) * np.log(rows)
-            free = (m + 1) * p + m + n_fixed
-            lwz = np.log(rss / (rows - free)) + free * 0.299 * np.log(rows) ** 2.1 / rows
-        return {
-            "n_changes": m,
-            "cost": rss,
-            "rss": rss,
-            "loglik": loglik,
-            "bic": bic,
-            "lwz": lwz,
-            "best_bic": int(np.nanargmin(bic)),
-            "best_lwz": int(np.nanargmin(lwz)),
-        }
+        moments = self._moments("criteria", single_output=False)
+        rows = int(moments["rows"].sum())
+        p, n = moments["coefficients"].shape[1:]  # the changing regressors' moments
+        costs = np.asarray(self.costs_by_n_changes, dtype=float)
+        table = information_criteria(costs, rows, n, p, len(self.fixed), self.cost_name)
+        table["cost"] = costs
+        if self.cost_name == "rss":
+            table["rss"] = costs
+        return table
 
     def summary(self, level: float = 0.95) -> Summary:
         """A report: the search, each break with its confidence interval (and dates),
@@ -302,9 +284,7 @@ class Segmentation:
         Summary
             The text report (a ``str``), with ``as_html()`` for notebooks.
         """
-        how = f"{self.n_changes} change{'s' if self.n_changes != 1 else ''} " + (
-            "(n_changes given)" if self.penalty is None else f"(penalty {self.penalty:.4g})"
-        )
+        how = f"{self.n_changes} change{'s' if self.n_changes != 1 else ''} " + self._how()
         search = Section(
             "Segmentation",
             (
@@ -358,6 +338,15 @@ class Segmentation:
         if self.model is not None:
             sections += self.model.summary().sections
         return Summary(f"Segmentation({how}, solver={self.solver!r})", sections)
+
+    def _how(self) -> str:
+        """How the number of changes was set: given, chosen by a criterion, or a penalty."""
+        if self.penalty is not None:
+            return f"(penalty {self.penalty:.4g})"
+        if self.penalty_rule is not None and self.costs_by_n_changes is not None:
+            most = len(self.costs_by_n_changes) - 1
+            return f"({self.penalty_rule.upper()} picks among 0 … {most})"
+        return "(n_changes given)"
 
     def _variances_section(self) -> Section:
         """Each segment's rows (and times) with its noise variances (``cost="normal"``):
@@ -426,8 +415,9 @@ class Segmentation:
             )
         return self._moments("confint")
 
-    def _moments(self, name: str) -> dict:
-        """The segments' moments, for ``name`` (the method that needs them)."""
+    def _moments(self, name: str, *, single_output: bool = True) -> dict:
+        """The segments' moments, for ``name`` (the method that needs them; of one output
+        unless ``single_output`` is False)."""
         if self.moments is None:
             raise ValueError(
                 f"{name}: this segmentation did not keep its segments' moments (its "
@@ -435,7 +425,7 @@ class Segmentation:
                 "segment (min_size)"
             )
         outputs = self.moments["coefficients"].shape[2]
-        if outputs != 1:
+        if single_output and outputs != 1:
             raise ValueError(
                 f"{name}: it is defined for one regression equation; this segmentation "
                 f"has {outputs} outputs: segment each output on its own"

@@ -24,6 +24,7 @@ __all__ = [
     "Loss",
     "PriorMode",
     "PenaltyRule",
+    "SegmentCriterion",
     "SegmentCost",
     "ManyMethod",
     "NORMS",
@@ -88,6 +89,8 @@ PriorMode = Literal["exact", "posthoc"]
 """How a prior enters a fit with the squared norm."""
 PenaltyRule = Literal["bic", "aic"]
 """The rules for the penalty per change of a segmentation."""
+SegmentCriterion = Literal["bic", "aic", "lwz"]
+"""The criteria that choose a segmentation's number of changes among 0 … n_changes."""
 SegmentCost = Literal["rss", "normal"]
 """The cost of a segment: its residual sum of squares, or its Gaussian −2 log-likelihood
 with its own noise variance."""
@@ -97,6 +100,7 @@ ManyMethod = Literal["fit", "segments", "lti"]
 NORMS: tuple[Norm, ...] = get_args(Norm)
 SPARSE_NORMS: tuple[SparseNorm, ...] = get_args(SparseNorm)
 PENALTY_RULES: tuple[PenaltyRule, ...] = get_args(PenaltyRule)
+SEGMENT_CRITERIA: tuple[SegmentCriterion, ...] = get_args(SegmentCriterion)
 SEGMENT_COSTS: tuple[SegmentCost, ...] = get_args(SegmentCost)
 PRIOR_MODES: tuple[PriorMode, ...] = get_args(PriorMode)
 
@@ -684,13 +688,44 @@ def segment_penalty(value: Any) -> float | PenaltyRule:
     return nonnegative_scalar(value.item() if hasattr(value, "item") else value, "penalty")
 
 
+def segment_criterion(n_changes: Any, penalty: Any, cost: str) -> str | None:
+    """The criterion that chooses the number of changes among 0 … ``n_changes``: a
+    rule name given as ``penalty`` together with ``n_changes`` (None otherwise).
+
+    "lwz" ranks the optimal segmentations of each number of changes, so it needs
+    ``n_changes``; it assumes one noise variance, so not with ``cost="normal"``.
+    """
+    if not isinstance(penalty, str):
+        return None
+    if penalty == "lwz" and n_changes is None:
+        raise ValueError(
+            "penalty: 'lwz' ranks the optimal segmentations with 0 … M changes, so it needs "
+            "n_changes=M (the most changes to consider); received n_changes=None"
+        )
+    if n_changes is None:
+        return None  # a PELT rule, checked by segment_penalty
+    if penalty not in SEGMENT_CRITERIA:
+        raise ValueError(
+            f"penalty: with n_changes, expected a criterion that chooses the number of "
+            f"changes, one of {SEGMENT_CRITERIA}, received {penalty!r}"
+        )
+    if penalty == "lwz" and cost == "normal":
+        raise ValueError(
+            "penalty: 'lwz' assumes one noise variance for all segments, and cost='normal' "
+            "gives each its own; use penalty='bic' or 'aic' with cost='normal'"
+        )
+    return penalty
+
+
 def segment_mode(n_changes: Any, penalty: Any) -> None:
-    """n_changes and penalty are alternatives: at most one may be given."""
+    """n_changes and a penalty β are alternatives: at most one may be given (a criterion
+    with n_changes is :func:`segment_criterion`'s)."""
     if n_changes is not None and penalty is not None:
         raise TypeError(
             "n_changes, penalty: expected one of them (n_changes=M for exactly M changes, "
-            f"penalty=β for a cost of β per change), received both (n_changes={n_changes!r}, "
-            f"penalty={penalty!r})"
+            f"penalty=β for a cost of β per change, or n_changes=M with a criterion "
+            f"{SEGMENT_CRITERIA} that chooses among 0 … M), received both "
+            f"(n_changes={n_changes!r}, penalty={penalty!r})"
         )
 
 

@@ -24,18 +24,18 @@ __all__ = ["COMMAND", "add_arguments", "run"]
 
 
 def _penalty(text: str) -> float | str:
-    """A finite cost >= 0 per change, or the rule ``bic`` or ``aic`` (argparse type)."""
-    if text.strip().lower() in ("bic", "aic"):
+    """A finite cost >= 0 per change, or a rule ``bic``, ``aic``, ``lwz`` (argparse type)."""
+    if text.strip().lower() in ("bic", "aic", "lwz"):
         return text.strip().lower()
     try:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(
-            f"expected a number >= 0, 'bic' or 'aic', received {text!r}"
+            f"expected a number >= 0, 'bic', 'aic' or 'lwz', received {text!r}"
         ) from None
     if not np.isfinite(value) or value < 0:
         raise argparse.ArgumentTypeError(
-            f"expected a finite number >= 0, 'bic' or 'aic', received {text!r}"
+            f"expected a finite number >= 0, 'bic', 'aic' or 'lwz', received {text!r}"
         )
     return value
 
@@ -92,15 +92,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="with --response: the response's lags as regressors, e.g. 1,12 (y_{t-1}, "
         "y_{t-12}); the first max(L) rows are left out",
     )
-    group = p.add_mutually_exclusive_group()
-    opt.add_n_changes(group, "at most M changes")
-    group.add_argument(
+    opt.add_n_changes(
+        p, "at most M changes (with --penalty bic, aic or lwz: the number chosen among 0 … M)"
+    )
+    p.add_argument(
         "--penalty",
         type=_penalty,
         default=None,
-        metavar="{B,bic,aic}",
-        help="cost B >= 0 per change (in units of the residual sum of "
-        "squares), or the rule bic or aic (default: bic)",
+        metavar="{B,bic,aic,lwz}",
+        help="cost B >= 0 per change (in units of the segment cost), or the rule bic or aic "
+        "(default: bic); with --n-changes M, the criterion bic, aic or lwz that chooses the "
+        "number of changes among 0 … M, as strucchange's breakpoints",
     )
     p.add_argument(
         "--min-size",
@@ -197,11 +199,15 @@ def run(args: argparse.Namespace) -> Report:
 
     outputs = check_outputs(args, "model")
     data = state_space_data(args)
-    how = (
-        f"exactly optimal with at most {args.n_changes} changes (dynamic programming)"
-        if args.n_changes is not None
-        else f"penalty {args.penalty or 'bic'} per change (PELT)"
-    )
+    if args.n_changes is not None and isinstance(args.penalty, str):
+        how = (
+            f"exactly optimal, the number of changes chosen by {args.penalty.upper()} "
+            f"among 0 … {args.n_changes} (dynamic programming)"
+        )
+    elif args.n_changes is not None:
+        how = f"exactly optimal with at most {args.n_changes} changes (dynamic programming)"
+    else:
+        how = f"penalty {args.penalty or 'bic'} per change (PELT)"
     with running("ltvmodels segments: searching change points"):
         model = fit_segments(
             data.states,
