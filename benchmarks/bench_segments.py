@@ -29,7 +29,10 @@ T = 2,000. Both find the exact optimum; the breaks must be equal. For each T:
 subprocess, timed inside R (``system.time``: R's start and the data transfer
 are not counted), stopped after ``--r-timeout`` seconds. Printed: both times,
 the ratio, and whether the breaks agree; at the end, the largest T
-strucchange finished within the time limit.
+strucchange finished within the time limit. Then the supF test of one break
+on the same series: ``break_test(y, 1, kind="supF", trim=0.15)`` against
+``sctest(Fstats(y ~ 1, from = 0.15), type = "supF")`` (timed inside R), the
+statistics and the break location compared.
 
 Run:  python benchmarks/bench_segments.py [--sizes 400 1000 2000] [--changes 1 3]
       [--large 10000] [--repeat 3] [--no-ruptures]
@@ -117,6 +120,13 @@ def short(points) -> str:
 BREAKS = 5
 TRIM = 0.05
 
+R_TEST_SCRIPT = """
+suppressMessages(library(strucchange))
+y <- scan("{data}", quiet = TRUE)
+elapsed <- system.time(test <- sctest(fs <- Fstats(y ~ 1, from = 0.15), type = "supF"))
+cat(elapsed[["elapsed"]], sprintf("%.10g", test$statistic), fs$breakpoint, "\\n")
+"""
+
 R_SCRIPT = """
 suppressMessages(library(strucchange))
 y <- scan("{data}", quiet = TRUE)
@@ -135,12 +145,15 @@ def ours_breakpoints(y: np.ndarray, repeat: int) -> tuple[float, list[int]]:
     return best, result.changepoints.tolist()
 
 
-def strucchange(y: np.ndarray, timeout: float) -> tuple[float, list[int]] | None:
-    """strucchange's time (inside R) and breaks, or None when it did not finish in time."""
+def strucchange(
+    y: np.ndarray, timeout: float, template: str = R_SCRIPT
+) -> tuple[float, list[float]] | None:
+    """strucchange's time (inside R) and what ``template`` prints after it (the breaks),
+    or None when it did not finish in time."""
     with tempfile.TemporaryDirectory() as directory:
         data = Path(directory) / "y.txt"
         np.savetxt(data, y)
-        script = R_SCRIPT.format(data=data, trim=TRIM, breaks=BREAKS)
+        script = template.format(data=data, trim=TRIM, breaks=BREAKS)
         try:
             run = subprocess.run(
                 ["Rscript", "-e", script], capture_output=True, text=True, timeout=timeout
@@ -150,7 +163,7 @@ def strucchange(y: np.ndarray, timeout: float) -> tuple[float, list[int]] | None
     if run.returncode != 0:
         raise RuntimeError(f"R failed: {run.stderr.strip()}")
     values = run.stdout.split()
-    return float(values[0]), [int(v) for v in values[1:]]
+    return float(values[0]), [float(v) for v in values[1:]]
 
 
 def strucchange_comparison(sizes: list[int], repeat: int, r_timeout: float) -> None:
@@ -169,12 +182,31 @@ def strucchange_comparison(sizes: list[int], repeat: int, r_timeout: float) -> N
             print(f"{T:7d}  {our_time:10.4f}  {'> ' + str(r_timeout):>15}  {'':>8}  —")
             continue
         largest = T
-        peer_time, peer_breaks = peer
+        peer_time, peer_breaks = peer[0], [int(v) for v in peer[1]]
         print(
             f"{T:7d}  {our_time:10.4f}  {peer_time:15.2f}  {peer_time / our_time:7.0f}x  "
             f"{our_breaks == peer_breaks} {our_breaks}"
         )
     print(f"largest T strucchange finished within {r_timeout:g} s: {largest}")
+    print("\nsupF test of one break, y ~ 1, trim 0.15 (the same series)")
+    print(f"{'T':>7}  {'ours (s)':>10}  {'strucchange (s)':>15}  {'ratio':>8}  equal")
+    ltv.break_test(np.random.default_rng(0).standard_normal(200), np.ones(200))
+    for T in sizes:
+        y = np.random.default_rng(T).standard_normal(T)
+        ones = np.ones(T)
+        our_time, test = best_time(partial(ltv.break_test, y, ones, kind="supF"), repeat)
+        peer = strucchange(y, r_timeout, R_TEST_SCRIPT)
+        if peer is None:
+            print(f"{T:7d}  {our_time:10.5f}  {'> ' + str(r_timeout):>15}")
+            continue
+        peer_time, (statistic, location) = peer
+        same = abs(test.statistic - statistic) <= 1e-6 * abs(statistic) and (
+            test.break_index == int(location)
+        )
+        print(
+            f"{T:7d}  {our_time:10.5f}  {peer_time:15.3f}  {peer_time / our_time:7.0f}x  "
+            f"{same} (supF {test.statistic:.6g} at {test.break_index})"
+        )
 
 
 def main() -> None:
