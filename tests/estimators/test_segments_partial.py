@@ -10,12 +10,11 @@ from __future__ import annotations
 
 import itertools
 import json
-import shutil
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
+from r_reference import run_r_script
 
 import ltvmodels as ltv
 from ltvmodels.core import partial_change
@@ -194,13 +193,8 @@ def test_partial_change_equals_r_lm():
     check_r_reference(json.loads((REFERENCE / "partial.json").read_text()))
 
 
-@pytest.mark.skipif(shutil.which("Rscript") is None, reason="R is not installed")
 def test_partial_change_equals_a_live_r_lm():
-    run = subprocess.run(
-        ["Rscript", str(REFERENCE / "partial.R")], capture_output=True, text=True, timeout=120
-    )
-    assert run.returncode == 0, run.stderr
-    check_r_reference(json.loads(run.stdout))
+    check_r_reference(run_r_script(REFERENCE / "partial.R"))
 
 
 # -- a seasonal series --------------------------------------------------------------------

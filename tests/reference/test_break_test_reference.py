@@ -10,12 +10,11 @@ installed, the script is also run live and its values compared to ours.
 from __future__ import annotations
 
 import json
-import shutil
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
+from r_reference import run_r_script
 
 import ltvmodels as ltv
 from ltvmodels.core import breaktests
@@ -67,15 +66,8 @@ def test_the_seatbelt_supf_is_strucchanges():
     )
 
 
-@pytest.mark.skipif(shutil.which("Rscript") is None, reason="R is not installed")
 def test_the_tests_equal_a_live_strucchange():
-    run = subprocess.run(
-        ["Rscript", str(HERE / "tests.R")], capture_output=True, text=True, timeout=120
-    )
-    if "there is no package called" in run.stderr:
-        pytest.skip("R's strucchange is not installed (Debian: r-cran-strucchange)")
-    assert run.returncode == 0, run.stderr
-    live = json.loads(run.stdout)
+    live = run_r_script(HERE / "tests.R")
     for case in live["cases"]:
         check_case(case)
     check_pvalue_grid(live["pvalues"])

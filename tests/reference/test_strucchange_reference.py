@@ -10,12 +10,11 @@ installed, the script is also run live and its values compared to ours.
 from __future__ import annotations
 
 import json
-import shutil
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
+from r_reference import run_r_script
 
 import ltvmodels as ltv
 
@@ -57,15 +56,8 @@ def test_break_date_intervals_equal_strucchange(case):
     check_case(case)
 
 
-@pytest.mark.skipif(shutil.which("Rscript") is None, reason="R is not installed")
 def test_break_date_intervals_equal_a_live_strucchange():
-    run = subprocess.run(
-        ["Rscript", str(HERE / "confint.R")], capture_output=True, text=True, timeout=120
-    )
-    if "there is no package called" in run.stderr:
-        pytest.skip("R's strucchange is not installed (Debian: r-cran-strucchange)")
-    assert run.returncode == 0, run.stderr
-    live = json.loads(run.stdout)
+    live = run_r_script(HERE / "confint.R")
     for case in live["cases"]:
         check_case(case)
 
