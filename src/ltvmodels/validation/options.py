@@ -68,6 +68,8 @@ __all__ = [
     "n_changes_count",
     "segment_penalty",
     "segment_mode",
+    "segment_criterion",
+    "SEGMENT_CRITERIA",
     "fixed_columns",
     "random_generator",
 ]
