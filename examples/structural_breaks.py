@@ -44,6 +44,7 @@ STRUCCHANGE = {
     "0.2258093, 0.224386, 0.2231045",
     "seatbelt bic": "0 breaks (-602.86)",
     "seatbelt supF": "19.333, p = 0.0067, at 46",
+    "seatbelt segment 1": "y[t-1] 0.117 (0.111), y[t-12] 0.694 (0.108), const 0.633 (0.327)",
 }
 
 
@@ -101,15 +102,16 @@ def seatbelt_analysis() -> tuple:
         f"{supf.statistic:.3f}, p = {supf.pvalue:.2g}, at {supf.break_index}",
         STRUCCHANGE["seatbelt supF"],
     )
-    print("  per-segment coefficients (estimate, std err):")
-    for a, b in seg.segments:
-        coef = seg.model.k[a]
-        std = seg.model.std()[a]
+    print("  per-segment coefficients (estimate, std err from each segment's own variance):")
+    table = seg.to_frame()
+    for number, (a, b) in enumerate(seg.segments, start=1):
+        rows = table[table.segment == number]
         text = ", ".join(
             f"{name} {v:.3f} ({s:.3f})"
-            for name, v, s in zip(("y[t-1]", "y[t-12]", "const"), coef, std)
+            for name, v, s in zip(("y[t-1]", "y[t-12]", "const"), rows.estimate, rows.std_err)
         )
         print(f"    rows {a}-{b - 1}: {text}")
+    print(f"    strucchange, rows 0-45: {STRUCCHANGE['seatbelt segment 1']}")
     return y, phi, seg, ltv.segment_regression(y, phi, n_changes=8, trim=0.1)
 
 
@@ -154,7 +156,7 @@ def main(argv: list[str] | None = None) -> int:
     plot_break_test(nile_supf, ax=axes[1, 0]).set_title("Nile: F statistics, supF test")
     plot_criteria(seat_all, ax=axes[1, 1]).set_title("Driver deaths: BIC and RSS")
     save_figure(fig, path, fmt)
-    print(f"\nwrote {path}")
+    print(f"\nwrote {path.name}")
     return 0
 
 

@@ -46,6 +46,13 @@ def check_case(case: dict) -> None:
         segmentation.confint(0.95, het_reg=False, het_err=False),
         intervals(case["confint_95_homogeneous"]),
     )
+    # each segment's coefficients and their covariance (coef, vcov.breakpointsfull)
+    coefficients = segmentation.moments["coefficients"][:, :, 0]
+    np.testing.assert_allclose(coefficients, matrix(case["coef"]), rtol=1e-9, atol=1e-12)
+    covariances = np.array([matrix(v) for v in case["vcov"]])
+    np.testing.assert_allclose(segmentation.vcov(), covariances, rtol=1e-8, atol=1e-15)
+    frame = segmentation.to_frame()
+    np.testing.assert_allclose(frame["std_err"], np.sqrt(np.diagonal(covariances, 0, 1, 2)).ravel())
 
 
 REFERENCE = json.loads((HERE / "confint.json").read_text())

@@ -336,7 +336,11 @@ class Segmentation:
                 )
             )
         if self.model is not None:
-            sections += self.model.summary().sections
+            own = self._per_segment_coefficients
+            for section in self.model.summary().sections:
+                if section.title == "Coefficients" and own:
+                    section = self._coefficients_section()
+                sections.append(section)
         return Summary(f"Segmentation({how}, solver={self.solver!r})", sections)
 
     def _how(self) -> str:
@@ -431,6 +435,121 @@ class Segmentation:
                 f"has {outputs} outputs: segment each output on its own"
             )
         return self.moments
+
+    def vcov(self, *, het_err: bool = True) -> np.ndarray:
+        """The covariance of each segment's least-squares coefficients, as strucchange's
+        ``vcov.breakpointsfull``.
+
+        For segment i with r_i rows, second moments Q_i = Φ_iᵀΦ_i / r_i and noise
+        variance σ²_i = RSS_i / r_i (maximum likelihood), the covariance is
+        σ²_i Q_i⁻¹ / r_i. With ``het_err=False`` one variance, RSS / r over all
+        rows, serves every segment (with each segment's own Q_i: the covariance
+        of the segmented least squares under one noise level; strucchange's
+        ``het.err = FALSE`` also pools Q).
+
+        Parameters
+        ----------
+        het_err : bool, default True
+            Each segment's own noise variance (strucchange's default).
+
+        Returns
+        -------
+        ndarray, shape (M + 1, p, p)
+            One covariance per segment, for the p regressors of the one output.
+
+        Raises
+        ------
+        ValueError
+            Several outputs, fixed regressors (their joint covariance is
+            ``model.cov``), or a segmentation without its moments.
+        """
+        moments = self._moments("vcov")
+        if self.fixed:
+            raise ValueError(
+                "vcov: with fixed regressors the segments share coefficients, so their "
+                "covariance is joint; use the model's: segmentation.model.cov or .std()"
+            )
+        second, rows = moments["second_moments"], moments["rows"]
+        if het_err:
+            variances = moments["variances"][:, 0]
+        else:
+            variances = np.full(rows.size, moments["pooled_variance"][0])
+        identity = np.broadcast_to(np.eye(second.shape[1]), second.shape)
+        return (variances / rows)[:, None, None] * np.linalg.solve(second, identity)
+
+    def to_frame(self, *, het_err: bool = True) -> Any:
+        """Each segment's coefficients with their standard errors, as a table.
+
+        Parameters
+        ----------
+        het_err : bool, default True
+            Standard errors from each segment's own noise variance (:meth:`vcov`).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per segment and regressor: ``segment`` (1 …), ``start`` and
+            ``stop`` (rows [start, stop)), ``first_time`` (the time of the first
+            row, with a time index), ``regressor``, ``estimate``, ``std_err`` and
+            ``z``.
+        """
+        import pandas as pd
+
+        moments = self._moments("to_frame")
+        std = np.sqrt(np.diagonal(self.vcov(het_err=het_err), axis1=1, axis2=2))
+        names = self._regressor_names(std.shape[1])
+        records = []
+        for i, (start, stop) in enumerate(self.segments):
+            for j, name in enumerate(names):
+                estimate = float(moments["coefficients"][i, j, 0])
+                record = {"segment": i + 1, "start": start, "stop": stop}
+                if self.time is not None:
+                    record["first_time"] = self.time[start]
+                record.update(
+                    regressor=name, estimate=estimate, std_err=std[i, j], z=estimate / std[i, j]
+                )
+                records.append(record)
+        return pd.DataFrame.from_records(records)
+
+    @property
+    def _per_segment_coefficients(self) -> bool:
+        """Whether the summary gives each segment's coefficients from its own moments
+        (one output, every coefficient changing)."""
+        return self._single_output and not self.fixed
+
+    def _regressor_names(self, count: int) -> list[str]:
+        names = getattr(self.model, "regressor_names", None)
+        return list(names) if names else [f"phi{j}" for j in range(count)]
+
+    def _coefficients_section(self) -> Section:
+        """Each segment's coefficients with standard errors from its own noise variance
+        (:meth:`vcov`, strucchange's default)."""
+        moments = self._moments("summary")
+        std = np.sqrt(np.diagonal(self.vcov(), axis1=1, axis2=2))
+        names = self._regressor_names(std.shape[1])
+        tables = []
+        for i, (start, stop) in enumerate(self.segments):
+            caption = f"segment {i + 1} of {len(self.segments)}: rows {start}–{stop - 1}"
+            if self.time is not None:
+                first, last = time_text(self.time[[start, stop - 1]])
+                caption += f" ({first} – {last})"
+            rows = []
+            for j, name in enumerate(names):
+                estimate, error = moments["coefficients"][i, j, 0], std[i, j]
+                cells = (
+                    number_text(estimate),
+                    number_text(error),
+                    number_text(estimate / error, 3),
+                )
+                rows.append(
+                    (name, *cells) if error > 0 else (name, number_text(estimate), "—", "—")
+                )
+            tables.append(Table(caption, ("coefficient", "estimate", "std err", "z"), tuple(rows)))
+        return Section(
+            "Coefficients",
+            (("standard errors", "each segment's own noise variance (strucchange's vcov)"),),
+            tuple(tables),
+        )
 
     def plot(self, fig: Any = None):
         """Plot the model on the segments (:meth:`RegressionModel.plot`); needs ``model``."""

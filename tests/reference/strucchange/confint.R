@@ -1,5 +1,6 @@
 # Reference values of break-date confidence intervals from R's strucchange
-# (Bai 1997, confint.breakpointsfull) and of its RSS/BIC table (summary.breakpointsfull),
+# (Bai 1997, confint.breakpointsfull), of each segment's coefficients and covariance
+# (coef, vcov.breakpointsfull) and of its RSS/BIC table (summary.breakpointsfull),
 # for tests/reference/test_strucchange_reference.py.
 #
 #   Rscript tests/reference/strucchange/confint.R > tests/reference/strucchange/confint.json
@@ -26,7 +27,9 @@ case <- function(name, y, X, h, breaks, table_breaks = 0) {
     breakpoints = breakpoints(bp, breaks = breaks)$breakpoints,
     confint_95 = intervals(bp, breaks),
     confint_90 = intervals(bp, breaks, level = 0.90),
-    confint_95_homogeneous = intervals(bp, breaks, het = FALSE)
+    confint_95_homogeneous = intervals(bp, breaks, het = FALSE),
+    coef = unname(coef(bp, breaks = breaks)),
+    vcov = unname(lapply(vcov(bp, breaks = breaks), unname))
   )
 }
 
