@@ -26,7 +26,7 @@ from ..validation.options import Loss, Norm, PriorMode, SparseNorm
 from .piecewise import residual_noise
 from .recordings import StateSpaceData, state_space_data
 from .regression import fit_problem, sparse_model
-from .robust import robust_model
+from .robust import outlier_info, robust_model
 from .spec import FitSpec
 
 __all__ = ["fit_lti", "fit", "fit_path", "lambda_max"]
@@ -126,6 +126,7 @@ def fit_lti(
         "solver": "least-squares (QR)",
         "rss": rss,
         "dof": int(dof),
+        **outlier_info(problem, np.broadcast_to(theta, (N, n, p))),
     }
     if loglik_note:
         info["loglik_note"] = loglik_note
