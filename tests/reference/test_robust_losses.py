@@ -102,15 +102,16 @@ def test_huber_matches_clarabel_with_missing_samples_and_weights(order, coeffs):
     assert model.status.success and model.info["kkt_residual"] <= 1e-11
     assert model.info["objective"] == pytest.approx(optimum, rel=1e-8)
     np.testing.assert_allclose(model.k, k, atol=1e-6)
-    # the outliers reported are the residuals beyond δ, in the units of x
+    # Huber's linear region: the residuals beyond δ, in the units of x
     resid = x[:, 1:] - np.einsum(
         "tij,rtj->rti", model.theta, np.concatenate([x[:, :-1], u[:, :-1]], axis=2)
     )
     observed = np.isfinite(resid) & (w > 0)[:, :, None]
     expected = observed & (np.abs(np.nan_to_num(resid)) > delta)
-    np.testing.assert_array_equal(model.outliers, expected)
-    assert model.outliers[0, 11, 0] and model.outliers[1, 24, 1]  # the planted ones
-    assert model.info["n_outliers"] == expected.sum() and model.loglik is None
+    np.testing.assert_array_equal(model.beyond_delta, expected)
+    assert model.beyond_delta[0, 11, 0] and model.beyond_delta[1, 24, 1]  # the planted ones
+    assert model.outliers[0, 11, 0] and model.outliers[1, 24, 1]  # outliers too
+    assert model.info["n_beyond_delta"] == expected.sum() and model.loglik is None
 
 
 def test_huber_lti_matches_clarabel():
@@ -128,7 +129,7 @@ def test_delta_beyond_every_residual_is_the_squared_loss_fit():
     squared = ltv.fit(x, u, lam=2.0, weights=w)
     huber = ltv.fit(x, u, lam=2.0, weights=w, loss="huber", huber_delta=1e6)
     np.testing.assert_allclose(huber.k, squared.k, rtol=0, atol=1e-12)
-    assert huber.info["n_outliers"] == 0 and huber.status.iterations == 0
+    assert huber.info["n_beyond_delta"] == 0 and huber.status.iterations == 0
 
 
 def test_regression_and_ar_front_ends_use_per_output_thresholds():
@@ -137,10 +138,11 @@ def test_regression_and_ar_front_ends_use_per_output_thresholds():
     y = phi @ np.array([[1.0, -0.5], [0.3, 0.8]]).T + 0.05 * rng.standard_normal((80, 2))
     y[10] += [2.0, -3.0]
     model = ltv.fit_regression(y, phi, lam=10.0, loss="huber", huber_delta=[0.1, 0.2], tol=1e-11)
-    assert model.outliers.shape == (80, 2) and model.outliers[10].all()
+    assert model.beyond_delta.shape == (80, 2) and model.beyond_delta[10].all()
+    assert model.outliers[10].all() and model.outliers.sum() <= 4  # 160 entries
     assert model.info["huber_delta"] == [0.1, 0.2]
     ar = ltv.fit_ar(y[:, 0], 2, lam=10.0, loss="huber")
-    assert ar.info["huber_delta_rule"].startswith("1.345") and ar.outliers.shape == (78, 1)
+    assert ar.info["huber_delta_rule"].startswith("1.345") and ar.beyond_delta.shape == (78, 1)
 
 
 def test_huber_resists_gross_outliers_on_the_jump_linear_system():
@@ -204,6 +206,7 @@ def test_outliers_survive_save_and_load(tmp_path):
     model.save(tmp_path / "huber.npz")
     loaded = ltv.load(tmp_path / "huber.npz")
     np.testing.assert_array_equal(loaded.outliers, model.outliers)
+    np.testing.assert_array_equal(loaded.beyond_delta, model.beyond_delta)
     assert loaded.info["huber_delta"] == model.info["huber_delta"]
 
 
@@ -234,7 +237,7 @@ def test_segments_keep_the_squared_loss_and_the_cli_takes_huber(tmp_path, capsys
     )
     report = __import__("json").loads(capsys.readouterr().out)
     assert code == 0 and report["loss"] == "huber" and report["huber_delta"] == [0.2, 0.2]
-    assert report["n_outliers"] >= 1  # the planted -4 in x2
+    assert report["n_beyond_delta"] >= 1 and report["n_outliers"] >= 1  # the planted -4 in x2
 
 
 @pytest.mark.parametrize("norm", ["group", "l1"])
@@ -251,7 +254,8 @@ def test_sparse_huber_matches_clarabel(norm, order, coeffs):
     assert model.status.success and model.info["kkt_residual"] <= 1e-10
     assert model.info["objective"] == pytest.approx(optimum, rel=1e-7)
     np.testing.assert_allclose(model.k, k, atol=1e-4)
-    assert model.outliers[1, 24, 1] and model.outliers.sum() == model.info["n_outliers"]
+    assert model.beyond_delta[1, 24, 1]
+    assert model.beyond_delta.sum() == model.info["n_beyond_delta"]
     assert model.changepoints is not None and model.loglik is None
 
 
@@ -263,7 +267,7 @@ def test_sparse_huber_with_delta_beyond_every_residual_is_the_squared_loss_fit(n
     # both solved to the tolerance: the same optimum
     assert huber.info["objective"] == pytest.approx(squared.info["objective"], rel=1e-9)
     np.testing.assert_allclose(huber.k, squared.k, rtol=0, atol=1e-5)
-    assert huber.info["n_outliers"] == 0
+    assert huber.info["n_beyond_delta"] == 0
 
 
 @pytest.mark.parametrize("norm, lam", [("sq", 1.0), ("group", 0.5), ("l1", 0.5)])
@@ -280,7 +284,7 @@ def test_laplace_matches_clarabel_and_its_certificate_holds(norm, lam, order, co
     # the reference's own accuracy, 1e-9)
     excess = (model.info["objective"] - optimum) / optimum
     assert -1e-8 <= excess <= gap + 1e-8, (excess, gap)
-    assert model.outliers is None and model.loglik is None
+    assert model.beyond_delta is None and model.loglik is None
 
 
 def test_laplace_lti_matches_clarabel():

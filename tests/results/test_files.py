@@ -61,8 +61,11 @@ def test_files_of_version_0_1_load_as_the_same_model(name):
     if new.cov is not None:
         np.testing.assert_allclose(old.cov, new.cov, rtol=1e-8, atol=1e-14)
     np.testing.assert_array_equal(old.changepoints, new.changepoints)
-    # new in 0.2
-    assert set(old.info) == set(new.info) - {"loglik_note", "last_segment_unit_cov"}
+    # new in 0.2, and model.outliers (every fit) later
+    newer = {"loglik_note", "last_segment_unit_cov"}
+    newer |= {"outliers", "outlier_scale", "outlier_threshold", "n_outliers"}
+    assert set(old.info) == set(new.info) - newer
+    assert old.outliers is None and new.outliers is not None
     # The status of a 0.1 file is reconstructed from its info: that of the same fit now.
     assert old.status.status == new.status.status
     assert old.status.solver == new.status.solver

@@ -49,7 +49,7 @@ from .robust_ipm import fit_robust_ipm, fit_robust_ipm_squared
 from .sparse_common import difference_preimage
 from .squared import SquaredSolver, weight_diagonal
 
-__all__ = ["LaplaceFit", "fit_laplace"]
+__all__ = ["LaplaceFit", "certified_gap", "fit_laplace"]
 
 SMOOTHING = "Huber smoothing with a duality-gap certificate"
 IPM = "interior point with residual cones (block-banded Newton systems)"
@@ -362,6 +362,17 @@ def _equality_qp(problem, W, zero, linear) -> tuple[np.ndarray, np.ndarray] | No
         if np.abs(violation).max() <= POLISH_FEASIBILITY * y_scale:
             return theta, nu
     return None
+
+
+def certified_gap(
+    problem: RegressionProblem, theta: np.ndarray, psi: np.ndarray, penalty: np.ndarray, norm: str
+) -> tuple[float, float, bool]:
+    """(F(k), the relative duality gap, rigorous) of Θ (N, n, p) for the problem with
+    ``penalty`` and ``norm`` (as :func:`fit_laplace`), from a dual point ψ (N, q, n),
+    e.g. that of another fit: the certificate of a candidate answer."""
+    objective = _objective(problem, theta, penalty, norm)
+    gap, rigorous = _relative_gap(problem, theta, objective, psi, penalty, norm)
+    return objective, gap, rigorous
 
 
 def _relative_gap(

@@ -62,8 +62,9 @@ class LossFit:
 
     ``details`` holds its certificate and loss-specific numbers (they become the
     fit status's details); ``failure`` says which tolerance was missed (used
-    when ``converged`` is False); ``outliers`` marks the residuals beyond δ
-    (N, q, n), for a loss with a threshold.
+    when ``converged`` is False); ``beyond_delta`` marks the residuals beyond δ
+    (N, q, n), Huber's linear region, for a loss with a threshold; ``dual`` is the
+    loss's dual point ψ (N, q, n), |ψ| <= 1, where the solver has one (Laplace).
     """
 
     theta: np.ndarray  # (N, n, p)
@@ -74,7 +75,8 @@ class LossFit:
     solver: str
     details: dict
     failure: str
-    outliers: np.ndarray | None = None
+    beyond_delta: np.ndarray | None = None
+    dual: np.ndarray | None = None
 
 
 class Loss:
@@ -201,6 +203,16 @@ class HuberLoss(Loss):
     threshold = True
     priors = True
 
+    def rho(self, e: np.ndarray, delta: np.ndarray | None) -> np.ndarray:
+        if delta is None:
+            raise ValueError("huber_delta: the Huber loss needs its threshold δ")
+        return huber_loss(e, delta)
+
+    def psi(self, e: np.ndarray, delta: np.ndarray | None) -> np.ndarray:
+        if delta is None:
+            raise ValueError("huber_delta: the Huber loss needs its threshold δ")
+        return 2.0 * np.clip(e, -delta, delta)
+
     def value(self, r: np.ndarray, scale: np.ndarray, delta: np.ndarray | None) -> float:
         return float(huber_loss(r, delta * scale).sum())
 
@@ -241,7 +253,7 @@ class HuberLoss(Loss):
         details.update(
             kkt_residual=result.kkt_residual,
             huber_delta=delta.tolist(),
-            n_outliers=int(result.outliers.sum()),
+            n_beyond_delta=int(result.outliers.sum()),
         )
         return LossFit(
             theta=result.theta,
@@ -255,7 +267,7 @@ class HuberLoss(Loss):
                 f"the KKT residual {result.kkt_residual:.3g} did not reach its tolerance "
                 f"{tol:g} in {result.iterations} steps"
             ),
-            outliers=result.outliers,
+            beyond_delta=result.outliers,
         )
 
 
@@ -263,6 +275,13 @@ class LaplaceLoss(Loss):
     """ρ(r) = abs(r) (the paper's Laplacian noise, Section IV-A)."""
 
     name = "laplace"
+
+    def rho(self, e: np.ndarray, delta: np.ndarray | None) -> np.ndarray:
+        return np.abs(e)
+
+    def psi(self, e: np.ndarray, delta: np.ndarray | None) -> np.ndarray:
+        """sign(e), a subgradient (0 at e = 0; the solver has its own exact dual)."""
+        return np.sign(e)
 
     def value(self, r: np.ndarray, scale: np.ndarray, delta: np.ndarray | None) -> float:
         return float(np.sum(scale * np.abs(r)))
@@ -297,6 +316,7 @@ class LaplaceLoss(Loss):
                 "smoothing": result.smoothing,
                 "stages": result.stages,
             },
+            dual=result.psi,
             failure=(
                 f"the duality gap {result.duality_gap:.3g} (relative) did not reach its "
                 f"tolerance {tol:g} in {result.stages} smoothing stages"

@@ -11,6 +11,18 @@ threshold: δ_i = 1.345 σ̂_i with σ̂_i the robust scale of the residuals of
 output i, 1.4826 · MAD (95 % efficiency at Gaussian noise, Huber 1964);
 residuals beyond δ count linearly, so a gross outlier moves the fit as little
 as one δ away. The Laplacian loss counts every residual linearly.
+
+The edges of the problem are solved directly: a squared-loss fit with no
+residual is optimal for every loss (:func:`_exact_fit`); with a sparse
+penalty and λ at or beyond the loss's own λ_max, the robust fit with Dk = 0
+(the robust LTI fit for order 1) is the answer, computed as one static
+problem and certified (:func:`_null_space_solution`), where the
+interior-point method would face Newton systems scaled by λ. A given Huber
+threshold must be at least DELTA_FLOOR × the robust scale of the squared-loss
+residuals: below it Huber's loss is the Laplacian loss to working precision.
+
+:func:`residual_outliers` marks the residual entries of any fit beyond
+OUTLIER_THRESHOLD robust scales (``model.outliers``).
 """
 
 from __future__ import annotations
@@ -20,15 +32,26 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConvergenceWarning, warn
+from ..errors import ConvergenceWarning, SingularProblemError, warn
+from .laplace import certified_gap
 from .losses import Loss, LossFit
-from .penalties import Penalty
+from .penalties import Penalty, named
 from .priorterms import PriorTerm
-from .problem import RegressionProblem
+from .problem import RegressionProblem, null_space_basis
 from .sparse import solve_sparse
+from .sparse_common import difference_preimage, null_space_fit
 from .squared import SquaredSolver
 
-__all__ = ["HUBER_EFFICIENCY", "MAD_TO_STD", "RobustSolution", "default_delta", "solve_robust"]
+__all__ = [
+    "DELTA_FLOOR",
+    "HUBER_EFFICIENCY",
+    "MAD_TO_STD",
+    "OUTLIER_THRESHOLD",
+    "RobustSolution",
+    "default_delta",
+    "residual_outliers",
+    "solve_robust",
+]
 
 HUBER_EFFICIENCY = 1.345  # δ / σ of Huber's 95 %-efficient estimator
 MAD_TO_STD = 1.4826  # σ / MAD of Gaussian noise
@@ -37,6 +60,25 @@ MAD_TO_STD = 1.4826  # σ / MAD of Gaussian noise
 START_TOL = 1e-3
 # Residuals at most this fraction of the largest |y| are rounding: an exact fit.
 EXACT_FIT = 1e-12
+# The smallest Huber threshold, relative to the robust scale of the squared-loss
+# residuals: measured on the jump-linear system, the sparse norms' solvers stall
+# from about 5e-5 σ̂, where h_δ is |r| to within rounding of the residuals.
+DELTA_FLOOR = 1e-4
+# The robust fit with Dk = 0 is tried where the loss's λ_max, estimated at the
+# least-squares fit with Dk = 0, is within this factor of λ (then certified).
+NULL_SPACE_TRY = 10.0
+# A residual entry beyond this many robust scales is an outlier: 2.576 is the
+# two-sided 1 % point of the Gaussian; the margin covers the MAD's own
+# estimation error (measured false-positive rates in tests/estimators/test_outliers.py).
+OUTLIER_THRESHOLD = 3.0
+# Residual entries within REPRODUCED × their output's residual RMS, or within
+# ROUNDING × its largest |y|, are reproduced by the fit (a residual that a
+# Laplace fit sets to zero, to its solver's tolerance, or rounding): they do not
+# enter the scale (a Laplace fit with many degrees of freedom zeroes a third of
+# them or more) and are never outliers. Gaussian noise falls below 1e-4 of its
+# standard deviation with probability 8e-5.
+REPRODUCED = 1e-4
+ROUNDING = 1e-8
 
 
 def default_delta(problem: RegressionProblem, theta: np.ndarray) -> np.ndarray:
@@ -51,6 +93,39 @@ def default_delta(problem: RegressionProblem, theta: np.ndarray) -> np.ndarray:
     # fit has nothing to be robust against (any δ gives the squared-loss fit).
     sigma = np.where(sigma > 0, sigma, np.where(rms > 0, rms, 1.0))
     return HUBER_EFFICIENCY * sigma
+
+
+def residual_outliers(
+    problem: RegressionProblem, theta: np.ndarray, threshold: float = OUTLIER_THRESHOLD
+) -> tuple[np.ndarray, np.ndarray]:
+    """The residual entries of ``theta`` (N, n, p) beyond ``threshold`` robust scales.
+
+    The residuals are those of the weighted rows, √w (y − Θφ) (weights are
+    inverse relative noise variances, so these have one variance per output).
+    The robust scale of output i is σ̂_i = 1.4826 · median |r_ti| over its
+    observed entries, about zero (the noise has mean zero under the model:
+    an outlier is far from the model's prediction, not from the residuals'
+    median), leaving out the entries the fit reproduces (within REPRODUCED ×
+    the residuals' RMS or ROUNDING × the largest |y_i|). Returns the mask
+    (N, q, n) of |r_ti| > threshold · σ̂_i (False where unobserved) and σ̂ (n,).
+    """
+    r = np.abs(problem.residuals(theta))
+    observed = problem.observed[:, :, None]
+    rms = np.sqrt(np.sum(r**2, axis=(0, 1)) / max(problem.n_observed, 1))
+    floor = np.maximum(
+        REPRODUCED * rms, ROUNDING * np.abs(problem.y).max(axis=(0, 1), initial=0.0)
+    )  # (n,)
+    counted = observed & (r > floor)
+    sigma = np.array(
+        [
+            MAD_TO_STD * float(np.median(r[..., i][counted[..., i]]))
+            if counted[..., i].any()
+            else 0.0
+            for i in range(problem.n)
+        ]
+    )
+    mask = counted & (r > threshold * sigma)
+    return mask, sigma
 
 
 @dataclass
@@ -94,11 +169,28 @@ def solve_robust(
                 problem, weights, penalty, max_iter=max_iter, tol=max(tol, START_TOL)
             ).theta
     rule = "given"
-    if delta is None:
-        delta = default_delta(problem, start)
-        rule = "1.345 * 1.4826 * MAD of squared-loss residuals"
+    null_space = None  # the least-squares fit with Dk = 0 (sparse penalties)
+    if not penalty.closed_form and (problem.degree == 1 or np.isfinite(weights).all()):
+        null_space = null_space_fit(problem)
+    exact = None
     if penalty.closed_form and not priors and _fits_exactly(problem, start):
-        return _exact_fit(problem, weights, start, loss, delta, rule)
+        exact = start
+    elif null_space is not None and _fits_exactly(problem, null_space):
+        exact = null_space  # no residual and Dk = 0: the objective is 0, its minimum
+    if delta is None:
+        delta = default_delta(problem, exact if exact is not None else start)
+        rule = "1.345 * 1.4826 * MAD of squared-loss residuals"
+    elif exact is None:
+        _check_delta(problem, start, delta)
+    if exact is not None:
+        return _exact_fit(problem, weights, penalty, exact, loss, delta, rule)
+    if null_space is not None and np.all(weights > 0) and np.isfinite(weights).all():
+        if _lambda_max_ratio(problem, null_space, loss, penalty, weights, delta) <= NULL_SPACE_TRY:
+            solution = _null_space_solution(
+                problem, weights, loss, penalty, delta, max_iter=max_iter, tol=tol
+            )
+            if solution is not None:
+                return RobustSolution(**vars(solution), delta_rule=rule)
     prior_scale = None
     if priors:
         prior_scale = (
@@ -134,28 +226,132 @@ def _fits_exactly(problem: RegressionProblem, theta: np.ndarray) -> bool:
     return bool(np.abs(problem.residuals(theta)).max(initial=0.0) <= EXACT_FIT * scale)
 
 
-def _exact_fit(problem, W, theta, loss: Loss, delta, rule) -> RobustSolution:
-    """The squared-loss fit when it leaves no residual: it minimizes the penalty with every
-    residual zero (its stationarity is ∇P = 2Φᵀr = 0), so it minimizes any loss plus the
+def _check_delta(problem: RegressionProblem, start: np.ndarray, delta: np.ndarray) -> None:
+    """A given Huber threshold is at least DELTA_FLOOR × the robust scale of the squared-loss
+    residuals ``start`` (N, n, p) of its output."""
+    sigma = default_delta(problem, start) / HUBER_EFFICIENCY
+    low = delta < DELTA_FLOOR * sigma
+    if np.any(low):
+        i = int(np.flatnonzero(low)[0])
+        raise ValueError(
+            f"huber_delta: expected a threshold of at least {DELTA_FLOOR:g} × the robust scale "
+            f"of the squared-loss residuals ({DELTA_FLOOR * sigma[i]:.3g} for output {i}), "
+            f"received {delta[i]:.3g}; below it Huber's loss is the absolute value to working "
+            "precision: pass loss='laplace', a larger huber_delta, or leave it out (1.345 × "
+            "that scale)"
+        )
+
+
+def _lambda_max_ratio(problem, theta, loss: Loss, penalty: Penalty, weights, delta) -> float:
+    """max_t R*((Dᵀ)⁺ Σ_j ψ(r_tj) φ_tj / weights) at Θ (N, n, p) with Dk = 0: at the loss's
+    optimum with Dk = 0 this is λ_max / λ (Dk = 0 is optimal where it is <= 1); at
+    another Θ, an estimate of it."""
+    psi = loss.scaled_psi(problem.residuals(theta), problem.row_scale[:, :, None], delta)
+    v = np.einsum("tji,tja->tia", psi, problem.phi).reshape(problem.N, problem.K)
+    nu = difference_preimage(v, problem.coeffs)
+    return float(penalty.dual_norms(nu / weights).max(initial=0.0))
+
+
+def _null_space_solution(
+    problem: RegressionProblem,
+    weights: np.ndarray,
+    loss: Loss,
+    penalty: Penalty,
+    delta: np.ndarray,
+    *,
+    max_iter: int,
+    tol: float,
+) -> LossFit | None:
+    """The robust fit with Dk = 0 where it solves the problem with the sparse ``penalty``
+    (λ at or beyond the loss's λ_max), certified; None where it does not.
+
+    k_t = Σ_l U_tl γ_l over a basis U (N, d) of null(D) makes it one static
+    problem with N·q rows and d·p regressors, every coefficient constant (as
+    the robust piecewise fits). Its certificate for the sparse problem:
+    Huber, :func:`_lambda_max_ratio` <= 1 at its solution (with its KKT
+    residual); Laplace, the duality gap of its dual point for the sparse
+    problem (:func:`~.laplace.certified_gap`) within ``tol``.
+    """
+    N, q, n, p = problem.N, problem.q, problem.n, problem.p
+    U = null_space_basis(N, problem.coeffs)  # (N, d)
+    d = U.shape[1]
+    static = RegressionProblem(
+        y=problem.y.reshape(1, N * q, n),
+        phi=(U[:, None, :, None] * problem.phi[:, :, None, :]).reshape(1, N * q, d * p),
+        coeffs=np.array([-1.0, 1.0]),
+        observed=problem.observed.reshape(1, N * q),
+        row_scale=problem.row_scale.reshape(1, N * q),
+    )
+    with warnings.catch_warnings():  # judged below by the certificate
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        try:
+            fit = solve_robust(
+                static,
+                np.full(n * d * p, np.inf),
+                loss=loss,
+                penalty=named("sq"),
+                delta=delta,
+                max_iter=max_iter,
+                tol=tol,
+            )
+        except (SingularProblemError, ValueError):
+            return None
+    if not fit.converged:
+        return None
+    theta = np.ascontiguousarray(np.einsum("tl,ila->tia", U, fit.theta[0].reshape(n, d, p)))
+    details = dict(fit.details)
+    if loss.threshold:
+        ratio = _lambda_max_ratio(problem, theta, loss, penalty, weights, delta)
+        if ratio > 1.0:
+            return None
+        objective = loss.value(problem.residuals(theta), problem.row_scale[:, :, None], delta)
+        details["lambda_max_ratio"] = ratio
+    else:
+        if fit.dual is None:
+            return None
+        psi = fit.dual.reshape(N, q, n)
+        objective, gap, rigorous = certified_gap(problem, theta, psi, weights, penalty.name)
+        if gap > tol:
+            return None
+        details.update(duality_gap=gap, duality_gap_rigorous=rigorous)
+    details["null_space_fit"] = True
+    return LossFit(
+        theta=theta,
+        objective=objective,  # the penalty of Dk = 0 is 0
+        iterations=fit.iterations,
+        converged=True,
+        stalled=False,
+        solver=f"the robust fit with Dk = 0 (lam >= the loss's lambda_max); {fit.solver}",
+        details=details,
+        failure="",
+        beyond_delta=None if fit.beyond_delta is None else fit.beyond_delta.reshape(N, q, n),
+    )
+
+
+def _exact_fit(problem, W, penalty: Penalty, theta, loss: Loss, delta, rule) -> RobustSolution:
+    """A squared-loss fit that leaves no residual: for the squared norm it minimizes the
+    penalty with every residual zero (its stationarity is ∇P = 2Φᵀr = 0); for a sparse
+    norm it is the fit with Dk = 0 (objective 0). Either minimizes any loss plus the
     penalty; the certificate is that zero gradient."""
     r = problem.residuals(theta)
     value = loss.value(r, problem.row_scale[:, :, None], delta)
     if loss.threshold:
-        outliers = np.zeros(r.shape, dtype=bool)
-        details = {"kkt_residual": 0.0, "huber_delta": delta.tolist(), "n_outliers": 0}
+        beyond = np.zeros(r.shape, dtype=bool)
+        details = {"kkt_residual": 0.0, "huber_delta": delta.tolist(), "n_beyond_delta": 0}
     else:
-        outliers = None
+        beyond = None
         details = {"duality_gap": 0.0, "duality_gap_rigorous": True, "kkt_residual": 0.0}
     details["exact_fit"] = True
+    penalty_value = SquaredSolver(problem, W, []).penalty(theta) if penalty.closed_form else 0.0
     return RobustSolution(
         theta=theta,
-        objective=value + SquaredSolver(problem, W, []).penalty(theta),
+        objective=value + penalty_value,
         iterations=0,
         converged=True,
         stalled=False,
         solver="the squared-loss fit (no residual: optimal for any loss)",
         details=details,
         failure="",
-        outliers=outliers,
+        beyond_delta=beyond,
         delta_rule=rule,
     )

@@ -26,7 +26,7 @@ from ..validation.options import Loss, Norm, PriorMode, SparseNorm
 from .piecewise import residual_noise
 from .recordings import StateSpaceData, state_space_data
 from .regression import fit_problem, sparse_model
-from .robust import robust_model
+from .robust import outlier_info, robust_model
 from .spec import FitSpec
 
 __all__ = ["fit_lti", "fit", "fit_path", "lambda_max"]
@@ -66,7 +66,7 @@ def fit_lti(
     loss, huber_delta
         As in :func:`fit`: ``loss="huber"`` minimizes Σ w h_δ(r) over the
         entries of the residuals instead (to a KKT residual of 1e-10), with
-        ``model.outliers``; ``loss="laplace"`` minimizes Σ w|r| (to a relative
+        ``model.beyond_delta``; ``loss="laplace"`` minimizes Σ w|r| (to a relative
         duality gap of 1e-10); then no ``cov``, ``loglik`` None.
     regular : bool, default True
         As in :func:`ltvmodels.fit` (False: the rows of a time index are
@@ -126,6 +126,7 @@ def fit_lti(
         "solver": "least-squares (QR)",
         "rss": rss,
         "dof": int(dof),
+        **outlier_info(problem, np.broadcast_to(theta, (N, n, p))),
     }
     if loglik_note:
         info["loglik_note"] = loglik_note
@@ -278,8 +279,12 @@ def fit(
           interior-point method with one more cone pair per residual entry
           ("group", "l1", stopped on its duality gap and residuals; proximal
           Newton on reweighted sparse fits where it does not apply); ``tol``
-          and ``max_iter`` apply. ``model.outliers`` marks the residuals beyond δ;
-          ``info`` holds "huber_delta", "n_outliers" and "kkt_residual".
+          and ``max_iter`` apply. ``model.beyond_delta`` marks the residuals
+          beyond δ (Huber's linear region); ``info`` holds "huber_delta",
+          "n_beyond_delta" and "kkt_residual". ``huber_delta`` below 1e-4 ×
+          the robust scale of the squared-loss residuals is an error (use
+          "laplace"). With a sparse norm and λ at or beyond the loss's own
+          λ_max the answer is the robust fit with Dk = 0, computed directly.
         * "laplace": abs(r) (the paper's Laplacian noise, Section IV-A), the most
           robust. Exact: the interior-point method with one more cone pair
           per residual entry (Huber smoothing with an exact active-set polish

@@ -56,7 +56,7 @@ from ..validation import arrays, options
 from ..validation.options import Loss
 from .changepoints import find_changepoints
 from .recordings import state_space_data
-from .robust import robust_record_parts
+from .robust import outlier_info, robust_record_parts
 
 __all__ = ["fit_piecewise", "piecewise_fit", "refine_fit", "residual_noise"]
 
@@ -261,6 +261,7 @@ def piecewise_fit(
         "rss": float(np.trace(rss_matrix)),
         "dof": int(dof),
         "n_params_per_row": int(n_params),
+        **outlier_info(problem, theta),
     }
     if loglik_note:
         info["loglik_note"] = loglik_note
@@ -400,8 +401,8 @@ def _fit_robust(
     )
     gamma = solution.theta[0].reshape(n, J, p)
     theta = np.einsum("tl,ilp->tip", basis, gamma)
-    if solution.outliers is not None:
-        solution.outliers = solution.outliers.reshape(N, q, n)
+    if solution.beyond_delta is not None:
+        solution.beyond_delta = solution.beyond_delta.reshape(N, q, n)
     info, status = robust_record_parts(solution, loss)
     noise_var = problem.output_rss(theta) / max(problem.n_observed, 1)
     return factory(
@@ -412,7 +413,7 @@ def _fit_robust(
             lam=float("inf"),
             noise_var=noise_var,
             noise_cov=np.diag(noise_var),
-            info={**info, **info_extra},
+            info={**info, **info_extra, **outlier_info(problem, theta)},
             changepoints=changepoints,
             status=status,
         ),

@@ -37,7 +37,7 @@ from .changepoints import find_changepoints, residue_level
 from .piecewise import refine_fit
 from .priors import resolve as resolve_priors
 from .recordings import regression_data, require_enough_data
-from .robust import robust_model
+from .robust import outlier_info, robust_model
 from .selection import select_for_problem
 from .spec import FitSpec
 
@@ -370,6 +370,7 @@ def _fit_with_lam(
         cov = CovarianceBlocks(blocks, None) if compute_cov else None
         loglik = None
         info["loglik_note"] = "no likelihood is defined for the posthoc correction"
+    info.update(outlier_info(problem, k.reshape(N, n, p)))
     noise_cov = np.diag(result.noise_var)
     status = FitStatus(
         "closed_form",
@@ -418,6 +419,7 @@ def sparse_model(
         **solution.details,
         "rss": solution.rss,
         "lambda_max": solution.lambda_max,
+        **outlier_info(problem, solution.theta),
     }
     status = FitStatus(
         "closed_form"

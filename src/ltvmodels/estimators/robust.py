@@ -16,14 +16,28 @@ from ..core.losses import named as named_loss
 from ..core.penalties import Penalty
 from ..core.priorterms import PriorTerm
 from ..core.problem import RegressionProblem, activation
-from ..core.robust import RobustSolution, solve_robust
+from ..core.robust import OUTLIER_THRESHOLD, RobustSolution, residual_outliers, solve_robust
 from ..results.record import FitRecord, FitStatus, iterative_status
 from ..results.regression import RegressionModel
 from .changepoints import find_changepoints, residue_level
 
-__all__ = ["robust_model", "robust_record_parts"]
+__all__ = ["outlier_info", "robust_model", "robust_record_parts"]
 
 ModelT = TypeVar("ModelT", bound=RegressionModel)  # the model the caller's factory builds
+
+
+def outlier_info(problem: RegressionProblem, theta: np.ndarray) -> dict[str, Any]:
+    """The ``info`` entries of ``model.outliers`` for the fit ``theta`` (N, n, p) of
+    ``problem`` (every fit): "outliers" (N, q, n), the residual entries beyond
+    "outlier_threshold" × "outlier_scale" (σ̂ per output,
+    :func:`~ltvmodels.core.robust.residual_outliers`), and "n_outliers"."""
+    mask, sigma = residual_outliers(problem, theta)
+    return {
+        "outliers": mask,
+        "outlier_scale": sigma.tolist(),
+        "outlier_threshold": OUTLIER_THRESHOLD,
+        "n_outliers": int(mask.sum()),
+    }
 
 
 def robust_record_parts(solution: RobustSolution, loss: str) -> tuple[dict, FitStatus]:
@@ -37,8 +51,8 @@ def robust_record_parts(solution: RobustSolution, loss: str) -> tuple[dict, FitS
         **solution.details,
         "loglik_note": f"loss={loss!r} has no Gaussian likelihood; loglik is None",
     }
-    if solution.outliers is not None:
-        info.update(huber_delta_rule=solution.delta_rule, outliers=solution.outliers)
+    if solution.beyond_delta is not None:
+        info.update(huber_delta_rule=solution.delta_rule, beyond_delta=solution.beyond_delta)
     status = FitStatus(
         iterative_status(solution.converged, stalled=solution.stalled),
         solution.solver,
@@ -71,7 +85,8 @@ def robust_model(
     ``model.info`` holds "loss", "objective", "iterations", "converged" and
     the certificate: "kkt_residual" (Huber), or "duality_gap" and
     "kkt_residual" (Laplace). Huber fits also hold "huber_delta" (n,),
-    "n_outliers" and "outliers" (the (N, q, n) mask of residuals beyond δ).
+    "n_beyond_delta" and "beyond_delta" (the (N, q, n) mask of the residuals in
+    Huber's linear region, beyond δ); every fit holds :func:`outlier_info`.
     ``loglik`` is None (no Gaussian likelihood) and ``noise_var`` is the given
     one, else the residual mean square of each output. ``priors`` and
     ``noise_var`` as in :func:`solve_robust`.
@@ -105,7 +120,7 @@ def robust_model(
             lam=lam,
             noise_var=noise_var,
             noise_cov=np.diag(noise_var),
-            info=info,
+            info={**info, **outlier_info(problem, solution.theta)},
             changepoints=changepoints,
             status=status,
         ),

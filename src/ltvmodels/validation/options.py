@@ -274,7 +274,10 @@ def huber_delta(value: Any, n: int) -> np.ndarray | None:
     """Validate None (the default rule), a threshold δ > 0, or one per output (n,)."""
     if value is None:
         return None
-    arr = np.asarray(value, dtype=float) if not isinstance(value, (str, bytes, bool)) else None
+    try:
+        arr = np.asarray(value, dtype=float) if not isinstance(value, (str, bytes, bool)) else None
+    except (TypeError, ValueError):  # not numbers: a dict, a ragged list, …
+        arr = None
     if (
         arr is None
         or arr.shape not in ((), (n,))
@@ -283,7 +286,8 @@ def huber_delta(value: Any, n: int) -> np.ndarray | None:
     ):
         raise ValueError(
             f"huber_delta: expected a threshold > 0 or one per output (shape ({n},)), in the "
-            f"units of the outputs, received {describe(value)}"
+            f"units of the outputs, received {describe(value)}; pass numbers, or leave it out "
+            "for the default (1.345 × the robust scale of the residuals)"
         )
     if np.any(arr > 1e100) or np.any(arr < 1e-100):
         raise ValueError(

@@ -115,11 +115,13 @@ def run(args: argparse.Namespace) -> Report:
         + (", then the two-step refinement" if args.refine else ""),
     )
     if args.loss == "huber":
-        report.update(huber_delta=model.info["huber_delta"], n_outliers=model.info["n_outliers"])
+        report.update(
+            huber_delta=model.info["huber_delta"], n_beyond_delta=model.info["n_beyond_delta"]
+        )
         lines.insert(
             2,
             f"loss: huber, delta = {per_name(data.state_names, model.info['huber_delta'])}"
-            f"; {model.info['n_outliers']} residuals beyond delta (outliers)",
+            f"; {model.info['n_beyond_delta']} residuals beyond delta",
         )
     elif args.loss == "laplace":
         report.update(duality_gap=model.info["duality_gap"])
@@ -127,6 +129,13 @@ def run(args: argparse.Namespace) -> Report:
             2,
             f"loss: laplace (absolute residuals); relative duality gap "
             f"{model.info['duality_gap']:.1e}",
+        )
+    if model.outliers is not None:
+        report["n_outliers"] = model.info["n_outliers"]
+        lines.insert(
+            3 if args.loss != "squared" else 2,
+            f"outliers: {model.info['n_outliers']} residual entries beyond "
+            f"{model.info['outlier_threshold']:g} robust scales (1.4826 MAD) of their state",
         )
     title = (
         f"{data.label}: norm={args.norm!r}, order={args.order}, "
