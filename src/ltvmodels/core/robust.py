@@ -30,6 +30,7 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from ..errors import ConvergenceWarning, SingularProblemError, warn
@@ -109,23 +110,47 @@ def residual_outliers(
     the residuals' RMS or ROUNDING × the largest |y_i|). Returns the mask
     (N, q, n) of |r_ti| > threshold · σ̂_i (False where unobserved) and σ̂ (n,).
     """
-    r = np.abs(problem.residuals(theta))
-    observed = problem.observed[:, :, None]
-    rms = np.sqrt(np.sum(r**2, axis=(0, 1)) / max(problem.n_observed, 1))
-    floor = np.maximum(
-        REPRODUCED * rms, ROUNDING * np.abs(problem.y).max(axis=(0, 1), initial=0.0)
-    )  # (n,)
-    counted = observed & (r > floor)
-    sigma = np.array(
-        [
-            MAD_TO_STD * float(np.median(r[..., i][counted[..., i]]))
-            if counted[..., i].any()
-            else 0.0
-            for i in range(problem.n)
-        ]
-    )
-    mask = counted & (r > threshold * sigma)
+    r = problem.residuals(theta)
+    mask = np.zeros(r.shape, dtype=np.bool_)
+    sigma = np.zeros(r.shape[2])
+    _outlier_mask(r, problem.y, problem.observed, threshold, mask, sigma)
     return mask, sigma
+
+
+@numba.njit(cache=True)
+def _outlier_mask(r, y, observed, threshold, mask, sigma):  # pragma: no cover - compiled
+    """:func:`residual_outliers` on the residuals r (N, q, n): fills ``mask`` and ``sigma``.
+
+    One compiled pass per output instead of a dozen array operations: a fit of a
+    few hundred steps takes a fraction of a millisecond, and this runs after every
+    fit.
+    """
+    N, q, n = r.shape
+    values = np.empty(N * q)
+    for i in range(n):
+        total, largest, count = 0.0, 0.0, 0
+        for t in range(N):
+            for j in range(q):
+                if observed[t, j]:
+                    total += r[t, j, i] * r[t, j, i]
+                    largest = max(largest, abs(y[t, j, i]))
+                    count += 1
+        rms = np.sqrt(total / max(count, 1))
+        floor = max(REPRODUCED * rms, ROUNDING * largest)
+        kept = 0
+        for t in range(N):
+            for j in range(q):
+                if observed[t, j] and abs(r[t, j, i]) > floor:
+                    values[kept] = abs(r[t, j, i])
+                    kept += 1
+        if kept == 0:
+            continue
+        sigma[i] = MAD_TO_STD * np.median(values[:kept])
+        bound = threshold * sigma[i]
+        for t in range(N):
+            for j in range(q):
+                a = abs(r[t, j, i])
+                mask[t, j, i] = observed[t, j] and a > floor and a > bound
 
 
 @dataclass
