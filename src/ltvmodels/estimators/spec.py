@@ -47,6 +47,9 @@ FIT_CONSTRAINTS: dict[str, Constraint] = {
     "loss": Choice(LOSSES),  # the registered losses
     "huber_delta": Deferred(),  # with the loss, against the number of outputs
     "progress": Callback(),
+    "measurement_noise": Deferred(),  # against the number of states
+    "em_tol": Positive(),
+    "em_max_iter": Integer(0),
 }
 """The constraint of each option of :class:`FitSpec`, checked in this order."""
 
@@ -73,6 +76,9 @@ class FitSpec:
     loss: Loss = "squared"
     huber_delta: Any = None
     progress: Callable[[int, int], None] | None = None
+    measurement_noise: Any = None
+    em_tol: float = 1e-6
+    em_max_iter: int = 500
 
     @classmethod
     def from_arguments(cls, arguments: Mapping[str, Any]) -> FitSpec:
