@@ -364,3 +364,109 @@ def test_lti_agrees_with_statsmodels_maximum_likelihood():
     np.testing.assert_allclose(result.params[n * n + n :], ours[n * n + n :], rtol=1e-2)
     assert model.loglik == pytest.approx(result.llf, rel=1e-5)
     assert model.loglik >= result.llf - 1e-6 * abs(result.llf)
+
+
+# -- the outputs and the options ------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def noisy_fit():
+    data = ltv.systems.jump_linear(150, change_at=75, seed=6)
+    x = data.x.copy()
+    x[10, 1] = np.nan
+    return x, data.u, ltv.fit(x, data.u, lam=20.0, measurement_noise="estimate")
+
+
+def test_model_file_keeps_the_states_and_variances(noisy_fit, tmp_path):
+    x, u, model = noisy_fit
+    path = tmp_path / "noisy.npz"
+    model.save(path)
+    loaded = ltv.load(path)
+    np.testing.assert_array_equal(loaded.states, model.states)
+    np.testing.assert_array_equal(loaded.states_std, model.states_std)
+    np.testing.assert_array_equal(loaded.measurement_noise, model.measurement_noise)
+    np.testing.assert_array_equal(loaded.k, model.k)
+    assert loaded.loglik == model.loglik
+    text = str(loaded.summary())
+    assert "measurement variance" in text and "EM" in text
+    exact = ltv.fit(x[20:], u[20:], lam=20.0)
+    exact.save(tmp_path / "exact.npz")
+    again = ltv.load(tmp_path / "exact.npz")
+    assert again.states is None and again.measurement_noise is None
+
+
+def test_plot_states_draws_recorded_and_smoothed(noisy_fit):
+    x, _, model = noisy_fit
+    fig = ltv.plotting.plot_states(model, x)
+    assert len(fig.axes) == 2
+    exact = ltv.fit(x[20:], None, lam=20.0)
+    with pytest.raises(ValueError, match="model: expected a model fitted with measurement_noise"):
+        ltv.plotting.plot_states(exact, x[20:])
+
+
+def test_default_is_unchanged_and_options_are_checked(noisy_fit):
+    data = ltv.systems.jump_linear(120, change_at=60, seed=7)
+    plain = ltv.fit(data.x, data.u, lam=10.0)
+    explicit = ltv.fit(data.x, data.u, lam=10.0, measurement_noise=None)
+    np.testing.assert_array_equal(plain.k, explicit.k)
+    assert plain.states is None and plain.measurement_noise is None
+    bad = [
+        ("estimated", ValueError, "measurement_noise: expected None, 'estimate'"),
+        ([0.1, 0.2, 0.3], ValueError, r"measurement_noise: expected one variance or one per"),
+        (-1.0, ValueError, "measurement_noise"),
+        (True, TypeError, "measurement_noise"),
+    ]
+    for value, error, message in bad:
+        with pytest.raises(error, match=message):
+            ltv.fit(data.x, data.u, lam=10.0, measurement_noise=value)
+    with pytest.raises(ValueError, match="em_tol"):
+        ltv.fit(data.x, data.u, lam=10.0, measurement_noise="estimate", em_tol=0.0)
+    with pytest.raises(NotImplementedError, match="loss: 'huber' with measurement_noise"):
+        ltv.fit(data.x, data.u, lam=10.0, loss="huber", measurement_noise="estimate")
+    with pytest.raises(ValueError, match="noise_var: with measurement_noise"):
+        ltv.fit(data.x, data.u, lam=10.0, noise_var=[0.1, 0.2], measurement_noise=0.04)
+    with pytest.raises(ValueError, match="measurement_noise"):
+        ltv.fit_lti(data.x, data.u, measurement_noise="yes")
+    given = ltv.fit(data.x, data.u, lam=10.0, noise_var=0.05, measurement_noise=0.04)
+    np.testing.assert_allclose(given.noise_var, 0.05)
+    np.testing.assert_allclose(given.measurement_noise, 0.04)
+
+
+def test_trajectories_weights_and_intercept():
+    runs = [ltv.systems.jump_linear(150, change_at=75, seed=s) for s in (8, 9)]
+    x = np.stack([r.x for r in runs])
+    u = np.stack([r.u for r in runs])
+    weights = np.ones((2, 149))
+    weights[1, 40:60] = 0.0  # a gap in the second trajectory: its chain restarts
+    model = ltv.fit(
+        x + 1.0,
+        u,
+        lam=20.0,
+        weights=weights,
+        constant=True,
+        measurement_noise="estimate",
+        em_max_iter=40,
+    )
+    assert model.states.shape == x.shape and np.all(np.isfinite(model.states))
+    path = model.info["em_objectives"]
+    assert np.diff(path).min() >= -1e-7 * abs(path[-1])
+    piecewise = ltv.fit_piecewise(x[0], u[0], [75], measurement_noise=0.04, em_max_iter=30)
+    assert piecewise.norm == "piecewise" and piecewise.changepoints.tolist() == [75]
+
+
+def test_command_line_measurement_noise(tmp_path):
+    pd = pytest.importorskip("pandas")
+    from ltvmodels.cli import main
+
+    data = ltv.systems.jump_linear(150, change_at=75, seed=10)
+    path = tmp_path / "x.csv"
+    pd.DataFrame({"x0": data.x[:, 0], "x1": data.x[:, 1], "u0": data.u[:, 0]}).to_csv(
+        path, index=False
+    )
+    out = tmp_path / "m.npz"
+    code = main(
+        ["fit", str(path), "--state", "x0,x1", "--input", "u0", "--lam", "20",
+         "--measurement-noise", "estimate", "--out", str(out)]
+    )  # fmt: skip
+    assert code in (0, None)
+    assert ltv.load(out).measurement_noise.shape == (2,)

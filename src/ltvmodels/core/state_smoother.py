@@ -177,43 +177,62 @@ def _smooth(A, offset, link, qvar, y, rvar, kappa, mean, cov, cross):  # pragma:
     loglik = 0.0
     mp = np.empty((T, n))  # predicted means and covariances of one trajectory
     Pp = np.empty((T, n, n))
+    AP = np.empty((n, n))
+    gain = np.empty(n)
+    row = np.empty(n)
+    L = np.empty((n, n))
+    Jt = np.empty((n, n))
+    D = np.empty((n, n))
+    JD = np.empty((n, n))
+    dm = np.empty(n)
     for r in range(R):
         for t in range(T):
+            P = cov[r, t]
+            m = mean[r, t]
             if t == 0 or not link[r, t - 1]:
                 for i in range(n):
-                    mp[t, i] = 0.0
+                    m[i] = 0.0
                     for j in range(n):
-                        Pp[t, i, j] = kappa if i == j else 0.0
+                        P[i, j] = kappa if i == j else 0.0
             else:
                 At = A[t - 1]
                 mf = mean[r, t - 1]
                 Pf = cov[r, t - 1]
-                AP = At @ Pf
                 for i in range(n):
                     acc = offset[r, t - 1, i]
                     for j in range(n):
                         acc += At[i, j] * mf[j]
-                    mp[t, i] = acc
-                P = AP @ At.T
-                for i in range(n):
+                    m[i] = acc
                     for j in range(n):
-                        Pp[t, i, j] = 0.5 * (P[i, j] + P[j, i])
-                    Pp[t, i, i] += qvar[r, t - 1]
-            m = mp[t].copy()
-            P = Pp[t].copy()
+                        acc = 0.0
+                        for k in range(n):
+                            acc += At[i, k] * Pf[k, j]
+                        AP[i, j] = acc
+                for i in range(n):
+                    for j in range(i + 1):
+                        acc = 0.0
+                        for k in range(n):
+                            acc += AP[i, k] * At[j, k]
+                        P[i, j] = acc
+                        P[j, i] = acc
+                    P[i, i] += qvar[r, t - 1]
+            for i in range(n):
+                mp[t, i] = m[i]
+                for j in range(n):
+                    Pp[t, i, j] = P[i, j]
             for i in range(n):  # sequential scalar updates on the observed entries
                 v = y[r, t, i]
                 if not np.isfinite(v):
                     continue
-                s = P[i, i] + rvar[r, t, i]
+                Pii = P[i, i]
+                s = Pii + rvar[r, t, i]
                 innov = v - m[i]
                 loglik += -0.5 * (log2pi + np.log(s) + innov * innov / s)
-                gain = P[:, i] / s
-                Pii = P[i, i]
+                for a in range(n):
+                    gain[a] = P[a, i] / s
+                    row[a] = P[i, a]
                 for a in range(n):
                     m[a] += gain[a] * innov
-                row = P[i, :].copy()
-                for a in range(n):
                     for b in range(n):
                         P[a, b] -= gain[a] * row[b]
                 # the updated variance without cancellation: P r / (P + r)
@@ -223,27 +242,69 @@ def _smooth(A, offset, link, qvar, y, rvar, kappa, mean, cov, cross):  # pragma:
                     sym = 0.5 * (P[a, b] + P[b, a])
                     P[a, b] = sym
                     P[b, a] = sym
-            mean[r, t] = m
-            cov[r, t] = P
         # RTS smoother: the filtered moments in mean/cov become the smoothed ones
         for t in range(T - 2, -1, -1):
             if not link[r, t]:
                 continue
-            Pf = cov[r, t].copy()
-            APf = A[t] @ Pf  # (n, n); J = Pf Aᵀ Pp⁻¹ = (Pp⁻¹ A Pf)ᵀ
-            Jt = np.linalg.solve(Pp[t + 1], APf)  # Jᵀ
-            J = Jt.T.copy()
-            dm = mean[r, t + 1] - mp[t + 1]
-            mean[r, t] = mean[r, t] + J @ dm
-            dP = cov[r, t + 1] - Pp[t + 1]
-            P = Pf + J @ dP @ Jt
-            for a in range(n):
-                for b in range(a, n):
-                    sym = 0.5 * (P[a, b] + P[b, a])
-                    P[a, b] = sym
-                    P[b, a] = sym
-            cov[r, t] = P
-            cross[r, t] = cov[r, t + 1] @ Jt
+            Pf = cov[r, t]
+            At = A[t]
+            # Jᵀ = Pp⁻¹ A Pf by the Cholesky factor of Pp (positive definite: q > 0)
+            Pn = Pp[t + 1]
+            for j in range(n):
+                acc = Pn[j, j]
+                for k in range(j):
+                    acc -= L[j, k] * L[j, k]
+                L[j, j] = np.sqrt(acc)
+                for i in range(j + 1, n):
+                    acc = Pn[i, j]
+                    for k in range(j):
+                        acc -= L[i, k] * L[j, k]
+                    L[i, j] = acc / L[j, j]
+            for c in range(n):
+                for i in range(n):  # A Pf column c, then forward and back substitution
+                    acc = 0.0
+                    for k in range(n):
+                        acc += At[i, k] * Pf[k, c]
+                    row[i] = acc
+                for i in range(n):
+                    acc = row[i]
+                    for k in range(i):
+                        acc -= L[i, k] * gain[k]
+                    gain[i] = acc / L[i, i]
+                for i in range(n - 1, -1, -1):
+                    acc = gain[i]
+                    for k in range(i + 1, n):
+                        acc -= L[k, i] * Jt[k, c]
+                    Jt[i, c] = acc / L[i, i]
+            for i in range(n):
+                dm[i] = mean[r, t + 1, i] - mp[t + 1, i]
+                for j in range(n):
+                    D[i, j] = cov[r, t + 1, i, j] - Pn[i, j]
+            for i in range(n):  # J = Jtᵀ: m += J dm; JD = J D
+                acc = 0.0
+                for k in range(n):
+                    acc += Jt[k, i] * dm[k]
+                mean[r, t, i] += acc
+                for j in range(n):
+                    acc = 0.0
+                    for k in range(n):
+                        acc += Jt[k, i] * D[k, j]
+                    JD[i, j] = acc
+            for i in range(n):
+                for j in range(i + 1):
+                    acc = 0.0
+                    for k in range(n):
+                        acc += JD[i, k] * Jt[k, j]
+                    value = Pf[i, j] + acc
+                    Pf[i, j] = value
+                    Pf[j, i] = value
+            Ps = cov[r, t + 1]
+            for i in range(n):  # Cov(x_{t+1}, x_t) = P_{t+1|T} Jᵀ
+                for j in range(n):
+                    acc = 0.0
+                    for k in range(n):
+                        acc += Ps[i, k] * Jt[k, j]
+                    cross[r, t, i, j] = acc
     return loglik
 
 
@@ -259,38 +320,107 @@ def expected_statistics(
     ``u`` (R, T, m) are exact inputs, ``link`` (R, N) the transitions in the
     model, ``weights`` (R, N) or None their weights.
     """
-    mean, cov, cross = moments.mean, moments.cov, moments.cross
+    mean = moments.mean
     R, T, n = mean.shape
     N = T - 1
+    m = u.shape[2]
+    p = n + m + int(constant)
     w = link.astype(float) if weights is None else np.where(link, weights, 0.0)
-    uu = np.where(link[:, :, None], u[:, :N], 0.0)  # a missing input is in no transition
-    x0, x1 = mean[:, :N], mean[:, 1:]
-    parts = [x0, uu] + ([np.ones((R, N, 1))] if constant else [])
-    phi = np.concatenate(parts, axis=2)  # (R, N, p) of the means
-    gram = np.einsum("rt,rta,rtb->tab", w, phi, phi)
-    gram[:, :n, :n] += np.einsum("rt,rtab->tab", w, cov[:, :N])
-    cross_sum = np.einsum("rt,rta,rti->tai", w, phi, x1)
-    # E[x_t x_{t+1}ᵀ] − m_t m_{t+1}ᵀ = Cov(x_{t+1}, x_t)ᵀ
-    cross_sum[:, :n, :] += np.einsum("rt,rtia->tai", w, cross)
-    target = np.einsum("rt,rti->ti", w, x1**2 + np.diagonal(cov[:, 1:], axis1=2, axis2=3))
-    return ExpectedStatistics(gram, cross_sum, target, int(np.count_nonzero(link)))
+    uu = np.ascontiguousarray(np.where(link[:, :, None], u[:, :N], 0.0))  # NaN in no transition
+    gram = np.zeros((N, p, p))
+    cross = np.zeros((N, p, n))
+    target = np.zeros((N, n))
+    _statistics(
+        mean, moments.cov, moments.cross, uu, np.ascontiguousarray(w), bool(constant),
+        gram, cross, target,
+    )  # fmt: skip
+    return ExpectedStatistics(gram, cross, target, int(np.count_nonzero(link)))
+
+
+@numba.njit(cache=True)
+def _statistics(mean, cov, lag, u, w, constant, gram, cross, target):  # pragma: no cover - compiled
+    R, T, n = mean.shape
+    m = u.shape[2]
+    p = gram.shape[1]
+    phi = np.empty(p)
+    for r in range(R):
+        for t in range(T - 1):
+            wt = w[r, t]
+            if wt == 0.0:
+                continue
+            for a in range(n):
+                phi[a] = mean[r, t, a]
+            for a in range(m):
+                phi[n + a] = u[r, t, a]
+            if constant:
+                phi[p - 1] = 1.0
+            for a in range(p):
+                for b in range(p):
+                    gram[t, a, b] += wt * phi[a] * phi[b]
+                for i in range(n):
+                    cross[t, a, i] += wt * phi[a] * mean[r, t + 1, i]
+            for a in range(n):
+                for b in range(n):
+                    gram[t, a, b] += wt * cov[r, t, a, b]
+                for i in range(n):  # E[x_t x_{t+1}ᵀ] − m mᵀ = Cov(x_{t+1}, x_t)ᵀ
+                    cross[t, a, i] += wt * lag[r, t, i, a]
+            for i in range(n):
+                x1 = mean[r, t + 1, i]
+                target[t, i] += wt * (x1 * x1 + cov[r, t + 1, i, i])
 
 
 def expected_problem(stats: ExpectedStatistics, coeffs: np.ndarray) -> RegressionProblem:
     """Pseudo-data with the Gram and cross sums of ``stats``: p rows per step.
 
-    With G_t = V_t diag(s) V_tᵀ (eigen-decomposition; directions with s at or
-    below a relative 1e-13 dropped, as for inputs that are zero over a step),
-    the rows φ̃_tj = √s_j v_j and targets ỹ_tj = v_jᵀ C_t / √s_j give
-    Σ_j φ̃ φ̃ᵀ = G_t and Σ_j φ̃ ỹᵀ = C_t (C_t lies in the range of G_t), so that
+    With G_t = L_t L_tᵀ (a Cholesky factor; where a pivot is at or below a
+    relative 1e-12 of the diagonal — a direction without data, as for inputs
+    that are zero over a step — its column is dropped), the rows φ̃_tj = column j
+    of L_t and targets ỹ_t = L_t⁻¹ C_t (on the kept columns) give Σ_j φ̃ φ̃ᵀ = G_t
+    and Σ_j φ̃ ỹᵀ = C_t (C_t lies in the range of G_t), so that
     Σ_j ‖ỹ_tj − Θ_t φ̃_tj‖² is the expected data term Σ_r w E‖x_{t+1} − Θ_t φ_t‖²
     up to a constant. A step without transitions has no rows (all unobserved).
     """
     gram, cross = stats.gram, stats.cross
-    s, V = np.linalg.eigh(0.5 * (gram + np.swapaxes(gram, 1, 2)))  # ascending
-    keep = s > 1e-13 * np.maximum(s[:, -1:], 1e-300)
-    root = np.sqrt(np.where(keep, s, 1.0))
-    phi = np.swapaxes(V * np.where(keep, root, 0.0)[:, None, :], 1, 2)  # (N, p rows, p)
-    y = np.einsum("taj,tai->tji", V, cross) / root[:, :, None]
-    y = np.where(keep[:, :, None], y, 0.0)
+    N, p, n = cross.shape
+    phi = np.zeros((N, p, p))
+    y = np.zeros((N, p, n))
+    keep = np.zeros((N, p), dtype=np.bool_)
+    _pseudo_rows(gram, cross, phi, y, keep)
     return RegressionProblem(y=y, phi=phi, coeffs=coeffs, observed=keep)
+
+
+@numba.njit(cache=True)
+def _pseudo_rows(gram, cross, phi, y, keep):  # pragma: no cover - compiled
+    N, p, n = cross.shape
+    L = np.zeros((p, p))
+    for t in range(N):
+        G = gram[t]
+        scale = 0.0
+        for a in range(p):
+            scale = max(scale, G[a, a])
+        if scale <= 0.0:
+            continue
+        L[:, :] = 0.0
+        for j in range(p):  # semidefinite Cholesky: a vanishing pivot drops its column
+            acc = G[j, j]
+            for k in range(j):
+                acc -= L[j, k] * L[j, k]
+            if acc <= 1e-12 * scale:
+                continue
+            L[j, j] = np.sqrt(acc)
+            keep[t, j] = True
+            for i in range(j + 1, p):
+                acc = G[i, j]
+                for k in range(j):
+                    acc -= L[i, k] * L[j, k]
+                L[i, j] = acc / L[j, j]
+        for j in range(p):  # row j: column j of L; target: forward substitution
+            if not keep[t, j]:
+                continue
+            for a in range(p):
+                phi[t, j, a] = L[a, j]
+            for i in range(n):
+                acc = cross[t, j, i]
+                for k in range(j):
+                    acc -= L[j, k] * y[t, k, i]
+                y[t, j, i] = acc / L[j, j]

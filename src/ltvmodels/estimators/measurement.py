@@ -207,15 +207,16 @@ def _start(
 def process_variance(noise_var: Any, n: int) -> float | None:
     """σ_w² given as ``noise_var`` (one variance shared by the states), or None."""
     value = options.noise_variance(noise_var, n)
-    if value is None or np.ndim(value) == 0:
-        return value
-    if np.ptp(value) > 0:
+    if value is None:
+        return None
+    values = np.atleast_1d(np.asarray(value, dtype=float))
+    if np.ptp(values) > 0:
         raise ValueError(
             "noise_var: with measurement_noise the process noise has one variance shared by "
-            f"the states; received {np.asarray(value).tolist()}; pass one number or leave "
+            f"the states; received {values.tolist()}; pass one number or leave "
             "noise_var out to estimate it"
         )
-    return float(value[0])
+    return float(values[0])
 
 
 def _finish(
