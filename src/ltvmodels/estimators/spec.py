@@ -31,7 +31,7 @@ from ..validation.constraints import (
 )
 from ..validation.options import Loss, Norm, PriorMode
 
-__all__ = ["FIT_CONSTRAINTS", "FitSpec"]
+__all__ = ["FIT_CONSTRAINTS", "MEASUREMENT_CONSTRAINTS", "FitSpec"]
 
 FIT_CONSTRAINTS: dict[str, Constraint] = {
     "lam": LamValue(),
@@ -47,11 +47,16 @@ FIT_CONSTRAINTS: dict[str, Constraint] = {
     "loss": Choice(LOSSES),  # the registered losses
     "huber_delta": Deferred(),  # with the loss, against the number of outputs
     "progress": Callback(),
+}
+"""The constraint of each option of :class:`FitSpec`, checked in this order."""
+
+MEASUREMENT_CONSTRAINTS: dict[str, Constraint] = {
     "measurement_noise": Deferred(),  # against the number of states
     "em_tol": Positive(),
     "em_max_iter": Integer(0),
 }
-"""The constraint of each option of :class:`FitSpec`, checked in this order."""
+"""The options of the measurement model, which only the state-space :func:`ltvmodels.fit`
+takes (checked where its arguments have them)."""
 
 
 @dataclass(frozen=True)
@@ -93,7 +98,11 @@ class FitSpec:
             An invalid option (the message names it).
         """
         values = {name: arguments.get(name, _DEFAULTS.get(name)) for name in FIT_CONSTRAINTS}
-        return cls(**check_all(FIT_CONSTRAINTS, values, _DEFAULTS))
+        checked = check_all(FIT_CONSTRAINTS, values, _DEFAULTS)
+        measured = {name: arguments[name] for name in MEASUREMENT_CONSTRAINTS if name in arguments}
+        if measured:  # a front-end that takes them (the others keep the defaults)
+            checked.update(check_all(MEASUREMENT_CONSTRAINTS, measured, _DEFAULTS))
+        return cls(**checked)
 
     @property
     def lam_is_auto(self) -> bool:
