@@ -284,6 +284,29 @@ def add_noise_var(p: _Container, help: str) -> None:
     )
 
 
+def _estimate_or_variances(text: str) -> str | float | list[float]:
+    """``estimate``, or one or comma-separated numbers > 0 (argparse type)."""
+    if text.strip().lower() == "estimate":
+        return "estimate"
+    try:
+        return _positive_float_list(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(
+            f"expected 'estimate' or variances > 0 (V or V,V,...), received {text!r}"
+        ) from None
+
+
+def add_measurement_noise(p: _Container, help: str) -> None:
+    """``--measurement-noise {estimate,V[,V...]}``: noisy recorded states (default: exact)."""
+    p.add_argument(
+        "--measurement-noise",
+        type=_estimate_or_variances,
+        default=None,
+        metavar="{estimate,V[,V...]}",
+        help=help,
+    )
+
+
 def add_n_changes(p: _Container, help: str) -> None:
     """``--n-changes M``: at most M change points."""
     p.add_argument("--n-changes", type=_nonnegative_int, default=None, metavar="M", help=help)

@@ -9,6 +9,7 @@ core :func:`.regression.fit_problem`.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from functools import partial
 from typing import Any, Literal
 
@@ -17,13 +18,15 @@ from numpy.typing import ArrayLike
 
 from ..core import identifiability, penalties
 from ..core.covariance import CovarianceBlocks
+from ..core.problem import RegressionProblem
 from ..core.sparse import solve_sparse
 from ..core.sparse_common import lambda_max as problem_lambda_max
 from ..results.record import FitRecord, FitStatus
 from ..results.statespace import LTVModel
 from ..validation import arrays, options
 from ..validation.options import Loss, Norm, PriorMode, SparseNorm
-from .piecewise import residual_noise
+from .measurement import measurement_fit, process_variance
+from .piecewise import refine_fit, residual_noise
 from .recordings import StateSpaceData, state_space_data
 from .regression import fit_problem, sparse_model
 from .robust import outlier_info, robust_model
@@ -45,6 +48,9 @@ def fit_lti(
     loss: Loss = "squared",
     huber_delta: float | ArrayLike | None = None,
     regular: bool = True,
+    measurement_noise: float | ArrayLike | Literal["estimate"] | None = None,
+    em_tol: float = 1e-6,
+    em_max_iter: int = 500,
 ) -> LTVModel:
     """Least-squares LTI model x[t+1] = A x[t] + B u[t] (+ c) + v_t (paper eqs. lscost, ls).
 
@@ -71,6 +77,9 @@ def fit_lti(
     regular : bool, default True
         As in :func:`ltvmodels.fit` (False: the rows of a time index are
         consecutive samples, whatever their stamps).
+    measurement_noise, em_tol, em_max_iter
+        As in :func:`ltvmodels.fit`: the recorded states as noisy measurements;
+        the maximum-likelihood LTI model by EM (squared loss only).
 
     Returns
     -------
@@ -89,6 +98,32 @@ def fit_lti(
     data = state_space_data(x, u, order=1, weights=weights, constant=constant, regular=regular)
     problem = data.problem
     n, m = data.n, data.m
+    if measurement_noise is not None:
+        if options.choice(loss, "loss", options.LOSSES) != "squared":
+            raise NotImplementedError(
+                f"loss: {loss!r} with measurement_noise is not available yet; use "
+                "loss='squared' with measurement_noise, or measurement_noise=None"
+            )
+        options.enough_samples(
+            problem.N, problem.p, 1, observed=problem.n_observed, n_rows=problem.N * problem.q
+        )
+        identifiability.check(problem, has_prior=False, regressor_names=data.regressor_names)
+        tol = options.positive_scalar(em_tol, "em_tol")
+        max_iter = options.integer(em_max_iter, "em_max_iter", minimum=0)
+        options.measurement_noise(measurement_noise, n)  # before the first fit
+        lti_step = partial(_lti_step, n=n, m=m, constant=data.constant)
+        return data.describe(
+            measurement_fit(
+                data,
+                lti_step(problem, 1.0),
+                lti_step,
+                measurement_noise=measurement_noise,
+                noise_var=None,
+                tol=tol,
+                max_iter=max_iter,
+                label="lti",
+            )
+        )
     N, p = problem.N, problem.p
     M = problem.n_observed
     options.enough_samples(N, p, 1, observed=M, n_rows=N * problem.q)
@@ -172,6 +207,9 @@ def fit(
     huber_delta: float | ArrayLike | None = None,
     progress: Callable[[int, int], None] | None = None,
     regular: bool = True,
+    measurement_noise: float | ArrayLike | Literal["estimate"] | None = None,
+    em_tol: float = 1e-6,
+    em_max_iter: int = 500,
 ) -> LTVModel:
     """Identify an LTV model x[t+1] = A_t x[t] + B_t u[t] (+ c_t) + v_t.
 
@@ -312,6 +350,28 @@ def fit(
         samples, with a :class:`~ltvmodels.DataWarning`. ``regular=False``
         declares the rows consecutive samples whatever their stamps (which must
         still increase); the model keeps them as its time axis.
+    measurement_noise : None, float, array_like of shape (n,), or "estimate"
+        None (default): the recorded states are exact. Otherwise they are
+        measurements y_t = x_t + e_t of the states, e_{t,i} ~ N(0, σ_{e,i}²), with
+        σ_{e,i}² given (one variance, or one per state) or estimated
+        (``"estimate"``), and the process noise is N(0, σ_w² I / w_t) with one
+        σ_w² (``noise_var``: a given value, else estimated). The model is fitted by
+        expectation–maximization (:mod:`ltvmodels.estimators.measurement`): a Kalman
+        smoother of the states, then this fit's own problem on their expected
+        statistics, then the noise variances in closed form, increasing the
+        penalized likelihood log p(x | Θ, σ²) − P(Θ)/(2σ_w²) (P the penalty). A
+        sample with some entries missing contributes the others. ``lam="auto"``
+        chooses λ on the recorded states first; ``refine=True`` runs EM with the
+        penalty, then between its change points. The model has ``states`` and
+        ``states_std`` (smoothed), ``measurement_noise`` (n,), ``loglik`` (the
+        measurement model's likelihood of the recorded x), ``noise_var`` = σ_w²,
+        no ``cov``, and ``info["em_iterations"]``, ``"em_converged"``,
+        ``"em_objectives"``. Takes the squared loss.
+    em_tol, em_max_iter : float, int
+        With ``measurement_noise``: EM stops when the relative change of its
+        objective is at most ``em_tol`` (default 1e-6), or after ``em_max_iter``
+        iterations (default 500; 0 returns the fit on the recorded states with
+        its smoothed states); ``model.status`` says which.
 
     Returns
     -------
@@ -330,14 +390,94 @@ def fit(
     data = state_space_data(
         x, u, order=spec.order, weights=weights, constant=constant, regular=regular
     )
+    factory = partial(LTVModel, n_states=data.n, n_inputs=data.m, constant=data.constant)
+    if spec.measurement_noise is not None:
+        return data.describe(_fit_measured(data, spec, factory))
     model = fit_problem(
         data.problem,
         spec,
-        factory=partial(LTVModel, n_states=data.n, n_inputs=data.m, constant=data.constant),
+        factory=factory,
         regressor_names=data.regressor_names,
         data_name="x",
     )
     return data.describe(model)
+
+
+def _fit_measured(
+    data: StateSpaceData, spec: FitSpec, factory: Callable[..., LTVModel]
+) -> LTVModel:
+    """:func:`fit` with measurement noise: EM from the fit on the recorded states, at
+    its λ (see :mod:`ltvmodels.estimators.measurement`)."""
+    n, names = data.n, data.regressor_names
+    options.measurement_noise(spec.measurement_noise, n)  # before the first fit
+    if spec.loss != "squared":
+        raise NotImplementedError(
+            f"loss: {spec.loss!r} with measurement_noise is not available yet; use "
+            "loss='squared' with measurement_noise, or measurement_noise=None"
+        )
+    noise_var = process_variance(spec.noise_var, n)
+    first_spec = replace(spec, refine=False, compute_cov=False)
+    first = fit_problem(
+        data.problem, first_spec, factory=factory, regressor_names=names, data_name="x"
+    )
+    em_spec = replace(first_spec, lam=first.lam, progress=None)
+
+    def mstep(problem: RegressionProblem, process_var: float) -> LTVModel:
+        # σ_w² weighs a prior against the expected data term; without one it only
+        # scales what the M-step's model reports, which EM replaces
+        step = replace(em_spec, noise_var=process_var)
+        return fit_problem(problem, step, factory=factory, regressor_names=names, data_name="x")
+
+    def second(stage_one: LTVModel) -> Callable[[RegressionProblem, float], LTVModel]:
+        def refit(problem: RegressionProblem, process_var: float) -> LTVModel:
+            model: LTVModel = refine_fit(
+                problem, stage_one, names=names, loss="squared", delta=None, factory=factory
+            )
+            return model
+
+        return refit
+
+    model: LTVModel = measurement_fit(
+        data,
+        first,
+        mstep,
+        measurement_noise=spec.measurement_noise,
+        noise_var=noise_var,
+        tol=spec.em_tol,
+        max_iter=spec.em_max_iter,
+        label=spec.norm,
+        second=second if spec.refine else None,
+    )
+    if "lam_selection" in first.info:
+        model.info["lam_selection"] = first.info["lam_selection"]
+    return model
+
+
+def _lti_step(
+    problem: RegressionProblem, process_var: float, *, n: int, m: int, constant: bool
+) -> LTVModel:
+    """The LTI model of a problem's rows by least squares (the M-step of
+    ``fit_lti(measurement_noise=...)``; ``process_var`` is unused: no prior)."""
+    gram = problem.gram().sum(axis=0)
+    cross = problem.cross().sum(axis=0)
+    theta = np.linalg.solve(gram, cross).T  # (n, p)
+    rss = float(problem.output_rss(np.broadcast_to(theta, (problem.N,) + theta.shape)).sum())
+    k = np.broadcast_to(theta.ravel(), (problem.N, theta.size)).copy()
+    solver = "least squares (normal equations)"
+    return LTVModel(
+        k,
+        n,
+        m,
+        FitRecord(
+            norm="lti",
+            lam=float("inf"),
+            noise_var=np.full(n, rss / max(problem.n_observed, 1)),
+            info={"solver": solver, "rss": rss},
+            changepoints=np.zeros(0, dtype=int),
+            status=FitStatus("closed_form", solver, 0, rss),
+        ),
+        constant=constant,
+    )
 
 
 def fit_path(

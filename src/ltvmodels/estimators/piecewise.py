@@ -34,7 +34,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Callable
 from functools import partial
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -55,6 +55,7 @@ from ..results.statespace import LTVModel
 from ..validation import arrays, options
 from ..validation.options import Loss
 from .changepoints import find_changepoints
+from .measurement import measurement_fit
 from .recordings import state_space_data
 from .robust import outlier_info, robust_record_parts
 
@@ -75,6 +76,9 @@ def fit_piecewise(
     loss: Loss = "squared",
     huber_delta: float | ArrayLike | None = None,
     regular: bool = True,
+    measurement_noise: float | ArrayLike | Literal["estimate"] | None = None,
+    em_tol: float = 1e-6,
+    em_max_iter: int = 500,
 ) -> LTVModel:
     """Least-squares LTV model that is piecewise constant or linear between given change points.
 
@@ -115,6 +119,10 @@ def fit_piecewise(
     regular : bool, default True
         As in :func:`ltvmodels.fit` (False: the rows of a time index are
         consecutive samples, whatever their stamps).
+    measurement_noise, em_tol, em_max_iter
+        As in :func:`ltvmodels.fit`: the recorded states as noisy measurements;
+        the maximum-likelihood piecewise model by EM (squared loss only; then
+        ``cov`` is None).
 
     Returns
     -------
@@ -166,6 +174,34 @@ def fit_piecewise(
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
     loss, delta = options.loss_options(loss, huber_delta, data.n)
     factory = partial(LTVModel, n_states=data.n, n_inputs=data.m, constant=data.constant)
+    if measurement_noise is not None:
+        if loss != "squared":
+            raise NotImplementedError(
+                f"loss: {loss!r} with measurement_noise is not available yet; use "
+                "loss='squared' with measurement_noise, or measurement_noise=None"
+            )
+        tol = options.positive_scalar(em_tol, "em_tol")
+        max_iter = options.integer(em_max_iter, "em_max_iter", minimum=0)
+        options.measurement_noise(measurement_noise, data.n)  # before the first fit
+        step = partial(
+            _piecewise_step,
+            changepoints=changepoints,
+            order=order,
+            names=data.regressor_names,
+            factory=factory,
+        )
+        return data.describe(
+            measurement_fit(
+                data,
+                step(data.problem, 1.0),
+                step,
+                measurement_noise=measurement_noise,
+                noise_var=None,
+                tol=tol,
+                max_iter=max_iter,
+                label="piecewise",
+            )
+        )
     return data.describe(
         piecewise_fit(
             data.problem,
@@ -177,6 +213,28 @@ def fit_piecewise(
             delta=delta,
             factory=factory,
         )
+    )
+
+
+def _piecewise_step(
+    problem: RegressionProblem,
+    process_var: float,
+    *,
+    changepoints: Any,
+    order: int,
+    names: list[str],
+    factory: Callable[..., Any],
+) -> Any:
+    """The M-step of ``fit_piecewise(measurement_noise=...)`` (``process_var`` unused)."""
+    return piecewise_fit(
+        problem,
+        changepoints,
+        order=order,
+        compute_cov=False,
+        names=names,
+        loss="squared",
+        delta=None,
+        factory=factory,
     )
 
 

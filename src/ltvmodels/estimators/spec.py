@@ -31,7 +31,7 @@ from ..validation.constraints import (
 )
 from ..validation.options import Loss, Norm, PriorMode
 
-__all__ = ["FIT_CONSTRAINTS", "FitSpec"]
+__all__ = ["FIT_CONSTRAINTS", "MEASUREMENT_CONSTRAINTS", "FitSpec"]
 
 FIT_CONSTRAINTS: dict[str, Constraint] = {
     "lam": LamValue(),
@@ -49,6 +49,14 @@ FIT_CONSTRAINTS: dict[str, Constraint] = {
     "progress": Callback(),
 }
 """The constraint of each option of :class:`FitSpec`, checked in this order."""
+
+MEASUREMENT_CONSTRAINTS: dict[str, Constraint] = {
+    "measurement_noise": Deferred(),  # against the number of states
+    "em_tol": Positive(),
+    "em_max_iter": Integer(0),
+}
+"""The options of the measurement model, which only the state-space :func:`ltvmodels.fit`
+takes (checked where its arguments have them)."""
 
 
 @dataclass(frozen=True)
@@ -73,6 +81,9 @@ class FitSpec:
     loss: Loss = "squared"
     huber_delta: Any = None
     progress: Callable[[int, int], None] | None = None
+    measurement_noise: Any = None
+    em_tol: float = 1e-6
+    em_max_iter: int = 500
 
     @classmethod
     def from_arguments(cls, arguments: Mapping[str, Any]) -> FitSpec:
@@ -87,7 +98,11 @@ class FitSpec:
             An invalid option (the message names it).
         """
         values = {name: arguments.get(name, _DEFAULTS.get(name)) for name in FIT_CONSTRAINTS}
-        return cls(**check_all(FIT_CONSTRAINTS, values, _DEFAULTS))
+        checked = check_all(FIT_CONSTRAINTS, values, _DEFAULTS)
+        measured = {name: arguments[name] for name in MEASUREMENT_CONSTRAINTS if name in arguments}
+        if measured:  # a front-end that takes them (the others keep the defaults)
+            checked.update(check_all(MEASUREMENT_CONSTRAINTS, measured, _DEFAULTS))
+        return cls(**checked)
 
     @property
     def lam_is_auto(self) -> bool:

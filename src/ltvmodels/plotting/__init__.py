@@ -22,7 +22,13 @@ from .coefficients import (
 )
 from .segments import plot_breaks, plot_criteria
 from .selection import plot_lambda_selection
-from .signals import plot_forecast, plot_root_spectrogram, plot_simulation, plot_spectrogram
+from .signals import (
+    plot_forecast,
+    plot_root_spectrogram,
+    plot_simulation,
+    plot_spectrogram,
+    plot_states,
+)
 
 __all__ = [
     "plot_coefficients",
@@ -32,6 +38,7 @@ __all__ = [
     "plot_root_spectrogram",
     "plot_spectrogram",
     "plot_simulation",
+    "plot_states",
     "plot_forecast",
     "plot_lambda_selection",
     "plot_model",

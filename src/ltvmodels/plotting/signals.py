@@ -17,7 +17,13 @@ if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-__all__ = ["plot_simulation", "plot_forecast", "plot_root_spectrogram", "plot_spectrogram"]
+__all__ = [
+    "plot_simulation",
+    "plot_states",
+    "plot_forecast",
+    "plot_root_spectrogram",
+    "plot_spectrogram",
+]
 
 
 def plot_simulation(
@@ -122,6 +128,110 @@ def plot_simulation(
         high = min(float(finite.max()), x[:, i].max() + 2 * span)
         pad = 0.05 * ((high - low) or 1.0)
         ax.set_ylim(low - pad, high + pad)
+        axis.draw_on(ax, label=ax is axes[-1])
+    axes[0].legend(fontsize="small", loc="best")
+    return fig
+
+
+def plot_states(
+    model: Any,
+    x: ArrayLike,
+    *,
+    trajectory: int = 0,
+    band: float = 2.0,
+    time: ArrayLike | None = None,
+    fig: Figure | None = None,
+) -> Figure:
+    """Plot the recorded states against the smoothed ones of a fit with measurement noise.
+
+    Parameters
+    ----------
+    model : LTVModel
+        A model fitted with ``measurement_noise`` (it has ``states`` and
+        ``states_std``; see :func:`ltvmodels.fit`).
+    x : array_like, shape (T, n) or (R, T, n)
+        The recorded states the model was fitted to (NaN = missing), drawn as
+        dots; a pandas DataFrame names the subplots and gives the time axis.
+    trajectory : int, default 0
+        Which trajectory to draw, for R trajectories.
+    band : float, default 2.0
+        Half-width of the shaded band around the smoothed states, in their
+        standard deviations (0: no band).
+    time : array_like, shape (T,), optional
+        The time of each row (default: the index of a pandas ``x``, else the
+        sample indices).
+    fig : matplotlib.figure.Figure, optional
+        Figure to draw into; it is cleared first. Default: a new Figure.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One axis per state; each title gives the RMS difference between the
+        recorded and the smoothed values and the estimated measurement noise σ.
+
+    Raises
+    ------
+    TypeError, ValueError
+        A model without smoothed states, or shapes that do not match.
+    """
+    states = getattr(model, "states", None)
+    std = getattr(model, "states_std", None)
+    if states is None or std is None:
+        raise ValueError(
+            "model: expected a model fitted with measurement_noise (with smoothed states), "
+            "received one whose states were taken as exact; fit it with "
+            "measurement_noise='estimate'"
+        )
+    values = arrays.as_float_array(x, "x", missing=True)
+    states, std = np.asarray(states), np.asarray(std)
+    if values.shape != states.shape:
+        raise ValueError(
+            f"x: expected the recorded states of the fit, shape {states.shape}, received "
+            f"{values.shape}"
+        )
+    if states.ndim == 3:
+        trajectory = options.integer(trajectory, "trajectory", minimum=0)
+        if trajectory >= values.shape[0]:
+            raise ValueError(
+                f"trajectory: expected an index below {values.shape[0]}, received {trajectory}"
+            )
+        values, states, std = values[trajectory], states[trajectory], std[trajectory]
+    band = options.nonnegative_scalar(band, "band")
+    single = states.ndim == 2  # a pandas x (one trajectory) gives the time axis
+    T, n = values.shape
+    axis = _series_axis(x if single else values, time, T, "time")
+    names = (
+        arrays.column_names(x, n, "x")
+        or list(getattr(model, "state_names", []))
+        or [f"x[{i}]" for i in range(n)]
+    )
+    noise = np.sqrt(np.asarray(model.measurement_noise, dtype=float))
+    if fig is None:
+        fig = new_figure((8.0, min(1.9 * n + 0.6, 14.0)))
+    else:
+        fig.clear()
+    axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
+    t = axis.values
+    for i, ax in enumerate(axes):
+        seen = np.isfinite(values[:, i])
+        rms = np.sqrt(np.mean((values[seen, i] - states[seen, i]) ** 2)) if seen.any() else np.nan
+        ax.plot(t, values[:, i], ".", color="0.45", markersize=2.5, label="recorded")
+        ax.plot(t, states[:, i], color=ESTIMATE_COLOR, linewidth=1.2, label="smoothed")
+        if band > 0:
+            ax.fill_between(
+                t,
+                states[:, i] - band * std[:, i],
+                states[:, i] + band * std[:, i],
+                color=ESTIMATE_COLOR,
+                alpha=0.2,
+                linewidth=0,
+                label=f"± {band:g} std",
+            )
+        ax.set_title(
+            f"{names[i]}: RMS(recorded − smoothed) {rms:.3g}, noise σ {noise[i]:.3g}",
+            fontsize="medium",
+        )
+        ax.grid(True, alpha=0.3)
         axis.draw_on(ax, label=ax is axes[-1])
     axes[0].legend(fontsize="small", loc="best")
     return fig

@@ -16,7 +16,9 @@ Version history: 1 (ltvmodels 0.1), 2 (adds the fit status), 3 (adds the data
 description, which earlier versions kept in ``info`` as "signal_names", "time"
 and "n_missing"; the data tail members were added later as optional members of
 version 3: files without them load with no tail, and readers that predate them
-ignore them). Earlier versions are read too: the status of a version-1 file is
+ignore them; so are ``states``, ``states_std`` and ``measurement_noise``, the
+smoothed states, their standard deviations and the measurement-noise variances
+of a fit with measurement noise). Earlier versions are read too: the status of a version-1 file is
 reconstructed from ``info``, the description of version 1 and 2 files from
 those ``info`` entries.
 """
@@ -58,6 +60,10 @@ _DETAIL_KEYS = (
     "n_factorizations",
     "lambda_max",
 )
+
+
+_MEASUREMENT_MEMBERS = ("states", "states_std", "measurement_noise")
+"""The optional members of a fit with measurement noise (files without them: exact states)."""
 
 
 @dataclass
@@ -112,6 +118,10 @@ def write(model: Any, path: str | Path) -> None:
     if fit.data is not None and fit.data.tail is not None:
         arrays["data_tail_outputs"] = fit.data.tail.outputs
         arrays["data_tail_inputs"] = fit.data.tail.inputs
+    for name in _MEASUREMENT_MEMBERS:  # a fit with measurement noise (optional members)
+        value = getattr(fit, name)
+        if value is not None:
+            arrays[name] = np.asarray(value, dtype=float)
     arrays["meta"] = np.array(json.dumps(meta))
     with open(path, "wb") as fh:
         # mypy matches the unpacked names against savez's keyword allow_pickle (numpy >= 2.1),
@@ -166,6 +176,7 @@ def read(path: str | Path) -> ModelFile:
             changepoints=data["changepoints"] if "changepoints" in files else None,
             status=status,
             data=description,
+            **{name: data[name] for name in _MEASUREMENT_MEMBERS if name in files},
         )
         # Files written before model types were recorded hold state-space models.
         return ModelFile(meta.get("model_type", "LTVModel"), data["k"], meta, fit)

@@ -99,6 +99,9 @@ class SummarizedModel(Protocol):
     def loglik(self) -> float | None: ...
 
     @property
+    def measurement_noise(self) -> np.ndarray | None: ...
+
+    @property
     def N(self) -> int: ...
 
     @property
@@ -334,6 +337,20 @@ def _noise_section(model: SummarizedModel) -> Section:
     if model.noise_var is None:
         return Section("Noise", (("variance", "— (not estimated)"),))
     info = model.info
+    if model.measurement_noise is not None:  # the measurement model, fitted by EM
+        how = " (estimated)" if info.get("measurement_noise") == "estimate" else " (given)"
+        done = "converged" if info.get("em_converged") else "stopped at em_max_iter"
+        return Section(
+            "Noise",
+            (
+                ("process variance", number_text(float(model.noise_var[0])) + " (every state)"),
+                (
+                    "measurement variance",
+                    _per_name(model.output_names, model.measurement_noise) + how,
+                ),
+                ("EM", f"{info.get('em_iterations', '?')} iterations, {done}"),
+            ),
+        )
     if model.status is None:  # given with the coefficients
         how = " (given)"
     elif "noise_var_estimated" in info:  # the squared norm takes a given variance
@@ -353,6 +370,18 @@ def _criteria_section(model: SummarizedModel) -> Section:
             (
                 ("log-likelihood", f"not defined ({note.removesuffix('; loglik is None')})"),
                 ("AIC, BIC", "not defined (no likelihood)"),
+            ),
+        )
+    if model.measurement_noise is not None:
+        return Section(
+            "Criteria",
+            (
+                (
+                    "log-likelihood",
+                    number_text(model.loglik, 6) + " (of the recorded states, given the "
+                    "coefficients and noise variances)",
+                ),
+                ("AIC, BIC", "not computed for the measurement model"),
             ),
         )
     marginal = " (log marginal likelihood)" if model.norm == "sq" else ""

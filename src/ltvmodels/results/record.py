@@ -164,6 +164,12 @@ class FitRecord:
     data : DataDescription or None
         What the data said: names, time axis, trajectories, missing rows (None:
         nothing known, as for given coefficients).
+    states, states_std : ndarray or None
+        The smoothed states E[x_t | recorded x] and their standard deviations,
+        the shape of the recorded x, of a fit with measurement noise (None: the
+        states were taken as exact).
+    measurement_noise : ndarray, shape (n,), or None
+        The measurement-noise variance of each state (None: exact states).
     """
 
     norm: str | None = None
@@ -177,3 +183,6 @@ class FitRecord:
     changepoints: np.ndarray | None = None
     status: FitStatus | None = None
     data: DataDescription | None = None
+    states: np.ndarray | None = None
+    states_std: np.ndarray | None = None
+    measurement_noise: np.ndarray | None = None

@@ -66,6 +66,9 @@ class RegressionModel:
         correction, a prior that leaves parameters undetermined, a singular
         residual covariance (an exact fit: the likelihood is unbounded) and
         given coefficients; ``info["loglik_note"]`` says which.
+    states, states_std, measurement_noise : ndarray or None
+        Of a state-space fit with measurement noise (see :class:`~ltvmodels.LTVModel`);
+        None otherwise.
     info : dict
         Solver details: objective, solver name, factorizations, and so on.
     status : FitStatus or None
@@ -124,6 +127,9 @@ class RegressionModel:
         self._changepoints = fit.changepoints
         self.status = fit.status
         self.data = DataDescription() if fit.data is None else fit.data
+        self.states = fit.states
+        self.states_std = fit.states_std
+        self.measurement_noise = fit.measurement_noise
 
     @property
     def record(self) -> FitRecord:
@@ -140,6 +146,9 @@ class RegressionModel:
             changepoints=self._changepoints,
             status=self.status,
             data=self.data,
+            states=self.states,
+            states_std=self.states_std,
+            measurement_noise=self.measurement_noise,
         )
 
     def with_data(self: ModelT, data: DataDescription) -> ModelT:
@@ -217,8 +226,10 @@ class RegressionModel:
         error: measured on clean Gaussian data about 0.3 % of the entries are
         flagged, and more than 95 % of +5σ outliers in the outputs, with the
         squared, Huber and Laplace losses. Defined for every fit (any loss,
-        norm, front-end), from the residuals at the fit; None for given
-        coefficients and for files written before it existed.
+        norm, front-end), from the residuals at the fit (with
+        ``measurement_noise``: the state equation's residuals at the smoothed
+        states); None for given coefficients and for files written before it
+        existed.
 
         Boolean, shape (N, n) — (R, N, n) for R trajectories — over model time
         steps and outputs; missing rows are False. Huber's linear region is

@@ -79,6 +79,16 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         Solver details: objective, solver name, factorizations, and so on.
     status : FitStatus or None
         How the coefficients were computed (see :class:`~ltvmodels.FitStatus`).
+    states : ndarray or None
+        With ``measurement_noise`` (see :func:`ltvmodels.fit`): the smoothed states
+        E[x_t | recorded x], shape (T, n) or (R, T, n) as the recorded x (on its
+        regular time grid), finite everywhere, also at missing entries. None when the
+        states were taken as exact.
+    states_std : ndarray or None
+        Their standard deviations (same shape), or None.
+    measurement_noise : ndarray, shape (n,), or None
+        The measurement-noise variance of each state (estimated or given); None
+        for exact states.
 
     Parameters
     ----------

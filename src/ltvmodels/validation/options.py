@@ -45,6 +45,7 @@ __all__ = [
     "nonnegative_scalar",
     "positive_scalar",
     "noise_variance",
+    "measurement_noise",
     "variance",
     "optional_nonnegative",
     "fraction",
@@ -197,6 +198,41 @@ def noise_variance(value: Any, n: int) -> float | np.ndarray | None:
         )
     for v in arr:
         variance(v, "noise_var")
+    return arr.copy()
+
+
+def measurement_noise(value: Any, n: int) -> np.ndarray | str | None:
+    """Validate ``measurement_noise``: None (exact states), "estimate", or a variance > 0
+    of the measurement noise shared by the n states or one per state (returned as (n,))."""
+    if value is None:
+        return None
+    if isinstance(value, str):
+        if value == "estimate":
+            return value
+        raise ValueError(
+            f"measurement_noise: expected None, 'estimate' or a variance > 0 (one number or "
+            f"one per state, shape ({n},)), received {value!r}; pass 'estimate' to estimate it"
+        )
+    if isinstance(value, bool):
+        raise TypeError(
+            f"measurement_noise: expected None, 'estimate' or a variance > 0, received {value!r}"
+        )
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(
+            "measurement_noise: expected None, 'estimate' or a variance > 0 (one number or one "
+            f"per state, shape ({n},)), received {value!r}"
+        ) from None
+    if arr.ndim == 0:
+        arr = np.full(n, float(arr))
+    if arr.shape != (n,):
+        raise ValueError(
+            f"measurement_noise: expected one variance or one per state (shape ({n},)), "
+            f"received shape {arr.shape}; pass a number or {n} numbers"
+        )
+    for v in arr:
+        variance(v, "measurement_noise")
     return arr.copy()
 
 

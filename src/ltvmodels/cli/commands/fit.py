@@ -45,6 +45,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "(default: estimated); with --norm sq it scales a prior-free fit's "
         "likelihood and covariances",
     )
+    opt.add_measurement_noise(
+        p,
+        "the recorded states are noisy measurements: estimate the measurement-noise "
+        "variance of each state, or give it (one or one per state); the model is fitted by "
+        "EM with a Kalman smoother of the states (default: exact states)",
+    )
     opt.add_weights(p)
     opt.add_time(p)
     opt.add_constant(p, "a time-varying constant term c_t in x[t+1] = A_t x[t] + B_t u[t] + c_t")
@@ -97,6 +103,7 @@ def run(args: argparse.Namespace) -> Report:
             noise_var=args.noise_var,
             weights=data.weights,
             progress=progress,
+            measurement_noise=args.measurement_noise,
         )
     model = record_columns(
         model,
@@ -136,6 +143,18 @@ def run(args: argparse.Namespace) -> Report:
             3 if args.loss != "squared" else 2,
             f"outliers: {model.info['n_outliers']} residual entries beyond "
             f"{model.info['outlier_threshold']:g} robust scales (1.4826 MAD) of their state",
+        )
+    if model.measurement_noise is not None:
+        report.update(
+            measurement_noise=[float(v) for v in model.measurement_noise],
+            em_iterations=int(model.info["em_iterations"]),
+            em_converged=bool(model.info["em_converged"]),
+        )
+        lines.insert(
+            2,
+            f"measurement noise variance: {per_name(data.state_names, model.measurement_noise)}"
+            f" ({model.info['measurement_noise']}); EM: {model.info['em_iterations']} "
+            f"iterations, {'converged' if model.info['em_converged'] else 'not converged'}",
         )
     title = (
         f"{data.label}: norm={args.norm!r}, order={args.order}, "

@@ -1,0 +1,213 @@
+"""Benchmark: noisy and partly missing recorded states, fitted with ``measurement_noise``.
+
+Data: ``ltvmodels.systems.jump_linear(T, change_at=T // 2, seed=s)`` (n = 2,
+m = 1, process and measurement noise σ = 0.2; ``x`` recorded with noise,
+``x_true`` the states), seeds 0–4. Every fit: ``norm="group"``,
+λ = 17·√(T/400), ``refine=True``; the error is the mean of |Â_t − A_t| over
+t and the entries, averaged over the seeds. In one run, on the same data:
+
+1. Consistency: the fit on the recorded x (as exact states), the fit on
+   x_true (not available in practice) and the EM fit of the measurement model
+   (``measurement_noise="estimate"``) at T = 400, 1,000, 4,000. Acceptance:
+   EM <= 1.5 × x_true at T = 4,000, EM <= 0.7 × recorded at T = 400, EM's
+   error decreasing from 400 to 4,000.
+2. Missing entries: 20 % of the entries of x missing at random (T = 1,000):
+   today's fit (which drops every transition touching a missing entry)
+   against EM (which uses the observed entries of each sample). Acceptance:
+   EM <= 0.7 × today.
+3. The LTI case against statsmodels: ``fit_lti(measurement_noise="estimate")``
+   and the maximum-likelihood fit of the same model by statsmodels (an
+   ``MLEModel`` with the same initial state prior), times and largest
+   coefficient difference and relative log-likelihood difference.
+4. Cost: EM iterations and time against one fit at T = 10³, 10⁴, 10⁵ for
+   ``norm="sq"`` (λ = 100) and ``"group"`` (λ = 17·√(T/400)), no refinement
+   (target: "sq" at T = 10⁵ in <= 30 one-fit times).
+
+Run:  python benchmarks/bench_noisy.py [--seeds 5] [--sizes 400 1000 4000]
+      [--cost-sizes 1000 10000 100000] [--skip-statsmodels]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+import ltvmodels as ltv
+
+
+def _error(model, data) -> float:
+    return float(np.abs(model.A - data.A).mean())
+
+
+def consistency(sizes: list[int], seeds: int) -> dict[int, np.ndarray]:
+    print("1. consistency: mean |Â − A| over seeds 0 …", seeds - 1)
+    print(
+        f"{'T':>6} {'recorded x':>11} {'x_true':>9} {'EM':>9} {'EM/true':>8} {'EM/rec':>7}"
+        f" {'EM iters':>9} {'EM s':>6}"
+    )
+    table = {}
+    for T in sizes:
+        lam = 17.0 * np.sqrt(T / 400)
+        rows, iters, seconds = [], [], []
+        for seed in range(seeds):
+            data = ltv.systems.jump_linear(T, change_at=T // 2, seed=seed)
+            kwargs = dict(lam=lam, norm="group", refine=True)
+            recorded = ltv.fit(data.x, data.u, **kwargs)
+            truth = ltv.fit(data.x_true, data.u, **kwargs)
+            start = time.perf_counter()
+            em = ltv.fit(data.x, data.u, **kwargs, measurement_noise="estimate")
+            seconds.append(time.perf_counter() - start)
+            iters.append(em.info["em_iterations"])
+            rows.append([_error(recorded, data), _error(truth, data), _error(em, data)])
+        mean = np.mean(rows, axis=0)
+        table[T] = mean
+        print(
+            f"{T:>6} {mean[0]:>11.4f} {mean[1]:>9.4f} {mean[2]:>9.4f} {mean[2] / mean[1]:>8.2f}"
+            f" {mean[2] / mean[0]:>7.2f} {np.mean(iters):>9.0f} {np.mean(seconds):>6.2f}"
+        )
+    if 4000 in table and 400 in table:
+        checks = {
+            "EM <= 1.5 x_true at T=4000": table[4000][2] <= 1.5 * table[4000][1],
+            "EM <= 0.7 recorded at T=400": table[400][2] <= 0.7 * table[400][0],
+            "EM error decreases 400 -> 4000": table[4000][2] < table[400][2],
+        }
+        for name, ok in checks.items():
+            print(f"   {name}: {'yes' if ok else 'NO'}")
+    return table
+
+
+def missing(seeds: int, T: int = 1000, fraction: float = 0.2) -> None:
+    print(f"\n2. {fraction:.0%} of the entries missing at random, T = {T}")
+    lam = 17.0 * np.sqrt(T / 400)
+    rows, dropped = [], []
+    for seed in range(seeds):
+        data = ltv.systems.jump_linear(T, change_at=T // 2, seed=seed)
+        rng = np.random.default_rng(1000 + seed)
+        x = data.x.copy()
+        x[rng.random(x.shape) < fraction] = np.nan
+        kwargs = dict(lam=lam, norm="group", refine=True)
+        today = ltv.fit(x, data.u, **kwargs)
+        em = ltv.fit(x, data.u, **kwargs, measurement_noise="estimate")
+        dropped.append(today.data.n_missing)
+        rows.append([_error(today, data), _error(em, data)])
+    mean = np.mean(rows, axis=0)
+    print(f"   transitions dropped today: {np.mean(dropped):.0f} of {T - 1}")
+    print(
+        f"   today {mean[0]:.4f}   EM {mean[1]:.4f}   ratio {mean[1] / mean[0]:.2f}"
+        f"   (<= 0.7: {'yes' if mean[1] <= 0.7 * mean[0] else 'NO'})"
+    )
+
+
+def statsmodels_lti() -> None:
+    print("\n3. LTI (fit_lti, measurement_noise='estimate') against statsmodels' ML")
+    try:
+        from statsmodels.tsa.statespace.mlemodel import MLEModel
+    except ImportError:
+        print("   statsmodels is not installed: skipped")
+        return
+    rng = np.random.default_rng(11)
+    A = np.array([[0.8, 0.2], [-0.1, 0.7]])
+    B = np.array([[0.5], [1.0]])
+    for T in (300, 3000):
+        u = rng.standard_normal((T, 1))
+        x = np.zeros((T, 2))
+        for t in range(T - 1):
+            x[t + 1] = A @ x[t] + B @ u[t] + 0.3 * rng.standard_normal(2)
+        y = x + rng.standard_normal((T, 2)) * np.array([0.2, 0.4])
+        start = time.perf_counter()
+        model = ltv.fit_lti(y, u, measurement_noise="estimate", em_tol=1e-12, em_max_iter=20000)
+        ours_s = time.perf_counter() - start
+        kappa = model.info["initial_state_var"]
+
+        class NoisyLTI(MLEModel):
+            def __init__(self, endog, exog):
+                super().__init__(endog, k_states=2, exog=exog)
+                self.ssm["design"] = np.eye(2)
+                self.ssm["selection"] = np.eye(2)
+                self.ssm.initialize_known(np.zeros(2), kappa * np.eye(2))
+                self.ssm["state_intercept"] = np.zeros((2, endog.shape[0]))
+
+            @property
+            def start_params(self):
+                return np.r_[0.5, 0, 0, 0.5, 0, 0, 0.1, 0.1, 0.1]
+
+            def transform_params(self, unconstrained):
+                out = np.array(unconstrained, float)
+                out[-3:] = out[-3:] ** 2
+                return out
+
+            def untransform_params(self, constrained):
+                out = np.array(constrained, float)
+                out[-3:] = np.sqrt(out[-3:])
+                return out
+
+            def update(self, params, **kwargs):
+                params = super().update(params, **kwargs)
+                self.ssm["transition"] = params[:4].reshape(2, 2)
+                self.ssm["state_cov"] = params[6] * np.eye(2)
+                self.ssm["obs_cov"] = np.diag(params[7:])
+                self.ssm["state_intercept"] = (self.exog @ params[4:6].reshape(2, 1).T).T
+
+        reference = NoisyLTI(y, u)
+        start = time.perf_counter()
+        result = reference.fit(method="lbfgs", maxiter=5000, disp=False, pgtol=1e-9, factr=10)
+        sm_s = time.perf_counter() - start
+        ours = np.r_[
+            model.A[0].ravel(), model.B[0].ravel(), model.noise_var[0], model.measurement_noise
+        ]
+        print(
+            f"   T={T}: ours {ours_s:.2f} s ({model.info['em_iterations']} EM iterations), "
+            f"statsmodels {sm_s:.2f} s; "
+            f"max |Δ coeff| {np.abs(ours[:6] - result.params[:6]).max():.1e}, "
+            f"max |Δ var|/var {np.max(np.abs(ours[6:] / result.params[6:] - 1)):.1e}, "
+            f"|Δ loglik|/|loglik| {abs(model.loglik - result.llf) / abs(result.llf):.1e} "
+            f"(ours {model.loglik:.4f}, statsmodels {result.llf:.4f})"
+        )
+
+
+def cost(sizes: list[int]) -> None:
+    print("\n4. cost: EM (measurement_noise='estimate') against one fit")
+    print(
+        f"{'norm':>6} {'T':>7} {'one fit s':>10} {'EM s':>8} {'EM iters':>9} {'EM/fit':>7}"
+        f" {'converged':>10}"
+    )
+    ltv.fit(*_cost_data(200)[:2], lam=1.0, measurement_noise="estimate", em_max_iter=2)  # compile
+    for norm in ("sq", "group"):
+        for T in sizes:
+            x, u, _ = _cost_data(T)
+            lam = 100.0 if norm == "sq" else 17.0 * np.sqrt(T / 400)
+            start = time.perf_counter()
+            ltv.fit(x, u, lam=lam, norm=norm, compute_cov=False)
+            one = time.perf_counter() - start
+            start = time.perf_counter()
+            em = ltv.fit(x, u, lam=lam, norm=norm, measurement_noise="estimate")
+            seconds = time.perf_counter() - start
+            print(
+                f"{norm:>6} {T:>7} {one:>10.3f} {seconds:>8.2f} {em.info['em_iterations']:>9}"
+                f" {seconds / one:>7.1f} {str(em.info['em_converged']):>10}"
+            )
+
+
+def _cost_data(T: int):
+    data = ltv.systems.jump_linear(T, change_at=T // 2, seed=0)
+    return data.x, data.u, data
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--sizes", type=int, nargs="+", default=[400, 1000, 4000])
+    parser.add_argument("--cost-sizes", type=int, nargs="+", default=[1000, 10000, 100000])
+    parser.add_argument("--skip-statsmodels", action="store_true")
+    args = parser.parse_args()
+    consistency(args.sizes, args.seeds)
+    missing(args.seeds)
+    if not args.skip_statsmodels:
+        statsmodels_lti()
+    cost(args.cost_sizes)
+
+
+if __name__ == "__main__":
+    main()

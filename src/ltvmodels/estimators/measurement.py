@@ -1,0 +1,313 @@
+"""Noisy and partly missing recorded states: the measurement model, fitted by EM.
+
+The model of :func:`ltvmodels.fit` (and :func:`ltvmodels.fit_lti`,
+:func:`ltvmodels.fit_piecewise`) with ``measurement_noise``:
+
+    x^r_{t+1} = A_t x^r_t + B_t u^r_t (+ c_t) + w^r_t,   w^r_t ~ N(0, (σ_w² / w_rt) I),
+    y^r_t     = x^r_t + e^r_t,                            e^r_{t,i} ~ N(0, σ_{e,i}²),
+
+with y the recorded states (NaN entries unobserved), u exact, w_rt the
+transition weights (1 by default), one process variance σ_w² shared by the
+states and one measurement variance per state. The process noise is isotropic
+so that the M-step for the coefficients is exactly the library's penalized
+problem (every norm, order, prior and solver): with Q = σ_w² I the expected
+data term Σ E‖x_{t+1} − Θ_t φ_t‖²/σ_w² has the same minimizer for every σ_w²,
+and one σ_w² scales the penalty as it scales the data term.
+
+Expectation–maximization increases the penalized log-likelihood
+
+    F(Θ, σ_w², σ_e²) = log p(y | Θ, σ_w², σ_e²) − P(Θ) / (2σ_w²) − ½ Σ_t ‖k_t − μ_t‖²_{Σ_t⁻¹},
+
+where log p(y) is the likelihood of the recorded states (innovations form,
+with each chain's first state x_0 ~ N(0, κ I), κ = 10⁶·max(1, largest mean
+square of a recorded state)), P(Θ) the penalty of the fit's objective
+(λ² Σ‖Dk‖² for "sq", λ Σ‖Dk‖ for "group"/"l1", 0 for the LTI and piecewise
+fits, whose constraints are exact) and the last term that of a ``Prior``
+(absent without one). Each iteration:
+
+* E-step: the Kalman filter and RTS smoother of the states under the current
+  parameters (:mod:`ltvmodels.core.state_smoother`), giving E[x_t], Cov(x_t),
+  Cov(x_{t+1}, x_t) and log p(y);
+* M-step for Θ: the fit's own problem on pseudo-data with the expected
+  statistics Σ w E[φφᵀ] and Σ w E[φ x_{t+1}ᵀ] (φ = [x_t; u_t (; 1)], p rows per
+  step), at the current σ_w² (which weighs a prior);
+* M-step for the noises, in closed form: σ_w² = (Σ w E‖x_{t+1} − Θ_t φ_t‖² + P(Θ))
+  / (n · transitions), and, for ``measurement_noise="estimate"``,
+  σ_{e,i}² = mean over the observed entries of state i of E[(y_ti − x_ti)²].
+
+It stops when |F_k − F_{k−1}| <= em_tol · |F_k| or after em_max_iter
+iterations. It starts from the fit on the recorded states as if exact (the
+fit without measurement noise, which also chooses λ for ``lam="auto"``; EM
+then runs at that λ), with σ_w² half and σ_{e,i}² a quarter of the residual
+variance of that fit. With ``refine=True`` EM first runs with the penalty,
+then again with the coefficients constant (or linear) between the change
+points of that fit, whose constraints replace the penalty (P = 0).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..core.problem import RegressionProblem, state_space_problem
+from ..core.state_smoother import (
+    ExpectedStatistics,
+    StateMoments,
+    expected_problem,
+    expected_statistics,
+    prior_variance,
+    smooth_states,
+)
+from ..results.record import FitStatus, iterative_status
+from ..validation import options
+from .recordings import StateSpaceData
+from .robust import outlier_info
+
+__all__ = ["MeasurementEM", "measurement_fit", "penalty_terms", "process_variance"]
+
+MStep = Callable[[RegressionProblem, float], Any]
+"""The M-step for Θ: (pseudo-data, current σ_w²) → model."""
+
+
+@dataclass
+class MeasurementEM:
+    """The state of EM on one recording (see the module docstring).
+
+    Attributes
+    ----------
+    data : StateSpaceData
+        The validated recording (x as y, with NaN; u exact).
+    estimate_noise : bool
+        Whether σ_e² is estimated (``"estimate"``) or given.
+    fixed_process : bool
+        Whether σ_w² is given (``noise_var``) rather than estimated.
+    measurement_var : ndarray, shape (n,)
+        σ_e² (current).
+    process_var : float
+        σ_w² (current).
+    """
+
+    data: StateSpaceData
+    estimate_noise: bool
+    fixed_process: bool
+    measurement_var: np.ndarray
+    process_var: float
+
+    def __post_init__(self) -> None:
+        x, u = self.data.x, self.data.u
+        N = x.shape[1] - 1
+        link = np.all(np.isfinite(u[:, :N]), axis=2)
+        w = self.data.weights
+        if w is not None:
+            link &= w > 0
+        self.link = link
+        self.kappa = prior_variance(x)
+        self.observed = np.isfinite(x)
+        self.objectives: list[float] = []
+
+    def e_step(self, model: Any) -> StateMoments:
+        """The smoothed states under ``model``'s coefficients and the current variances."""
+        x, u = self.data.x, self.data.u
+        R, T, n = x.shape
+        N = T - 1
+        theta = model.theta  # (N, n, p)
+        m = u.shape[2]
+        uu = np.where(self.link[:, :, None], u[:, :N], 0.0)
+        offset = np.einsum("tij,rtj->rti", theta[:, :, n : n + m], uu)
+        if self.data.constant:
+            offset = offset + theta[None, :, :, -1]
+        w = self.data.weights
+        qvar = np.full((R, N), self.process_var)
+        if w is not None:
+            qvar = self.process_var / np.where(self.link, w, 1.0)
+        rvar = np.broadcast_to(self.measurement_var, (R, T, n))
+        return smooth_states(
+            np.ascontiguousarray(theta[:, :, :n]), offset, self.link, qvar, x, rvar, self.kappa
+        )
+
+    def statistics(self, moments: StateMoments) -> ExpectedStatistics:
+        return expected_statistics(
+            moments, self.data.u, self.link, self.data.weights, self.data.constant
+        )
+
+    def objective(self, moments: StateMoments, model: Any) -> float:
+        """F at ``model``'s coefficients and the current variances (E-step done)."""
+        penalty, prior = penalty_terms(model)
+        return moments.loglik - (penalty + prior) / (2.0 * self.process_var)
+
+    def update_noise(self, moments: StateMoments, stats: ExpectedStatistics, model: Any) -> None:
+        """The closed-form M-steps of σ_w² (with Θ of ``model``) and σ_e² (given the moments)."""
+        n = self.data.n
+        if not self.fixed_process:
+            penalty, _ = penalty_terms(model)
+            expected = float(stats.expected_rss(model.theta).sum())
+            count = max(n * stats.n_transitions, 1)
+            self.process_var = max((expected + penalty) / count, 1e-300)
+        if self.estimate_noise:
+            x = self.data.x
+            var = np.diagonal(moments.cov, axis1=2, axis2=3)
+            sq = np.where(self.observed, (np.nan_to_num(x) - moments.mean) ** 2 + var, 0.0)
+            counts = self.observed.sum(axis=(0, 1))
+            total = sq.sum(axis=(0, 1))
+            fresh = np.where(counts > 0, total / np.maximum(counts, 1), self.measurement_var)
+            self.measurement_var = np.maximum(fresh, 1e-300)
+
+    def run(
+        self, model: Any, mstep: MStep, coeffs: np.ndarray, tol: float, max_iter: int
+    ) -> tuple[Any, StateMoments, int, bool]:
+        """EM from ``model`` (its coefficients the start): the last model, its E-step,
+        the iterations and whether the objective met ``tol``."""
+        moments = self.e_step(model)
+        self.objectives.append(self.objective(moments, model))
+        converged = False
+        iterations = 0
+        for iterations in range(1, max_iter + 1):  # noqa: B007 - the count is returned
+            stats = self.statistics(moments)
+            model = mstep(expected_problem(stats, coeffs), self.process_var)
+            self.update_noise(moments, stats, model)
+            moments = self.e_step(model)
+            value = self.objective(moments, model)
+            previous = self.objectives[-1]
+            self.objectives.append(value)
+            if abs(value - previous) <= tol * max(abs(value), 1e-300):
+                converged = True
+                break
+        return model, moments, iterations, converged
+
+
+def penalty_terms(model: Any) -> tuple[float, float]:
+    """P(Θ) of an M-step's model (its objective less its data term) and its prior cost
+    (σ_w² times the prior's quadratic form); both 0 for unpenalized fits."""
+    info = model.info
+    if model.norm == "sq":
+        return float(info.get("penalty", 0.0)), float(info.get("prior_cost", 0.0))
+    if model.norm in ("group", "l1") and "objective" in info and "rss" in info:
+        return max(float(info["objective"]) - float(info["rss"]), 0.0), 0.0
+    return 0.0, 0.0
+
+
+def _start(
+    data: StateSpaceData, first: Any, measurement_noise: Any, noise_var: Any
+) -> MeasurementEM:
+    """The EM state at the fit on the recorded states: σ_w² half, σ_e² a quarter of its
+    residual variance (or as given)."""
+    n = data.n
+    residual = np.broadcast_to(np.asarray(first.noise_var, float), (n,))
+    scale = max(float(np.mean(residual)), 1e-300)
+    estimate = isinstance(measurement_noise, str)
+    measurement = 0.25 * np.maximum(residual, 1e-6 * scale) if estimate else measurement_noise
+    process = 0.5 * scale if noise_var is None else float(noise_var)
+    return MeasurementEM(
+        data, estimate, noise_var is not None, np.array(measurement, float).copy(), process
+    )
+
+
+def process_variance(noise_var: Any, n: int) -> float | None:
+    """σ_w² given as ``noise_var`` (one variance shared by the states), or None."""
+    value = options.noise_variance(noise_var, n)
+    if value is None:
+        return None
+    values = np.atleast_1d(np.asarray(value, dtype=float))
+    if np.ptp(values) > 0:
+        raise ValueError(
+            "noise_var: with measurement_noise the process noise has one variance shared by "
+            f"the states; received {values.tolist()}; pass one number or leave "
+            "noise_var out to estimate it"
+        )
+    return float(values[0])
+
+
+def _finish(
+    em: MeasurementEM,
+    model: Any,
+    moments: StateMoments,
+    converged: bool,
+    stages: list[dict],
+) -> Any:
+    """The EM model: the last M-step's coefficients with the states, the variances, the
+    likelihood and the EM record."""
+    n = em.data.n
+    states, std = moments.mean, moments.std
+    if states.shape[0] == 1:
+        states, std = states[0], std[0]
+    model.states = states
+    model.states_std = std
+    model.measurement_noise = em.measurement_var.copy()
+    model.noise_var = np.full(n, em.process_var)
+    model.noise_cov = em.process_var * np.eye(n)
+    model.loglik = moments.loglik
+    # model.outliers: the state equation's residuals at the smoothed states (the
+    # last M-step's were those of its pseudo-rows, which are no samples)
+    data = em.data
+    smoothed = state_space_problem(
+        moments.mean, data.u, data.problem.coeffs, weights=data.weights, constant=data.constant
+    )
+    model.info.update(outlier_info(smoothed, model.theta))
+    objective = em.objectives[-1]
+    total = sum(stage["iterations"] for stage in stages)
+    model.info.update(
+        {
+            "measurement_noise": "estimate" if em.estimate_noise else "given",
+            "em_iterations": int(total),
+            "em_converged": bool(converged),
+            "em_objective": float(objective),
+            "em_objectives": np.array(em.objectives),
+            "em_stages": stages,
+            "process_noise_var": float(em.process_var),
+            "initial_state_var": float(em.kappa),
+            "loglik_note": "log p(recorded x | coefficients, noise variances): the "
+            "measurement model's likelihood (innovations form, initial state N(0, κI))",
+            "cov_note": "no coefficient covariance is computed with measurement noise",
+        }
+    )
+    solver = f"EM (Kalman smoother; M-step: {model.status.solver if model.status else '?'})"
+    model.info["solver"] = solver
+    model.status = FitStatus(
+        iterative_status(converged),
+        solver,
+        int(total),
+        float(objective),
+        {"em_converged": bool(converged)},
+    )
+    return model
+
+
+def measurement_fit(
+    data: StateSpaceData,
+    first: Any,
+    mstep: MStep,
+    *,
+    measurement_noise: Any,
+    noise_var: float | None,
+    tol: float,
+    max_iter: int,
+    label: str,
+    second: Callable[[Any], MStep] | None = None,
+) -> Any:
+    """EM from ``first`` (the fit on the recorded states) with the M-step ``mstep``;
+    ``second`` (for the two-step refinement) makes from the converged model the M-step of
+    a second EM run, which continues from the first (see the module docstring).
+    ``measurement_noise`` is validated here (against n); ``noise_var`` is a given σ_w²
+    (see :func:`process_variance`) or None."""
+    measurement_noise = options.measurement_noise(measurement_noise, data.n)
+    em = _start(data, first, measurement_noise, noise_var)
+    coeffs = data.problem.coeffs
+    model, moments, iterations, converged = em.run(first, mstep, coeffs, tol, max_iter)
+    stages = [{"model": label, "iterations": iterations, "converged": converged}]
+    if second is not None:
+        refit = second(model)
+        start = len(em.objectives)
+        begin = refit(expected_problem(em.statistics(moments), coeffs), em.process_var)
+        model, moments, iterations, converged = em.run(begin, refit, coeffs, tol, max_iter)
+        stages.append(
+            {
+                "model": "piecewise",
+                "iterations": iterations,
+                "converged": converged,
+                "first_objective_index": start,
+            }
+        )
+    return _finish(em, model, moments, converged, stages)
