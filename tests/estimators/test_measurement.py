@@ -484,3 +484,13 @@ def test_outliers_of_a_measurement_fit_are_those_of_the_smoothed_states():
     smoothed = state_space_problem(model.states, data.u, np.array([-1.0, 1.0]))
     mask, _ = residual_outliers(smoothed, model.theta)
     np.testing.assert_array_equal(model.outliers, mask[:, 0, :])
+
+
+def test_a_forecast_continues_from_the_smoothed_last_state():
+    data = ltv.systems.jump_linear(T=300, seed=4)
+    model = ltv.fit(data.x, data.u, lam=17.0, measurement_noise="estimate", em_max_iter=20)
+    np.testing.assert_array_equal(model.data.tail.outputs[0], model.states[-1])
+    assert not np.allclose(model.states[-1], data.x[-1])
+    remembered = model.forecast(steps=2, u=data.u[:1])
+    given = model.forecast(model.states[-1], np.vstack([data.u[-1], data.u[:1]]))
+    np.testing.assert_allclose(remembered.mean, given.mean)

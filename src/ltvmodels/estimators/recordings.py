@@ -104,8 +104,11 @@ class StateSpaceData:
     def describe(self, model: Any) -> Any:
         """``model`` (a new model of this fit, no one else holds it) described in place:
         :attr:`description` becomes its ``data``, with the end of the data that its
-        forecast continues (none for several trajectories or a missing last sample)."""
-        tail = DataTail.of(self.x, self.u, model.tail_lengths)
+        forecast continues (none for several trajectories or a missing last sample): with
+        measurement noise, the smoothed states (``model.states``), not the recorded ones."""
+        states = getattr(model, "states", None)
+        x = self.x if states is None else np.reshape(states, self.x.shape)
+        tail = DataTail.of(x, self.u, model.tail_lengths)
         model.data = self.description.with_tail(tail)
         return model
 
