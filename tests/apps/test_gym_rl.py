@@ -271,9 +271,9 @@ def test_learned_prior_arm_pools_the_earlier_iterations(env, monkeypatch):
     mixtures = []
     fit = gym_rl.fit_rollouts
 
-    def spy(model, x, u, lam, weights=None, learned=None, learned_samples=None):
+    def spy(model, x, u, lam, weights=None, learned=None, learned_samples=None, noise=None):
         mixtures.append(None if learned is None else learned.n_transitions)
-        return fit(model, x, u, lam, weights, learned, learned_samples)
+        return fit(model, x, u, lam, weights, learned, learned_samples, noise)
 
     monkeypatch.setattr(gym_rl, "fit_rollouts", spy)
     res = learn_pendulum("learned", seed=7, iterations=4, env=env, learned_after=1)
@@ -486,3 +486,25 @@ def test_cli_pendulum_demo_without_gymnasium_is_a_user_error(monkeypatch, tmp_pa
     assert main(["demo", "pendulum", "--out", str(tmp_path / "p.png")]) == 2
     err = capsys.readouterr().err
     assert "install ltvmodels[rl]" in err and "Traceback" not in err
+
+
+def test_sensor_noise_reaches_the_fits_not_the_controller(env, monkeypatch):
+    seen = []
+    fit = gym_rl.fit_rollouts
+
+    def spy(model, x, u, lam, weights=None, learned=None, learned_samples=None, noise=None):
+        seen.append((np.array(x), noise))
+        return fit(model, x, u, lam, weights, learned, learned_samples, noise)
+
+    monkeypatch.setattr(gym_rl, "fit_rollouts", spy)
+    clean = learn_pendulum("ltv", seed=7, iterations=2, env=env)
+    noisy = learn_pendulum(
+        "ltv", seed=7, iterations=2, env=env, state_noise_std=0.01, measurement_noise=1e-4
+    )
+    # the first batch runs the same controller on the true states: the same returns
+    np.testing.assert_array_equal(noisy.batch_returns[0], clean.batch_returns[0])
+    (x_clean, none), (x_noisy, variance) = seen
+    assert none is None and variance == 1e-4
+    assert 0.008 < float(np.std(x_noisy - x_clean)) < 0.012  # the sensor's noise, in the fit
+    with pytest.raises(ValueError, match="state_noise_std"):
+        learn_pendulum("ltv", seed=7, iterations=1, env=env, state_noise_std=-1.0)

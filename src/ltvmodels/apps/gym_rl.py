@@ -520,6 +520,7 @@ def fit_rollouts(
     weights: Any = None,
     learned: GMMPrior | None = None,
     learned_samples: float | None = None,
+    measurement_noise: Any = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Jacobians A (N, n, n), B (N, n, m) of an affine model fitted on R time-aligned rollouts.
 
@@ -547,6 +548,9 @@ def fit_rollouts(
         The mixture of earlier transitions, for ``model="learned"``.
     learned_samples : float, optional
         ``max_samples`` of its prior.
+    measurement_noise : None, float, array_like or "estimate"
+        The recorded states' measurement noise, as in :func:`ltvmodels.fit`
+        (None: the states are exact).
 
     Returns
     -------
@@ -568,7 +572,9 @@ def fit_rollouts(
         # time (LTI) decides them.
         warnings.simplefilter("ignore", IdentifiabilityWarning)
         if model == "lti":
-            fitted = fit_lti(xs, ua, constant=True, weights=weights)
+            fitted = fit_lti(
+                xs, ua, constant=True, weights=weights, measurement_noise=measurement_noise
+            )
         else:
             prior = None
             if model == "learned" and learned is not None:
@@ -589,6 +595,7 @@ def fit_rollouts(
                 compute_cov=False,
                 weights=weights,
                 prior=prior,
+                measurement_noise=measurement_noise,
             )
     return fitted.A, fitted.B
 
@@ -760,6 +767,8 @@ def learn_pendulum(
     env: Any = None,
     learned_samples: float | None = LEARNED_SAMPLES,
     learned_after: int = LEARNED_AFTER,
+    state_noise_std: float = 0.0,
+    measurement_noise: Any = None,
 ) -> PendulumLearningResult:
     """Learn to swing up gymnasium's Pendulum-v1 from batches of rollouts with an LTV or LTI model.
 
@@ -831,6 +840,14 @@ def learn_pendulum(
     learned_after : int
         For ``model="learned"``: iterations whose rollouts the mixture must hold
         before its prior is used.
+    state_noise_std : float
+        Standard deviation (>= 0) of Gaussian sensor noise on the recorded states
+        the models are fitted on (angle in rad, velocity in rad/s; seeded by
+        ``seed`` on a stream of its own); the controller, the incumbent test and
+        the returns use the true states. Default 0: exact records.
+    measurement_noise : None, float, array_like or "estimate"
+        How the fits treat the recorded states (:func:`ltvmodels.fit`): None as
+        exact, else by EM with this measurement noise.
 
     Returns
     -------
@@ -872,8 +889,10 @@ def learn_pendulum(
         raise TypeError(f"cost: expected a PendulumCost, received {arrays.describe(cost)}")
     env = _check_env(env)
 
+    state_noise_std = options.nonnegative_scalar(state_noise_std, "state_noise_std")
     start = time.perf_counter()
     rng = options.random_generator(seed)
+    sensor = np.random.default_rng([int(seed), 1])  # its own stream: the rest is unchanged
     N = EPISODE_STEPS
     limit = _torque_limit(env)
     weights = (1.0 / _STATE_SCALES**2, np.array([1.0 / _TORQUE_SCALE**2]))
@@ -900,6 +919,8 @@ def learn_pendulum(
         noise[1:] = noise_std * rng.standard_normal((R - 1, N))
         xb, ub, rb = pendulum_rollouts(env, seed, u_nom, x_nom, K, noise=noise)
         x, u, rewards = xb[0], ub[0], rb[0]
+        if state_noise_std > 0:  # what a sensor records of the batch: the fits' data
+            xb = xb + state_noise_std * sensor.standard_normal(xb.shape)
         returns.append(float(np.sum(rewards)))
         batch_returns.append(np.sum(rb, axis=1))
         if inc is None or inc_batch is None:  # the first rollout: the first incumbent
@@ -945,6 +966,7 @@ def learn_pendulum(
                     locality_weights(inc_batch[0], locality),
                     learned if i >= learned_after else None,
                     learned_samples,
+                    measurement_noise,
                 )
                 dyn = LinearDynamics.through(A[:H], B[:H], xi[: H + 1], ui[:H])
                 plan = ilqg(
