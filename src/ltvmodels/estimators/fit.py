@@ -49,6 +49,7 @@ def fit_lti(
     huber_delta: float | ArrayLike | None = None,
     regular: bool = True,
     measurement_noise: float | ArrayLike | Literal["estimate"] | None = None,
+    measurement_loss: MeasurementLoss = "squared",
     em_tol: float = 1e-6,
     em_max_iter: int = 500,
 ) -> LTVModel:
@@ -77,7 +78,7 @@ def fit_lti(
     regular : bool, default True
         As in :func:`ltvmodels.fit` (False: the rows of a time index are
         consecutive samples, whatever their stamps).
-    measurement_noise, em_tol, em_max_iter
+    measurement_noise, measurement_loss, em_tol, em_max_iter
         As in :func:`ltvmodels.fit`: the recorded states as noisy measurements;
         the maximum-likelihood LTI model by EM (squared loss only).
 
@@ -98,6 +99,8 @@ def fit_lti(
     data = state_space_data(x, u, order=1, weights=weights, constant=constant, regular=regular)
     problem = data.problem
     n, m = data.n, data.m
+    robust = options.choice(measurement_loss, "measurement_loss", options.MEASUREMENT_LOSSES)
+    options.measurement_loss_needs_noise(robust, measurement_noise)
     if measurement_noise is not None:
         if options.choice(loss, "loss", options.LOSSES) != "squared":
             raise NotImplementedError(
@@ -122,6 +125,7 @@ def fit_lti(
                 tol=tol,
                 max_iter=max_iter,
                 label="lti",
+                measurement_loss=robust,
             )
         )
     N, p = problem.N, problem.p

@@ -283,9 +283,7 @@ def _finish(
     model.states = states
     model.states_std = std
     var = np.diagonal(moments.cov, axis1=2, axis2=3)
-    flagged = robust_measurement.sample_outliers(
-        em.data.x, moments.mean, var, em.measurement_var
-    )
+    flagged = robust_measurement.sample_outliers(em.data.x, moments.mean, var, em.measurement_var)
     model.sample_outliers = flagged[0] if flagged.shape[0] == 1 else flagged
     model.measurement_noise = em.measurement_var.copy()
     model.noise_var = np.full(n, em.process_var)
