@@ -82,8 +82,8 @@ def test_em_increases_the_bound_of_the_robust_loss(loss):
 @pytest.mark.parametrize("loss", ["huber", "student"])
 def test_corrupted_samples_are_down_weighted_and_found(loss):
     # Context (fits without measurement noise on the same data, norm="group",
-    # λ = 17, refine=True): squared loss ≈ 0.21, Huber ≈ 0.14, the corrupted
-    # samples set to NaN ≈ 0.034 (mean |Â − A|). The issue's own draw of the 20
+    # λ = 17, refine=True): squared loss ≈ 0.26, Huber ≈ 0.16, the corrupted
+    # samples set to NaN ≈ 0.036 (mean |Â − A|). The issue's own draw of the 20
     # samples was not stated; its numbers were 0.126, 0.094 and 0.039.
     data, x, hit = _corrupted()
     kwargs = dict(lam=17.0, norm="group", refine=True)
