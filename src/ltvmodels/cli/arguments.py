@@ -307,6 +307,16 @@ def add_measurement_noise(p: _Container, help: str) -> None:
     )
 
 
+def add_measurement_loss(p: _Container, help: str) -> None:
+    """``--measurement-loss {squared,huber,student}``: the measurement model's loss."""
+    p.add_argument(
+        "--measurement-loss",
+        choices=("squared", "huber", "student"),
+        default="squared",
+        help=help,
+    )
+
+
 def add_n_changes(p: _Container, help: str) -> None:
     """``--n-changes M``: at most M change points."""
     p.add_argument("--n-changes", type=_nonnegative_int, default=None, metavar="M", help=help)

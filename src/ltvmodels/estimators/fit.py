@@ -24,7 +24,7 @@ from ..core.sparse_common import lambda_max as problem_lambda_max
 from ..results.record import FitRecord, FitStatus
 from ..results.statespace import LTVModel
 from ..validation import arrays, options
-from ..validation.options import Loss, Norm, PriorMode, SparseNorm
+from ..validation.options import Loss, MeasurementLoss, Norm, PriorMode, SparseNorm
 from .measurement import measurement_fit, process_variance
 from .piecewise import refine_fit, residual_noise
 from .recordings import StateSpaceData, state_space_data
@@ -49,6 +49,7 @@ def fit_lti(
     huber_delta: float | ArrayLike | None = None,
     regular: bool = True,
     measurement_noise: float | ArrayLike | Literal["estimate"] | None = None,
+    measurement_loss: MeasurementLoss = "squared",
     em_tol: float = 1e-6,
     em_max_iter: int = 500,
 ) -> LTVModel:
@@ -77,7 +78,7 @@ def fit_lti(
     regular : bool, default True
         As in :func:`ltvmodels.fit` (False: the rows of a time index are
         consecutive samples, whatever their stamps).
-    measurement_noise, em_tol, em_max_iter
+    measurement_noise, measurement_loss, em_tol, em_max_iter
         As in :func:`ltvmodels.fit`: the recorded states as noisy measurements;
         the maximum-likelihood LTI model by EM (squared loss only).
 
@@ -98,6 +99,8 @@ def fit_lti(
     data = state_space_data(x, u, order=1, weights=weights, constant=constant, regular=regular)
     problem = data.problem
     n, m = data.n, data.m
+    robust = options.choice(measurement_loss, "measurement_loss", options.MEASUREMENT_LOSSES)
+    options.measurement_loss_needs_noise(robust, measurement_noise)
     if measurement_noise is not None:
         if options.choice(loss, "loss", options.LOSSES) != "squared":
             raise NotImplementedError(
@@ -122,6 +125,7 @@ def fit_lti(
                 tol=tol,
                 max_iter=max_iter,
                 label="lti",
+                measurement_loss=robust,
             )
         )
     N, p = problem.N, problem.p
@@ -208,6 +212,7 @@ def fit(
     progress: Callable[[int, int], None] | None = None,
     regular: bool = True,
     measurement_noise: float | ArrayLike | Literal["estimate"] | None = None,
+    measurement_loss: MeasurementLoss = "squared",
     em_tol: float = 1e-6,
     em_max_iter: int = 500,
 ) -> LTVModel:
@@ -367,6 +372,23 @@ def fit(
         measurement model's likelihood of the recorded x), ``noise_var`` = σ_w²,
         no ``cov``, and ``info["em_iterations"]``, ``"em_converged"``,
         ``"em_objectives"``. Takes the squared loss.
+    measurement_loss : {"squared", "huber", "student"}, default "squared"
+        With ``measurement_noise``: the distribution of the measurement errors e.
+        ``"squared"``: Gaussian. ``"student"``: Student-t with ν = 4 degrees of
+        freedom (scale σ_{e,i}); ``"huber"``: Huber's density with δ = 1.345 σ_{e,i}.
+        A corrupted recorded state is down-weighted in both of its roles (target
+        and regressor): each EM iteration reweights every recorded entry by
+        ω_ti (t: (ν + 1)/(ν + s_ti), Huber: min(1, δ/√s_ti), s_ti =
+        E[(x_ti − state)²]/σ_{e,i}²), the smoother sees the variance σ_{e,i}²/ω_ti
+        and σ_{e,i}² is updated as the weighted mean Σ ω E[(x − state)²] / count.
+        EM then increases a lower bound of the robust model's penalized likelihood
+        (:mod:`ltvmodels.core.measurement_weights`), reported as
+        ``info["em_objectives"]``. A gross error's weight decays as 1/s with
+        "student" and as 1/√s with "huber" (which therefore inflates σ_e more).
+        ``model.sample_outliers`` ((T,) or (R, T) booleans, with every
+        ``measurement_loss``) marks the samples with a standardized smoothed
+        measurement residual |x_ti − E[state]| / √(σ_{e,i}² + Var(state)) above 3
+        in an observed state. Needs ``measurement_noise`` (an error without it).
     em_tol, em_max_iter : float, int
         With ``measurement_noise``: EM stops when the relative change of its
         objective is at most ``em_tol`` (default 1e-6), or after ``em_max_iter``
@@ -447,6 +469,7 @@ def _fit_measured(
         max_iter=spec.em_max_iter,
         label=spec.norm,
         second=second if spec.refine else None,
+        measurement_loss=spec.measurement_loss,
     )
     if "lam_selection" in first.info:
         model.info["lam_selection"] = first.info["lam_selection"]

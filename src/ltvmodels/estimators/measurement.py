@@ -52,6 +52,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core import measurement_weights as robust_measurement
 from ..core.problem import RegressionProblem, state_space_problem
 from ..core.state_smoother import (
     ExpectedStatistics,
@@ -88,6 +89,10 @@ class MeasurementEM:
         σ_e² (current).
     process_var : float
         σ_w² (current).
+    loss : str
+        The measurement loss: "squared", "huber" or "student" (the weights ω of
+        :mod:`ltvmodels.core.measurement_weights`, (R, T, n), divide σ_e² in the
+        E-step).
     """
 
     data: StateSpaceData
@@ -95,6 +100,7 @@ class MeasurementEM:
     fixed_process: bool
     measurement_var: np.ndarray
     process_var: float
+    loss: str = "squared"
 
     def __post_init__(self) -> None:
         x, u = self.data.x, self.data.u
@@ -107,6 +113,23 @@ class MeasurementEM:
         self.kappa = prior_variance(x)
         self.observed = np.isfinite(x)
         self.objectives: list[float] = []
+        # IRLS weights of a robust measurement loss and the s that made them
+        self.weights = np.ones(x.shape)
+        self.standardized: np.ndarray | None = None
+
+    @property
+    def robust(self) -> bool:
+        """Whether the measurement loss reweights the entries."""
+        return self.loss != "squared"
+
+    def reweight(self, moments: StateMoments) -> None:
+        """The weights ω that maximize the bound given the smoothed states (IRLS step)."""
+        var = np.diagonal(moments.cov, axis1=2, axis2=3)
+        s = robust_measurement.standardized_square(
+            self.data.x, moments.mean, var, self.measurement_var
+        )
+        self.standardized = s
+        self.weights = robust_measurement.measurement_weights(self.loss, s, self.observed)
 
     def e_step(self, model: Any) -> StateMoments:
         """The smoothed states under ``model``'s coefficients and the current variances."""
@@ -124,6 +147,8 @@ class MeasurementEM:
         if w is not None:
             qvar = self.process_var / np.where(self.link, w, 1.0)
         rvar = np.broadcast_to(self.measurement_var, (R, T, n))
+        if self.robust:
+            rvar = rvar / self.weights
         return smooth_states(
             np.ascontiguousarray(theta[:, :, :n]), offset, self.link, qvar, x, rvar, self.kappa
         )
@@ -136,7 +161,12 @@ class MeasurementEM:
     def objective(self, moments: StateMoments, model: Any) -> float:
         """F at ``model``'s coefficients and the current variances (E-step done)."""
         penalty, prior = penalty_terms(model)
-        return moments.loglik - (penalty + prior) / (2.0 * self.process_var)
+        value = moments.loglik - (penalty + prior) / (2.0 * self.process_var)
+        if self.robust:  # the bound of the robust loss (core.measurement_weights)
+            value += robust_measurement.bound_correction(
+                self.loss, self.weights, self.standardized, self.observed
+            )
+        return value
 
     def update_noise(self, moments: StateMoments, stats: ExpectedStatistics, model: Any) -> None:
         """The closed-form M-steps of σ_w² (with Θ of ``model``) and σ_e² (given the moments)."""
@@ -150,6 +180,8 @@ class MeasurementEM:
             x = self.data.x
             var = np.diagonal(moments.cov, axis1=2, axis2=3)
             sq = np.where(self.observed, (np.nan_to_num(x) - moments.mean) ** 2 + var, 0.0)
+            if self.robust:  # the weighted update that maximizes the bound
+                sq = sq * self.weights
             counts = self.observed.sum(axis=(0, 1))
             total = sq.sum(axis=(0, 1))
             fresh = np.where(counts > 0, total / np.maximum(counts, 1), self.measurement_var)
@@ -161,10 +193,15 @@ class MeasurementEM:
         """EM from ``model`` (its coefficients the start): the last model, its E-step,
         the iterations and whether the objective met ``tol``."""
         moments = self.e_step(model)
+        if self.robust:  # the objective needs the weights of these states
+            self.reweight(moments)
+            moments = self.e_step(model)
         self.objectives.append(self.objective(moments, model))
         converged = False
         iterations = 0
         for iterations in range(1, max_iter + 1):  # noqa: B007 - the count is returned
+            if self.robust:
+                self.reweight(moments)
             stats = self.statistics(moments)
             model = mstep(expected_problem(stats, coeffs), self.process_var)
             self.update_noise(moments, stats, model)
@@ -190,18 +227,28 @@ def penalty_terms(model: Any) -> tuple[float, float]:
 
 
 def _start(
-    data: StateSpaceData, first: Any, measurement_noise: Any, noise_var: Any
+    data: StateSpaceData,
+    first: Any,
+    measurement_noise: Any,
+    noise_var: Any,
+    loss: str = "squared",
 ) -> MeasurementEM:
     """The EM state at the fit on the recorded states: σ_w² half, σ_e² a quarter of its
-    residual variance (or as given)."""
+    residual variance (or as given). With a robust measurement loss the residual
+    variance is the square of the robust residual scale of that fit (its
+    ``outlier_scale``): corrupted samples would inflate the plain one."""
     n = data.n
     residual = np.broadcast_to(np.asarray(first.noise_var, float), (n,))
+    scale_rule = first.info.get("outlier_scale")
+    if loss != "squared" and scale_rule is not None:
+        robust = np.asarray(scale_rule, float) ** 2
+        residual = np.where(robust > 0, np.minimum(robust, residual), residual)
     scale = max(float(np.mean(residual)), 1e-300)
     estimate = isinstance(measurement_noise, str)
     measurement = 0.25 * np.maximum(residual, 1e-6 * scale) if estimate else measurement_noise
     process = 0.5 * scale if noise_var is None else float(noise_var)
     return MeasurementEM(
-        data, estimate, noise_var is not None, np.array(measurement, float).copy(), process
+        data, estimate, noise_var is not None, np.array(measurement, float).copy(), process, loss
     )
 
 
@@ -235,6 +282,9 @@ def _finish(
         states, std = states[0], std[0]
     model.states = states
     model.states_std = std
+    var = np.diagonal(moments.cov, axis1=2, axis2=3)
+    flagged = robust_measurement.sample_outliers(em.data.x, moments.mean, var, em.measurement_var)
+    model.sample_outliers = flagged[0] if flagged.shape[0] == 1 else flagged
     model.measurement_noise = em.measurement_var.copy()
     model.noise_var = np.full(n, em.process_var)
     model.noise_cov = em.process_var * np.eye(n)
@@ -251,6 +301,9 @@ def _finish(
     model.info.update(
         {
             "measurement_noise": "estimate" if em.estimate_noise else "given",
+            "measurement_loss": em.loss,
+            "sample_outlier_threshold": robust_measurement.OUTLIER_THRESHOLD,
+            "n_sample_outliers": int(flagged.sum()),
             "em_iterations": int(total),
             "em_converged": bool(converged),
             "em_objective": float(objective),
@@ -286,14 +339,16 @@ def measurement_fit(
     max_iter: int,
     label: str,
     second: Callable[[Any], MStep] | None = None,
+    measurement_loss: str = "squared",
 ) -> Any:
     """EM from ``first`` (the fit on the recorded states) with the M-step ``mstep``;
     ``second`` (for the two-step refinement) makes from the converged model the M-step of
     a second EM run, which continues from the first (see the module docstring).
     ``measurement_noise`` is validated here (against n); ``noise_var`` is a given σ_w²
-    (see :func:`process_variance`) or None."""
+    (see :func:`process_variance`) or None; ``measurement_loss`` (validated) is
+    "squared", "huber" or "student" (:mod:`ltvmodels.core.measurement_weights`)."""
     measurement_noise = options.measurement_noise(measurement_noise, data.n)
-    em = _start(data, first, measurement_noise, noise_var)
+    em = _start(data, first, measurement_noise, noise_var, measurement_loss)
     coeffs = data.problem.coeffs
     model, moments, iterations, converged = em.run(first, mstep, coeffs, tol, max_iter)
     stages = [{"model": label, "iterations": iterations, "converged": converged}]

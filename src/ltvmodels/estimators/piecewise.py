@@ -53,7 +53,7 @@ from ..errors import IdentifiabilityWarning, SingularProblemError, warn
 from ..results.record import FitRecord, FitStatus
 from ..results.statespace import LTVModel
 from ..validation import arrays, options
-from ..validation.options import Loss
+from ..validation.options import Loss, MeasurementLoss
 from .changepoints import find_changepoints
 from .measurement import measurement_fit
 from .recordings import state_space_data
@@ -77,6 +77,7 @@ def fit_piecewise(
     huber_delta: float | ArrayLike | None = None,
     regular: bool = True,
     measurement_noise: float | ArrayLike | Literal["estimate"] | None = None,
+    measurement_loss: MeasurementLoss = "squared",
     em_tol: float = 1e-6,
     em_max_iter: int = 500,
 ) -> LTVModel:
@@ -119,7 +120,7 @@ def fit_piecewise(
     regular : bool, default True
         As in :func:`ltvmodels.fit` (False: the rows of a time index are
         consecutive samples, whatever their stamps).
-    measurement_noise, em_tol, em_max_iter
+    measurement_noise, measurement_loss, em_tol, em_max_iter
         As in :func:`ltvmodels.fit`: the recorded states as noisy measurements;
         the maximum-likelihood piecewise model by EM (squared loss only; then
         ``cov`` is None).
@@ -174,6 +175,8 @@ def fit_piecewise(
         raise TypeError(f"compute_cov: expected True or False, received {compute_cov!r}")
     loss, delta = options.loss_options(loss, huber_delta, data.n)
     factory = partial(LTVModel, n_states=data.n, n_inputs=data.m, constant=data.constant)
+    robust = options.choice(measurement_loss, "measurement_loss", options.MEASUREMENT_LOSSES)
+    options.measurement_loss_needs_noise(robust, measurement_noise)
     if measurement_noise is not None:
         if loss != "squared":
             raise NotImplementedError(
@@ -200,6 +203,7 @@ def fit_piecewise(
                 tol=tol,
                 max_iter=max_iter,
                 label="piecewise",
+                measurement_loss=robust,
             )
         )
     return data.describe(

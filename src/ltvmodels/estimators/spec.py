@@ -29,7 +29,7 @@ from ..validation.constraints import (
     Positive,
     check_all,
 )
-from ..validation.options import Loss, Norm, PriorMode
+from ..validation.options import Loss, MeasurementLoss, Norm, PriorMode
 
 __all__ = ["FIT_CONSTRAINTS", "MEASUREMENT_CONSTRAINTS", "FitSpec"]
 
@@ -52,6 +52,7 @@ FIT_CONSTRAINTS: dict[str, Constraint] = {
 
 MEASUREMENT_CONSTRAINTS: dict[str, Constraint] = {
     "measurement_noise": Deferred(),  # against the number of states
+    "measurement_loss": Choice(options.MEASUREMENT_LOSSES),
     "em_tol": Positive(),
     "em_max_iter": Integer(0),
 }
@@ -82,6 +83,7 @@ class FitSpec:
     huber_delta: Any = None
     progress: Callable[[int, int], None] | None = None
     measurement_noise: Any = None
+    measurement_loss: MeasurementLoss = "squared"
     em_tol: float = 1e-6
     em_max_iter: int = 500
 
@@ -102,6 +104,9 @@ class FitSpec:
         measured = {name: arguments[name] for name in MEASUREMENT_CONSTRAINTS if name in arguments}
         if measured:  # a front-end that takes them (the others keep the defaults)
             checked.update(check_all(MEASUREMENT_CONSTRAINTS, measured, _DEFAULTS))
+            options.measurement_loss_needs_noise(
+                checked.get("measurement_loss", "squared"), checked.get("measurement_noise")
+            )
         return cls(**checked)
 
     @property

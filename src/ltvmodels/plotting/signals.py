@@ -168,6 +168,7 @@ def plot_states(
     matplotlib.figure.Figure
         One axis per state; each title gives the RMS difference between the
         recorded and the smoothed values and the estimated measurement noise σ.
+        The samples in ``model.sample_outliers`` are marked by red crosses.
 
     Raises
     ------
@@ -184,6 +185,8 @@ def plot_states(
         )
     values = arrays.as_float_array(x, "x", missing=True)
     states, std = np.asarray(states), np.asarray(std)
+    flagged = getattr(model, "sample_outliers", None)
+    flagged = np.zeros(states.shape[:-1], bool) if flagged is None else np.asarray(flagged)
     if values.shape != states.shape:
         raise ValueError(
             f"x: expected the recorded states of the fit, shape {states.shape}, received "
@@ -196,6 +199,7 @@ def plot_states(
                 f"trajectory: expected an index below {values.shape[0]}, received {trajectory}"
             )
         values, states, std = values[trajectory], states[trajectory], std[trajectory]
+        flagged = flagged[trajectory]
     band = options.nonnegative_scalar(band, "band")
     single = states.ndim == 2  # a pandas x (one trajectory) gives the time axis
     T, n = values.shape
@@ -216,6 +220,15 @@ def plot_states(
         seen = np.isfinite(values[:, i])
         rms = np.sqrt(np.mean((values[seen, i] - states[seen, i]) ** 2)) if seen.any() else np.nan
         ax.plot(t, values[:, i], ".", color="0.45", markersize=2.5, label="recorded")
+        if flagged.any():
+            ax.plot(
+                t[flagged],
+                values[flagged, i],
+                "x",
+                color="tab:red",
+                markersize=5,
+                label="sample outlier",
+            )
         ax.plot(t, states[:, i], color=ESTIMATE_COLOR, linewidth=1.2, label="smoothed")
         if band > 0:
             ax.fill_between(

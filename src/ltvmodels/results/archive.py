@@ -16,9 +16,10 @@ Version history: 1 (ltvmodels 0.1), 2 (adds the fit status), 3 (adds the data
 description, which earlier versions kept in ``info`` as "signal_names", "time"
 and "n_missing"; the data tail members were added later as optional members of
 version 3: files without them load with no tail, and readers that predate them
-ignore them; so are ``states``, ``states_std`` and ``measurement_noise``, the
-smoothed states, their standard deviations and the measurement-noise variances
-of a fit with measurement noise). Earlier versions are read too: the status of a version-1 file is
+ignore them; so are ``states``, ``states_std``, ``measurement_noise`` and
+``sample_outliers``, the smoothed states, their standard deviations, the
+measurement-noise variances and the samples judged corrupted of a fit with
+measurement noise). Earlier versions are read too: the status of a version-1 file is
 reconstructed from ``info``, the description of version 1 and 2 files from
 those ``info`` entries.
 """
@@ -62,7 +63,7 @@ _DETAIL_KEYS = (
 )
 
 
-_MEASUREMENT_MEMBERS = ("states", "states_std", "measurement_noise")
+_MEASUREMENT_MEMBERS = ("states", "states_std", "measurement_noise", "sample_outliers")
 """The optional members of a fit with measurement noise (files without them: exact states)."""
 
 
@@ -121,7 +122,8 @@ def write(model: Any, path: str | Path) -> None:
     for name in _MEASUREMENT_MEMBERS:  # a fit with measurement noise (optional members)
         value = getattr(fit, name)
         if value is not None:
-            arrays[name] = np.asarray(value, dtype=float)
+            kind = bool if name == "sample_outliers" else float
+            arrays[name] = np.asarray(value, dtype=kind)
     arrays["meta"] = np.array(json.dumps(meta))
     with open(path, "wb") as fh:
         # mypy matches the unpacked names against savez's keyword allow_pickle (numpy >= 2.1),

@@ -333,6 +333,21 @@ def _certificate_text(status: FitStatus) -> str:
     return "none needed (closed form)" if status.status == "closed_form" else "none recorded"
 
 
+def _sample_outlier_row(model: SummarizedModel, info: dict) -> tuple[str, str]:
+    """The measurement loss and the samples judged corrupted (``model.sample_outliers``)."""
+    flagged = getattr(model, "sample_outliers", None)
+    loss = info.get("measurement_loss", "squared")
+    if flagged is None:
+        return ("measurement loss", str(loss))
+    flagged = np.asarray(flagged)
+    threshold = info.get("sample_outlier_threshold", 3.0)
+    return (
+        "sample outliers",
+        f"{int(flagged.sum())} of {flagged.size} samples (|standardized residual| > "
+        f"{threshold:g}); measurement loss {loss}",
+    )
+
+
 def _noise_section(model: SummarizedModel) -> Section:
     if model.noise_var is None:
         return Section("Noise", (("variance", "— (not estimated)"),))
@@ -349,6 +364,7 @@ def _noise_section(model: SummarizedModel) -> Section:
                     _per_name(model.output_names, model.measurement_noise) + how,
                 ),
                 ("EM", f"{info.get('em_iterations', '?')} iterations, {done}"),
+                _sample_outlier_row(model, info),
             ),
         )
     if model.status is None:  # given with the coefficients

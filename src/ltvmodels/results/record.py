@@ -170,6 +170,9 @@ class FitRecord:
         states were taken as exact).
     measurement_noise : ndarray, shape (n,), or None
         The measurement-noise variance of each state (None: exact states).
+    sample_outliers : ndarray of bool, shape (T,) or (R, T), or None
+        The recorded samples judged corrupted by a fit with measurement noise
+        (None: exact states).
     """
 
     norm: str | None = None
@@ -186,3 +189,4 @@ class FitRecord:
     states: np.ndarray | None = None
     states_std: np.ndarray | None = None
     measurement_noise: np.ndarray | None = None
+    sample_outliers: np.ndarray | None = None

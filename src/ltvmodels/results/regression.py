@@ -66,7 +66,7 @@ class RegressionModel:
         correction, a prior that leaves parameters undetermined, a singular
         residual covariance (an exact fit: the likelihood is unbounded) and
         given coefficients; ``info["loglik_note"]`` says which.
-    states, states_std, measurement_noise : ndarray or None
+    states, states_std, measurement_noise, sample_outliers : ndarray or None
         Of a state-space fit with measurement noise (see :class:`~ltvmodels.LTVModel`);
         None otherwise.
     info : dict
@@ -130,6 +130,7 @@ class RegressionModel:
         self.states = fit.states
         self.states_std = fit.states_std
         self.measurement_noise = fit.measurement_noise
+        self.sample_outliers = fit.sample_outliers
 
     @property
     def record(self) -> FitRecord:
@@ -149,6 +150,7 @@ class RegressionModel:
             states=self.states,
             states_std=self.states_std,
             measurement_noise=self.measurement_noise,
+            sample_outliers=self.sample_outliers,
         )
 
     def with_data(self: ModelT, data: DataDescription) -> ModelT:

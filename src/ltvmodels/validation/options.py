@@ -46,6 +46,9 @@ __all__ = [
     "positive_scalar",
     "noise_variance",
     "measurement_noise",
+    "MEASUREMENT_LOSSES",
+    "MeasurementLoss",
+    "measurement_loss_needs_noise",
     "variance",
     "optional_nonnegative",
     "fraction",
@@ -199,6 +202,24 @@ def noise_variance(value: Any, n: int) -> float | np.ndarray | None:
     for v in arr:
         variance(v, "noise_var")
     return arr.copy()
+
+
+MeasurementLoss = Literal["squared", "huber", "student"]
+MEASUREMENT_LOSSES: tuple[MeasurementLoss, ...] = ("squared", "huber", "student")
+"""The losses of the measurement model (``measurement_loss``, see
+:mod:`ltvmodels.core.measurement_weights`)."""
+
+
+def measurement_loss_needs_noise(loss: str, noise: Any) -> None:
+    """A robust ``measurement_loss`` (validated) needs the measurement model."""
+    if loss != "squared" and noise is None:
+        raise ValueError(
+            f"measurement_loss: {loss!r} is a loss of the measurement model, which "
+            "measurement_noise=None (exact recorded states) does not have; received "
+            f"measurement_loss={loss!r} with measurement_noise=None; pass "
+            "measurement_noise='estimate' (or a variance), or use loss='huber' for "
+            "outliers in the state equation's residuals"
+        )
 
 
 def measurement_noise(value: Any, n: int) -> np.ndarray | str | None:

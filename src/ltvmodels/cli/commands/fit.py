@@ -51,6 +51,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "variance of each state, or give it (one or one per state); the model is fitted by "
         "EM with a Kalman smoother of the states (default: exact states)",
     )
+    opt.add_measurement_loss(
+        p,
+        "with --measurement-noise: the measurement errors' loss; huber or student "
+        "down-weight corrupted recorded samples (in both roles, target and regressor) and "
+        "report them as sample outliers (default: squared)",
+    )
     opt.add_weights(p)
     opt.add_time(p)
     opt.add_constant(p, "a time-varying constant term c_t in x[t+1] = A_t x[t] + B_t u[t] + c_t")
@@ -104,6 +110,7 @@ def run(args: argparse.Namespace) -> Report:
             weights=data.weights,
             progress=progress,
             measurement_noise=args.measurement_noise,
+            measurement_loss=args.measurement_loss,
         )
     model = record_columns(
         model,
@@ -149,12 +156,16 @@ def run(args: argparse.Namespace) -> Report:
             measurement_noise=[float(v) for v in model.measurement_noise],
             em_iterations=int(model.info["em_iterations"]),
             em_converged=bool(model.info["em_converged"]),
+            measurement_loss=str(model.info["measurement_loss"]),
+            n_sample_outliers=int(model.info["n_sample_outliers"]),
         )
         lines.insert(
             2,
             f"measurement noise variance: {per_name(data.state_names, model.measurement_noise)}"
             f" ({model.info['measurement_noise']}); EM: {model.info['em_iterations']} "
-            f"iterations, {'converged' if model.info['em_converged'] else 'not converged'}",
+            f"iterations, {'converged' if model.info['em_converged'] else 'not converged'}"
+            f"; measurement loss {model.info['measurement_loss']}, "
+            f"{model.info['n_sample_outliers']} sample outliers",
         )
     title = (
         f"{data.label}: norm={args.norm!r}, order={args.order}, "
