@@ -54,6 +54,7 @@ MEASUREMENT_CONSTRAINTS: dict[str, Constraint] = {
     "measurement_noise": Deferred(),  # against the number of states
     "em_tol": Positive(),
     "em_max_iter": Integer(0),
+    "em_accelerate": Flag(),
 }
 """The options of the measurement model, which only the state-space :func:`ltvmodels.fit`
 takes (checked where its arguments have them)."""
@@ -84,6 +85,7 @@ class FitSpec:
     measurement_noise: Any = None
     em_tol: float = 1e-6
     em_max_iter: int = 500
+    em_accelerate: bool = True
 
     @classmethod
     def from_arguments(cls, arguments: Mapping[str, Any]) -> FitSpec:
