@@ -156,7 +156,16 @@ def test_each_sq_m_step_is_the_dense_expected_statistics_problem():
     lam = 30.0
     given = np.array([0.04, 0.05])
     runs = [
-        ltv.fit(x, u, lam=lam, measurement_noise=given, em_max_iter=j, em_tol=1e-300)
+        # plain EM: run j + 1 is one M-step from run j's output
+        ltv.fit(
+            x,
+            u,
+            lam=lam,
+            measurement_noise=given,
+            em_max_iter=j,
+            em_tol=1e-300,
+            em_accelerate=False,
+        )
         for j in range(4)
     ]
     assert runs[0].info["em_iterations"] == 0
@@ -184,11 +193,12 @@ def test_each_sq_m_step_is_the_dense_expected_statistics_problem():
         assert after.noise_var[0] == pytest.approx((rss + pen) / (n * N), rel=1e-7)
 
 
+@pytest.mark.parametrize("accelerate", [False, True])
 @pytest.mark.parametrize(
     ("norm", "lam", "seed"),
     [("sq", 40.0, 0), ("sq", 10.0, 4), ("group", 17.0, 1), ("group", 8.0, 3), ("l1", 12.0, 2)],
 )
-def test_em_increases_its_objective(norm, lam, seed):
+def test_em_increases_its_objective(norm, lam, seed, accelerate):
     data = ltv.systems.jump_linear(200, change_at=100, seed=seed)
     model = ltv.fit(
         data.x,
@@ -198,12 +208,38 @@ def test_em_increases_its_objective(norm, lam, seed):
         measurement_noise="estimate",
         em_max_iter=25,
         tol=1e-9,
+        em_accelerate=accelerate,
     )
-    path = model.info["em_objectives"]
-    assert len(path) == model.info["em_iterations"] + 1 >= 3
+    path = model.info["em_objectives"]  # F at the accepted points
+    tried = model.info["em_extrapolations"]["tried"]
+    assert len(path) >= 3
+    # plain EM accepts every M-step; a SQUAREM cycle takes 3 M-steps for 2 points
+    assert len(path) - 1 == model.info["em_iterations"] - tried
+    assert accelerate or tried == 0
     steps = np.diff(path)
     assert steps.min() >= -1e-7 * abs(path[-1])
     assert path[-1] > path[0] + 1.0  # it moves
+
+
+@pytest.mark.parametrize(
+    ("norm", "lam", "measurement"), [("sq", 30.0, "estimate"), ("group", 17.0, 0.04)]
+)
+def test_squarem_reaches_the_fixed_point_of_plain_em(norm, lam, measurement):
+    # both run to a tight tolerance: the same stationary point of F, SQUAREM in fewer
+    # M-steps, and never at a lower objective
+    data = ltv.systems.jump_linear(300, change_at=150, seed=5)
+    kwargs = dict(lam=lam, norm=norm, measurement_noise=measurement, em_tol=1e-10, tol=1e-10)
+    kwargs["em_max_iter"] = 3000
+    plain = ltv.fit(data.x, data.u, **kwargs, em_accelerate=False)
+    fast = ltv.fit(data.x, data.u, **kwargs)
+    assert plain.info["em_converged"] and fast.info["em_converged"]
+    assert fast.info["em_extrapolations"]["accepted"] >= 1
+    assert fast.info["em_iterations"] < plain.info["em_iterations"]
+    np.testing.assert_allclose(fast.k, plain.k, atol=2e-3)
+    np.testing.assert_allclose(fast.measurement_noise, plain.measurement_noise, rtol=2e-2)
+    assert fast.info["em_objective"] >= plain.info["em_objective"] - 1e-6 * abs(
+        plain.info["em_objective"]
+    )
 
 
 def test_refine_runs_em_twice_and_improves_on_the_recorded_fit():

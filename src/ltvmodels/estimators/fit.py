@@ -52,6 +52,7 @@ def fit_lti(
     measurement_loss: MeasurementLoss = "squared",
     em_tol: float = 1e-6,
     em_max_iter: int = 500,
+    em_accelerate: bool = True,
 ) -> LTVModel:
     """Least-squares LTI model x[t+1] = A x[t] + B u[t] (+ c) + v_t (paper eqs. lscost, ls).
 
@@ -78,7 +79,7 @@ def fit_lti(
     regular : bool, default True
         As in :func:`ltvmodels.fit` (False: the rows of a time index are
         consecutive samples, whatever their stamps).
-    measurement_noise, measurement_loss, em_tol, em_max_iter
+    measurement_noise, measurement_loss, em_tol, em_max_iter, em_accelerate
         As in :func:`ltvmodels.fit`: the recorded states as noisy measurements;
         the maximum-likelihood LTI model by EM (squared loss only).
 
@@ -126,6 +127,7 @@ def fit_lti(
                 max_iter=max_iter,
                 label="lti",
                 measurement_loss=robust,
+                accelerate=options.flag(em_accelerate, "em_accelerate"),
             )
         )
     N, p = problem.N, problem.p
@@ -215,6 +217,7 @@ def fit(
     measurement_loss: MeasurementLoss = "squared",
     em_tol: float = 1e-6,
     em_max_iter: int = 500,
+    em_accelerate: bool = True,
 ) -> LTVModel:
     """Identify an LTV model x[t+1] = A_t x[t] + B_t u[t] (+ c_t) + v_t.
 
@@ -392,8 +395,16 @@ def fit(
     em_tol, em_max_iter : float, int
         With ``measurement_noise``: EM stops when the relative change of its
         objective is at most ``em_tol`` (default 1e-6), or after ``em_max_iter``
-        iterations (default 500; 0 returns the fit on the recorded states with
+        M-steps (default 500; 0 returns the fit on the recorded states with
         its smoothed states); ``model.status`` says which.
+    em_accelerate : bool, default True
+        With ``measurement_noise``: SQUAREM cycles (Varadhan & Roland 2008) —
+        two EM iterations, an extrapolation of (Θ, log σ²) and one more EM
+        iteration from it, accepted only where the objective increased, else
+        the plain EM iterate — instead of plain EM (False). Both increase the
+        objective at every accepted point and stop on the same rule;
+        ``info["em_iterations"]`` counts M-steps, ``info["em_extrapolations"]``
+        the extrapolations tried and accepted.
 
     Returns
     -------
@@ -467,6 +478,7 @@ def _fit_measured(
         noise_var=noise_var,
         tol=spec.em_tol,
         max_iter=spec.em_max_iter,
+        accelerate=spec.em_accelerate,
         label=spec.norm,
         second=second if spec.refine else None,
         measurement_loss=spec.measurement_loss,

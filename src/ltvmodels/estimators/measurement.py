@@ -187,32 +187,120 @@ class MeasurementEM:
             fresh = np.where(counts > 0, total / np.maximum(counts, 1), self.measurement_var)
             self.measurement_var = np.maximum(fresh, 1e-300)
 
+    def step(self, moments: StateMoments, mstep: MStep, coeffs: np.ndarray) -> Any:
+        """One EM map from the E-step ``moments``: the M-step for Θ, then the noise updates
+        (which leave the variances in ``self``); with a robust loss first the weights of
+        these states."""
+        if self.robust:
+            self.reweight(moments)
+        stats = self.statistics(moments)
+        model = mstep(expected_problem(stats, coeffs), self.process_var)
+        self.update_noise(moments, stats, model)
+        return model
+
+    def _vector(self, theta: np.ndarray) -> np.ndarray:
+        """The parameter vector of the extrapolation: (Θ, log σ_w², log σ_e²)."""
+        return np.concatenate(
+            [theta.ravel(), np.log([self.process_var]), np.log(self.measurement_var)]
+        )
+
+    def _variances(self) -> tuple[float, np.ndarray, np.ndarray]:
+        """The variances and the robust loss's weights (restored when an extrapolation
+        is rejected)."""
+        return self.process_var, self.measurement_var.copy(), self.weights.copy()
+
+    def _set_variances(self, variances: tuple[float, np.ndarray, np.ndarray]) -> None:
+        self.process_var, self.measurement_var = variances[0], variances[1].copy()
+        self.weights = variances[2].copy()
+
     def run(
-        self, model: Any, mstep: MStep, coeffs: np.ndarray, tol: float, max_iter: int
-    ) -> tuple[Any, StateMoments, int, bool]:
+        self,
+        model: Any,
+        mstep: MStep,
+        coeffs: np.ndarray,
+        tol: float,
+        max_iter: int,
+        accelerate: bool = True,
+    ) -> tuple[Any, StateMoments, int, bool, dict[str, int]]:
         """EM from ``model`` (its coefficients the start): the last model, its E-step,
-        the iterations and whether the objective met ``tol``."""
+        the M-steps taken, whether the objective met ``tol``, and the extrapolations
+        tried and accepted.
+
+        With ``accelerate`` each cycle is SQUAREM (Varadhan & Roland 2008, scheme
+        S3) on the vector (Θ, log σ_w², log σ_e²): from θ₀, two EM maps give θ₁
+        and θ₂; with r = θ₁ − θ₀, v = θ₂ − 2θ₁ + θ₀ and α = −‖r‖/‖v‖ (at most −1)
+        the point θ₀ − 2αr + α²v is mapped once more by EM. That point is accepted
+        only where F there is at least F(θ₁) (so the accepted path is monotone in
+        F); otherwise the cycle ends at θ₂, the plain EM iterate. α = −1 is θ₂
+        itself. Every accepted point is the output of an M-step, whose penalty
+        P(Θ) its solver reports."""
         moments = self.e_step(model)
         if self.robust:  # the objective needs the weights of these states
             self.reweight(moments)
             moments = self.e_step(model)
         self.objectives.append(self.objective(moments, model))
-        converged = False
-        iterations = 0
-        for iterations in range(1, max_iter + 1):  # noqa: B007 - the count is returned
-            if self.robust:
-                self.reweight(moments)
-            stats = self.statistics(moments)
-            model = mstep(expected_problem(stats, coeffs), self.process_var)
-            self.update_noise(moments, stats, model)
-            moments = self.e_step(model)
-            value = self.objective(moments, model)
+        counts = {"tried": 0, "accepted": 0}
+        msteps = 0
+
+        def accept(new: Any, new_moments: StateMoments) -> bool:
+            """Append F at the accepted point; whether the relative change met ``tol``."""
+            value = self.objective(new_moments, new)
             previous = self.objectives[-1]
             self.objectives.append(value)
-            if abs(value - previous) <= tol * max(abs(value), 1e-300):
-                converged = True
-                break
-        return model, moments, iterations, converged
+            return abs(value - previous) <= tol * max(abs(value), 1e-300)
+
+        converged = False
+        while msteps < max_iter and not converged:
+            start = self._vector(model.theta) if accelerate else None
+            one = self.step(moments, mstep, coeffs)
+            msteps += 1
+            moments_one = self.e_step(one)
+            converged = accept(one, moments_one)
+            model, moments = one, moments_one
+            if converged or msteps >= max_iter or start is None:
+                continue
+            first = self._vector(one.theta)
+            two = self.step(moments_one, mstep, coeffs)
+            msteps += 1
+            at_two = self._variances()
+            r = first - start
+            v = self._vector(two.theta) - first - r
+            norm_v = float(np.linalg.norm(v))
+            alpha = -float(np.linalg.norm(r)) / norm_v if norm_v > 0 else -1.0
+            if msteps < max_iter and np.isfinite(alpha) and alpha < -1.0:
+                counts["tried"] += 1
+                jump = start - 2.0 * alpha * r + alpha * alpha * v
+                size = model.theta.size
+                self.process_var = float(np.exp(jump[size]))
+                self.measurement_var = np.exp(jump[size + 1 :])
+                if self.fixed_process:
+                    self.process_var = at_two[0]
+                if not self.estimate_noise:
+                    self.measurement_var = at_two[1].copy()
+                proxy = _Coefficients(jump[:size].reshape(model.theta.shape))
+                moments_jump = self.e_step(proxy)
+                if np.isfinite(moments_jump.loglik):
+                    three = self.step(moments_jump, mstep, coeffs)
+                    msteps += 1
+                    moments_three = self.e_step(three)
+                    value = self.objective(moments_three, three)
+                    if np.isfinite(value) and value >= self.objectives[-1]:
+                        counts["accepted"] += 1
+                        converged = accept(three, moments_three)
+                        model, moments = three, moments_three
+                        continue
+                self._set_variances(at_two)
+            moments_two = self.e_step(two)
+            converged = accept(two, moments_two)
+            model, moments = two, moments_two
+        return model, moments, msteps, converged, counts
+
+
+@dataclass(frozen=True)
+class _Coefficients:
+    """Coefficients Θ (N, n, p) at an extrapolated point: only an E-step reads them."""
+
+    theta: np.ndarray
 
 
 def penalty_terms(model: Any) -> tuple[float, float]:
@@ -304,7 +392,10 @@ def _finish(
             "measurement_loss": em.loss,
             "sample_outlier_threshold": robust_measurement.OUTLIER_THRESHOLD,
             "n_sample_outliers": int(flagged.sum()),
-            "em_iterations": int(total),
+            "em_iterations": int(total),  # M-steps, the cost (with SQUAREM: > accepted points)
+            "em_extrapolations": {
+                key: int(sum(stage[key] for stage in stages)) for key in ("tried", "accepted")
+            },
             "em_converged": bool(converged),
             "em_objective": float(objective),
             "em_objectives": np.array(em.objectives),
@@ -340,29 +431,36 @@ def measurement_fit(
     label: str,
     second: Callable[[Any], MStep] | None = None,
     measurement_loss: str = "squared",
+    accelerate: bool = True,
 ) -> Any:
     """EM from ``first`` (the fit on the recorded states) with the M-step ``mstep``;
     ``second`` (for the two-step refinement) makes from the converged model the M-step of
     a second EM run, which continues from the first (see the module docstring).
     ``measurement_noise`` is validated here (against n); ``noise_var`` is a given σ_w²
     (see :func:`process_variance`) or None; ``measurement_loss`` (validated) is
-    "squared", "huber" or "student" (:mod:`ltvmodels.core.measurement_weights`)."""
+    "squared", "huber" or "student" (:mod:`ltvmodels.core.measurement_weights`); ``accelerate``:
+    SQUAREM cycles (see :meth:`MeasurementEM.run`) rather than plain EM iterations."""
     measurement_noise = options.measurement_noise(measurement_noise, data.n)
     em = _start(data, first, measurement_noise, noise_var, measurement_loss)
     coeffs = data.problem.coeffs
-    model, moments, iterations, converged = em.run(first, mstep, coeffs, tol, max_iter)
-    stages = [{"model": label, "iterations": iterations, "converged": converged}]
+    model, moments, iterations, converged, counts = em.run(
+        first, mstep, coeffs, tol, max_iter, accelerate
+    )
+    stages = [{"model": label, "iterations": iterations, "converged": converged, **counts}]
     if second is not None:
         refit = second(model)
         start = len(em.objectives)
         begin = refit(expected_problem(em.statistics(moments), coeffs), em.process_var)
-        model, moments, iterations, converged = em.run(begin, refit, coeffs, tol, max_iter)
+        model, moments, iterations, converged, counts = em.run(
+            begin, refit, coeffs, tol, max_iter, accelerate
+        )
         stages.append(
             {
                 "model": "piecewise",
                 "iterations": iterations,
                 "converged": converged,
                 "first_objective_index": start,
+                **counts,
             }
         )
     return _finish(em, model, moments, converged, stages)

@@ -80,6 +80,7 @@ def fit_piecewise(
     measurement_loss: MeasurementLoss = "squared",
     em_tol: float = 1e-6,
     em_max_iter: int = 500,
+    em_accelerate: bool = True,
 ) -> LTVModel:
     """Least-squares LTV model that is piecewise constant or linear between given change points.
 
@@ -120,7 +121,7 @@ def fit_piecewise(
     regular : bool, default True
         As in :func:`ltvmodels.fit` (False: the rows of a time index are
         consecutive samples, whatever their stamps).
-    measurement_noise, measurement_loss, em_tol, em_max_iter
+    measurement_noise, measurement_loss, em_tol, em_max_iter, em_accelerate
         As in :func:`ltvmodels.fit`: the recorded states as noisy measurements;
         the maximum-likelihood piecewise model by EM (squared loss only; then
         ``cov`` is None).
@@ -204,6 +205,7 @@ def fit_piecewise(
                 max_iter=max_iter,
                 label="piecewise",
                 measurement_loss=robust,
+                accelerate=options.flag(em_accelerate, "em_accelerate"),
             )
         )
     return data.describe(

@@ -55,6 +55,7 @@ MEASUREMENT_CONSTRAINTS: dict[str, Constraint] = {
     "measurement_loss": Choice(options.MEASUREMENT_LOSSES),
     "em_tol": Positive(),
     "em_max_iter": Integer(0),
+    "em_accelerate": Flag(),
 }
 """The options of the measurement model, which only the state-space :func:`ltvmodels.fit`
 takes (checked where its arguments have them)."""
@@ -86,6 +87,7 @@ class FitSpec:
     measurement_loss: MeasurementLoss = "squared"
     em_tol: float = 1e-6
     em_max_iter: int = 500
+    em_accelerate: bool = True
 
     @classmethod
     def from_arguments(cls, arguments: Mapping[str, Any]) -> FitSpec:
