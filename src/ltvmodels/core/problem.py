@@ -55,6 +55,10 @@ class RegressionProblem:
         The √w each row was multiplied by (default: 1 where observed, 0
         elsewhere); losses other than the squared one need it (a threshold in
         the units of y is δ√w on a scaled row).
+    rows_are_samples : bool, default True
+        Whether each row is a recorded sample; False for pseudo-rows that only
+        reproduce sums (the expected statistics of EM's M-step), whose residuals
+        are no samples' (so they have no outliers).
     """
 
     y: np.ndarray
@@ -62,6 +66,7 @@ class RegressionProblem:
     coeffs: np.ndarray
     observed: np.ndarray
     row_scale: np.ndarray
+    rows_are_samples: bool
     # The count, kept: the likelihood, the checks and the reports each ask for it.
     _n_observed: int = field(init=False, repr=False, compare=False)
 
@@ -72,6 +77,7 @@ class RegressionProblem:
         coeffs: np.ndarray,
         observed: np.ndarray | None = None,
         row_scale: np.ndarray | None = None,
+        rows_are_samples: bool = True,
     ) -> None:
         # C order for every kernel: compiled kernels specialize on the memory
         # layout, and a fit must not depend on how the caller's arrays were laid
@@ -100,6 +106,7 @@ class RegressionProblem:
         object.__setattr__(self, "coeffs", coeffs)
         object.__setattr__(self, "observed", observed)
         object.__setattr__(self, "row_scale", row_scale)
+        object.__setattr__(self, "rows_are_samples", bool(rows_are_samples))
         object.__setattr__(self, "_n_observed", n_observed)
 
     @property

@@ -404,7 +404,7 @@ def expected_problem(stats: ExpectedStatistics, coeffs: np.ndarray) -> Regressio
     y = np.zeros((N, p, n))
     keep = np.zeros((N, p), dtype=np.bool_)
     _pseudo_rows(gram, cross, phi, y, keep)
-    return RegressionProblem(y=y, phi=phi, coeffs=coeffs, observed=keep)
+    return RegressionProblem(y=y, phi=phi, coeffs=coeffs, observed=keep, rows_are_samples=False)
 
 
 @numba.njit(cache=True)

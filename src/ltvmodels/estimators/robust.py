@@ -30,7 +30,10 @@ def outlier_info(problem: RegressionProblem, theta: np.ndarray) -> dict[str, Any
     """The ``info`` entries of ``model.outliers`` for the fit ``theta`` (N, n, p) of
     ``problem`` (every fit): "outliers" (N, q, n), the residual entries beyond
     "outlier_threshold" × "outlier_scale" (σ̂ per output,
-    :func:`~ltvmodels.core.robust.residual_outliers`), and "n_outliers"."""
+    :func:`~ltvmodels.core.robust.residual_outliers`), and "n_outliers"; none for
+    pseudo-rows (EM's M-step), which are no samples."""
+    if not problem.rows_are_samples:
+        return {}
     mask, sigma = residual_outliers(problem, theta)
     return {
         "outliers": mask,

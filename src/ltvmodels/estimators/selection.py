@@ -702,6 +702,7 @@ def _without(problem: RegressionProblem, held: np.ndarray) -> RegressionProblem:
         coeffs=problem.coeffs,
         row_scale=problem.row_scale,
         observed=problem.observed & ~held[:, None],
+        rows_are_samples=problem.rows_are_samples,
     )
 
 
