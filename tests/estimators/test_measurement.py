@@ -9,6 +9,8 @@ the estimates against the true coefficients of ``systems.jump_linear``.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -530,3 +532,22 @@ def test_a_forecast_continues_from_the_smoothed_last_state():
     remembered = model.forecast(steps=2, u=data.u[:1])
     given = model.forecast(model.states[-1], np.vstack([data.u[-1], data.u[:1]]))
     np.testing.assert_allclose(remembered.mean, given.mean)
+
+
+def test_a_measurement_variance_the_data_do_not_separate_is_reported():
+    """A flexible model (the robot arm's small λ) absorbs the sensor noise in its process
+    noise: the estimate falls to about 1e-5 whatever noise was added, with a warning;
+    on the jump-linear system, whose noise the data separate, no warning."""
+    from ltvmodels.apps.robot import robot_experiment
+
+    experiment = robot_experiment()
+    x, u = experiment.x_train, experiment.u_train
+    lam = 0.02 * ltv.lambda_max(x, u, norm="group")
+    noisy = x + 0.1 * np.random.default_rng(7).standard_normal(x.shape)
+    with pytest.warns(ltv.IdentifiabilityWarning, match="under 1 % of the process noise"):
+        ltv.fit(noisy, u, lam=lam, norm="group", measurement_noise="estimate", em_max_iter=30)
+    data = ltv.systems.jump_linear(T=300, seed=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ltv.IdentifiabilityWarning)
+        model = ltv.fit(data.x, data.u, lam=17.0, measurement_noise="estimate", em_max_iter=30)
+    assert np.all(model.measurement_noise > 0.01)

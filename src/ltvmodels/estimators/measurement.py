@@ -62,6 +62,7 @@ from ..core.state_smoother import (
     prior_variance,
     smooth_states,
 )
+from ..errors import IdentifiabilityWarning, warn
 from ..results.record import FitStatus, iterative_status
 from ..validation import options
 from .recordings import StateSpaceData
@@ -377,6 +378,7 @@ def _finish(
     model.noise_var = np.full(n, em.process_var)
     model.noise_cov = em.process_var * np.eye(n)
     model.loglik = moments.loglik
+    _warn_if_unseparated(em)
     # model.outliers: the state equation's residuals at the smoothed states (the
     # last M-step's were those of its pseudo-rows, which are no samples)
     data = em.data
@@ -417,6 +419,34 @@ def _finish(
         {"em_converged": bool(converged)},
     )
     return model
+
+
+# An estimated measurement variance below this fraction of the process variance is
+# not told apart from 0 by the fit.
+UNSEPARATED = 1e-2
+
+
+def _warn_if_unseparated(em: MeasurementEM) -> None:
+    """Warn when an estimated measurement variance is a small fraction of the process
+    variance: the recorded states are nearly exact, or the process noise of a flexible
+    model (small λ, short data) absorbs the measurement noise, which the likelihood
+    then cannot tell apart from it (measured on the robot arm: σ_e² → 1e-5 with
+    σ_w² ≈ 1e-2 whatever the sensor noise added)."""
+    if not em.estimate_noise:
+        return
+    small = em.measurement_var < UNSEPARATED * em.process_var
+    if small.any():
+        given = em.data.state_names or [f"x{i}" for i in range(small.size)]
+        names = [given[i] for i in np.flatnonzero(small)]
+        warn(
+            f"measurement_noise: the estimated measurement variance of {', '.join(names)} is "
+            f"{em.measurement_var[small].max():.3g}, under 1 % of the process noise "
+            f"variance {em.process_var:.3g}: either the recorded states are nearly exact "
+            "(measurement_noise=None gives the same fit) or this model's process noise "
+            "absorbs the measurement noise (small λ, few samples); give the sensor's "
+            "variance (measurement_noise=value) or a larger λ",
+            IdentifiabilityWarning,
+        )
 
 
 def measurement_fit(
