@@ -103,12 +103,12 @@ def residual_outliers(
 
     The residuals are those of the weighted rows, √w (y − Θφ) (weights are
     inverse relative noise variances, so these have one variance per output).
-    The robust scale of output i is σ̂_i = 1.4826 · median |r_ti| over its
+    The robust scale of output i is σ̂_i = 1.4826 · median abs(r_ti) over its
     observed entries, about zero (the noise has mean zero under the model:
     an outlier is far from the model's prediction, not from the residuals'
     median), leaving out the entries the fit reproduces (within REPRODUCED ×
-    the residuals' RMS or ROUNDING × the largest |y_i|). Returns the mask
-    (N, q, n) of |r_ti| > threshold · σ̂_i (False where unobserved) and σ̂ (n,).
+    the residuals' RMS or ROUNDING × the largest abs(y_i)). Returns the mask
+    (N, q, n) of abs(r_ti) > threshold · σ̂_i (False where unobserved) and σ̂ (n,).
     """
     r = problem.residuals(theta)
     mask = np.zeros(r.shape, dtype=np.bool_)

@@ -390,7 +390,7 @@ def fit(
         "student" and as 1/√s with "huber" (which therefore inflates σ_e more).
         ``model.sample_outliers`` ((T,) or (R, T) booleans, with every
         ``measurement_loss``) marks the samples with a standardized smoothed
-        measurement residual |x_ti − E[state]| / √(σ_{e,i}² + Var(state)) above 3
+        measurement residual abs(x_ti − E[state]) / √(σ_{e,i}² + Var(state)) above 3
         in an observed state. Needs ``measurement_noise`` (an error without it).
     em_tol, em_max_iter : float, int
         With ``measurement_noise``: EM stops when the relative change of its

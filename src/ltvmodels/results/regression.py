@@ -218,11 +218,11 @@ class RegressionModel:
     def outliers(self) -> np.ndarray | None:
         """Residual entries the fit judges outliers: beyond 3 robust scales of their output.
 
-        Entry (t, i) is an outlier when |r_ti| > c · σ̂_i, with r = √w (y − Θφ) the
-        residuals of the (weighted) fit, σ̂_i = 1.4826 · median |r_ti| over the
+        Entry (t, i) is an outlier when abs(r_ti) > c · σ̂_i, with r = √w (y − Θφ) the
+        residuals of the (weighted) fit, σ̂_i = 1.4826 · median abs(r_ti) over the
         observed entries of output i (about zero, not about the median: the
         model's noise has mean zero; entries the fit reproduces to 1e-8 of the
-        largest |y_i| are left out of the median and never flagged) and c = 3
+        largest abs(y_i) are left out of the median and never flagged) and c = 3
         (``info["outlier_threshold"]``; σ̂ is ``info["outlier_scale"]``). c is the
         two-sided 1 % Gaussian point 2.576 with a margin for the MAD's own
         error: measured on clean Gaussian data about 0.3 % of the entries are

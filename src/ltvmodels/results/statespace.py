@@ -92,7 +92,7 @@ class LTVModel(RegressionModel, LinearTimeVarying):
     sample_outliers : ndarray of bool, shape (T,) or (R, T), or None
         With ``measurement_noise``: the recorded samples judged corrupted, those
         with a standardized smoothed measurement residual
-        |x_ti − E[x_ti | x]| / √(σ_{e,i}² + Var(x_ti | x)) above 3 in an observed
+        abs(x_ti − E[x_ti | x]) / √(σ_{e,i}² + Var(x_ti | x)) above 3 in an observed
         state (``info["sample_outlier_threshold"]``), whatever the
         ``measurement_loss``; None for exact states.
 
