@@ -262,7 +262,8 @@ def information_limit(T: int, seeds: int, info_seeds: int = 5) -> None:
     covariance tends to the inverse Fisher information I(θ)⁻¹. I is computed as
     the negative Hessian of the exact log-likelihood (Kalman filter, the same
     recursions as EM's E-step) at the true parameters, by central differences,
-    averaged over seeds 0 … info_seeds − 1. The fit on x_true at the true change
+    averaged over seeds 0 … info_seeds − 1 (that log-likelihood is checked
+    against statsmodels' Kalman filter on seed 0). The fit on x_true at the true change
     point is least squares per segment, with covariance σ_w² (ΦᵀΦ)⁻¹ (Φ the
     segment's [x_true, u] rows). A Gaussian estimate with standard deviation σ
     has E|Â − A| = σ √(2/π); the expected error is that, averaged over the four
@@ -302,6 +303,8 @@ def information_limit(T: int, seeds: int, info_seeds: int = 5) -> None:
         phi = np.c_[data.x_true[:N], data.u[:N]]
         for s, rows in enumerate((slice(0, cp), slice(cp, N))):
             ls_cov[s] += 0.04 * np.linalg.inv(phi[rows].T @ phi[rows]) / info_seeds
+        if seed == 0:
+            _check_loglik(loglik(theta, data.x, data.u, kappa), theta, data, kappa)
     sd = np.sqrt(np.diag(np.linalg.inv(info)))
     bound = expected_error(sd[0:4], sd[6:10])
     ls_sd = np.sqrt(np.diagonal(ls_cov, axis1=1, axis2=2))[:, :2]  # rows share (ΦᵀΦ)⁻¹
@@ -331,6 +334,34 @@ def information_limit(T: int, seeds: int, info_seeds: int = 5) -> None:
             f"{ratios.min():.2f} … {ratios.max():.2f}, <= 1.5 in {np.mean(ratios <= 1.5):.0%}"
             f" (seeds 0–4: {ratios[0]:.2f})"
         )
+
+
+def _check_loglik(ours: float, theta: np.ndarray, data, kappa: float) -> None:
+    """The log-likelihood of part 6 at theta against statsmodels' Kalman filter."""
+    try:
+        from statsmodels.tsa.statespace.kalman_filter import KalmanFilter
+    except ImportError:
+        print("   statsmodels is not installed: the log-likelihood is not cross-checked")
+        return
+    T = data.x.shape[0]
+    cp, N = T // 2, T - 1
+    kf = KalmanFilter(k_endog=2, k_states=2)
+    kf.bind(data.x.copy())
+    transition = np.empty((2, 2, T))  # statsmodels: x_{t+1} = T_t x_t + c_t + η_t
+    transition[:, :, :cp] = theta[0:4].reshape(2, 2)[:, :, None]
+    transition[:, :, cp:] = theta[6:10].reshape(2, 2)[:, :, None]
+    intercept = np.zeros((2, T))
+    intercept[:, :cp] = (data.u[:cp] @ theta[4:6].reshape(1, 2)).T
+    intercept[:, cp:N] = (data.u[cp:N] @ theta[10:12].reshape(1, 2)).T
+    kf["transition"], kf["state_intercept"] = transition, intercept
+    kf["design"], kf["selection"] = np.eye(2), np.eye(2)
+    kf["state_cov"], kf["obs_cov"] = theta[12] * np.eye(2), np.diag(theta[13:15])
+    kf.initialize_known(np.zeros(2), kappa * np.eye(2))
+    reference = kf.loglike()
+    print(
+        f"   log-likelihood at the true parameters, seed 0: {ours:.6f}, statsmodels "
+        f"{reference:.6f} (relative difference {abs(ours - reference) / abs(reference):.1e})"
+    )
 
 
 def _hessian(f, theta: np.ndarray, step: np.ndarray) -> np.ndarray:
