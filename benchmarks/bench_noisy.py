@@ -30,9 +30,19 @@ t and the entries, averaged over the seeds. In one run, on the same data:
    with each ``measurement_loss``, with the samples found in
    ``sample_outliers``. Acceptance: error <= 0.06, >= 19 of 20 found, <= 1 % of
    the clean samples flagged.
+6. Information limit of part 1's 1.5× target (T = 4,000): the expected error
+   of the maximum-likelihood estimate from the recorded x at the true change
+   point (inverse Fisher information, from the Hessian of the exact
+   log-likelihood at the true parameters) against least squares on x_true at
+   the true change point (σ_w² (ΦᵀΦ)⁻¹), both as E|Â − A| = σ √(2/π) averaged
+   like part 1's error; then both fits measured over ``--bound-seeds`` seeds
+   (``fit_piecewise(..., measurement_noise="estimate")`` at the true change
+   point is that maximum-likelihood estimate), and the spread of the ratio over
+   blocks of 5 seeds.
 
 Run:  python benchmarks/bench_noisy.py [--seeds 5] [--sizes 400 1000 4000]
       [--cost-sizes 1000 10000 100000] [--skip-statsmodels]
+      [--bound-seeds 100] [--only-cost | --only-bound]
 """
 
 from __future__ import annotations
@@ -242,6 +252,136 @@ def state_outliers() -> None:
     print("   acceptance: error <= 0.06, >= 19/20 found, <= 1 % of clean samples flagged")
 
 
+def information_limit(T: int, seeds: int, info_seeds: int = 5) -> None:
+    """The best error any consistent estimator can reach on part 1's data.
+
+    The model that ``fit_piecewise(x, u, [T // 2], measurement_noise="estimate")``
+    fits — two segments, each with its own A_s (2×2) and B_s (2×1), process noise
+    σ_w² I, measurement noise diag(σ_e²): 15 parameters — is also the model that
+    generated the data, so its maximum-likelihood estimate is efficient: its
+    covariance tends to the inverse Fisher information I(θ)⁻¹. I is computed as
+    the negative Hessian of the exact log-likelihood (Kalman filter, the same
+    recursions as EM's E-step) at the true parameters, by central differences,
+    averaged over seeds 0 … info_seeds − 1 (that log-likelihood is checked
+    against statsmodels' Kalman filter on seed 0). The fit on x_true at the true change
+    point is least squares per segment, with covariance σ_w² (ΦᵀΦ)⁻¹ (Φ the
+    segment's [x_true, u] rows). A Gaussian estimate with standard deviation σ
+    has E|Â − A| = σ √(2/π); the expected error is that, averaged over the four
+    entries of A and the N steps, as in part 1. Then a Monte Carlo of both
+    estimators at the true change point over ``seeds`` seeds (EM at its default
+    tolerance reaches the maximum of the likelihood to ~0.01 in log-likelihood).
+    """
+    from ltvmodels.core.state_smoother import prior_variance, smooth_states
+
+    print(f"\n6. information limit at the true change point, T = {T}")
+    cp, N = T // 2, T - 1
+
+    def loglik(theta: np.ndarray, y: np.ndarray, u: np.ndarray, kappa: float) -> float:
+        A = np.empty((N, 2, 2))
+        A[:cp], A[cp:] = theta[0:4].reshape(2, 2), theta[6:10].reshape(2, 2)
+        offset = np.empty((1, N, 2))
+        offset[0, :cp] = u[:cp] @ theta[4:6].reshape(1, 2)
+        offset[0, cp:] = u[cp:N] @ theta[10:12].reshape(1, 2)
+        r = np.broadcast_to(theta[13:15], (1, T, 2)).copy()
+        q = np.full((1, N), theta[12])
+        return smooth_states(A, offset, np.ones((1, N), bool), q, y[None], r, kappa).loglik
+
+    def expected_error(sd_1: np.ndarray, sd_2: np.ndarray) -> float:
+        # sd_s: standard deviations of the four entries of Â_s (segment s)
+        return float(np.sqrt(2 / np.pi) * (cp * sd_1.mean() + (N - cp) * sd_2.mean()) / N)
+
+    info, ls_cov = np.zeros((15, 15)), np.zeros((2, 3, 3))
+    for seed in range(info_seeds):
+        data = ltv.systems.jump_linear(T, change_at=cp, seed=seed)
+        theta = np.r_[
+            data.A[0].ravel(), data.B[0].ravel(), data.A[-1].ravel(), data.B[-1].ravel(),
+            0.04, 0.04, 0.04,
+        ]  # fmt: skip
+        step = np.where(np.arange(15) < 12, 1e-3, 4e-5)
+        kappa = prior_variance(data.x)
+        info -= _hessian(lambda t: loglik(t, data.x, data.u, kappa), theta, step) / info_seeds
+        phi = np.c_[data.x_true[:N], data.u[:N]]
+        for s, rows in enumerate((slice(0, cp), slice(cp, N))):
+            ls_cov[s] += 0.04 * np.linalg.inv(phi[rows].T @ phi[rows]) / info_seeds
+        if seed == 0:
+            _check_loglik(loglik(theta, data.x, data.u, kappa), theta, data, kappa)
+    sd = np.sqrt(np.diag(np.linalg.inv(info)))
+    bound = expected_error(sd[0:4], sd[6:10])
+    ls_sd = np.sqrt(np.diagonal(ls_cov, axis1=1, axis2=2))[:, :2]  # rows share (ΦᵀΦ)⁻¹
+    ls = expected_error(np.tile(ls_sd[0], 2), np.tile(ls_sd[1], 2))
+    print(
+        f"   expected error (seeds 0 … {info_seeds - 1} for I and ΦᵀΦ): maximum likelihood on "
+        f"the recorded x {bound:.4f}, least squares on x_true {ls:.4f}, ratio {bound / ls:.2f}"
+    )
+    print(f"   sd of Â_1 (ML) {np.round(sd[0:4], 4)}, of Â_2 (ML) {np.round(sd[6:10], 4)}")
+    rows_mc = []
+    for seed in range(seeds):
+        data = ltv.systems.jump_linear(T, change_at=cp, seed=seed)
+        em = ltv.fit_piecewise(data.x, data.u, [cp], measurement_noise="estimate")
+        truth = ltv.fit_piecewise(data.x_true, data.u, [cp])
+        rows_mc.append([_error(em, data), _error(truth, data)])
+    err = np.array(rows_mc)
+    mean, se = err.mean(axis=0), err.std(axis=0, ddof=1) / np.sqrt(seeds)
+    print(
+        f"   measured over seeds 0 … {seeds - 1}: EM {mean[0]:.4f} ± {se[0]:.4f}, "
+        f"least squares on x_true {mean[1]:.4f} ± {se[1]:.4f}, ratio {mean[0] / mean[1]:.2f}"
+    )
+    if seeds >= 10:
+        blocks = err[: seeds // 5 * 5].reshape(-1, 5, 2).mean(axis=1)
+        ratios = blocks[:, 0] / blocks[:, 1]
+        print(
+            f"   ratio over {len(ratios)} disjoint blocks of 5 seeds: "
+            f"{ratios.min():.2f} … {ratios.max():.2f}, <= 1.5 in {np.mean(ratios <= 1.5):.0%}"
+            f" (seeds 0–4: {ratios[0]:.2f})"
+        )
+
+
+def _check_loglik(ours: float, theta: np.ndarray, data, kappa: float) -> None:
+    """The log-likelihood of part 6 at theta against statsmodels' Kalman filter."""
+    try:
+        from statsmodels.tsa.statespace.kalman_filter import KalmanFilter
+    except ImportError:
+        print("   statsmodels is not installed: the log-likelihood is not cross-checked")
+        return
+    T = data.x.shape[0]
+    cp, N = T // 2, T - 1
+    kf = KalmanFilter(k_endog=2, k_states=2)
+    kf.bind(data.x.copy())
+    transition = np.empty((2, 2, T))  # statsmodels: x_{t+1} = T_t x_t + c_t + η_t
+    transition[:, :, :cp] = theta[0:4].reshape(2, 2)[:, :, None]
+    transition[:, :, cp:] = theta[6:10].reshape(2, 2)[:, :, None]
+    intercept = np.zeros((2, T))
+    intercept[:, :cp] = (data.u[:cp] @ theta[4:6].reshape(1, 2)).T
+    intercept[:, cp:N] = (data.u[cp:N] @ theta[10:12].reshape(1, 2)).T
+    kf["transition"], kf["state_intercept"] = transition, intercept
+    kf["design"], kf["selection"] = np.eye(2), np.eye(2)
+    kf["state_cov"], kf["obs_cov"] = theta[12] * np.eye(2), np.diag(theta[13:15])
+    kf.initialize_known(np.zeros(2), kappa * np.eye(2))
+    reference = kf.loglike()
+    print(
+        f"   log-likelihood at the true parameters, seed 0: {ours:.6f}, statsmodels "
+        f"{reference:.6f} (relative difference {abs(ours - reference) / abs(reference):.1e})"
+    )
+
+
+def _hessian(f, theta: np.ndarray, step: np.ndarray) -> np.ndarray:
+    """Central-difference Hessian of f at theta with per-coordinate steps."""
+    k = theta.size
+    E = np.diag(step)
+    H = np.empty((k, k))
+    f0 = f(theta)
+    for i in range(k):
+        H[i, i] = (f(theta + E[i]) - 2 * f0 + f(theta - E[i])) / step[i] ** 2
+        for j in range(i):
+            H[i, j] = H[j, i] = (
+                f(theta + E[i] + E[j])
+                - f(theta + E[i] - E[j])
+                - f(theta - E[i] + E[j])
+                + f(theta - E[i] - E[j])
+            ) / (4 * step[i] * step[j])
+    return H
+
+
 def _cost_data(T: int):
     data = ltv.systems.jump_linear(T, change_at=T // 2, seed=0)
     return data.x, data.u, data
@@ -254,7 +394,12 @@ def main() -> None:
     parser.add_argument("--cost-sizes", type=int, nargs="+", default=[1000, 10000, 100000])
     parser.add_argument("--skip-statsmodels", action="store_true")
     parser.add_argument("--only-cost", action="store_true", help="run part 4 alone")
+    parser.add_argument("--bound-seeds", type=int, default=100, help="Monte Carlo of part 6")
+    parser.add_argument("--only-bound", action="store_true", help="run part 6 alone")
     args = parser.parse_args()
+    if args.only_bound:
+        information_limit(4000, args.bound_seeds)
+        return
     if not args.only_cost:
         consistency(args.sizes, args.seeds)
         missing(args.seeds)
@@ -262,6 +407,7 @@ def main() -> None:
             statsmodels_lti()
     cost(args.cost_sizes)
     state_outliers()
+    information_limit(4000, args.bound_seeds)
 
 
 if __name__ == "__main__":
