@@ -112,7 +112,7 @@ def test_pseudo_data_reproduce_the_expected_statistics():
     assert isinstance(problem, RegressionProblem) and problem.q == n + m + 1
     np.testing.assert_allclose(problem.gram(), stats.gram, atol=1e-10)
     np.testing.assert_allclose(problem.cross(), stats.cross, atol=1e-10)
-    assert not problem.observed[6].any()
+    assert not problem.phi[6].any() and not problem.y[6].any()  # no transition: zero rows
     # the statistics themselves, summed directly from the moments
     t, r = 2, 1
     phi = np.concatenate([mean[r, t], u[r, t], [1.0]])

@@ -396,7 +396,10 @@ def expected_problem(stats: ExpectedStatistics, coeffs: np.ndarray) -> Regressio
     of L_t and targets ỹ_t = L_t⁻¹ C_t (on the kept columns) give Σ_j φ̃ φ̃ᵀ = G_t
     and Σ_j φ̃ ỹᵀ = C_t (C_t lies in the range of G_t), so that
     Σ_j ‖ỹ_tj − Θ_t φ̃_tj‖² is the expected data term Σ_r w E‖x_{t+1} − Θ_t φ_t‖²
-    up to a constant. A step without transitions has no rows (all unobserved).
+    up to a constant. A step without transitions, and a dropped column, give rows
+    of zeros: they add nothing to the squared-loss sums the M-step minimizes, so
+    the problem is built with every row observed (marking them unobserved would
+    copy y and φ, a tenth of an EM iteration at T = 10⁵, for the same fit).
     """
     gram, cross = stats.gram, stats.cross
     N, p, n = cross.shape
@@ -404,7 +407,7 @@ def expected_problem(stats: ExpectedStatistics, coeffs: np.ndarray) -> Regressio
     y = np.zeros((N, p, n))
     keep = np.zeros((N, p), dtype=np.bool_)
     _pseudo_rows(gram, cross, phi, y, keep)
-    return RegressionProblem(y=y, phi=phi, coeffs=coeffs, observed=keep, rows_are_samples=False)
+    return RegressionProblem(y=y, phi=phi, coeffs=coeffs, rows_are_samples=False)
 
 
 @numba.njit(cache=True)

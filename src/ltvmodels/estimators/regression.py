@@ -198,6 +198,8 @@ class _Checks:
         require_enough_data(problem, self.data_name, self.rows_note)
 
     def identifiable(self, problem: RegressionProblem, **details: Any) -> None:
+        if not problem.rows_are_samples:  # EM's M-step: the recorded data were checked
+            return
         identifiability.check(problem, regressor_names=self.regressor_names, **details)
 
 
