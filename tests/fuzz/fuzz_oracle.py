@@ -714,7 +714,9 @@ def inspect_segmentation(seg: Any, call: Call, context: dict) -> str:
         outcome = "finite+None"
     else:
         arr = np.asarray(seg.costs_by_n_changes, dtype=float)
-        if np.isnan(arr).any() or (arr < 0).any():
+        # a residual sum of squares is >= 0; the Gaussian cost (−2 log L) may be negative
+        negative = (arr < 0).any() and getattr(seg, "cost_name", "rss") == "rss"
+        if np.isnan(arr).any() or negative:
             _fail(call, "non-finite value", f"costs_by_n_changes = {arr.tolist()}")
     for name in ("penalty", "noise_var"):
         if require_finite(call, f"segmentation.{name}", getattr(seg, name), none_ok=True):

@@ -303,3 +303,51 @@ def test_noise_variance_estimate(data, kwargs):
         expect(
             float(result) >= 0.0, "noise_variance_estimate", "invalid value", f"returned {result!r}"
         )
+
+
+BREAK_KIND = Opt(choice_of("supF", "aveF", "expF", "sequential"), choice_of("SupF", "F", 1, None))
+BREAK_TRIM = Opt(
+    st.one_of(st.floats(0.05, 0.3), choice_of(0.05, 0.1, 0.15, 0.2, 0.25)),
+    choice_of(0.0, 0.5, -0.1, np.nan, "h", True),
+)
+SEGMENT_COST = Opt(choice_of("rss", "normal"), choice_of("RSS", "gauss", 1, None, True))
+
+
+@fuzz_test(
+    datasets(max_T=60),
+    st.one_of(
+        options(kind=BREAK_KIND, trim=BREAK_TRIM, weights=WEIGHTS),
+        options(
+            kind=BREAK_KIND,
+            trim=BREAK_TRIM,
+            level=Opt(choice_of(0.05, 0.1, 0.01), choice_of(0.0, 1.5, "5%", np.nan)),
+        ),
+    ),
+    explicit=[(HUGE, {}), (TINY, {}), (Data(40, 1, 1), {"kind": "sequential"})],
+)
+def test_break_test(data, kwargs):
+    """ltv.break_test: a statistic with its p-value (or critical values), or a documented
+    error."""
+    y, phi = data.regression()
+    kw = {k: resolve(v, K=1, n=data.n, N=data.N, R=data.R) for k, v in kwargs.items()}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # candidates left out, documented
+        result = check_call(ltv.break_test, y, phi, **kw)
+    if result is None:
+        return
+    assert np.isfinite(result.statistic)
+    if result.kind == "sequential":
+        assert 0 <= result.n_breaks <= len(result.statistics)
+    else:
+        assert 0.0 <= result.pvalue <= 1.0
+
+
+@fuzz_test(
+    datasets(max_T=50),
+    options(n_changes=counts(0, 3), cost=SEGMENT_COST, min_size=counts(1, 12)),
+)
+def test_segment_regression_costs(data, kwargs):
+    """ltv.segment_regression with the Gaussian cost: a segmentation or a documented error."""
+    y, phi = data.regression()
+    kw = {k: resolve(v, K=1, n=data.n, N=data.N, R=data.R) for k, v in kwargs.items()}
+    check_call(ltv.segment_regression, y, phi, **kw)
