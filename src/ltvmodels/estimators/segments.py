@@ -695,7 +695,7 @@ def _segment(
         if normal:
             total = _normal_cost(problem, changepoints, floor)
         else:
-            total = _residual_sum_of_squares(y, phi, changepoints)
+            total = float(_segment_residuals(problem, changepoints)[0].sum())
         objective = total + beta * len(changepoints)
         result = dict(
             cost=total,
@@ -943,15 +943,3 @@ def _normal_cost(problem: RegressionProblem, changepoints: np.ndarray, floor: np
     rss, rows = _segment_residuals(problem, changepoints)
     variances = np.maximum(rss / rows[:, None], floor)
     return float(np.sum(rows[:, None] * np.log(variances) + rss / variances))
-
-
-def _residual_sum_of_squares(y: np.ndarray, phi: np.ndarray, changepoints: np.ndarray) -> float:
-    """Σ over the segments of the least-squares residual sum of squares (QR per segment)."""
-    bounds = np.concatenate([[0], changepoints, [y.shape[0]]])
-    total = 0.0
-    for a, b in itertools.pairwise(bounds):
-        phi_s, y_s = phi[a:b].reshape(-1, phi.shape[2]), y[a:b].reshape(-1, y.shape[2])
-        q, _ = np.linalg.qr(phi_s)
-        resid = y_s - q @ (q.T @ y_s)
-        total += float(np.sum(resid**2))
-    return total
