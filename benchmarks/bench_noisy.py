@@ -185,14 +185,14 @@ def statsmodels_lti() -> None:
         )
 
 
-def cost(sizes: list[int]) -> None:
+def cost(sizes: list[int], norms: list[str]) -> None:
     print("\n4. cost: EM (measurement_noise='estimate') against one fit, plain EM and SQUAREM")
     print(
         f"{'norm':>6} {'T':>7} {'one fit s':>10} {'EM':>8} {'EM s':>8} {'M-steps':>8}"
         f" {'EM/fit':>7} {'converged':>10} {'objective':>14}"
     )
     ltv.fit(*_cost_data(200)[:2], lam=1.0, measurement_noise="estimate", em_max_iter=2)  # compile
-    for norm in ("sq", "group"):
+    for norm in norms:
         for T in sizes:
             x, u, _ = _cost_data(T)
             lam = 100.0 if norm == "sq" else 17.0 * np.sqrt(T / 400)
@@ -392,6 +392,7 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--sizes", type=int, nargs="+", default=[400, 1000, 4000])
     parser.add_argument("--cost-sizes", type=int, nargs="+", default=[1000, 10000, 100000])
+    parser.add_argument("--cost-norms", nargs="+", default=["sq", "group"], choices=["sq", "group"])
     parser.add_argument("--skip-statsmodels", action="store_true")
     parser.add_argument("--only-cost", action="store_true", help="run part 4 alone")
     parser.add_argument("--bound-seeds", type=int, default=100, help="Monte Carlo of part 6")
@@ -405,7 +406,9 @@ def main() -> None:
         missing(args.seeds)
         if not args.skip_statsmodels:
             statsmodels_lti()
-    cost(args.cost_sizes)
+    cost(args.cost_sizes, args.cost_norms)
+    if args.only_cost:
+        return
     state_outliers()
     information_limit(4000, args.bound_seeds)
 

@@ -18,7 +18,6 @@ import ltvmodels as ltv
 from ltvmodels.core.problem import RegressionProblem
 from ltvmodels.core.state_smoother import (
     StateMoments,
-    expected_problem,
     expected_statistics,
     smooth_states,
 )
@@ -107,28 +106,39 @@ def test_pseudo_data_reproduce_the_expected_statistics():
     link[:, 6] = False  # no transition at step 6: no rows there
     weights = rng.uniform(0.5, 2.0, (R, T - 1))
     moments = StateMoments(mean, cov, cross, 0.0)
-    stats = expected_statistics(moments, u, link, weights, constant=True)
-    problem = expected_problem(stats, np.array([-1.0, 1.0]))
-    assert isinstance(problem, RegressionProblem) and problem.q == n + m + 1
-    np.testing.assert_allclose(problem.gram(), stats.gram, atol=1e-10)
-    np.testing.assert_allclose(problem.cross(), stats.cross, atol=1e-10)
+    coeffs = np.array([-1.0, 1.0])
+    stats = expected_statistics(moments, u, link, weights, constant=True, coeffs=coeffs)
+    problem = stats.problem
+    assert isinstance(problem, RegressionProblem) and problem.q == R + n
+    assert not problem.rows_are_samples
     assert not problem.phi[6].any() and not problem.y[6].any()  # no transition: zero rows
-    # the statistics themselves, summed directly from the moments
-    t, r = 2, 1
-    phi = np.concatenate([mean[r, t], u[r, t], [1.0]])
-    second = np.outer(phi, phi)
-    second[:n, :n] += cov[r, t]
-    direct = weights[0, t] * _second(mean[0, t], u[0, t], cov[0, t]) + weights[r, t] * second
-    np.testing.assert_allclose(stats.gram[t], direct, atol=1e-12)
-    cross_direct = sum(
-        weights[j, t]
-        * (
-            np.outer(np.concatenate([mean[j, t], u[j, t], [1.0]]), mean[j, t + 1])
-            + np.vstack([cross[j, t].T, np.zeros((m + 1, n))])
-        )
-        for j in range(R)
-    )
-    np.testing.assert_allclose(stats.cross[t], cross_direct, atol=1e-12)
+    # the statistics summed directly from the moments: G_t = Σ_r w E[φφᵀ], C_t = Σ_r w E[φ x'ᵀ]
+    w = np.where(link, weights, 0.0)
+    gram = np.zeros((T - 1, n + m + 1, n + m + 1))
+    cross_sums = np.zeros((T - 1, n + m + 1, n))
+    for t in range(T - 1):
+        for r in range(R):
+            gram[t] += w[r, t] * _second(mean[r, t], u[r, t], cov[r, t])
+            phi = np.concatenate([mean[r, t], u[r, t], [1.0]])
+            lag = np.vstack([cross[r, t].T, np.zeros((m + 1, n))])
+            cross_sums[t] += w[r, t] * (np.outer(phi, mean[r, t + 1]) + lag)
+    np.testing.assert_allclose(problem.gram(), gram, atol=1e-10)
+    np.testing.assert_allclose(problem.cross(), cross_sums, atol=1e-10)
+    # the expected residual sum at any Θ: the rows' residual sum plus the offset
+    theta = rng.standard_normal((T - 1, n, n + m + 1))
+    direct = np.zeros(n)
+    for t in range(T - 1):
+        for r in range(R):
+            phi = np.concatenate([mean[r, t], u[r, t], [1.0]])
+            second = _second(mean[r, t], u[r, t], cov[r, t])
+            for i in range(n):
+                th = theta[t, i]
+                # E[(x'_i − θφ)²] = E[x'_i²] − 2 θ E[φ x'_i] + θ E[φφᵀ] θᵀ
+                target = mean[r, t + 1, i] ** 2 + cov[r, t + 1, i, i]
+                lag = np.concatenate([cross[r, t, i], np.zeros(m + 1)])
+                mixed = phi * mean[r, t + 1, i] + lag
+                direct[i] += w[r, t] * (target - 2.0 * th @ mixed + th @ second @ th)
+    np.testing.assert_allclose(stats.expected_rss(theta), direct, rtol=1e-10)
 
 
 def _second(x, u, P):
@@ -174,15 +184,18 @@ def test_each_sq_m_step_is_the_dense_expected_statistics_problem():
     for before, after in zip(runs[:-1], runs[1:]):
         moments = _moments_of(before, x, u, before.noise_var[0], given)
         link = np.ones((1, before.N), dtype=bool)
-        stats = expected_statistics(moments, u[None], link, None, constant=False)
+        stats = expected_statistics(
+            moments, u[None], link, None, constant=False, coeffs=np.array([-1.0, 1.0])
+        )
+        gram, cross = stats.problem.gram(), stats.problem.cross()  # the sums, checked above
         N, n, p = before.N, 2, 3
         K = n * p
         # Σ_t Σ_i θ_ti G_t θ_tiᵀ − 2 θ_ti C_t[:, i] + λ² ‖Dk‖²: dense normal equations
         H = np.zeros((N * K, N * K))
         g = np.zeros(N * K)
         for t in range(N):
-            H[t * K : (t + 1) * K, t * K : (t + 1) * K] = np.kron(np.eye(n), stats.gram[t])
-            g[t * K : (t + 1) * K] = stats.cross[t].T.ravel()
+            H[t * K : (t + 1) * K, t * K : (t + 1) * K] = np.kron(np.eye(n), gram[t])
+            g[t * K : (t + 1) * K] = cross[t].T.ravel()
         D = np.zeros((N - 1, N))
         D[np.arange(N - 1), np.arange(N - 1)] = -1.0
         D[np.arange(N - 1), np.arange(1, N)] = 1.0

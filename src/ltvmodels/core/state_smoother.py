@@ -28,9 +28,9 @@ memory.
 
 :func:`expected_statistics` turns the moments into the expected sufficient
 statistics of the transitions, Σ_r w_rt E[φ φᵀ] and Σ_r w_rt E[φ x_{t+1}ᵀ] with
-φ_t = [x_t; u_t (; 1)], and :func:`expected_problem` into pseudo-data that
-every solver of the library accepts (a :class:`RegressionProblem` with p rows
-per step whose Gram and cross sums are those statistics).
+φ_t = [x_t; u_t (; 1)], as pseudo-data that every solver of the library
+accepts (a :class:`RegressionProblem` with p rows per step whose Gram and cross
+sums are those statistics).
 """
 
 from __future__ import annotations
@@ -40,6 +40,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from .banded import kernel_size
+from .blockkernels import block_size
 from .problem import RegressionProblem
 
 __all__ = [
@@ -47,7 +49,7 @@ __all__ = [
     "ExpectedStatistics",
     "smooth_states",
     "expected_statistics",
-    "expected_problem",
+    "input_offsets",
     "prior_variance",
 ]
 
@@ -81,51 +83,124 @@ class StateMoments:
         """Standard deviations of the smoothed states, (R, T, n)."""
         return np.sqrt(np.maximum(np.diagonal(self.cov, axis1=2, axis2=3), 0.0))
 
+    def measurement_squares(self, y: np.ndarray, weights: np.ndarray | None) -> np.ndarray:
+        """Σ_rt ω_rti E[(y_rti − x_rti)² | y] over the finite entries of ``y`` (R, T, n),
+        per state i, (n,); ``weights`` ω (R, T, n), or None for 1."""
+        out = np.zeros(y.shape[2])
+        ones = np.ones((0, 0, 0))  # no weights: the kernel reads none
+        w = ones if weights is None else np.ascontiguousarray(weights, dtype=float)
+        _measurement_squares(np.ascontiguousarray(y, dtype=float), self.mean, self.cov, w, out)
+        return out
+
+
+@numba.njit(cache=True)
+def _measurement_squares(y, mean, cov, w, out):  # pragma: no cover - compiled
+    R, T, n = y.shape
+    weighted = w.shape[0] > 0
+    for r in range(R):
+        for t in range(T):
+            for i in range(n):
+                v = y[r, t, i]
+                if np.isfinite(v):
+                    e = v - mean[r, t, i]
+                    value = e * e + cov[r, t, i, i]
+                    out[i] += w[r, t, i] * value if weighted else value
+
 
 @dataclass(frozen=True)
 class ExpectedStatistics:
-    """Expected sufficient statistics of the transitions, summed over trajectories.
+    """The expected sufficient statistics of the transitions, as pseudo-data.
+
+    With φ_t = [x_t; u_t (; 1)], the expected data term of step t is
+    Σ_r w_rt E‖x_{r,t+1} − Θ_t φ_rt‖², a quadratic in Θ_t with the sums
+    G_t = Σ_r w_rt E[φ_rt φ_rtᵀ] and C_t = Σ_r w_rt E[φ_rt x_{r,t+1}ᵀ]. Rows with
+    these sums: one per trajectory, √w_rt [m_rt; u_rt (; 1)] with target
+    √w_rt m_{r,t+1} (the smoothed means, m = E[x | y]), and n more for the
+    smoothing uncertainty, [l_j; 0] with target row j of L_t⁻¹ S_t, where L_t is
+    a Cholesky factor of Σ_r w_rt Cov(x_rt) (a pivot at or below a relative
+    1e-12 of its diagonal drops its column: a zero row) and S_t =
+    Σ_r w_rt Cov(x_rt, x_{r,t+1}) (in the range of that covariance, as the
+    joint covariance of x_rt and x_{r,t+1} is semidefinite). Then Σ_j φ̃φ̃ᵀ = G_t
+    and Σ_j φ̃ỹᵀ = C_t, so that the rows' residual sum is the expected data term
+    less a constant, and every solver of the library minimizes it. A step or
+    trajectory without a transition has rows of zeros: they add nothing to the
+    squared-loss sums the M-step minimizes, so the problem has every row
+    observed (marking them unobserved would copy y and φ, a tenth of an EM
+    iteration at T = 10⁵, for the same fit).
 
     Attributes
     ----------
-    gram : ndarray, shape (N, p, p)
-        Σ_r w_rt E[φ_rt φ_rtᵀ].
-    cross : ndarray, shape (N, p, n)
-        Σ_r w_rt E[φ_rt x_{r,t+1}ᵀ].
-    target : ndarray, shape (N, n)
-        Σ_r w_rt E[x_{r,t+1,i}²] (the diagonal of the targets' second moment).
+    problem : RegressionProblem
+        The pseudo-data: φ (N, R + n, p), y (N, R + n, n); ``rows_are_samples``
+        False.
+    offset : ndarray, shape (n,)
+        The constant: the expected residual sum of output i is the rows'
+        residual sum plus ``offset[i]`` = Σ_t (Σ_r w_rt Var(x_{r,t+1,i}) −
+        Σ_j ỹ_tji² over the n uncertainty rows).
     n_transitions : int
         Transitions in the chains (each with n noise entries).
     """
 
-    gram: np.ndarray
-    cross: np.ndarray
-    target: np.ndarray
+    problem: RegressionProblem
+    offset: np.ndarray
     n_transitions: int
 
     def expected_rss(self, theta: np.ndarray) -> np.ndarray:
         """Σ_t Σ_r w_rt E[(x_{t+1,i} − θ_{t,i} φ_t)²] per output i, (n,), for Θ (N, n, p)."""
-        out = np.zeros(self.target.shape[1])
+        problem = self.problem
+        out = self.offset.copy()
         # compiled: the einsum form took as long as an E-step at T = 10⁵
-        _expected_rss(np.ascontiguousarray(theta, dtype=float), self.gram, self.cross, out)
-        return self.target.sum(axis=0) + out
+        _add_rows_rss(
+            np.ascontiguousarray(theta, dtype=float), problem.phi, problem.y, out, _size(problem.p)
+        )
+        return out
 
 
 @numba.njit(cache=True)
-def _expected_rss(theta, gram, cross, out):  # pragma: no cover - compiled
-    """out_i += Σ_t θ_ti G_t θ_tiᵀ − 2 θ_ti C_t[:, i]."""
-    N, n, p = theta.shape
+def _add_rows_rss(theta, phi, y, out, size):  # pragma: no cover - compiled
+    """out_i += Σ_tj (y_tji − θ_ti · φ_tj)²."""
+    p = block_size(size)
+    N, q, n = y.shape
     for t in range(N):
-        G = gram[t]
-        for i in range(n):
-            th = theta[t, i]
-            acc = 0.0
-            for a in range(p):
-                ga = 0.0
-                for b in range(p):
-                    ga += G[a, b] * th[b]
-                acc += th[a] * (ga - 2.0 * cross[t, a, i])
-            out[i] += acc
+        for j in range(q):
+            for i in range(n):
+                e = y[t, j, i]
+                for a in range(p):
+                    e -= theta[t, i, a] * phi[t, j, a]
+                out[i] += e * e
+
+
+def input_offsets(
+    theta: np.ndarray, u: np.ndarray, link: np.ndarray, constant: bool
+) -> np.ndarray:
+    """b_rt = B_t u_rt (+ c_t), (R, N, n), from Θ_t = [A_t, B_t (, c_t)] (N, n, p) and
+    the inputs ``u`` (R, T, m); 0 where ``link`` (R, N) is False (no transition)."""
+    R, N = link.shape
+    n = theta.shape[1]
+    out = np.zeros((R, N, n))
+    _input_offsets(
+        np.ascontiguousarray(theta, dtype=float),
+        np.ascontiguousarray(u, dtype=float),
+        np.ascontiguousarray(link, dtype=np.bool_),
+        bool(constant),
+        out,
+    )
+    return out
+
+
+@numba.njit(cache=True)
+def _input_offsets(theta, u, link, constant, out):  # pragma: no cover - compiled
+    R, N, n = out.shape
+    m = u.shape[2]
+    for r in range(R):
+        for t in range(N):
+            if not link[r, t]:
+                continue
+            for i in range(n):
+                acc = theta[t, i, n + m] if constant else 0.0
+                for j in range(m):
+                    acc += theta[t, i, n + j] * u[r, t, j]
+                out[r, t, i] = acc
 
 
 def prior_variance(y: np.ndarray) -> float:
@@ -148,20 +223,21 @@ def smooth_states(
 
     Parameters
     ----------
-    A : ndarray, shape (N, n, n)
-        State matrices A_t, N = T − 1.
+    A : ndarray, shape (N, n, k), k >= n
+        State matrices A_t = A[t, :, :n], N = T − 1 (the coefficients Θ_t
+        = [A_t, B_t (, c_t)] may be passed as they are).
     offset : ndarray, shape (R, N, n)
-        b_rt = B_t u_rt (+ c_t) of each transition.
+        b_rt = B_t u_rt (+ c_t) of each transition (see :func:`input_offsets`).
     link : ndarray of bool, shape (R, N)
         Whether transition t of trajectory r is in the model (False: the chain
         restarts at t + 1 with the initial prior).
-    process_var : ndarray, shape (R, N)
+    process_var : float or ndarray, shape (R, N)
         q_rt > 0, the variance of each entry of w_rt (where ``link``).
     y : ndarray, shape (R, T, n)
         Recorded states, NaN where not observed.
-    measurement_var : ndarray, shape (R, T, n)
-        r_rti > 0 of each entry (a per-entry weight ω divides it: the hook of
-        an iteratively reweighted robust measurement loss).
+    measurement_var : ndarray, shape (n,) or (R, T, n)
+        r_rti > 0 of each entry, or one per state (a per-entry weight ω divides
+        it: the hook of an iteratively reweighted robust measurement loss).
     prior_var : float
         κ of the initial prior N(0, κ I).
 
@@ -173,24 +249,40 @@ def smooth_states(
     mean = np.empty((R, T, n))
     cov = np.empty((R, T, n, n))
     cross = np.zeros((R, max(T - 1, 0), n, n))
+    # one per state, or one process variance: broadcast in the kernel, not copied
+    qvar = np.asarray(process_var, dtype=float)
+    rvar = np.asarray(measurement_var, dtype=float)
     loglik = _smooth(
         np.ascontiguousarray(A, dtype=float),
         np.ascontiguousarray(offset, dtype=float),
         np.ascontiguousarray(link, dtype=np.bool_),
-        np.ascontiguousarray(process_var, dtype=float),
+        np.ascontiguousarray(qvar.reshape((1, 1)) if qvar.ndim == 0 else qvar),
         np.ascontiguousarray(y, dtype=float),
-        np.ascontiguousarray(measurement_var, dtype=float),
+        np.ascontiguousarray(rvar.reshape((1, 1, n)) if rvar.ndim == 1 else rvar),
         float(prior_var),
         mean,
         cov,
         cross,
+        _size(n),
     )
     return StateMoments(mean, cov, cross, float(loglik))
 
 
+def _size(b: int) -> int | tuple:
+    """A kernel's size argument for b (see :func:`.banded.kernel_size`): the state
+    and regressor counts of the usual models are small, and the kernels compiled
+    for them as constants run about twice as fast (the smoother: 15 → 8 ms at
+    n = 2, T = 10⁵)."""
+    return kernel_size(0, b)
+
+
 @numba.njit(cache=True)
-def _smooth(A, offset, link, qvar, y, rvar, kappa, mean, cov, cross):  # pragma: no cover - compiled
-    R, T, n = y.shape
+def _smooth(A, offset, link, qvar, y, rvar, kappa, mean, cov, cross, size):  # pragma: no cover
+    n = block_size(size)
+    R, T, _ = y.shape
+    # 1 where qvar (R, N) and rvar (R, T, n) vary along r and t, 0 where broadcast
+    q_r, q_t = int(qvar.shape[0] > 1), int(qvar.shape[1] > 1)
+    r_r, r_t = int(rvar.shape[0] > 1), int(rvar.shape[1] > 1)
     log2pi = np.log(2.0 * np.pi)
     loglik = 0.0
     mp = np.empty((T, n))  # predicted means and covariances of one trajectory
@@ -233,7 +325,7 @@ def _smooth(A, offset, link, qvar, y, rvar, kappa, mean, cov, cross):  # pragma:
                             acc += AP[i, k] * At[j, k]
                         P[i, j] = acc
                         P[j, i] = acc
-                    P[i, i] += qvar[r, t - 1]
+                    P[i, i] += qvar[r * q_r, (t - 1) * q_t]
             for i in range(n):
                 mp[t, i] = m[i]
                 for j in range(n):
@@ -243,7 +335,8 @@ def _smooth(A, offset, link, qvar, y, rvar, kappa, mean, cov, cross):  # pragma:
                 if not np.isfinite(v):
                     continue
                 Pii = P[i, i]
-                s = Pii + rvar[r, t, i]
+                rv = rvar[r * r_r, t * r_t, i]
+                s = Pii + rv
                 innov = v - m[i]
                 loglik += -0.5 * (log2pi + np.log(s) + innov * innov / s)
                 for a in range(n):
@@ -254,7 +347,7 @@ def _smooth(A, offset, link, qvar, y, rvar, kappa, mean, cov, cross):  # pragma:
                     for b in range(n):
                         P[a, b] -= gain[a] * row[b]
                 # the updated variance without cancellation: P r / (P + r)
-                P[i, i] = Pii * rvar[r, t, i] / s
+                P[i, i] = Pii * rv / s
             for a in range(n):
                 for b in range(a + 1, n):
                     sym = 0.5 * (P[a, b] + P[b, a])
@@ -332,8 +425,10 @@ def expected_statistics(
     link: np.ndarray,
     weights: np.ndarray | None,
     constant: bool,
+    coeffs: np.ndarray,
 ) -> ExpectedStatistics:
-    """The expected sufficient statistics of the transitions (see :class:`ExpectedStatistics`).
+    """The expected sufficient statistics of the transitions as pseudo-data (see
+    :class:`ExpectedStatistics`), for the difference operator ``coeffs``.
 
     ``u`` (R, T, m) are exact inputs, ``link`` (R, N) the transitions in the
     model, ``weights`` (R, N) or None their weights.
@@ -345,103 +440,84 @@ def expected_statistics(
     p = n + m + int(constant)
     w = link.astype(float) if weights is None else np.where(link, weights, 0.0)
     uu = np.ascontiguousarray(np.where(link[:, :, None], u[:, :N], 0.0))  # NaN in no transition
-    gram = np.zeros((N, p, p))
-    cross = np.zeros((N, p, n))
-    target = np.zeros((N, n))
-    _statistics(
+    phi = np.zeros((N, R + n, p))
+    y = np.zeros((N, R + n, n))
+    offset = np.zeros(n)
+    _pseudo_rows(
         mean, moments.cov, moments.cross, uu, np.ascontiguousarray(w), bool(constant),
-        gram, cross, target,
+        phi, y, offset, _size(n),
     )  # fmt: skip
-    return ExpectedStatistics(gram, cross, target, int(np.count_nonzero(link)))
+    problem = RegressionProblem(y=y, phi=phi, coeffs=coeffs, rows_are_samples=False)
+    return ExpectedStatistics(problem, offset, int(np.count_nonzero(link)))
 
 
 @numba.njit(cache=True)
-def _statistics(mean, cov, lag, u, w, constant, gram, cross, target):  # pragma: no cover - compiled
-    R, T, n = mean.shape
+def _pseudo_rows(mean, cov, lag, u, w, constant, phi, y, offset, size):  # pragma: no cover
+    n = block_size(size)
+    R, T, _ = mean.shape
     m = u.shape[2]
-    p = gram.shape[1]
-    phi = np.empty(p)
-    for r in range(R):
-        for t in range(T - 1):
+    p = phi.shape[2]
+    S = np.empty((n, n))  # Σ_r w Cov(x_t) (lower triangle) and Σ_r w Cov(x_t, x_{t+1})
+    lagged = np.empty((n, n))
+    L = np.zeros((n, n))
+    inverse = np.zeros(n)  # 1 / L_jj, 0 for a dropped column
+    for t in range(T - 1):
+        for a in range(n):
+            for b in range(n):
+                S[a, b] = 0.0
+                lagged[a, b] = 0.0
+        seen = False
+        for r in range(R):  # the rows of the smoothed means; the covariance sums
             wt = w[r, t]
             if wt == 0.0:
                 continue
+            seen = True
+            root = np.sqrt(wt)
             for a in range(n):
-                phi[a] = mean[r, t, a]
+                phi[t, r, a] = root * mean[r, t, a]
             for a in range(m):
-                phi[n + a] = u[r, t, a]
+                phi[t, r, n + a] = root * u[r, t, a]
             if constant:
-                phi[p - 1] = 1.0
-            for a in range(p):
-                for b in range(p):
-                    gram[t, a, b] += wt * phi[a] * phi[b]
-                for i in range(n):
-                    cross[t, a, i] += wt * phi[a] * mean[r, t + 1, i]
-            for a in range(n):
-                for b in range(n):
-                    gram[t, a, b] += wt * cov[r, t, a, b]
-                for i in range(n):  # E[x_t x_{t+1}ᵀ] − m mᵀ = Cov(x_{t+1}, x_t)ᵀ
-                    cross[t, a, i] += wt * lag[r, t, i, a]
+                phi[t, r, p - 1] = root
             for i in range(n):
-                x1 = mean[r, t + 1, i]
-                target[t, i] += wt * (x1 * x1 + cov[r, t + 1, i, i])
-
-
-def expected_problem(stats: ExpectedStatistics, coeffs: np.ndarray) -> RegressionProblem:
-    """Pseudo-data with the Gram and cross sums of ``stats``: p rows per step.
-
-    With G_t = L_t L_tᵀ (a Cholesky factor; where a pivot is at or below a
-    relative 1e-12 of the diagonal — a direction without data, as for inputs
-    that are zero over a step — its column is dropped), the rows φ̃_tj = column j
-    of L_t and targets ỹ_t = L_t⁻¹ C_t (on the kept columns) give Σ_j φ̃ φ̃ᵀ = G_t
-    and Σ_j φ̃ ỹᵀ = C_t (C_t lies in the range of G_t), so that
-    Σ_j ‖ỹ_tj − Θ_t φ̃_tj‖² is the expected data term Σ_r w E‖x_{t+1} − Θ_t φ_t‖²
-    up to a constant. A step without transitions, and a dropped column, give rows
-    of zeros: they add nothing to the squared-loss sums the M-step minimizes, so
-    the problem is built with every row observed (marking them unobserved would
-    copy y and φ, a tenth of an EM iteration at T = 10⁵, for the same fit).
-    """
-    gram, cross = stats.gram, stats.cross
-    N, p, n = cross.shape
-    phi = np.zeros((N, p, p))
-    y = np.zeros((N, p, n))
-    keep = np.zeros((N, p), dtype=np.bool_)
-    _pseudo_rows(gram, cross, phi, y, keep)
-    return RegressionProblem(y=y, phi=phi, coeffs=coeffs, rows_are_samples=False)
-
-
-@numba.njit(cache=True)
-def _pseudo_rows(gram, cross, phi, y, keep):  # pragma: no cover - compiled
-    N, p, n = cross.shape
-    L = np.zeros((p, p))
-    for t in range(N):
-        G = gram[t]
-        scale = 0.0
-        for a in range(p):
-            scale = max(scale, G[a, a])
-        if scale <= 0.0:
+                y[t, r, i] = root * mean[r, t + 1, i]
+                offset[i] += wt * cov[r, t + 1, i, i]
+            for a in range(n):
+                for b in range(a + 1):
+                    S[a, b] += wt * cov[r, t, a, b]
+                for i in range(n):  # Cov(x_t, x_{t+1})[a, i] = Cov(x_{t+1}, x_t)[i, a]
+                    lagged[a, i] += wt * lag[r, t, i, a]
+        if not seen:
             continue
-        L[:, :] = 0.0
-        for j in range(p):  # semidefinite Cholesky: a vanishing pivot drops its column
-            acc = G[j, j]
+        scale = 0.0
+        for a in range(n):
+            scale = max(scale, S[a, a])
+        # semidefinite Cholesky (a vanishing pivot drops its column, left zero) and
+        # the forward substitution L⁻¹ S_t, by reciprocal pivots (the loop is bound by
+        # the latency of divisions)
+        for j in range(n):
+            acc = S[j, j]
             for k in range(j):
                 acc -= L[j, k] * L[j, k]
-            if acc <= 1e-12 * scale:
-                continue
-            L[j, j] = np.sqrt(acc)
-            keep[t, j] = True
-            for i in range(j + 1, p):
-                acc = G[i, j]
+            if acc > 1e-12 * scale:
+                pivot = np.sqrt(acc)
+                inverse[j] = 1.0 / pivot
+            else:
+                pivot = 0.0
+                inverse[j] = 0.0
+            L[j, j] = pivot
+            for i in range(j + 1, n):
+                acc = S[i, j]
                 for k in range(j):
                     acc -= L[i, k] * L[j, k]
-                L[i, j] = acc / L[j, j]
-        for j in range(p):  # row j: column j of L; target: forward substitution
-            if not keep[t, j]:
-                continue
-            for a in range(p):
-                phi[t, j, a] = L[a, j]
+                L[i, j] = acc * inverse[j]
+            row = R + j
             for i in range(n):
-                acc = cross[t, j, i]
+                acc = lagged[j, i]
                 for k in range(j):
-                    acc -= L[j, k] * y[t, k, i]
-                y[t, j, i] = acc / L[j, j]
+                    acc -= L[j, k] * y[t, R + k, i]
+                value = acc * inverse[j]
+                y[t, row, i] = value
+                offset[i] -= value * value
+            for a in range(j, n):  # row: column j of L (zero above the diagonal)
+                phi[t, row, a] = L[a, j]

@@ -57,8 +57,8 @@ from ..core.problem import RegressionProblem, state_space_problem
 from ..core.state_smoother import (
     ExpectedStatistics,
     StateMoments,
-    expected_problem,
     expected_statistics,
+    input_offsets,
     prior_variance,
     smooth_states,
 )
@@ -113,6 +113,7 @@ class MeasurementEM:
         self.link = link
         self.kappa = prior_variance(x)
         self.observed = np.isfinite(x)
+        self.observed_counts = self.observed.sum(axis=(0, 1))
         self.objectives: list[float] = []
         # IRLS weights of a robust measurement loss and the s that made them
         self.weights = np.ones(x.shape)
@@ -135,28 +136,21 @@ class MeasurementEM:
     def e_step(self, model: Any) -> StateMoments:
         """The smoothed states under ``model``'s coefficients and the current variances."""
         x, u = self.data.x, self.data.u
-        R, T, n = x.shape
-        N = T - 1
-        theta = model.theta  # (N, n, p)
-        m = u.shape[2]
-        uu = np.where(self.link[:, :, None], u[:, :N], 0.0)
-        offset = np.einsum("tij,rtj->rti", theta[:, :, n : n + m], uu)
-        if self.data.constant:
-            offset = offset + theta[None, :, :, -1]
+        theta = model.theta  # (N, n, p): A_t in its first n columns
+        offset = input_offsets(theta, u, self.link, self.data.constant)
         w = self.data.weights
-        qvar = np.full((R, N), self.process_var)
+        qvar: float | np.ndarray = self.process_var
         if w is not None:
             qvar = self.process_var / np.where(self.link, w, 1.0)
-        rvar = np.broadcast_to(self.measurement_var, (R, T, n))
+        rvar = self.measurement_var
         if self.robust:
             rvar = rvar / self.weights
-        return smooth_states(
-            np.ascontiguousarray(theta[:, :, :n]), offset, self.link, qvar, x, rvar, self.kappa
-        )
+        return smooth_states(theta, offset, self.link, qvar, x, rvar, self.kappa)
 
     def statistics(self, moments: StateMoments) -> ExpectedStatistics:
+        data = self.data
         return expected_statistics(
-            moments, self.data.u, self.link, self.data.weights, self.data.constant
+            moments, data.u, self.link, data.weights, data.constant, data.problem.coeffs
         )
 
     def objective(self, moments: StateMoments, model: Any) -> float:
@@ -178,24 +172,20 @@ class MeasurementEM:
             count = max(n * stats.n_transitions, 1)
             self.process_var = max((expected + penalty) / count, 1e-300)
         if self.estimate_noise:
-            x = self.data.x
-            var = np.diagonal(moments.cov, axis1=2, axis2=3)
-            sq = np.where(self.observed, (np.nan_to_num(x) - moments.mean) ** 2 + var, 0.0)
-            if self.robust:  # the weighted update that maximizes the bound
-                sq = sq * self.weights
-            counts = self.observed.sum(axis=(0, 1))
-            total = sq.sum(axis=(0, 1))
+            # with a robust loss the weighted update, which maximizes the bound
+            total = moments.measurement_squares(self.data.x, self.weights if self.robust else None)
+            counts = self.observed_counts
             fresh = np.where(counts > 0, total / np.maximum(counts, 1), self.measurement_var)
             self.measurement_var = np.maximum(fresh, 1e-300)
 
-    def step(self, moments: StateMoments, mstep: MStep, coeffs: np.ndarray) -> Any:
+    def step(self, moments: StateMoments, mstep: MStep) -> Any:
         """One EM map from the E-step ``moments``: the M-step for Θ, then the noise updates
         (which leave the variances in ``self``); with a robust loss first the weights of
         these states."""
         if self.robust:
             self.reweight(moments)
         stats = self.statistics(moments)
-        model = mstep(expected_problem(stats, coeffs), self.process_var)
+        model = mstep(stats.problem, self.process_var)
         self.update_noise(moments, stats, model)
         return model
 
@@ -218,7 +208,6 @@ class MeasurementEM:
         self,
         model: Any,
         mstep: MStep,
-        coeffs: np.ndarray,
         tol: float,
         max_iter: int,
         accelerate: bool = True,
@@ -253,7 +242,7 @@ class MeasurementEM:
         converged = False
         while msteps < max_iter and not converged:
             start = self._vector(model.theta) if accelerate else None
-            one = self.step(moments, mstep, coeffs)
+            one = self.step(moments, mstep)
             msteps += 1
             moments_one = self.e_step(one)
             converged = accept(one, moments_one)
@@ -261,7 +250,7 @@ class MeasurementEM:
             if converged or msteps >= max_iter or start is None:
                 continue
             first = self._vector(one.theta)
-            two = self.step(moments_one, mstep, coeffs)
+            two = self.step(moments_one, mstep)
             msteps += 1
             at_two = self._variances()
             r = first - start
@@ -281,7 +270,7 @@ class MeasurementEM:
                 proxy = _Coefficients(jump[:size].reshape(model.theta.shape))
                 moments_jump = self.e_step(proxy)
                 if np.isfinite(moments_jump.loglik):
-                    three = self.step(moments_jump, mstep, coeffs)
+                    three = self.step(moments_jump, mstep)
                     msteps += 1
                     moments_three = self.e_step(three)
                     value = self.objective(moments_three, three)
@@ -472,17 +461,16 @@ def measurement_fit(
     SQUAREM cycles (see :meth:`MeasurementEM.run`) rather than plain EM iterations."""
     measurement_noise = options.measurement_noise(measurement_noise, data.n)
     em = _start(data, first, measurement_noise, noise_var, measurement_loss)
-    coeffs = data.problem.coeffs
     model, moments, iterations, converged, counts = em.run(
-        first, mstep, coeffs, tol, max_iter, accelerate
+        first, mstep, tol, max_iter, accelerate
     )
     stages = [{"model": label, "iterations": iterations, "converged": converged, **counts}]
     if second is not None:
         refit = second(model)
         start = len(em.objectives)
-        begin = refit(expected_problem(em.statistics(moments), coeffs), em.process_var)
+        begin = refit(em.statistics(moments).problem, em.process_var)
         model, moments, iterations, converged, counts = em.run(
-            begin, refit, coeffs, tol, max_iter, accelerate
+            begin, refit, tol, max_iter, accelerate
         )
         stages.append(
             {
