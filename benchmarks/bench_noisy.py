@@ -23,7 +23,8 @@ t and the entries, averaged over the seeds. In one run, on the same data:
    ``norm="sq"`` (λ = 100) and ``"group"`` (λ = 17·√(T/400)), no refinement
    (target: "sq" at T = 10⁵ in <= 30 one-fit times), plain EM
    (``em_accelerate=False``) and SQUAREM (the default), with the objective
-   each reaches.
+   each reaches; one fit the best of three runs, EM too where three take under
+   5 s. ``--only-cost`` runs this part alone, ``--cost-norms sq`` one norm.
 5. State outliers: jump-linear (T = 400, seed 12) with 20 recorded samples
    shifted by +5 in every state, norm="group", λ = 17, refine=True: the fits
    without measurement noise (squared, Huber, the samples set to NaN) and EM
@@ -202,12 +203,18 @@ def cost(sizes: list[int], norms: list[str]) -> None:
                 ltv.fit(x, u, lam=lam, norm=norm, compute_cov=False)
                 one = min(one, time.perf_counter() - start)
             for accelerate in (False, True):
-                start = time.perf_counter()
-                em = ltv.fit(
-                    x, u, lam=lam, norm=norm, measurement_noise="estimate",
-                    em_accelerate=accelerate,
-                )  # fmt: skip
-                seconds = time.perf_counter() - start
+                seconds = np.inf  # the best of three runs where they take under 5 s in all
+                spent = 0.0
+                for _ in range(3):
+                    start = time.perf_counter()
+                    em = ltv.fit(
+                        x, u, lam=lam, norm=norm, measurement_noise="estimate",
+                        em_accelerate=accelerate,
+                    )  # fmt: skip
+                    elapsed = time.perf_counter() - start
+                    seconds, spent = min(seconds, elapsed), spent + elapsed
+                    if spent > 5.0:
+                        break
                 print(
                     f"{norm:>6} {T:>7} {one:>10.3f} {'SQUAREM' if accelerate else 'plain':>8}"
                     f" {seconds:>8.2f} {em.info['em_iterations']:>8} {seconds / one:>7.1f}"

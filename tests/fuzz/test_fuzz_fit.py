@@ -1,5 +1,6 @@
 """Fuzz the state-space estimators: fit, fit_lti, fit_path, lambda_max, fit_piecewise,
-fit_segments, the Kalman filter/smoother, the online filter and find_changepoints.
+fit_segments, the Kalman filter/smoother, the online filter and find_changepoints;
+fit and fit_lti also with noisy recorded states (``measurement_noise``, EM).
 
 Each test draws a data recipe (:func:`fuzz_strategies.datasets`: edge-case
 shapes, dtypes, forms, non-finite and extreme values) and option values
@@ -240,6 +241,72 @@ def test_fit_piecewise(data, kwargs):
     """ltv.fit_piecewise: change points valid, out of range, unsorted, non-integer."""
     x, u = data.xu()
     check_call(ltv.fit_piecewise, x, u, **resolved(data, kwargs))
+
+
+MEASUREMENT_NOISE = Opt(
+    choice_of("estimate", "estimate", 0.01, 1.0, 1e-300, "@vec_n"),
+    choice_of(0.0, -1.0, np.nan, np.inf, "@vec_wrong", "guess", True, [[0.1]]),
+)
+MEASUREMENT_OPTIONS = dict(
+    measurement_noise=MEASUREMENT_NOISE,
+    measurement_loss=Opt(choice_of("squared", "huber", "student"), choice_of("t", None, 1)),
+    em_tol=TOL,
+    em_max_iter=Opt(st.integers(0, 15), choice_of(-1, 1.5, "10", None, np.nan)),
+    em_accelerate=BOOL,
+    weights=WEIGHTS,
+    constant=CONSTANT,
+)
+
+
+@fuzz_test(
+    datasets(max_T=60),
+    options(
+        required=("lam", "measurement_noise"),
+        lam=Opt(st.floats(0.5, 100.0), LAM.invalid),
+        norm=NORM,
+        order=ORDER,
+        refine=BOOL,
+        noise_var=NOISE_VAR,
+        **MEASUREMENT_OPTIONS,
+    ),
+    examples=0.5,
+    valid=(
+        datasets(max_T=60, forms=False),
+        options(
+            required=("lam", "measurement_noise"),
+            max_bad=0,
+            lam=Opt(st.floats(0.5, 100.0), LAM.invalid),
+            norm=NORM,
+            order=ORDER,
+            refine=BOOL,
+            noise_var=NOISE_VAR,
+            **MEASUREMENT_OPTIONS,
+        ),
+    ),
+    explicit=[
+        (HUGE, {"lam": 1.0, "measurement_noise": "estimate"}),
+        (TINY, {"lam": 1.0, "measurement_noise": "estimate"}),
+        (PLAIN, {"lam": 5.0, "measurement_noise": "estimate", "measurement_loss": "student"}),
+        (Data(30, 2, 1, defects=("nan_block",)), {"lam": 5.0, "measurement_noise": 0.1}),
+        (PLAIN, {"lam": 5.0, "norm": "group", "measurement_noise": "estimate"}),
+    ],
+)
+def test_fit_measurement_noise(data, kwargs):
+    """ltv.fit with noisy recorded states (EM): every loss, norm, gap and extreme."""
+    x, u = data.xu()
+    check_call(ltv.fit, x, u, **resolved(data, kwargs))
+
+
+@fuzz_test(
+    datasets(max_T=60),
+    options(required=("measurement_noise",), **MEASUREMENT_OPTIONS),
+    examples=0.5,
+    explicit=[(HUGE, {"measurement_noise": "estimate"}), (Data(5, 2, 1), {"measurement_noise": 0.1})],
+)
+def test_fit_lti_measurement_noise(data, kwargs):
+    """ltv.fit_lti with noisy recorded states (EM)."""
+    x, u = data.xu()
+    check_call(ltv.fit_lti, x, u, **resolved(data, kwargs))
 
 
 PENALTY = Opt(

@@ -168,7 +168,11 @@ class MeasurementEM:
         n = self.data.n
         if not self.fixed_process:
             penalty, _ = penalty_terms(model)
-            expected = float(stats.expected_rss(model.theta).sum())
+            rows_rss = model.info.get("rss") if model.norm == "sq" else None
+            if rows_rss is not None:  # the solver's own sum over the pseudo-rows at Θ
+                expected = float(rows_rss) + float(stats.offset.sum())
+            else:
+                expected = float(stats.expected_rss(model.theta).sum())
             count = max(n * stats.n_transitions, 1)
             self.process_var = max((expected + penalty) / count, 1e-300)
         if self.estimate_noise:
