@@ -10,8 +10,8 @@ with H = L Lᵀ. So the log marginal likelihood that :func:`.squared.fit_squared
 computes (noise variance at its maximum-likelihood value per row) needs only
 the factorization and the forward substitution: no back substitution, no
 residuals, no differencing — the work of one factorization per λ, which is
-what a search over λ repeats. The λ-independent parts (right-hand sides, ‖y_i‖²,
-the bands of DᵀD) are computed once per problem. The same factorization with
+what a search over λ repeats, by the fit's own kernels (which form the right-hand
+sides as they sweep); ‖y_i‖² is computed once per problem. The same factorization with
 the back substitution (and, for the degrees of freedom, the selected inversion)
 gives the residual and penalty norms that GCV and the L-curve score
 (:meth:`ScalarEvidence.solution`), again without a fit.
@@ -31,7 +31,7 @@ import math
 import numpy as np
 
 from . import blockkernels as kernels
-from .banded import RELATIVE_PIVOT_TOL, difference_bands, kernel_size
+from .banded import RELATIVE_PIVOT_TOL, kernel_size
 from .problem import RegressionProblem
 
 __all__ = ["ScalarEvidence"]
@@ -65,24 +65,25 @@ class ScalarEvidence:
         N, n, p = problem.N, problem.n, problem.p
         d = problem.degree
         self.N, self.n, self.p, self.d = N, n, p, d
-        self.phi = np.ascontiguousarray(problem.phi)
-        self.rhs = np.ascontiguousarray(problem.cross())  # (N, p, n)
+        # the arrays as the fit's kernels take them (banded.solve_shared_rows)
+        self.phi = np.ascontiguousarray(problem.phi)  # (N, q, p)
+        self.y = np.ascontiguousarray(problem.y)  # (N, q, n)
+        self.coeffs = np.ascontiguousarray(problem.coeffs, dtype=float)
         self.yy = np.einsum("tji,tji->i", problem.y, problem.y)  # ‖y_i‖² (n,)
-        self.bands = difference_bands(N, problem.coeffs)
         self.size = kernel_size(N, p)
         self.n_eff = problem.n_observed - d * p  # observed rows less the diffuse directions
         self.log_cd = float(np.log(abs(problem.coeffs[-1])))
         self._L = np.empty((N, d + 1, p, p))
-        self._Z = np.empty_like(self.rhs)
-        self._extra = np.zeros((0, p, p))
+        self._Z = np.empty((N, n, p))  # L⁻¹ b_i, then Θ (the layout of Θ)
         self._no_cov = np.zeros((0, p, p))
         self.problem = problem
         # The ratio of SquaredSolver.digits_lost, less λ²: penalty scale over data scale.
-        data = float(np.vdot(problem.phi, problem.phi)) / (N * p)
+        # (einsum, not vdot: a BLAS call wakes its thread pool, which costs more than
+        # this sum where the other cores are busy)
+        data = float(np.einsum("tja,tja->", problem.phi, problem.phi)) / (N * p)
         self.conditioning = float(np.abs(problem.coeffs).sum()) ** 2 / data if data > 0 else np.inf
-        self._eye = np.eye(p)
+        self._weights = np.empty(p)  # λ² per regressor (a scalar λ)
         self._logdet = 0.0
-        self._ones = np.ones(p)  # the penalty's weight per regressor (a scalar λ)
         self.yy_list = self.yy.tolist()
 
     def loglik(self, lam: float) -> float | None:
@@ -103,8 +104,7 @@ class ScalarEvidence:
         if weight * self.conditioning * EPS > SUBTRACTION_LIMIT:
             costs = self._solution_costs(weight)
         else:
-            flat = self._Z.reshape(-1, self.n)
-            squares = np.einsum("ki,ki->i", flat, flat).tolist()  # ‖L⁻¹ b_i‖² per row
+            squares = np.einsum("tia,tia->i", self._Z, self._Z).tolist()  # ‖L⁻¹ b_i‖² per row
             costs = [yy - square for yy, square in zip(self.yy_list, squares, strict=True)]
             if any(
                 cost < CANCELLATION_LIMIT * yy for cost, yy in zip(costs, self.yy_list, strict=True)
@@ -140,48 +140,35 @@ class ScalarEvidence:
             tr(Φ H⁻¹ Φᵀ) = n Σ_t Σ_j φ_tjᵀ (H⁻¹)_tt φ_tj (every output row has
             the same H); None where H is singular to working precision.
         """
-        if not lam > 0 or self._factor(lam * lam) < RELATIVE_PIVOT_TOL:
+        weight = lam * lam
+        if not lam > 0 or self._factor(weight) < RELATIVE_PIVOT_TOL:
             return None
         cov = np.empty((self.N, self.p, self.p)) if dof else self._no_cov
-        kernels.backward(self._L, self._Z, cov, self.size)  # Z ← Θ (N, p, n)
-        rss, squares = self._residual_and_difference_squares()
-        out = {"rss": float(rss.sum()), "penalty_norm": float(np.sqrt(squares.sum()))}
+        rss, penalty = self._back_substitution(cov)
+        out = {"rss": float(rss.sum()), "penalty_norm": float(np.sqrt(penalty.sum() / weight))}
         if dof:
             out["dof"] = self.n * float(np.einsum("tja,tab,tjb->", self.phi, cov, self.phi))
         return out
 
     def _factor(self, weight: float) -> float:
         """Factor H at λ² = ``weight`` and forward-substitute; the worst relative pivot."""
-        np.copyto(self._Z, self.rhs)
-        worst, _, self._logdet = kernels.factor_forward(
-            self.phi,
-            1,
-            1.0,
-            self._extra,
-            weight * self._eye,
-            self.bands,
-            self._Z,
-            self._L,
-            self.size,
+        self._weights.fill(weight)
+        worst, _, self._logdet, _ = kernels.rows_factor_forward(
+            self.phi, self.y, self._weights, self.coeffs, self._Z, self._L, self.size
         )
         return worst
 
-    def _residual_and_difference_squares(self) -> tuple[np.ndarray, np.ndarray]:
-        """RSS_i and ‖Dθ_i‖² (n,) of the solution Θ in ``_Z`` (after the back substitution)."""
-        rss, squares = np.empty(self.n), np.empty(self.n)
-        kernels.residual_and_difference_squares(
-            np.swapaxes(self._Z, 1, 2),
-            self.problem.y,
-            self.phi,
-            self.problem.coeffs,
-            self._ones,
-            rss,
-            squares,
-        )
-        return rss, squares
+    def _back_substitution(self, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Θ into ``_Z`` (and the diagonal blocks of H⁻¹ into ``cov`` unless it is empty),
+        after :meth:`_factor`; RSS_i and penalty_i = λ²‖Dθ_i‖² (n,) of that solution."""
+        rss, penalty = np.empty(self.n), np.empty(self.n)
+        kernels.rows_backward(
+            self._L, self._Z, cov, self.phi, self.y, self._weights, self.coeffs, rss, penalty,
+            self.size,
+        )  # fmt: skip
+        return rss, penalty
 
     def _solution_costs(self, weight: float) -> list[float]:
         """RSS_i + penalty_i of the solution, after :meth:`loglik`'s forward sweep."""
-        kernels.backward(self._L, self._Z, self._no_cov, self.size)  # Z ← Θ (N, p, n)
-        rss, squares = self._residual_and_difference_squares()
-        return (rss + weight * squares).tolist()
+        rss, penalty = self._back_substitution(self._no_cov)
+        return (rss + penalty).tolist()
