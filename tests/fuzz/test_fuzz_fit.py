@@ -301,7 +301,10 @@ def test_fit_measurement_noise(data, kwargs):
     datasets(max_T=60),
     options(required=("measurement_noise",), **MEASUREMENT_OPTIONS),
     examples=0.5,
-    explicit=[(HUGE, {"measurement_noise": "estimate"}), (Data(5, 2, 1), {"measurement_noise": 0.1})],
+    explicit=[
+        (HUGE, {"measurement_noise": "estimate"}),
+        (Data(5, 2, 1), {"measurement_noise": 0.1}),
+    ],
 )
 def test_fit_lti_measurement_noise(data, kwargs):
     """ltv.fit_lti with noisy recorded states (EM)."""

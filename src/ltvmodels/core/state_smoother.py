@@ -170,9 +170,7 @@ def _add_rows_rss(theta, phi, y, out, size):  # pragma: no cover - compiled
                 out[i] += e * e
 
 
-def input_offsets(
-    theta: np.ndarray, u: np.ndarray, link: np.ndarray, constant: bool
-) -> np.ndarray:
+def input_offsets(theta: np.ndarray, u: np.ndarray, link: np.ndarray, constant: bool) -> np.ndarray:
     """b_rt = B_t u_rt (+ c_t), (R, N, n), from Θ_t = [A_t, B_t (, c_t)] (N, n, p) and
     the inputs ``u`` (R, T, m); 0 where ``link`` (R, N) is False (no transition)."""
     R, N = link.shape

@@ -465,9 +465,7 @@ def measurement_fit(
     SQUAREM cycles (see :meth:`MeasurementEM.run`) rather than plain EM iterations."""
     measurement_noise = options.measurement_noise(measurement_noise, data.n)
     em = _start(data, first, measurement_noise, noise_var, measurement_loss)
-    model, moments, iterations, converged, counts = em.run(
-        first, mstep, tol, max_iter, accelerate
-    )
+    model, moments, iterations, converged, counts = em.run(first, mstep, tol, max_iter, accelerate)
     stages = [{"model": label, "iterations": iterations, "converged": converged, **counts}]
     if second is not None:
         refit = second(model)
