@@ -212,7 +212,7 @@ def smooth_states(
     A: np.ndarray,
     offset: np.ndarray,
     link: np.ndarray,
-    process_var: np.ndarray,
+    process_var: float | np.ndarray,
     y: np.ndarray,
     measurement_var: np.ndarray,
     prior_var: float,
