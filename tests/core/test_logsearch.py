@@ -93,3 +93,18 @@ def test_a_level_criterion_ends_the_refinement():
     assert search.values.max() == 1.0 and GRID[0] <= search.best <= GRID[-1]
     step = maximize_on_log_scale(lambda lam: 1.0 if lam < 30.0 else 0.0, GRID, xatol=1e-3)
     assert step.values.max() == 1.0
+
+
+def test_a_cubic_criterion_is_maximized_by_the_first_refining_step():
+    """On a criterion that is a cubic in log λ, the first step after the grid (the
+    maximum of the cubic through four grid points, in closed form) is the maximum."""
+    low, top = -3.0, 0.37  # f'(s) = −(s − low)(s − top): a local maximum at s = top
+
+    def criterion(lam: float) -> float:
+        s = np.log(lam)
+        return -(s**3) / 3.0 + (low + top) * s**2 / 2.0 - low * top * s
+
+    grid = np.exp(np.linspace(-2.0, 3.0, 6))
+    search = maximize_on_log_scale(criterion, grid, xatol=1e-3)
+    assert np.log(search.best) == pytest.approx(top, abs=1e-10)
+    assert search.n_evaluations <= grid.size + 2  # the step, and at most one check
