@@ -148,3 +148,21 @@ def test_files_written_before_keep_their_huber_mask():
         old.pop(key)
     model.info = old
     assert model.outliers is None and model.beyond_delta.sum() == old["outliers"].sum()
+
+
+@pytest.mark.parametrize("size", [3, 4, 5, 8, 11, 101, 1000])
+def test_the_robust_scale_is_the_median_of_the_absolute_residuals(size):
+    """``info["outlier_scale"]`` is 1.4826 · median |r| (numpy's median) for odd and even
+    counts and with repeated values (a compiled selection computes it)."""
+    rng = np.random.default_rng(size)
+    phi = np.ones((size, 1))
+    # residuals of the LTI least-squares fit y − mean(y), with ties: rounded values
+    y = np.round(rng.standard_normal((size, 2)), 1)
+    y[:, 1] = rng.integers(0, 3, size)  # few distinct values: many ties
+    model = ltv.fit_regression(y, phi, lam=np.inf)
+    resid = np.abs(y - y.mean(axis=0))
+    for i in range(2):
+        rms = np.sqrt(np.mean(resid[:, i] ** 2))
+        counted = resid[:, i] > max(1e-4 * rms, 1e-8 * np.abs(y[:, i]).max())
+        expected = 1.4826 * np.median(resid[counted, i]) if counted.any() else 0.0
+        assert model.info["outlier_scale"][i] == pytest.approx(expected, rel=1e-12, abs=1e-300)
