@@ -41,7 +41,7 @@ from ..errors import ConvergenceWarning, SingularProblemError, warn
 from . import blockkernels as kernels
 from . import conekernels as cones
 from .polish import polish, stationarity_scale
-from .problem import RegressionProblem
+from .problem import RegressionProblem, output_spread
 from .sparse_common import quadratic_fit
 
 __all__ = [
@@ -50,9 +50,12 @@ __all__ = [
     "START_DUAL_RANGE",
     "WARM_DEGREES",
     "FIXED_KERNEL_MIN_SIZE",
+    "DOMINANT_SCALES",
+    "BOUNDARY",
     "InteriorPointResult",
     "ConicProblem",
     "NewtonSystem",
+    "dominating_output",
     "feasible_start",
     "warm_dual",
     "fit_sparse_ipm",
@@ -82,6 +85,15 @@ START_TRIES = 6
 WARM_GAP_FRACTION = 0.01
 WARM_MAX_DUAL_NORM = 0.99
 WARM_DEGREES = (1,)
+# An output entry this many robust scales (1.4826 · MAD) from its column's median
+# dominates a squared-loss objective beyond what the interior-point method resolves:
+# a failure to start is then reported as caused by it (on the jump-linear system,
+# T = 200, λ = 5, a single output 1e10 times the data's scale stopped every start).
+DOMINANT_SCALES = 1e6
+BOUNDARY = (
+    "the interior-point iterate reached the boundary of a cone at working "
+    "precision; a looser tol helps"
+)
 # Use the kernels compiled for a constant block size from this many unknowns on.
 FIXED_KERNEL_MIN_SIZE = 2_000
 
@@ -282,17 +294,13 @@ class NewtonSystem:
         self.inv_alpha, self.ratio = np.empty(pairs), np.empty(pairs)
         self.penalty = np.empty(pairs)  # S_c, the diagonal Newton-matrix term
         self.lam_sq = np.empty_like(s)  # λ∘λ
-        boundary = (
-            "the interior-point iterate reached the boundary of a cone at working "
-            "precision; a looser tol helps"
-        )
         if self.pairs:
             interior = cones.prepare_newton_pairs(
                 s, z, r_z, self.inv_s, self.base, self.inv_alpha, self.ratio,
                 self.penalty, self.lam_sq,
             )  # fmt: skip
             if not interior:
-                raise SingularProblemError(boundary)
+                raise SingularProblemError(BOUNDARY)
             return
         try:
             cones.prepare_newton(
@@ -309,7 +317,7 @@ class NewtonSystem:
                 self.s_coef,
             )
         except ZeroDivisionError:  # a cone's s or z reached its boundary in rounding
-            raise SingularProblemError(boundary) from None
+            raise SingularProblemError(BOUNDARY) from None
 
     def predictor_target(self) -> np.ndarray:
         """The affine (predictor) target −λ∘λ."""
@@ -326,13 +334,19 @@ class NewtonSystem:
 
     def affine_direction(self):
         """Factor the Newton matrix and solve for the predictor target −λ∘λ."""
-        work, rhs = self.rhs_for(self.predictor_target())
-        return self.finish(self.cp.factor_and_solve(self, rhs), work)
+        try:
+            work, rhs = self.rhs_for(self.predictor_target())
+            return self.finish(self.cp.factor_and_solve(self, rhs), work)
+        except ZeroDivisionError:  # a cone's scaling underflowed or overflowed
+            raise SingularProblemError(BOUNDARY) from None
 
     def direction(self, target: np.ndarray):
         """(Δk, Δt, Δs, Δz, largest step) for the target (after :meth:`affine_direction`)."""
-        work, rhs = self.rhs_for(target)
-        return self.finish(self.cp.solve(rhs), work)
+        try:
+            work, rhs = self.rhs_for(target)
+            return self.finish(self.cp.solve(rhs), work)
+        except ZeroDivisionError:
+            raise SingularProblemError(BOUNDARY) from None
 
     def rhs_for(self, target: np.ndarray):
         """(work, rhs): the banded system's right-hand side (N, K) for a cone target."""
@@ -389,6 +403,27 @@ class NewtonSystem:
             dz,
         )
         return dk, dt, ds, dz, min(steps)
+
+
+def dominating_output(problem: RegressionProblem) -> SingularProblemError | None:
+    """The error that names an output entry beyond DOMINANT_SCALES robust scales of its
+    column (the farthest), or None where there is none."""
+    where = output_spread(problem)
+    if where is None or not np.any(where.scales > DOMINANT_SCALES):
+        return None
+    t, j, i = np.unravel_index(int(np.argmax(where.scales)), where.scales.shape)
+    row = f"y[{t}, {i}] (x[{t + 1}, {i}] of a state-space fit)"
+    if problem.q > 1:
+        row = f"y[{j}, {t}, {i}] (x[{j}, {t + 1}, {i}] of a state-space fit)"
+    return SingularProblemError(
+        f"the output {row} is {where.given[t, j, i]:.3g}, {where.scales[t, j, i]:.1e} robust "
+        f"scales (1.4826 · MAD = {where.spread[i]:.3g}) from its median "
+        f"{where.center[i]:.3g}: with the squared loss this one sample dominates the "
+        f"objective beyond what the interior-point method resolves in double precision "
+        f"(expected within {DOMINANT_SCALES:.0e} scales); mark it missing (NaN) if it is a "
+        "recording error, or pass loss='huber' or 'laplace' (which bound its influence) "
+        "or norm='sq'"
+    )
 
 
 def feasible_start(problem: RegressionProblem, cp: ConicProblem):
@@ -548,18 +583,18 @@ def fit_sparse_ipm(
         # target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a), σ = (1 − α_a)³.
         try:
             _, _, ds_a, dz_a, step = newton.affine_direction()
-        except SingularProblemError:
+            sigma_mu = (1.0 - min(1.0, step)) ** 3 * gap / n_cones
+            target = newton.corrector_target(ds_a, dz_a, sigma_mu)
+            dk, dt, ds, dz, step = newton.direction(target)
+        except SingularProblemError as exc:
             if iterations == 0:
-                raise
+                raise (dominating_output(problem) or exc) from None
             # Near the optimum the scaling of cones at their vertex grows without
             # bound; when it costs positive definiteness at working precision,
             # the current iterate is as accurate as this arithmetic allows.
             stalled = True
             break
         iterations += 1
-        sigma_mu = (1.0 - min(1.0, step)) ** 3 * gap / n_cones
-        target = newton.corrector_target(ds_a, dz_a, sigma_mu)
-        dk, dt, ds, dz, step = newton.direction(target)
         step = min(1.0, STEP_FRACTION * step)
         if step < MIN_STEP:
             stalled = True

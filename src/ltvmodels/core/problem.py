@@ -26,6 +26,8 @@ __all__ = [
     "apply_difference_adjoint",
     "gram_bands",
     "null_space_basis",
+    "OutputSpread",
+    "output_spread",
 ]
 
 
@@ -306,3 +308,35 @@ def null_space_basis(N: int, coeffs: np.ndarray) -> np.ndarray:
     basis = np.column_stack(cols)[:, :d] if cols else np.zeros((N, 0))
     q, _ = np.linalg.qr(basis)
     return q
+
+
+@dataclass(frozen=True)
+class OutputSpread:
+    """Where each output's entries lie (:func:`output_spread`), in the units of y.
+
+    ``given`` (N, q, n) are the outputs with the rows' √w divided out (0 where
+    unobserved); ``center`` (n,) their medians and ``spread`` (n,) their robust
+    scales 1.4826 · MAD over the observed rows (0 where more than half are
+    equal); ``scales`` (N, q, n) is each entry's distance from its center in
+    those scales (0 where unobserved or the spread is 0).
+    """
+
+    given: np.ndarray
+    center: np.ndarray
+    spread: np.ndarray
+    scales: np.ndarray
+
+
+def output_spread(problem: RegressionProblem) -> OutputSpread | None:
+    """Each output entry's distance from its column's median in robust scales; None
+    where no row is observed."""
+    row_scale = problem.row_scale[:, :, None]
+    given = problem.y / np.where(row_scale > 0, row_scale, 1.0)
+    values = given[problem.observed]  # (rows, n)
+    if values.shape[0] == 0:
+        return None
+    center = np.median(values, axis=0)
+    spread = 1.4826 * np.median(np.abs(values - center), axis=0)
+    distance = np.abs(given - center) / np.where(spread > 0, spread, np.inf)
+    scales = np.where(problem.observed[:, :, None], distance, 0.0)
+    return OutputSpread(given, center, spread, scales)

@@ -38,7 +38,7 @@ from .laplace import certified_gap
 from .losses import Loss, LossFit
 from .penalties import Penalty, named
 from .priorterms import PriorTerm
-from .problem import RegressionProblem, null_space_basis
+from .problem import RegressionProblem, null_space_basis, output_spread
 from .sparse import solve_sparse
 from .sparse_common import difference_preimage, null_space_fit
 from .squared import SquaredSolver
@@ -48,6 +48,7 @@ __all__ = [
     "HUBER_EFFICIENCY",
     "MAD_TO_STD",
     "OUTLIER_THRESHOLD",
+    "CLIP_SCALES",
     "RobustSolution",
     "default_delta",
     "residual_outliers",
@@ -72,6 +73,13 @@ NULL_SPACE_TRY = 10.0
 # two-sided 1 % point of the Gaussian; the margin covers the MAD's own
 # estimation error (measured false-positive rates in tests/estimators/test_outliers.py).
 OUTLIER_THRESHOLD = 3.0
+# Outputs farther than this many robust scales (1.4826 · MAD of the column) from their
+# column's median are drawn in to that distance before a robust fit (and the fit
+# checked against the data as given, see solve_robust). The solvers' tolerances are
+# relative to the objective, which one such entry dominates: on the jump-linear system
+# (T = 200, λ = 5) a single output 1e5–1e8 times the data's scale already moved the
+# sparse norms' Huber fits, and from 1e10 the interior-point method failed.
+CLIP_SCALES = 1e3
 # Residual entries within REPRODUCED × their output's residual RMS, or within
 # ROUNDING × its largest |y|, are reproduced by the fit (a residual that a
 # Laplace fit sets to zero, to its solver's tolerance, or rounding): they do not
@@ -221,6 +229,102 @@ def solve_robust(
     ``priors`` (loss="huber", the squared norm) add σ_i² Σ_t (k_ti − m_ti)ᵀ P_t
     (k_ti − m_ti) per output, as in the squared loss's MAP estimate, with
     σ_i² = ``noise_var`` or, by default, the robust scale (δ_i / 1.345)².
+
+    Outputs beyond CLIP_SCALES robust scales of their column are first drawn in
+    to that distance (:func:`_clipped_outputs`): beyond δ the loss counts a
+    residual linearly, so the minimizer depends only on its sign, and the
+    solvers, whose tolerances are relative to the objective, keep the precision
+    of the other samples. The clipped fit is the answer where every clipped
+    entry's residual keeps its sign beyond δ (the optimality conditions are then
+    those of the data as given; the objective is corrected for the clipped
+    distance); otherwise the data are fitted as given.
+    """
+
+    def solve(data: RegressionProblem) -> tuple[RobustSolution, np.ndarray | None]:
+        return _solve_robust(
+            data,
+            weights,
+            loss=loss,
+            penalty=penalty,
+            delta=delta,
+            max_iter=max_iter,
+            tol=tol,
+            priors=priors,
+            noise_var=noise_var,
+        )
+
+    clipped = _clipped_outputs(problem)
+    if clipped is not None:
+        near, moved = clipped
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ConvergenceWarning)
+            solution, used = solve(near)
+        threshold = used if loss.threshold else None
+        scale = problem.row_scale[:, :, None]
+        r_near, r_given = near.residuals(solution.theta), problem.residuals(solution.theta)
+        same = loss.scaled_psi(r_near, scale, threshold) == loss.scaled_psi(
+            r_given, scale, threshold
+        )
+        beyond = np.abs(r_near) > (threshold * scale if threshold is not None else 0.0)
+        if np.all((same & beyond)[moved]):
+            # Only the moved entries' losses differ, each by a constant.
+            solution.objective += loss.value(
+                np.where(moved, r_given, 0.0), scale, threshold
+            ) - loss.value(np.where(moved, r_near, 0.0), scale, threshold)
+            solution.details["clipped_outputs"] = int(np.count_nonzero(moved))
+            for warning in caught:
+                warn(str(warning.message), warning.category)
+            return solution
+    return solve(problem)[0]
+
+
+def _clipped_outputs(problem: RegressionProblem) -> tuple[RegressionProblem, np.ndarray] | None:
+    """The problem with every output entry beyond CLIP_SCALES robust scales of its column
+    (:func:`~.problem.output_spread`) drawn in to that distance, and the mask (N, q, n)
+    of those entries; None where there is none."""
+    where = output_spread(problem)
+    if where is None:
+        return None
+    moved = where.scales > CLIP_SCALES
+    if not moved.any():
+        return None
+    reach = CLIP_SCALES * where.spread
+    drawn = np.clip(where.given, where.center - reach, where.center + reach)
+    clipped = RegressionProblem(
+        y=np.where(moved, problem.row_scale[:, :, None] * drawn, problem.y),
+        phi=problem.phi,
+        coeffs=problem.coeffs,
+        observed=problem.observed,
+        row_scale=problem.row_scale,
+        rows_are_samples=problem.rows_are_samples,
+    )
+    return clipped, moved
+
+
+def _solve_robust(
+    problem: RegressionProblem,
+    weights: np.ndarray,
+    *,
+    loss: Loss,
+    penalty: Penalty,
+    delta: np.ndarray | None,
+    max_iter: int,
+    tol: float,
+    priors: list[PriorTerm] | None = None,
+    noise_var: np.ndarray | None = None,
+) -> tuple[RobustSolution, np.ndarray | None]:
+    """:func:`solve_robust` on the data as given.
+
+    ``weights`` are the penalty's (W (K,) or (K, K) for the squared norm, whose
+    inf entries hold coefficients constant; (K,) for a sparse penalty);
+    ``delta`` the Huber thresholds (n,) (None: :func:`default_delta`). Warns
+    (ConvergenceWarning) when the certificate does not reach ``tol``.
+
+    ``priors`` (loss="huber", the squared norm) add σ_i² Σ_t (k_ti − m_ti)ᵀ P_t
+    (k_ti − m_ti) per output, as in the squared loss's MAP estimate, with
+    σ_i² = ``noise_var`` or, by default, the robust scale (δ_i / 1.345)².
+    Returns the solution and the thresholds δ (n,) it used (None for a loss
+    without one).
     """
     # the squared-loss fit starts the iteration (and gives the robust residual scale)
     if penalty.closed_form:
@@ -246,14 +350,14 @@ def solve_robust(
     elif exact is None:
         _check_delta(problem, start, delta)
     if exact is not None:
-        return _exact_fit(problem, weights, penalty, exact, loss, delta, rule)
+        return _exact_fit(problem, weights, penalty, exact, loss, delta, rule), delta
     if null_space is not None and np.all(weights > 0) and np.isfinite(weights).all():
         if _lambda_max_ratio(problem, null_space, loss, penalty, weights, delta) <= NULL_SPACE_TRY:
             solution = _null_space_solution(
                 problem, weights, loss, penalty, delta, max_iter=max_iter, tol=tol
             )
             if solution is not None:
-                return RobustSolution(**vars(solution), delta_rule=rule)
+                return RobustSolution(**vars(solution), delta_rule=rule), delta
     prior_scale = None
     if priors:
         prior_scale = (
@@ -280,7 +384,7 @@ def solve_robust(
             f"loss={loss.name!r}: {result.failure}; the model is the last iterate: {remedy}",
             ConvergenceWarning,
         )
-    return RobustSolution(**vars(result), delta_rule=rule)
+    return RobustSolution(**vars(result), delta_rule=rule), delta
 
 
 def _fits_exactly(problem: RegressionProblem, theta: np.ndarray) -> bool:
