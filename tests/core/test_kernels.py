@@ -78,3 +78,53 @@ def test_shared_rows_solver_reports_a_singular_system():
         banded.solve_shared_rows(
             phi, np.zeros((30, 1, 1)), np.ones(2), np.array([-1.0, 1.0]), compute_cov=False
         )
+
+
+@pytest.mark.parametrize("coeffs", [[-1.0, 1.0], [1.0, -2.0, 1.0]])
+@pytest.mark.parametrize("q", [1, 2])
+def test_weighted_rows_factor_equals_a_dense_solve(coeffs, q):
+    """One factorization per output of Σ_j a_tjc φφᵀ + DᵀD ⊗ diag(w_c) (the robust losses'
+    Newton systems) solves each output's system as a dense solve does; outputs left
+    inactive are not touched."""
+    rng = np.random.default_rng(3)
+    N, p, n = 25, 3, 3
+    coeffs = np.array(coeffs)
+    phi = rng.standard_normal((N, q, p))
+    a = rng.uniform(0.05, 1.0, (N, q, n))
+    w = rng.uniform(0.5, 4.0, (n, p))
+    rhs = rng.standard_normal((n, N, p, 2))
+    active = np.array([True, False, True])
+    forward = rhs.copy()
+    factor = banded.WeightedRowsFactor(phi, a, w, coeffs, forward, active)
+    factor.finish(forward)
+    solved = factor.solve(rhs.copy())
+    d = len(coeffs) - 1
+    D = np.zeros((N - d, N))
+    for row in range(N - d):
+        D[row, row : row + d + 1] = coeffs
+    for c in range(n):
+        if not active[c]:
+            np.testing.assert_array_equal(forward[c], rhs[c])
+            np.testing.assert_array_equal(solved[c], rhs[c])
+            continue
+        H = np.kron(D.T @ D, np.diag(w[c]))
+        for t in range(N):
+            H[t * p : (t + 1) * p, t * p : (t + 1) * p] += np.einsum(
+                "j,ja,jb->ab", a[t, :, c], phi[t], phi[t]
+            )
+        expected = np.linalg.solve(H, rhs[c].reshape(N * p, 2)).reshape(N, p, 2)
+        np.testing.assert_allclose(forward[c], expected, rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(solved[c], expected, rtol=1e-10, atol=1e-12)
+
+
+def test_weighted_rows_factor_reports_a_singular_system():
+    phi = np.zeros((10, 1, 2))  # no data: DᵀD ⊗ diag(w) alone is singular
+    with pytest.raises(ltv.SingularProblemError, match="singular"):
+        banded.WeightedRowsFactor(
+            phi,
+            np.ones((10, 1, 1)),
+            np.ones((1, 2)),
+            np.array([-1.0, 1.0]),
+            np.zeros((1, 10, 2, 1)),
+            np.ones(1, dtype=bool),
+        )

@@ -42,6 +42,7 @@ __all__ = [
     "solve_block_banded",
     "RowsSolution",
     "solve_shared_rows",
+    "WeightedRowsFactor",
 ]
 
 # A pivot whose square is below this fraction of the matrix diagonal it came
@@ -330,6 +331,81 @@ def solve_shared_rows(
     rss, squares = np.empty(n), np.empty(n)
     kernels.rows_backward(L, theta, cov, phi, y, w, coeffs, rss, squares, size)
     return RowsSolution(theta, cov if compute_cov else None, logdet, rss, squares, trace)
+
+
+class WeightedRowsFactor:
+    """A factorization per output row c of H_c = blkdiag_t(Σ_j a_tjc φ_tjφ_tjᵀ) + DᵀD ⊗ diag(w_c),
+    all in one sweep over time: the Newton systems of the robust losses, whose
+    residual weights a differ by output while φ, D and the sweep are shared.
+
+    Parameters
+    ----------
+    phi : ndarray, shape (N, q, p)
+        The regressors (C-contiguous float).
+    a : ndarray, shape (N, q, n)
+        Row weights a_tjc >= 0 of each output.
+    w : ndarray, shape (n, p)
+        Diagonal penalty weight of each output, finite.
+    coeffs : ndarray
+        Difference operator coefficients c_0 … c_d.
+    rhs : ndarray, shape (n, N, p, r)
+        Right-hand sides (r may be 0), C-contiguous float: forward-substituted in
+        place, :meth:`finish` completes their solution.
+    active : ndarray, shape (n,), bool
+        The outputs to factor (the others' parts of ``rhs`` and ``out`` are left alone).
+    out : ndarray, optional
+        Storage for the factors, reused between calls (an array of this size,
+        freshly allocated, costs page faults comparable to the sweep): shape
+        (n, N, d+1, p, p), or (n, N, 1, p, p) for a first difference (d = 1).
+    what : str
+        What is factored, for the error message.
+
+    Raises
+    ------
+    SingularProblemError
+        If an active H_c is singular to working precision.
+    """
+
+    def __init__(
+        self,
+        phi: np.ndarray,
+        a: np.ndarray,
+        w: np.ndarray,
+        coeffs: np.ndarray,
+        rhs: np.ndarray,
+        active: np.ndarray,
+        *,
+        out: np.ndarray | None = None,
+        what: str = "the normal equations",
+    ) -> None:
+        N, _, p = phi.shape
+        n = a.shape[2]
+        coeffs = np.ascontiguousarray(coeffs, dtype=float)
+        shape = (n, N, 1 if len(coeffs) == 2 else len(coeffs), p, p)
+        self.w, self.coeffs = np.ascontiguousarray(w, dtype=float), coeffs
+        self.L = out if out is not None and out.shape == shape else np.empty(shape)
+        self.active = np.ascontiguousarray(active, dtype=np.bool_)
+        self._size = kernel_size(N, p)
+        worst, worst_t = np.empty(n), np.zeros(n, dtype=np.int64)
+        kernels.weighted_rows_factor_forward(
+            phi, a, self.w, coeffs, self.active, rhs, self.L, worst, worst_t, self._size
+        )
+        for c in np.flatnonzero(self.active):
+            _check_pivots(float(worst[c]), int(worst_t[c]), what)
+
+    def finish(self, rhs: np.ndarray) -> np.ndarray:
+        """Complete the solution of the right-hand sides forward-substituted by the
+        factorization (in place; returned)."""
+        kernels.weighted_rows_solve(
+            self.L, rhs, self.w, self.coeffs, self.active, False, self._size
+        )
+        return rhs
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """Solve H_c x = rhs_c for the active outputs; ``rhs`` (n, N, p, r), C-contiguous
+        float, is overwritten and returned."""
+        kernels.weighted_rows_solve(self.L, rhs, self.w, self.coeffs, self.active, True, self._size)
+        return rhs
 
 
 def _solve_bordered(system: BlockSystem, rhs, const, *, compute_cov, what) -> BlockSolution:
