@@ -417,7 +417,11 @@ def fit(
     ValueError, TypeError
         Invalid input (the message names the argument).
     SingularProblemError
-        The data do not identify the model (with the reason and remedies).
+        The data do not identify the model (with the reason and remedies); also
+        where one recorded sample dominates the objective of the squared loss with
+        ``norm="group"`` or ``"l1"`` (more than 1e6 robust scales from its output's
+        median, and the interior-point method cannot start): the message names the
+        sample and says to mark it missing (NaN) or to use a robust loss.
     """
     spec = FitSpec.from_arguments(locals())  # every option, checked once
     data = state_space_data(
