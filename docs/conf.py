@@ -33,6 +33,7 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
+    "sphinx-mathjax-offline",  # MathJax 3 copied into _static/: formulas render offline
     "numpydoc",
     "myst_parser",
     "sphinx_gallery.gen_gallery",
@@ -63,6 +64,8 @@ sphinx_gallery_conf = {
     "abort_on_example_error": True,
     "show_memory": False,
     "min_reported_time": 1,
+    # The execution-times page loads jQuery and DataTables from a CDN: not written.
+    "write_computation_times": False,
 }
 
 html_theme = "pydata_sphinx_theme"
@@ -72,4 +75,7 @@ html_theme_options = {
     "show_toc_level": 2,
     "footer_start": ["copyright"],
 }
-html_static_path: list[str] = []
+# Unset, the theme logs "invalid theme mode" to the console on every page.
+html_context = {"default_mode": "auto"}
+html_static_path = ["_static"]
+html_css_files = ["custom.css"]
