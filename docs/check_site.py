@@ -61,7 +61,6 @@ async function probe() {
             mathjax = "not loaded";
         }
     }
-    const images = Array.from(document.images).filter(img => img.loading !== "lazy" || img.complete);
     for (const img of document.images) {
         if (!img.complete) await new Promise(r => { img.onload = img.onerror = r; });
     }
@@ -77,8 +76,9 @@ async function probe() {
     const main = (document.querySelector("main") || document.documentElement).cloneNode(true);
     main.querySelectorAll("pre, code, script, style, mjx-container, .highlight, kbd, samp")
         .forEach(el => el.remove());
-    const rawTex = Array.from(new Set(main.textContent.match(/\\[A-Za-z]+|\\[()\[\]]|[_^]\{/g) || []));
-    done({mathjax, hasMath, brokenImages, mathErrors, unrendered, rawTex, nImages: images.length});
+    const tex = /\\[A-Za-z]+|\\[()\[\]]|[_^]\{/g;
+    const rawTex = Array.from(new Set(main.textContent.match(tex) || []));
+    done({mathjax, hasMath, brokenImages, mathErrors, unrendered, rawTex});
 }
 probe().catch(err => done({error: String(err)}));
 """
@@ -185,7 +185,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     build = args.build.resolve()
     if not (build / "index.html").is_file():
-        print(f"error: build: no index.html in {str(build)!r}; build the site first", file=sys.stderr)
+        print(f"error: build: no index.html in {str(build)!r}; build the site", file=sys.stderr)
         return 2
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     chromedriver = shutil.which("chromedriver")
@@ -222,11 +222,9 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{relative}: missing (no screenshot)")
     finally:
         driver.quit()
-    print(
-        f"site check: {len(pages)} pages, {failed} with problems, screenshots in "
-        f"{shots.relative_to(build.parent.parent) if build.is_relative_to(build.parent.parent) else shots} "
-        f"({time.perf_counter() - start:.1f} s)"
-    )
+    seconds = time.perf_counter() - start
+    print(f"site check: {len(pages)} pages, {failed} with problems ({seconds:.1f} s)")
+    print(f"screenshots: {', '.join(sorted(p.name for p in shots.glob('*.png')))} in {shots}")
     return 1 if failed else 0
 
 

@@ -11,6 +11,7 @@ The gallery runs every script in ``examples/`` in its quick mode (see
 from __future__ import annotations
 
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -79,3 +80,46 @@ html_theme_options = {
 html_context = {"default_mode": "auto"}
 html_static_path = ["_static"]
 html_css_files = ["custom.css"]
+
+
+# Docstrings write formulas in plain text, readable in help(): k_{t+1}, x^r_{t+1},
+# σ_{e,i}². On the site each subscripted or superscripted token is typeset by
+# MathJax as an inline :math: role; code, doctests and literal or math blocks
+# are left as they are. (The objectives of the estimators are ``.. math::`` blocks.)
+_LETTERS = r"A-Za-zα-ωΑ-Ω\u0300-\u036f"
+_SCRIPT = r"[_^](?:\{[^{}`]*\}|[\w−]+)"
+_TEX_TOKEN = re.compile(
+    rf"(?<![\w\\`$:])(?:[{_LETTERS}][{_LETTERS}0-9]*|\([^()\s`]*\))"
+    rf"(?:{_SCRIPT})*[_^]\{{[^{{}}`]*\}}(?:{_SCRIPT})*[²³¹⁻ᵀ]*"
+)
+_CODE_OR_ROLE = re.compile(r"(``.*?``|:\w+(?::\w+)*:`[^`]*`|`[^`]*`_?)")
+
+
+def _typeset_line(line: str) -> str:
+    parts = _CODE_OR_ROLE.split(line)
+    for i in range(0, len(parts), 2):  # the even parts are outside code and roles
+        parts[i] = _TEX_TOKEN.sub(lambda m: f":math:`{m.group(0)}`", parts[i])
+    return "".join(parts)
+
+
+def typeset_docstring_math(app, what, name, obj, options, lines: list[str]) -> None:
+    """Typeset the plain-text formulas of a docstring (after numpydoc's rewrite)."""
+    block_indent = None  # the indentation of the directive or ``::`` opening a block
+    for i, line in enumerate(lines):
+        stripped = line.lstrip()
+        indent = len(line) - len(stripped)
+        if block_indent is not None:
+            if not stripped or indent > block_indent:
+                continue
+            block_indent = None
+        if stripped.startswith((">>>", "...")):
+            continue
+        if stripped.rstrip().endswith("::") or stripped.startswith(".. "):
+            block_indent = indent
+            if stripped.startswith(".. "):
+                continue
+        lines[i] = _typeset_line(line)
+
+
+def setup(app) -> None:
+    app.connect("autodoc-process-docstring", typeset_docstring_math)
