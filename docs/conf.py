@@ -86,7 +86,7 @@ html_css_files = ["custom.css"]
 # σ_{e,i}². On the site each subscripted or superscripted token is typeset by
 # MathJax as an inline :math: role; code, doctests and literal or math blocks
 # are left as they are. (The objectives of the estimators are ``.. math::`` blocks.)
-_LETTERS = r"A-Za-zα-ωΑ-Ω\u0300-\u036f"
+_LETTERS = r"A-Za-zÀ-ɏα-ωΑ-Ωℓ\u0300-\u036f"
 _SCRIPT = r"[_^](?:\{[^{}`]*\}|[\w−]+)"
 _TEX_TOKEN = re.compile(
     rf"(?<![\w\\`$:])(?:[{_LETTERS}][{_LETTERS}0-9]*|\([^()\s`]*\))"
