@@ -14,7 +14,9 @@ every page it checks that
 - every image loaded (its natural width is positive);
 - the math rendered: MathJax typeset every formula without an error, and no
   raw TeX (a backslash command, ``_{`` or ``^{``) is left in the text outside
-  code.
+  code;
+- no code block is wider than its box (no line hidden behind a scrollbar) at
+  1280 px.
 
 It writes screenshots at 1280 px width of the home page, a guide page, a gallery
 page and an API page into ``<build>/_screenshots/`` for a reviewer, prints one
@@ -72,13 +74,17 @@ async function probe() {
     const unrendered = Array.from(document.querySelectorAll(".math"))
         .filter(el => el.querySelector("mjx-container") === null && !el.matches("mjx-container"))
         .map(el => el.textContent.trim().slice(0, 60));
+    // Code wider than its box hides behind a horizontal scrollbar.
+    const clipped = Array.from(document.querySelectorAll("main pre"))
+        .filter(el => el.scrollWidth > el.clientWidth + 1)
+        .map(el => el.textContent.split("\n").reduce((a, b) => (b.length > a.length ? b : a), ""));
     // The text a reader sees outside code: no TeX may be left in it.
     const main = (document.querySelector("main") || document.documentElement).cloneNode(true);
     main.querySelectorAll("pre, code, script, style, mjx-container, .highlight, kbd, samp")
         .forEach(el => el.remove());
     const tex = /\\[A-Za-z]+|\\[()\[\]]|[_^]\{/g;
     const rawTex = Array.from(new Set(main.textContent.match(tex) || []));
-    done({mathjax, hasMath, brokenImages, mathErrors, unrendered, rawTex});
+    done({mathjax, hasMath, brokenImages, mathErrors, unrendered, rawTex, clipped});
 }
 probe().catch(err => done({error: String(err)}));
 """
@@ -156,11 +162,12 @@ def check_page(driver, page: Path) -> list[str]:
         problems += [f"image not loaded: {src}" for src in result["brokenImages"]]
         problems += [f"formula with an error: {text}" for text in result["mathErrors"]]
         problems += [f"formula not typeset: {text}" for text in result["unrendered"]]
+        problems += [f"code line clipped: {line.strip()[:60]}" for line in result["clipped"]]
         if result["rawTex"]:
             problems.append(f"raw TeX in the text: {' '.join(result['rawTex'][:8])}")
     problems += _network_problems(driver)
     problems += _console_errors(driver)
-    return problems
+    return list(dict.fromkeys(problems))  # a resource fails once per reference to it
 
 
 def screenshot(driver, page: Path, target: Path) -> None:

@@ -223,7 +223,7 @@ def fit(
 
     With ``norm="sq"`` this is the exact minimizer of the squared-difference
     objective (the paper's slowly varying, smooth and general Kalman-model
-    problems; the guide's :eq:`squared-objective`)
+    problems; equation :eq:`squared-objective` of the user guide)
 
     .. math::
 
@@ -232,7 +232,7 @@ def fit(
 
     with :math:`k_t = \operatorname{vec}([A_t^\top \; B_t^\top])` and
     :math:`(Dk)_t = \sum_j c_j k_{t+j}` the difference operator given by
-    ``order`` (the guide's :eq:`difference-operator`). The data term runs over
+    ``order`` (equation :eq:`difference-operator` of the user guide). The data term runs over
     the R trajectories and the observed transitions (w_rt = 1 unless
     ``weights`` are given). With ``norm="group"`` or ``"l1"`` the penalty is
     :math:`\lambda \sum_t \lVert (Dk)_t \rVert_2` or

@@ -88,7 +88,7 @@ def fit_regression(
         \sum_t \lVert y_t - \Theta_t \varphi_t \rVert_2^2 + \lambda \sum_t \lVert (Dk)_t \rVert_1,
 
     with :math:`(Dk)_t = \sum_j c_j k_{t+j}` the difference operator of ``order``
-    (the guide's :eq:`difference-operator`), solved exactly as in :func:`fit`. The n
+    (equation :eq:`difference-operator` of the user guide), solved exactly as in :func:`fit`. The n
     output rows share the regressor φ_t (Θ_t is n × p, K = n·p). :func:`fit`
     is this with y_t = x_{t+1} and φ_t = [x_t; u_t]; for piecewise-constant
     models with a known number of changes use
