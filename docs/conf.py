@@ -11,6 +11,7 @@ The gallery runs every script in ``examples/`` in its quick mode (see
 from __future__ import annotations
 
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -33,6 +34,7 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
+    "sphinx-mathjax-offline",  # MathJax 3 copied into _static/: formulas render offline
     "numpydoc",
     "myst_parser",
     "sphinx_gallery.gen_gallery",
@@ -63,6 +65,8 @@ sphinx_gallery_conf = {
     "abort_on_example_error": True,
     "show_memory": False,
     "min_reported_time": 1,
+    # The execution-times page loads jQuery and DataTables from a CDN: not written.
+    "write_computation_times": False,
 }
 
 html_theme = "pydata_sphinx_theme"
@@ -72,4 +76,50 @@ html_theme_options = {
     "show_toc_level": 2,
     "footer_start": ["copyright"],
 }
-html_static_path: list[str] = []
+# Unset, the theme logs "invalid theme mode" to the console on every page.
+html_context = {"default_mode": "auto"}
+html_static_path = ["_static"]
+html_css_files = ["custom.css"]
+
+
+# Docstrings write formulas in plain text, readable in help(): k_{t+1}, x^r_{t+1},
+# σ_{e,i}². On the site each subscripted or superscripted token is typeset by
+# MathJax as an inline :math: role; code, doctests and literal or math blocks
+# are left as they are. (The objectives of the estimators are ``.. math::`` blocks.)
+_LETTERS = r"A-Za-zÀ-ɏα-ωΑ-Ωℓ\u0300-\u036f"
+_SCRIPT = r"[_^](?:\{[^{}`]*\}|[\w−]+)"
+_TEX_TOKEN = re.compile(
+    rf"(?<![\w\\`$:])(?:[{_LETTERS}][{_LETTERS}0-9]*|\([^()\s`]*\))"
+    rf"(?:{_SCRIPT})*[_^]\{{[^{{}}`]*\}}(?:{_SCRIPT})*[²³¹⁻ᵀ]*"
+)
+_CODE_OR_ROLE = re.compile(r"(``.*?``|:\w+(?::\w+)*:`[^`]*`|`[^`]*`_?)")
+
+
+def _typeset_line(line: str) -> str:
+    parts = _CODE_OR_ROLE.split(line)
+    for i in range(0, len(parts), 2):  # the even parts are outside code and roles
+        parts[i] = _TEX_TOKEN.sub(lambda m: f":math:`{m.group(0)}`", parts[i])
+    return "".join(parts)
+
+
+def typeset_docstring_math(app, what, name, obj, options, lines: list[str]) -> None:
+    """Typeset the plain-text formulas of a docstring (after numpydoc's rewrite)."""
+    block_indent = None  # the indentation of the directive or ``::`` opening a block
+    for i, line in enumerate(lines):
+        stripped = line.lstrip()
+        indent = len(line) - len(stripped)
+        if block_indent is not None:
+            if not stripped or indent > block_indent:
+                continue
+            block_indent = None
+        if stripped.startswith((">>>", "...")):
+            continue
+        if stripped.rstrip().endswith("::") or stripped.startswith(".. "):
+            block_indent = indent
+            if stripped.startswith(".. "):
+                continue
+        lines[i] = _typeset_line(line)
+
+
+def setup(app) -> None:
+    app.connect("autodoc-process-docstring", typeset_docstring_math)

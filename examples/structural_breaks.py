@@ -8,7 +8,7 @@ compares them to all printed digits):
 
 * the Nile's annual flow, y ~ 1: one break, its 95 % confidence interval, the
   supF test and Bai and Perron's sequential test;
-* the UK car-driver deaths (log10), y_t ~ y_{t-1} + y_{t-12} + 1 with
+* the UK car-driver deaths (log10), y[t] ~ y[t−1] + y[t−12] + 1 with
   h = 0.1: two breaks with their intervals, the RSS and BIC of 0 … 8 breaks,
   and the supF test;
 * the same deaths with the monthly pattern held fixed across segments

@@ -8,6 +8,7 @@ docs/_build/html`` (in ``.ci/run``).
 """
 
 import importlib
+import importlib.util
 import inspect
 import re
 from pathlib import Path
@@ -88,3 +89,43 @@ def test_public_functions_document_their_parameters_and_return_value():
                 if code in {"PR01", "PR02", "PR07", "RT01"}:
                     problems.append(f"{module_name}.{name}: {code} {message}")
     assert problems == []
+
+
+def _docs_conf():
+    spec = importlib.util.spec_from_file_location("docs_conf", ROOT / "docs" / "conf.py")
+    conf = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(conf)
+    return conf
+
+
+def test_plain_text_formulas_of_docstrings_are_typeset_on_the_site():
+    """The site's docstring hook wraps TeX-like tokens in :math: and leaves code alone."""
+    conf = _docs_conf()
+    lines = [
+        "Minimizes Σ_t ‖x^r_{t+1} − A_t x^r_t‖² with σ_{e,i}² and ℓ_{N−1}, ū_{N−1}.",
+        "Literal ``k_{t+1}`` and :func:`f` stay; so does a role :math:`k_{t}`.",
+        ">>> a[1] = 1  # (Dk)_t = k_{t+1} − k_t",
+        "Example::",
+        "",
+        "    y_{t} = 1",
+        ".. math::",
+        "",
+        "    \\sum_{t} k_{t+1}",
+        "After the block: Θ_{c−1}.",
+    ]
+    conf.typeset_docstring_math(None, "function", "f", None, {}, lines)
+    assert lines[0] == (
+        "Minimizes Σ_t ‖:math:`x^r_{t+1}` − A_t x^r_t‖² with :math:`σ_{e,i}²` and "
+        ":math:`ℓ_{N−1}`, :math:`ū_{N−1}`."
+    )
+    assert lines[1] == "Literal ``k_{t+1}`` and :func:`f` stay; so does a role :math:`k_{t}`."
+    assert lines[2:9] == [
+        ">>> a[1] = 1  # (Dk)_t = k_{t+1} − k_t",
+        "Example::",
+        "",
+        "    y_{t} = 1",
+        ".. math::",
+        "",
+        "    \\sum_{t} k_{t+1}",
+    ]
+    assert lines[9] == "After the block: :math:`Θ_{c−1}`."

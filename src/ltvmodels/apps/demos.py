@@ -71,7 +71,7 @@ def run_jump_linear_demo(
     Simulates :func:`ltvmodels.systems.jump_linear` (T = 400, switch at
     t = 200, process and measurement noise σ = 0.2) and fits it. With
     ``norm="group"`` (the paper's Fig. 1) this is the group-lasso fit
-    (eq. pwconstant, order 1) followed by the two-step refinement
+    (the paper's piecewise constant problem, order 1) followed by the two-step refinement
     (``refine=True``); with ``norm="sq"`` a slowly varying fit. It writes a report
     (the model summary, RMS coefficient error against the truth and in-sample
     one-step prediction RMS, each compared with the least-squares LTI model and

@@ -20,8 +20,8 @@ Learning iterates, as in guided policy search (Levine & Koltun 2013):
 
 Models (``MODELS``): ``"true"`` — the simulator's exact Jacobians along the
 trajectory; ``"ltv"`` — :func:`ltvmodels.fit` with ``norm="sq"``, ``order=2``
-(paper eq. smooth); ``"lti"`` — :func:`ltvmodels.fit_lti`; ``"prior"`` — the
-LTV fit with a Gaussian prior (paper eq. prioropt) centred on the true model
+(the paper's smooth problem); ``"lti"`` — :func:`ltvmodels.fit_lti`; ``"prior"`` — the
+LTV fit with a Gaussian prior (the paper's maximum a posteriori problem) centred on the true model
 linearized along the trajectory. The fitted models are affine (a constant input
 column); every model is used as a linearization through the measured trajectory
 (:meth:`ltvmodels.control.LinearDynamics.through`), so the models differ only
@@ -603,7 +603,7 @@ def learn(
         From :func:`cartpole_task`.
     model : {"true", "ltv", "lti", "prior", "learned"}
         "true": the simulator's Jacobians along the rollout; "ltv":
-        :func:`ltvmodels.fit` with ``norm="sq"``, ``order=2`` (paper eq. smooth)
+        :func:`ltvmodels.fit` with ``norm="sq"``, ``order=2`` (the paper's smooth problem)
         and a constant input column; "lti": :func:`ltvmodels.fit_lti` with a
         constant input column; "prior": the LTV fit with the prior
         N(true linearization along the rollout, ``prior_std``² I) (paper eq.

@@ -1,6 +1,7 @@
 """norm="group" and norm="l1": ADMM on z = Λ D k with a cached banded k-update.
 
-Objective (paper eqs. pwconstant, pwlinear, pwconstant_naive):
+Objective (the paper's piecewise constant, piecewise linear and coefficient-wise piecewise
+constant problems):
 
     minimize_k  Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ (Dk)_t),
 

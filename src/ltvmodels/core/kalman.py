@@ -1,7 +1,7 @@
 """Kalman filter and Rauch–Tung–Striebel smoother for the parameter random walk.
 
-Paper Section IV-C (eqs. dynsys, dynsys2, Proposition 1). The squared-difference
-problem solved by :func:`ltvmodels.fit` with ``norm="sq"`` and a scalar λ,
+Paper Section IV-C (the random-walk parameter model, its momentum variant, Proposition 1). The
+squared-difference problem solved by :func:`ltvmodels.fit` with ``norm="sq"`` and a scalar λ,
 
     minimize_k  Σ_t ‖y_t − Θ_t φ_t‖² + λ² Σ_t ‖(Dk)_t‖²,   (Dk)_t = Σ_{j=0..d} c_j k_{t+j},
 
@@ -18,8 +18,8 @@ row i is s_t = (θ_{t,i}, θ_{t−1,i}, …, θ_{t−d+1,i}) ∈ R^D, D = d·p:
     y_{t,i} = hₜᵀ s_t + e,     h_t = (φ_t, 0, …, 0),
 
 with C the d × d companion matrix of the a_l. For d = 1 this is the random walk
-k_{t+1} = k_t + w_t (eq. dynsys with H = I); for d = 2 it is
-k_{t+1} = 2k_t − k_{t−1} + w_t, the augmented model eq. dynsys2 in the
+k_{t+1} = k_t + w_t (the random-walk model with H = I); for d = 2 it is
+k_{t+1} = 2k_t − k_{t−1} + w_t, the paper's augmented model with momentum in the
 coordinates (k_t, k_{t−1}) instead of (k_t, k_t − k_{t−1}). Every output row is
 a separate scalar-measurement problem with the same h_t, so the covariance
 recursion (D × D) is shared by all rows and only the means differ (D × n).

@@ -1,8 +1,8 @@
 """Penalties on the coefficients' differences, as objects the solvers dispatch on.
 
-A fit minimizes Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ (Dk)_t) (paper eqs. slow,
-pwconstant, pwconstant_naive), with D the difference operator of the fit's
-order and Λ = diag(λ_j) the weights of λ. A :class:`Penalty` is R with what
+A fit minimizes Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ (Dk)_t) (the paper's
+slowly varying, piecewise constant and coefficient-wise problems), with D the difference
+operator of the fit's order and Λ = diag(λ_j) the weights of λ. A :class:`Penalty` is R with what
 the solvers need of it:
 
 * the squared norm (``closed_form``) is solved exactly by one banded
@@ -84,7 +84,7 @@ class Penalty:
 
 
 class SquaredNorm(Penalty):
-    """R(z) = Σ_t ‖z_t‖² with z_t = Λ(Dk)_t, or (Dk)_tᵀ Λ (Dk)_t for a (K, K) λ (eq. slow)."""
+    """R(z) = Σ_t ‖z_t‖² with z_t = Λ(Dk)_t, or (Dk)_tᵀ Λ (Dk)_t for a (K, K) λ (slowly varying)."""
 
     name = "sq"
     selection = "ml"
@@ -101,7 +101,7 @@ class SquaredNorm(Penalty):
 
 
 class GroupNorm(Penalty):
-    """R(z) = Σ_t ‖z_t‖₂: all coefficients change together (eqs. pwconstant, pwlinear)."""
+    """R(z) = Σ_t ‖z_t‖₂: all coefficients change together (piecewise constant or linear)."""
 
     name = "group"
     interior_point = True
@@ -118,7 +118,7 @@ class GroupNorm(Penalty):
 
 
 class L1Norm(Penalty):
-    """R(z) = Σ_t ‖z_t‖₁: sparse changes per coefficient (eq. pwconstant_naive)."""
+    """R(z) = Σ_t ‖z_t‖₁: sparse changes per coefficient (coefficient-wise changes)."""
 
     name = "l1"
     interior_point = True

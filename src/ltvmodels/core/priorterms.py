@@ -5,7 +5,7 @@ A validated prior (built by :mod:`ltvmodels.estimators.priors` from a user's
 independent measurement z_t = M_t k_t + noise with precision P_t: M_t = I
 (parameters) or M_t = I_n ⊗ φ_tᵀ (the one-step output). The squared-norm
 solver adds it to the normal equations; :func:`posthoc_correction` applies the
-paper's correction step (eqs. postk–postcov) to smoothed estimates instead.
+paper's correction step (its Kalman correction step) to smoothed estimates instead.
 """
 
 from __future__ import annotations
@@ -49,7 +49,7 @@ def precision_matrix(cov: np.ndarray) -> np.ndarray:
 def posthoc_correction(
     k: np.ndarray, cov: np.ndarray, prior: PriorTerm, phi: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The paper's repeated correction step (eqs. postk–postcov) on smoothed estimates.
+    """The paper's repeated Kalman correction step on smoothed estimates.
 
     A measurement update with the prior as measurement z_t = M_t k_t + e_t,
     e_t ~ N(0, R_t):
@@ -57,7 +57,7 @@ def posthoc_correction(
         K̄_t = P_t M_tᵀ (M_t P_t M_tᵀ + R_t)⁻¹,  k̄_t = k_t + K̄_t (z_t − M_t k_t),
         P̄_t = P_t − K̄_t M_t P_t,
 
-    with M_t = I (parameter prior, eqs. postk–postcov exactly) or
+    with M_t = I (parameter prior, the paper's correction step exactly) or
     M_t = I_n ⊗ φ_tᵀ (output prior).
 
     Parameters

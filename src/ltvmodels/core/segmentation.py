@@ -1,6 +1,7 @@
-"""Exact L0 segmentation of a regression: dynamic programming and PELT (paper eq:l0).
+"""Exact L0 segmentation of a regression (dynamic programming and PELT).
 
-The data are y_t ∈ R^n and φ_t ∈ R^p, t = 0 … N-1, and a segmentation
+The paper's problem with a known number of changes. The data are y_t ∈ R^n and
+φ_t ∈ R^p, t = 0 … N-1, and a segmentation
 0 = τ_0 < τ_1 < … < τ_{M+1} = N fits one least-squares model per segment
 [τ_j, τ_{j+1}). The cost of a segment [a, b) is its residual sum of squares
 

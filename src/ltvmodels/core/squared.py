@@ -1,6 +1,6 @@
 """norm="sq": the exact minimizer of the squared-difference problem, with priors.
 
-Objective (paper eqs. slow, smooth, generalkalman, prioropt), with σ² the
+Objective (the paper's slowly varying, smooth, general Kalman-model and prior problems), with σ² the
 noise variance:
 
     J(k) = Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t (Dk)_tᵀ W (Dk)_t
@@ -9,7 +9,7 @@ noise variance:
 W = λ² I for a scalar λ (stored as its diagonal, a (K,) vector, for a scalar
 or vector λ: no K × K array is formed unless the user passed a matrix). It is
 the negative log posterior (times σ²) of the Gaussian random walk
-k_{t+1} = k_t + w_t (paper eq. dynsys; for higher orders the polynomial model
+k_{t+1} = k_t + w_t (the paper's random-walk parameter model; for higher orders the polynomial model
 of Proposition 1) with measurement noise R2 = σ² I and parameter drift
 R1 = σ²/λ² I.
 

@@ -84,7 +84,7 @@ def arx_regressors(
 
     Examples
     --------
-    Exact L0 segmentation of an ARX model (paper eq:l0):
+    Exact L0 segmentation of an ARX model (the paper's problem with a known number of changes):
 
     >>> import numpy as np, ltvmodels as ltv
     >>> rng = np.random.default_rng(0)
@@ -156,16 +156,28 @@ def fit_arx(
     progress: Callable[[int, int], None] | None = None,
     regular: bool = True,
 ) -> ARXModel:
-    """Identify a time-varying (V)ARX model.
+    r"""Identify a time-varying (V)ARX model.
 
-    y[t] = Σ_{i=1}^{na} A_{t,i} y[t−i] + Σ_{j=1}^{nb} B_{t,j} u[t−nk−j+1] (+ c_t) + e[t]:
+    .. math::
+
+        y_t = \sum_{i=1}^{n_a} A_{t,i}\, y_{t-i} + \sum_{j=1}^{n_b} B_{t,j}\, u_{t-n_k-j+1}
+        \; (+\, c_t) + e_t,
+
     the regression of :func:`arx_regressors` solved by
     :func:`ltvmodels.fit_regression`. With ``norm="sq"`` the exact minimizer of
 
-        Σ_{t=L}^{T−1} ‖y[t] − Θ_t φ_t‖² + λ² Σ_t ‖(Dk)_t‖²,   k_t = Θ_t.ravel(),
+    .. math::
 
-    and with ``norm="group"`` / ``"l1"`` the penalty λ Σ_t ‖(Dk)_t‖₂ / ‖(Dk)_t‖₁
-    (piecewise constant or linear coefficients), as in :func:`ltvmodels.fit`.
+        \sum_{t=L}^{T-1} \lVert y_t - \Theta_t \varphi_t \rVert_2^2
+        + \lambda^2 \sum_t \lVert (Dk)_t \rVert_2^2,
+        \qquad k_t = \operatorname{vec}(\Theta_t^\top),
+
+    with :math:`\Theta_t = [A_{t,1} \cdots A_{t,n_a} \; B_{t,1} \cdots B_{t,n_b} \; (c_t)]`,
+    :math:`\varphi_t` the stacked lags and :math:`L` the first sample with all
+    lags available, and with ``norm="group"`` / ``"l1"`` the penalty
+    :math:`\lambda \sum_t \lVert (Dk)_t \rVert_2` or
+    :math:`\lambda \sum_t \lVert (Dk)_t \rVert_1` (piecewise constant or linear
+    coefficients), as in :func:`ltvmodels.fit`.
 
     Parameters
     ----------
@@ -264,12 +276,20 @@ def fit_ar(
     progress: Callable[[int, int], None] | None = None,
     regular: bool = True,
 ) -> ARModel:
-    """Identify a time-varying (V)AR(na) model y[t] = Σ_{i=1}^{na} A_{t,i} y[t−i] (+ c_t) + e[t].
+    r"""Identify a time-varying (V)AR(na) model y[t] = Σ_i A_{t,i} y[t−i] (+ c_t) + e[t].
 
-    The regression of :func:`ar_regressors`, solved as in :func:`fit_arx`
-    (objective Σ_{t=na}^{T−1} ‖y[t] − Θ_t φ_t‖² + R(DΘ) with the penalty R of
-    ``norm``). For a scalar series :meth:`ARModel.root_spectrogram` gives the
-    resonance frequencies over time.
+    The regression of :func:`ar_regressors`, solved as in :func:`fit_arx`:
+    the minimizer of
+
+    .. math::
+
+        \sum_{t=n_a}^{T-1}
+        \Bigl\lVert y_t - \sum_{i=1}^{n_a} A_{t,i}\, y_{t-i} \; (-\, c_t) \Bigr\rVert_2^2 + R(Dk),
+
+    with :math:`R(Dk) = \lambda^2 \sum_t \lVert (Dk)_t \rVert_2^2` for ``norm="sq"``,
+    :math:`\lambda \sum_t \lVert (Dk)_t \rVert_2` for ``"group"`` and
+    :math:`\lambda \sum_t \lVert (Dk)_t \rVert_1` for ``"l1"``. For a scalar series
+    :meth:`ARModel.root_spectrogram` gives the resonance frequencies over time.
 
     Parameters
     ----------

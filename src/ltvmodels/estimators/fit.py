@@ -54,7 +54,7 @@ def fit_lti(
     em_max_iter: int = 500,
     em_accelerate: bool = True,
 ) -> LTVModel:
-    """Least-squares LTI model x[t+1] = A x[t] + B u[t] (+ c) + v_t (paper eqs. lscost, ls).
+    """Least-squares LTI model x[t+1] = A x[t] + B u[t] (+ c) + v_t.
 
     Minimizes Σ_r Σ_t w_rt ‖x^r_{t+1} − A x^r_t − B u^r_t (− c)‖² over the observed
     transitions. All output rows share the regressor φ_t = [x_t; u_t (; 1)],
@@ -219,17 +219,27 @@ def fit(
     em_max_iter: int = 500,
     em_accelerate: bool = True,
 ) -> LTVModel:
-    """Identify an LTV model x[t+1] = A_t x[t] + B_t u[t] (+ c_t) + v_t.
+    r"""Identify an LTV model x[t+1] = A_t x[t] + B_t u[t] (+ c_t) + v_t.
 
-    With ``norm="sq"`` this is the exact minimizer of (paper eqs. slow, smooth,
-    generalkalman)
+    With ``norm="sq"`` this is the exact minimizer of the squared-difference
+    objective (the paper's slowly varying, smooth and general Kalman-model
+    problems; equation :eq:`squared-objective` of the user guide)
 
-        Σ_r Σ_t w_rt ‖x^r_{t+1} − A_t x^r_t − B_t u^r_t‖² + λ² Σ_t ‖(Dk)_t‖²,
+    .. math::
 
-    with k_t = vec([A_tᵀ B_tᵀ]) and (Dk)_t = Σ_j c_j k_{t+j} the difference
-    operator given by ``order``. The data term runs over the R trajectories
-    and the observed transitions (w_rt = 1 unless ``weights`` are given). It
-    is also the posterior mode of the Gaussian random walk (paper eq. dynsys)
+        \sum_{r=1}^{R} \sum_t w_{rt} \lVert x^r_{t+1} - A_t x^r_t - B_t u^r_t \rVert_2^2
+        + \lambda^2 \sum_t \lVert (Dk)_t \rVert_2^2,
+
+    with :math:`k_t = \operatorname{vec}([A_t^\top \; B_t^\top])` and
+    :math:`(Dk)_t = \sum_j c_j k_{t+j}` the difference operator given by
+    ``order`` (equation :eq:`difference-operator` of the user guide). The data term runs over
+    the R trajectories and the observed transitions (w_rt = 1 unless
+    ``weights`` are given). With ``norm="group"`` or ``"l1"`` the penalty is
+    :math:`\lambda \sum_t \lVert (Dk)_t \rVert_2` or
+    :math:`\lambda \sum_t \lVert (Dk)_t \rVert_1` instead (see
+    :doc:`/user_guide/methods` for the paper's Table I as calls). The
+    squared fit is also the posterior mode of the Gaussian random walk of the
+    coefficients
     with measurement noise σ_i² in state equation i and parameter drift
     σ_i²/λ² in its row, computed in O(N) by one banded Cholesky factorization
     shared by all rows of [A_t B_t].
@@ -257,24 +267,25 @@ def fit(
         "l1") and records the choice in ``info["lam_selection"]``.
     norm : {"sq", "group", "l1"}
         "sq": squared 2-norm (slowly varying / smooth). "group": the
-        non-squared 2-norm λ Σ_t ‖(Dk)_t‖₂ (paper eqs. pwconstant, pwlinear):
+        non-squared 2-norm λ Σ_t ‖(Dk)_t‖₂ (the paper's piecewise constant and
+        piecewise linear problems):
         few time steps where all coefficients change together (piecewise
         constant for order 1, piecewise linear for order 2). "l1":
-        λ Σ_t ‖(Dk)_t‖₁ (eq. pwconstant_naive): sparse changes per coefficient.
+        λ Σ_t ‖(Dk)_t‖₁ (the paper's coefficient-wise variant of the piecewise
+        constant problem): sparse changes per coefficient.
         The sparse norms take a scalar or (K,) vector λ > 0, where ``np.inf``
         holds a coefficient constant in time (see ``tol`` for the solvers);
         priors, covariances and the likelihood are available for "sq" only.
     order : int or sequence of float
-        1: first difference (slowly varying, eq. slow); 2: second difference
-        (smooth, eq. smooth); an integer d: d-th difference; or polynomial
-        coefficients c_0 … c_d, summing to zero, for (Dk)_t = Σ_j c_j k_{t+j}
-        (Proposition 1), e.g. ``[-1, 3, -3, 1]``.
+        1: first difference (slowly varying); 2: second difference (smooth); an integer d: d-th
+        difference; or polynomial coefficients c_0 … c_d, summing to zero, for (Dk)_t = Σ_j c_j
+        k_{t+j} (Proposition 1), e.g. ``[-1, 3, -3, 1]``.
     prior : Prior, OutputPrior, or a list of them, optional
         Gaussian priors on k_t or on the one-step output (paper Section IV).
     prior_mode : {"exact", "posthoc"}
-        "exact" solves eq. prioropt exactly (the prior as a second measurement
-        in the normal equations); "posthoc" applies the paper's correction
-        (eqs. postk–postcov) to the prior-free smoothed estimates.
+        "exact" finds the maximum a posteriori estimate under the prior exactly (the prior as a
+        second measurement in the normal equations); "posthoc" applies the paper's correction
+        (its repeated Kalman correction step) to the prior-free smoothed estimates.
     noise_var : float or array_like of shape (n,), optional
         Noise variance, shared or one per state equation; weighs priors
         against the data and scales the covariances. Default:

@@ -145,9 +145,9 @@ def kalman_filter(
     """Kalman filter for the parameters of x[t+1] = A_t x[t] + B_t u[t] + v_t.
 
     Computes k_{t|t} = E[k_t | x_0 … x_{t+1}, u_0 … u_t] and its covariance for
-    the random-walk model of the module docstring (paper eqs. dynsys, dynsys2,
-    Proposition 1): y_t = x[t+1], φ_t = [x[t]; u[t]], process noise σ²/(λ² c_d²),
-    measurement noise σ². With the default exact diffuse initialization k_{t|t}
+    the random-walk model of the module docstring (the paper's random-walk parameter model,
+    with momentum for order 2, Proposition 1): y_t = x[t+1], φ_t = [x[t]; u[t]], process noise
+    σ²/(λ² c_d²), measurement noise σ². With the default exact diffuse initialization k_{t|t}
     is the last time step of the minimizer of Σ_{s≤t} ‖y_s − Θ_s φ_s‖² +
     λ² Σ ‖(Dk)_s‖² on the data up to t (:func:`ltvmodels.fit` on x[:t+2]).
 
@@ -160,7 +160,7 @@ def kalman_filter(
     lam : float
         λ > 0 (scalar only).
     order : int or sequence of float
-        Difference operator: 1 (random walk), 2 (eq. dynsys2), an integer d, or
+        Difference operator: 1 (random walk), 2 (a random walk with momentum), an integer d, or
         polynomial coefficients c_0 … c_d summing to zero.
     noise_var : float
         Measurement noise variance σ² > 0. The means do not depend on it (without
@@ -205,8 +205,8 @@ def kalman_smoother(
 
         Σ_t ‖x_{t+1} − A_t x_t − B_t u_t‖² + λ² Σ_t ‖(Dk)_t‖²
 
-    (paper eqs. slow, smooth, generalkalman) and the covariances σ² [H⁻¹]_tt,
-    the same numbers as ``ltvmodels.fit(x, u, lam=lam, order=order,
+    (the paper's slowly varying, smooth and general Kalman-model problems) and the covariances
+    σ² [H⁻¹]_tt, the same numbers as ``ltvmodels.fit(x, u, lam=lam, order=order,
     noise_var=noise_var)``, computed in O(N (d·p)³) with one D × D covariance
     recursion (D = d·p) shared by the n output rows.
 

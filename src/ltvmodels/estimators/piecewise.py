@@ -82,12 +82,20 @@ def fit_piecewise(
     em_max_iter: int = 500,
     em_accelerate: bool = True,
 ) -> LTVModel:
-    """Least-squares LTV model that is piecewise constant or linear between given change points.
+    r"""Least-squares LTV model that is piecewise constant or linear between given change points.
 
     Solves the equality-constrained second step of the paper's two-step
-    refinement (Section III-G) exactly; see :mod:`ltvmodels.estimators.piecewise` for the
-    parametrization. Typically the change points come from
-    :func:`ltvmodels.find_changepoints` applied to a first-step fit.
+    refinement (Section III-G) exactly: with :math:`\mathcal{C}` the change points,
+
+    .. math::
+
+        \min_{k} \sum_t \lVert x_{t+1} - A_t x_t - B_t u_t \rVert_2^2
+        \quad \text{subject to} \quad k_t = k_{t-1} \text{ for } t \notin \mathcal{C}
+
+    for ``order=1``, and for ``order=2`` subject to :math:`k_t` being linear in
+    :math:`t` between consecutive change points and continuous at them; see
+    :mod:`ltvmodels.estimators.piecewise` for the parametrization. Typically the change points
+    come from :func:`ltvmodels.find_changepoints` applied to a first-step fit.
 
     Parameters
     ----------

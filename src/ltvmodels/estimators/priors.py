@@ -1,14 +1,14 @@
 """Gaussian priors on the coefficients or on the output (paper Section IV).
 
-A prior is a second, independent measurement (paper eqs. postk–postcov):
+A prior is a second, independent measurement (the paper's Kalman correction step):
 
 * :class:`Prior` — k_t ~ N(μ_t, Σ_t): the term Σ_t ‖μ_t − k_t‖²_{Σ_t⁻¹} of
-  paper eq. prioropt;
+  the paper's maximum a posteriori problem;
 * :class:`OutputPrior` — x_{t+1} = A_t x_t + B_t u_t ~ N(ȳ_t, S_t): a belief
   about the model's one-step output, entering as an extra measurement update.
 
 With ``prior_mode="exact"`` both enter the normal equations, weighted against
-the data by the noise variance σ², and the MAP estimate of eq. prioropt is
+the data by the noise variance σ², and the MAP estimate of that problem is
 obtained exactly. ``prior_mode="posthoc"`` applies the paper's repeated
 correction to the smoothed estimates instead (kept for comparison; it is not
 the MAP estimate).

@@ -68,15 +68,27 @@ def fit_regression(
     refine: bool = False,
     regular: bool = True,
 ) -> RegressionModel:
-    """Identify a time-varying regression y_t = Θ_t φ_t + e_t.
+    r"""Identify a time-varying regression y_t = Θ_t φ_t + e_t.
 
     The general problem behind every front-end: any model linear in its
     parameters (paper, Discussion). With ``norm="sq"`` it is the exact minimizer of
 
-        Σ_t ‖y_t − Θ_t φ_t‖² + λ² Σ_t ‖(Dk)_t‖²,   k_t = Θ_t.ravel() (rows of Θ_t),
+    .. math::
 
-    and with ``norm="group"`` / ``"l1"`` of Σ_t ‖y_t − Θ_t φ_t‖² + λ Σ_t ‖(Dk)_t‖
-    (2-norm, not squared / 1-norm), solved exactly as in :func:`fit`. The n
+        \sum_t \lVert y_t - \Theta_t \varphi_t \rVert_2^2
+        + \lambda^2 \sum_t \lVert (Dk)_t \rVert_2^2,
+        \qquad k_t = \operatorname{vec}(\Theta_t^\top) \text{ (the rows of } \Theta_t \text{)},
+
+    and with ``norm="group"`` / ``"l1"`` of
+
+    .. math::
+
+        \sum_t \lVert y_t - \Theta_t \varphi_t \rVert_2^2 + \lambda \sum_t \lVert (Dk)_t \rVert_2
+        \quad\text{or}\quad
+        \sum_t \lVert y_t - \Theta_t \varphi_t \rVert_2^2 + \lambda \sum_t \lVert (Dk)_t \rVert_1,
+
+    with :math:`(Dk)_t = \sum_j c_j k_{t+j}` the difference operator of ``order``
+    (equation :eq:`difference-operator` of the user guide), solved exactly as in :func:`fit`. The n
     output rows share the regressor φ_t (Θ_t is n × p, K = n·p). :func:`fit`
     is this with y_t = x_{t+1} and φ_t = [x_t; u_t]; for piecewise-constant
     models with a known number of changes use

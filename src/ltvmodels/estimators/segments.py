@@ -1,7 +1,7 @@
 """Exact piecewise-constant segmentation with a known number of changes or a penalty.
 
-Paper Section III-D (eq:l0): with at most M time indices where the model
-changes,
+Paper Section III-D (the problem with a known number of changes): with at most M time indices
+where the model changes,
 
     minimize_Θ  Σ_t ‖y_t − Θ_t φ_t‖²   subject to   Σ_t 1{Θ_{t+1} ≠ Θ_t} <= M,
 
@@ -216,16 +216,26 @@ def fit_segments(
     fixed: Any = None,
     cost: SegmentCost = "rss",
 ) -> LTVModel:
-    """Piecewise-constant LTV model with exactly optimal change points (paper eq:l0).
+    r"""Piecewise-constant LTV model with exactly optimal change points.
 
-    With ``n_changes=M`` it finds the global optimum of
+    With ``n_changes=M`` it finds the global optimum of the paper's problem
+    with a known number of changes,
 
-        minimize  Σ_{t=0}^{N−1} ‖x_{t+1} − A_t x_t − B_t u_t‖²
-        subject to  #{t : k_t ≠ k_{t−1}} <= M,
+    .. math::
+
+        \min_{k} \sum_{t=0}^{N-1} \lVert x_{t+1} - A_t x_t - B_t u_t \rVert_2^2
+        \quad \text{subject to} \quad \sum_{t} \mathbf{1}\{k_t \neq k_{t-1}\} \le M,
 
     by Bellman's dynamic programming over segmentations (segment
     neighbourhood); with ``penalty=β`` the global optimum of the penalized
-    problem Σ_t ‖x_{t+1} − A_t x_t − B_t u_t‖² + β · #changes by PELT
+    problem
+
+    .. math::
+
+        \min_{k} \sum_{t=0}^{N-1} \lVert x_{t+1} - A_t x_t - B_t u_t \rVert_2^2
+        + \beta \sum_{t} \mathbf{1}\{k_t \neq k_{t-1}\}
+
+    by PELT
     (pruned dynamic programming, also exact). Each segment between two
     changes is one LTI model [A B] fitted by least squares (the n output rows
     share the regressor φ_t = [x_t; u_t], p = n + m).
