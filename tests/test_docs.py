@@ -30,6 +30,7 @@ DOCUMENTED_MODULES = [
     "ltvmodels.apps.rl",
     "ltvmodels.apps.gym_rl",
     "ltvmodels.apps.demos",
+    "ltvmodels.sktime",
 ]
 
 
