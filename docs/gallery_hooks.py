@@ -26,6 +26,7 @@ ORDER = [
     "chirp_spectrogram",
     "gym_pendulum",
     "structural_breaks",
+    "sktime_backtest",
 ]
 
 # Options of each example's quick mode (the default for a script not named: none).
@@ -33,6 +34,7 @@ QUICK = {
     "rl_cartpole": ["--quick", "--runs", "1"],
     "chirp_spectrogram": ["--quick"],
     "gym_pendulum": ["--quick"],
+    "sktime_backtest": ["--quick"],
 }
 
 
