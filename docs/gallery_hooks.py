@@ -27,6 +27,7 @@ ORDER = [
     "chirp_spectrogram",
     "gym_pendulum",
     "structural_breaks",
+    "sktime_backtest",
 ]
 
 # Options of each example's quick mode (the default for a script not named: none).
@@ -34,6 +35,7 @@ ORDER = [
 QUICK = {
     "rl_cartpole": ["--quick", "--runs", "1"],
     "gym_pendulum": ["--quick"],
+    "sktime_backtest": ["--quick"],
 }
 
 

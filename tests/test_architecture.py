@@ -37,6 +37,7 @@ LAYERS = {
     "control": 3,
     "plotting": 4,
     "apps": 5,
+    "sktime": 5,
     "cli": 6,
     "__main__": 7,
 }

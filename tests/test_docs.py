@@ -31,6 +31,7 @@ DOCUMENTED_MODULES = [
     "ltvmodels.apps.rl",
     "ltvmodels.apps.gym_rl",
     "ltvmodels.apps.demos",
+    "ltvmodels.sktime",
 ]
 
 
