@@ -48,6 +48,7 @@ __all__ = [
     "block_size",
     "offdiagonal_step",
     "diagonal_step",
+    "cholesky_block",
     "factor_forward",
     "backward",
     "solve",
@@ -100,21 +101,24 @@ def _gram_entry(phi, n_rep, data_scale, extra, t, i, j):  # pragma: no cover - c
 
 
 @numba.njit(cache=True, inline="always")
-def _cholesky_block(A, ref, b):  # pragma: no cover - compiled
+def cholesky_block(A, ref, b):  # pragma: no cover - compiled
     """Lower Cholesky of A in place (reciprocal pivots on the diagonal); smallest pivot² / ref_a.
 
     Returns −1 if A is not positive definite.
     """
-    worst = np.inf
+    # The smallest ratio pivot² / ref is kept as a fraction (num / den) and
+    # divided out once: divisions are the slow operations of a small block.
+    num = np.inf
+    den = 1.0
     # Right-looking elimination without square roots first: each pivot waits
     # only for one division, not for a square root and a division.
     for j in range(b):
         s = A[j, j]
-        r = s / ref[j] if ref[j] > 0 else -1.0
-        if r < worst:
-            worst = r
-        if s <= 0.0:
+        if not ref[j] > 0 or s <= 0.0:
             return -1.0
+        if s * den < num * ref[j]:
+            num = s
+            den = ref[j]
         inv_s = 1.0 / s
         for i in range(j + 1, b):
             f = A[i, j] * inv_s
@@ -128,7 +132,7 @@ def _cholesky_block(A, ref, b):  # pragma: no cover - compiled
             A[i, j] *= inv
         for i in range(j):
             A[i, j] = 0.0
-    return worst
+    return num / den
 
 
 @numba.njit(cache=True, inline="always")
@@ -215,7 +219,7 @@ def diagonal_step(L, t, d, b, ref):  # pragma: no cover - compiled
                 for q in range(b):
                     acc += Ll[i, q] * Ll[j, q]
                 Ltt[i, j] -= acc
-    return _cholesky_block(Ltt, ref, b)
+    return cholesky_block(Ltt, ref, b)
 
 
 @numba.njit(cache=True, inline="always")
@@ -573,7 +577,7 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
                         for k in range(i, b):
                             acc += Ll[i, k] * Ll[j, k]
                         Ltt[i, j] -= acc
-            ratio = _cholesky_block(Ltt, ref, b)
+            ratio = cholesky_block(Ltt, ref, b)
         if ratio < worst:
             worst = ratio
             worst_t = t
