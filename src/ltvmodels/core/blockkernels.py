@@ -48,7 +48,6 @@ __all__ = [
     "block_size",
     "offdiagonal_step",
     "diagonal_step",
-    "cholesky_block",
     "factor_forward",
     "backward",
     "solve",
@@ -101,7 +100,7 @@ def _gram_entry(phi, n_rep, data_scale, extra, t, i, j):  # pragma: no cover - c
 
 
 @numba.njit(cache=True, inline="always")
-def cholesky_block(A, ref, b):  # pragma: no cover - compiled
+def _cholesky_block(A, ref, b):  # pragma: no cover - compiled
     """Lower Cholesky of A in place (reciprocal pivots on the diagonal); smallest pivot² / ref_a.
 
     Returns −1 if A is not positive definite.
@@ -219,7 +218,7 @@ def diagonal_step(L, t, d, b, ref):  # pragma: no cover - compiled
                 for q in range(b):
                     acc += Ll[i, q] * Ll[j, q]
                 Ltt[i, j] -= acc
-    return cholesky_block(Ltt, ref, b)
+    return _cholesky_block(Ltt, ref, b)
 
 
 @numba.njit(cache=True, inline="always")
@@ -577,7 +576,7 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
                         for k in range(i, b):
                             acc += Ll[i, k] * Ll[j, k]
                         Ltt[i, j] -= acc
-            ratio = cholesky_block(Ltt, ref, b)
+            ratio = _cholesky_block(Ltt, ref, b)
         if ratio < worst:
             worst = ratio
             worst_t = t
