@@ -107,16 +107,19 @@ def _cholesky_block(A, ref, b):  # pragma: no cover - compiled
 
     Returns −1 if A is not positive definite.
     """
-    worst = np.inf
+    # The smallest ratio pivot² / ref is kept as a fraction (num / den) and
+    # divided out once: divisions are the slow operations of a small block.
+    num = np.inf
+    den = 1.0
     # Right-looking elimination without square roots first: each pivot waits
     # only for one division, not for a square root and a division.
     for j in range(b):
         s = A[j, j]
-        r = s / ref[j] if ref[j] > 0 else -1.0
-        if r < worst:
-            worst = r
-        if s <= 0.0:
+        if not ref[j] > 0 or s <= 0.0:
             return -1.0
+        if s * den < num * ref[j]:
+            num = s
+            den = ref[j]
         inv_s = 1.0 / s
         for i in range(j + 1, b):
             f = A[i, j] * inv_s
@@ -130,7 +133,7 @@ def _cholesky_block(A, ref, b):  # pragma: no cover - compiled
             A[i, j] *= inv
         for i in range(j):
             A[i, j] = 0.0
-    return worst
+    return num / den
 
 
 @numba.njit(cache=True, inline="always")

@@ -54,6 +54,20 @@ def weighted_difference(k, coeffs, w, out):  # pragma: no cover - compiled
                     acc += coeffs[q] * k[r + q, j]
                 out[r * K + j, 1] = w[j] * acc
         return
+    if g == K and coeffs.shape[0] == 2:  # group, first difference: the common case
+        c0, c1 = coeffs[0], coeffs[1]
+        for r in range(R):
+            for j in range(K):
+                out[r, 1 + j] = w[j] * (c0 * k[r, j] + c1 * k[r + 1, j])
+        return
+    if g == K:  # group: cone r is row r, again without integer divisions
+        for r in range(R):
+            for j in range(K):
+                acc = 0.0
+                for q in range(coeffs.shape[0]):
+                    acc += coeffs[q] * k[r + q, j]
+                out[r, 1 + j] = w[j] * acc
+        return
     C = K // g
     for r in range(R):
         for j in range(K):
@@ -75,6 +89,21 @@ def add_weighted_difference_adjoint(v, coeffs, w, scale, out):  # pragma: no cov
                 for q in range(coeffs.shape[0]):
                     out[r + q, j] += coeffs[q] * value
         return
+    if g == K and coeffs.shape[0] == 2:  # group, first difference: the common case
+        c0, c1 = coeffs[0], coeffs[1]
+        for r in range(v.shape[0]):
+            for j in range(K):
+                value = scale * w[j] * v[r, 1 + j]
+                out[r, j] += c0 * value
+                out[r + 1, j] += c1 * value
+        return
+    if g == K:  # group: cone r is row r, again without integer divisions
+        for r in range(v.shape[0]):
+            for j in range(K):
+                value = scale * w[j] * v[r, 1 + j]
+                for q in range(coeffs.shape[0]):
+                    out[r + q, j] += coeffs[q] * value
+        return
     C = K // g
     R = v.shape[0] // C
     for r in range(R):
@@ -86,25 +115,34 @@ def add_weighted_difference_adjoint(v, coeffs, w, scale, out):  # pragma: no cov
 
 @numba.njit(cache=True, inline="always")
 def _nt_cone(s, z, i, v, eta):  # pragma: no cover - compiled
-    """Nesterov–Todd scaling of cone i: fills v[i] and eta[i] (see :func:`nt_scaling`)."""
+    """Nesterov–Todd scaling of cone i: fills v[i] and eta[i] (see :func:`nt_scaling`).
+
+    Returns ‖v₁‖². Divisions and square roots are the slow operations here, so
+    each is taken once per cone and the entries are scaled by reciprocals.
+    """
     m = s.shape[1]
     s_j = s[i, 0] * s[i, 0]
     z_j = z[i, 0] * z[i, 0]
+    dot = s[i, 0] * z[i, 0]
     for a in range(1, m):
         s_j -= s[i, a] * s[i, a]
         z_j -= z[i, a] * z[i, a]
-    s_n = np.sqrt(s_j)
-    z_n = np.sqrt(z_j)
-    dot = 0.0
-    for a in range(m):
         dot += s[i, a] * z[i, a]
-    gamma = np.sqrt(0.5 * (1.0 + dot / (s_n * z_n)))
-    w0 = (s[i, 0] / s_n + z[i, 0] / z_n) / (2.0 * gamma)
+    s_n = np.sqrt(s_j)
+    inv_s = 1.0 / s_n
+    inv_z = 1.0 / np.sqrt(z_j)
+    half_inv_gamma = 0.5 / np.sqrt(0.5 * (1.0 + dot * inv_s * inv_z))
+    w0 = (s[i, 0] * inv_s + z[i, 0] * inv_z) * half_inv_gamma
     norm = 1.0 / np.sqrt(2.0 * (w0 + 1.0))
     v[i, 0] = (w0 + 1.0) * norm
+    scale = half_inv_gamma * norm
+    v1sq = 0.0
     for a in range(1, m):
-        v[i, a] = (s[i, a] / s_n - z[i, a] / z_n) / (2.0 * gamma) * norm
-    eta[i] = np.sqrt(s_n / z_n)
+        va = (s[i, a] * inv_s - z[i, a] * inv_z) * scale
+        v[i, a] = va
+        v1sq += va * va
+    eta[i] = np.sqrt(s_n * inv_z)
+    return v1sq
 
 
 @numba.njit(cache=True)
@@ -175,29 +213,48 @@ def prepare_newton(
 
     The NT scaling (v, η), λ = Wz, λ∘λ, u_rz = W⁻² r_z and the elimination
     terms α, β, s_coef: :func:`nt_scaling`, :func:`jordan_product`,
-    :func:`apply_scaling` and :func:`elimination_terms` fused.
+    :func:`apply_scaling` and :func:`elimination_terms` fused, with the
+    reflections written out (W x = η(2(vᵀx)v − Jx), W⁻¹x = η⁻¹(2(vᵀJx)Jv − Jx))
+    and one division for η⁻¹.
     """
     m = s.shape[1]
-    x = np.empty((1, m))
     for i in range(s.shape[0]):
-        _nt_cone(s, z, i, v, eta)
-        for a in range(m):
-            x[0, a] = z[i, a]
-        _scale_one(v, eta, i, x, 1.0)
-        sq = 0.0
-        for a in range(m):
-            lam[i, a] = x[0, a]
-            sq += x[0, a] * x[0, a]
-        lam_sq[i, 0] = sq
+        v1sq = _nt_cone(s, z, i, v, eta)
+        v0 = v[i, 0]
+        et = eta[i]
+        inv_eta = 1.0 / et
+        dot = v0 * z[i, 0]
         for a in range(1, m):
-            lam_sq[i, a] = 2.0 * x[0, 0] * x[0, a]
-        for a in range(m):
-            x[0, a] = r_z[i, a]
-        _scale_one(v, eta, i, x, -1.0)
-        _scale_one(v, eta, i, x, -1.0)
-        for a in range(m):
-            u_rz[i, a] = x[0, a]
-        _elimination_cone(v, eta, i, alpha, beta, s_coef)
+            dot += v[i, a] * z[i, a]
+        l0 = et * (2.0 * dot * v0 - z[i, 0])
+        lam[i, 0] = l0
+        sq = l0 * l0
+        for a in range(1, m):
+            la = et * (2.0 * dot * v[i, a] + z[i, a])
+            lam[i, a] = la
+            sq += la * la
+            lam_sq[i, a] = 2.0 * l0 * la
+        lam_sq[i, 0] = sq
+        # u_rz = W⁻¹(W⁻¹ r_z), the first reflection's vector part kept in u_rz
+        dot = v0 * r_z[i, 0]
+        for a in range(1, m):
+            dot -= v[i, a] * r_z[i, a]
+        x0 = inv_eta * (2.0 * dot * v0 - r_z[i, 0])
+        dot2 = v0 * x0
+        for a in range(1, m):
+            xa = inv_eta * (r_z[i, a] - 2.0 * dot * v[i, a])
+            u_rz[i, a] = xa
+            dot2 -= v[i, a] * xa
+        u_rz[i, 0] = inv_eta * (2.0 * dot2 * v0 - x0)
+        for a in range(1, m):
+            u_rz[i, a] = inv_eta * (u_rz[i, a] - 2.0 * dot2 * v[i, a])
+        inv_eta2 = inv_eta * inv_eta
+        v0sq = v0 * v0
+        alpha[i] = inv_eta2 * ((2.0 * v0sq - 1.0) ** 2 + 4.0 * v0sq * v1sq)
+        b = -4.0 * inv_eta2 * v0 * (v0sq + v1sq)
+        for a in range(1, m):
+            beta[i, a - 1] = b * v[i, a]
+        s_coef[i] = 8.0 * v0sq / (1.0 + 8.0 * v0sq * v1sq)
 
 
 @numba.njit(cache=True, inline="always")
@@ -217,16 +274,17 @@ def _penalty_row(v, eta, s_coef, penalty, w, r, offset, out, b):  # pragma: no c
             wi = w[offset + i]
             out[i, i] = wi * wi * penalty[c]
     else:
+        # η⁻²(Λ² − s_coef (Λv₁)(Λv₁)ᵀ)
         inv_eta2 = 1.0 / (eta[r] * eta[r])
-        coef = s_coef[r]
+        scale = inv_eta2 * s_coef[r]
         for i in range(b):
-            for j in range(i + 1):
-                value = -coef * v[r, 1 + i] * v[r, 1 + j]
-                if i == j:
-                    value += 1.0
-                value *= inv_eta2 * w[i] * w[j]
+            a_i = w[i] * v[r, 1 + i]
+            c_i = scale * a_i
+            for j in range(i):
+                value = -c_i * (w[j] * v[r, 1 + j])
                 out[i, j] = value
                 out[j, i] = value
+            out[i, i] = inv_eta2 * w[i] * w[i] - c_i * a_i
 
 
 @numba.njit(cache=True)
@@ -355,8 +413,9 @@ def jordan_product(x, y, out):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, inline="always")
-def _cone_step(x, dx, i):  # pragma: no cover - compiled
-    """Largest α with x_i + α·dx_i in the cone (inf if unbounded); see :func:`max_step`."""
+def _cone_step_fraction(x, dx, i):  # pragma: no cover - compiled
+    """(num, den): the largest α with x_i + α·dx_i in the cone is num / den (inf, 1 if
+    unbounded); see :func:`max_step`."""
     m = x.shape[1]
     a = dx[i, 0] * dx[i, 0]
     b = x[i, 0] * dx[i, 0]
@@ -366,8 +425,15 @@ def _cone_step(x, dx, i):  # pragma: no cover - compiled
         b -= x[i, q] * dx[i, q]
         c -= x[i, q] * x[i, q]
     if dx[i, 0] >= 0.0 and a >= 0.0:
-        return np.inf
-    return c / max(np.sqrt(max(b * b - a * c, 0.0)) - b, 1e-300)
+        return np.inf, 1.0
+    return c, max(np.sqrt(max(b * b - a * c, 0.0)) - b, 1e-300)
+
+
+@numba.njit(cache=True, inline="always")
+def _cone_step(x, dx, i):  # pragma: no cover - compiled
+    """Largest α with x_i + α·dx_i in the cone (inf if unbounded); see :func:`max_step`."""
+    num, den = _cone_step_fraction(x, dx, i)
+    return num / den
 
 
 @numba.njit(cache=True)
@@ -506,7 +572,10 @@ def direction_finish(
     """
     weighted_difference(dk, coeffs, w, ds)  # vector parts: e
     n_cones, m = ds.shape
-    step_s = step_z = np.inf
+    # The smallest steps as fractions num / den, divided out once at the end:
+    # a division per cone costs more than the rest of its step computation.
+    num_s = num_z = np.inf
+    den_s = den_z = 1.0
     for c in range(n_cones):
         acc = work[c, 0]
         dot = 0.0
@@ -515,15 +584,20 @@ def direction_finish(
             dot += v[c, a] * ds[c, a]
         dt[c] = acc / alpha[c]
         inv_eta2 = 1.0 / (eta[c] * eta[c])
+        coef = s_coef[c] * dot
         dz[c, 0] = 1.0 - z[c, 0]
         for a in range(1, m):
-            dz[c, a] = work[c, a] - inv_eta2 * (ds[c, a] - s_coef[c] * dot * v[c, a])
+            dz[c, a] = work[c, a] - inv_eta2 * (ds[c, a] - coef * v[c, a])
         ds[c, 0] = dt[c] - r_z[c, 0]
         for a in range(1, m):
             ds[c, a] -= r_z[c, a]
-        step_s = min(step_s, _cone_step(s, ds, c))
-        step_z = min(step_z, _cone_step(z, dz, c))
-    return step_s, step_z
+        num, den = _cone_step_fraction(s, ds, c)
+        if num * den_s < num_s * den:
+            num_s, den_s = num, den
+        num, den = _cone_step_fraction(z, dz, c)
+        if num * den_z < num_z * den:
+            num_z, den_z = num, den
+    return num_s / den_s, num_z / den_z
 
 
 @numba.njit(cache=True)
