@@ -603,7 +603,7 @@ def fit_laplace_ipm_diagonal(
         _laplace_state(
             phi, y, c, mask, k, b, zp, zm, w2, coeffs, active, sp, sm, a, rhs, r_k, stats, scratch
         )
-        for i in np.flatnonzero(active):
+        for i in np.flatnonzero(active).tolist():
             objective[i] = stats[i, 0] + stats[i, 1]
             gap[i] = stats[i, 2]
             dual_res[i] = max(np.sqrt(stats[i, 3]) / scale[i], np.sqrt(stats[i, 4]) / c_norm[i])
@@ -618,7 +618,7 @@ def fit_laplace_ipm_diagonal(
         except SingularProblemError:
             # which outputs lost definiteness: those stop (before their first step: raise)
             before = int(active.sum())
-            for i in np.flatnonzero(active):
+            for i in np.flatnonzero(active).tolist():
                 only = np.zeros(n, dtype=np.bool_)
                 only[i] = True
                 try:
@@ -634,7 +634,7 @@ def fit_laplace_ipm_diagonal(
         iterations[active] += 1
         factor.finish(rhs)  # the affine (predictor) direction
         _laplace_affine(phi, c, mask, sp, sm, zp, zm, rhs, active, tp, tm, steps)
-        for i in np.flatnonzero(active):
+        for i in np.flatnonzero(active).tolist():
             step = min(1.0, steps[i])
             sigma_mu[i] = (1.0 - step) ** 3 * gap[i] / degree[i]
         _laplace_corrector(phi, c, mask, sp, sm, zp, zm, sigma_mu, r_k, active, tp, tm, rhs)
@@ -642,7 +642,7 @@ def fit_laplace_ipm_diagonal(
         _laplace_step(
             phi, c, mask, sp, sm, zp, zm, rhs, active, tp, tm, STEP_FRACTION, MIN_STEP, k, b, steps
         )
-        for i in np.flatnonzero(active):
+        for i in np.flatnonzero(active).tolist():
             if steps[i] < MIN_STEP:
                 stalled[i], active[i] = True, False
     psi = np.where(mask, zp - zm, 0.0)
