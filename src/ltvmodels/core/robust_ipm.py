@@ -636,7 +636,7 @@ def fit_laplace_ipm_diagonal(
         _laplace_affine(phi, c, mask, sp, sm, zp, zm, rhs, active, tp, tm, steps)
         for i in np.flatnonzero(active).tolist():
             step = min(1.0, steps[i])
-            sigma_mu[i] = (1.0 - step) ** 3 * gap[i] / degree[i]
+            sigma_mu[i] = (1.0 - step) ** 3 * gap[i] / max(degree[i], 1.0)
         _laplace_corrector(phi, c, mask, sp, sm, zp, zm, sigma_mu, r_k, active, tp, tm, rhs)
         factor.solve(rhs)
         _laplace_step(
