@@ -591,7 +591,6 @@ def fit_laplace_ipm_diagonal(
     stats = np.zeros((n, 6))
     steps = np.empty(n)
     sigma_mu = np.zeros(n)
-    scratch = np.empty((N, p))
     active = np.ones(n, dtype=np.bool_)
     iterations = np.zeros(n, dtype=np.int64)
     converged = np.zeros(n, dtype=bool)
@@ -601,7 +600,7 @@ def fit_laplace_ipm_diagonal(
     what = "the interior-point Newton system"
     while active.any():
         _laplace_state(
-            phi, y, c, mask, k, b, zp, zm, w2, coeffs, active, sp, sm, a, rhs, r_k, stats, scratch
+            phi, y, c, mask, k, b, zp, zm, w2, coeffs, active, sp, sm, a, rhs, r_k, stats
         )
         for i in np.flatnonzero(active).tolist():
             objective[i] = stats[i, 0] + stats[i, 1]
@@ -663,7 +662,7 @@ def fit_laplace_ipm_diagonal(
 
 @numba.njit(cache=True)
 def _laplace_state(
-    phi, y, c, mask, k, b, zp, zm, w2, coeffs, active, sp, sm, a, rhs, r_k, stats, difference
+    phi, y, c, mask, k, b, zp, zm, w2, coeffs, active, sp, sm, a, rhs, r_k, stats
 ):  # pragma: no cover - compiled
     """At k (n, N, p) of each active output: the slacks σ± = b ∓ r, the Newton
     matrix's row weights κ (into ``a`` (N, q, n)), the stationarity residual
@@ -678,6 +677,11 @@ def _laplace_state(
         if not active[o]:
             continue
         ko = k[o]
+        rko = r_k[o]
+        # 2DᵀWDk, scattered from each difference (no bounds tests per step)
+        for t in range(N):
+            for i in range(p):
+                rko[t, i] = 0.0
         penalty = 0.0
         for t in range(N - d):
             for i in range(p):
@@ -685,18 +689,14 @@ def _laplace_state(
                 for lag in range(d + 1):
                     acc += coeffs[lag] * ko[t + lag, i]
                 penalty += 0.5 * w2[o, i] * acc * acc
-                difference[t, i] = w2[o, i] * acc
+                acc *= w2[o, i]
+                for lag in range(d + 1):
+                    rko[t + lag, i] += coeffs[lag] * acc
         loss, gap, rk2, rb2, interior = 0.0, 0.0, 0.0, 0.0, 1.0
+        rhso = rhs[o]
         for t in range(N):
             for i in range(p):
-                # 2 (DᵀW Dk)_t: Σ_lag c_lag (2W Dk)_{t − lag}
-                acc = 0.0
-                for lag in range(d + 1):
-                    s = t - lag
-                    if 0 <= s < N - d:
-                        acc += coeffs[lag] * difference[s, i]
-                r_k[o, t, i] = acc
-                rhs[o, t, i, 0] = 0.0
+                rhso[t, i, 0] = 0.0
             for j in range(q):
                 if not mask[o, t, j]:
                     sp[o, t, j] = 1.0
@@ -730,11 +730,11 @@ def _laplace_state(
                 A = (z_m - z_p) - H * E / G
                 data = z_m - z_p  # the data part of r_k
                 for i in range(p):
-                    r_k[o, t, i] += data * phi[t, j, i]
-                    rhs[o, t, i, 0] += A * phi[t, j, i]
+                    rko[t, i] += data * phi[t, j, i]
+                    rhso[t, i, 0] += A * phi[t, j, i]
             for i in range(p):
-                rk2 += r_k[o, t, i] * r_k[o, t, i]
-                rhs[o, t, i, 0] -= r_k[o, t, i]
+                rk2 += rko[t, i] * rko[t, i]
+                rhso[t, i, 0] -= rko[t, i]
         stats[o, 0] = loss
         stats[o, 1] = penalty
         stats[o, 2] = gap
