@@ -45,7 +45,7 @@ from .problem import (
     apply_difference_adjoint,
     null_space_basis,
 )
-from .robust_ipm import fit_robust_ipm, fit_robust_ipm_squared
+from .robust_ipm import fit_laplace_ipm_diagonal, fit_robust_ipm, fit_robust_ipm_squared
 from .sparse_common import difference_preimage
 from .squared import SquaredSolver, weight_diagonal
 
@@ -125,6 +125,11 @@ def fit_laplace(
             or np.isinf(weight_diagonal(penalty)).any()
         ):
             return _smoothed(problem, penalty, norm, delta, max_iter=max_iter, tol=tol, start=start)
+        solver = SquaredSolver(problem, penalty, [])
+        if solver.diagonal:  # all outputs at once, on compiled kernels
+            return _fit_diagonal(
+                problem, penalty, solver.W0_diagonal, costs, max_iter=max_iter, tol=tol, start=start
+            )
         parts = sparse_parts(problem, weight_diagonal(penalty), "l1", costs)
     else:  # the sparse norms part by part: the interior-point method where it applies
         parts = sparse_parts(problem, penalty, norm, costs)
@@ -190,6 +195,41 @@ def fit_laplace(
         stalled=stalled and gap > tol,
         psi=psi,
         method="; ".join(methods),
+    )
+
+
+def _fit_diagonal(problem, penalty, weight, costs, *, max_iter, tol, start) -> LaplaceFit:
+    """:func:`fit_laplace` for norm="sq" with a finite diagonal ``penalty`` (its diagonal
+    ``weight`` (K,)): the interior-point method on every output at once
+    (:func:`.robust_ipm.fit_laplace_ipm_diagonal`, the iterations of
+    :func:`.robust_ipm.fit_robust_ipm_squared` output by output), then the same certificate."""
+    N, n, p = problem.N, problem.n, problem.p
+    results = fit_laplace_ipm_diagonal(
+        problem, weight.reshape(n, p), costs, tol=tol, max_iter=max_iter, start=start
+    )
+    theta = np.stack([ip.k for ip in results], axis=1)
+    psi = np.stack(
+        [
+            ip.psi / np.where(costs[:, :, i] > 0, costs[:, :, i], 1.0)
+            for i, ip in enumerate(results)
+        ],
+        axis=2,
+    )
+    objective = _objective(problem, theta, penalty, "sq")
+    gap, rigorous = _relative_gap(problem, theta, objective, psi, penalty, "sq")
+    return LaplaceFit(
+        theta=theta.reshape(N, n, p),
+        objective=objective,
+        duality_gap=gap,
+        rigorous=rigorous,
+        kkt_residual=max(ip.dual_residual for ip in results),
+        iterations=sum(ip.iterations for ip in results),
+        stages=0,
+        smoothing=0.0,
+        converged=gap <= tol,
+        stalled=any(ip.stalled for ip in results) and gap > tol,
+        psi=psi,
+        method=IPM,
     )
 
 
