@@ -173,6 +173,24 @@ def test_update_refits_on_all_the_data_or_keeps_the_model():
     np.testing.assert_allclose(kept.predict().to_numpy(), direct.mean[:, 0])
 
 
+def test_the_forecaster_keeps_its_own_data_and_warns_of_nothing():
+    """sktime's remember_data copy is off (it warns of a change of default when on); the
+    forecaster's own copy serves updates and stays right when a user turns sktime's on."""
+    y = ar_series(T=130)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        forecaster = LTVForecaster(na=2, lam=10.0).fit(y[:100], fh=[1, 2])
+        forecaster.update(y[100:], update_params=False)
+        predicted = forecaster.predict().to_numpy()
+    direct = forecaster.model_.forecast(y.to_numpy()[-2:], steps=2)
+    np.testing.assert_allclose(predicted, direct.mean[:, 0])
+    remembering = LTVForecaster(na=2, lam=10.0).set_config(remember_data=True)
+    remembering.fit(y[:100], fh=[1, 2]).update(y[100:])
+    np.testing.assert_allclose(
+        remembering.model_.k, ltv.fit_ar(y.to_numpy(), 2, lam=10.0, constant=True).k
+    )
+
+
 @pytest.mark.parametrize(
     ("options", "pattern"),
     [

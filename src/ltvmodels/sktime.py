@@ -54,6 +54,37 @@ UPDATE_MODES = ("refit", "keep")
 DETECTION_METHODS = ("exact", "group")
 
 
+def _updated(seen: pd.DataFrame, new: pd.DataFrame | None) -> pd.DataFrame:
+    """The data seen with the new samples: new values replace those at the same time."""
+    if new is None or len(new) == 0:
+        return seen
+    kept = seen.loc[~seen.index.isin(new.index)]
+    return pd.concat([kept, new]).sort_index()
+
+
+def _told_of(error: ValueError, inner: tuple[str, ...], name: str) -> ValueError:
+    """An error that names an argument of the function an adapter called (one of
+    ``inner``), told of the adapter's own argument ``name``; other errors unchanged."""
+    message = str(error)
+    for argument in inner:
+        if message.startswith((f"{argument}: ", f"{argument}[")):
+            return type(error)(name + message[len(argument) :])
+    return error
+
+
+def _observed_end(seen: pd.DataFrame, L: int, name: str) -> np.ndarray:
+    """The last L samples of the data seen, which a forecast starts from: all observed."""
+    last = _as_array(seen.iloc[len(seen) - L :])
+    missing = seen.index[len(seen) - L :][~np.isfinite(last).all(axis=1)]
+    if len(missing):
+        raise ValueError(
+            f"{name}: expected observed values at the last {L} samples, which the forecast "
+            f"starts from, received NaN or inf at {list(missing[:5])}; fill or drop these "
+            f"samples before fitting, or update the forecaster with observed ones"
+        )
+    return last
+
+
 def _as_array(frame: Any) -> Any:
     """A float copy of a DataFrame's values (None stays None); the caller's frame is untouched."""
     return None if frame is None else np.array(frame.to_numpy(dtype=float), dtype=float)
@@ -143,6 +174,11 @@ class LTVForecaster(BaseForecaster):
         "X-y-must-have-same-index": True,
         "property:randomness": "deterministic",  # Monte Carlo seeded by the seed parameter
     }
+    # The forecaster keeps the data it has seen itself (``_y_seen``, ``_X_seen``): the
+    # forecasts start from their last samples and "refit" fits them all. sktime's own
+    # copy (``remember_data``) is not needed, and turning it off silences its warning
+    # about that option's change of default.
+    _config = {"remember_data": False}
 
     def __init__(
         self,
@@ -170,6 +206,8 @@ class LTVForecaster(BaseForecaster):
         self.n_samples = n_samples
         self.seed = seed
         super().__init__()
+        # sktime's copy of the data, filled only where a user turns remember_data on
+        self._y = self._X = None
 
     # -- fitting ---------------------------------------------------------------------------
     def _fit(self, y: pd.DataFrame, X: pd.DataFrame | None = None, fh: Any = None):
@@ -180,6 +218,7 @@ class LTVForecaster(BaseForecaster):
         self._update_mode = options.choice(self.update_mode, "update_mode", UPDATE_MODES)
         self._n_samples = options.integer(self.n_samples, "n_samples", minimum=2)
         self._seed = options.integer(self.seed, "seed", minimum=0)
+        self._y_seen, self._X_seen = y, X
         self._fit_model(y, X)
         return self
 
@@ -196,21 +235,28 @@ class LTVForecaster(BaseForecaster):
         if x_values is None:
             model = fit_ar(y_values, self._na, **settings)
         else:
-            model = fit_arx(y_values, x_values, self._na, self._nb, self._nk, **settings)
+            try:
+                model = fit_arx(y_values, x_values, self._na, self._nb, self._nk, **settings)
+            except ValueError as error:
+                raise _told_of(error, ("u",), "X") from error
         self.model_ = model
         self._with_X = x_values is not None
 
     def _update(self, y: pd.DataFrame, X: pd.DataFrame | None = None, update_params: bool = True):
-        """Refit on all the data seen (``update_mode="refit"``), or keep the coefficients."""
+        """Add the new samples to the data seen; refit on them all (``update_mode="refit"``)
+        or keep the coefficients."""
+        self._y_seen = _updated(self._y_seen, y)
+        if self._with_X:
+            self._X_seen = _updated(self._X_seen, X)
         if update_params and self._update_mode == "refit":
-            self._fit_model(self._y, self._X if self._with_X else None)
+            self._fit_model(self._y_seen, self._X_seen if self._with_X else None)
         return self
 
     # -- prediction ------------------------------------------------------------------------
     def _predict(self, fh: ForecastingHorizon, X: pd.DataFrame | None = None) -> pd.DataFrame:
         """Forecast means out of sample and one-step predictions in sample, at fh."""
         relative = self._relative_steps(fh)
-        values = np.full((len(relative), self._y.shape[1]), np.nan)
+        values = np.full((len(relative), self._y_seen.shape[1]), np.nan)
         ahead = relative >= 1
         if ahead.any():
             forecast = self._forecast(int(relative.max()), X, 0.5)
@@ -263,9 +309,8 @@ class LTVForecaster(BaseForecaster):
 
     def _forecast(self, steps: int, X: pd.DataFrame | None, level: float) -> Forecast:
         """The forecast of ``steps`` samples after the data seen, from its last L samples."""
-        y = _as_array(self._y)
         L = self._lag()
-        y_last = y[len(y) - L :]
+        y_last = _observed_end(self._y_seen, L, "y")
         model: ARXModel = self.model_
         settings: dict[str, Any] = {
             "steps": steps,
@@ -275,14 +320,13 @@ class LTVForecaster(BaseForecaster):
         }
         if isinstance(model, ARModel):  # no inputs
             return model.forecast(y_last, **settings)
-        seen = _as_array(self._X)
-        inputs = np.concatenate([seen[len(seen) - L :], self._future_X(steps, X)])
+        inputs = np.concatenate([_observed_end(self._X_seen, L, "X"), self._future_X(steps, X)])
         return model.forecast(y_last, inputs, **settings)
 
     def _future_X(self, steps: int, X: pd.DataFrame | None) -> np.ndarray:
         """X at the ``steps`` samples after the cutoff (rows no forecast reads are zeros)."""
         needed = max(steps - self._nk, 0)  # y[T+j] reads X up to X[T+j−nk]
-        future = np.zeros((steps, self._X.shape[1]))
+        future = np.zeros((steps, len(self.model_.input_names)))
         if needed == 0:
             return future
         index = ForecastingHorizon(np.arange(1, steps + 1), is_relative=True).to_absolute_index(
@@ -310,11 +354,11 @@ class LTVForecaster(BaseForecaster):
 
         Samples after the fitted data (an update that kept the coefficients) use the last Θ.
         """
-        y = _as_array(self._y)
+        y = _as_array(self._y_seen)
         model: ARXModel = self.model_
         if self._with_X:
             _, phi = arx_regressors(
-                y, _as_array(self._X), self._na, self._nb, self._nk, constant=model.constant
+                y, _as_array(self._X_seen), self._na, self._nb, self._nk, constant=model.constant
             )
         else:
             _, phi = ar_regressors(y, self._na, constant=model.constant)
@@ -475,7 +519,12 @@ class LTVChangePointDetector(BaseDetector):
     def _changepoints(self, X: pd.DataFrame) -> np.ndarray:
         method = options.choice(self.method, "method", DETECTION_METHODS)
         na = options.integer(self.na, "na", minimum=0)
-        series = _as_array(X)
+        try:
+            return self._segment(_as_array(X), method, na)
+        except ValueError as error:  # the series is X here, y and phi to the fits below
+            raise _told_of(error, ("y", "phi"), "X") from error
+
+    def _segment(self, series: np.ndarray, method: str, na: int) -> np.ndarray:
         if na == 0:
             y, phi = series, np.ones((len(series), 1))
         else:
