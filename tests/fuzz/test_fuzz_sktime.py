@@ -130,6 +130,7 @@ FORECAST_LOSS = Opt(choice_of("squared", "huber"), LOSS.invalid)
 
 def forecaster_options(max_bad: int = 2) -> st.SearchStrategy:
     return options(
+        required=("lam",),  # as in the other fuzz tests: an error may name λ ("auto" too)
         max_bad=max_bad,
         na=LAG,
         nb=LAG,
