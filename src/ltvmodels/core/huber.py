@@ -43,12 +43,14 @@ from .problem import RegressionProblem, apply_difference, apply_difference_adjoi
 from .squared import SquaredSolver, weight_diagonal
 
 __all__ = [
+    "CHORD_STEPS",
     "NEWTON_DAMPING",
     "LINE_SEARCH_STEPS",
     "MIN_DAMPING",
     "HuberFit",
     "huber_loss",
     "fit_huber",
+    "line_minimum",
     "newton_model",
 ]
 
@@ -59,6 +61,11 @@ LINE_SEARCH_STEPS = 30
 # The smallest damping, reached once the outliers are identified (a smaller τ
 # would inflate the model's rows beyond δ̃ by 1/√τ).
 MIN_DAMPING = 1e-4
+# Chord steps in a row on one factorization (compiled path): after a step that keeps the
+# entries beyond δ̃, the Newton matrix changes only through their small weights τδ̃/|r|.
+CHORD_STEPS = 2
+# What _newton_state writes per output: nothing, the Newton model's rows, or −∇F/2.
+_NO_ROWS, _MODEL_ROWS, _GRADIENT_ROWS = 0, 1, 2
 
 
 @dataclass
@@ -72,6 +79,7 @@ class HuberFit:
     kkt_residual: float  # relative ‖∇F‖∞ at theta
     outliers: np.ndarray  # (N, q, n) bool: observed entries with |r| > δ
     stalled: bool = False  # stopped short of tol: F flat to rounding
+    chord_steps: int = 0  # steps on an earlier factorization (compiled path)
 
 
 def huber_loss(r: np.ndarray, delta: np.ndarray) -> np.ndarray:
@@ -266,12 +274,12 @@ def _newton_step(output, quadratic, current, r, thresholds, damping):
     whether F decreased.
 
     The step length minimizes F along the Newton direction exactly
-    (:func:`_line_minimum`); a step that keeps the outliers (entries beyond δ̃)
+    (:func:`_output_line_minimum`); a step that keeps the outliers (entries beyond δ̃)
     lowers the damping, towards the exact generalized Newton model.
     """
     direction = _reweighted_fit(output, quadratic, r, thresholds, damping) - current
     fitted_direction = np.einsum("tjk,tk->tj", output.phi, direction)
-    alpha = _line_minimum(quadratic, current, direction, r, fitted_direction, thresholds)
+    alpha = _output_line_minimum(quadratic, current, direction, r, fitted_direction, thresholds)
     trial = current + alpha * direction
     value = _output_objective(output, quadratic, current, thresholds)
     trial_value = _output_objective(output, quadratic, trial, thresholds)
@@ -288,16 +296,16 @@ def _newton_step(output, quadratic, current, r, thresholds, damping):
     return trial, damping, trial_value < value
 
 
-def _line_minimum(quadratic, current, direction, r, fitted_direction, thresholds) -> float:
+def _output_line_minimum(quadratic, current, direction, r, fitted_direction, thresholds) -> float:
     """argmin over α in [0, 1] of F(current + α·direction), for one output.
 
-    F along the line is convex and piecewise quadratic (:func:`_line_root`,
+    F along the line is convex and piecewise quadratic (:func:`line_minimum`,
     the compiled search both paths share), with g = φᵀdirection and the
     quadratic terms' a, b (:meth:`_OutputQuadratic.line`).
     """
     a, b = quadratic.line(current, direction)
     return float(
-        _line_root(
+        line_minimum(
             np.ascontiguousarray(r, dtype=float),
             np.ascontiguousarray(fitted_direction, dtype=float),
             np.ascontiguousarray(thresholds, dtype=float),
@@ -406,6 +414,15 @@ def _fit_diagonal(
     (:class:`~.banded.WeightedRowsFactor`), and per output one pass for the
     direction's residuals, after which the exact line search and both values
     of F need only (r, g) (:func:`_line_search`).
+
+    Chord steps: once a step keeps the entries beyond δ̃ (α = 1, none crossing),
+    the Newton matrix of the next step differs from the factored one only by
+    those entries' weights τδ̃/|r| (small), so the next direction solves the
+    factored system for −∇F/2 (a substitution instead of a factorization), at
+    most CHORD_STEPS times in a row; a chord step that no longer keeps the
+    entries ends it, and one that fails to decrease F is retried with a fresh
+    factorization. The line search, the certificate and the iteration's fixed
+    point are unchanged.
     """
     N, q, n, p = problem.N, problem.q, problem.n, problem.p
     phi = np.ascontiguousarray(problem.phi, dtype=float)
@@ -426,23 +443,47 @@ def _fit_diagonal(
     # the outputs are independent problems: one that has converged keeps its k and its
     # KKT residual, and is no longer evaluated
     active = np.ones(n, dtype=np.bool_)
-    none = np.zeros(n, dtype=np.bool_)
-    iterations, stalled = 0, False
+    none = np.zeros(n, dtype=np.int8)
+    reuse = np.zeros(n, dtype=np.bool_)  # the next step is a chord step on the stored factor
+    chords = np.zeros(n, dtype=np.int64)  # chord steps in a row
+    factor: WeightedRowsFactor | None = None  # the last factorization (its storage holds all)
+    iterations, stalled, chord_steps = 0, False, 0
     for iterations in range(max_iter + 1):
-        _newton_state(phi, y, limits, k, w, coeffs, damping, active, active, kkt, a, model)
+        rows = np.where(reuse, _GRADIENT_ROWS, _MODEL_ROWS).astype(np.int8)
+        _newton_state(phi, y, limits, k, w, coeffs, damping, active, rows, kkt, a, model)
         if kkt.max() <= tol or iterations == max_iter:
             break
         active = kkt > tol
-        factor = WeightedRowsFactor(phi, a, w, coeffs, model, active, out=factors)
-        factor.finish(model)
-        factors = factor.L
+        fresh, chord = active & ~reuse, active & reuse
+        if fresh.any():
+            factor = WeightedRowsFactor(phi, a, w, coeffs, model, fresh, out=factors)
+            factor.finish(model)
+            factors = factor.L
+        if chord.any() and factor is not None:  # (a chord step follows a factorization)
+            factor.solve(model, chord)  # the direction, then the point it leads to
+            model[chord, :, :, 0] += k[chord]
         progress = False
         for c in np.flatnonzero(active):
             alpha, value, trial_value, kept = _line_search(
                 phi, y[c], limits[c], k[c], model[c, :, :, 0], w[c], coeffs, direction, scratch
             )
             # near the optimum F changes by rounding only: no increase beyond that is a decrease
-            if alpha == 0.0 or trial_value > value + 8 * eps * abs(value):
+            failed = alpha == 0.0 or trial_value > value + 8 * eps * abs(value)
+            if chord[c]:
+                chords[c] += 1
+                chord_steps += 1
+                reuse[c] = kept and chords[c] < CHORD_STEPS
+                if failed:  # the stored factor is too far off: a fresh one next
+                    reuse[c], progress = False, True
+                    continue
+                k[c] += alpha * direction
+                if not kept:
+                    damping[c] = NEWTON_DAMPING
+                progress |= trial_value < value
+                continue
+            chords[c] = 0
+            reuse[c] = not failed and kept and CHORD_STEPS > 0
+            if failed:
                 # no decrease along the Newton direction: the majorize-minimize step
                 factors = _majorizer_step(phi, y, limits, k, w, coeffs, c, a, model, factors)
                 step = model[c, :, :, 0]
@@ -472,6 +513,7 @@ def _fit_diagonal(
         kkt_residual=float(kkt.max()),
         outliers=(np.abs(r) > thresholds) & problem.observed[:, :, None],
         stalled=stalled,
+        chord_steps=chord_steps,
     )
 
 
@@ -484,7 +526,7 @@ def _majorizer_step(phi, y, limits, k, w, coeffs, c, a, model, factors):
     full = np.ones(n)
     kkt = np.empty(n)
     # the other outputs' models are still to be used: only output c's rows change
-    _newton_state(phi, y, limits, k, w, coeffs, full, only, only, kkt, a, model)
+    _newton_state(phi, y, limits, k, w, coeffs, full, only, only.astype(np.int8), kkt, a, model)
     factor = WeightedRowsFactor(phi, a, w, coeffs, model, only, out=factors)
     factor.finish(model)
     return factor.L
@@ -495,10 +537,10 @@ def _newton_state(
     phi, y, limits, k, w, coeffs, damping, evaluate, rows, out, a, rhs
 ):  # pragma: no cover - compiled
     """At k (n, N, p), in one pass per output where ``evaluate`` (n,) is set: ‖∇F‖∞ of
-    each output into ``out`` (n,),
-    relative to its largest data or penalty term (:func:`_kkt_residuals`), and,
-    where ``rows`` (n,) is set, the rows of its quadratic model (:func:`newton_model`):
-    weights a (N, q, n) and right-hand sides Σ_j a ŷ φ (n, N, p, 1).
+    each output into ``out`` (n,), relative to its largest data or penalty term
+    (:func:`_kkt_residuals`), and as ``rows`` (n,) says: the rows of its quadratic
+    model (:func:`newton_model`; _MODEL_ROWS), weights a (N, q, n) and right-hand
+    sides Σ_j a ŷ φ (n, N, p, 1), or −∇F/2 (_GRADIENT_ROWS) into the right-hand sides.
 
     ``y`` and ``limits`` (the thresholds δ̃) are per output, shape (n, N, q).
     """
@@ -513,7 +555,8 @@ def _newton_state(
             continue
         kc = k[c]
         tau = damping[c]
-        model = rows[c]
+        kind = rows[c]
+        model = kind == _MODEL_ROWS
         for t in range(N - d):
             for i in range(p):
                 acc = 0.0
@@ -553,6 +596,8 @@ def _newton_state(
                     if 0 <= s < N - d:
                         penalty += coeffs[lag] * difference[s, i]
                 penalty *= 2.0
+                if kind == _GRADIENT_ROWS:
+                    rhs[c, t, i, 0] = data[i] - 0.5 * penalty
                 term = -2.0 * data[i]
                 largest_data = max(largest_data, abs(term))
                 largest_penalty = max(largest_penalty, abs(penalty))
@@ -600,7 +645,7 @@ def _line_search(phi, y, limits, k, model, w, coeffs, direction, scratch):  # pr
     One pass over the rows gives the residuals r and the fitted direction
     g = φᵀdirection (into ``scratch`` (2, N, q)), one over the differences the
     quadratic terms along the line, value(k + α·direction) = value + 2αb + α²a;
-    the search (:func:`_line_root`) and both values of F then need only (r, g).
+    the search (:func:`line_minimum`) and both values of F then need only (r, g).
     """
     N, q, p = phi.shape
     d = coeffs.shape[0] - 1
@@ -625,7 +670,7 @@ def _line_search(phi, y, limits, k, model, w, coeffs, direction, scratch):  # pr
             quad_a += w[i] * dd * dd
             quad_b += w[i] * dd * dk
             quad_c += w[i] * dk * dk
-    alpha = _line_root(r, g, limits, quad_a, quad_b)
+    alpha = line_minimum(r, g, limits, quad_a, quad_b)
     value, trial_value = quad_c, quad_c + alpha * (2.0 * quad_b + alpha * quad_a)
     kept = alpha == 1.0
     for t in range(N):
@@ -643,13 +688,30 @@ def _line_search(phi, y, limits, k, model, w, coeffs, direction, scratch):  # pr
 
 
 @numba.njit(cache=True)
-def _line_root(r, g, limits, quad_a, quad_b):  # pragma: no cover - compiled
-    """argmin over α in [0, 1] of f(α) = Σ h_δ̃(r − αg) + 2αb + α²a, all (N, q) but a, b.
+def line_minimum(r, g, limits, quad_a, quad_b):  # pragma: no cover - compiled
+    """The exact line search of the Huber fits: argmin over α in [0, 1] of
+    f(α) = Σ h_δ̃(r − αg) + 2αb + α²a (F along a line, up to a constant).
 
     f is convex and piecewise quadratic, f'(α) = −2Σ clip(r − αg, ±δ̃)g + 2αa + 2b;
     its root is found by Newton's method safeguarded by bisection (exact once
-    the entries within δ̃ settle). 0 when the direction does not descend
-    (rounding at the optimum).
+    the entries within δ̃ settle). Compiled; both Huber paths use it.
+
+    Parameters
+    ----------
+    r : ndarray, shape (N, q)
+        Residuals at the current point (C-contiguous float).
+    g : ndarray, shape (N, q)
+        The fitted direction φᵀd: the residuals change by −αg.
+    limits : ndarray, shape (N, q)
+        The thresholds δ̃.
+    quad_a, quad_b : float
+        The quadratic terms along the line: value + 2αb + α²a (a >= 0).
+
+    Returns
+    -------
+    float
+        α; 1 when f still decreases at 1, 0 when the direction does not
+        descend (rounding at the optimum).
     """
     alpha = 1.0
     first, second = _slope(r, g, limits, 1.0, quad_a, quad_b)
@@ -676,7 +738,7 @@ def _line_root(r, g, limits, quad_a, quad_b):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, inline="always")
 def _slope(r, g, limits, alpha, quad_a, quad_b):  # pragma: no cover - compiled
-    """f'(α) and f''(α) of F along the line (see :func:`_line_root`)."""
+    """f'(α) and f''(α) of F along the line (see :func:`line_minimum`)."""
     N, q = r.shape
     first, curvature = 0.0, 0.0
     for t in range(N):
