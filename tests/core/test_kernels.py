@@ -128,33 +128,3 @@ def test_weighted_rows_factor_reports_a_singular_system():
             np.zeros((1, 10, 2, 1)),
             np.ones(1, dtype=bool),
         )
-
-
-def test_weighted_rows_factor_solves_with_factors_of_earlier_calls():
-    """Factorizations into one storage, each of some outputs: a later solve uses every
-    output's last factor (the robust losses' chord steps)."""
-    rng = np.random.default_rng(5)
-    N, q, p, n = 30, 2, 3, 3
-    coeffs = np.array([-1.0, 1.0])
-    phi = rng.standard_normal((N, q, p))
-    w = rng.uniform(0.5, 4.0, (n, p))
-    first, second = rng.uniform(0.05, 1.0, (2, N, q, n))
-    rhs = rng.standard_normal((n, N, p, 1))
-    factor = banded.WeightedRowsFactor(
-        phi, first, w, coeffs, rhs.copy(), np.array([True, True, False])
-    )
-    later = banded.WeightedRowsFactor(
-        phi, second, w, coeffs, rhs.copy(), np.array([False, True, True]), out=factor.L
-    )
-    assert later.L is factor.L
-    solved = later.solve(rhs.copy(), np.ones(n, dtype=bool))
-    D = np.zeros((N - 1, N))
-    D[np.arange(N - 1), np.arange(N - 1)], D[np.arange(N - 1), np.arange(1, N)] = -1.0, 1.0
-    for c, a in enumerate([first, second, second]):  # output 0 keeps its first factor
-        H = np.kron(D.T @ D, np.diag(w[c]))
-        for t in range(N):
-            H[t * p : (t + 1) * p, t * p : (t + 1) * p] += np.einsum(
-                "j,ja,jb->ab", a[t, :, c], phi[t], phi[t]
-            )
-        expected = np.linalg.solve(H, rhs[c].reshape(N * p)).reshape(N, p, 1)
-        np.testing.assert_allclose(solved[c], expected, rtol=1e-10, atol=1e-12)

@@ -401,16 +401,10 @@ class WeightedRowsFactor:
         )
         return rhs
 
-    def solve(self, rhs: np.ndarray, active: np.ndarray | None = None) -> np.ndarray:
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
         """Solve H_c x = rhs_c for the active outputs; ``rhs`` (n, N, p, r), C-contiguous
-        float, is overwritten and returned.
-
-        ``active`` (n,) bool, optional, selects other outputs whose factors this
-        storage (``out`` of the factorizations that wrote them) still holds,
-        e.g. from an earlier call with another ``active``.
-        """
-        chosen = self.active if active is None else np.ascontiguousarray(active, dtype=np.bool_)
-        kernels.weighted_rows_solve(self.L, rhs, self.w, self.coeffs, chosen, True, self._size)
+        float, is overwritten and returned."""
+        kernels.weighted_rows_solve(self.L, rhs, self.w, self.coeffs, self.active, True, self._size)
         return rhs
 
 

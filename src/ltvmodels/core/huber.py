@@ -43,7 +43,6 @@ from .problem import RegressionProblem, apply_difference, apply_difference_adjoi
 from .squared import SquaredSolver, weight_diagonal
 
 __all__ = [
-    "CHORD_STEPS",
     "NEWTON_DAMPING",
     "LINE_SEARCH_STEPS",
     "MIN_DAMPING",
@@ -61,11 +60,6 @@ LINE_SEARCH_STEPS = 30
 # The smallest damping, reached once the outliers are identified (a smaller τ
 # would inflate the model's rows beyond δ̃ by 1/√τ).
 MIN_DAMPING = 1e-4
-# Chord steps in a row on one factorization (compiled path): after a step that keeps the
-# entries beyond δ̃, the Newton matrix changes only through their small weights τδ̃/|r|.
-CHORD_STEPS = 2
-# What _newton_state writes per output: nothing, the Newton model's rows, or −∇F/2.
-_NO_ROWS, _MODEL_ROWS, _GRADIENT_ROWS = 0, 1, 2
 
 
 @dataclass
@@ -79,7 +73,6 @@ class HuberFit:
     kkt_residual: float  # relative ‖∇F‖∞ at theta
     outliers: np.ndarray  # (N, q, n) bool: observed entries with |r| > δ
     stalled: bool = False  # stopped short of tol: F flat to rounding
-    chord_steps: int = 0  # steps on an earlier factorization (compiled path)
 
 
 def huber_loss(r: np.ndarray, delta: np.ndarray) -> np.ndarray:
@@ -414,15 +407,6 @@ def _fit_diagonal(
     (:class:`~.banded.WeightedRowsFactor`), and per output one pass for the
     direction's residuals, after which the exact line search and both values
     of F need only (r, g) (:func:`_line_search`).
-
-    Chord steps: once a step keeps the entries beyond δ̃ (α = 1, none crossing),
-    the Newton matrix of the next step differs from the factored one only by
-    those entries' weights τδ̃/|r| (small), so the next direction solves the
-    factored system for −∇F/2 (a substitution instead of a factorization), at
-    most CHORD_STEPS times in a row; a chord step that no longer keeps the
-    entries ends it, and one that fails to decrease F is retried with a fresh
-    factorization. The line search, the certificate and the iteration's fixed
-    point are unchanged.
     """
     N, q, n, p = problem.N, problem.q, problem.n, problem.p
     phi = np.ascontiguousarray(problem.phi, dtype=float)
@@ -443,47 +427,23 @@ def _fit_diagonal(
     # the outputs are independent problems: one that has converged keeps its k and its
     # KKT residual, and is no longer evaluated
     active = np.ones(n, dtype=np.bool_)
-    none = np.zeros(n, dtype=np.int8)
-    reuse = np.zeros(n, dtype=np.bool_)  # the next step is a chord step on the stored factor
-    chords = np.zeros(n, dtype=np.int64)  # chord steps in a row
-    factor: WeightedRowsFactor | None = None  # the last factorization (its storage holds all)
-    iterations, stalled, chord_steps = 0, False, 0
+    none = np.zeros(n, dtype=np.bool_)
+    iterations, stalled = 0, False
     for iterations in range(max_iter + 1):
-        rows = np.where(reuse, _GRADIENT_ROWS, _MODEL_ROWS).astype(np.int8)
-        _newton_state(phi, y, limits, k, w, coeffs, damping, active, rows, kkt, a, model)
+        _newton_state(phi, y, limits, k, w, coeffs, damping, active, active, kkt, a, model)
         if kkt.max() <= tol or iterations == max_iter:
             break
         active = kkt > tol
-        fresh, chord = active & ~reuse, active & reuse
-        if fresh.any():
-            factor = WeightedRowsFactor(phi, a, w, coeffs, model, fresh, out=factors)
-            factor.finish(model)
-            factors = factor.L
-        if chord.any() and factor is not None:  # (a chord step follows a factorization)
-            factor.solve(model, chord)  # the direction, then the point it leads to
-            model[chord, :, :, 0] += k[chord]
+        factor = WeightedRowsFactor(phi, a, w, coeffs, model, active, out=factors)
+        factor.finish(model)
+        factors = factor.L
         progress = False
         for c in np.flatnonzero(active):
             alpha, value, trial_value, kept = _line_search(
                 phi, y[c], limits[c], k[c], model[c, :, :, 0], w[c], coeffs, direction, scratch
             )
             # near the optimum F changes by rounding only: no increase beyond that is a decrease
-            failed = alpha == 0.0 or trial_value > value + 8 * eps * abs(value)
-            if chord[c]:
-                chords[c] += 1
-                chord_steps += 1
-                reuse[c] = kept and chords[c] < CHORD_STEPS
-                if failed:  # the stored factor is too far off: a fresh one next
-                    reuse[c], progress = False, True
-                    continue
-                k[c] += alpha * direction
-                if not kept:
-                    damping[c] = NEWTON_DAMPING
-                progress |= trial_value < value
-                continue
-            chords[c] = 0
-            reuse[c] = not failed and kept and CHORD_STEPS > 0
-            if failed:
+            if alpha == 0.0 or trial_value > value + 8 * eps * abs(value):
                 # no decrease along the Newton direction: the majorize-minimize step
                 factors = _majorizer_step(phi, y, limits, k, w, coeffs, c, a, model, factors)
                 step = model[c, :, :, 0]
@@ -513,7 +473,6 @@ def _fit_diagonal(
         kkt_residual=float(kkt.max()),
         outliers=(np.abs(r) > thresholds) & problem.observed[:, :, None],
         stalled=stalled,
-        chord_steps=chord_steps,
     )
 
 
@@ -526,7 +485,7 @@ def _majorizer_step(phi, y, limits, k, w, coeffs, c, a, model, factors):
     full = np.ones(n)
     kkt = np.empty(n)
     # the other outputs' models are still to be used: only output c's rows change
-    _newton_state(phi, y, limits, k, w, coeffs, full, only, only.astype(np.int8), kkt, a, model)
+    _newton_state(phi, y, limits, k, w, coeffs, full, only, only, kkt, a, model)
     factor = WeightedRowsFactor(phi, a, w, coeffs, model, only, out=factors)
     factor.finish(model)
     return factor.L
@@ -537,10 +496,10 @@ def _newton_state(
     phi, y, limits, k, w, coeffs, damping, evaluate, rows, out, a, rhs
 ):  # pragma: no cover - compiled
     """At k (n, N, p), in one pass per output where ``evaluate`` (n,) is set: ‖∇F‖∞ of
-    each output into ``out`` (n,), relative to its largest data or penalty term
-    (:func:`_kkt_residuals`), and as ``rows`` (n,) says: the rows of its quadratic
-    model (:func:`newton_model`; _MODEL_ROWS), weights a (N, q, n) and right-hand
-    sides Σ_j a ŷ φ (n, N, p, 1), or −∇F/2 (_GRADIENT_ROWS) into the right-hand sides.
+    each output into ``out`` (n,),
+    relative to its largest data or penalty term (:func:`_kkt_residuals`), and,
+    where ``rows`` (n,) is set, the rows of its quadratic model (:func:`newton_model`):
+    weights a (N, q, n) and right-hand sides Σ_j a ŷ φ (n, N, p, 1).
 
     ``y`` and ``limits`` (the thresholds δ̃) are per output, shape (n, N, q).
     """
@@ -555,8 +514,7 @@ def _newton_state(
             continue
         kc = k[c]
         tau = damping[c]
-        kind = rows[c]
-        model = kind == _MODEL_ROWS
+        model = rows[c]
         for t in range(N - d):
             for i in range(p):
                 acc = 0.0
@@ -596,8 +554,6 @@ def _newton_state(
                     if 0 <= s < N - d:
                         penalty += coeffs[lag] * difference[s, i]
                 penalty *= 2.0
-                if kind == _GRADIENT_ROWS:
-                    rhs[c, t, i, 0] = data[i] - 0.5 * penalty
                 term = -2.0 * data[i]
                 largest_data = max(largest_data, abs(term))
                 largest_penalty = max(largest_penalty, abs(penalty))
