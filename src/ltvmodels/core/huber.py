@@ -25,9 +25,10 @@ size of the gradient's terms, below ``tol``.
 Without priors and with a finite diagonal weight (the usual fit) the same
 iteration runs on compiled kernels (:func:`_fit_diagonal`): the outputs still
 needing steps are factored in one sweep over time
-(:class:`~.banded.WeightedRowsFactor`), and the Newton models, the exact line
-search and the KKT residuals are single passes over the arrays instead of a
-dozen numpy operations each.
+(:class:`~.banded.WeightedRowsFactor`); the KKT residuals and the Newton
+models' rows share one pass over the arrays, and the exact line search
+(:func:`line_minimum`, which the Python path calls too) one pass for the
+direction's residuals, after which it and both values of F need only those.
 """
 
 from __future__ import annotations
