@@ -25,9 +25,10 @@ size of the gradient's terms, below ``tol``.
 Without priors and with a finite diagonal weight (the usual fit) the same
 iteration runs on compiled kernels (:func:`_fit_diagonal`): the outputs still
 needing steps are factored in one sweep over time
-(:class:`~.banded.WeightedRowsFactor`), and the Newton models, the exact line
-search and the KKT residuals are single passes over the arrays instead of a
-dozen numpy operations each.
+(:class:`~.banded.WeightedRowsFactor`); the KKT residuals and the Newton
+models' rows share one pass over the arrays, and the exact line search
+(:func:`line_minimum`, which the Python path calls too) one pass for the
+direction's residuals, after which it and both values of F need only those.
 """
 
 from __future__ import annotations
@@ -49,6 +50,7 @@ __all__ = [
     "HuberFit",
     "huber_loss",
     "fit_huber",
+    "line_minimum",
     "newton_model",
 ]
 
@@ -266,12 +268,12 @@ def _newton_step(output, quadratic, current, r, thresholds, damping):
     whether F decreased.
 
     The step length minimizes F along the Newton direction exactly
-    (:func:`_line_minimum`); a step that keeps the outliers (entries beyond δ̃)
+    (:func:`_output_line_minimum`); a step that keeps the outliers (entries beyond δ̃)
     lowers the damping, towards the exact generalized Newton model.
     """
     direction = _reweighted_fit(output, quadratic, r, thresholds, damping) - current
     fitted_direction = np.einsum("tjk,tk->tj", output.phi, direction)
-    alpha = _line_minimum(quadratic, current, direction, r, fitted_direction, thresholds)
+    alpha = _output_line_minimum(quadratic, current, direction, r, fitted_direction, thresholds)
     trial = current + alpha * direction
     value = _output_objective(output, quadratic, current, thresholds)
     trial_value = _output_objective(output, quadratic, trial, thresholds)
@@ -288,44 +290,23 @@ def _newton_step(output, quadratic, current, r, thresholds, damping):
     return trial, damping, trial_value < value
 
 
-def _line_minimum(quadratic, current, direction, r, fitted_direction, thresholds) -> float:
+def _output_line_minimum(quadratic, current, direction, r, fitted_direction, thresholds) -> float:
     """argmin over α in [0, 1] of F(current + α·direction), for one output.
 
-    F along the line is convex and piecewise quadratic:
-    f'(α) = −2Σ clip(r − αg, ±δ̃)g + 2αa + 2b with g = φᵀdirection and the
-    quadratic terms' a, b (:meth:`_OutputQuadratic.line`); its root is found
-    by Newton's method safeguarded by bisection (exact once the entries within
-    δ̃ settle).
+    F along the line is convex and piecewise quadratic (:func:`line_minimum`,
+    the compiled search both paths share), with g = φᵀdirection and the
+    quadratic terms' a, b (:meth:`_OutputQuadratic.line`).
     """
-    g = fitted_direction
     a, b = quadratic.line(current, direction)
-
-    def slope(alpha: float) -> tuple[float, float]:
-        shifted = r - alpha * g
-        inside = np.abs(shifted) <= thresholds
-        first = -2.0 * float(np.sum(np.clip(shifted, -thresholds, thresholds) * g))
-        return first + 2.0 * (alpha * a + b), 2.0 * (float(np.sum(g[inside] ** 2)) + a)
-
-    low, high, alpha = 0.0, 1.0, 1.0
-    first, second = slope(1.0)
-    if first <= 0.0:
-        return 1.0
-    if slope(0.0)[0] >= 0.0:
-        return 0.0  # not a descent direction (rounding at the optimum)
-    for _ in range(LINE_SEARCH_STEPS):
-        if first > 0.0:
-            high = alpha
-        else:
-            low = alpha
-        alpha = alpha - first / second if second > 0.0 else 0.5 * (low + high)
-        if not low < alpha < high:
-            alpha = 0.5 * (low + high)
-        if high - low <= 1e-12:
-            break
-        first, second = slope(alpha)
-        if first == 0.0:
-            break
-    return alpha
+    return float(
+        line_minimum(
+            np.ascontiguousarray(r, dtype=float),
+            np.ascontiguousarray(fitted_direction, dtype=float),
+            np.ascontiguousarray(thresholds, dtype=float),
+            a,
+            b,
+        )
+    )
 
 
 def _reweighted_fit(output, quadratic, r, thresholds, damping) -> np.ndarray:
@@ -422,11 +403,17 @@ def _fit_diagonal(
     majorize–minimize fallback) and the same certificate.
 
     ``thresholds`` are δ̃ (N, q, n), ``theta`` (N, n, p) the start (overwritten).
+    Per step: one pass for the KKT residuals and the Newton models' rows
+    (:func:`_newton_state`), one sweep that factors the outputs still iterating
+    (:class:`~.banded.WeightedRowsFactor`), and per output one pass for the
+    direction's residuals, after which the exact line search and both values
+    of F need only (r, g) (:func:`_line_search`).
     """
     N, q, n, p = problem.N, problem.q, problem.n, problem.p
     phi = np.ascontiguousarray(problem.phi, dtype=float)
-    y = np.ascontiguousarray(problem.y, dtype=float)
-    thresholds = np.ascontiguousarray(thresholds, dtype=float)
+    # each output's y and δ̃ contiguous: the per-output passes stream them
+    y = np.ascontiguousarray(problem.y.transpose(2, 0, 1), dtype=float)  # (n, N, q)
+    limits = np.ascontiguousarray(thresholds.transpose(2, 0, 1), dtype=float)  # (n, N, q)
     coeffs = np.ascontiguousarray(problem.coeffs, dtype=float)
     w = np.ascontiguousarray(weight.reshape(n, p), dtype=float)
     k = np.ascontiguousarray(theta.transpose(1, 0, 2))  # (n, N, p): each output contiguous
@@ -436,32 +423,32 @@ def _fit_diagonal(
     damping = np.full(n, NEWTON_DAMPING)
     kkt = np.empty(n)
     scratch = np.empty((2, N, q))
+    direction = np.empty((N, p))
+    eps = np.finfo(float).eps
+    # the outputs are independent problems: one that has converged keeps its k and its
+    # KKT residual, and is no longer evaluated
+    active = np.ones(n, dtype=np.bool_)
+    none = np.zeros(n, dtype=np.bool_)
     iterations, stalled = 0, False
     for iterations in range(max_iter + 1):
-        _kkt_diagonal(phi, y, thresholds, k, w, coeffs, kkt)
+        _newton_state(phi, y, limits, k, w, coeffs, damping, active, active, kkt, a, model)
         if kkt.max() <= tol or iterations == max_iter:
             break
-        active = kkt > tol  # the outputs are independent problems
-        factors = _model_minimizers(
-            phi, y, thresholds, k, w, coeffs, damping, active, a, model, factors
-        )
+        active = kkt > tol
+        factor = WeightedRowsFactor(phi, a, w, coeffs, model, active, out=factors)
+        factor.finish(model)
+        factors = factor.L
         progress = False
         for c in np.flatnonzero(active):
-            direction = model[c, :, :, 0] - k[c]
             alpha, value, trial_value, kept = _line_search(
-                phi, y, thresholds, k[c], direction, w[c], coeffs, c, scratch
+                phi, y[c], limits[c], k[c], model[c, :, :, 0], w[c], coeffs, direction, scratch
             )
             # near the optimum F changes by rounding only: no increase beyond that is a decrease
-            if alpha == 0.0 or trial_value > value + 8 * np.finfo(float).eps * abs(value):
+            if alpha == 0.0 or trial_value > value + 8 * eps * abs(value):
                 # no decrease along the Newton direction: the majorize-minimize step
-                only = np.zeros(n, dtype=bool)
-                only[c] = True
-                full = np.ones(n)
-                factors = _model_minimizers(
-                    phi, y, thresholds, k, w, coeffs, full, only, a, model, factors
-                )
-                step = np.ascontiguousarray(model[c, :, :, 0])
-                decreased = _output_value(phi, y, thresholds, step, w[c], coeffs, c) < value
+                factors = _majorizer_step(phi, y, limits, k, w, coeffs, c, a, model, factors)
+                step = model[c, :, :, 0]
+                decreased = _output_value(phi, y[c], limits[c], step, w[c], coeffs) < value
                 k[c] = step
                 damping[c] = NEWTON_DAMPING
             else:
@@ -471,7 +458,7 @@ def _fit_diagonal(
             progress |= decreased
         if not progress:  # F is flat to rounding: the tolerance is beyond working precision
             iterations += 1
-            _kkt_diagonal(phi, y, thresholds, k, w, coeffs, kkt)
+            _newton_state(phi, y, limits, k, w, coeffs, damping, active, none, kkt, a, model)
             stalled = bool(kkt.max() > tol)
             break
     theta = np.ascontiguousarray(k.transpose(1, 0, 2))
@@ -490,44 +477,89 @@ def _fit_diagonal(
     )
 
 
-def _model_minimizers(phi, y, thresholds, k, w, coeffs, damping, active, a, model, factors):
-    """The minimizers of the quadratic models (:func:`newton_model`) of the ``active``
-    outputs at k (n, N, p), into ``model`` (n, N, p, 1): one sweep factors them all.
-    Returns the factors' storage for the next call."""
-    _newton_rows(phi, y, thresholds, k, damping, active, a, model)
-    factor = WeightedRowsFactor(phi, a, w, coeffs, model, active, out=factors)
+def _majorizer_step(phi, y, limits, k, w, coeffs, c, a, model, factors):
+    """The majorize–minimize step (τ = 1) of output c alone, into ``model[c]``; returns
+    the factors' storage for the next call."""
+    n = k.shape[0]
+    only = np.zeros(n, dtype=bool)
+    only[c] = True
+    full = np.ones(n)
+    kkt = np.empty(n)
+    # the other outputs' models are still to be used: only output c's rows change
+    _newton_state(phi, y, limits, k, w, coeffs, full, only, only, kkt, a, model)
+    factor = WeightedRowsFactor(phi, a, w, coeffs, model, only, out=factors)
     factor.finish(model)
     return factor.L
 
 
 @numba.njit(cache=True)
-def _newton_rows(phi, y, thresholds, k, damping, active, a, rhs):  # pragma: no cover - compiled
-    """The rows of the quadratic models at k (n, N, p): weights a (N, q, n) and the
-    right-hand sides Σ_j a ŷ φ (n, N, p, 1) of the active outputs (:func:`newton_model`)."""
+def _newton_state(
+    phi, y, limits, k, w, coeffs, damping, evaluate, rows, out, a, rhs
+):  # pragma: no cover - compiled
+    """At k (n, N, p), in one pass per output where ``evaluate`` (n,) is set: ‖∇F‖∞ of
+    each output into ``out`` (n,),
+    relative to its largest data or penalty term (:func:`_kkt_residuals`), and,
+    where ``rows`` (n,) is set, the rows of its quadratic model (:func:`newton_model`):
+    weights a (N, q, n) and right-hand sides Σ_j a ŷ φ (n, N, p, 1).
+
+    ``y`` and ``limits`` (the thresholds δ̃) are per output, shape (n, N, q).
+    """
     N, q, p = phi.shape
-    n = y.shape[2]
+    n = k.shape[0]
+    d = coeffs.shape[0] - 1
+    tiny = np.finfo(np.float64).tiny
+    difference = np.empty((N, p))
+    data = np.empty(p)
     for c in range(n):
-        if not active[c]:
+        if not evaluate[c]:
             continue
+        kc = k[c]
         tau = damping[c]
+        model = rows[c]
+        for t in range(N - d):
+            for i in range(p):
+                acc = 0.0
+                for lag in range(d + 1):
+                    acc += coeffs[lag] * kc[t + lag, i]
+                difference[t, i] = w[c, i] * acc
+        largest_data, largest_penalty, largest = 0.0, 0.0, 0.0
         for t in range(N):
             for i in range(p):
-                rhs[c, t, i, 0] = 0.0
+                data[i] = 0.0
+                if model:
+                    rhs[c, t, i, 0] = 0.0
             for j in range(q):
                 fitted = 0.0
                 for i in range(p):
-                    fitted += phi[t, j, i] * k[c, t, i]
-                r = y[t, j, c] - fitted
-                delta = thresholds[t, j, c]
-                if abs(r) > delta:
-                    weight = tau * delta / abs(r)
-                    target = fitted + r / tau
-                else:
-                    weight = 1.0
-                    target = y[t, j, c]
-                a[t, j, c] = weight
+                    fitted += phi[t, j, i] * kc[t, i]
+                r = y[c, t, j] - fitted
+                delta = limits[c, t, j]
+                psi = min(max(r, -delta), delta)
                 for i in range(p):
-                    rhs[c, t, i, 0] += weight * target * phi[t, j, i]
+                    data[i] += psi * phi[t, j, i]
+                if model:
+                    if abs(r) > delta:
+                        weight = tau * delta / abs(r)
+                        target = fitted + r / tau
+                    else:
+                        weight = 1.0
+                        target = y[c, t, j]
+                    a[t, j, c] = weight
+                    for i in range(p):
+                        rhs[c, t, i, 0] += weight * target * phi[t, j, i]
+            for i in range(p):
+                # 2 (DᵀW Dk)_t: Σ_lag c_lag (W Dk)_{t − lag}
+                penalty = 0.0
+                for lag in range(d + 1):
+                    s = t - lag
+                    if 0 <= s < N - d:
+                        penalty += coeffs[lag] * difference[s, i]
+                penalty *= 2.0
+                term = -2.0 * data[i]
+                largest_data = max(largest_data, abs(term))
+                largest_penalty = max(largest_penalty, abs(penalty))
+                largest = max(largest, abs(term + penalty))
+        out[c] = largest / max(largest_data, largest_penalty, tiny)
 
 
 @numba.njit(cache=True)
@@ -546,8 +578,8 @@ def _penalty_value(k, w, coeffs):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _output_value(phi, y, thresholds, k, w, coeffs, c):  # pragma: no cover - compiled
-    """Output c's part of F at its coefficients k (N, p)."""
+def _output_value(phi, y, limits, k, w, coeffs):  # pragma: no cover - compiled
+    """One output's part of F at its coefficients k (N, p); y and δ̃ (N, q) its own."""
     N, q, p = phi.shape
     total = 0.0
     for t in range(N):
@@ -555,32 +587,37 @@ def _output_value(phi, y, thresholds, k, w, coeffs, c):  # pragma: no cover - co
             fitted = 0.0
             for i in range(p):
                 fitted += phi[t, j, i] * k[t, i]
-            r = abs(y[t, j, c] - fitted)
-            delta = thresholds[t, j, c]
+            r = abs(y[t, j] - fitted)
+            delta = limits[t, j]
             total += r * r if r <= delta else 2.0 * delta * r - delta * delta
     return total + _penalty_value(k, w, coeffs)
 
 
 @numba.njit(cache=True)
-def _line_search(phi, y, thresholds, k, direction, w, coeffs, c, scratch):  # pragma: no cover
-    """:func:`_line_minimum` for output c at k (N, p) along ``direction``, compiled:
-    (α, F_c at k, F_c at k + α·direction, whether the step keeps the entries beyond δ̃).
+def _line_search(phi, y, limits, k, model, w, coeffs, direction, scratch):  # pragma: no cover
+    """The exact line search of one output from k (N, p) towards its model's minimizer
+    ``model`` (N, p): (α, F_c at k, F_c at k + α·direction, whether the step keeps the
+    entries beyond δ̃), with ``direction`` (N, p) ← model − k.
 
-    ``scratch`` (2, N, q) receives the residuals r and the fitted direction g = φᵀdirection.
+    One pass over the rows gives the residuals r and the fitted direction
+    g = φᵀdirection (into ``scratch`` (2, N, q)), one over the differences the
+    quadratic terms along the line, value(k + α·direction) = value + 2αb + α²a;
+    the search (:func:`line_minimum`) and both values of F then need only (r, g).
     """
     N, q, p = phi.shape
     d = coeffs.shape[0] - 1
     r, g = scratch[0], scratch[1]
     for t in range(N):
+        for i in range(p):
+            direction[t, i] = model[t, i] - k[t, i]
         for j in range(q):
             fitted, along = 0.0, 0.0
             for i in range(p):
                 fitted += phi[t, j, i] * k[t, i]
                 along += phi[t, j, i] * direction[t, i]
-            r[t, j] = y[t, j, c] - fitted
+            r[t, j] = y[t, j] - fitted
             g[t, j] = along
-    # the quadratic terms along the line: value(k + α·direction) = value + 2αb + α²a
-    quad_a, quad_b = 0.0, 0.0
+    quad_a, quad_b, quad_c = 0.0, 0.0, 0.0
     for t in range(N - d):
         for i in range(p):
             dd, dk = 0.0, 0.0
@@ -589,97 +626,85 @@ def _line_search(phi, y, thresholds, k, direction, w, coeffs, c, scratch):  # pr
                 dk += coeffs[lag] * k[t + lag, i]
             quad_a += w[i] * dd * dd
             quad_b += w[i] * dd * dk
-    alpha = 1.0
-    first, second = _slope(r, g, thresholds, c, 1.0, quad_a, quad_b)
-    if first > 0.0:
-        if _slope(r, g, thresholds, c, 0.0, quad_a, quad_b)[0] >= 0.0:
-            alpha = 0.0  # not a descent direction (rounding at the optimum)
-        else:
-            low, high = 0.0, 1.0
-            for _ in range(LINE_SEARCH_STEPS):
-                if first > 0.0:
-                    high = alpha
-                else:
-                    low = alpha
-                alpha = alpha - first / second if second > 0.0 else 0.5 * (low + high)
-                if not low < alpha < high:
-                    alpha = 0.5 * (low + high)
-                if high - low <= 1e-12:
-                    break
-                first, second = _slope(r, g, thresholds, c, alpha, quad_a, quad_b)
-                if first == 0.0:
-                    break
-    value = _output_value(phi, y, thresholds, k, w, coeffs, c)
-    trial = k + alpha * direction
-    trial_value = _output_value(phi, y, thresholds, trial, w, coeffs, c)
+            quad_c += w[i] * dk * dk
+    alpha = line_minimum(r, g, limits, quad_a, quad_b)
+    value, trial_value = quad_c, quad_c + alpha * (2.0 * quad_b + alpha * quad_a)
     kept = alpha == 1.0
-    if kept:
-        for t in range(N):
-            for j in range(q):
-                delta = thresholds[t, j, c]
-                if (abs(r[t, j] - g[t, j]) > delta) != (abs(r[t, j]) > delta):
-                    kept = False
+    for t in range(N):
+        for j in range(q):
+            delta = limits[t, j]
+            current = abs(r[t, j])
+            shifted = abs(r[t, j] - alpha * g[t, j])
+            value += current * current if current <= delta else delta * (2.0 * current - delta)
+            trial_value += (
+                shifted * shifted if shifted <= delta else delta * (2.0 * shifted - delta)
+            )
+            if kept and (shifted > delta) != (current > delta):
+                kept = False
     return alpha, value, trial_value, kept
 
 
+@numba.njit(cache=True)
+def line_minimum(r, g, limits, quad_a, quad_b):  # pragma: no cover - compiled
+    """The exact line search of the Huber fits: argmin over α in [0, 1] of
+    f(α) = Σ h_δ̃(r − αg) + 2αb + α²a (F along a line, up to a constant).
+
+    f is convex and piecewise quadratic, f'(α) = −2Σ clip(r − αg, ±δ̃)g + 2αa + 2b;
+    its root is found by Newton's method safeguarded by bisection (exact once
+    the entries within δ̃ settle). Compiled; both Huber paths use it.
+
+    Parameters
+    ----------
+    r : ndarray, shape (N, q)
+        Residuals at the current point (C-contiguous float).
+    g : ndarray, shape (N, q)
+        The fitted direction φᵀd: the residuals change by −αg.
+    limits : ndarray, shape (N, q)
+        The thresholds δ̃.
+    quad_a, quad_b : float
+        The quadratic terms along the line: value + 2αb + α²a (a >= 0).
+
+    Returns
+    -------
+    float
+        α; 1 when f still decreases at 1, 0 when the direction does not
+        descend (rounding at the optimum).
+    """
+    alpha = 1.0
+    first, second = _slope(r, g, limits, 1.0, quad_a, quad_b)
+    if first <= 0.0:
+        return alpha
+    if _slope(r, g, limits, 0.0, quad_a, quad_b)[0] >= 0.0:
+        return 0.0
+    low, high = 0.0, 1.0
+    for _ in range(LINE_SEARCH_STEPS):
+        if first > 0.0:
+            high = alpha
+        else:
+            low = alpha
+        alpha = alpha - first / second if second > 0.0 else 0.5 * (low + high)
+        if not low < alpha < high:
+            alpha = 0.5 * (low + high)
+        if high - low <= 1e-12:
+            break
+        first, second = _slope(r, g, limits, alpha, quad_a, quad_b)
+        if first == 0.0:
+            break
+    return alpha
+
+
 @numba.njit(cache=True, inline="always")
-def _slope(r, g, thresholds, c, alpha, quad_a, quad_b):  # pragma: no cover - compiled
-    """f'(α) and f''(α) of F along the line (see :func:`_line_minimum`)."""
+def _slope(r, g, limits, alpha, quad_a, quad_b):  # pragma: no cover - compiled
+    """f'(α) and f''(α) of F along the line (see :func:`line_minimum`)."""
     N, q = r.shape
     first, curvature = 0.0, 0.0
     for t in range(N):
         for j in range(q):
             shifted = r[t, j] - alpha * g[t, j]
-            delta = thresholds[t, j, c]
+            delta = limits[t, j]
             if abs(shifted) <= delta:
                 first += shifted * g[t, j]
                 curvature += g[t, j] * g[t, j]
             else:
                 first += (delta if shifted > 0.0 else -delta) * g[t, j]
     return -2.0 * first + 2.0 * (alpha * quad_a + quad_b), 2.0 * (curvature + quad_a)
-
-
-@numba.njit(cache=True)
-def _kkt_diagonal(phi, y, thresholds, k, w, coeffs, out):  # pragma: no cover - compiled
-    """:func:`_kkt_residuals` for a finite diagonal weight: ‖∇F‖∞ of each output (n,)
-    into ``out``, relative to its largest data or penalty term."""
-    N, q, p = phi.shape
-    n = k.shape[0]
-    d = coeffs.shape[0] - 1
-    tiny = np.finfo(np.float64).tiny
-    difference = np.empty((N, p))
-    data = np.empty(p)
-    for c in range(n):
-        kc = k[c]
-        for t in range(N - d):
-            for i in range(p):
-                acc = 0.0
-                for lag in range(d + 1):
-                    acc += coeffs[lag] * kc[t + lag, i]
-                difference[t, i] = w[c, i] * acc
-        largest_data, largest_penalty, largest = 0.0, 0.0, 0.0
-        for t in range(N):
-            for i in range(p):
-                data[i] = 0.0
-            for j in range(q):
-                fitted = 0.0
-                for i in range(p):
-                    fitted += phi[t, j, i] * kc[t, i]
-                r = y[t, j, c] - fitted
-                delta = thresholds[t, j, c]
-                psi = min(max(r, -delta), delta)
-                for i in range(p):
-                    data[i] += psi * phi[t, j, i]
-            for i in range(p):
-                # 2 (DᵀW Dk)_t: Σ_lag c_lag (W Dk)_{t − lag}
-                penalty = 0.0
-                for lag in range(d + 1):
-                    s = t - lag
-                    if 0 <= s < N - d:
-                        penalty += coeffs[lag] * difference[s, i]
-                penalty *= 2.0
-                term = -2.0 * data[i]
-                largest_data = max(largest_data, abs(term))
-                largest_penalty = max(largest_penalty, abs(penalty))
-                largest = max(largest, abs(term + penalty))
-        out[c] = largest / max(largest_data, largest_penalty, tiny)
