@@ -255,3 +255,36 @@ def test_warm_start_along_a_path_reaches_the_cold_optimum_in_fewer_iterations(no
         assert warm_iterations < cold_iterations
     else:
         assert warm_iterations == cold_iterations
+
+
+@pytest.mark.parametrize("norm", ["group", "l1"])
+def test_interpolated_start_between_two_path_solutions_is_feasible(norm):
+    """The convex combination of two solutions' primal-dual pairs (interpolated_start)
+    is stationary and dual feasible at the λ between them, and a fit started there
+    reaches the cold optimum."""
+    data = ltv.systems.jump_linear(T=300, change_at=150, seed=4)
+    pb = state_space_problem(data.x, data.u, np.array([-1.0, 1.0]))
+    lam_max = ltv.lambda_max(data.x, data.u, norm=norm, order=1)
+    pattern = np.random.default_rng(3).uniform(0.5, 1.0, pb.K)
+    lower = ipm.fit_sparse_ipm(pb, 0.05 * lam_max * pattern, norm, tol=1e-10)
+    upper = ipm.fit_sparse_ipm(pb, 0.3 * lam_max * pattern, norm, tol=1e-10)
+    weights = 0.1 * lam_max * pattern
+    start = ipm.interpolated_start(lower, upper, weights)
+    assert start is not None and not start.converged
+    share = (0.1 - 0.05) / (0.3 - 0.05)
+    np.testing.assert_allclose(start.theta, (1 - share) * lower.theta + share * upper.theta)
+    assert np.linalg.norm(start.dual, axis=1).max() <= 1.0 + 1e-9  # inside the dual cones
+    # 2Φᵀ(Φk − y) = DᵀΛz₁, with D from the dense reference.
+    resid = pb.y[:, 0] - np.einsum("tia,ta->ti", start.theta, pb.phi[:, 0])
+    gradient = -2.0 * np.einsum("ti,ta->tia", resid, pb.phi[:, 0]).reshape(pb.N, pb.K)
+    D = difference_matrix(pb.N, [-1.0, 1.0])
+    adjoint = D.T @ (start.dual.reshape(pb.N - 1, pb.K) * weights)
+    scale = np.abs(2.0 * pb.phi[:, 0].T @ pb.y[:, 0]).max()
+    assert np.abs(gradient - adjoint).max() < 1e-6 * scale
+    cold = ipm.fit_sparse_ipm(pb, weights, norm, tol=1e-8)
+    warm = ipm.fit_sparse_ipm(pb, weights, norm, tol=1e-8, warm_start=start)
+    assert cold.converged and warm.converged
+    assert warm.objective == pytest.approx(cold.objective, rel=1e-7)
+    # Not between the two, or not one pattern scaled: no start.
+    assert ipm.interpolated_start(lower, upper, 0.4 * lam_max * pattern) is None
+    assert ipm.interpolated_start(lower, upper, 0.1 * lam_max * pattern[::-1]) is None

@@ -310,3 +310,21 @@ def test_ar_and_arx_lam_auto_report_progress():
         assert reports[-1] == (n_fits, n_fits)
         with pytest.raises(TypeError, match=r"^progress: expected a function"):
             fit(*args, lam="auto", progress=1)
+
+
+@pytest.mark.parametrize("norm", ["group", "l1"])
+def test_lcurve_path_starts_give_the_cold_fits(norm):
+    """The L-curve's sparse fits start from their neighbours' solutions (the refinements
+    from the interpolation of both): each candidate's residual and penalty norms are
+    those of a cold fit at a tight tolerance, to the L-curve's solver tolerance."""
+    data = ltv.systems.jump_linear(T=300, change_at=150, seed=5)
+    selection = select_lambda(data.x, data.u, norm=norm, method="lcurve")
+    pb = state_space_problem(data.x, data.u, np.array([-1.0, 1.0]))
+    assert selection.n_fits > 8  # the refinements ran
+    for lam, residual, penalty in zip(
+        selection.lams, selection.residual_norms, selection.penalty_norms, strict=True
+    ):
+        cold = criterion_fit(pb, norm, float(lam), tol=1e-9)
+        assert residual == pytest.approx(np.sqrt(cold["rss"]), rel=1e-3)
+        objective = cold["rss"] + lam * cold["penalty_norm"]
+        assert lam * penalty == pytest.approx(lam * cold["penalty_norm"], abs=1e-3 * objective)

@@ -58,6 +58,7 @@ __all__ = [
     "dominating_output",
     "feasible_start",
     "warm_dual",
+    "interpolated_start",
     "fit_sparse_ipm",
 ]
 
@@ -485,6 +486,57 @@ def warm_dual(previous: InteriorPointResult, cp: ConicProblem) -> np.ndarray:
     z1 = (previous.dual.reshape(rows, cp.K) * ratio).reshape(cp.n_cones, -1)
     norms = np.sqrt(np.sum(z1**2, axis=1, keepdims=True))
     return z1 * np.minimum(1.0, WARM_MAX_DUAL_NORM / np.maximum(norms, np.finfo(float).tiny))
+
+
+def interpolated_start(
+    lower: InteriorPointResult, upper: InteriorPointResult, weights: np.ndarray
+) -> InteriorPointResult | None:
+    """A warm start at weights between two solutions of a λ path: their convex combination.
+
+    With Λ = (1 − θ)Λ_a + θΛ_b (weights proportional to one pattern, the
+    solutions' at Λ_a and Λ_b), the pair k = (1 − θ)k_a + θk_b and
+    Λz₁ = (1 − θ)Λ_a z₁ᵃ + θΛ_b z₁ᵇ satisfies the stationarity
+    2Φᵀ(Φk − y) = DᵀΛz₁ exactly (it is affine in (k, Λz₁)), and every cone's
+    ‖z₁‖ <= ((1 − θ)λ_a + θλ_b)/λ = 1: the start is primal and dual feasible,
+    like the single neighbour's (:func:`warm_dual`), and its k is closer to the
+    new optimum (on the L-curve's refinements of jump-linear fits, order 1,
+    about one iteration fewer per candidate).
+
+    Parameters
+    ----------
+    lower, upper : InteriorPointResult
+        Solutions (with duals) at weights Λ_a = a·W and Λ_b = b·W, a < b.
+    weights : ndarray, shape (K,)
+        Λ = λ·W with a < λ < b.
+
+    Returns
+    -------
+    InteriorPointResult or None
+        A start only (objective and residuals NaN, not converged), for
+        ``warm_start`` of :func:`fit_sparse_ipm`; None when either solution has
+        no duals or the weights are not one pattern scaled.
+    """
+    if lower.dual is None or upper.dual is None or lower.weights is None:
+        return None
+    if upper.weights is None or np.any(np.isinf(weights)) or np.any(weights <= 0):
+        return None
+    a = lower.weights / weights
+    b = upper.weights / weights
+    # One pattern: the ratios are constant over the coefficients (to rounding).
+    if np.ptp(a) > 1e-12 * a.max() or np.ptp(b) > 1e-12 * b.max() or not a[0] < 1.0 < b[0]:
+        return None
+    share = (1.0 - a[0]) / (b[0] - a[0])  # θ: λ = (1 − θ)a·λ + θb·λ
+    return InteriorPointResult(
+        theta=(1.0 - share) * lower.theta + share * upper.theta,
+        objective=np.nan,
+        duality_gap=np.nan,
+        primal_residual=np.nan,
+        dual_residual=np.nan,
+        iterations=0,
+        converged=False,
+        dual=(1.0 - share) * a[0] * lower.dual + share * b[0] * upper.dual,
+        weights=np.array(weights, dtype=float),
+    )
 
 
 def fit_sparse_ipm(

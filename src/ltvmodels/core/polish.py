@@ -45,10 +45,21 @@ MAX_NEWTON = 30
 # Halvings of the Newton step in the backtracking line search.
 MAX_HALVINGS = 40
 # Corrections of the split of the cones into vertex and active ones. Each moves
-# only the cones that cross their vertex first (active -> vertex) or that are
-# most violated (vertex -> active), within this factor of the extreme one.
-MAX_SPLITS = 40
+# only the cones that a step reaches first (active -> vertex, see _reduced_solve)
+# or that are most violated (vertex -> active), within SPLIT_TIES of the extreme
+# one. A cluster of neighbouring rows that the iterate marks active where the
+# optimum has one collapses one cone per split, hence the room.
+MAX_SPLITS = 200
 SPLIT_TIES = 1.5
+# Shift of the reduced Hessian, relative to its largest diagonal entry. The data
+# need not determine the reduced problem: at T = 2000 (seed 3, order 2, l1 at
+# 0.5 λ_max) the iterate marks active the rows 873–876 of two coefficients of one
+# output row; single-sample spikes of both at one time step fit one equation, so
+# the Hessian (no curvature from |e|) was singular and its LU step was 1e25. With
+# the shift the step follows the flat direction (|e| decreases linearly along it)
+# until a cone reaches its vertex; on a definite Hessian it changes the Newton
+# steps by a relative 1e-12 of its condition number, which the iteration absorbs.
+HESSIAN_SHIFT = 1e-12
 
 
 @dataclass
@@ -204,14 +215,17 @@ def polish(
 ) -> PolishResult | None:
     """Solve the problem with the split of an interior-point iterate fixed; None if not optimal.
 
-    The split is corrected up to MAX_SPLITS times, one decision at a time:
-    the active cones that a Newton step drives through their vertex first
-    move to V, and the vertex cones whose dual exceeds 1 the most after the
-    solve move to A (near a degenerate optimum the iterate often marks a
-    cluster of neighbouring rows active where the optimum has one or two, and
-    moving all crossing cones at once overshoots). Every split starts Newton
-    from the projection of the iterate's k, whose differences point the right
-    way.
+    The split is corrected up to MAX_SPLITS times, one decision at a time, as
+    in an active-set method: a Newton step that drives active cones through
+    their vertex stops where the first of them gets there, that cone moves to
+    V and Newton goes on from that point; after a solve, the vertex cones whose
+    dual exceeds 1 the most move to A and Newton restarts from the projection
+    of the iterate's k, whose differences point the right way (near a
+    degenerate optimum the iterate often marks a cluster of neighbouring rows
+    active where the optimum has one or two, and moving all crossing cones at
+    once overshoots). The reduced Hessian is shifted by HESSIAN_SHIFT: where the
+    data leave directions of the subspace undetermined, its steps follow them
+    until a cone reaches its vertex.
 
     Parameters
     ----------
@@ -237,15 +251,20 @@ def polish(
     vertex = vertex_cones(s, z)
     phi_op, diff_op = _operators(problem, weights)
     newton_total = 0
+    start = k
     for _ in range(MAX_SPLITS):
-        solved = _reduced_solve(problem, vertex, k, phi_op, diff_op, group)
+        solved = _reduced_solve(problem, vertex, start, phi_op, diff_op, group)
         if solved is None:
             return None
         k_split, collapsed, iterations = solved
         newton_total += iterations
         if collapsed is not None:
+            # The step stopped where these cones reach their vertex: Newton goes on
+            # from there in the smaller subspace (k_split is in it, up to the
+            # tangential part of a group cone's difference, which the projection drops).
             vertex = vertex.copy()
             vertex[collapsed] = True
+            start = k_split
             continue
         obj, gap, dual_res, u_norm = certificate(problem, weights, k_split, named(norm))
         if gap <= tol * obj and dual_res <= tol:
@@ -262,6 +281,9 @@ def polish(
         # Only the most violated cones move: their moving changes all duals.
         violated &= u_norm - 1.0 >= (u_norm[violated].max() - 1.0) / SPLIT_TIES
         vertex = vertex & ~violated
+        # A released cone has e_c = 0 at k_split, which gives its Newton step no
+        # direction: restart from the iterate's k, whose differences point the right way.
+        start = k
     return None
 
 
@@ -269,8 +291,11 @@ def _reduced_solve(problem, vertex, k, phi_op, diff_op, group):
     """Newton on the reduced problem from the projection of k.
 
     Returns (k, collapsed cones or None, Newton iterations), or None when the
-    reduced problem is singular or a step is not finite. After MAX_NEWTON
-    iterations the iterate is returned (for the certificate to judge).
+    reduced problem is singular or a step is not finite. A step that drives
+    active cones through their vertex stops where the first of them gets there
+    (its radial component vanishes) and returns them as collapsed, with the k
+    of that point: the caller moves them to V and goes on from there. After
+    MAX_NEWTON iterations the iterate is returned (for the certificate to judge).
     """
     N, K = problem.N, problem.K
     g = K if group else 1
@@ -290,6 +315,9 @@ def _reduced_solve(problem, vertex, k, phi_op, diff_op, group):
         e = (E @ th).reshape(-1, g)
         return float(th @ (0.5 * (gram @ th) - rhs) + y_sq + np.linalg.norm(e, axis=1).sum())
 
+    shift = sp.identity(gram.shape[0], format="csc") * (
+        HESSIAN_SHIFT * max(float(gram.diagonal().max(initial=0.0)), 1e-300)
+    )
     current = objective(theta)
     for iteration in range(1, MAX_NEWTON + 1):
         e = (E @ theta).reshape(-1, g)
@@ -304,7 +332,7 @@ def _reduced_solve(problem, vertex, k, phi_op, diff_op, group):
             blocks = (np.eye(g) - unit[:, :, None] * unit[:, None, :]) / e_norm[:, None, None]
             hessian = gram + E.T @ _block_diagonal(blocks) @ E
         try:
-            step = splu(hessian.tocsc()).solve(-grad)
+            step = splu((hessian + shift).tocsc()).solve(-grad)
         except RuntimeError:
             return None
         decrease = -float(grad @ step)
@@ -312,30 +340,30 @@ def _reduced_solve(problem, vertex, k, phi_op, diff_op, group):
             return None
         if decrease <= 1e-20 * max(current, 1e-300):  # the gap is O(√decrease)
             return (B @ theta).reshape(N, K), None, iteration
-        # A full step through a cone's vertex (its radial component reverses)
-        # means that the cone belongs to V. Only the first cones to cross move:
-        # the step changes once they do.
+        # Stop at the first cone that the step drives to its vertex (its radial
+        # component reverses before α = 1); beyond it |e_c| is no longer smooth and
+        # the Newton model is wrong. Only that cone (and ties) moves to V: the step
+        # changes once it does.
         toward = -np.sum(unit * (E @ step).reshape(-1, g), axis=1)
         crossed = toward >= e_norm
-        first = None
+        first, alpha = None, 1.0
         if crossed.any():
             at = e_norm[crossed] / toward[crossed]
-            first = active[crossed][at <= SPLIT_TIES * at.min()]
-            if iteration > 1:
-                return (B @ theta).reshape(N, K), first, iteration
-        alpha = 1.0
+            alpha = float(at.min())
+            first = active[crossed][at <= alpha * (1.0 + 1e-9)]
+        full = alpha
         for _ in range(MAX_HALVINGS):
             trial = objective(theta + alpha * step)
             if trial <= current - 0.25 * alpha * decrease:
                 break
             alpha *= 0.5
         else:
-            # No descent along the step: the kink of a cone it drives through its
-            # vertex is in the way (also in the first step, whose crossings are
-            # otherwise trusted only once confirmed): that cone belongs to V.
-            return (B @ theta).reshape(N, K), first, iteration
+            # No descent along the step: the certificate judges the iterate.
+            return (B @ theta).reshape(N, K), None, iteration
         theta = theta + alpha * step
         current = trial
+        if first is not None and alpha == full:
+            return (B @ theta).reshape(N, K), first, iteration
     # The Newton decrement stalled short of 1e-20 (at T = 2000 it settled near 1e-17 of
     # the objective: the rounding of the gradient): the certificate judges the iterate.
     return (B @ theta).reshape(N, K), None, MAX_NEWTON

@@ -60,7 +60,7 @@ from ..core.losses import named as named_loss
 from ..core.penalties import named
 from ..core.problem import RegressionProblem, apply_difference
 from ..core.robust import default_delta, solve_robust
-from ..core.sparse import solve_sparse
+from ..core.sparse import path_start, solve_sparse
 from ..core.sparse_common import lambda_max
 from ..core.squared import fit_squared
 from ..errors import ConvergenceWarning, PrecisionWarning, SingularProblemError
@@ -447,9 +447,11 @@ def select_for_problem(
 
         xatol, sign = ML_XATOL, -1.0
     else:  # cv
+        # Each fold's sparse solutions by λ: every candidate starts from its neighbours'.
+        paths: list[dict] = [{} for _ in range(n_folds)]
 
         def criterion(lam: float) -> float:
-            value = attempt(lambda value: _cv_error(problem, norm, value, n_folds), lam)
+            value = attempt(lambda value: _cv_error(problem, norm, value, n_folds, paths), lam)
             return -np.inf if value is None else -value
 
         xatol, sign = CV_XATOL, -1.0
@@ -504,9 +506,10 @@ def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, round
 
     ``given``: the candidates are the caller's (an error then blames ``lams``).
     The sparse norms' fits run up the grid, each warm-started from the fit at the
-    next smaller λ (:func:`ltvmodels.core.ipm.warm_dual`), to the tolerance
-    LCURVE_TOL. A candidate whose penalty is not resolved at that tolerance
-    (λ·R(Dk) below LCURVE_TOL times the objective: λ at or near λ_max, where
+    next smaller λ (:func:`ltvmodels.core.ipm.warm_dual`; a refinement from both
+    neighbours, :func:`_path_warm_start`), to the tolerance LCURVE_TOL. A
+    candidate whose penalty is not resolved at that tolerance (λ·R(Dk) below
+    LCURVE_TOL times the objective: λ at or near λ_max, where
     Dk = 0) has no place on the logarithmic curve and is left out of the corner:
     its log R(Dk) is noise, and on the former grid of 30 the candidate λ_max
     (R = 0) moved the spline's corner to ~0.4 λ_max where the curvature has no
@@ -517,9 +520,8 @@ def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, round
     evidence = ScalarEvidence(problem) if norm == "sq" else None
 
     def fit_at(lam: float) -> None:
-        below = [value for value in fits if value < lam and fits[value] is not None]
-        previous = fits[max(below)] if below else None  # the fit at the next smaller λ
-        warm = previous.get("solution") if previous is not None else None
+        solved = {value: f["solution"] for value, f in fits.items() if f and "solution" in f}
+        warm = _path_warm_start(solved, lam, problem.K)
         fits[lam] = (evidence and evidence.solution(lam)) or attempt(
             lambda value: criterion_fit(problem, norm, value, tol=LCURVE_TOL, warm_start=warm), lam
         )
@@ -572,6 +574,24 @@ def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, round
     return LambdaSelection(
         float(lams[best]), lams, curvature, "lcurve", norm, residual, penalty, n_fits=len(fits)
     )
+
+
+def _path_warm_start(solutions: dict, lam: float, K: int) -> Any:
+    """The warm start of a sparse fit at ``lam`` from the solutions at other λ (or None).
+
+    The solution at the next smaller λ (up a path its rescaled duals stay
+    feasible, :func:`ltvmodels.core.ipm.warm_dual`), or, between two solved
+    neighbours (the refinements), the interpolation of both
+    (:func:`ltvmodels.core.sparse.path_start`): on the L-curve of the
+    jump-linear system (T = 10⁴, group, order 1) its refinements took 14
+    iterations instead of 17.
+    """
+    below = [value for value in solutions if value < lam]
+    above = [value for value in solutions if value > lam]
+    warm = solutions[max(below)] if below else None
+    if warm is not None and above:
+        warm = path_start(warm, solutions[min(above)], np.full(K, lam)) or warm
+    return warm
 
 
 def _scores(
@@ -675,13 +695,27 @@ def _lcurve_curvature(grid: np.ndarray, residual: np.ndarray, penalty: np.ndarra
     return kappa
 
 
-def _cv_error(problem: RegressionProblem, norm: str, lam: float, n_folds: int) -> float:
-    """Mean squared one-step prediction error on held-out blocks (blocked CV on time)."""
+def _cv_error(
+    problem: RegressionProblem,
+    norm: str,
+    lam: float,
+    n_folds: int,
+    paths: list[dict] | None = None,
+) -> float:
+    """Mean squared one-step prediction error on held-out blocks (blocked CV on time).
+
+    ``paths`` (one dict per fold, λ → sparse solution) collects the folds' sparse
+    solutions, from which each fit of another λ is warm-started (:func:`_path_warm_start`).
+    """
     fold = _folds(problem.N, n_folds)
     errors = 0.0
     for f in range(n_folds):
         held = fold == f
-        theta = criterion_fit(_without(problem, held), norm, lam)["theta"]
+        warm = None if paths is None else _path_warm_start(paths[f], lam, problem.K)
+        fit = criterion_fit(_without(problem, held), norm, lam, warm_start=warm)
+        if paths is not None and "solution" in fit:
+            paths[f][lam] = fit["solution"]
+        theta = fit["theta"]
         pred = np.einsum("tij,tqj->tqi", theta[held], problem.phi[held])
         errors += float(np.sum((problem.y[held] - pred) ** 2))  # unobserved rows are 0
     return errors / (problem.n_observed * problem.n)
