@@ -171,10 +171,7 @@ class _RowSystem:
         else:
             worst, worst_t = cones.factor_newton_any(*args)
         if worst < 0:
-            raise SingularProblemError(
-                f"the Newton system is singular near time step {worst_t}: the data do "
-                "not determine the model; more excitation or a larger lam helps"
-            )
+            raise self.singular(worst_t)
         if self.fixed is not None:
             kernels.solve_fixed(self.L, Z, self.fixed)
         else:
@@ -184,6 +181,14 @@ class _RowSystem:
             schur = self.C0 - np.einsum("tbj,tbk->jk", self.G, self.HinvG)
             self.schur = cho_factor(schur)
         return self._border(Z[:, :, 0], f_c)
+
+    @staticmethod
+    def singular(worst_t: int) -> SingularProblemError:
+        """The error for a Newton matrix that is not positive definite near step worst_t."""
+        return SingularProblemError(
+            f"the Newton system is singular near time step {worst_t}: the data do "
+            "not determine the model; more excitation or a larger lam helps"
+        )
 
     def solve(self, f: np.ndarray) -> np.ndarray:
         """The Newton step for f (N, b) with the current factorization."""
@@ -318,6 +323,39 @@ class NewtonSystem:
             )
         except ZeroDivisionError:  # a cone's s or z reached its boundary in rounding
             raise SingularProblemError(BOUNDARY) from None
+
+    def predictor_corrector(self, gap: float):
+        """(Δk, Δt, Δs, Δz, largest step) of Mehrotra's predictor–corrector iteration.
+
+        Factors the Newton matrix, solves for the predictor target −λ∘λ (step α_a),
+        then for the corrector target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a) with
+        σ = (1 − min(1, α_a))³ and μ = gap / n_cones. Group cones without
+        constant coefficients take it in one compiled call
+        (:func:`.conekernels.predictor_corrector`); the others through
+        :meth:`affine_direction` and :meth:`direction`.
+        """
+        cp = self.cp
+        if self.pairs or len(cp.systems) != 1 or cp.systems[0].const.size:
+            _, _, ds_a, dz_a, step = self.affine_direction()
+            sigma_mu = (1.0 - min(1.0, step)) ** 3 * gap / cp.n_cones
+            return self.direction(self.corrector_target(ds_a, dz_a, sigma_mu))
+        system = cp.systems[0]
+        target, work = np.empty_like(self.lam_sq), np.empty_like(self.lam_sq)
+        dk, dt = np.empty((cp.N, cp.K)), np.empty(cp.n_cones)
+        ds, dz = np.empty_like(work), np.empty_like(work)
+        size = system.fixed if system.fixed is not None else system.L.shape[2]
+        try:
+            worst, worst_t, step = cones.predictor_corrector(
+                cp.phi, cp.n_rep, cp.coeffs, cp.w, system.pinned, self.s, self.z, self.r_z,
+                self.r_k, gap, self.v, self.eta, self.lam, self.lam_sq, self.u_rz, self.alpha,
+                self.beta, self.s_coef, self.penalty, system.L, target, work, dk, dt, ds, dz,
+                size,
+            )  # fmt: skip
+        except ZeroDivisionError:  # a cone's scaling underflowed or overflowed
+            raise SingularProblemError(BOUNDARY) from None
+        if worst < 0:
+            raise system.singular(worst_t)
+        return dk, dt, ds, dz, step
 
     def predictor_target(self) -> np.ndarray:
         """The affine (predictor) target −λ∘λ."""
@@ -582,10 +620,7 @@ def fit_sparse_ipm(
         # Predictor (affine) step, target −λ∘λ; then Mehrotra's corrector with the
         # target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a), σ = (1 − α_a)³.
         try:
-            _, _, ds_a, dz_a, step = newton.affine_direction()
-            sigma_mu = (1.0 - min(1.0, step)) ** 3 * gap / n_cones
-            target = newton.corrector_target(ds_a, dz_a, sigma_mu)
-            dk, dt, ds, dz, step = newton.direction(target)
+            dk, dt, ds, dz, step = newton.predictor_corrector(gap)
         except SingularProblemError as exc:
             if iterations == 0:
                 raise (dominating_output(problem) or exc) from None
