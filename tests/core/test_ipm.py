@@ -290,10 +290,10 @@ def test_fused_predictor_corrector_equals_the_separate_steps(coeffs, fixed, monk
 
 @pytest.mark.parametrize("coeffs", [[-1.0, 1.0], [1.0, -2.0, 1.0]])
 @pytest.mark.parametrize("shared", [False, True])
-def test_reweighted_fit_solves_the_reweighted_normal_equations(coeffs, shared):
+def test_reweighted_fit_solves_the_reweighted_normal_equations(coeffs, shared, monkeypatch):
     """One reweighted step is the dense solution of (2ΦᵀΦ + EᵀRE) k = 2Φᵀy with
-    E = D ⊗ Λ and R the cones' weights 1/‖(ΛDk_prev)_c‖ (floored); output rows with
-    equal weights share a factorization."""
+    E = D ⊗ Λ and R the cones' weights 1/‖(ΛDk_prev)_c‖ (floored), and its duals are
+    −R(Ek); output rows with equal weights share a factorization."""
     data = ltv.systems.jump_linear(T=40, change_at=20, seed=12)
     pb = state_space_problem(data.x, data.u, np.array(coeffs))
     rng = np.random.default_rng(13)
@@ -312,16 +312,15 @@ def test_reweighted_fit_solves_the_reweighted_normal_equations(coeffs, shared):
         for i in range(n):
             Phi[t * n + i, t * K + i * p : t * K + (i + 1) * p] = pb.phi[t, 0]
     H = 2.0 * Phi.T @ Phi + E.T @ (np.repeat(rho, K)[:, None] * E)
-    expected = np.linalg.solve(H, 2.0 * Phi.T @ pb.y[:, 0].ravel()).reshape(N, K)
-    k = k0.copy()
-    data_rhs = 2.0 * pb.cross().transpose(0, 2, 1).reshape(N, K)
-    got_rho = np.empty(cp.n_cones)
-    taken = cones.reweighted_fits(
-        cp.phi, cp.coeffs, cp.w, data_rhs, k, 1, floor, np.empty(cp.cone_shape), got_rho, p
-    )
-    assert taken == 1
-    np.testing.assert_allclose(got_rho, rho, rtol=1e-12)
-    np.testing.assert_allclose(k, expected, rtol=1e-8, atol=1e-10 * np.abs(expected).max())
+    expected = np.linalg.solve(H, 2.0 * Phi.T @ pb.y[:, 0].ravel())
+    monkeypatch.setattr(ipm, "REWEIGHT_STEPS", 1)
+    monkeypatch.setattr(ipm, "REWEIGHT_FLOOR", floor)
+    monkeypatch.setattr(ipm, "WARM_MAX_DUAL_NORM", np.inf)
+    k, z1 = ipm.reweighted_start(pb, cp, k0)
+    scale = np.abs(expected).max()
+    np.testing.assert_allclose(k.ravel(), expected, rtol=1e-8, atol=1e-10 * scale)
+    dual = -rho[:, None] * (E @ expected).reshape(cp.n_cones, K)
+    np.testing.assert_allclose(z1, dual, rtol=1e-7, atol=1e-9 * np.abs(dual).max())
 
 
 @pytest.mark.parametrize("coeffs", [[-1.0, 1.0], [1.0, -2.0, 1.0]])

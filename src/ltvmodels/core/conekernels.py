@@ -15,7 +15,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .blockkernels import backward, block_size, diagonal_step, factor_forward, offdiagonal_step
+from .blockkernels import block_size, diagonal_step, offdiagonal_step
 
 __all__ = [
     "weighted_difference",
@@ -27,7 +27,7 @@ __all__ = [
     "factor_newton_fixed",
     "factor_newton_any",
     "predictor_corrector",
-    "reweighted_fits",
+    "reweight_bands",
     "jordan_product",
     "max_step",
     "kkt_residuals",
@@ -499,77 +499,37 @@ def predictor_corrector(
 
 
 @numba.njit(cache=True)
-def reweighted_fits(phi, coeffs, w, data, k, steps, floor, e, rho, size):  # pragma: no cover
-    """Up to ``steps`` reweighted quadratic fits for group cones, from k (N, K), in place.
+def reweight_bands(k, coeffs, w, floor, e, bands):  # pragma: no cover - compiled
+    """The weights of a reweighted quadratic fit of group cones and the bands of DᵀRD.
 
-    Each step minimizes ‖y − Φk‖² + ½ Σ_c ρ_c ‖(ΛDk)_c‖² with ρ_c = 1/‖(ΛDk_prev)_c‖
-    (floored at ``floor`` times the largest norm): the quadratic majorizer of
-    the group penalty at the previous k. Its normal equations
-    (2ΦᵀΦ + DᵀRD ⊗ Λ²) k = 2Φᵀy (``data``, (N, K)) split into one system per
-    output row with p × p blocks, the squared norm's systems with the bands of
-    DᵀRD (R = diag(ρ)) in place of DᵀD (:func:`.blockkernels.factor_forward`);
-    rows with equal weights share one factorization. ``e`` (n_cones, K + 1) is
-    scratch; ``rho`` (n_cones,) receives the weights of the last step taken.
-    ``size`` is p as in :mod:`.blockkernels`. Stops early where every difference
-    is zero or a system is not positive definite (k is then the last fit).
-
-    Returns the number of steps taken.
+    ρ_c = 1/‖(ΛDk)_c‖, floored at ``floor`` times the largest norm, into e[:, 0]
+    (e (n_cones, K + 1) also receives ΛDk in its vector parts), and the
+    diagonals of DᵀRD, R = diag(ρ), into ``bands`` (d + 1, N) as
+    :func:`.banded.difference_bands` holds those of DᵀD: bands[lag, s] =
+    (DᵀRD)_{s+lag, s}. Returns False (and leaves ``bands``) where every
+    difference is zero or not finite: there is nothing to reweight.
     """
-    p = block_size(size)
+    weighted_difference(k, coeffs, w, e)
     n_cones, m = e.shape
-    N, K = k.shape
-    n = K // p
     d = coeffs.shape[0] - 1
-    shared = True  # every output row has the same weights: one factorization
-    for i in range(1, n):
-        for a in range(p):
-            shared = shared and w[i * p + a] == w[a]
-    bands = np.empty((d + 1, N))
-    W = np.zeros((p, p))
-    L = np.empty((N, d + 1, p, p))
-    Z = np.empty((N, p, n if shared else 1))
-    extra = np.empty((0, p, p))
-    cov = np.empty((0, p, p))
-    taken = 0
-    for _ in range(steps):
-        weighted_difference(k, coeffs, w, e)
-        top = 0.0
-        for c in range(n_cones):
-            sq = 0.0
-            for a in range(1, m):
-                sq += e[c, a] * e[c, a]
-            e[c, 0] = np.sqrt(sq)
-            top = max(top, e[c, 0])
-        if not top > 0.0:  # no change anywhere (or not finite): nothing to reweight
-            break
-        low = floor * top
-        bands[:] = 0.0
-        for r in range(n_cones):
-            weight = 1.0 / max(e[r, 0], low)
-            e[r, 0] = weight
-            for q1 in range(d + 1):  # (DᵀRD)_{r+q1, r+q2} += c_q1 c_q2 ρ_r
-                for q2 in range(q1 + 1):
-                    bands[q1 - q2, r + q2] += coeffs[q1] * coeffs[q2] * weight
-        for row in range(1 if shared else n):
-            first = 0 if shared else row
-            for a in range(p):
-                W[a, a] = w[first * p + a] * w[first * p + a]
-            for t in range(N):
-                for c in range(Z.shape[2]):
-                    for a in range(p):
-                        Z[t, a, c] = data[t, (first + c) * p + a]
-            worst, _, _ = factor_forward(phi, 1, 2.0, extra, W, bands, Z, L, size)
-            if not worst > 0.0:
-                return taken
-            backward(L, Z, cov, size)
-            for t in range(N):
-                for c in range(Z.shape[2]):
-                    for a in range(p):
-                        k[t, (first + c) * p + a] = Z[t, a, c]
-        for c in range(n_cones):
-            rho[c] = e[c, 0]
-        taken += 1
-    return taken
+    top = 0.0
+    for c in range(n_cones):
+        sq = 0.0
+        for a in range(1, m):
+            sq += e[c, a] * e[c, a]
+        e[c, 0] = np.sqrt(sq)
+        top = max(top, e[c, 0])
+    if not (top > 0.0 and top < np.inf):
+        return False
+    low = floor * top
+    bands[:] = 0.0
+    for r in range(n_cones):
+        weight = 1.0 / max(e[r, 0], low)
+        e[r, 0] = weight
+        for q1 in range(d + 1):  # row r of D couples r + q2 and r + q1
+            for q2 in range(q1 + 1):
+                bands[q1 - q2, r + q2] += coeffs[q1] * coeffs[q2] * weight
+    return True
 
 
 @numba.njit(cache=True)

@@ -519,25 +519,57 @@ def feasible_start(problem: RegressionProblem, cp: ConicProblem):
 def reweighted_start(problem: RegressionProblem, cp: ConicProblem, k: np.ndarray):
     """A start closer to the optimum than the quadratic fit k, for group cones.
 
-    Returns (k, z₁ (n_cones, g)) after REWEIGHT_STEPS reweighted quadratic fits
-    from k (:func:`.conekernels.reweighted_fits`): each minimizes
-    ‖y − Φk‖² + Σ_c ‖(ΛDk)_c‖² / (2‖(ΛDk_prev)_c‖), the quadratic majorizer of
-    the group penalty at the previous k, so its k satisfies
-    2Φᵀ(Φk − y) + DᵀΛRΛDk = 0 with R = diag(ρ_c), and z₁_c = −ρ_c(ΛDk)_c is
-    stationary. Duals outside their cones are pulled back to the norm
-    WARM_MAX_DUAL_NORM (as in :func:`warm_dual`). None where no step was taken.
+    Returns (k, z₁ (n_cones, g)) after up to REWEIGHT_STEPS reweighted quadratic
+    fits from k: each minimizes ‖y − Φk‖² + Σ_c ‖(ΛDk)_c‖² / (2‖(ΛDk_prev)_c‖),
+    the quadratic majorizer of the group penalty at the previous k, so that
+    2Φᵀ(Φk − y) + DᵀΛRΛDk = 0 with R = diag(ρ_c), ρ_c = 1/‖(ΛDk_prev)_c‖, and
+    z₁_c = −ρ_c(ΛDk)_c is stationary. With S_c = ρ_c I the normal equations
+    split into one system per output row with p × p blocks, the squared norm's
+    systems (:func:`.blockkernels.factor_forward`, :func:`.blockkernels.solve`) with
+    the bands of DᵀRD
+    (:func:`.conekernels.reweight_bands`) in place of those of DᵀD; rows with
+    equal weights share a factorization. Duals outside their cones are pulled
+    back to the norm WARM_MAX_DUAL_NORM (as in :func:`warm_dual`). None where no
+    step was taken (no differences, or a system not positive definite).
     """
-    N, p = cp.N, cp.p
-    rho = np.empty(cp.n_cones)
-    data = 2.0 * problem.cross().transpose(0, 2, 1).reshape(N, cp.K)
-    k = np.array(k, dtype=float, order="C")
-    taken = cones.reweighted_fits(
-        cp.phi, cp.coeffs, cp.w, data, k, REWEIGHT_STEPS, REWEIGHT_FLOOR,
-        np.empty(cp.cone_shape), rho, kernel_size(N, p),
-    )  # fmt: skip
-    if taken == 0:
+    N, n, p = cp.N, cp.n, cp.p
+    e, bands = np.empty(cp.cone_shape), np.empty((cp.degree + 1, N))
+    L, size = np.empty((N, cp.degree + 1, p, p)), kernel_size(N, p)
+    # The squared norm's kernels with the argument types of its BlockFactor
+    # (:mod:`.banded`), so that a group fit compiles nothing more for them.
+    extra, no_rhs = np.zeros((0, p, p)), np.zeros((N, p, 0))
+    data = 2.0 * problem.cross().transpose(0, 2, 1)  # 2Φᵀy, (N, n, p)
+    groups: list[list[int]] = []  # output rows with equal weights
+    w_rows = cp.w.reshape(n, p)
+    for i in range(n):
+        for rows in groups:
+            if np.array_equal(w_rows[rows[0]], w_rows[i]):
+                rows.append(i)
+                break
+        else:
+            groups.append([i])
+    theta, rho = np.array(k, dtype=float).reshape(N, n, p), None
+    for _ in range(REWEIGHT_STEPS):
+        if not cones.reweight_bands(
+            theta.reshape(N, -1), cp.coeffs, cp.w, REWEIGHT_FLOOR, e, bands
+        ):
+            break
+        fitted = np.empty_like(theta)
+        for rows in groups:
+            W = np.diag(w_rows[rows[0]] ** 2)
+            worst, _, _ = kernels.factor_forward(cp.phi, 1, 2.0, extra, W, bands, no_rhs, L, size)
+            if not worst > 0.0:
+                break
+            Z = np.ascontiguousarray(data[:, rows, :].transpose(0, 2, 1))  # (N, p, rows)
+            kernels.solve(L, Z, size)
+            fitted[:, rows, :] = Z.transpose(0, 2, 1)
+        else:
+            theta, rho = fitted, e[:, 0].copy()
+            continue
+        break
+    if rho is None:
         return None
-    e = np.empty(cp.cone_shape)
+    k = np.ascontiguousarray(theta.reshape(N, -1))
     cones.weighted_difference(k, cp.coeffs, cp.w, e)
     z1 = -rho[:, None] * e[:, 1:]
     norms = np.sqrt(np.sum(z1**2, axis=1, keepdims=True))
