@@ -93,7 +93,7 @@ WARM_GAP_FRACTION = 0.01
 WARM_MAX_DUAL_NORM = 0.99
 WARM_DEGREES = (1,)
 # Group cones start from REWEIGHT_STEPS reweighted quadratic fits after the
-# feasible start (:func:`reweighted_start`), each about a fifth of an
+# feasible start (:func:`reweighted_start`), each a fifth to a quarter of an
 # iteration's work (p × p blocks), with the weights 1/‖(ΛDk)_c‖ floored at
 # REWEIGHT_FLOOR times the largest and the gap REWEIGHT_GAP_FRACTION of the
 # objective. On the jump-linear system (λ = 17, order 1, tol 1e-6, seeds 0-2)
@@ -524,13 +524,13 @@ def reweighted_start(problem: RegressionProblem, cp: ConicProblem, k: np.ndarray
     the quadratic majorizer of the group penalty at the previous k, so that
     2Φᵀ(Φk − y) + DᵀΛRΛDk = 0 with R = diag(ρ_c), ρ_c = 1/‖(ΛDk_prev)_c‖, and
     z₁_c = −ρ_c(ΛDk)_c is stationary. With S_c = ρ_c I the normal equations
-    split into one system per output row with p × p blocks, the squared norm's
-    systems (:func:`.blockkernels.factor_forward`, :func:`.blockkernels.solve`) with
-    the bands of DᵀRD
-    (:func:`.conekernels.reweight_bands`) in place of those of DᵀD; rows with
-    equal weights share a factorization. Duals outside their cones are pulled
-    back to the norm WARM_MAX_DUAL_NORM (as in :func:`warm_dual`). None where no
-    step was taken (no differences, or a system not positive definite).
+    split into one system per output row with p × p blocks: the squared norm's
+    systems (:func:`.blockkernels.factor_forward`, :func:`.blockkernels.solve`)
+    with the bands of DᵀRD (:func:`.conekernels.reweight_bands`) in place of
+    those of DᵀD; rows with equal weights share a factorization. Duals outside
+    their cones are pulled back to the norm WARM_MAX_DUAL_NORM (as in
+    :func:`warm_dual`). None where no step was taken (no differences, or a
+    system not positive definite).
     """
     N, n, p = cp.N, cp.n, cp.p
     e, bands = np.empty(cp.cone_shape), np.empty((cp.degree + 1, N))
