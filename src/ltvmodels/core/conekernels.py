@@ -26,6 +26,8 @@ __all__ = [
     "prepare_newton",
     "factor_newton_fixed",
     "factor_newton_any",
+    "predictor_corrector",
+    "reweight_bands",
     "jordan_product",
     "max_step",
     "kkt_residuals",
@@ -114,13 +116,13 @@ def add_weighted_difference_adjoint(v, coeffs, w, scale, out):  # pragma: no cov
 
 
 @numba.njit(cache=True, inline="always")
-def _nt_cone(s, z, i, v, eta):  # pragma: no cover - compiled
-    """Nesterov–Todd scaling of cone i: fills v[i] and eta[i] (see :func:`nt_scaling`).
+def _nt_cone(s, z, i, v, eta, m):  # pragma: no cover - compiled
+    """Nesterov–Todd scaling of cone i of width m: fills v[i] and eta[i] (see
+    :func:`nt_scaling`).
 
     Returns ‖v₁‖². Divisions and square roots are the slow operations here, so
     each is taken once per cone and the entries are scaled by reciprocals.
     """
-    m = s.shape[1]
     s_j = s[i, 0] * s[i, 0]
     z_j = z[i, 0] * z[i, 0]
     dot = s[i, 0] * z[i, 0]
@@ -154,7 +156,7 @@ def nt_scaling(s, z, v, eta, lam):  # pragma: no cover - compiled
     W is the square root of that matrix, v = (w̄ + e)/√(2(w̄₀ + 1)).
     """
     for i in range(s.shape[0]):
-        _nt_cone(s, z, i, v, eta)
+        _nt_cone(s, z, i, v, eta, s.shape[1])
     apply_scaling(v, eta, z, 1.0, lam)
 
 
@@ -209,17 +211,27 @@ def elimination_terms(v, eta, alpha, beta, s_coef):  # pragma: no cover - compil
 def prepare_newton(
     s, z, r_z, v, eta, lam, lam_sq, u_rz, alpha, beta, s_coef
 ):  # pragma: no cover - compiled
+    """Everything per cone a Newton system needs, in one pass (see :func:`_prepare_newton`)."""
+    _prepare_newton(s, z, r_z, v, eta, lam, lam_sq, u_rz, alpha, beta, s_coef, s.shape[1] - 1)
+
+
+@numba.njit(cache=True)
+def _prepare_newton(
+    s, z, r_z, v, eta, lam, lam_sq, u_rz, alpha, beta, s_coef, size
+):  # pragma: no cover - compiled
     """Everything per cone a Newton system needs, in one pass.
 
     The NT scaling (v, η), λ = Wz, λ∘λ, u_rz = W⁻² r_z and the elimination
     terms α, β, s_coef: :func:`nt_scaling`, :func:`jordan_product`,
     :func:`apply_scaling` and :func:`elimination_terms` fused, with the
     reflections written out (W x = η(2(vᵀx)v − Jx), W⁻¹x = η⁻¹(2(vᵀJx)Jv − Jx))
-    and one division for η⁻¹.
+    and one division for η⁻¹. The cones' vector parts have the length
+    block_size(size): a tuple's length makes it a constant of the compiled
+    loops (see :mod:`.blockkernels`).
     """
-    m = s.shape[1]
+    m = block_size(size) + 1
     for i in range(s.shape[0]):
-        v1sq = _nt_cone(s, z, i, v, eta)
+        v1sq = _nt_cone(s, z, i, v, eta, m)
         v0 = v[i, 0]
         et = eta[i]
         inv_eta = 1.0 / et
@@ -400,6 +412,127 @@ def factor_newton_any(phi, n_rep, v, eta, s_coef, penalty, w, coeffs, offset, pi
 
 
 @numba.njit(cache=True)
+def _solve_vector(L, x, size):  # pragma: no cover - compiled
+    """Solve L Lᵀ x = rhs in place for one right-hand side x (N, b) (L as in
+    :mod:`.blockkernels`, reciprocal pivots on its diagonal; b from ``size``).
+
+    :func:`.blockkernels.solve` for a single column: without the loop over a
+    run-time number of columns the b × b loops unroll for a constant b.
+    """
+    b = block_size(size)
+    N = L.shape[0]
+    d = L.shape[1] - 1
+    for t in range(N):
+        for lag in range(1, min(d, t) + 1):
+            Ll = L[t, lag]
+            for i in range(b):
+                acc = 0.0
+                for q in range(b):
+                    acc += Ll[i, q] * x[t - lag, q]
+                x[t, i] -= acc
+        Ltt = L[t, 0]
+        for i in range(b):
+            acc = x[t, i]
+            for q in range(i):
+                acc -= Ltt[i, q] * x[t, q]
+            x[t, i] = acc * Ltt[i, i]
+    for t in range(N - 1, -1, -1):
+        for lag in range(1, min(d, N - 1 - t) + 1):
+            Ll = L[t + lag, lag]
+            for i in range(b):
+                acc = 0.0
+                for q in range(b):
+                    acc += Ll[q, i] * x[t + lag, q]
+                x[t, i] -= acc
+        Ltt = L[t, 0]
+        for i in range(b - 1, -1, -1):
+            acc = x[t, i]
+            for q in range(i + 1, b):
+                acc -= Ltt[q, i] * x[t, q]
+            x[t, i] = acc * Ltt[i, i]
+
+
+@numba.njit(cache=True)
+def predictor_corrector(
+    phi, n_rep, coeffs, w, offset, pinned, s, z, r_z, r_k, gap,
+    v, eta, lam, lam_sq, u_rz, alpha, beta, s_coef, penalty,
+    L, target, work, dk, dt, ds, dz, size,
+):  # pragma: no cover - compiled  # fmt: skip
+    """One iteration's Newton directions for group cones, in one compiled call.
+
+    After :func:`prepare_newton`: factors the Newton matrix (:func:`_factor_newton`,
+    all K coefficients in one system, none pinned), solves for the predictor
+    target −λ∘λ, forms Mehrotra's corrector target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a)
+    with σ = (1 − min(1, α_a))³ and μ = gap / n_cones, and solves for it:
+    the sequence of :class:`.ipm.NewtonSystem`'s calls without the round trips
+    through Python between them (with the residuals, the scaling and the step,
+    four compiled calls per iteration instead of eleven).
+
+    Fills (Δk, Δt, Δs, Δz) = (dk (N, K), dt, ds, dz) for the corrector;
+    target and work are scratch arrays of the cones' shape. Returns (smallest
+    pivot² ratio, its time step, largest step keeping s and z in the cones);
+    a negative ratio means the Newton matrix is not positive definite, and
+    nothing else is computed.
+    """
+    worst, worst_t = _factor_newton(
+        phi, n_rep, v, eta, s_coef, penalty, w, coeffs, offset, pinned, L, size
+    )
+    if worst < 0:
+        return worst, worst_t, 0.0
+    n_cones, m = lam_sq.shape  # m at run time: compiled as a constant it gained nothing
+    for c in range(n_cones):
+        for a in range(m):
+            target[c, a] = -lam_sq[c, a]
+    _direction_rhs(target, lam, v, eta, u_rz, z, alpha, beta, r_k, coeffs, w, work, dk, m)
+    _solve_vector(L, dk, size)
+    step_s, step_z = _direction_finish(
+        dk, work, s, r_z, z, alpha, beta, v, eta, s_coef, coeffs, w, dt, ds, dz, m
+    )
+    sigma_mu = (1.0 - min(1.0, min(step_s, step_z))) ** 3 * gap / n_cones
+    _corrector_target(lam, v, eta, ds, dz, sigma_mu, target, m)
+    _direction_rhs(target, lam, v, eta, u_rz, z, alpha, beta, r_k, coeffs, w, work, dk, m)
+    _solve_vector(L, dk, size)
+    step_s, step_z = _direction_finish(
+        dk, work, s, r_z, z, alpha, beta, v, eta, s_coef, coeffs, w, dt, ds, dz, m
+    )
+    return worst, worst_t, min(step_s, step_z)
+
+
+@numba.njit(cache=True)
+def reweight_bands(k, coeffs, w, floor, e, bands):  # pragma: no cover - compiled
+    """The weights of a reweighted quadratic fit of group cones and the bands of DᵀRD.
+
+    ρ_c = 1/‖(ΛDk)_c‖, floored at ``floor`` times the largest norm, into e[:, 0]
+    (e (n_cones, K + 1) also receives ΛDk in its vector parts), and the
+    diagonals of DᵀRD, R = diag(ρ), into ``bands`` (d + 1, N) as
+    :func:`.banded.difference_bands` holds those of DᵀD: bands[lag, s] =
+    (DᵀRD)_{s+lag, s}. Returns False (and leaves ``bands``) where every
+    difference is zero or not finite: there is nothing to reweight.
+    """
+    weighted_difference(k, coeffs, w, e)
+    n_cones, m = e.shape
+    d = coeffs.shape[0] - 1
+    top = 0.0
+    for c in range(n_cones):
+        sq = 0.0
+        for a in range(1, m):
+            sq += e[c, a] * e[c, a]
+        e[c, 0] = np.sqrt(sq)
+        top = max(top, e[c, 0])
+    if not (top > 0.0 and top < np.inf):
+        return False
+    low = floor * top
+    bands[:] = 0.0
+    for r in range(n_cones):
+        weight = 1.0 / max(e[r, 0], low)
+        e[r, 0] = weight
+        for q1 in range(d + 1):  # row r of D couples r + q2 and r + q1
+            for q2 in range(q1 + 1):
+                bands[q1 - q2, r + q2] += coeffs[q1] * coeffs[q2] * weight
+    return True
+
+
+@numba.njit(cache=True)
 def jordan_product(x, y, out):  # pragma: no cover - compiled
     """out = x ∘ y = (xᵀy, x₀y₁ + y₀x₁) per cone."""
     n_cones, m = x.shape
@@ -413,10 +546,9 @@ def jordan_product(x, y, out):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, inline="always")
-def _cone_step_fraction(x, dx, i):  # pragma: no cover - compiled
-    """(num, den): the largest α with x_i + α·dx_i in the cone is num / den (inf, 1 if
-    unbounded); see :func:`max_step`."""
-    m = x.shape[1]
+def _cone_step_fraction(x, dx, i, m):  # pragma: no cover - compiled
+    """(num, den): the largest α with x_i + α·dx_i in the cone (of width m) is num / den
+    (inf, 1 if unbounded); see :func:`max_step`."""
     a = dx[i, 0] * dx[i, 0]
     b = x[i, 0] * dx[i, 0]
     c = x[i, 0] * x[i, 0]
@@ -432,7 +564,7 @@ def _cone_step_fraction(x, dx, i):  # pragma: no cover - compiled
 @numba.njit(cache=True, inline="always")
 def _cone_step(x, dx, i):  # pragma: no cover - compiled
     """Largest α with x_i + α·dx_i in the cone (inf if unbounded); see :func:`max_step`."""
-    num, den = _cone_step_fraction(x, dx, i)
+    num, den = _cone_step_fraction(x, dx, i, x.shape[1])
     return num / den
 
 
@@ -536,25 +668,42 @@ def direction_rhs(
     u_rz = W⁻² r_z is shared by all targets, and f_t = u₀ − (1 − z₀), stores
     work = (f_t, u₁ − β f_t/α) per cone and rhs = −r_k + DᵀΛ work₁.
     """
-    n_cones, m = target.shape
-    x = np.empty((1, m))
-    for c in range(n_cones):
-        det = lam[c, 0] * lam[c, 0]
-        dot = lam[c, 0] * target[c, 0]
+    _direction_rhs(
+        target, lam, v, eta, u_rz, z, alpha, beta, r_k, coeffs, w, work, rhs, target.shape[1]
+    )
+
+
+@numba.njit(cache=True)
+def _direction_rhs(
+    target, lam, v, eta, u_rz, z, alpha, beta, r_k, coeffs, w, work, rhs, m
+):  # pragma: no cover - compiled
+    """:func:`direction_rhs` for cones of width m.
+
+    x = λ ⋄ target (x₀ = (λᵀJ target)/(λᵀJλ), x₁ = (target₁ − x₀λ₁)/λ₀) and
+    W⁻¹x = η⁻¹(2(vᵀJx)Jv − Jx) are written out per entry, so no cone vector
+    goes through memory in between; x₁ is formed twice instead.
+    """
+    for c in range(target.shape[0]):
+        l0 = lam[c, 0]
+        det = l0 * l0
+        dot = l0 * target[c, 0]
         for a in range(1, m):
             det -= lam[c, a] * lam[c, a]
             dot -= lam[c, a] * target[c, a]
         x0 = dot / det
-        inv_lam0 = 1.0 / lam[c, 0]
-        x[0, 0] = x0
+        inv_lam0 = 1.0 / l0
+        dot_v = v[c, 0] * x0  # vᵀJx
         for a in range(1, m):
-            x[0, a] = (target[c, a] - x0 * lam[c, a]) * inv_lam0
-        _scale_one(v, eta, c, x, -1.0)
-        f_t = x[0, 0] + u_rz[c, 0] - (1.0 - z[c, 0])
+            dot_v -= v[c, a] * ((target[c, a] - x0 * lam[c, a]) * inv_lam0)
+        inv_eta = 1.0 / eta[c]
+        f_t = inv_eta * (2.0 * dot_v * v[c, 0] - x0) + u_rz[c, 0] - (1.0 - z[c, 0])
         work[c, 0] = f_t
         ratio = f_t / alpha[c]
         for a in range(1, m):
-            work[c, a] = x[0, a] + u_rz[c, a] - beta[c, a - 1] * ratio
+            x_a = (target[c, a] - x0 * lam[c, a]) * inv_lam0
+            work[c, a] = (
+                inv_eta * (x_a - 2.0 * dot_v * v[c, a]) + u_rz[c, a] - beta[c, a - 1] * ratio
+            )
     _stationarity_rhs(work, r_k, coeffs, w, rhs)
 
 
@@ -570,8 +719,18 @@ def direction_finish(
     Returns the largest steps that keep s + αΔs and z + αΔz in the cones
     (:func:`max_step`).
     """
+    return _direction_finish(
+        dk, work, s, r_z, z, alpha, beta, v, eta, s_coef, coeffs, w, dt, ds, dz, s.shape[1]
+    )
+
+
+@numba.njit(cache=True)
+def _direction_finish(
+    dk, work, s, r_z, z, alpha, beta, v, eta, s_coef, coeffs, w, dt, ds, dz, m
+):  # pragma: no cover - compiled
+    """:func:`direction_finish` for cones of width m."""
     weighted_difference(dk, coeffs, w, ds)  # vector parts: e
-    n_cones, m = ds.shape
+    n_cones = ds.shape[0]
     # The smallest steps as fractions num / den, divided out once at the end:
     # a division per cone costs more than the rest of its step computation.
     num_s = num_z = np.inf
@@ -591,10 +750,10 @@ def direction_finish(
         ds[c, 0] = dt[c] - r_z[c, 0]
         for a in range(1, m):
             ds[c, a] -= r_z[c, a]
-        num, den = _cone_step_fraction(s, ds, c)
+        num, den = _cone_step_fraction(s, ds, c, m)
         if num * den_s < num_s * den:
             num_s, den_s = num, den
-        num, den = _cone_step_fraction(z, dz, c)
+        num, den = _cone_step_fraction(z, dz, c, m)
         if num * den_z < num_z * den:
             num_z, den_z = num, den
     return num_s / den_s, num_z / den_z
@@ -616,31 +775,38 @@ def take_step(k, dk, t, dt, s, ds, z, dz, step):  # pragma: no cover - compiled
 @numba.njit(cache=True)
 def corrector_target(lam, v, eta, ds_a, dz_a, sigma_mu, out):  # pragma: no cover - compiled
     """Mehrotra's target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a); ds_a, dz_a are overwritten."""
-    apply_scaling(v, eta, ds_a, -1.0, ds_a)
-    apply_scaling(v, eta, dz_a, 1.0, dz_a)
-    jordan_product(ds_a, dz_a, out)
-    n_cones, m = lam.shape
-    for c in range(n_cones):
-        sq = 0.0
-        for a in range(m):
-            sq += lam[c, a] * lam[c, a]
-        out[c, 0] = sigma_mu - sq - out[c, 0]
+    _corrector_target(lam, v, eta, ds_a, dz_a, sigma_mu, out, lam.shape[1])
+
+
+@numba.njit(cache=True)
+def _corrector_target(lam, v, eta, ds_a, dz_a, sigma_mu, out, m):  # pragma: no cover - compiled
+    """:func:`corrector_target` for cones of width m: the two reflections
+    (:func:`apply_scaling`) and the Jordan product in one pass per cone."""
+    for c in range(lam.shape[0]):
+        v0 = v[c, 0]
+        dot_s = v0 * ds_a[c, 0]  # vᵀJΔs_a, for W⁻¹Δs_a
+        dot_z = v0 * dz_a[c, 0]  # vᵀΔz_a, for WΔz_a
         for a in range(1, m):
-            out[c, a] = -2.0 * lam[c, 0] * lam[c, a] - out[c, a]
-
-
-@numba.njit(cache=True, inline="always")
-def _scale_one(v, eta, c, x, power):  # pragma: no cover - compiled
-    """x[0] ← W_c x[0] (power 1) or W_c⁻¹ x[0] (power −1)."""
-    m = x.shape[1]
-    sign = 1.0 if power > 0 else -1.0
-    dot = v[c, 0] * x[0, 0]
-    for a in range(1, m):
-        dot += sign * v[c, a] * x[0, a]
-    factor = eta[c] if power > 0 else 1.0 / eta[c]
-    x[0, 0] = factor * (2.0 * dot * v[c, 0] - x[0, 0])
-    for a in range(1, m):
-        x[0, a] = factor * (2.0 * dot * sign * v[c, a] + x[0, a])
+            dot_s -= v[c, a] * ds_a[c, a]
+            dot_z += v[c, a] * dz_a[c, a]
+        inv_eta = 1.0 / eta[c]
+        et = eta[c]
+        p0 = inv_eta * (2.0 * dot_s * v0 - ds_a[c, 0])
+        q0 = et * (2.0 * dot_z * v0 - dz_a[c, 0])
+        prod = p0 * q0
+        sq = lam[c, 0] * lam[c, 0]
+        for a in range(1, m):
+            p_a = inv_eta * (ds_a[c, a] - 2.0 * dot_s * v[c, a])
+            q_a = et * (2.0 * dot_z * v[c, a] + dz_a[c, a])
+            ds_a[c, a] = p_a
+            dz_a[c, a] = q_a
+            prod += p_a * q_a
+            sq += lam[c, a] * lam[c, a]
+        ds_a[c, 0] = p0
+        dz_a[c, 0] = q0
+        out[c, 0] = sigma_mu - sq - prod
+        for a in range(1, m):
+            out[c, a] = -2.0 * lam[c, 0] * lam[c, a] - (p0 * dz_a[c, a] + q0 * ds_a[c, a])
 
 
 # -- Cones of width 2 (norm="l1") --------------------------------------------------------
