@@ -40,6 +40,7 @@ from scipy.linalg import cho_factor, cho_solve
 from ..errors import ConvergenceWarning, SingularProblemError, warn
 from . import blockkernels as kernels
 from . import conekernels as cones
+from . import widekernels as wide
 from .polish import polish, stationarity_scale
 from .problem import RegressionProblem, output_spread
 from .sparse_common import quadratic_fit
@@ -50,6 +51,7 @@ __all__ = [
     "START_DUAL_RANGE",
     "WARM_DEGREES",
     "FIXED_KERNEL_MIN_SIZE",
+    "WIDE_MIN_SIZE",
     "DOMINANT_SCALES",
     "BOUNDARY",
     "InteriorPointResult",
@@ -96,6 +98,9 @@ BOUNDARY = (
 )
 # Use the kernels compiled for a constant block size from this many unknowns on.
 FIXED_KERNEL_MIN_SIZE = 2_000
+# Newton blocks of at least this size are factored through BLAS and LAPACK
+# (:mod:`.widekernels`) instead of the scalar loops.
+WIDE_MIN_SIZE = 16
 
 
 @dataclass
@@ -137,7 +142,11 @@ class _RowSystem:
         self.pinned = const[rows].astype(float)
         self.const = np.flatnonzero(const[rows])
         self.L = np.empty((cp.N, cp.degree + 1, b, b))
-        self.fixed = (0,) * b if cp.N * b >= FIXED_KERNEL_MIN_SIZE and b <= 16 else None
+        self.wide = b >= WIDE_MIN_SIZE
+        self.first = cp.degree == 1
+        self.coeffs = cp.coeffs
+        small = cp.N * b >= FIXED_KERNEL_MIN_SIZE and b <= 16 and not self.wide
+        self.fixed = (0,) * b if small else None
         if self.const.size:
             p = cp.p
             idx = self.offset + np.arange(b)
@@ -166,7 +175,12 @@ class _RowSystem:
             self.pinned,
             self.L,
         )
-        if self.fixed is not None:
+        if self.wide and self.first:
+            worst, worst_t = wide.factor_newton_wide_first(*args)
+        elif self.wide:
+            with wide.one_blas_thread():
+                worst, worst_t = wide.factor_newton_wide(*args)
+        elif self.fixed is not None:
             worst, worst_t = cones.factor_newton_fixed(*args, self.fixed)
         else:
             worst, worst_t = cones.factor_newton_any(*args)
@@ -175,10 +189,7 @@ class _RowSystem:
                 f"the Newton system is singular near time step {worst_t}: the data do "
                 "not determine the model; more excitation or a larger lam helps"
             )
-        if self.fixed is not None:
-            kernels.solve_fixed(self.L, Z, self.fixed)
-        else:
-            kernels.solve(self.L, Z, Z.shape[1])
+        self._solve(Z)
         if self.const.size:
             self.HinvG = Z[:, :, 1:].copy()
             schur = self.C0 - np.einsum("tbj,tbk->jk", self.G, self.HinvG)
@@ -189,11 +200,19 @@ class _RowSystem:
         """The Newton step for f (N, b) with the current factorization."""
         f, f_c = self._split(f)
         X = np.ascontiguousarray(f[:, :, None])
-        if self.fixed is not None:
+        self._solve(X)
+        return self._border(X[:, :, 0], f_c)
+
+    def _solve(self, X: np.ndarray) -> None:
+        """X ← H⁻¹X in place with the current factorization; X is (N, b, r)."""
+        if self.wide and self.first:
+            wide.solve_wide_first(self.L, X, self.coeffs)
+        elif self.wide:
+            wide.solve_wide(self.L, X)
+        elif self.fixed is not None:
             kernels.solve_fixed(self.L, X, self.fixed)
         else:
             kernels.solve(self.L, X, X.shape[1])
-        return self._border(X[:, :, 0], f_c)
 
     def _split(self, f: np.ndarray):
         """f with the constants' entries removed (zeroed), and their sums over time."""
