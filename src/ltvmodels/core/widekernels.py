@@ -294,13 +294,16 @@ def solve_wide(L, X):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
 def _invert_spd(A, row):  # pragma: no cover - compiled
-    """A ← A⁻¹ in place for a symmetric positive definite A (both triangles given).
+    """A ← A⁻¹ in place (both triangles) for a symmetric positive definite A given by
+    its lower triangle.
 
-    Gauss–Jordan elimination without pivoting: the pivots are those of A's
-    LDLᵀ factorization, positive exactly when A is positive definite. Each
-    step is a rank-one update along contiguous rows, which the compiler
-    vectorizes; at b = 35 and 60 it took 13 and 40 µs of CPU time against 16
-    and 43 µs for LAPACK's dpotrf + dpotri (called from Python).
+    The symmetric sweep operator on every pivot k: with r = A[k, :] and
+    d = 1/A_kk, A_ij −= r_i r_j d (i, j ≠ k), A_ik = r_i d, A_kk = −d, which
+    leaves −A⁻¹. The pivots are those of A's LDLᵀ factorization, positive
+    exactly when A is positive definite. Only the lower triangle is updated
+    (b³/2 multiply-adds, half of Gauss–Jordan's), along contiguous rows that
+    the compiler vectorizes; at b = 35 and 60 this took 4.3 and 17 µs of CPU
+    time against 16 and 43 µs for LAPACK's dpotrf + dpotri (called from Python).
     ``row`` is a work vector of length b. Returns False if a pivot is not positive.
     """
     b = A.shape[0]
@@ -308,18 +311,25 @@ def _invert_spd(A, row):  # pragma: no cover - compiled
         pivot = A[k, k]
         if not pivot > 0.0:
             return False
-        inv = 1.0 / pivot
-        A[k, k] = 1.0
-        for j in range(b):
-            value = A[k, j] * inv
-            A[k, j] = value
-            row[j] = value
+        d = 1.0 / pivot
+        for j in range(k):
+            row[j] = A[k, j]
+        for j in range(k, b):
+            row[j] = A[j, k]
         for i in range(b):
-            if i != k:
-                f = A[i, k]
-                A[i, k] = 0.0
-                for j in range(b):
-                    A[i, j] -= f * row[j]
+            f = row[i] * d
+            for j in range(i + 1):
+                A[i, j] -= f * row[j]
+        for j in range(k):
+            A[k, j] = row[j] * d
+        for i in range(k + 1, b):
+            A[i, k] = row[i] * d
+        A[k, k] = -d
+    for i in range(b):
+        for j in range(i + 1):
+            value = -A[i, j]
+            A[i, j] = value
+            A[j, i] = value
     return True
 
 
@@ -401,15 +411,18 @@ def factor_newton_wide_first(
             for i in range(b):
                 alpha += a_prev[i] * g[i]
                 g[i] *= delta_prev[i]
+            # c₁²P − γ²PS⁻¹P, entry (i, j) = A_i a_j + C_i (S⁻¹)_ij δ_j + G_i g_j (+ c₁²δ_i
+            # on the diagonal), with the row coefficients taken out of the inner loop.
             for i in range(b):
                 di, ai, hi = delta_prev[i], a_prev[i], g[i]
+                coef_a = gamma2 * (hi - alpha * ai) - c11 * ai
+                coef_s = -gamma2 * di
+                coef_g = gamma2 * ai
+                Spi = Sp[i]
+                Si = S[i]
                 for j in range(i + 1):
-                    S[i, j] += c11 * ((i == j) * di - ai * a_prev[j]) - gamma2 * (
-                        di * delta_prev[j] * Sp[i, j]
-                        - hi * a_prev[j]
-                        - ai * g[j]
-                        + alpha * ai * a_prev[j]
-                    )
+                    Si[j] += coef_a * a_prev[j] + coef_s * (Spi[j] * delta_prev[j]) + coef_g * g[j]
+                Si[i] += c11 * di
         for rep in range(n_rep):  # the data part, 2 I_r ⊗ Σ_q φ_tqφ_tqᵀ
             base = rep * p
             for i in range(p):
@@ -425,9 +438,6 @@ def factor_newton_wide_first(
                 for j in range(i + 1, b):
                     S[j, i] = 0.0
                 S[i, i] = 1.0
-        for i in range(b):
-            for j in range(i + 1, b):
-                S[i, j] = S[j, i]
         if not _invert_spd(S, g):
             return -1.0, t
         if t < R:
