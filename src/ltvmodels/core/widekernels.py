@@ -32,7 +32,7 @@ a lower triangular row-major factor is LAPACK's upper triangle (``uplo="U"``).
 
 from __future__ import annotations
 
-import llvmlite.binding as llvm
+import llvmlite.binding as llvm  # type: ignore[import-untyped]  # (numba's own dependency)
 import numba
 import numpy as np
 from numba import types
