@@ -84,8 +84,9 @@ def test_solve_matches_dense(case, kernel):
     X = F.copy()
     L = args[-1]
     if kernel == "first":
-        assert wide.factor_newton_wide_first(*args)[0] > 0
-        wide.solve_wide_first(L, X, args[7])
+        L, P = np.empty((N, 1, n * p, n * p)), np.empty((N, 2, n * p))
+        assert wide.factor_newton_wide_first(*args[:-1], L, P)[0] > 0
+        wide.solve_wide_first(L, P, X, args[7])
     else:
         with wide.one_blas_thread():
             assert wide.factor_newton_wide(*args)[0] > 0
@@ -100,7 +101,9 @@ def test_indefinite_matrix_is_reported(kernel):
     args = list(newton_inputs(rng, 6, 4, 5, 1))
     args[4] = 50.0 * args[4]  # s_coef ‖v₁‖² > 1: S, and so H, indefinite
     args[0] = 1e-3 * args[0]
-    factor = wide.factor_newton_wide_first if kernel == "first" else wide.factor_newton_wide
     with wide.one_blas_thread():
-        worst, t = factor(*args)
+        if kernel == "first":
+            worst, t = wide.factor_newton_wide_first(*args, np.empty((6, 2, 20)))
+        else:
+            worst, t = wide.factor_newton_wide(*args)
     assert worst < 0 and 0 <= t < 6

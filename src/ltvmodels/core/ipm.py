@@ -141,10 +141,14 @@ class _RowSystem:
         b = rows.stop - rows.start
         self.pinned = const[rows].astype(float)
         self.const = np.flatnonzero(const[rows])
-        self.L = np.empty((cp.N, cp.degree + 1, b, b))
         self.wide = b >= WIDE_MIN_SIZE
         self.first = cp.degree == 1
         self.coeffs = cp.coeffs
+        # The wide order-1 factor keeps S_t⁻¹ per step and P_t as (δ_t, a_t): no
+        # off-diagonal blocks (see widekernels.factor_newton_wide_first).
+        wide_first = self.wide and self.first
+        self.L = np.empty((cp.N, 1 if wide_first else cp.degree + 1, b, b))
+        self.P = np.empty((cp.N, 2, b)) if wide_first else None
         small = cp.N * b >= FIXED_KERNEL_MIN_SIZE and b <= 16 and not self.wide
         self.fixed = (0,) * b if small else None
         if self.const.size:
@@ -176,7 +180,7 @@ class _RowSystem:
             self.L,
         )
         if self.wide and self.first:
-            worst, worst_t = wide.factor_newton_wide_first(*args)
+            worst, worst_t = wide.factor_newton_wide_first(*args, self.P)
         elif self.wide:
             with wide.one_blas_thread():
                 worst, worst_t = wide.factor_newton_wide(*args)
@@ -206,7 +210,7 @@ class _RowSystem:
     def _solve(self, X: np.ndarray) -> None:
         """X ← H⁻¹X in place with the current factorization; X is (N, b, r)."""
         if self.wide and self.first:
-            wide.solve_wide_first(self.L, X, self.coeffs)
+            wide.solve_wide_first(self.L, self.P, X, self.coeffs)
         elif self.wide:
             wide.solve_wide(self.L, X)
         elif self.fixed is not None:

@@ -335,7 +335,7 @@ def _invert_spd(A, row):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, error_model="numpy")
 def factor_newton_wide_first(
-    phi, n_rep, v, eta, s_coef, penalty, w, coeffs, offset, pinned, L
+    phi, n_rep, v, eta, s_coef, penalty, w, coeffs, offset, pinned, L, P
 ):  # pragma: no cover - compiled
     """:func:`factor_newton_wide` for first differences (d = 1), in half the flops.
 
@@ -354,7 +354,8 @@ def factor_newton_wide_first(
     solves are two matrix-vector products per step.
 
     Stores S_t⁻¹ (symmetric, both triangles) in ``L[t, 0]`` and δ_t, a_t in
-    rows 0 and 1 of ``L[t, 1]``, for :func:`solve_wide_first`.
+    rows 0 and 1 of ``P[t]`` (P is (N, 2, b), L may be (N, 1, b, b): the off-diagonal
+    blocks are not stored), for :func:`solve_wide_first`.
 
     Returns (1.0, 0), or (−1.0, t) if S_t is not positive definite.
     """
@@ -377,19 +378,19 @@ def factor_newton_wide_first(
                 K = w.shape[0]
                 for i in range(b):
                     wi = w[offset + i]
-                    L[t, 1, 0, i] = wi * wi * penalty[t * K + offset + i]
-                    L[t, 1, 1, i] = 0.0
+                    P[t, 0, i] = wi * wi * penalty[t * K + offset + i]
+                    P[t, 1, i] = 0.0
             else:
                 inv_eta2 = 1.0 / (eta[t] * eta[t])
                 root = np.sqrt(s_coef[t]) * (1.0 / eta[t])
                 for i in range(b):
-                    L[t, 1, 0, i] = inv_eta2 * w[i] * w[i]
-                    L[t, 1, 1, i] = root * w[i] * v[t, 1 + i]
+                    P[t, 0, i] = inv_eta2 * w[i] * w[i]
+                    P[t, 1, i] = root * w[i] * v[t, 1 + i]
             for i in range(b):
                 if pinned[i] != 0.0:
-                    L[t, 1, 0, i] = 0.0
-                    L[t, 1, 1, i] = 0.0
-            delta, a = L[t, 1, 0], L[t, 1, 1]
+                    P[t, 0, i] = 0.0
+                    P[t, 1, i] = 0.0
+            delta, a = P[t, 0], P[t, 1]
             c00 = c0 * c0
             for i in range(b):
                 ai = c00 * a[i]
@@ -442,13 +443,13 @@ def factor_newton_wide_first(
             return -1.0, t
         if t < R:
             for i in range(b):
-                delta_prev[i] = L[t, 1, 0, i]
-                a_prev[i] = L[t, 1, 1, i]
+                delta_prev[i] = P[t, 0, i]
+                a_prev[i] = P[t, 1, i]
     return 1.0, 0
 
 
 @numba.njit(cache=True, error_model="numpy")
-def solve_wide_first(L, X, coeffs):  # pragma: no cover - compiled
+def solve_wide_first(L, P, X, coeffs):  # pragma: no cover - compiled
     """Solve H X = X in place with the factor of :func:`factor_newton_wide_first`.
 
     Block forward elimination y_t = x_t − γP_{t−1}S_{t−1}⁻¹y_{t−1}, then
@@ -466,9 +467,9 @@ def solve_wide_first(L, X, coeffs):  # pragma: no cover - compiled
             _symmetric_matvec(L[t - 1, 0], x, u)
             dot = 0.0
             for i in range(b):
-                dot += L[t - 1, 1, 1, i] * u[i]
+                dot += P[t - 1, 1, i] * u[i]
             for i in range(b):
-                value = X[t, i, c] - gamma * (L[t - 1, 1, 0, i] * u[i] - L[t - 1, 1, 1, i] * dot)
+                value = X[t, i, c] - gamma * (P[t - 1, 0, i] * u[i] - P[t - 1, 1, i] * dot)
                 X[t, i, c] = value
                 x[i] = value
         for t in range(N - 1, -1, -1):
@@ -477,9 +478,9 @@ def solve_wide_first(L, X, coeffs):  # pragma: no cover - compiled
             if t < N - 1:
                 dot = 0.0
                 for i in range(b):
-                    dot += L[t, 1, 1, i] * x[i]
+                    dot += P[t, 1, i] * x[i]
                 for i in range(b):
-                    u[i] -= gamma * (L[t, 1, 0, i] * x[i] - L[t, 1, 1, i] * dot)
+                    u[i] -= gamma * (P[t, 0, i] * x[i] - P[t, 1, i] * dot)
             _symmetric_matvec(L[t, 0], u, x)
             for i in range(b):
                 X[t, i, c] = x[i]
