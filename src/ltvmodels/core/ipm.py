@@ -52,6 +52,7 @@ __all__ = [
     "WARM_DEGREES",
     "FIXED_KERNEL_MIN_SIZE",
     "WIDE_MIN_SIZE",
+    "WIDE_MIN_SIZE_FIRST",
     "DOMINANT_SCALES",
     "BOUNDARY",
     "InteriorPointResult",
@@ -98,9 +99,15 @@ BOUNDARY = (
 )
 # Use the kernels compiled for a constant block size from this many unknowns on.
 FIXED_KERNEL_MIN_SIZE = 2_000
-# Newton blocks of at least this size are factored through BLAS and LAPACK
-# (:mod:`.widekernels`) instead of the scalar loops.
+# Newton blocks of at least this size are factored by :mod:`.widekernels` instead of
+# the scalar loops: for order 1 by block elimination with explicit inverses, from
+# WIDE_MIN_SIZE_FIRST on; otherwise by BLAS and LAPACK, from WIDE_MIN_SIZE on. CPU
+# time of whole fits (norm="group", jump systems, T = 1000, λ = 0.1 λ_max, best of
+# three, range of the ratios loops/wide): order 1, K = 8: 1.27–1.31, K = 12:
+# 1.45–1.61, K = 15: 1.04–2.39, K = 24: 2.67–3.32; order 2, K = 8: 0.67–0.72,
+# K = 12: 0.98–1.07, K = 15: 0.90–0.98, K = 24: 1.15–1.43.
 WIDE_MIN_SIZE = 16
+WIDE_MIN_SIZE_FIRST = 12
 
 
 @dataclass
@@ -141,8 +148,10 @@ class _RowSystem:
         b = rows.stop - rows.start
         self.pinned = const[rows].astype(float)
         self.const = np.flatnonzero(const[rows])
-        self.wide = b >= WIDE_MIN_SIZE
         self.first = cp.degree == 1
+        # The group cones' K × K blocks (l1's p × p systems were not measured there).
+        group = cp.cone_shape[1] > 2
+        self.wide = group and b >= (WIDE_MIN_SIZE_FIRST if self.first else WIDE_MIN_SIZE)
         self.coeffs = cp.coeffs
         # The wide order-1 factor keeps S_t⁻¹ per step and P_t as (δ_t, a_t): no
         # off-diagonal blocks (see widekernels.factor_newton_wide_first).

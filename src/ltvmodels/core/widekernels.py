@@ -11,7 +11,7 @@ Cholesky costs about (d + 4/3)·b³ flops per time step. The scalar loops of
 a few dozen coefficients on the work per step is large enough for LAPACK's
 ``dpotrf`` and BLAS's ``dtrsm``, ``dsyrk`` and ``dgemm``, which run blocked and
 vectorized at several times the speed of the scalar loops (see
-``WIDE_MIN_SIZE`` in :mod:`.ipm` for the measured crossover).
+``WIDE_MIN_SIZE`` in :mod:`.ipm` for the measured crossovers).
 
 The routines are scipy's (``scipy.linalg.cython_lapack`` and
 ``cython_blas``), registered as external symbols of the compiled code
