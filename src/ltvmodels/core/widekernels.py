@@ -1,36 +1,40 @@
-"""Compiled block-banded Cholesky through BLAS and LAPACK, for wide blocks.
+"""Compiled factorizations of the interior-point Newton matrix for wide blocks.
 
 The interior-point method's Newton matrix (:mod:`.ipm`)
 
     H = 2ΦᵀΦ + DᵀΛSΛD
 
 has N × N blocks of size b × b and block bandwidth d (the order of D). For
-``norm="group"`` the blocks are dense K × K (b = K = n·p), and the block
-Cholesky costs about (d + 4/3)·b³ flops per time step. The scalar loops of
+``norm="group"`` the blocks are dense K × K (b = K = n·p). The scalar loops of
 :mod:`.blockkernels` and :mod:`.conekernels` are fastest for small blocks; from
-a few dozen coefficients on the work per step is large enough for LAPACK's
-``dpotrf`` and BLAS's ``dtrsm``, ``dsyrk`` and ``dgemm``, which run blocked and
-vectorized at several times the speed of the scalar loops (see
-``WIDE_MIN_SIZE`` in :mod:`.ipm` for the measured crossovers).
+a dozen or so coefficients on (``WIDE_MIN_SIZE`` in :mod:`.ipm`, with the
+measured crossovers) the kernels here are faster:
 
-The routines are scipy's (``scipy.linalg.cython_lapack`` and
+- order 1 (:func:`factor_newton_wide_first`): the off-diagonal blocks are
+  diagonal plus rank one, so a block elimination that keeps each Schur
+  complement's explicit inverse needs one b × b inversion per step (b³/2
+  multiply-adds, in compiled loops that vectorize) and b² work besides, against
+  about 7b³/3 flops for the blocks of a block Cholesky;
+- any order (:func:`factor_newton_wide`): the block Cholesky through LAPACK's
+  ``dpotrf`` and BLAS's ``dtrsm``, ``dsyrk`` and ``dgemm`` (about
+  (2d + 1/3)·b³ flops per step), on one thread (:func:`one_blas_thread`).
+
+The BLAS and LAPACK routines are scipy's (``scipy.linalg.cython_lapack`` and
 ``cython_blas``), registered as external symbols of the compiled code
 (:func:`_register`), so that the kernels compile once and are cached on disk
 like the others, and no call goes back through Python.
 
-For first differences (order 1) :func:`factor_newton_wide_first` uses the
-structure of the off-diagonal blocks (diagonal plus rank one) and needs
-only one b × b inversion per step, in compiled loops.
-
-Storage: ``L[t, lag] = L_{t, t−lag}`` as in :mod:`.blockkernels` (shape
-(N, d+1, b, b), C order), but with the true pivots on the diagonal of
-``L[t, 0]`` (LAPACK's convention), so a factor of this module is solved with
-:func:`solve_wide`, not with :func:`.blockkernels.solve`. A C-ordered
+Storage of :func:`factor_newton_wide`: ``L[t, lag] = L_{t, t−lag}`` as in
+:mod:`.blockkernels` (shape (N, d+1, b, b), C order), but with the true pivots
+on the diagonal of ``L[t, 0]`` (LAPACK's convention), so its factor is solved
+with :func:`solve_wide`, not with :func:`.blockkernels.solve`. A C-ordered
 (row-major) block is the transpose of the same memory read in Fortran order:
 a lower triangular row-major factor is LAPACK's upper triangle (``uplo="U"``).
 """
 
 from __future__ import annotations
+
+from contextlib import AbstractContextManager
 
 import llvmlite.binding as llvm  # type: ignore[import-untyped]  # (numba's own dependency)
 import numba
@@ -70,7 +74,7 @@ _register()
 _controller: ThreadpoolController | None = None
 
 
-def one_blas_thread():
+def one_blas_thread() -> AbstractContextManager[object]:
     """A context in which BLAS and LAPACK run on one thread (restored on exit).
 
     The blocks are too small for threads to pay: with two threads each call's
