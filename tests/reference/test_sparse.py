@@ -371,7 +371,7 @@ def strong_convexity(Phi, N, K):
 
 
 def route(monkeypatch, solver):
-    """Force ADMM (the route of "group" beyond 24 parameters per step and of zero weights)
+    """Force ADMM (the route of "group" beyond 64 parameters per step and of zero weights)
     for a comparison on the same data; "interior point" is the default at K = 24."""
     if solver == "ADMM":
         monkeypatch.setattr(sparse_dispatch, "ipm_suits", lambda penalty, K: False)
@@ -406,6 +406,55 @@ def test_wide_state_space_matches_clarabel(norm, order, coeffs, solver, monkeypa
         certificate_rtol=ADMM_AGREEMENT,
         mu=mu,
     )
+
+
+@pytest.mark.parametrize("const", [False, True])
+@pytest.mark.parametrize("order,coeffs", [(1, [-1.0, 1.0]), (2, [1.0, -2.0, 1.0])])
+def test_group_interior_point_at_35_parameters_matches_clarabel(order, coeffs, const):
+    """K = 35 (5 states, 2 inputs): the wide Newton kernels (:mod:`.widekernels`), with
+    and without coefficients held constant (lam = inf: the border of the systems)."""
+    x, u = jump_batches(2, R=3, T=30, n=5, m=2)
+    pb = state_space_problem(x, u, np.array(coeffs))
+    pattern = np.ones(pb.K)
+    if const:
+        pattern[[1, 20]] = np.inf  # A[0, 1] and A[2, 6]: in different output rows
+    weights = 0.2 * lambda_max(pb, named("group"), pattern) * pattern
+    model = ltv.fit(x, u, lam=weights, norm="group", order=order, tol=IPM_TOL)
+    assert model.K == 35 and model.info["solver"].startswith("interior point")
+    assert model.info["converged"]
+    finite = np.where(np.isinf(weights), 0.0, weights)
+    N, n, p = pb.N, pb.n, pb.p
+    theta = cp.Variable((N, n * p))
+    phi, y = pb.phi, pb.y  # (N, R, p) and (N, R, n)
+    loss = sum(
+        cp.sum_squares(
+            y[:, r, i] - cp.sum(cp.multiply(theta[:, i * p : (i + 1) * p], phi[:, r]), 1)
+        )
+        for r in range(phi.shape[1])
+        for i in range(n)
+    )
+    d = len(coeffs) - 1
+    Dk = sum(coeffs[j] * theta[j : N - d + j, :] for j in range(d + 1))
+    reg = cp.sum(cp.norm(cp.multiply(Dk, np.tile(finite, (N - d, 1))), 2, axis=1))
+    constraints = [theta[1:, j] == theta[:-1, j] for j in np.flatnonzero(np.isinf(weights))]
+    problem = cp.Problem(cp.Minimize(loss + reg), constraints)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        problem.solve(solver=cp.CLARABEL, tol_gap_abs=1e-12, tol_gap_rel=1e-12, tol_feas=1e-12)
+    Phi, Y = state_space_regression(x, u)
+    check_against_clarabel(
+        Phi,
+        Y,
+        model,
+        weights,
+        "group",
+        coeffs,
+        problem.value,
+        theta.value,
+        objective_rtol=IPM_TOL,
+        certificate_rtol=2 * IPM_TOL,
+    )
+    assert model.activation().max() > 0  # λ below λ_max: the coefficients do change
 
 
 @pytest.mark.parametrize("solver", ["interior point", "ADMM"])

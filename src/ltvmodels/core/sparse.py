@@ -35,13 +35,17 @@ __all__ = ["IPM_MAX_K", "ipm_suits", "SparseSolution", "solve_sparse", "path_sta
 IPM_MAX_K = 20
 # The interior-point method's Newton blocks are K × K for "group" (cost ~ N·K³ per
 # iteration) and p × p per output row for "l1" (~ N·n·p³). Measured on jump-linear
-# systems (λ = 5, T = 1000 and 4000, jump systems of n = 4–16 states, m = 2–4 inputs):
-# for "group" at K = 24 the interior point and ADMM took the same time (0.17 and
-# 0.19 s at T = 1000, 0.79 and 0.80 s at T = 4000), at K = 35 and 60 ADMM was 2.7–3.7
-# times faster; for "l1" at K = 24–320 the interior point was 12–57 times faster than
-# ADMM (e.g. 0.47 s against 12 s at K = 24, T = 4000) and ADMM's objective was worse
-# by up to 6.5e-6.
-GROUP_IPM_MAX_K = 24
+# systems (T = 1000 and 4000, jump systems of n = 4–16 states, m = 2–4 inputs): for
+# "l1" at K = 24–320 the interior point was 12–57 times faster than ADMM (e.g. 0.47 s
+# against 12 s at K = 24, T = 4000) and ADMM's objective was worse by up to 6.5e-6.
+# For "group" the wide kernels (:mod:`.widekernels`, K >= 16) made the interior point
+# the faster route at every K measured (``benchmarks/bench_wide_group.py``, order 1,
+# tol 1e-6): at λ = 0.1 λ_max (one change) K = 35, T = 1000 took 0.55 s and 8
+# iterations against ADMM's 616 s and 6335 iterations; at λ = 0.0015 λ_max (λ ≈ 5, many
+# small changes) K = 35 and 60 at T = 1000 took 1.5 and 4.6 s against ADMM's 28 and
+# 95 s (one loaded machine, one run each). Beyond K = 64 it is not measured (the
+# interior point's factor holds N·(d + 1)·K² numbers, as ADMM's does).
+GROUP_IPM_MAX_K = 64
 
 
 def ipm_suits(penalty: Penalty, K: int) -> bool:

@@ -296,7 +296,7 @@ def fit(
         Compute posterior covariances (selected inversion, O(N)); False skips them.
     max_iter, tol : int, float
         For "group" and "l1" (unused for "sq"): the iteration limit and the
-        relative tolerance. For "l1", and for "group" with K <= 24 parameters
+        relative tolerance. For "l1", and for "group" with K <= 64 parameters
         per time step, the solver is a primal-dual interior-point method whose
         Newton systems are
         block-banded (:mod:`ltvmodels.core.ipm`, 10–30 iterations): ``tol``
