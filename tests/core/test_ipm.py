@@ -31,6 +31,27 @@ def cone_matrices(v, eta, power):
 
 
 @pytest.mark.parametrize("g", [1, 4])
+def test_corrector_target_against_dense_scaling(g):
+    """σμe − λ∘λ − (W⁻¹Δs) ∘ (WΔz), with W and W⁻¹ as dense matrices and ∘ by its definition."""
+    rng = np.random.default_rng(10 + g)
+    s, z = interior_points(rng, 6, g), interior_points(rng, 6, g)
+    v, eta, lam = np.empty_like(s), np.empty(6), np.empty_like(s)
+    cones.nt_scaling(s, z, v, eta, lam)
+    ds, dz = rng.normal(size=s.shape), rng.normal(size=s.shape)
+    W, W_inv = cone_matrices(v, eta, 1.0), cone_matrices(v, eta, -1.0)
+    a, b = np.einsum("cij,cj->ci", W_inv, ds), np.einsum("cij,cj->ci", W, dz)
+
+    def jordan(x, y):
+        return np.column_stack([np.sum(x * y, 1), x[:, :1] * y[:, 1:] + y[:, :1] * x[:, 1:]])
+
+    expected = -jordan(lam, lam) - jordan(a, b)
+    expected[:, 0] += 0.7
+    out = np.empty_like(s)
+    cones.corrector_target(lam, v, eta, ds.copy(), dz.copy(), 0.7, out)
+    np.testing.assert_allclose(out, expected, rtol=1e-10, atol=1e-12 * np.abs(expected).max())
+
+
+@pytest.mark.parametrize("g", [1, 4])
 def test_nesterov_todd_scaling(g):
     rng = np.random.default_rng(g)
     s, z = interior_points(rng, 5, g), interior_points(rng, 5, g)
