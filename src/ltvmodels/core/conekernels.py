@@ -450,8 +450,7 @@ def max_step(x, dx):  # pragma: no cover - compiled
     return best
 
 
-@numba.njit(cache=True)
-def kkt_residuals(k, t, s, z, y, phi, coeffs, w, r_z, r_k):  # pragma: no cover - compiled
+def kkt_residuals(k, t, s, z, y, phi, coeffs, w, r_z, r_k):
     """Residuals of the optimality conditions at (k, t, s, z), in one pass.
 
     Fills r_z = s − (t, ΛDk) (cone constraints) and r_k = 2Φᵀ(Φk − y) − DᵀΛz₁
@@ -466,10 +465,21 @@ def kkt_residuals(k, t, s, z, y, phi, coeffs, w, r_z, r_k):  # pragma: no cover 
     rz_norm, s_norm, rk_norm, rt_max : float
         ‖r_z‖, ‖s‖, ‖r_k‖ and max |1 − z₀|.
     """
+    # The differences are separate kernels, called from here rather than from a
+    # compiled kernel: a compiled caller re-optimizes their code inside itself
+    # (about 0.9 s of a first fit's compilation).
+    loss = _data_residuals(k, y, phi, r_k)
+    add_weighted_difference_adjoint(z, coeffs, w, -1.0, r_k)
+    weighted_difference(k, coeffs, w, r_z)  # vector parts: ΛDk
+    return (loss, *_cone_residuals(t, s, z, r_z, r_k))
+
+
+@numba.njit(cache=True)
+def _data_residuals(k, y, phi, r_k):  # pragma: no cover - compiled
+    """r_k = 2Φᵀ(Φk − y); returns ‖y − Φk‖² (:func:`kkt_residuals`)."""
     N, n_rows, n = y.shape
     p = phi.shape[2]
     K = n * p
-    g = s.shape[1] - 1
     loss = 0.0
     for tt in range(N):
         for a in range(K):
@@ -482,8 +492,15 @@ def kkt_residuals(k, t, s, z, y, phi, coeffs, w, r_z, r_k):  # pragma: no cover 
                 loss += e * e
                 for a in range(p):
                     r_k[tt, i * p + a] -= 2.0 * e * phi[tt, row, a]
-    add_weighted_difference_adjoint(z, coeffs, w, -1.0, r_k)
-    weighted_difference(k, coeffs, w, r_z)  # vector parts: ΛDk
+    return loss
+
+
+@numba.njit(cache=True)
+def _cone_residuals(t, s, z, r_z, r_k):  # pragma: no cover - compiled
+    """r_z = s − (t, ΛDk) from r_z's vector parts ΛDk, and the sums of :func:`kkt_residuals`
+    after ‖y − Φk‖²."""
+    N, K = r_k.shape
+    g = s.shape[1] - 1
     reg = gap = rz_sq = s_sq = 0.0
     rt_max = 0.0
     if g == 1:  # l1: the same sums without inner loops
@@ -514,28 +531,31 @@ def kkt_residuals(k, t, s, z, y, phi, coeffs, w, r_z, r_k):  # pragma: no cover 
     for tt in range(N):
         for j in range(K):
             rk_sq += r_k[tt, j] * r_k[tt, j]
-    return loss, reg, gap, np.sqrt(rz_sq), np.sqrt(s_sq), np.sqrt(rk_sq), rt_max
+    return reg, gap, np.sqrt(rz_sq), np.sqrt(s_sq), np.sqrt(rk_sq), rt_max
 
 
-@numba.njit(cache=True, inline="always")
-def _stationarity_rhs(work, r_k, coeffs, w, rhs):  # pragma: no cover - compiled
+def _stationarity_rhs(work, r_k, coeffs, w, rhs):
     """rhs = −r_k + DᵀΛ work₁: the banded system's right-hand side from the cone parts."""
-    for tt in range(rhs.shape[0]):
-        for j in range(rhs.shape[1]):
-            rhs[tt, j] = -r_k[tt, j]
+    np.negative(r_k, out=rhs)
     add_weighted_difference_adjoint(work, coeffs, w, 1.0, rhs)
 
 
-@numba.njit(cache=True)
-def direction_rhs(
-    target, lam, v, eta, u_rz, z, alpha, beta, r_k, coeffs, w, work, rhs
-):  # pragma: no cover - compiled
+def direction_rhs(target, lam, v, eta, u_rz, z, alpha, beta, r_k, coeffs, w, work, rhs):
     """First half of a Newton direction: the right-hand side of the banded system.
 
     With u = W⁻²(r_z + W(λ ⋄ target)) = u_rz + W⁻¹(λ ⋄ target), where
     u_rz = W⁻² r_z is shared by all targets, and f_t = u₀ − (1 − z₀), stores
     work = (f_t, u₁ − β f_t/α) per cone and rhs = −r_k + DᵀΛ work₁.
     """
+    _direction_rhs_cones(target, lam, v, eta, u_rz, z, alpha, beta, work)
+    _stationarity_rhs(work, r_k, coeffs, w, rhs)
+
+
+@numba.njit(cache=True)
+def _direction_rhs_cones(
+    target, lam, v, eta, u_rz, z, alpha, beta, work
+):  # pragma: no cover - compiled
+    """The cone part of :func:`direction_rhs`: fills ``work``."""
     n_cones, m = target.shape
     x = np.empty((1, m))
     for c in range(n_cones):
@@ -555,13 +575,9 @@ def direction_rhs(
         ratio = f_t / alpha[c]
         for a in range(1, m):
             work[c, a] = x[0, a] + u_rz[c, a] - beta[c, a - 1] * ratio
-    _stationarity_rhs(work, r_k, coeffs, w, rhs)
 
 
-@numba.njit(cache=True)
-def direction_finish(
-    dk, work, s, r_z, z, alpha, beta, v, eta, s_coef, coeffs, w, dt, ds, dz
-):  # pragma: no cover - compiled
+def direction_finish(dk, work, s, r_z, z, alpha, beta, v, eta, s_coef, coeffs, w, dt, ds, dz):
     """Second half of a Newton direction, from the solution Δk of the banded system.
 
     With e = ΛDΔk: Δt = (f_t − βᵀe)/α, Δs = (Δt, e) − r_z and
@@ -571,6 +587,14 @@ def direction_finish(
     (:func:`max_step`).
     """
     weighted_difference(dk, coeffs, w, ds)  # vector parts: e
+    return _direction_finish_cones(work, s, r_z, z, alpha, beta, v, eta, s_coef, dt, ds, dz)
+
+
+@numba.njit(cache=True)
+def _direction_finish_cones(
+    work, s, r_z, z, alpha, beta, v, eta, s_coef, dt, ds, dz
+):  # pragma: no cover - compiled
+    """The cone part of :func:`direction_finish`, from ``ds``'s vector parts e = ΛDΔk."""
     n_cones, m = ds.shape
     # The smallest steps as fractions num / den, divided out once at the end:
     # a division per cone costs more than the rest of its step computation.
@@ -722,29 +746,31 @@ def prepare_newton_pairs(
     return True
 
 
-@numba.njit(cache=True)
-def direction_rhs_pairs(
-    target, inv_s, base, ratio, r_k, coeffs, w, work, rhs
-):  # pragma: no cover - compiled
+def direction_rhs_pairs(target, inv_s, base, ratio, r_k, coeffs, w, work, rhs):
     """:func:`direction_rhs` for cones of width 2, from :func:`prepare_newton_pairs`.
 
     u = u_rz + W⁻¹(λ ⋄ target) is u_rz + (target_a/s_a, target_b/s_b) in rotated
     coordinates; work = (f_t, u₁ − β f_t/α) with f_t = u₀ − (1 − z₀), and
     rhs = −r_k + DᵀΛ work₁.
     """
+    _direction_rhs_pairs_cones(target, inv_s, base, ratio, work)
+    _stationarity_rhs(work, r_k, coeffs, w, rhs)
+
+
+@numba.njit(cache=True)
+def _direction_rhs_pairs_cones(target, inv_s, base, ratio, work):  # pragma: no cover - compiled
+    """The cone part of :func:`direction_rhs_pairs`: fills ``work``."""
     for c in range(target.shape[0]):
         x_a = (target[c, 0] + target[c, 1]) * inv_s[c, 0]
         x_b = (target[c, 0] - target[c, 1]) * inv_s[c, 1]
         f_t = base[c, 0] + 0.5 * (x_a + x_b)
         work[c, 0] = f_t
         work[c, 1] = base[c, 1] + 0.5 * (x_a - x_b) - ratio[c] * f_t
-    _stationarity_rhs(work, r_k, coeffs, w, rhs)
 
 
-@numba.njit(cache=True)
 def direction_finish_pairs(
     dk, work, inv_s, r_z, z, inv_alpha, ratio, penalty, coeffs, w, dt, ds, dz
-):  # pragma: no cover - compiled
+):
     """:func:`direction_finish` for cones of width 2, from :func:`prepare_newton_pairs`.
 
     With e = ΛDΔk: Δt = f_t/α − (β/α) e, Δs = (Δt, e) − r_z and
@@ -755,6 +781,14 @@ def direction_finish_pairs(
     cancellation, and without a branch per cone.
     """
     weighted_difference(dk, coeffs, w, ds)  # vector parts: e
+    return _direction_finish_pairs_cones(work, inv_s, r_z, z, inv_alpha, ratio, penalty, dt, ds, dz)
+
+
+@numba.njit(cache=True)
+def _direction_finish_pairs_cones(
+    work, inv_s, r_z, z, inv_alpha, ratio, penalty, dt, ds, dz
+):  # pragma: no cover - compiled
+    """The cone part of :func:`direction_finish_pairs`, from ``ds``'s vector parts e = ΛDΔk."""
     shrink_s = shrink_z = 0.0  # the largest relative decrease of a coordinate
     for c in range(ds.shape[0]):
         e = ds[c, 1]
