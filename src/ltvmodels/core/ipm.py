@@ -161,6 +161,18 @@ class _RowSystem:
         f, f_c = self._split(f)
         Z = f[:, :, None] if not self.const.size else np.concatenate([f[:, :, None], self.G], 2)
         Z = np.ascontiguousarray(Z)
+        self.factor(cp, newton, pivot_tol)
+        self.solve_columns(Z)
+        if self.const.size:
+            self.HinvG = Z[:, :, 1:].copy()
+            schur = self.C0 - np.einsum("tbj,tbk->jk", self.G, self.HinvG)
+            self.schur = cho_factor(schur)
+        return self._border(Z[:, :, 0], f_c)
+
+    def factor(
+        self, cp: ConicProblem, newton: NewtonSystem | QuadraticScaling, pivot_tol: float = 0.0
+    ) -> None:
+        """Factor the banded matrix H_b at ``newton``'s scaling (see :meth:`factor_and_solve`)."""
         args = (
             cp.phi,
             cp.n_rep,
@@ -183,24 +195,19 @@ class _RowSystem:
                 f"the Newton system is singular near time step {worst_t}: the data do "
                 "not determine the model; more excitation or a larger lam helps"
             )
+
+    def solve_columns(self, Z: np.ndarray) -> None:
+        """H_b X = Z in place for Z (N, b, r), C-contiguous, with the current factor."""
         if self.fixed is not None:
             kernels.solve_fixed(self.L, Z, self.fixed)
         else:
             kernels.solve(self.L, Z, Z.shape[1])
-        if self.const.size:
-            self.HinvG = Z[:, :, 1:].copy()
-            schur = self.C0 - np.einsum("tbj,tbk->jk", self.G, self.HinvG)
-            self.schur = cho_factor(schur)
-        return self._border(Z[:, :, 0], f_c)
 
     def solve(self, f: np.ndarray) -> np.ndarray:
         """The Newton step for f (N, b) with the current factorization."""
         f, f_c = self._split(f)
         X = np.ascontiguousarray(f[:, :, None])
-        if self.fixed is not None:
-            kernels.solve_fixed(self.L, X, self.fixed)
-        else:
-            kernels.solve(self.L, X, X.shape[1])
+        self.solve_columns(X)
         return self._border(X[:, :, 0], f_c)
 
     def _split(self, f: np.ndarray):
@@ -272,8 +279,17 @@ class ConicProblem:
         matrix is singular to working precision (RELATIVE_PIVOT_TOL).
         """
         N, n, p = self.N, self.n, self.p
+        scaling = QuadraticScaling(self, rho)
+        w_rows = self.w.reshape(n, p)
+        if len(self.systems) > 1 and (w_rows == w_rows[0]).all():
+            # l1 with the same weights in every output row: the row systems share
+            # their matrix, factored once for the n right-hand sides.
+            X = 2.0 * np.ascontiguousarray(self.problem.cross())  # (N, p, n)
+            self.systems[0].factor(self, scaling, RELATIVE_PIVOT_TOL)
+            self.systems[0].solve_columns(X)
+            return X.transpose(0, 2, 1).reshape(N, n * p)
         rhs = 2.0 * self.problem.cross().transpose(0, 2, 1).reshape(N, n * p)
-        return self.factor_and_solve(QuadraticScaling(self, rho), rhs, RELATIVE_PIVOT_TOL)
+        return self.factor_and_solve(scaling, rhs, RELATIVE_PIVOT_TOL)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """The Newton step for rhs (N, K) with the current factorization, in place."""
