@@ -55,6 +55,7 @@ __all__ = [
     "InteriorPointResult",
     "ConicProblem",
     "NewtonSystem",
+    "QuadraticScaling",
     "dominating_output",
     "feasible_start",
     "warm_dual",
