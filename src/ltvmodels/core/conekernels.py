@@ -60,21 +60,17 @@ def weighted_difference(k, coeffs, w, out):  # pragma: no cover - compiled
             for j in range(K):
                 out[r, 1 + j] = w[j] * (c0 * k[r, j] + c1 * k[r + 1, j])
         return
-    if g == K:  # group: cone r is row r, again without integer divisions
-        for r in range(R):
-            for j in range(K):
+    # Any cone size (group: C = 1), without integer divisions: one branch less
+    # to compile than a separate group loop.
+    C = K // g
+    for r in range(R):
+        for c in range(C):
+            for i in range(g):
+                j = c * g + i
                 acc = 0.0
                 for q in range(coeffs.shape[0]):
                     acc += coeffs[q] * k[r + q, j]
-                out[r, 1 + j] = w[j] * acc
-        return
-    C = K // g
-    for r in range(R):
-        for j in range(K):
-            acc = 0.0
-            for q in range(coeffs.shape[0]):
-                acc += coeffs[q] * k[r + q, j]
-            out[r * C + j // g, 1 + j % g] = w[j] * acc
+                out[r * C + c, 1 + i] = w[j] * acc
 
 
 @numba.njit(cache=True)
@@ -97,20 +93,16 @@ def add_weighted_difference_adjoint(v, coeffs, w, scale, out):  # pragma: no cov
                 out[r, j] += c0 * value
                 out[r + 1, j] += c1 * value
         return
-    if g == K:  # group: cone r is row r, again without integer divisions
-        for r in range(v.shape[0]):
-            for j in range(K):
-                value = scale * w[j] * v[r, 1 + j]
-                for q in range(coeffs.shape[0]):
-                    out[r + q, j] += coeffs[q] * value
-        return
+    # Any cone size (group: C = 1), without integer divisions in the loop.
     C = K // g
     R = v.shape[0] // C
     for r in range(R):
-        for j in range(K):
-            value = scale * w[j] * v[r * C + j // g, 1 + j % g]
-            for q in range(coeffs.shape[0]):
-                out[r + q, j] += coeffs[q] * value
+        for c in range(C):
+            for i in range(g):
+                j = c * g + i
+                value = scale * w[j] * v[r * C + c, 1 + i]
+                for q in range(coeffs.shape[0]):
+                    out[r + q, j] += coeffs[q] * value
 
 
 @numba.njit(cache=True, inline="always")
