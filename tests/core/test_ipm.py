@@ -30,6 +30,46 @@ def cone_matrices(v, eta, power):
     return np.stack(cols, axis=-1)
 
 
+@pytest.mark.parametrize("g", [1, 2, 3, 6])
+@pytest.mark.parametrize("order", [1, 2, 3])
+def test_difference_kernels_for_every_cone_size(g, order):
+    """ΛDk into cone vectors and DᵀΛv₁ back, against a dense D, for any g dividing K."""
+    rng = np.random.default_rng(10 * g + order)
+    N, K = 9, 6
+    coeffs = {1: [-1.0, 1.0], 2: [1.0, -2.0, 1.0], 3: [-1.0, 3.0, -3.0, 1.0]}[order]
+    coeffs = np.array(coeffs)
+    D = difference_matrix(N, coeffs)
+    R, C = N - order, K // g
+    k, w = rng.normal(size=(N, K)), rng.uniform(0.5, 2.0, K)
+    out = np.zeros((R * C, g + 1))
+    cones.weighted_difference(k, coeffs, w, out)
+    np.testing.assert_allclose(out[:, 1:], ((D @ k) * w).reshape(R * C, g), atol=1e-13)
+    v, adjoint = rng.normal(size=(R * C, g + 1)), np.zeros((N, K))
+    cones.add_weighted_difference_adjoint(v, coeffs, w, 0.7, adjoint)
+    np.testing.assert_allclose(adjoint, 0.7 * D.T @ (v[:, 1:].reshape(R, K) * w), atol=1e-13)
+
+
+@pytest.mark.parametrize("g", [1, 4])
+def test_corrector_target_against_dense_scaling(g):
+    """σμe − λ∘λ − (W⁻¹Δs) ∘ (WΔz), with W and W⁻¹ as dense matrices and ∘ by its definition."""
+    rng = np.random.default_rng(10 + g)
+    s, z = interior_points(rng, 6, g), interior_points(rng, 6, g)
+    v, eta, lam = np.empty_like(s), np.empty(6), np.empty_like(s)
+    cones.nt_scaling(s, z, v, eta, lam)
+    ds, dz = rng.normal(size=s.shape), rng.normal(size=s.shape)
+    W, W_inv = cone_matrices(v, eta, 1.0), cone_matrices(v, eta, -1.0)
+    a, b = np.einsum("cij,cj->ci", W_inv, ds), np.einsum("cij,cj->ci", W, dz)
+
+    def jordan(x, y):
+        return np.column_stack([np.sum(x * y, 1), x[:, :1] * y[:, 1:] + y[:, :1] * x[:, 1:]])
+
+    expected = -jordan(lam, lam) - jordan(a, b)
+    expected[:, 0] += 0.7
+    out = np.empty_like(s)
+    cones.corrector_target(lam, v, eta, ds.copy(), dz.copy(), 0.7, out)
+    np.testing.assert_allclose(out, expected, rtol=1e-10, atol=1e-12 * np.abs(expected).max())
+
+
 @pytest.mark.parametrize("g", [1, 4])
 def test_nesterov_todd_scaling(g):
     rng = np.random.default_rng(g)

@@ -8,6 +8,12 @@ of row r, in order, are the K entries of (ΛDk)_r.
 
 Every kernel is a plain loop over cones or time steps: the per-cone algebra
 is a few dozen flops, far too little for numpy's per-call overhead.
+:func:`kkt_residuals`, :func:`direction_rhs`, :func:`direction_finish` and
+their width-2 forms are Python functions that call the difference kernels
+(:func:`weighted_difference`, :func:`add_weighted_difference_adjoint`) and a
+compiled per-cone part in turn: a compiled caller re-optimizes its callees'
+code inside itself, which cost about 0.5–0.9 s of compilation per caller on a
+fit's first call, for a few microseconds of dispatch per call.
 """
 
 from __future__ import annotations
@@ -62,21 +68,17 @@ def weighted_difference(k, coeffs, w, out):  # pragma: no cover - compiled
             for j in range(K):
                 out[r, 1 + j] = w[j] * (c0 * k[r, j] + c1 * k[r + 1, j])
         return
-    if g == K:  # group: cone r is row r, again without integer divisions
-        for r in range(R):
-            for j in range(K):
+    # Any cone size (group: C = 1), without integer divisions: one branch less
+    # to compile than a separate group loop.
+    C = K // g
+    for r in range(R):
+        for c in range(C):
+            for i in range(g):
+                j = c * g + i
                 acc = 0.0
                 for q in range(coeffs.shape[0]):
                     acc += coeffs[q] * k[r + q, j]
-                out[r, 1 + j] = w[j] * acc
-        return
-    C = K // g
-    for r in range(R):
-        for j in range(K):
-            acc = 0.0
-            for q in range(coeffs.shape[0]):
-                acc += coeffs[q] * k[r + q, j]
-            out[r * C + j // g, 1 + j % g] = w[j] * acc
+                out[r * C + c, 1 + i] = w[j] * acc
 
 
 @numba.njit(cache=True)
@@ -99,20 +101,16 @@ def add_weighted_difference_adjoint(v, coeffs, w, scale, out):  # pragma: no cov
                 out[r, j] += c0 * value
                 out[r + 1, j] += c1 * value
         return
-    if g == K:  # group: cone r is row r, again without integer divisions
-        for r in range(v.shape[0]):
-            for j in range(K):
-                value = scale * w[j] * v[r, 1 + j]
-                for q in range(coeffs.shape[0]):
-                    out[r + q, j] += coeffs[q] * value
-        return
+    # Any cone size (group: C = 1), without integer divisions in the loop.
     C = K // g
     R = v.shape[0] // C
     for r in range(R):
-        for j in range(K):
-            value = scale * w[j] * v[r * C + j // g, 1 + j % g]
-            for q in range(coeffs.shape[0]):
-                out[r + q, j] += coeffs[q] * value
+        for c in range(C):
+            for i in range(g):
+                j = c * g + i
+                value = scale * w[j] * v[r * C + c, 1 + i]
+                for q in range(coeffs.shape[0]):
+                    out[r + q, j] += coeffs[q] * value
 
 
 @numba.njit(cache=True, inline="always")
@@ -582,8 +580,7 @@ def max_step(x, dx):  # pragma: no cover - compiled
     return best
 
 
-@numba.njit(cache=True)
-def kkt_residuals(k, t, s, z, y, phi, coeffs, w, r_z, r_k):  # pragma: no cover - compiled
+def kkt_residuals(k, t, s, z, y, phi, coeffs, w, r_z, r_k):
     """Residuals of the optimality conditions at (k, t, s, z), in one pass.
 
     Fills r_z = s − (t, ΛDk) (cone constraints) and r_k = 2Φᵀ(Φk − y) − DᵀΛz₁
@@ -598,10 +595,21 @@ def kkt_residuals(k, t, s, z, y, phi, coeffs, w, r_z, r_k):  # pragma: no cover 
     rz_norm, s_norm, rk_norm, rt_max : float
         ‖r_z‖, ‖s‖, ‖r_k‖ and max |1 − z₀|.
     """
+    # The differences are separate kernels, called from here rather than from a
+    # compiled kernel: a compiled caller re-optimizes their code inside itself
+    # (about 0.9 s of a first fit's compilation).
+    loss = _data_residuals(k, y, phi, r_k)
+    add_weighted_difference_adjoint(z, coeffs, w, -1.0, r_k)
+    weighted_difference(k, coeffs, w, r_z)  # vector parts: ΛDk
+    return (loss, *_cone_residuals(t, s, z, r_z, r_k))
+
+
+@numba.njit(cache=True)
+def _data_residuals(k, y, phi, r_k):  # pragma: no cover - compiled
+    """r_k = 2Φᵀ(Φk − y); returns ‖y − Φk‖² (:func:`kkt_residuals`)."""
     N, n_rows, n = y.shape
     p = phi.shape[2]
     K = n * p
-    g = s.shape[1] - 1
     loss = 0.0
     for tt in range(N):
         for a in range(K):
@@ -614,8 +622,15 @@ def kkt_residuals(k, t, s, z, y, phi, coeffs, w, r_z, r_k):  # pragma: no cover 
                 loss += e * e
                 for a in range(p):
                     r_k[tt, i * p + a] -= 2.0 * e * phi[tt, row, a]
-    add_weighted_difference_adjoint(z, coeffs, w, -1.0, r_k)
-    weighted_difference(k, coeffs, w, r_z)  # vector parts: ΛDk
+    return loss
+
+
+@numba.njit(cache=True)
+def _cone_residuals(t, s, z, r_z, r_k):  # pragma: no cover - compiled
+    """r_z = s − (t, ΛDk) from r_z's vector parts ΛDk, and the sums of :func:`kkt_residuals`
+    after ‖y − Φk‖²."""
+    N, K = r_k.shape
+    g = s.shape[1] - 1
     reg = gap = rz_sq = s_sq = 0.0
     rt_max = 0.0
     if g == 1:  # l1: the same sums without inner loops
@@ -646,22 +661,23 @@ def kkt_residuals(k, t, s, z, y, phi, coeffs, w, r_z, r_k):  # pragma: no cover 
     for tt in range(N):
         for j in range(K):
             rk_sq += r_k[tt, j] * r_k[tt, j]
-    return loss, reg, gap, np.sqrt(rz_sq), np.sqrt(s_sq), np.sqrt(rk_sq), rt_max
+    return reg, gap, np.sqrt(rz_sq), np.sqrt(s_sq), np.sqrt(rk_sq), rt_max
 
 
 @numba.njit(cache=True, inline="always")
 def _stationarity_rhs(work, r_k, coeffs, w, rhs):  # pragma: no cover - compiled
-    """rhs = −r_k + DᵀΛ work₁: the banded system's right-hand side from the cone parts."""
+    """rhs = −r_k + DᵀΛ work₁: the banded system's right-hand side from the cone parts.
+
+    Compiled, for :func:`predictor_corrector`'s one-call iteration (the width-2
+    cones call it from Python).
+    """
     for tt in range(rhs.shape[0]):
         for j in range(rhs.shape[1]):
             rhs[tt, j] = -r_k[tt, j]
     add_weighted_difference_adjoint(work, coeffs, w, 1.0, rhs)
 
 
-@numba.njit(cache=True)
-def direction_rhs(
-    target, lam, v, eta, u_rz, z, alpha, beta, r_k, coeffs, w, work, rhs
-):  # pragma: no cover - compiled
+def direction_rhs(target, lam, v, eta, u_rz, z, alpha, beta, r_k, coeffs, w, work, rhs):
     """First half of a Newton direction: the right-hand side of the banded system.
 
     With u = W⁻²(r_z + W(λ ⋄ target)) = u_rz + W⁻¹(λ ⋄ target), where
@@ -707,10 +723,7 @@ def _direction_rhs(
     _stationarity_rhs(work, r_k, coeffs, w, rhs)
 
 
-@numba.njit(cache=True)
-def direction_finish(
-    dk, work, s, r_z, z, alpha, beta, v, eta, s_coef, coeffs, w, dt, ds, dz
-):  # pragma: no cover - compiled
+def direction_finish(dk, work, s, r_z, z, alpha, beta, v, eta, s_coef, coeffs, w, dt, ds, dz):
     """Second half of a Newton direction, from the solution Δk of the banded system.
 
     With e = ΛDΔk: Δt = (f_t − βᵀe)/α, Δs = (Δt, e) − r_z and
@@ -866,29 +879,31 @@ def prepare_newton_pairs(
     return True
 
 
-@numba.njit(cache=True)
-def direction_rhs_pairs(
-    target, inv_s, base, ratio, r_k, coeffs, w, work, rhs
-):  # pragma: no cover - compiled
+def direction_rhs_pairs(target, inv_s, base, ratio, r_k, coeffs, w, work, rhs):
     """:func:`direction_rhs` for cones of width 2, from :func:`prepare_newton_pairs`.
 
     u = u_rz + W⁻¹(λ ⋄ target) is u_rz + (target_a/s_a, target_b/s_b) in rotated
     coordinates; work = (f_t, u₁ − β f_t/α) with f_t = u₀ − (1 − z₀), and
     rhs = −r_k + DᵀΛ work₁.
     """
+    _direction_rhs_pairs_cones(target, inv_s, base, ratio, work)
+    _stationarity_rhs(work, r_k, coeffs, w, rhs)
+
+
+@numba.njit(cache=True)
+def _direction_rhs_pairs_cones(target, inv_s, base, ratio, work):  # pragma: no cover - compiled
+    """The cone part of :func:`direction_rhs_pairs`: fills ``work``."""
     for c in range(target.shape[0]):
         x_a = (target[c, 0] + target[c, 1]) * inv_s[c, 0]
         x_b = (target[c, 0] - target[c, 1]) * inv_s[c, 1]
         f_t = base[c, 0] + 0.5 * (x_a + x_b)
         work[c, 0] = f_t
         work[c, 1] = base[c, 1] + 0.5 * (x_a - x_b) - ratio[c] * f_t
-    _stationarity_rhs(work, r_k, coeffs, w, rhs)
 
 
-@numba.njit(cache=True)
 def direction_finish_pairs(
     dk, work, inv_s, r_z, z, inv_alpha, ratio, penalty, coeffs, w, dt, ds, dz
-):  # pragma: no cover - compiled
+):
     """:func:`direction_finish` for cones of width 2, from :func:`prepare_newton_pairs`.
 
     With e = ΛDΔk: Δt = f_t/α − (β/α) e, Δs = (Δt, e) − r_z and
@@ -899,6 +914,14 @@ def direction_finish_pairs(
     cancellation, and without a branch per cone.
     """
     weighted_difference(dk, coeffs, w, ds)  # vector parts: e
+    return _direction_finish_pairs_cones(work, inv_s, r_z, z, inv_alpha, ratio, penalty, dt, ds, dz)
+
+
+@numba.njit(cache=True)
+def _direction_finish_pairs_cones(
+    work, inv_s, r_z, z, inv_alpha, ratio, penalty, dt, ds, dz
+):  # pragma: no cover - compiled
+    """The cone part of :func:`direction_finish_pairs`, from ``ds``'s vector parts e = ΛDΔk."""
     shrink_s = shrink_z = 0.0  # the largest relative decrease of a coordinate
     for c in range(ds.shape[0]):
         e = ds[c, 1]

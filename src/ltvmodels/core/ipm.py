@@ -43,10 +43,9 @@ from ..errors import ConvergenceWarning, SingularProblemError, warn
 from . import blockkernels as kernels
 from . import conekernels as cones
 from . import widekernels as wide
-from .banded import kernel_size
+from .banded import RELATIVE_PIVOT_TOL, kernel_size
 from .polish import polish, stationarity_scale
 from .problem import RegressionProblem, output_spread
-from .sparse_common import quadratic_fit
 
 __all__ = [
     "STEP_FRACTION",
@@ -64,6 +63,7 @@ __all__ = [
     "InteriorPointResult",
     "ConicProblem",
     "NewtonSystem",
+    "QuadraticScaling",
     "dominating_output",
     "feasible_start",
     "reweighted_start",
@@ -192,11 +192,31 @@ class _RowSystem:
             cc_row = cidx[:, None] // p == cidx[None, :] // p
             self.C0 = 2.0 * gram[:, cidx % p][:, :, cidx % p].sum(axis=0) * cc_row
 
-    def factor_and_solve(self, cp: ConicProblem, newton: NewtonSystem, f: np.ndarray):
-        """Factor at ``newton``'s scaling and return the Newton step for f (N, b)."""
+    def factor_and_solve(
+        self, cp: ConicProblem, newton: NewtonSystem | QuadraticScaling, f: np.ndarray,
+        pivot_tol: float = 0.0,
+    ):  # fmt: skip
+        """Factor at ``newton``'s scaling and return the Newton step for f (N, b).
+
+        Raises SingularProblemError where a pivot² falls below ``pivot_tol`` times
+        the diagonal entry it came from (0: only where the matrix is not positive
+        definite).
+        """
         f, f_c = self._split(f)
         Z = f[:, :, None] if not self.const.size else np.concatenate([f[:, :, None], self.G], 2)
         Z = np.ascontiguousarray(Z)
+        self.factor(cp, newton, pivot_tol)
+        self.solve_columns(Z)
+        if self.const.size:
+            self.HinvG = Z[:, :, 1:].copy()
+            schur = self.C0 - np.einsum("tbj,tbk->jk", self.G, self.HinvG)
+            self.schur = cho_factor(schur)
+        return self._border(Z[:, :, 0], f_c)
+
+    def factor(
+        self, cp: ConicProblem, newton: NewtonSystem | QuadraticScaling, pivot_tol: float = 0.0
+    ) -> None:
+        """Factor the banded matrix H_b at ``newton``'s scaling (see :meth:`factor_and_solve`)."""
         args = (
             cp.phi,
             cp.n_rep,
@@ -219,14 +239,19 @@ class _RowSystem:
             worst, worst_t = cones.factor_newton_fixed(*args, self.fixed)
         else:
             worst, worst_t = cones.factor_newton_any(*args)
-        if worst < 0:
+        if worst < pivot_tol:
             raise self.singular(worst_t)
-        self._solve(Z)
-        if self.const.size:
-            self.HinvG = Z[:, :, 1:].copy()
-            schur = self.C0 - np.einsum("tbj,tbk->jk", self.G, self.HinvG)
-            self.schur = cho_factor(schur)
-        return self._border(Z[:, :, 0], f_c)
+
+    def solve_columns(self, Z: np.ndarray) -> None:
+        """H_b X = Z in place for Z (N, b, r), C-contiguous, with the current factor."""
+        if self.wide and self.first:
+            wide.solve_wide_first(self.L, self.P, Z, self.coeffs)
+        elif self.wide:
+            wide.solve_wide(self.L, Z)
+        elif self.fixed is not None:
+            kernels.solve_fixed(self.L, Z, self.fixed)
+        else:
+            kernels.solve(self.L, Z, Z.shape[1])
 
     @staticmethod
     def singular(worst_t: int) -> SingularProblemError:
@@ -240,19 +265,8 @@ class _RowSystem:
         """The Newton step for f (N, b) with the current factorization."""
         f, f_c = self._split(f)
         X = np.ascontiguousarray(f[:, :, None])
-        self._solve(X)
+        self.solve_columns(X)
         return self._border(X[:, :, 0], f_c)
-
-    def _solve(self, X: np.ndarray) -> None:
-        """X ← H⁻¹X in place with the current factorization; X is (N, b, r)."""
-        if self.wide and self.first:
-            wide.solve_wide_first(self.L, self.P, X, self.coeffs)
-        elif self.wide:
-            wide.solve_wide(self.L, X)
-        elif self.fixed is not None:
-            kernels.solve_fixed(self.L, X, self.fixed)
-        else:
-            kernels.solve(self.L, X, X.shape[1])
 
     def _split(self, f: np.ndarray):
         """f with the constants' entries removed (zeroed), and their sums over time."""
@@ -305,11 +319,35 @@ class ConicProblem:
             self.n_rep = self.n
         self.systems = [_RowSystem(self, rows, self.const) for rows in slices]
 
-    def factor_and_solve(self, newton: NewtonSystem, rhs: np.ndarray) -> np.ndarray:
+    def factor_and_solve(
+        self, newton: NewtonSystem | QuadraticScaling, rhs: np.ndarray, pivot_tol: float = 0.0
+    ) -> np.ndarray:
         """Factor the Newton matrix at ``newton``'s scaling; the step for rhs (N, K)."""
         for system in self.systems:
-            rhs[:, system.rows] = system.factor_and_solve(self, newton, rhs[:, system.rows])
+            rows = system.rows
+            rhs[:, rows] = system.factor_and_solve(self, newton, rhs[:, rows], pivot_tol)
         return rhs
+
+    def quadratic_fit(self, rho: float) -> np.ndarray:
+        """argmin_k ‖y − Φk‖² + (ρ/2)‖ΛDk‖², shape (N, K); no constant coefficients.
+
+        Solved as 2(ΦᵀΦ + (ρ/2)DᵀΛ²D) k = 2Φᵀy with the Newton systems' own
+        factorization (:class:`QuadraticScaling`), so that a fit compiles no
+        other kernels for its start. Raises SingularProblemError where the
+        matrix is singular to working precision (RELATIVE_PIVOT_TOL).
+        """
+        N, n, p = self.N, self.n, self.p
+        scaling = QuadraticScaling(self, rho)
+        w_rows = self.w.reshape(n, p)
+        if len(self.systems) > 1 and (w_rows == w_rows[0]).all():
+            # l1 with the same weights in every output row: the row systems share
+            # their matrix, factored once for the n right-hand sides.
+            X = 2.0 * np.ascontiguousarray(self.problem.cross())  # (N, p, n)
+            self.systems[0].factor(self, scaling, RELATIVE_PIVOT_TOL)
+            self.systems[0].solve_columns(X)
+            return X.transpose(0, 2, 1).reshape(N, n * p)
+        rhs = 2.0 * self.problem.cross().transpose(0, 2, 1).reshape(N, n * p)
+        return self.factor_and_solve(scaling, rhs, RELATIVE_PIVOT_TOL)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """The Newton step for rhs (N, K) with the current factorization, in place."""
@@ -323,6 +361,23 @@ class ConicProblem:
             return float(np.linalg.norm(r_k))
         varying = np.linalg.norm(r_k[:, ~self.const])
         return float(np.hypot(varying, np.linalg.norm(r_k[:, self.const].sum(axis=0))))
+
+
+class QuadraticScaling:
+    """The scaling whose Newton matrix 2ΦᵀΦ + DᵀΛSΛD is 2ΦᵀΦ + ρDᵀΛ²D (S = ρI).
+
+    Given to :meth:`ConicProblem.factor_and_solve` in place of a
+    :class:`NewtonSystem`: S as the diagonal term of cones of width 2
+    (``penalty``, one entry per coefficient and row of D), which
+    :func:`.conekernels._factor_newton` takes for any block size; the cone
+    scaling arrays stay empty. The kernel's argument types are those of the
+    interior-point iterations, so no other version of it is compiled.
+    """
+
+    def __init__(self, cp: ConicProblem, rho: float):
+        m = cp.cone_shape[1]
+        self.v, self.eta, self.s_coef = np.empty((0, m)), np.empty(0), np.empty(0)
+        self.penalty = np.full((cp.N - cp.degree) * cp.K, float(rho))
 
 
 class NewtonSystem:
@@ -526,7 +581,7 @@ def feasible_start(problem: RegressionProblem, cp: ConicProblem):
     best = previous = None
     for _ in range(START_TRIES):
         try:
-            k = quadratic_fit(problem, cp.w, rho)
+            k = cp.quadratic_fit(rho)
         except SingularProblemError:
             break
         cones.weighted_difference(k, cp.coeffs, cp.w, z)
