@@ -60,6 +60,10 @@ SPLIT_TIES = 1.5
 # until a cone reaches its vertex; on a definite Hessian it changes the Newton
 # steps by a relative 1e-12 of its condition number, which the iteration absorbs.
 HESSIAN_SHIFT = 1e-12
+# A Newton decrement below this fraction of the objective is below the objective's
+# rounding (its evaluation cancels terms of the size of ‖y‖²): the line search cannot
+# judge such a step, and takes it whole.
+RESOLVABLE_DECREASE = 1e-13
 
 
 @dataclass
@@ -352,9 +356,13 @@ def _reduced_solve(problem, vertex, k, phi_op, diff_op, group):
             alpha = float(at.min())
             first = active[crossed][at <= alpha * (1.0 + 1e-9)]
         full = alpha
+        # Below RESOLVABLE_DECREASE of the objective its rounding hides any descent:
+        # the Newton model is exact there, so its step is taken as it is (halving it
+        # would stall the decrement near 1e-17 and leave a gap of O(√1e-17)).
+        resolvable = decrease > RESOLVABLE_DECREASE * max(current, 1e-300)
         for _ in range(MAX_HALVINGS):
             trial = objective(theta + alpha * step)
-            if trial <= current - 0.25 * alpha * decrease:
+            if trial <= current - 0.25 * alpha * decrease or not resolvable:
                 break
             alpha *= 0.5
         else:
