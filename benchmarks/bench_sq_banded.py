@@ -17,12 +17,26 @@ and u read and of θ (and the covariance blocks) written, at the bandwidth of a
 large ``np.copyto`` measured here. Each time is the best of ``--repeat`` runs;
 max |Δθ| is the agreement of the two solutions.
 
+``--one-shot`` instead times the same ``fit(..., compute_cov=False)`` as a
+script's only call: each repeat starts a fresh interpreter (numba's cache
+already filled by this process's warm-up), makes the data, and times the
+first fit; another fresh interpreter measures the fit's peak traced
+allocations (tracemalloc: peak during the call less what was traced before
+it, divided by T). The same call repeated in this process gives the repeated
+best. Printed: one-shot best and spread, repeated best and spread, their
+ratio and the peak bytes per step.
+
 Run:  python benchmarks/bench_sq_banded.py [--sizes 1e4 1e5 1e6] [--repeat 3]
+      python benchmarks/bench_sq_banded.py --one-shot [--sizes 1e6] [--repeat 5]
 """
 
 from __future__ import annotations
 
 import argparse
+import subprocess
+import sys
+import textwrap
+import time
 
 import numpy as np
 from bench_sq import best_time
@@ -79,14 +93,85 @@ def bandwidth(megabytes: int = 800) -> float:
     return 2 * source.nbytes / seconds
 
 
+# The child process of --one-shot: data made outside the timing, then one fit.
+ONE_SHOT = textwrap.dedent(
+    """
+    import sys, time, tracemalloc
+    import ltvmodels as ltv
+    from ltvmodels.systems import random_walk_system
+
+    T, lam, traced = int(sys.argv[1]), float(sys.argv[2]), sys.argv[3] == "1"
+    data = random_walk_system(T=T, n=3, m=2, drift_std=1e-3, noise_std=0.1, seed=0)
+    fit = ltv.fit  # the lazy import of the estimators, outside the timing
+    if traced:
+        tracemalloc.start()
+        before = tracemalloc.get_traced_memory()[0]
+    start = time.perf_counter()
+    model = fit(data.x, data.u, lam=lam, norm="sq", compute_cov=False)
+    seconds = time.perf_counter() - start
+    peak = tracemalloc.get_traced_memory()[1] - before if traced else 0
+    print(seconds, peak)
+    """
+)
+
+
+def one_shot(T: int, traced: bool) -> tuple[float, int]:
+    """Wall time of the fit as a fresh process's only call, and its peak traced bytes."""
+    done = subprocess.run(
+        [sys.executable, "-c", ONE_SHOT, str(T), str(LAM), "1" if traced else "0"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    seconds, peak = done.stdout.split()
+    return float(seconds), int(peak)
+
+
+def one_shot_rows(sizes: list[float], repeat: int) -> None:
+    """The --one-shot table: fresh process against the same call repeated in this one."""
+    header = (
+        f"{'T':>8} {'one-shot [s]':>13} {'spread':>13} {'repeated [s]':>13} {'spread':>13} "
+        f"{'ratio':>6} {'ratio range':>12} {'peak B/step':>11}"
+    )
+    print(header)
+    print("-" * len(header))
+    for size in sizes:
+        T = int(size)
+        fresh = [one_shot(T, traced=False)[0] for _ in range(repeat)]
+        _, peak = one_shot(T, traced=True)
+        data = random_walk_system(T=T, n=3, m=2, drift_std=1e-3, noise_std=0.1, seed=0)
+        again = []
+        for _ in range(repeat):
+            start = time.perf_counter()
+            ltv.fit(data.x, data.u, lam=LAM, norm="sq", compute_cov=False)
+            again.append(time.perf_counter() - start)
+        print(
+            f"{T:>8} {min(fresh):>13.3f} {min(fresh):>6.2f}–{max(fresh):<6.2f} "
+            f"{min(again):>13.3f} {min(again):>6.2f}–{max(again):<6.2f} "
+            f"{min(fresh) / min(again):>5.2f}x "
+            f"{min(fresh) / max(again):>5.2f}–{max(fresh) / min(again):<5.2f} "
+            f"{peak / T:>11.0f}",
+            flush=True,
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", nargs="+", type=float, default=[1e4, 1e5, 1e6])
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument(
+        "--one-shot",
+        action="store_true",
+        help="time the fit (no covariances) in fresh processes against repeated calls",
+    )
     args = parser.parse_args()
     warm = random_walk_system(T=2000, n=3, m=2, seed=1)
     ltv.fit(warm.x, warm.u, lam=LAM)  # compile the kernels outside the timings
     ltv.fit(warm.x, warm.u, lam=LAM, compute_cov=False)
+    if args.one_shot:
+        print(f"norm='sq', n=3, m=2 (p=5, K=15), order 1, lam={LAM}, no covariances")
+        one_shot_rows(args.sizes, args.repeat)
+        return
     speed = bandwidth()
     print(
         f"norm='sq', n=3, m=2 (p=5, K=15), order 1, lam={LAM}; memory copy "

@@ -1,5 +1,7 @@
 """The block-size-specialized kernels (small blocks, long series) equal the generic ones."""
 
+import tracemalloc
+
 import numpy as np
 import pytest
 
@@ -67,9 +69,34 @@ def test_shared_rows_solver_equals_the_general_block_solver(coeffs, q, p):
     differences = sum(c * theta[j : N - d + j] for j, c in enumerate(coeffs))
     np.testing.assert_allclose(shared.squares, np.einsum("tia,a->i", differences**2, w), rtol=1e-12)
     assert shared.gram_trace == pytest.approx(np.sum(phi**2), rel=1e-13)
+    # without covariances a first difference keeps the diagonal blocks of the factor
+    # alone and recomputes the others: the same numbers, bit for bit
     without = banded.solve_shared_rows(phi, y, w, coeffs, compute_cov=False)
     assert without.cov is None
     np.testing.assert_array_equal(without.theta, shared.theta)
+    assert (without.logdet, without.gram_trace) == (shared.logdet, shared.gram_trace)
+    np.testing.assert_array_equal(without.rss, shared.rss)
+    np.testing.assert_array_equal(without.squares, shared.squares)
+
+
+def test_shared_rows_solver_without_covariances_stores_half_the_factor():
+    """A first difference without covariances allocates the factor's diagonal blocks
+    (N, 1, p, p) and Θ (N, n, p), nothing else of size N (tracemalloc's peak)."""
+    rng = np.random.default_rng(4)
+    N, q, p, n = 4000, 1, 5, 3
+    phi = rng.standard_normal((N, q, p))
+    y = rng.standard_normal((N, q, n))
+    coeffs, w = np.array([-1.0, 1.0]), np.full(p, 9.0)
+    banded.solve_shared_rows(phi, y, w, coeffs, compute_cov=False)  # compiled before
+    tracemalloc.start()
+    try:
+        before = tracemalloc.get_traced_memory()[0]
+        banded.solve_shared_rows(phi, y, w, coeffs, compute_cov=False)
+        peak = tracemalloc.get_traced_memory()[1] - before
+    finally:
+        tracemalloc.stop()
+    needed = 8 * N * (p * p + n * p)
+    assert needed <= peak < needed + 8 * N * p  # the stored factor would add 8 N p²
 
 
 def test_shared_rows_solver_reports_a_singular_system():

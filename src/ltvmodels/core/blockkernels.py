@@ -492,15 +492,16 @@ def _difference_band(coeffs, N, lag, s):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, inline="always")
-def _first_difference_offdiagonal(L, t, beta, w, b):  # pragma: no cover - compiled
-    """L_{t,t−1} = β diag(w) L_{t−1,t−1}⁻ᵀ for a first difference and a diagonal weight.
+def _first_difference_offdiagonal(Lss, out, beta, w, b):  # pragma: no cover - compiled
+    """``out`` ← L_{t,t−1} = β diag(w) L_{t−1,t−1}⁻ᵀ for a first difference and a diagonal
+    weight, from ``Lss`` = L_{t−1,t−1} (reciprocal pivots).
 
     The product of a diagonal and an upper triangular matrix is upper
     triangular: about half the work of :func:`offdiagonal_step`, whose
     general block is full. Row i solves x L_ssᵀ = β w_i e_iᵀ from column i on.
+    The result depends on Lss, β and w alone, so a sweep that does not store it
+    recomputes it bit for bit.
     """
-    Lss = L[t - 1, 0]
-    out = L[t, 1]
     for i in range(b):
         for j in range(i):
             out[i, j] = 0.0
@@ -524,7 +525,10 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
     phi : (N, q, p);  y : (N, q, n);  w : (p,) diagonal weight
     coeffs : (d + 1,) difference coefficients
     X : (N, n, p) output, L⁻¹ rhs of each row (the layout of Θ)
-    L : (N, d+1, p, p) output, the factor
+    L : (N, d+1, p, p) output, the factor; for a first difference (d = 1) also
+        (N, 1, p, p): the diagonal blocks alone (the off-diagonal ones follow from
+        them, see :func:`_first_difference_offdiagonal`; half the memory, for a
+        solve without covariances)
     size : int or tuple, the block size p (see the module docstring)
 
     Returns
@@ -539,12 +543,15 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
     n = y.shape[2]
     d = coeffs.shape[0] - 1
     M = np.zeros((b, b))  # H_{t,s} = β diag(w): only the diagonal is ever written
+    off = np.zeros((b, b))  # L_{t,t−1} when L holds the diagonal blocks alone
+    stored = L.shape[1] > 1
     ref = np.empty(b)
     worst = np.inf
     worst_t = 0
     logdet = 0.0
     trace = 0.0
     for t in range(N):
+        Ll = L[t, 1] if d == 1 and stored else off
         if d > 1:
             for lag in range(min(d, t), 0, -1):
                 beta = _difference_band(coeffs, N, lag, t - lag)
@@ -554,7 +561,9 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
                     M[i, i] = beta * w[i]
                 offdiagonal_step(L, M, t, lag, d, b)
         elif t > 0:
-            _first_difference_offdiagonal(L, t, _difference_band(coeffs, N, 1, t - 1), w, b)
+            _first_difference_offdiagonal(
+                L[t - 1, 0], Ll, _difference_band(coeffs, N, 1, t - 1), w, b
+            )
         beta = _difference_band(coeffs, N, 0, t)
         Ltt = L[t, 0]
         for i in range(b):
@@ -571,7 +580,6 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
         else:
             if t > 0:
                 # L_{t,t−1} is upper triangular: Σ_q over q >= i only
-                Ll = L[t, 1]
                 for i in range(b):
                     for j in range(i + 1):
                         acc = 0.0
@@ -593,11 +601,18 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
                 value = phi[t, 0, i] * y[t, 0, c]
                 for r in range(1, q):
                     value += phi[t, r, i] * y[t, r, c]
-                for lag in range(1, min(d, t) + 1):
-                    acc = 0.0
-                    for k in range(b):
-                        acc += L[t, lag, i, k] * X[t - lag, c, k]
-                    value -= acc
+                if d == 1:
+                    if t > 0:
+                        acc = 0.0
+                        for k in range(b):
+                            acc += Ll[i, k] * X[t - 1, c, k]
+                        value -= acc
+                else:
+                    for lag in range(1, min(d, t) + 1):
+                        acc = 0.0
+                        for k in range(b):
+                            acc += L[t, lag, i, k] * X[t - lag, c, k]
+                        value -= acc
                 for k in range(i):
                     value -= Ltt[i, k] * X[t, c, k]
                 X[t, c, i] = value * Ltt[i, i]
@@ -610,35 +625,52 @@ def rows_backward(L, X, cov, phi, y, w, coeffs, rss, squares, size):  # pragma: 
     """:func:`backward` for the rows of :func:`rows_factor_forward`, with their sums.
 
     X (N, n, p) holds L⁻¹ rhs and is overwritten with Θ; ``cov`` (N, p, p), or
-    (0, p, p) to skip the covariances, receives the diagonal blocks of H⁻¹.
+    (0, p, p) to skip the covariances, receives the diagonal blocks of H⁻¹ (which
+    needs the off-diagonal blocks stored: L (N, d+1, p, p)).
     As each Θ_t becomes final the same sweep adds, per output row c,
     rss_c = Σ_tj (y_tjc − Θ_t[c]·φ_tj)² and squares_c = Σ_t Σ_a w_a ((DΘ)_t[c, a])²
     (rss, squares (n,) outputs).
     """
     b = block_size(size)
-    N, dp1, _, _ = L.shape
-    d = dp1 - 1
+    N = L.shape[0]
+    d = coeffs.shape[0] - 1
     n = X.shape[1]
     q = phi.shape[1]
     compute_cov = cov.shape[0] == N
+    stored = L.shape[1] > 1
     window = np.zeros((d + 1, d + 1, b, b))  # as in backward
+    off = np.zeros((b, b))  # L_{t+1,t}, recomputed when not stored
+    Ll = off
     c0, c1 = coeffs[0], coeffs[1]
     rhs = np.empty((b, b))
     for c in range(n):
         rss[c] = 0.0
         squares[c] = 0.0
     for t in range(N - 1, -1, -1):
+        if d == 1 and t + 1 < N:
+            if stored:
+                Ll = L[t + 1, 1]
+            else:
+                Ll = off
+                _first_difference_offdiagonal(L[t, 0], off, _difference_band(coeffs, N, 1, t), w, b)
         # x_tc = L_tt⁻ᵀ (z_tc − Σ_lag L_{t+lag,t}ᵀ x_{t+lag,c}) for each row c (row by
         # row: interleaving the rows' entries measured 1.8x slower)
         # (rounded as :func:`_backward_step` rounds it)
         for c in range(n):
             for i in range(b - 1, -1, -1):
                 value = X[t, c, i]
-                for lag in range(1, min(d, N - 1 - t) + 1):
-                    acc = 0.0
-                    for k in range(b):
-                        acc += L[t + lag, lag, k, i] * X[t + lag, c, k]
-                    value -= acc
+                if d == 1:
+                    if t + 1 < N:
+                        acc = 0.0
+                        for k in range(b):
+                            acc += Ll[k, i] * X[t + 1, c, k]
+                        value -= acc
+                else:
+                    for lag in range(1, min(d, N - 1 - t) + 1):
+                        acc = 0.0
+                        for k in range(b):
+                            acc += L[t + lag, lag, k, i] * X[t + lag, c, k]
+                        value -= acc
                 for k in range(i + 1, b):
                     value -= L[t, 0, k, i] * X[t, c, k]
                 X[t, c, i] = value * L[t, 0, i, i]
