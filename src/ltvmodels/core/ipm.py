@@ -501,16 +501,14 @@ class NewtonSystem:
         ds, dz = np.empty_like(work), np.empty_like(work)
         size = system.fixed if system.fixed is not None else system.L.shape[2]
         try:
-            worst, worst_t, step = cones.predictor_corrector(
-                cp.phi, cp.n_rep, cp.coeffs, cp.w, system.offset, system.pinned, self.s, self.z,
-                self.r_z, self.r_k, gap, self.v, self.eta, self.lam, self.lam_sq, self.u_rz,
-                self.alpha, self.beta, self.s_coef, self.penalty, system.L, target, work, dk,
-                dt, ds, dz, size,
+            system.factor(cp, self)
+            step = cones.predictor_corrector(
+                cp.coeffs, cp.w, self.s, self.z, self.r_z, self.r_k, gap, self.v, self.eta,
+                self.lam, self.lam_sq, self.u_rz, self.alpha, self.beta, self.s_coef, system.L,
+                target, work, dk, dt, ds, dz, size,
             )  # fmt: skip
         except ZeroDivisionError:  # a cone's scaling underflowed or overflowed
             raise SingularProblemError(BOUNDARY) from None
-        if worst < 0:
-            raise system.singular(worst_t)
         return dk, dt, ds, dz, step
 
     def predictor_target(self) -> np.ndarray:
