@@ -64,6 +64,7 @@ __all__ = [
     "ConicProblem",
     "NewtonSystem",
     "QuadraticScaling",
+    "RowFits",
     "dominating_output",
     "feasible_start",
     "reweighted_start",
