@@ -488,7 +488,8 @@ class NewtonSystem:
         then for the corrector target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a) with
         σ = (1 − min(1, α_a))³ and μ = gap / n_cones. Group cones without
         constant coefficients and with blocks below the wide kernels' sizes take it
-        in one compiled call (:func:`.conekernels.predictor_corrector`); the others through
+        in two compiled calls (the factorization, then
+        :func:`.conekernels.predictor_corrector` for both solves); the others through
         :meth:`affine_direction` and :meth:`direction`.
         """
         cp = self.cp
