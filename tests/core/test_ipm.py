@@ -397,6 +397,33 @@ def test_reweighted_fit_solves_the_reweighted_normal_equations(coeffs, shared, m
 
 
 @pytest.mark.parametrize("coeffs", [[-1.0, 1.0], [1.0, -2.0, 1.0]])
+@pytest.mark.parametrize("norm", ["group", "l1"])
+@pytest.mark.parametrize("shared", [False, True])
+def test_quadratic_fit_solves_the_dense_normal_equations(coeffs, norm, shared):
+    """The start's quadratic fit (group: the row systems of RowFits; l1: the Newton
+    kernels) is the dense solution of (2ΦᵀΦ + ρEᵀE) k = 2Φᵀy with E = D ⊗ Λ."""
+    data = ltv.systems.jump_linear(T=40, change_at=20, seed=14)
+    pb = state_space_problem(data.x, data.u, np.array(coeffs))
+    rng = np.random.default_rng(15)
+    weights = rng.uniform(2.0, 20.0, pb.K)
+    if shared:
+        weights = np.tile(weights[: pb.p], pb.n)
+    cp = ipm.ConicProblem(pb, weights, norm)
+    N, K, n, p = pb.N, pb.K, pb.n, pb.p
+    rho = 0.37
+    E = np.kron(difference_matrix(N, np.array(coeffs)), np.diag(weights))
+    Phi = np.zeros((N * n, N * K))
+    for t in range(N):
+        for i in range(n):
+            Phi[t * n + i, t * K + i * p : t * K + (i + 1) * p] = pb.phi[t, 0]
+    H = 2.0 * Phi.T @ Phi + rho * E.T @ E
+    expected = np.linalg.solve(H, 2.0 * Phi.T @ pb.y[:, 0].ravel())
+    k = cp.quadratic_fit(rho)
+    assert k.shape == (N, K)
+    np.testing.assert_allclose(k.ravel(), expected, rtol=1e-8, atol=1e-10 * np.abs(expected).max())
+
+
+@pytest.mark.parametrize("coeffs", [[-1.0, 1.0], [1.0, -2.0, 1.0]])
 def test_reweighted_start_reaches_the_same_optimum_in_fewer_iterations(coeffs, monkeypatch):
     """The reweighted start's duals are stationary (2Φᵀ(Φk − y) = DᵀΛz₁) and, pulled
     into the cones, the group fit from it reaches the feasible start's optimum."""

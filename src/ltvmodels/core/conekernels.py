@@ -11,7 +11,9 @@ is a few dozen flops, far too little for numpy's per-call overhead.
 :func:`kkt_residuals`, :func:`direction_rhs`, :func:`direction_finish` and
 their width-2 forms are Python functions that call the difference kernels
 (:func:`weighted_difference`, :func:`add_weighted_difference_adjoint`) and a
-compiled per-cone part in turn: a compiled caller re-optimizes its callees'
+compiled per-cone part in turn, and :func:`prepare_newton` and
+:func:`corrector_target` Python functions over one compiled part (which
+:func:`predictor_corrector` calls too): a compiled caller re-optimizes its callees'
 code inside itself, which cost about 0.5–0.9 s of compilation per caller on a
 fit's first call, for a few microseconds of dispatch per call.
 """
@@ -205,11 +207,12 @@ def elimination_terms(v, eta, alpha, beta, s_coef):  # pragma: no cover - compil
         _elimination_cone(v, eta, i, alpha, beta, s_coef)
 
 
-@numba.njit(cache=True)
-def prepare_newton(
-    s, z, r_z, v, eta, lam, lam_sq, u_rz, alpha, beta, s_coef
-):  # pragma: no cover - compiled
-    """Everything per cone a Newton system needs, in one pass (see :func:`_prepare_newton`)."""
+def prepare_newton(s, z, r_z, v, eta, lam, lam_sq, u_rz, alpha, beta, s_coef):
+    """Everything per cone a Newton system needs, in one pass (see :func:`_prepare_newton`).
+
+    A Python function: as a compiled wrapper it re-optimized the kernel inside
+    itself, about 0.5 s of compilation on a fit's first call.
+    """
     _prepare_newton(s, z, r_z, v, eta, lam, lam_sq, u_rz, alpha, beta, s_coef, s.shape[1] - 1)
 
 
@@ -452,31 +455,27 @@ def _solve_vector(L, x, size):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def predictor_corrector(
-    phi, n_rep, coeffs, w, offset, pinned, s, z, r_z, r_k, gap,
-    v, eta, lam, lam_sq, u_rz, alpha, beta, s_coef, penalty,
+    coeffs, w, s, z, r_z, r_k, gap, v, eta, lam, lam_sq, u_rz, alpha, beta, s_coef,
     L, target, work, dk, dt, ds, dz, size,
 ):  # pragma: no cover - compiled  # fmt: skip
     """One iteration's Newton directions for group cones, in one compiled call.
 
-    After :func:`prepare_newton`: factors the Newton matrix (:func:`_factor_newton`,
-    all K coefficients in one system, none pinned), solves for the predictor
-    target −λ∘λ, forms Mehrotra's corrector target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a)
-    with σ = (1 − min(1, α_a))³ and μ = gap / n_cones, and solves for it:
-    the sequence of :class:`.ipm.NewtonSystem`'s calls without the round trips
-    through Python between them (with the residuals, the scaling and the step,
-    four compiled calls per iteration instead of eleven).
+    After :func:`prepare_newton` and the Newton matrix factored into L
+    (:func:`factor_newton_fixed` or :func:`factor_newton_any`, all K
+    coefficients in one system, none pinned): solves for the predictor target
+    −λ∘λ, forms Mehrotra's corrector target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a)
+    with σ = (1 − min(1, α_a))³ and μ = gap / n_cones, and solves for it: the
+    sequence of :class:`.ipm.NewtonSystem`'s calls without the round trips
+    through Python between them (with the residuals, the scaling, the factor
+    and the step, five compiled calls per iteration instead of eleven). The
+    factorization stays outside: inside, numba linked its code into this
+    kernel and re-optimized it, about 1.5 s more on a fit's first call, while
+    the start compiles it anyway.
 
     Fills (Δk, Δt, Δs, Δz) = (dk (N, K), dt, ds, dz) for the corrector;
-    target and work are scratch arrays of the cones' shape. Returns (smallest
-    pivot² ratio, its time step, largest step keeping s and z in the cones);
-    a negative ratio means the Newton matrix is not positive definite, and
-    nothing else is computed.
+    target and work are scratch arrays of the cones' shape. Returns the
+    largest step keeping s and z in the cones.
     """
-    worst, worst_t = _factor_newton(
-        phi, n_rep, v, eta, s_coef, penalty, w, coeffs, offset, pinned, L, size
-    )
-    if worst < 0:
-        return worst, worst_t, 0.0
     n_cones, m = lam_sq.shape  # m at run time: compiled as a constant it gained nothing
     for c in range(n_cones):
         for a in range(m):
@@ -493,7 +492,7 @@ def predictor_corrector(
     step_s, step_z = _direction_finish(
         dk, work, s, r_z, z, alpha, beta, v, eta, s_coef, coeffs, w, dt, ds, dz, m
     )
-    return worst, worst_t, min(step_s, step_z)
+    return min(step_s, step_z)
 
 
 @numba.njit(cache=True)
@@ -785,8 +784,7 @@ def take_step(k, dk, t, dt, s, ds, z, dz, step):  # pragma: no cover - compiled
             z[c, a] += step * dz[c, a]
 
 
-@numba.njit(cache=True)
-def corrector_target(lam, v, eta, ds_a, dz_a, sigma_mu, out):  # pragma: no cover - compiled
+def corrector_target(lam, v, eta, ds_a, dz_a, sigma_mu, out):
     """Mehrotra's target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a); ds_a, dz_a are overwritten."""
     _corrector_target(lam, v, eta, ds_a, dz_a, sigma_mu, out, lam.shape[1])
 

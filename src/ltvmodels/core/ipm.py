@@ -43,7 +43,7 @@ from ..errors import ConvergenceWarning, SingularProblemError, warn
 from . import blockkernels as kernels
 from . import conekernels as cones
 from . import widekernels as wide
-from .banded import RELATIVE_PIVOT_TOL, kernel_size
+from .banded import RELATIVE_PIVOT_TOL, difference_bands, kernel_size
 from .polish import polish, stationarity_scale
 from .problem import RegressionProblem, output_spread
 
@@ -64,6 +64,7 @@ __all__ = [
     "ConicProblem",
     "NewtonSystem",
     "QuadraticScaling",
+    "RowFits",
     "dominating_output",
     "feasible_start",
     "reweighted_start",
@@ -331,12 +332,23 @@ class ConicProblem:
     def quadratic_fit(self, rho: float) -> np.ndarray:
         """argmin_k ‖y − Φk‖² + (ρ/2)‖ΛDk‖², shape (N, K); no constant coefficients.
 
-        Solved as 2(ΦᵀΦ + (ρ/2)DᵀΛ²D) k = 2Φᵀy with the Newton systems' own
-        factorization (:class:`QuadraticScaling`), so that a fit compiles no
-        other kernels for its start. Raises SingularProblemError where the
-        matrix is singular to working precision (RELATIVE_PIVOT_TOL).
+        Solved as 2(ΦᵀΦ + (ρ/2)DᵀΛ²D) k = 2Φᵀy. Group cones without constant
+        coefficients take the row systems of :func:`reweighted_start` (ρ the
+        same for every cone), which a group fit compiles anyway; the others the
+        Newton systems' own factorization (:class:`QuadraticScaling`). Either
+        way a fit compiles no other kernels for its start. Raises
+        SingularProblemError where the matrix is singular to working precision
+        (RELATIVE_PIVOT_TOL).
         """
         N, n, p = self.N, self.n, self.p
+        if self.cone_shape[1] > 2 and not self.const.any():
+            bands = rho * difference_bands(N, self.coeffs)  # of ρDᵀD: R = ρI
+            k = RowFits(self).fit(bands, RELATIVE_PIVOT_TOL)
+            if k is None:
+                raise SingularProblemError(
+                    "the quadratic start's system is singular to working precision"
+                )
+            return k.reshape(N, n * p)
         scaling = QuadraticScaling(self, rho)
         w_rows = self.w.reshape(n, p)
         if len(self.systems) > 1 and (w_rows == w_rows[0]).all():
@@ -361,6 +373,53 @@ class ConicProblem:
             return float(np.linalg.norm(r_k))
         varying = np.linalg.norm(r_k[:, ~self.const])
         return float(np.hypot(varying, np.linalg.norm(r_k[:, self.const].sum(axis=0))))
+
+
+class RowFits:
+    """Quadratic fits of group cones' coefficients, one p × p block system per output row.
+
+    Solves 2(ΦᵀΦ ⊗ I + DᵀRD ⊗ Λ²) k = 2Φᵀy (rows of Θ independent: Λ² is
+    diagonal) for the bands of DᵀRD given as :func:`.banded.difference_bands`
+    holds those of DᵀD, with the squared norm's kernels
+    (:func:`.blockkernels.factor_forward`, :func:`.blockkernels.solve`) and the
+    argument types of its BlockFactor (:mod:`.banded`), so that a group fit
+    compiles nothing more for them; output rows with equal weights share a
+    factorization. Used for the quadratic start (R = ρI) and the reweighted
+    fits (:func:`reweighted_start`).
+    """
+
+    def __init__(self, cp: ConicProblem):
+        self.cp = cp
+        N, n, p = cp.N, cp.n, cp.p
+        self.L, self.size = np.empty((N, cp.degree + 1, p, p)), kernel_size(N, p)
+        self.extra, self.no_rhs = np.zeros((0, p, p)), np.zeros((N, p, 0))
+        self.data = 2.0 * cp.problem.cross().transpose(0, 2, 1)  # 2Φᵀy, (N, n, p)
+        self.groups: list[list[int]] = []  # output rows with equal weights
+        self.w_rows = cp.w.reshape(n, p)
+        for i in range(n):
+            for rows in self.groups:
+                if np.array_equal(self.w_rows[rows[0]], self.w_rows[i]):
+                    rows.append(i)
+                    break
+            else:
+                self.groups.append([i])
+
+    def fit(self, bands: np.ndarray, pivot_tol: float = 0.0) -> np.ndarray | None:
+        """Θ (N, n, p) for the bands (d + 1, N) of DᵀRD; None where a system's
+        smallest pivot² ratio is not above ``pivot_tol`` (not positive definite)."""
+        cp, L = self.cp, self.L
+        fitted = np.empty((cp.N, cp.n, cp.p))
+        for rows in self.groups:
+            W = np.diag(self.w_rows[rows[0]] ** 2)
+            worst, _, _ = kernels.factor_forward(
+                cp.phi, 1, 2.0, self.extra, W, bands, self.no_rhs, L, self.size
+            )
+            if not worst > pivot_tol:
+                return None
+            Z = np.ascontiguousarray(self.data[:, rows, :].transpose(0, 2, 1))  # (N, p, rows)
+            kernels.solve(L, Z, self.size)
+            fitted[:, rows, :] = Z.transpose(0, 2, 1)
+        return fitted
 
 
 class QuadraticScaling:
@@ -429,7 +488,8 @@ class NewtonSystem:
         then for the corrector target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a) with
         σ = (1 − min(1, α_a))³ and μ = gap / n_cones. Group cones without
         constant coefficients and with blocks below the wide kernels' sizes take it
-        in one compiled call (:func:`.conekernels.predictor_corrector`); the others through
+        in two compiled calls (the factorization, then
+        :func:`.conekernels.predictor_corrector` for both solves); the others through
         :meth:`affine_direction` and :meth:`direction`.
         """
         cp = self.cp
@@ -443,16 +503,14 @@ class NewtonSystem:
         ds, dz = np.empty_like(work), np.empty_like(work)
         size = system.fixed if system.fixed is not None else system.L.shape[2]
         try:
-            worst, worst_t, step = cones.predictor_corrector(
-                cp.phi, cp.n_rep, cp.coeffs, cp.w, system.offset, system.pinned, self.s, self.z,
-                self.r_z, self.r_k, gap, self.v, self.eta, self.lam, self.lam_sq, self.u_rz,
-                self.alpha, self.beta, self.s_coef, self.penalty, system.L, target, work, dk,
-                dt, ds, dz, size,
+            system.factor(cp, self)
+            step = cones.predictor_corrector(
+                cp.coeffs, cp.w, self.s, self.z, self.r_z, self.r_k, gap, self.v, self.eta,
+                self.lam, self.lam_sq, self.u_rz, self.alpha, self.beta, self.s_coef, system.L,
+                target, work, dk, dt, ds, dz, size,
             )  # fmt: skip
         except ZeroDivisionError:  # a cone's scaling underflowed or overflowed
             raise SingularProblemError(BOUNDARY) from None
-        if worst < 0:
-            raise system.singular(worst_t)
         return dk, dt, ds, dz, step
 
     def predictor_target(self) -> np.ndarray:
@@ -620,41 +678,19 @@ def reweighted_start(problem: RegressionProblem, cp: ConicProblem, k: np.ndarray
     :func:`warm_dual`). None where no step was taken (no differences, or a
     system not positive definite).
     """
-    N, n, p = cp.N, cp.n, cp.p
+    N = cp.N
     e, bands = np.empty(cp.cone_shape), np.empty((cp.degree + 1, N))
-    L, size = np.empty((N, cp.degree + 1, p, p)), kernel_size(N, p)
-    # The squared norm's kernels with the argument types of its BlockFactor
-    # (:mod:`.banded`), so that a group fit compiles nothing more for them.
-    extra, no_rhs = np.zeros((0, p, p)), np.zeros((N, p, 0))
-    data = 2.0 * problem.cross().transpose(0, 2, 1)  # 2Φᵀy, (N, n, p)
-    groups: list[list[int]] = []  # output rows with equal weights
-    w_rows = cp.w.reshape(n, p)
-    for i in range(n):
-        for rows in groups:
-            if np.array_equal(w_rows[rows[0]], w_rows[i]):
-                rows.append(i)
-                break
-        else:
-            groups.append([i])
-    theta, rho = np.array(k, dtype=float).reshape(N, n, p), None
+    fits = RowFits(cp)
+    theta, rho = np.array(k, dtype=float).reshape(N, cp.n, cp.p), None
     for _ in range(REWEIGHT_STEPS):
         if not cones.reweight_bands(
             theta.reshape(N, -1), cp.coeffs, cp.w, REWEIGHT_FLOOR, e, bands
         ):
             break
-        fitted = np.empty_like(theta)
-        for rows in groups:
-            W = np.diag(w_rows[rows[0]] ** 2)
-            worst, _, _ = kernels.factor_forward(cp.phi, 1, 2.0, extra, W, bands, no_rhs, L, size)
-            if not worst > 0.0:
-                break
-            Z = np.ascontiguousarray(data[:, rows, :].transpose(0, 2, 1))  # (N, p, rows)
-            kernels.solve(L, Z, size)
-            fitted[:, rows, :] = Z.transpose(0, 2, 1)
-        else:
-            theta, rho = fitted, e[:, 0].copy()
-            continue
-        break
+        fitted = fits.fit(bands)
+        if fitted is None:
+            break
+        theta, rho = fitted, e[:, 0].copy()
     if rho is None:
         return None
     k = np.ascontiguousarray(theta.reshape(N, -1))
