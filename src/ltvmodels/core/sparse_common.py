@@ -26,7 +26,6 @@ from .problem import (
 
 __all__ = [
     "QuadraticUpdate",
-    "quadratic_fit",
     "null_space_fit",
     "lambda_max",
     "difference_preimage",
@@ -73,11 +72,6 @@ class QuadraticUpdate:
                 rhs = rhs + pull[:, :, rows]
             theta[:, rows, :] = factor.solve(np.ascontiguousarray(rhs)).transpose(0, 2, 1)
         return theta
-
-
-def quadratic_fit(problem: RegressionProblem, weights: np.ndarray, rho: float) -> np.ndarray:
-    """argmin_k ‖y − Φk‖² + (ρ/2)‖ΛDk‖² (all weights finite); returns k (N, K)."""
-    return QuadraticUpdate(problem, weights, rho)(None).reshape(problem.N, -1)
 
 
 def null_space_fit(problem: RegressionProblem) -> np.ndarray:
