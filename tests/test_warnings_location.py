@@ -64,7 +64,7 @@ def test_fit_interior_point_convergence(jump):
 
 
 def test_fit_admm_convergence():
-    big = systems.random_walk_system(T=120, n=5, m=2, seed=1, drift_std=0.01)  # ADMM's size
+    big = systems.random_walk_system(T=120, n=7, m=3, seed=1, drift_std=0.01)  # K = 70: ADMM
     with pytest.warns(ltv.ConvergenceWarning, match="ADMM did not converge") as record:
         ltv.fit(big.x, big.u, lam=5.0, norm="group", max_iter=3)
     assert_reported_here(record, ltv.ConvergenceWarning)

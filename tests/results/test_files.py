@@ -33,6 +33,11 @@ FITS = {
     "arx": lambda: ltv.fit_arx(X[:, 0], U, na=2, nb=1, lam=10.0),
 }
 
+ITERATIVE = ("ltv_group",)
+"""Fits whose result is an interior point's at its tolerance (1e-6 of the objective)."""
+ITERATIVE_RTOL = 1e-3
+"""How far such a fit's k and noise variance may move within that tolerance."""
+
 
 def version_of(path: Path) -> int:
     with np.load(path, allow_pickle=False) as data:
@@ -49,10 +54,15 @@ def test_files_of_version_0_1_load_as_the_same_model(name):
         # (the same k): with the file's shared variance given, everything agrees.
         assert len(set(new.noise_var)) == 2 and len(set(old.noise_var)) == 1
         new = FITS[name](noise_var=old.noise_var[0])
+    # An interior-point fit agrees with a refit by a later version (another start,
+    # the same optimum) to the solver's tolerance, not to rounding.
+    rtol = ITERATIVE_RTOL if name in ITERATIVE else 1e-10
+    if name in ITERATIVE:
+        assert old.info["objective"] == pytest.approx(new.info["objective"], rel=1e-6)
     # the other estimators' 0.1 noise_var was the mean of today's per-output variances
-    assert old.noise_var == pytest.approx(np.mean(new.noise_var), rel=1e-10)
+    assert old.noise_var == pytest.approx(np.mean(new.noise_var), rel=rtol)
     assert type(old) is type(new) and old.structure() == new.structure()
-    np.testing.assert_allclose(old.k, new.k, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(old.k, new.k, rtol=rtol, atol=rtol * np.abs(new.k).max())
     assert old.norm == new.norm
     if new.loglik is None:  # version 0.1 wrote NaN where no likelihood exists
         assert old.loglik is None
@@ -69,8 +79,13 @@ def test_files_of_version_0_1_load_as_the_same_model(name):
     # The status of a 0.1 file is reconstructed from its info: that of the same fit now.
     assert old.status.status == new.status.status
     assert old.status.solver == new.status.solver
-    assert old.status.iterations == new.status.iterations
-    assert old.status.objective == pytest.approx(new.status.objective, rel=1e-10)
+    if name in ITERATIVE:  # the iterations of the file's fit, not of today's start
+        assert old.status.iterations == old.info["iterations"]
+    else:
+        assert old.status.iterations == new.status.iterations
+    assert old.status.objective == pytest.approx(
+        new.status.objective, rel=1e-6 if name in ITERATIVE else 1e-10
+    )
     assert set(old.status.details) == set(new.status.details)
 
 

@@ -76,7 +76,8 @@ def test_polished_fit_is_optimal_polished():
 
 
 def test_admm_status():
-    big = ltv.systems.random_walk_system(T=120, n=5, m=2, seed=1, drift_std=0.01)  # K = 35
+    # K = 70 parameters per step: beyond the interior point's GROUP_IPM_MAX_K (64)
+    big = ltv.systems.random_walk_system(T=120, n=7, m=3, seed=1, drift_std=0.01)
     model = ltv.fit(big.x, big.u, lam=5.0, norm="group")
     s = check(model, "optimal", "ADMM")
     assert {"rho", "n_factorizations", "lambda_max", "duality_gap", "stationarity"} <= set(
