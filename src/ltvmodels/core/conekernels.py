@@ -28,6 +28,7 @@ from .blockkernels import block_size, diagonal_step, offdiagonal_step
 __all__ = [
     "weighted_difference",
     "add_weighted_difference_adjoint",
+    "add_data_block",
     "nt_scaling",
     "apply_scaling",
     "elimination_terms",
@@ -301,6 +302,21 @@ def _penalty_row(v, eta, s_coef, penalty, w, r, offset, out, b):  # pragma: no c
 
 
 @numba.njit(cache=True)
+def add_data_block(phi, t, n_rep, out):  # pragma: no cover - compiled
+    """Lower triangle of out += 2 I_r ⊗ Σ_q φ_tqφ_tqᵀ: the data part of step t's diagonal
+    Newton block (phi (N, rows, p), r = n_rep output rows sharing the regressors)."""
+    n_rows, p = phi.shape[1], phi.shape[2]
+    for rep in range(n_rep):
+        base = rep * p
+        for i in range(p):
+            for j in range(i + 1):
+                acc = 0.0
+                for row in range(n_rows):
+                    acc += phi[t, row, i] * phi[t, row, j]
+                out[base + i, base + j] += 2.0 * acc
+
+
+@numba.njit(cache=True)
 def _factor_newton(
     phi, n_rep, v, eta, s_coef, penalty, w, coeffs, offset, pinned, L, size
 ):  # pragma: no cover - compiled
@@ -371,14 +387,7 @@ def _factor_newton(
             for i in range(b):
                 for j in range(i + 1):
                     Ltt[i, j] += weight * P[i, j]
-        for rep in range(n_rep):  # the data part, 2 I_r ⊗ Σ_q φ_tqφ_tqᵀ
-            base = rep * p
-            for i in range(p):
-                for j in range(i + 1):
-                    acc = 0.0
-                    for row in range(n_rows):
-                        acc += phi[t, row, i] * phi[t, row, j]
-                    Ltt[base + i, base + j] += 2.0 * acc
+        add_data_block(phi, t, n_rep, Ltt)  # the data part
         for i in range(b if any_pinned else 0):
             if pinned[i] != 0.0:
                 for j in range(i):

@@ -43,6 +43,8 @@ from numba import types
 from numba.extending import get_cython_function_address
 from threadpoolctl import ThreadpoolController
 
+from . import conekernels as cones
+
 __all__ = [
     "one_blas_thread",
     "factor_newton_wide",
@@ -216,14 +218,7 @@ def factor_newton_wide(
             for i in range(b):
                 for j in range(i + 1):
                     Ltt[i, j] += weight * P[i, j]
-        for rep in range(n_rep):  # the data part, 2 I_r ⊗ Σ_q φ_tqφ_tqᵀ
-            base = rep * p
-            for i in range(p):
-                for j in range(i + 1):
-                    acc = 0.0
-                    for row in range(n_rows):
-                        acc += phi[t, row, i] * phi[t, row, j]
-                    Ltt[base + i, base + j] += 2.0 * acc
+        cones.add_data_block(phi, t, n_rep, Ltt)  # the data part
         for lag in range(1, min(d, t) + 1):
             # Lower triangle of Ltt −= L_{t,s}L_{t,s}ᵀ: upper in column-major order.
             _dsyrk(
@@ -428,14 +423,7 @@ def factor_newton_wide_first(
                 for j in range(i + 1):
                     Si[j] += coef_a * a_prev[j] + coef_s * (Spi[j] * delta_prev[j]) + coef_g * g[j]
                 Si[i] += c11 * di
-        for rep in range(n_rep):  # the data part, 2 I_r ⊗ Σ_q φ_tqφ_tqᵀ
-            base = rep * p
-            for i in range(p):
-                for j in range(i + 1):
-                    acc = 0.0
-                    for row in range(n_rows):
-                        acc += phi[t, row, i] * phi[t, row, j]
-                    S[base + i, base + j] += 2.0 * acc
+        cones.add_data_block(phi, t, n_rep, S)  # the data part
         for i in range(b):
             if pinned[i] != 0.0:
                 for j in range(i):
