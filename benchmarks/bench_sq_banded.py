@@ -115,6 +115,9 @@ ONE_SHOT = textwrap.dedent(
 )
 
 
+ONE_SHOT_TIMEOUT = 600.0  # seconds a fresh process may take before the benchmark gives up
+
+
 def one_shot(T: int, traced: bool) -> tuple[float, int]:
     """Wall time of the fit as a fresh process's only call, and its peak traced bytes."""
     done = subprocess.run(
@@ -122,6 +125,7 @@ def one_shot(T: int, traced: bool) -> tuple[float, int]:
         capture_output=True,
         text=True,
         check=True,
+        timeout=ONE_SHOT_TIMEOUT,
     )
     seconds, peak = done.stdout.split()
     return float(seconds), int(peak)
