@@ -102,3 +102,24 @@ def test_compiled_iteration_reaches_the_clarabel_optimum(seed, order):
     beyond = (np.abs(r) > delta * problem.row_scale[:, :, None]) & problem.observed[:, :, None]
     np.testing.assert_array_equal(fit.outliers, beyond)
     assert beyond.any()  # the case under test
+
+
+def test_first_difference_solves_agree_with_the_block_factorization(monkeypatch):
+    """A first difference solves the Newton systems by the Kalman form; the outputs it
+    leaves (here: all) go to the block Cholesky factorization, and both routes reach
+    the same certified fit (rounding may move the last step's KKT residual across
+    the tolerance: one step more or less)."""
+    problem, weight, delta = _problem(0, 1)
+    kalman = huber.fit_huber(problem, weight, delta, tol=1e-10)
+    calls = []
+
+    def leave_all(self, phi, a, targets, w, coeffs, active, out):
+        calls.append(int(np.count_nonzero(active)))
+        return np.array(active, dtype=bool)
+
+    monkeypatch.setattr(huber.WeightedRowsKalman, "solve", leave_all)
+    factored = huber.fit_huber(problem, weight, delta, tol=1e-10)
+    assert calls and factored.converged and kalman.converged
+    assert abs(factored.iterations - kalman.iterations) <= 1
+    assert factored.objective == pytest.approx(kalman.objective, rel=1e-12)
+    np.testing.assert_allclose(factored.theta, kalman.theta, rtol=0, atol=1e-8)

@@ -155,3 +155,76 @@ def test_weighted_rows_factor_reports_a_singular_system():
             np.zeros((1, 10, 2, 1)),
             np.ones(1, dtype=bool),
         )
+
+
+def _dense_weighted_rows(phi, a, w, coeffs, c):
+    """H_c = blkdiag_t(Σ_j a_tjc φφᵀ) + DᵀD ⊗ diag(w_c) as a dense matrix."""
+    N, _, p = phi.shape
+    d = len(coeffs) - 1
+    D = np.zeros((N - d, N))
+    for row in range(N - d):
+        D[row, row : row + d + 1] = coeffs
+    H = np.kron(D.T @ D, np.diag(w[c]))
+    for t in range(N):
+        H[t * p : (t + 1) * p, t * p : (t + 1) * p] += np.einsum(
+            "j,ja,jb->ab", a[t, :, c], phi[t], phi[t]
+        )
+    return H
+
+
+@pytest.mark.parametrize("q", [1, 2])
+@pytest.mark.parametrize("zeros", [0.0, 0.4])
+def test_weighted_rows_kalman_equals_a_dense_solve(q, zeros):
+    """The covariance-form (Kalman) solve of the first-difference systems, rows given by
+    weight a and target b, equals a dense solve of H_c θ = Σ_j b φ; rows of weight 0 (the
+    semismooth Newton model's outliers) and a scaled difference c_1 (θ_{t+1} − θ_t) too;
+    outputs left inactive are not touched."""
+    rng = np.random.default_rng(5)
+    N, p, n = 40, 3, 3
+    coeffs = np.array([-1.5, 1.5])
+    phi = rng.standard_normal((N, q, p))
+    a = rng.uniform(0.05, 1.0, (N, q, n))
+    a[rng.random((N, q, n)) < zeros] = 0.0
+    targets = rng.standard_normal((N, q, n))
+    w = rng.uniform(0.5, 4.0, (n, p))
+    active = np.array([True, False, True])
+    assert banded.WeightedRowsKalman.applies(coeffs, w)
+    out = np.full((n, N, p), 7.0)
+    unsolved = banded.WeightedRowsKalman(N, q, p, n).solve(phi, a, targets, w, coeffs, active, out)
+    assert not unsolved.any()
+    np.testing.assert_array_equal(out[1], 7.0)
+    for c in (0, 2):
+        H = _dense_weighted_rows(phi, a, w, coeffs, c)
+        rhs = np.einsum("tj,tja->ta", targets[:, :, c], phi).reshape(-1)
+        expected = np.linalg.solve(H, rhs).reshape(N, p)
+        scale = np.abs(expected).max()
+        np.testing.assert_allclose(out[c], expected, rtol=1e-11, atol=1e-12 * scale)
+
+
+def test_weighted_rows_kalman_leaves_what_it_cannot_hand_over():
+    """Too few steps for the information form to hand over, or a singular system: the
+    outputs come back unsolved (the caller factors them, and the factorization
+    reports a singular one); other orders and zero weights are not its systems."""
+    rng = np.random.default_rng(2)
+    p, n, coeffs = 3, 2, np.array([-1.0, 1.0])
+    short = rng.standard_normal((3, 1, p))  # N = p: Λ is first invertible at the last step
+    a, w = np.ones((3, 1, n)), np.ones((n, p))
+    out = np.empty((n, 3, p))
+    unsolved = banded.WeightedRowsKalman(3, 1, p, n).solve(
+        short, a, rng.standard_normal((3, 1, n)), w, coeffs, np.ones(n, dtype=bool), out
+    )
+    assert unsolved.all()
+    empty = np.zeros((10, 1, p))  # no data: DᵀD ⊗ diag(w) alone is singular
+    unsolved = banded.WeightedRowsKalman(10, 1, p, n).solve(
+        empty,
+        np.ones((10, 1, n)),
+        np.zeros((10, 1, n)),
+        w,
+        coeffs,
+        np.ones(n, dtype=bool),
+        np.empty((n, 10, p)),
+    )
+    assert unsolved.all()
+    assert not banded.WeightedRowsKalman.applies(np.array([1.0, -2.0, 1.0]), w)
+    assert not banded.WeightedRowsKalman.applies(np.array([-1.0, 2.0]), w)
+    assert not banded.WeightedRowsKalman.applies(coeffs, np.array([[1.0, 0.0, 1.0]]))

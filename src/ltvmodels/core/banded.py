@@ -43,6 +43,7 @@ __all__ = [
     "RowsSolution",
     "solve_shared_rows",
     "WeightedRowsFactor",
+    "WeightedRowsKalman",
 ]
 
 # A pivot whose square is below this fraction of the matrix diagonal it came
@@ -410,6 +411,86 @@ class WeightedRowsFactor:
         float, is overwritten and returned."""
         kernels.weighted_rows_solve(self.L, rhs, self.w, self.coeffs, self.active, True, self._size)
         return rhs
+
+
+class WeightedRowsKalman:
+    """The systems of :class:`WeightedRowsFactor` for a first difference, solved by a
+    Kalman filter and smoother in covariance form (one rank-one update per row),
+    with the rows given by weight and target instead of a right-hand side.
+
+    Solves, for each active output c,
+
+        H_c θ_c = Σ_j b_tjc φ_tj,   H_c = blkdiag_t(Σ_j a_tjc φ_tjφ_tjᵀ) + DᵀD ⊗ diag(w_c),
+
+    that is, minimizes Σ_tj (a_tjc (φ_tjᵀθ_t)² − 2 b_tjc φ_tjᵀθ_t) + Σ_t ‖Dθ‖²_diag(w_c).
+    The filter's steps depend on each other through a few dot products only, where
+    the block Cholesky sweep's go through a b × b factorization: about 2.5× (three
+    outputs) to 3.5× (one) faster at p = 5, and rows of weight 0 cost nothing.
+    The first steps, before the data determine every coefficient, run in
+    information form (see :func:`.blockkernels.weighted_rows_kalman`).
+
+    Parameters
+    ----------
+    N, q, p, n : int
+        Steps, rows per step, regressors and outputs: the work arrays' sizes
+        (about (p + 2)·(p + q) numbers per step and output), kept between solves.
+    """
+
+    def __init__(self, N: int, q: int, p: int, n: int) -> None:
+        self.cov = np.empty((n, N, p, p))
+        self.mean = np.empty((n, N, p))
+        self.rows = np.empty((n, N, q, p + 2))
+        self._size = kernel_size(N, p)
+
+    @staticmethod
+    def applies(coeffs: np.ndarray, w: np.ndarray) -> bool:
+        """Whether the difference is a first difference (c_0 = −c_1 ≠ 0) and every
+        weight w (n, p) positive and finite."""
+        coeffs = np.asarray(coeffs, dtype=float)
+        return bool(
+            coeffs.size == 2
+            and coeffs[1] != 0.0
+            and coeffs[0] == -coeffs[1]
+            and np.all(np.isfinite(w))
+            and np.all(w > 0)
+        )
+
+    def solve(
+        self,
+        phi: np.ndarray,
+        a: np.ndarray,
+        targets: np.ndarray,
+        w: np.ndarray,
+        coeffs: np.ndarray,
+        active: np.ndarray,
+        out: np.ndarray,
+    ) -> np.ndarray:
+        """Solve the active outputs' systems into ``out`` (n, N, p).
+
+        ``phi`` (N, q, p), ``a`` and ``targets`` (N, q, n) and ``w`` (n, p), C-contiguous
+        float, with :meth:`applies` true for ``coeffs`` and ``w``. Returns the active
+        outputs (n,) bool left unsolved: those whose information matrix never
+        became well conditioned, or met a matrix that is not positive definite
+        (singular systems): factor them with :class:`WeightedRowsFactor`, which
+        also reports the singular ones.
+        """
+        n = a.shape[2]
+        status = np.empty(n, dtype=np.int64)
+        scale = float(coeffs[1]) ** 2  # ‖c_1 (θ_{t+1} − θ_t)‖²: the weight times c_1²
+        kernels.weighted_rows_kalman(
+            phi,
+            a,
+            targets,
+            np.ascontiguousarray(w * scale, dtype=float),
+            np.ascontiguousarray(active, dtype=np.bool_),
+            self.cov,
+            self.mean,
+            self.rows,
+            out,
+            status,
+            self._size,
+        )
+        return np.asarray(active, dtype=bool) & (status < 0)
 
 
 def _solve_bordered(system: BlockSystem, rhs, const, *, compute_cov, what) -> BlockSolution:

@@ -57,6 +57,8 @@ __all__ = [
     "rows_backward",
     "weighted_rows_factor_forward",
     "weighted_rows_solve",
+    "weighted_rows_kalman",
+    "KALMAN_SWITCH_RATIO",
     "solve_fixed",
 ]
 
@@ -889,3 +891,199 @@ def weighted_rows_solve(L, X, w, coeffs, active, forward, size):  # pragma: no c
 factor_forward_fixed = factor_forward
 backward_fixed = backward
 solve_fixed = solve
+
+
+# -- The same systems for a first difference, in covariance form ----------------------
+# For D a first difference the system of output c is a random walk's smoothing
+# problem: minimize Σ_tj (a θ_tᵀφφᵀθ_t − 2 b φᵀθ_t) + Σ_t (θ_{t+1} − θ_t)ᵀ W (θ_{t+1} − θ_t)
+# (rows with weight a and target b = a ŷ, W = diag(w)). A Kalman filter in covariance
+# form (transition noise W⁻¹) takes each row as one rank-one update of P, whose
+# dependency chain per step is a few dot products, where the block Cholesky's chain
+# runs through a triangular solve and a b × b factorization; rows of weight 0 cost
+# nothing. The series has no prior at its start (the first P is infinite), so the
+# first steps run in information form (the block Cholesky recursion) until the
+# information matrix is well conditioned; the filter then continues from its inverse.
+# The backward pass is de Jong's smoother (no inverse per step): with r the adjoint,
+# θ_t = x_t⁻ + P_t⁻ r, r ← r + φ_tj (e_tj − a_tj s_tjᵀ r) / F_tj through the rows.
+
+# The information form hands over once its matrix's smallest relative pivot²
+# (pivot² / diagonal) reaches this: P = Λ⁻¹ then has a condition of a few hundred at
+# most, and the rank-one updates lose no more than that many ulps.
+KALMAN_SWITCH_RATIO = 1e-2
+
+
+@numba.njit(cache=True, inline="always")
+def _cholesky_inverse(M, P, v, b):  # pragma: no cover - compiled
+    """P ← (L Lᵀ)⁻¹ from M's factor L (reciprocal pivots, see the module docstring)."""
+    for col in range(b):
+        for i in range(b):
+            v[i] = 1.0 if i == col else 0.0
+        _lower_solve(M, v, b)
+        _upper_solve(M, v, b)
+        for i in range(b):
+            P[i, col] = v[i]
+
+
+@numba.njit(cache=True)
+def weighted_rows_kalman(
+    phi, a, targets, w, active, cov, mean, rows, X, status, size
+):  # pragma: no cover - compiled
+    """Solve H_c θ_c = Σ_j b_tjc φ_tj, H_c = blkdiag_t(Σ_j a_tjc φ_tj φ_tjᵀ) + DᵀD ⊗ diag(w_c)
+    for a first difference D (rows of DᵀD: θ_{t+1} − θ_t), each output c with
+    ``active[c]``, by a Kalman filter and smoother (see above).
+
+    Parameters
+    ----------
+    phi : (N, q, p);  a, targets : (N, q, n) row weights a >= 0 and targets b
+    w : (n, p) diagonal weights, > 0 (the difference's coefficient² folded in)
+    active : (n,) bool
+    cov : (n, N, p, p), mean : (n, N, p), rows : (n, N, q, p + 2) work arrays: per step
+        the factor of Λ_t + W and η_t (information steps) or P_t⁻ and x_t⁻, and per
+        row s = P⁻φ, e / F and a / F (covariance steps)
+    X : (n, N, p) output, the solutions of the active outputs whose status is >= 0
+    status : (n,) int64 output: the step after which the covariance form took over,
+        −1 if it never did (no solution: the caller factors that output), −2 if the
+        information form met a matrix that is not positive definite (likewise)
+    size : int or tuple, the block size p
+    """
+    b = block_size(size)
+    N, q, _ = phi.shape
+    n = a.shape[2]
+    info = np.zeros((n, b, b))  # Λ (information steps) or P (covariance steps)
+    vec = np.zeros((n, b))  # η or the filtered mean
+    M = np.empty((b, b))
+    ref = np.empty(b)
+    s = np.empty(b)
+    v = np.empty(b)
+    tiny_ratio = 1e-12  # RELATIVE_PIVOT_TOL of the block Cholesky
+    for c in range(n):
+        status[c] = -1
+    for t in range(N):
+        for c in range(n):
+            if not active[c] or status[c] == -2:
+                continue
+            Pc, xc, wc = info[c], vec[c], w[c]
+            if status[c] >= 0:  # covariance form: predict, then one update per row
+                for i in range(b):
+                    Pc[i, i] += 1.0 / wc[i]
+                cov_t = cov[c, t]
+                for i in range(b):
+                    mean[c, t, i] = xc[i]
+                    for k in range(b):
+                        cov_t[i, k] = Pc[i, k]
+                for j in range(q):
+                    weight = a[t, j, c]
+                    along = 0.0
+                    curvature = 0.0
+                    for i in range(b):
+                        acc = 0.0
+                        for k in range(b):
+                            acc += Pc[i, k] * phi[t, j, k]
+                        s[i] = acc
+                        along += phi[t, j, i] * xc[i]
+                        curvature += phi[t, j, i] * acc
+                    inv = 1.0 / (1.0 + weight * curvature)
+                    gain = (targets[t, j, c] - weight * along) * inv
+                    shrink = weight * inv
+                    row = rows[c, t, j]
+                    for i in range(b):
+                        row[i] = s[i]
+                        xc[i] += s[i] * gain
+                    row[b] = gain
+                    row[b + 1] = shrink
+                    if shrink != 0.0:
+                        for i in range(b):
+                            for k in range(b):
+                                Pc[i, k] -= shrink * s[i] * s[k]
+                continue
+            # information form: Λ += Σ a φφᵀ, η += Σ b φ (lower triangle of Λ)
+            for j in range(q):
+                weight = a[t, j, c]
+                for i in range(b):
+                    xc[i] += targets[t, j, c] * phi[t, j, i]
+                    for k in range(i + 1):
+                        Pc[i, k] += weight * phi[t, j, i] * phi[t, j, k]
+            cov_t = cov[c, t]
+            for i in range(b):
+                mean[c, t, i] = xc[i]
+            handover = False
+            if b - 1 <= t < N - 1:  # Λ may be invertible: hand over if well conditioned
+                for i in range(b):
+                    for k in range(i + 1):
+                        M[i, k] = Pc[i, k]
+                    ref[i] = Pc[i, i]
+                handover = _cholesky_block(M, ref, b) >= KALMAN_SWITCH_RATIO
+                if handover:
+                    _cholesky_inverse(M, cov_t, v, b)  # P = Λ⁻¹ (cov_t as scratch)
+            for i in range(b):
+                for k in range(i + 1):
+                    M[i, k] = Pc[i, k]
+                M[i, i] += wc[i]
+                ref[i] = M[i, i]
+            if _cholesky_block(M, ref, b) < tiny_ratio:
+                status[c] = -2
+                continue
+            if handover:
+                for i in range(b):
+                    v[i] = 0.0
+                    for k in range(b):
+                        v[i] += cov_t[i, k] * xc[k]
+                for i in range(b):
+                    xc[i] = v[i]
+                    for k in range(b):
+                        Pc[i, k] = cov_t[i, k]
+                status[c] = t
+            else:
+                # Λ⁻ = W − W (Λ + W)⁻¹ W and η⁻ = W (Λ + W)⁻¹ η: with Z = L⁻¹ W, Λ⁻ = W − ZᵀZ
+                for col in range(b):
+                    for i in range(b):
+                        v[i] = wc[i] if i == col else 0.0
+                    _lower_solve(M, v, b)
+                    for i in range(b):
+                        cov_t[i, col] = v[i]  # Z, in cov_t until the factor goes there
+                for i in range(b):
+                    for k in range(i + 1):
+                        acc = 0.0
+                        for m in range(b):
+                            acc += cov_t[m, i] * cov_t[m, k]
+                        Pc[i, k] = (wc[i] if i == k else 0.0) - acc
+                for i in range(b):
+                    v[i] = xc[i]
+                _lower_solve(M, v, b)
+                _upper_solve(M, v, b)
+                for i in range(b):
+                    xc[i] = wc[i] * v[i]
+            for i in range(b):
+                for k in range(b):
+                    cov_t[i, k] = M[i, k] if k <= i else 0.0
+    # backward: de Jong's smoother over the covariance steps, then the information steps
+    r = np.empty(b)
+    for c in range(n):
+        if not active[c] or status[c] < 0:
+            continue
+        t0 = status[c]
+        wc = w[c]
+        for i in range(b):
+            r[i] = 0.0
+        for t in range(N - 1, t0, -1):
+            for j in range(q - 1, -1, -1):
+                row = rows[c, t, j]
+                along = 0.0
+                for i in range(b):
+                    along += row[i] * r[i]
+                coef = row[b] - row[b + 1] * along
+                for i in range(b):
+                    r[i] += phi[t, j, i] * coef
+            cov_t = cov[c, t]
+            for i in range(b):
+                acc = mean[c, t, i]
+                for k in range(b):
+                    acc += cov_t[i, k] * r[k]
+                X[c, t, i] = acc
+        for t in range(t0, -1, -1):  # θ_t = (Λ_t + W)⁻¹ (η_t + W θ_{t+1})
+            for i in range(b):
+                v[i] = mean[c, t, i] + wc[i] * X[c, t + 1, i]
+            _lower_solve(cov[c, t], v, b)
+            _upper_solve(cov[c, t], v, b)
+            for i in range(b):
+                X[c, t, i] = v[i]

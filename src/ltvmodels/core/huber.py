@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from .banded import WeightedRowsFactor
+from .banded import WeightedRowsFactor, WeightedRowsKalman
 from .priorterms import PriorTerm
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 from .squared import SquaredSolver, weight_diagonal
@@ -404,8 +404,11 @@ def _fit_diagonal(
 
     ``thresholds`` are δ̃ (N, q, n), ``theta`` (N, n, p) the start (overwritten).
     Per step: one pass for the KKT residuals and the Newton models' rows
-    (:func:`_newton_state`), one sweep that factors the outputs still iterating
-    (:class:`~.banded.WeightedRowsFactor`), and per output one pass for the
+    (:func:`_newton_state`), one sweep that solves the outputs still iterating
+    (for a first difference a Kalman filter and smoother,
+    :class:`~.banded.WeightedRowsKalman`, about 3× faster than the block
+    Cholesky sweep :class:`~.banded.WeightedRowsFactor`, which serves the other
+    orders and the systems the filter leaves), and per output one pass for the
     direction's residuals, after which the exact line search and both values
     of F need only (r, g) (:func:`_line_search`).
     """
@@ -418,8 +421,13 @@ def _fit_diagonal(
     w = np.ascontiguousarray(weight.reshape(n, p), dtype=float)
     k = np.ascontiguousarray(theta.transpose(1, 0, 2))  # (n, N, p): each output contiguous
     a = np.empty((N, q, n))
+    targets = np.empty((N, q, n))
     model = np.empty((n, N, p, 1))
+    solution = model.reshape(n, N, p)  # the same memory
     factors: np.ndarray | None = None  # the factors' storage, reused
+    # a first difference: the Kalman form, which takes the rows (a, b) (no right-hand sides)
+    kalman = WeightedRowsKalman(N, q, p, n) if WeightedRowsKalman.applies(coeffs, w) else None
+    rhs = np.empty((n, 0, p, 1)) if kalman is not None else model
     damping = np.full(n, NEWTON_DAMPING)
     kkt = np.empty(n)
     scratch = np.empty((2, N, q))
@@ -431,13 +439,19 @@ def _fit_diagonal(
     none = np.zeros(n, dtype=np.bool_)
     iterations, stalled = 0, False
     for iterations in range(max_iter + 1):
-        _newton_state(phi, y, limits, k, w, coeffs, damping, active, active, kkt, a, model)
+        _newton_state(phi, y, limits, k, w, coeffs, damping, active, active, kkt, a, targets, rhs)
         if kkt.max() <= tol or iterations == max_iter:
             break
         active = kkt > tol
-        factor = WeightedRowsFactor(phi, a, w, coeffs, model, active, out=factors)
-        factor.finish(model)
-        factors = factor.L
+        unsolved = active
+        if kalman is not None:
+            unsolved = kalman.solve(phi, a, targets, w, coeffs, active, solution)
+        if unsolved.any():  # no Kalman form, or the systems it leaves: block Cholesky
+            for c in np.flatnonzero(unsolved):
+                model[c, :, :, 0] = np.einsum("tj,tjk->tk", targets[:, :, c], phi)
+            factor = WeightedRowsFactor(phi, a, w, coeffs, model, unsolved, out=factors)
+            factor.finish(model)
+            factors = factor.L
         progress = False
         for c in np.flatnonzero(active):
             alpha, value, trial_value, kept = _line_search(
@@ -446,19 +460,22 @@ def _fit_diagonal(
             # near the optimum F changes by rounding only: no increase beyond that is a decrease
             if alpha == 0.0 or trial_value > value + 8 * eps * abs(value):
                 # no decrease along the Newton direction: the majorize-minimize step
-                factors = _majorizer_step(phi, y, limits, k, w, coeffs, c, a, model, factors)
+                factors = _majorizer_step(
+                    phi, y, limits, k, w, coeffs, c, a, targets, model, factors
+                )
                 step = model[c, :, :, 0]
                 decreased = _output_value(phi, y[c], limits[c], step, w[c], coeffs) < value
                 k[c] = step
                 damping[c] = NEWTON_DAMPING
             else:
-                k[c] += alpha * direction
+                direction *= alpha  # no temporaries of the size of k
+                k[c] += direction
                 damping[c] = max(damping[c] * 0.1, MIN_DAMPING) if kept else NEWTON_DAMPING
                 decreased = trial_value < value
             progress |= decreased
         if not progress:  # F is flat to rounding: the tolerance is beyond working precision
             iterations += 1
-            _newton_state(phi, y, limits, k, w, coeffs, damping, active, none, kkt, a, model)
+            _newton_state(phi, y, limits, k, w, coeffs, damping, active, none, kkt, a, targets, rhs)
             stalled = bool(kkt.max() > tol)
             break
     theta = np.ascontiguousarray(k.transpose(1, 0, 2))
@@ -477,7 +494,7 @@ def _fit_diagonal(
     )
 
 
-def _majorizer_step(phi, y, limits, k, w, coeffs, c, a, model, factors):
+def _majorizer_step(phi, y, limits, k, w, coeffs, c, a, targets, model, factors):
     """The majorize–minimize step (τ = 1) of output c alone, into ``model[c]``; returns
     the factors' storage for the next call."""
     n = k.shape[0]
@@ -486,7 +503,7 @@ def _majorizer_step(phi, y, limits, k, w, coeffs, c, a, model, factors):
     full = np.ones(n)
     kkt = np.empty(n)
     # the other outputs' models are still to be used: only output c's rows change
-    _newton_state(phi, y, limits, k, w, coeffs, full, only, only, kkt, a, model)
+    _newton_state(phi, y, limits, k, w, coeffs, full, only, only, kkt, a, targets, model)
     factor = WeightedRowsFactor(phi, a, w, coeffs, model, only, out=factors)
     factor.finish(model)
     return factor.L
@@ -494,13 +511,14 @@ def _majorizer_step(phi, y, limits, k, w, coeffs, c, a, model, factors):
 
 @numba.njit(cache=True)
 def _newton_state(
-    phi, y, limits, k, w, coeffs, damping, evaluate, rows, out, a, rhs
+    phi, y, limits, k, w, coeffs, damping, evaluate, rows, out, a, targets, rhs
 ):  # pragma: no cover - compiled
     """At k (n, N, p), in one pass per output where ``evaluate`` (n,) is set: ‖∇F‖∞ of
     each output into ``out`` (n,),
     relative to its largest data or penalty term (:func:`_kkt_residuals`), and,
     where ``rows`` (n,) is set, the rows of its quadratic model (:func:`newton_model`):
-    weights a (N, q, n) and right-hand sides Σ_j a ŷ φ (n, N, p, 1).
+    weights a (N, q, n), targets a ŷ (N, q, n) and, unless ``rhs`` has no steps
+    (shape (n, 0, p, 1)), right-hand sides Σ_j a ŷ φ (n, N, p, 1).
 
     ``y`` and ``limits`` (the thresholds δ̃) are per output, shape (n, N, q).
     """
@@ -508,7 +526,9 @@ def _newton_state(
     n = k.shape[0]
     d = coeffs.shape[0] - 1
     tiny = np.finfo(np.float64).tiny
-    difference = np.empty((N, p))
+    fill = rhs.shape[1] == N
+    # W Dk over the last d + 1 differences: (W Dk)_s in row s % (d + 1)
+    difference = np.empty((d + 1, p))
     data = np.empty(p)
     for c in range(n):
         if not evaluate[c]:
@@ -516,17 +536,17 @@ def _newton_state(
         kc = k[c]
         tau = damping[c]
         model = rows[c]
-        for t in range(N - d):
-            for i in range(p):
-                acc = 0.0
-                for lag in range(d + 1):
-                    acc += coeffs[lag] * kc[t + lag, i]
-                difference[t, i] = w[c, i] * acc
         largest_data, largest_penalty, largest = 0.0, 0.0, 0.0
         for t in range(N):
+            if t < N - d:
+                for i in range(p):
+                    acc = 0.0
+                    for lag in range(d + 1):
+                        acc += coeffs[lag] * kc[t + lag, i]
+                    difference[t % (d + 1), i] = w[c, i] * acc
             for i in range(p):
                 data[i] = 0.0
-                if model:
+                if model and fill:
                     rhs[c, t, i, 0] = 0.0
             for j in range(q):
                 fitted = 0.0
@@ -545,15 +565,17 @@ def _newton_state(
                         weight = 1.0
                         target = y[c, t, j]
                     a[t, j, c] = weight
-                    for i in range(p):
-                        rhs[c, t, i, 0] += weight * target * phi[t, j, i]
+                    targets[t, j, c] = weight * target
+                    if fill:
+                        for i in range(p):
+                            rhs[c, t, i, 0] += weight * target * phi[t, j, i]
             for i in range(p):
                 # 2 (DᵀW Dk)_t: Σ_lag c_lag (W Dk)_{t − lag}
                 penalty = 0.0
                 for lag in range(d + 1):
                     s = t - lag
                     if 0 <= s < N - d:
-                        penalty += coeffs[lag] * difference[s, i]
+                        penalty += coeffs[lag] * difference[s % (d + 1), i]
                 penalty *= 2.0
                 term = -2.0 * data[i]
                 largest_data = max(largest_data, abs(term))
@@ -599,14 +621,15 @@ def _line_search(phi, y, limits, k, model, w, coeffs, direction, scratch):  # pr
     ``model`` (N, p): (α, F_c at k, F_c at k + α·direction, whether the step keeps the
     entries beyond δ̃), with ``direction`` (N, p) ← model − k.
 
-    One pass over the rows gives the residuals r and the fitted direction
-    g = φᵀdirection (into ``scratch`` (2, N, q)), one over the differences the
+    One pass over the rows gives the residuals r, the fitted direction
+    g = φᵀdirection (into ``scratch`` (2, N, q)) and, from the differences, the
     quadratic terms along the line, value(k + α·direction) = value + 2αb + α²a;
     the search (:func:`line_minimum`) and both values of F then need only (r, g).
     """
     N, q, p = phi.shape
     d = coeffs.shape[0] - 1
     r, g = scratch[0], scratch[1]
+    quad_a, quad_b, quad_c = 0.0, 0.0, 0.0
     for t in range(N):
         for i in range(p):
             direction[t, i] = model[t, i] - k[t, i]
@@ -617,16 +640,17 @@ def _line_search(phi, y, limits, k, model, w, coeffs, direction, scratch):  # pr
                 along += phi[t, j, i] * direction[t, i]
             r[t, j] = y[t, j] - fitted
             g[t, j] = along
-    quad_a, quad_b, quad_c = 0.0, 0.0, 0.0
-    for t in range(N - d):
-        for i in range(p):
-            dd, dk = 0.0, 0.0
-            for lag in range(d + 1):
-                dd += coeffs[lag] * direction[t + lag, i]
-                dk += coeffs[lag] * k[t + lag, i]
-            quad_a += w[i] * dd * dd
-            quad_b += w[i] * dd * dk
-            quad_c += w[i] * dk * dk
+        # the difference ending at t, while its rows are in cache
+        s = t - d
+        if s >= 0:
+            for i in range(p):
+                dd, dk = 0.0, 0.0
+                for lag in range(d + 1):
+                    dd += coeffs[lag] * direction[s + lag, i]
+                    dk += coeffs[lag] * k[s + lag, i]
+                quad_a += w[i] * dd * dd
+                quad_b += w[i] * dd * dk
+                quad_c += w[i] * dk * dk
     alpha = line_minimum(r, g, limits, quad_a, quad_b)
     value, trial_value = quad_c, quad_c + alpha * (2.0 * quad_b + alpha * quad_a)
     kept = alpha == 1.0
