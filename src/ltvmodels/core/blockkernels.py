@@ -905,6 +905,10 @@ solve_fixed = solve
 # information matrix is well conditioned; the filter then continues from its inverse.
 # The backward pass is de Jong's smoother (no inverse per step): with r the adjoint,
 # θ_t = x_t⁻ + P_t⁻ r, r ← r + φ_tj (e_tj − a_tj s_tjᵀ r) / F_tj through the rows.
+# The sweeps are bound by the traffic of what the filter stores for the smoother as
+# much as by arithmetic: it keeps only P_t⁻ (its lower triangle), x_t⁻ and per row
+# e / F and a / F; the smoother recomputes s = P⁻φ by replaying the rows' updates,
+# which the filter keeps exactly symmetric so that the replay gives the same bits.
 
 # The information form hands over once its matrix's smallest relative pivot²
 # (pivot² / diagonal) reaches this: P = Λ⁻¹ then has a condition of a few hundred at
@@ -924,6 +928,39 @@ def _cholesky_inverse(M, P, v, b):  # pragma: no cover - compiled
             P[i, col] = v[i]
 
 
+@numba.njit(cache=True, inline="always")
+def _unpack_symmetric(packed, A, b):  # pragma: no cover - compiled
+    """A ← the symmetric matrix whose lower triangle ``packed`` holds row by row."""
+    idx = 0
+    for i in range(b):
+        for k in range(i + 1):
+            A[i, k] = packed[idx]
+            A[k, i] = packed[idx]
+            idx += 1
+
+
+@numba.njit(cache=True, inline="always")
+def _downdate(P, s, shrink, b):  # pragma: no cover - compiled
+    """P ← P − shrink·s sᵀ, computed on the lower triangle and mirrored: P stays exactly
+    symmetric, so that the smoother, replaying these updates, computes the same bits."""
+    for i in range(b):
+        scaled = shrink * s[i]
+        for k in range(i + 1):
+            value = P[i, k] - scaled * s[k]
+            P[i, k] = value
+            P[k, i] = value
+
+
+@numba.njit(cache=True, inline="always")
+def _times_regressor(P, phi, t, j, s, b):  # pragma: no cover - compiled
+    """s ← P φ_tj."""
+    for i in range(b):
+        acc = 0.0
+        for k in range(b):
+            acc += P[i, k] * phi[t, j, k]
+        s[i] = acc
+
+
 @numba.njit(cache=True)
 def weighted_rows_kalman(
     phi, a, targets, w, active, cov, mean, rows, X, status, size
@@ -937,9 +974,9 @@ def weighted_rows_kalman(
     phi : (N, q, p);  a, targets : (N, q, n) row weights a >= 0 and targets b
     w : (n, p) diagonal weights, > 0 (the difference's coefficient² folded in)
     active : (n,) bool
-    cov : (n, N, p, p), mean : (n, N, p), rows : (n, N, q, p + 2) work arrays: per step
-        the factor of Λ_t + W and η_t (information steps) or P_t⁻ and x_t⁻, and per
-        row s = P⁻φ, e / F and a / F (covariance steps)
+    cov : (n, N, p(p+1)/2), mean : (n, N, p), rows : (n, N, q, 2) work arrays: per step
+        the factor of Λ_t + W and η_t (information steps) or P_t⁻ and x_t⁻
+        (covariance steps; lower triangles packed row by row), per row e / F and a / F
     X : (n, N, p) output, the solutions of the active outputs whose status is >= 0
     status : (n,) int64 output: the step after which the covariance form took over,
         −1 if it never did (no solution: the caller factors that output), −2 if the
@@ -949,52 +986,50 @@ def weighted_rows_kalman(
     b = block_size(size)
     N, q, _ = phi.shape
     n = a.shape[2]
-    info = np.zeros((n, b, b))  # Λ (information steps) or P (covariance steps)
+    info = np.zeros((n, b, b))  # Λ (information steps, lower triangle) or P (exactly symmetric)
     vec = np.zeros((n, b))  # η or the filtered mean
     M = np.empty((b, b))
+    Z = np.empty((b, b))
     ref = np.empty(b)
     s = np.empty(b)
     v = np.empty(b)
     tiny_ratio = 1e-12  # RELATIVE_PIVOT_TOL of the block Cholesky
+    noise = np.empty((n, b))  # the transition noise W⁻¹: no division per step
     for c in range(n):
         status[c] = -1
+        for i in range(b):
+            noise[c, i] = 1.0 / w[c, i]
     for t in range(N):
         for c in range(n):
             if not active[c] or status[c] == -2:
                 continue
             Pc, xc, wc = info[c], vec[c], w[c]
+            packed = cov[c, t]
             if status[c] >= 0:  # covariance form: predict, then one update per row
+                idx = 0
                 for i in range(b):
-                    Pc[i, i] += 1.0 / wc[i]
-                cov_t = cov[c, t]
-                for i in range(b):
+                    Pc[i, i] += noise[c, i]
                     mean[c, t, i] = xc[i]
-                    for k in range(b):
-                        cov_t[i, k] = Pc[i, k]
+                    for k in range(i + 1):
+                        packed[idx] = Pc[i, k]
+                        idx += 1
                 for j in range(q):
                     weight = a[t, j, c]
+                    _times_regressor(Pc, phi, t, j, s, b)
                     along = 0.0
                     curvature = 0.0
                     for i in range(b):
-                        acc = 0.0
-                        for k in range(b):
-                            acc += Pc[i, k] * phi[t, j, k]
-                        s[i] = acc
                         along += phi[t, j, i] * xc[i]
-                        curvature += phi[t, j, i] * acc
+                        curvature += phi[t, j, i] * s[i]
                     inv = 1.0 / (1.0 + weight * curvature)
                     gain = (targets[t, j, c] - weight * along) * inv
                     shrink = weight * inv
-                    row = rows[c, t, j]
+                    rows[c, t, j, 0] = gain
+                    rows[c, t, j, 1] = shrink
                     for i in range(b):
-                        row[i] = s[i]
                         xc[i] += s[i] * gain
-                    row[b] = gain
-                    row[b + 1] = shrink
                     if shrink != 0.0:
-                        for i in range(b):
-                            for k in range(b):
-                                Pc[i, k] -= shrink * s[i] * s[k]
+                        _downdate(Pc, s, shrink, b)
                 continue
             # information form: Λ += Σ a φφᵀ, η += Σ b φ (lower triangle of Λ)
             for j in range(q):
@@ -1003,7 +1038,6 @@ def weighted_rows_kalman(
                     xc[i] += targets[t, j, c] * phi[t, j, i]
                     for k in range(i + 1):
                         Pc[i, k] += weight * phi[t, j, i] * phi[t, j, k]
-            cov_t = cov[c, t]
             for i in range(b):
                 mean[c, t, i] = xc[i]
             handover = False
@@ -1014,7 +1048,7 @@ def weighted_rows_kalman(
                     ref[i] = Pc[i, i]
                 handover = _cholesky_block(M, ref, b) >= KALMAN_SWITCH_RATIO
                 if handover:
-                    _cholesky_inverse(M, cov_t, v, b)  # P = Λ⁻¹ (cov_t as scratch)
+                    _cholesky_inverse(M, Z, v, b)  # Λ⁻¹
             for i in range(b):
                 for k in range(i + 1):
                     M[i, k] = Pc[i, k]
@@ -1023,15 +1057,18 @@ def weighted_rows_kalman(
             if _cholesky_block(M, ref, b) < tiny_ratio:
                 status[c] = -2
                 continue
-            if handover:
+            if handover:  # P = Λ⁻¹ (its lower triangle, mirrored), x = P η
                 for i in range(b):
-                    v[i] = 0.0
+                    for k in range(i + 1):
+                        Pc[i, k] = Z[i, k]
+                        Pc[k, i] = Z[i, k]
+                for i in range(b):
+                    acc = 0.0
                     for k in range(b):
-                        v[i] += cov_t[i, k] * xc[k]
+                        acc += Pc[i, k] * xc[k]
+                    v[i] = acc
                 for i in range(b):
                     xc[i] = v[i]
-                    for k in range(b):
-                        Pc[i, k] = cov_t[i, k]
                 status[c] = t
             else:
                 # Λ⁻ = W − W (Λ + W)⁻¹ W and η⁻ = W (Λ + W)⁻¹ η: with Z = L⁻¹ W, Λ⁻ = W − ZᵀZ
@@ -1040,12 +1077,12 @@ def weighted_rows_kalman(
                         v[i] = wc[i] if i == col else 0.0
                     _lower_solve(M, v, b)
                     for i in range(b):
-                        cov_t[i, col] = v[i]  # Z, in cov_t until the factor goes there
+                        Z[i, col] = v[i]
                 for i in range(b):
                     for k in range(i + 1):
                         acc = 0.0
                         for m in range(b):
-                            acc += cov_t[m, i] * cov_t[m, k]
+                            acc += Z[m, i] * Z[m, k]
                         Pc[i, k] = (wc[i] if i == k else 0.0) - acc
                 for i in range(b):
                     v[i] = xc[i]
@@ -1053,11 +1090,15 @@ def weighted_rows_kalman(
                 _upper_solve(M, v, b)
                 for i in range(b):
                     xc[i] = wc[i] * v[i]
+            idx = 0
             for i in range(b):
-                for k in range(b):
-                    cov_t[i, k] = M[i, k] if k <= i else 0.0
-    # backward: de Jong's smoother over the covariance steps, then the information steps
+                for k in range(i + 1):
+                    packed[idx] = M[i, k]
+                    idx += 1
+    # backward: de Jong's smoother over the covariance steps, then the information steps;
+    # the rows' s = Pφ are recomputed by replaying the filter's updates from P_t⁻
     r = np.empty(b)
+    S = np.empty((q, b))
     for c in range(n):
         if not active[c] or status[c] < 0:
             continue
@@ -1066,24 +1107,44 @@ def weighted_rows_kalman(
         for i in range(b):
             r[i] = 0.0
         for t in range(N - 1, t0, -1):
+            _unpack_symmetric(cov[c, t], M, b)  # P_t⁻
+            _times_regressor(M, phi, t, 0, v, b)
+            for i in range(b):
+                S[0, i] = v[i]
+            if q > 1:
+                for i in range(b):
+                    for k in range(b):
+                        Z[i, k] = M[i, k]
+                for j in range(1, q):
+                    shrink = rows[c, t, j - 1, 1]
+                    if shrink != 0.0:
+                        for i in range(b):
+                            s[i] = S[j - 1, i]
+                        _downdate(Z, s, shrink, b)
+                    _times_regressor(Z, phi, t, j, v, b)
+                    for i in range(b):
+                        S[j, i] = v[i]
             for j in range(q - 1, -1, -1):
-                row = rows[c, t, j]
                 along = 0.0
                 for i in range(b):
-                    along += row[i] * r[i]
-                coef = row[b] - row[b + 1] * along
+                    along += S[j, i] * r[i]
+                coef = rows[c, t, j, 0] - rows[c, t, j, 1] * along
                 for i in range(b):
                     r[i] += phi[t, j, i] * coef
-            cov_t = cov[c, t]
             for i in range(b):
                 acc = mean[c, t, i]
                 for k in range(b):
-                    acc += cov_t[i, k] * r[k]
+                    acc += M[i, k] * r[k]
                 X[c, t, i] = acc
         for t in range(t0, -1, -1):  # θ_t = (Λ_t + W)⁻¹ (η_t + W θ_{t+1})
+            idx = 0
+            for i in range(b):
+                for k in range(i + 1):
+                    M[i, k] = cov[c, t, idx]
+                    idx += 1
             for i in range(b):
                 v[i] = mean[c, t, i] + wc[i] * X[c, t + 1, i]
-            _lower_solve(cov[c, t], v, b)
-            _upper_solve(cov[c, t], v, b)
+            _lower_solve(M, v, b)
+            _upper_solve(M, v, b)
             for i in range(b):
                 X[c, t, i] = v[i]

@@ -431,7 +431,6 @@ def _fit_diagonal(
     damping = np.full(n, NEWTON_DAMPING)
     kkt = np.empty(n)
     scratch = np.empty((2, N, q))
-    direction = np.empty((N, p))
     eps = np.finfo(float).eps
     # the outputs are independent problems: one that has converged keeps its k and its
     # KKT residual, and is no longer evaluated
@@ -455,7 +454,7 @@ def _fit_diagonal(
         progress = False
         for c in np.flatnonzero(active):
             alpha, value, trial_value, kept = _line_search(
-                phi, y[c], limits[c], k[c], model[c, :, :, 0], w[c], coeffs, direction, scratch
+                phi, y[c], limits[c], k[c], model[c, :, :, 0], w[c], coeffs, scratch
             )
             # near the optimum F changes by rounding only: no increase beyond that is a decrease
             if alpha == 0.0 or trial_value > value + 8 * eps * abs(value):
@@ -468,8 +467,7 @@ def _fit_diagonal(
                 k[c] = step
                 damping[c] = NEWTON_DAMPING
             else:
-                direction *= alpha  # no temporaries of the size of k
-                k[c] += direction
+                _take_step(k[c], model[c, :, :, 0], alpha)
                 damping[c] = max(damping[c] * 0.1, MIN_DAMPING) if kept else NEWTON_DAMPING
                 decreased = trial_value < value
             progress |= decreased
@@ -616,10 +614,19 @@ def _output_value(phi, y, limits, k, w, coeffs):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _line_search(phi, y, limits, k, model, w, coeffs, direction, scratch):  # pragma: no cover
+def _take_step(k, model, alpha):  # pragma: no cover - compiled
+    """k ← k + α (model − k) in place (one pass, no temporaries of the size of k)."""
+    N, p = k.shape
+    for t in range(N):
+        for i in range(p):
+            k[t, i] += alpha * (model[t, i] - k[t, i])
+
+
+@numba.njit(cache=True)
+def _line_search(phi, y, limits, k, model, w, coeffs, scratch):  # pragma: no cover
     """The exact line search of one output from k (N, p) towards its model's minimizer
     ``model`` (N, p): (α, F_c at k, F_c at k + α·direction, whether the step keeps the
-    entries beyond δ̃), with ``direction`` (N, p) ← model − k.
+    entries beyond δ̃), with direction = model − k (formed where it is used, not stored).
 
     One pass over the rows gives the residuals r, the fitted direction
     g = φᵀdirection (into ``scratch`` (2, N, q)) and, from the differences, the
@@ -631,13 +638,11 @@ def _line_search(phi, y, limits, k, model, w, coeffs, direction, scratch):  # pr
     r, g = scratch[0], scratch[1]
     quad_a, quad_b, quad_c = 0.0, 0.0, 0.0
     for t in range(N):
-        for i in range(p):
-            direction[t, i] = model[t, i] - k[t, i]
         for j in range(q):
             fitted, along = 0.0, 0.0
             for i in range(p):
                 fitted += phi[t, j, i] * k[t, i]
-                along += phi[t, j, i] * direction[t, i]
+                along += phi[t, j, i] * (model[t, i] - k[t, i])
             r[t, j] = y[t, j] - fitted
             g[t, j] = along
         # the difference ending at t, while its rows are in cache
@@ -646,7 +651,7 @@ def _line_search(phi, y, limits, k, model, w, coeffs, direction, scratch):  # pr
             for i in range(p):
                 dd, dk = 0.0, 0.0
                 for lag in range(d + 1):
-                    dd += coeffs[lag] * direction[s + lag, i]
+                    dd += coeffs[lag] * (model[s + lag, i] - k[s + lag, i])
                     dk += coeffs[lag] * k[s + lag, i]
                 quad_a += w[i] * dd * dd
                 quad_b += w[i] * dd * dk
