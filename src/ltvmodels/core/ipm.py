@@ -108,17 +108,24 @@ WARM_DEGREES = (1,)
 # and 9-10 iterations, 16 steps cost more than they saved. Over λ = 0.5-400,
 # orders 1 and 2, T = 300 and 2000, two seeds, at tol 1e-8: 336 iterations in
 # all instead of 464, the same optima. (Along a λ path the warm start of
-# order 1 needs about as many iterations without the fits, so it is kept.)
+# order 1 needs about as many iterations without these fits: it takes
+# WARM_REWEIGHT_STEPS from the previous k instead.)
 REWEIGHT_STEPS = 12
-# A warm start of group cones (order 1) takes WARM_REWEIGHT_STEPS reweighted fits from
-# the previous solution's k, which is near the new optimum already, and then the
-# reweighted start's small gap. On the L-curve of the jump-linear system (tol 1e-4,
-# order 1; T = 400, 2000 (two seeds) and 10⁴) its 11 fits took 37-46 iterations
-# instead of 53-64, with the same corner; 3 fits gave 40-46, 2 from an interpolated
-# start (the refinements) as many as 3 or 4.
-WARM_REWEIGHT_STEPS = 4
 REWEIGHT_FLOOR = 1e-5
 REWEIGHT_GAP_FRACTION = 0.001
+# A warm start of group cones (order 1) takes WARM_REWEIGHT_STEPS reweighted fits from
+# the previous solution's k (:func:`reweighted_start`) and then the reweighted
+# start's gap: the previous duals, rescaled (:func:`warm_dual`), leave the new
+# optimum's active cones off their boundary, and the steps stayed short (0.4-0.8).
+# On the L-curve (``select_lambda``, tol 1e-4, 11 fits: 7 up the coarse grid, 4
+# interpolated refinements) of the jump-linear system, T = 10⁴: 41 iterations
+# instead of 64; T = 400 and 2000, two seeds each: 36-46 instead of 53-63 (3 fits:
+# 40-46; 6 fits: 33-43 at 50 % more reweighting); the same corner on 20
+# jump-linear and random-walk series of order 1 (T = 150-2000; 824 iterations in
+# all instead of 1065). Down a path (a 7-point grid from the top) 59-74 instead of
+# 65-75; blocked cross-validation 283 and 319 instead of 326 and 371 (T = 400,
+# 2000). Each fit costs about a quarter of an iteration (T = 10⁴, K = 6).
+WARM_REWEIGHT_STEPS = 4
 # An output entry this many robust scales (1.4826 · MAD) from its column's median
 # dominates a squared-loss objective beyond what the interior-point method resolves:
 # a failure to start is then reported as caused by it (on the jump-linear system,
@@ -834,11 +841,13 @@ def fit_sparse_ipm(
     warm = warm_from is not None
     if warm_from is not None:
         k = np.array(warm_from.theta.reshape(N, K))
-        z1 = warm_dual(warm_from, cp)
+        reweighted = None
         if WARM_REWEIGHT_STEPS and norm == "group":
             reweighted = reweighted_start(problem, cp, k, WARM_REWEIGHT_STEPS)
-            if reweighted is not None:  # then its gap (REWEIGHT_GAP_FRACTION)
-                (k, z1), warm = reweighted, False
+        if reweighted is not None:  # then the reweighted start's gap
+            (k, z1), warm = reweighted, False
+        else:
+            z1 = warm_dual(warm_from, cp)
     elif k0 is not None:
         k = np.array(k0, dtype=float)
     elif problem.degree in (1, 2) and not cp.const.any():
