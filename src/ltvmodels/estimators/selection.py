@@ -506,8 +506,9 @@ def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, round
 
     ``given``: the candidates are the caller's (an error then blames ``lams``).
     The sparse norms' fits run up the grid, each warm-started from the fit at the
-    next smaller λ (:func:`ltvmodels.core.ipm.warm_dual`; a refinement from both
-    neighbours, :func:`_path_warm_start`), to the tolerance LCURVE_TOL. A
+    next smaller λ (a refinement from both neighbours, :func:`_path_warm_start`;
+    group cones then take a few reweighted fits from that k,
+    :data:`ltvmodels.core.ipm.WARM_REWEIGHT_STEPS`), to the tolerance LCURVE_TOL. A
     candidate whose penalty is not resolved at that tolerance (λ·R(Dk) below
     LCURVE_TOL times the objective: λ at or near λ_max, where
     Dk = 0) has no place on the logarithmic curve and is left out of the corner:
