@@ -319,6 +319,7 @@ class ConicProblem:
             slices = [slice(0, self.K)]
             self.n_rep = self.n
         self.systems = [_RowSystem(self, rows, self.const) for rows in slices]
+        self._row_fits: RowFits | None = None
 
     def factor_and_solve(
         self, newton: NewtonSystem | QuadraticScaling, rhs: np.ndarray, pivot_tol: float = 0.0
@@ -343,7 +344,7 @@ class ConicProblem:
         N, n, p = self.N, self.n, self.p
         if self.cone_shape[1] > 2 and not self.const.any():
             bands = rho * difference_bands(N, self.coeffs)  # of ρDᵀD: R = ρI
-            k = RowFits(self).fit(bands, RELATIVE_PIVOT_TOL)
+            k = self.row_fits().fit(bands, RELATIVE_PIVOT_TOL)
             if k is None:
                 raise SingularProblemError(
                     "the quadratic start's system is singular to working precision"
@@ -360,6 +361,13 @@ class ConicProblem:
             return X.transpose(0, 2, 1).reshape(N, n * p)
         rhs = 2.0 * self.problem.cross().transpose(0, 2, 1).reshape(N, n * p)
         return self.factor_and_solve(scaling, rhs, RELATIVE_PIVOT_TOL)
+
+    def row_fits(self) -> RowFits:
+        """The :class:`RowFits` of the group cones, made once: the quadratic start and
+        the reweighted fits share their right-hand sides and storage."""
+        if self._row_fits is None:
+            self._row_fits = RowFits(self)
+        return self._row_fits
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """The Newton step for rhs (N, K) with the current factorization, in place."""
@@ -704,7 +712,7 @@ def reweighted_start(problem: RegressionProblem, cp: ConicProblem, k: np.ndarray
     """
     N = cp.N
     e, bands = np.empty(cp.cone_shape), np.empty((cp.degree + 1, N))
-    fits = RowFits(cp)
+    fits = cp.row_fits()
     theta, rho = np.array(k, dtype=float).reshape(N, cp.n, cp.p), None
     for _ in range(REWEIGHT_STEPS):
         if not cones.reweight_bands(
