@@ -162,7 +162,7 @@ def test_weighted_rows_factor_reports_a_singular_system():
 def test_first_difference_solve_equals_a_dense_solve(q, fixed):
     """The reweighted fits' kernel solves s·blkdiag(Σ_j φφᵀ) + DᵀRD ⊗ diag(wsq), R one
     weight per difference, for several right-hand sides, as a dense solve does; its
-    diagonal blocks are those of the general block factorization."""
+    factor is the general block factorization's."""
     from ltvmodels.core import blockkernels as kernels
 
     rng = np.random.default_rng(5)
@@ -183,7 +183,7 @@ def test_first_difference_solve_equals_a_dense_solve(q, fixed):
         H[t * p : (t + 1) * p, t * p : (t + 1) * p] += 2.0 * phi[t].T @ phi[t]
     rhs = rng.standard_normal((N, r, p))
     expected = np.linalg.solve(H, rhs.transpose(0, 2, 1).reshape(N * p, r))
-    X, L = rhs.copy(), np.empty((N, p, p))
+    X, L = rhs.copy(), np.empty((N, 2, p, p))
     size = (0,) * p if fixed else p
     worst, _ = kernels.first_difference_solve(phi, 2.0, wsq, bands, X, L, size)
     assert worst > 0
@@ -194,7 +194,8 @@ def test_first_difference_solve_equals_a_dense_solve(q, fixed):
     kernels.factor_forward(
         phi, 1, 2.0, np.zeros((0, p, p)), np.diag(wsq), bands, np.zeros((N, p, 0)), general, size
     )
-    np.testing.assert_allclose(L, general[:, 0], rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(L[:, 0], general[:, 0], rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(L[1:, 1], general[1:, 1], rtol=1e-12, atol=1e-14)
     # No data: the difference penalty alone is singular.
     worst, _ = kernels.first_difference_solve(0.0 * phi, 2.0, wsq, bands, rhs.copy(), L, size)
     assert worst <= 1e-12

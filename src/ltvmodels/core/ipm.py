@@ -391,7 +391,7 @@ class RowFits:
     holds those of DᵀD; output rows with equal weights share a factorization.
     A first difference takes one compiled call per fit,
     :func:`.blockkernels.first_difference_solve` (at T = 10⁴, p = 3, two rows:
-    0.72 ms against 1.18 ms for the general factorization and solve); higher
+    0.67 ms against 1.18 ms for the general factorization and solve); higher
     orders the squared norm's kernels (:func:`.blockkernels.factor_forward`,
     :func:`.blockkernels.solve`) with the argument types of its BlockFactor
     (:mod:`.banded`), so that a group fit compiles nothing more for them. Used
@@ -402,9 +402,9 @@ class RowFits:
     def __init__(self, cp: ConicProblem):
         self.cp = cp
         N, n, p = cp.N, cp.n, cp.p
-        # A first difference takes one fused kernel with the diagonal blocks alone.
+        # A first difference takes one fused kernel (see _fit_first).
         self.first = cp.degree == 1
-        self.L = np.empty((N, p, p) if self.first else (N, cp.degree + 1, p, p))
+        self.L = np.empty((N, cp.degree + 1, p, p))
         self.size = kernel_size(N, p)
         self.extra, self.no_rhs = np.zeros((0, p, p)), np.zeros((N, p, 0))
         self.data = 2.0 * cp.problem.cross().transpose(0, 2, 1)  # 2Φᵀy, (N, n, p)
