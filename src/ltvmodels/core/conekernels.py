@@ -347,46 +347,73 @@ def _factor_newton(
     N, n_rows, p = phi.shape
     d = coeffs.shape[0] - 1
     R = N - d
-    ring = np.empty((d + 1, b, b))
+    ring = np.zeros((d + 1, b, b))  # zeros: the first difference's path reads both slots
     M = np.empty((b, b))
     ref = np.empty(b)
     any_pinned = False
     for i in range(b):
         any_pinned = any_pinned or pinned[i] != 0.0
+    # A first difference without pinned coefficients (the common case) takes its
+    # blocks straight from the ring: H_{t,t−1} = c₀c₁ (ΛSΛ)_{t−1} and
+    # H_tt = c₁²(ΛSΛ)_{t−1} + c₀²(ΛSΛ)_t + data, the same sums as the general
+    # loops below without their zeroing and accumulation (1.2x faster at
+    # N = 10⁴, b = 6, the same factor bit for bit).
+    first = d == 1 and not any_pinned
     worst = np.inf
     worst_t = 0
     for t in range(N):
         if t < R:
             _penalty_row(v, eta, s_coef, penalty, w, t, offset, ring[t % (d + 1)], b)
-        for lag in range(min(d, t), 0, -1):
-            s = t - lag
-            # Block (t, s) of DᵀΛSΛD = Σ_r c_{t−r} c_{s−r} (ΛSΛ)_r.
-            for i in range(b):
-                for j in range(b):
-                    M[i, j] = 0.0
-            for r in range(max(0, t - d), min(s, R - 1) + 1):
-                weight = coeffs[t - r] * coeffs[s - r]
-                P = ring[r % (d + 1)]
-                for i in range(b):
-                    for j in range(b):
-                        M[i, j] += weight * P[i, j]
-            for i in range(b if any_pinned else 0):
-                if pinned[i] != 0.0:
-                    for j in range(b):
-                        M[i, j] = 0.0
-                        M[j, i] = 0.0
-            offdiagonal_step(L, M, t, lag, d, b)
-        # The diagonal block, lower triangle only, straight into L.
         Ltt = L[t, 0]
-        for i in range(b):
-            for j in range(i + 1):
-                Ltt[i, j] = 0.0
-        for r in range(max(0, t - d), min(t, R - 1) + 1):
-            weight = coeffs[t - r] * coeffs[t - r]
-            P = ring[r % (d + 1)]
+        if first:
+            lo, hi = ring[(t + 1) % 2], ring[t % 2]  # rows t − 1 and t of D
+            if t > 0:
+                # offdiagonal_step for M = c₀c₁ (ΛSΛ)_{t−1} (nothing to subtract for d = 1)
+                w_off = coeffs[0] * coeffs[1]
+                Lss = L[t - 1, 0]
+                out = L[t, 1]
+                for j in range(b):
+                    inv = Lss[j, j]
+                    for i in range(b):
+                        acc = w_off * lo[i, j]
+                        for q in range(j):
+                            acc -= out[i, q] * Lss[j, q]
+                        out[i, j] = acc * inv
+            # The diagonal block, lower triangle only, straight into L.
+            w_lo = coeffs[1] * coeffs[1] if t > 0 else 0.0
+            w_hi = coeffs[0] * coeffs[0] if t < R else 0.0
             for i in range(b):
                 for j in range(i + 1):
-                    Ltt[i, j] += weight * P[i, j]
+                    Ltt[i, j] = w_lo * lo[i, j] + w_hi * hi[i, j]
+        else:
+            for lag in range(min(d, t), 0, -1):
+                s = t - lag
+                # Block (t, s) of DᵀΛSΛD = Σ_r c_{t−r} c_{s−r} (ΛSΛ)_r.
+                for i in range(b):
+                    for j in range(b):
+                        M[i, j] = 0.0
+                for r in range(max(0, t - d), min(s, R - 1) + 1):
+                    weight = coeffs[t - r] * coeffs[s - r]
+                    P = ring[r % (d + 1)]
+                    for i in range(b):
+                        for j in range(b):
+                            M[i, j] += weight * P[i, j]
+                for i in range(b if any_pinned else 0):
+                    if pinned[i] != 0.0:
+                        for j in range(b):
+                            M[i, j] = 0.0
+                            M[j, i] = 0.0
+                offdiagonal_step(L, M, t, lag, d, b)
+            # The diagonal block, lower triangle only, straight into L.
+            for i in range(b):
+                for j in range(i + 1):
+                    Ltt[i, j] = 0.0
+            for r in range(max(0, t - d), min(t, R - 1) + 1):
+                weight = coeffs[t - r] * coeffs[t - r]
+                P = ring[r % (d + 1)]
+                for i in range(b):
+                    for j in range(i + 1):
+                        Ltt[i, j] += weight * P[i, j]
         add_data_block(phi, t, n_rep, Ltt)  # the data part
         for i in range(b if any_pinned else 0):
             if pinned[i] != 0.0:
@@ -427,11 +454,37 @@ def _solve_vector(L, x, size):  # pragma: no cover - compiled
     :mod:`.blockkernels`, reciprocal pivots on its diagonal; b from ``size``).
 
     :func:`.blockkernels.solve` for a single column: without the loop over a
-    run-time number of columns the b × b loops unroll for a constant b.
+    run-time number of columns the b × b loops unroll for a constant b. The
+    sweeps are bound by their dependency chains, not by memory; for a first
+    difference each entry takes its off-diagonal and diagonal terms in one
+    accumulation (0.49 against 0.59 ms at N = 10⁴, b = 6; with the loop over
+    lags, as for d = 2, it was slower than separate passes, 1.33 against 1.07 ms).
     """
     b = block_size(size)
     N = L.shape[0]
     d = L.shape[1] - 1
+    if d == 1:
+        for t in range(N):
+            Ltt = L[t, 0]
+            for i in range(b):
+                acc = x[t, i]
+                if t > 0:
+                    for q in range(b):
+                        acc -= L[t, 1, i, q] * x[t - 1, q]
+                for q in range(i):
+                    acc -= Ltt[i, q] * x[t, q]
+                x[t, i] = acc * Ltt[i, i]
+        for t in range(N - 1, -1, -1):
+            Ltt = L[t, 0]
+            for i in range(b - 1, -1, -1):
+                acc = x[t, i]
+                if t < N - 1:
+                    for q in range(b):
+                        acc -= L[t + 1, 1, q, i] * x[t + 1, q]
+                for q in range(i + 1, b):
+                    acc -= Ltt[q, i] * x[t, q]
+                x[t, i] = acc * Ltt[i, i]
+        return
     for t in range(N):
         for lag in range(1, min(d, t) + 1):
             Ll = L[t, lag]
