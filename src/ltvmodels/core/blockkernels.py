@@ -242,6 +242,40 @@ def _log_det_block(L, t, b):  # pragma: no cover - compiled
     return logdet
 
 
+@numba.njit(cache=True, inline="always")
+def _log_det_pivots(Ltt, b):  # pragma: no cover - compiled
+    """:func:`_log_det_block` of one diagonal block ``Ltt`` (b, b), the same rounding."""
+    product = 1.0
+    for a in range(b):
+        product *= Ltt[a, a]
+    if 1e-250 < product < 1e250:
+        return -2.0 * np.log(product)
+    logdet = 0.0
+    for a in range(b):
+        logdet -= 2.0 * np.log(Ltt[a, a])
+    return logdet
+
+
+@numba.njit(cache=True, inline="always")
+def _pack_lower(Ltt, packed, b):  # pragma: no cover - compiled
+    """The lower triangle of ``Ltt`` (b, b) row by row into ``packed`` (b(b+1)/2,)."""
+    position = 0
+    for i in range(b):
+        for j in range(i + 1):
+            packed[position] = Ltt[i, j]
+            position += 1
+
+
+@numba.njit(cache=True, inline="always")
+def _unpack_lower(packed, Ltt, b):  # pragma: no cover - compiled
+    """:func:`_pack_lower` undone: the lower triangle of ``Ltt`` (its upper part is unused)."""
+    position = 0
+    for i in range(b):
+        for j in range(i + 1):
+            Ltt[i, j] = packed[position]
+            position += 1
+
+
 @numba.njit(cache=True)
 def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, size):  # pragma: no cover
     """Factor H = L Lᵀ and forward-substitute the right-hand sides, in place.
@@ -528,7 +562,9 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
     L : (N, d+1, p, p) output, the factor; for a first difference (d = 1) also
         (N, 1, p, p): the diagonal blocks alone (the off-diagonal ones follow from
         them, see :func:`_first_difference_offdiagonal`; half the memory, for a
-        solve without covariances)
+        solve without covariances), or (N, 1, 1, p(p+1)/2): their lower
+        triangles packed row by row (:func:`_pack_lower`; 60 % of that again:
+        the fit's largest array, whose first touch dominates a one-off call)
     size : int or tuple, the block size p (see the module docstring)
 
     Returns
@@ -545,6 +581,10 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
     M = np.zeros((b, b))  # H_{t,s} = β diag(w): only the diagonal is ever written
     off = np.zeros((b, b))  # L_{t,t−1} when L holds the diagonal blocks alone
     stored = L.shape[1] > 1
+    # packed diagonal blocks: L_tt and L_{t−1,t−1} are formed in these two blocks
+    packed = L.shape[2] != b
+    current = np.zeros((b, b))
+    previous = np.zeros((b, b))
     ref = np.empty(b)
     worst = np.inf
     worst_t = 0
@@ -562,10 +602,14 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
                 offdiagonal_step(L, M, t, lag, d, b)
         elif t > 0:
             _first_difference_offdiagonal(
-                L[t - 1, 0], Ll, _difference_band(coeffs, N, 1, t - 1), w, b
+                previous if packed else L[t - 1, 0],
+                Ll,
+                _difference_band(coeffs, N, 1, t - 1),
+                w,
+                b,
             )
         beta = _difference_band(coeffs, N, 0, t)
-        Ltt = L[t, 0]
+        Ltt = current if packed else L[t, 0]
         for i in range(b):
             for j in range(i + 1):
                 acc = 0.0
@@ -616,7 +660,10 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
                 for k in range(i):
                     value -= Ltt[i, k] * X[t, c, k]
                 X[t, c, i] = value * Ltt[i, i]
-        logdet += _log_det_block(L, t, b)
+        logdet += _log_det_pivots(Ltt, b)
+        if packed:
+            _pack_lower(Ltt, L[t, 0, 0], b)
+            current, previous = previous, current
     return worst, worst_t, logdet, trace
 
 
@@ -626,7 +673,8 @@ def rows_backward(L, X, cov, phi, y, w, coeffs, rss, squares, size):  # pragma: 
 
     X (N, n, p) holds L⁻¹ rhs and is overwritten with Θ; ``cov`` (N, p, p), or
     (0, p, p) to skip the covariances, receives the diagonal blocks of H⁻¹ (which
-    needs the off-diagonal blocks stored: L (N, d+1, p, p)).
+    needs the off-diagonal blocks stored: L (N, d+1, p, p)); L may be any layout of
+    :func:`rows_factor_forward`'s.
     As each Θ_t becomes final the same sweep adds, per output row c,
     rss_c = Σ_tj (y_tjc − Θ_t[c]·φ_tj)² and squares_c = Σ_t Σ_a w_a ((DΘ)_t[c, a])²
     (rss, squares (n,) outputs).
@@ -638,6 +686,8 @@ def rows_backward(L, X, cov, phi, y, w, coeffs, rss, squares, size):  # pragma: 
     q = phi.shape[1]
     compute_cov = cov.shape[0] == N
     stored = L.shape[1] > 1
+    packed = L.shape[2] != b  # lower triangles packed: each unpacked into one block
+    current = np.zeros((b, b))
     window = np.zeros((d + 1, d + 1, b, b))  # as in backward
     off = np.zeros((b, b))  # L_{t+1,t}, recomputed when not stored
     Ll = off
@@ -647,12 +697,15 @@ def rows_backward(L, X, cov, phi, y, w, coeffs, rss, squares, size):  # pragma: 
         rss[c] = 0.0
         squares[c] = 0.0
     for t in range(N - 1, -1, -1):
+        if packed:
+            _unpack_lower(L[t, 0, 0], current, b)
+        Ltt = current if packed else L[t, 0]
         if d == 1 and t + 1 < N:
             if stored:
                 Ll = L[t + 1, 1]
             else:
                 Ll = off
-                _first_difference_offdiagonal(L[t, 0], off, _difference_band(coeffs, N, 1, t), w, b)
+                _first_difference_offdiagonal(Ltt, off, _difference_band(coeffs, N, 1, t), w, b)
         # x_tc = L_tt⁻ᵀ (z_tc − Σ_lag L_{t+lag,t}ᵀ x_{t+lag,c}) for each row c (row by
         # row: interleaving the rows' entries measured 1.8x slower)
         # (rounded as :func:`_backward_step` rounds it)
@@ -672,8 +725,8 @@ def rows_backward(L, X, cov, phi, y, w, coeffs, rss, squares, size):  # pragma: 
                             acc += L[t + lag, lag, k, i] * X[t + lag, c, k]
                         value -= acc
                 for k in range(i + 1, b):
-                    value -= L[t, 0, k, i] * X[t, c, k]
-                X[t, c, i] = value * L[t, 0, i, i]
+                    value -= Ltt[k, i] * X[t, c, k]
+                X[t, c, i] = value * Ltt[i, i]
         for c in range(n):
             # Θ_t is final, and so are Θ_{t+1} … Θ_{t+d}: this step's residuals
             # and the difference that starts here.
