@@ -326,7 +326,8 @@ def solve_shared_rows(
     # Without covariances a first difference stores the lower triangles of the
     # diagonal blocks alone, packed (the off-diagonal blocks are recomputed, bit for
     # bit, in the backward sweep): p(p+1)/2 numbers a step instead of 2p², the
-    # largest array of the fit, whose first touch dominates a one-off call.
+    # largest array of the fit, whose first touch dominates a one-off call. (Its huge
+    # pages stay: 4 KiB pages, by madvise, made calls that reuse freed memory slower.)
     if len(coeffs) == 2 and not compute_cov:
         L = np.empty((N, 1, 1, p * (p + 1) // 2))
     else:
