@@ -329,7 +329,7 @@ def solve_shared_rows(
     # largest array of the fit, whose first touch dominates a one-off call. (Its huge
     # pages stay: 4 KiB pages, by madvise, made calls that reuse freed memory slower.)
     if len(coeffs) == 2 and not compute_cov:
-        L = np.empty((N, 1, 1, p * (p + 1) // 2))
+        L = np.empty((N, p * (p + 1) // 2))
     else:
         L = np.empty((N, len(coeffs), p, p))
     size = kernel_size(N, p)

@@ -562,9 +562,11 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
     L : (N, d+1, p, p) output, the factor; for a first difference (d = 1) also
         (N, 1, p, p): the diagonal blocks alone (the off-diagonal ones follow from
         them, see :func:`_first_difference_offdiagonal`; half the memory, for a
-        solve without covariances), or (N, 1, 1, p(p+1)/2): their lower
-        triangles packed row by row (:func:`_pack_lower`; 60 % of that again:
-        the fit's largest array, whose first touch dominates a one-off call)
+        solve without covariances), or (N, p(p+1)/2): their lower triangles
+        packed row by row (:func:`_pack_lower`; 60 % of that again: the fit's
+        largest array, whose first touch dominates a one-off call). The layout is
+        told by ``L.ndim``, which numba knows when it compiles: each layout's
+        kernel has no branch on it
     size : int or tuple, the block size p (see the module docstring)
 
     Returns
@@ -580,9 +582,8 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
     d = coeffs.shape[0] - 1
     M = np.zeros((b, b))  # H_{t,s} = β diag(w): only the diagonal is ever written
     off = np.zeros((b, b))  # L_{t,t−1} when L holds the diagonal blocks alone
-    stored = L.shape[1] > 1
-    # packed diagonal blocks: L_tt and L_{t−1,t−1} are formed in these two blocks
-    packed = L.shape[2] != b
+    stored = L.ndim == 4 and L.shape[1] > 1
+    # packed diagonal blocks (L.ndim == 2): L_tt and L_{t−1,t−1} are formed in these
     current = np.zeros((b, b))
     previous = np.zeros((b, b))
     ref = np.empty(b)
@@ -591,25 +592,30 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
     logdet = 0.0
     trace = 0.0
     for t in range(N):
-        Ll = L[t, 1] if d == 1 and stored else off
+        Ll = off
+        if L.ndim == 4:
+            if d == 1 and stored:
+                Ll = L[t, 1]
         if d > 1:
-            for lag in range(min(d, t), 0, -1):
-                beta = _difference_band(coeffs, N, lag, t - lag)
-                for i in range(b):
-                    for j in range(b):
-                        M[i, j] = 0.0
-                    M[i, i] = beta * w[i]
-                offdiagonal_step(L, M, t, lag, d, b)
+            if L.ndim == 4:
+                for lag in range(min(d, t), 0, -1):
+                    beta = _difference_band(coeffs, N, lag, t - lag)
+                    for i in range(b):
+                        for j in range(b):
+                            M[i, j] = 0.0
+                        M[i, i] = beta * w[i]
+                    offdiagonal_step(L, M, t, lag, d, b)
         elif t > 0:
-            _first_difference_offdiagonal(
-                previous if packed else L[t - 1, 0],
-                Ll,
-                _difference_band(coeffs, N, 1, t - 1),
-                w,
-                b,
-            )
+            if L.ndim == 2:
+                Lss = previous
+            else:
+                Lss = L[t - 1, 0]
+            _first_difference_offdiagonal(Lss, Ll, _difference_band(coeffs, N, 1, t - 1), w, b)
         beta = _difference_band(coeffs, N, 0, t)
-        Ltt = current if packed else L[t, 0]
+        if L.ndim == 2:
+            Ltt = current
+        else:
+            Ltt = L[t, 0]
         for i in range(b):
             for j in range(i + 1):
                 acc = 0.0
@@ -619,8 +625,10 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
             trace += Ltt[i, i]
             Ltt[i, i] += beta * w[i]
             ref[i] = Ltt[i, i]
+        ratio = -1.0
         if d > 1:
-            ratio = diagonal_step(L, t, d, b, ref)
+            if L.ndim == 4:
+                ratio = diagonal_step(L, t, d, b, ref)
         else:
             if t > 0:
                 # L_{t,t−1} is upper triangular: Σ_q over q >= i only
@@ -651,7 +659,7 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
                         for k in range(b):
                             acc += Ll[i, k] * X[t - 1, c, k]
                         value -= acc
-                else:
+                elif L.ndim == 4:
                     for lag in range(1, min(d, t) + 1):
                         acc = 0.0
                         for k in range(b):
@@ -661,8 +669,8 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
                     value -= Ltt[i, k] * X[t, c, k]
                 X[t, c, i] = value * Ltt[i, i]
         logdet += _log_det_pivots(Ltt, b)
-        if packed:
-            _pack_lower(Ltt, L[t, 0, 0], b)
+        if L.ndim == 2:
+            _pack_lower(Ltt, L[t], b)
             current, previous = previous, current
     return worst, worst_t, logdet, trace
 
@@ -685,9 +693,8 @@ def rows_backward(L, X, cov, phi, y, w, coeffs, rss, squares, size):  # pragma: 
     n = X.shape[1]
     q = phi.shape[1]
     compute_cov = cov.shape[0] == N
-    stored = L.shape[1] > 1
-    packed = L.shape[2] != b  # lower triangles packed: each unpacked into one block
-    current = np.zeros((b, b))
+    stored = L.ndim == 4 and L.shape[1] > 1
+    current = np.zeros((b, b))  # a packed L_tt (L.ndim == 2), unpacked
     window = np.zeros((d + 1, d + 1, b, b))  # as in backward
     off = np.zeros((b, b))  # L_{t+1,t}, recomputed when not stored
     Ll = off
@@ -697,12 +704,15 @@ def rows_backward(L, X, cov, phi, y, w, coeffs, rss, squares, size):  # pragma: 
         rss[c] = 0.0
         squares[c] = 0.0
     for t in range(N - 1, -1, -1):
-        if packed:
-            _unpack_lower(L[t, 0, 0], current, b)
-        Ltt = current if packed else L[t, 0]
+        if L.ndim == 2:
+            _unpack_lower(L[t], current, b)
+            Ltt = current
+        else:
+            Ltt = L[t, 0]
         if d == 1 and t + 1 < N:
             if stored:
-                Ll = L[t + 1, 1]
+                if L.ndim == 4:
+                    Ll = L[t + 1, 1]
             else:
                 Ll = off
                 _first_difference_offdiagonal(Ltt, off, _difference_band(coeffs, N, 1, t), w, b)
@@ -718,7 +728,7 @@ def rows_backward(L, X, cov, phi, y, w, coeffs, rss, squares, size):  # pragma: 
                         for k in range(b):
                             acc += Ll[k, i] * X[t + 1, c, k]
                         value -= acc
-                else:
+                elif L.ndim == 4:
                     for lag in range(1, min(d, N - 1 - t) + 1):
                         acc = 0.0
                         for k in range(b):
@@ -754,8 +764,9 @@ def rows_backward(L, X, cov, phi, y, w, coeffs, rss, squares, size):  # pragma: 
                         difference += coeffs[lag] * X[t + lag, c, a]
                     total += w[a] * difference * difference
                 squares[c] += total
-        if compute_cov:
-            _selected_inverse_step(L, window, rhs, cov, t, d, b)
+        if L.ndim == 4:
+            if compute_cov:
+                _selected_inverse_step(L, window, rhs, cov, t, d, b)
 
 
 # -- One weighted system per output row: the robust losses' Newton steps ------------
