@@ -24,10 +24,14 @@ first fit; another fresh interpreter measures the fit's peak traced
 allocations (tracemalloc: peak during the call less what was traced before
 it, divided by T). The same call repeated in this process gives the repeated
 best. Printed: one-shot best and spread, repeated best and spread, their
-ratio and the peak bytes per step.
+ratio and the peak bytes per step. Each fresh interpreter starts ``--pause``
+seconds after the last one ended: memory that a process freed a moment ago can
+come back to the next one already mapped by the host (a virtual machine whose
+host reclaims the guest's free memory takes about 2 s to do so), which made
+a one-shot call as fast as a repeated one by chance.
 
 Run:  python benchmarks/bench_sq_banded.py [--sizes 1e4 1e5 1e6] [--repeat 3]
-      python benchmarks/bench_sq_banded.py --one-shot [--sizes 1e6] [--repeat 5]
+      python benchmarks/bench_sq_banded.py --one-shot [--sizes 1e6] [--repeat 5] [--pause 3]
 """
 
 from __future__ import annotations
@@ -118,8 +122,10 @@ ONE_SHOT = textwrap.dedent(
 ONE_SHOT_TIMEOUT = 600.0  # seconds a fresh process may take before the benchmark gives up
 
 
-def one_shot(T: int, traced: bool) -> tuple[float, int]:
-    """Wall time of the fit as a fresh process's only call, and its peak traced bytes."""
+def one_shot(T: int, traced: bool, pause: float = 0.0) -> tuple[float, int]:
+    """Wall time of the fit as a fresh process's only call, and its peak traced bytes
+    (the process started ``pause`` seconds from now)."""
+    time.sleep(pause)
     done = subprocess.run(
         [sys.executable, "-c", ONE_SHOT, str(T), str(LAM), "1" if traced else "0"],
         capture_output=True,
@@ -131,7 +137,7 @@ def one_shot(T: int, traced: bool) -> tuple[float, int]:
     return float(seconds), int(peak)
 
 
-def one_shot_rows(sizes: list[float], repeat: int) -> None:
+def one_shot_rows(sizes: list[float], repeat: int, pause: float) -> None:
     """The --one-shot table: fresh process against the same call repeated in this one."""
     header = (
         f"{'T':>8} {'one-shot [s]':>13} {'spread':>13} {'repeated [s]':>13} {'spread':>13} "
@@ -141,7 +147,7 @@ def one_shot_rows(sizes: list[float], repeat: int) -> None:
     print("-" * len(header))
     for size in sizes:
         T = int(size)
-        fresh = [one_shot(T, traced=False)[0] for _ in range(repeat)]
+        fresh = [one_shot(T, traced=False, pause=pause)[0] for _ in range(repeat)]
         _, peak = one_shot(T, traced=True)
         data = random_walk_system(T=T, n=3, m=2, drift_std=1e-3, noise_std=0.1, seed=0)
         again = []
@@ -168,13 +174,22 @@ def main() -> None:
         action="store_true",
         help="time the fit (no covariances) in fresh processes against repeated calls",
     )
+    parser.add_argument(
+        "--pause",
+        type=float,
+        default=3.0,
+        help="seconds between --one-shot processes (0: as fast as they come)",
+    )
     args = parser.parse_args()
     warm = random_walk_system(T=2000, n=3, m=2, seed=1)
     ltv.fit(warm.x, warm.u, lam=LAM)  # compile the kernels outside the timings
     ltv.fit(warm.x, warm.u, lam=LAM, compute_cov=False)
     if args.one_shot:
-        print(f"norm='sq', n=3, m=2 (p=5, K=15), order 1, lam={LAM}, no covariances")
-        one_shot_rows(args.sizes, args.repeat)
+        print(
+            f"norm='sq', n=3, m=2 (p=5, K=15), order 1, lam={LAM}, no covariances; "
+            f"{args.pause:g} s between fresh processes"
+        )
+        one_shot_rows(args.sizes, args.repeat, args.pause)
         return
     speed = bandwidth()
     print(

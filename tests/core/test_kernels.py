@@ -69,8 +69,9 @@ def test_shared_rows_solver_equals_the_general_block_solver(coeffs, q, p):
     differences = sum(c * theta[j : N - d + j] for j, c in enumerate(coeffs))
     np.testing.assert_allclose(shared.squares, np.einsum("tia,a->i", differences**2, w), rtol=1e-12)
     assert shared.gram_trace == pytest.approx(np.sum(phi**2), rel=1e-13)
-    # without covariances a first difference keeps the diagonal blocks of the factor
-    # alone and recomputes the others: the same numbers, bit for bit
+    # without covariances a first difference keeps the lower triangles of the factor's
+    # diagonal blocks alone, packed, and recomputes the others: the same numbers, bit
+    # for bit
     without = banded.solve_shared_rows(phi, y, w, coeffs, compute_cov=False)
     assert without.cov is None
     np.testing.assert_array_equal(without.theta, shared.theta)
@@ -79,9 +80,10 @@ def test_shared_rows_solver_equals_the_general_block_solver(coeffs, q, p):
     np.testing.assert_array_equal(without.squares, shared.squares)
 
 
-def test_shared_rows_solver_without_covariances_stores_half_the_factor():
-    """A first difference without covariances allocates the factor's diagonal blocks
-    (N, 1, p, p) and Θ (N, n, p), nothing else of size N (tracemalloc's peak)."""
+def test_shared_rows_solver_without_covariances_stores_packed_diagonal_blocks():
+    """A first difference without covariances allocates the lower triangles of the
+    factor's diagonal blocks (N, p(p+1)/2) and Θ (N, n, p), nothing else of size N
+    (tracemalloc's peak)."""
     rng = np.random.default_rng(4)
     N, q, p, n = 4000, 1, 5, 3
     phi = rng.standard_normal((N, q, p))
@@ -95,8 +97,9 @@ def test_shared_rows_solver_without_covariances_stores_half_the_factor():
         peak = tracemalloc.get_traced_memory()[1] - before
     finally:
         tracemalloc.stop()
-    needed = 8 * N * (p * p + n * p)
-    assert needed <= peak < needed + 8 * N * p  # the stored factor would add 8 N p²
+    needed = 8 * N * (p * (p + 1) // 2 + n * p)
+    # full diagonal blocks would add 8 N p(p−1)/2, the off-diagonal ones 8 N p² more
+    assert needed <= peak < needed + 8 * N * p
 
 
 def test_shared_rows_solver_reports_a_singular_system():

@@ -324,11 +324,15 @@ def solve_shared_rows(
     coeffs = np.ascontiguousarray(coeffs, dtype=float)
     w = np.ascontiguousarray(w, dtype=float)
     theta = np.empty((N, n, p))
-    # Without covariances a first difference stores the diagonal blocks alone (the
-    # off-diagonal ones are recomputed, bit for bit, in the backward sweep): half
-    # the largest array of the fit, whose first touch dominates a one-off call.
-    blocks = 1 if len(coeffs) == 2 and not compute_cov else len(coeffs)
-    L = np.empty((N, blocks, p, p))
+    # Without covariances a first difference stores the lower triangles of the
+    # diagonal blocks alone, packed (the off-diagonal blocks are recomputed, bit for
+    # bit, in the backward sweep): p(p+1)/2 numbers a step instead of 2p², the
+    # largest array of the fit, whose first touch dominates a one-off call. (Its huge
+    # pages stay: 4 KiB pages, by madvise, made calls that reuse freed memory slower.)
+    if len(coeffs) == 2 and not compute_cov:
+        L = np.empty((N, p * (p + 1) // 2))
+    else:
+        L = np.empty((N, len(coeffs), p, p))
     size = kernel_size(N, p)
     worst, worst_t, logdet, trace = kernels.rows_factor_forward(phi, y, w, coeffs, theta, L, size)
     _check_pivots(worst, worst_t, what)

@@ -245,6 +245,40 @@ def _log_det_block(L, t, b):  # pragma: no cover - compiled
     return logdet
 
 
+@numba.njit(cache=True, inline="always")
+def _log_det_pivots(Ltt, b):  # pragma: no cover - compiled
+    """:func:`_log_det_block` of one diagonal block ``Ltt`` (b, b), the same rounding."""
+    product = 1.0
+    for a in range(b):
+        product *= Ltt[a, a]
+    if 1e-250 < product < 1e250:
+        return -2.0 * np.log(product)
+    logdet = 0.0
+    for a in range(b):
+        logdet -= 2.0 * np.log(Ltt[a, a])
+    return logdet
+
+
+@numba.njit(cache=True, inline="always")
+def _pack_lower(Ltt, packed, b):  # pragma: no cover - compiled
+    """The lower triangle of ``Ltt`` (b, b) row by row into ``packed`` (b(b+1)/2,)."""
+    position = 0
+    for i in range(b):
+        for j in range(i + 1):
+            packed[position] = Ltt[i, j]
+            position += 1
+
+
+@numba.njit(cache=True, inline="always")
+def _unpack_lower(packed, Ltt, b):  # pragma: no cover - compiled
+    """:func:`_pack_lower` undone: the lower triangle of ``Ltt`` (its upper part is unused)."""
+    position = 0
+    for i in range(b):
+        for j in range(i + 1):
+            Ltt[i, j] = packed[position]
+            position += 1
+
+
 @numba.njit(cache=True)
 def factor_forward(phi, n_rep, data_scale, extra, W, bands, Z, L, size):  # pragma: no cover
     """Factor H = L Lᵀ and forward-substitute the right-hand sides, in place.
@@ -531,7 +565,11 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
     L : (N, d+1, p, p) output, the factor; for a first difference (d = 1) also
         (N, 1, p, p): the diagonal blocks alone (the off-diagonal ones follow from
         them, see :func:`_first_difference_offdiagonal`; half the memory, for a
-        solve without covariances)
+        solve without covariances), or (N, p(p+1)/2): their lower triangles
+        packed row by row (:func:`_pack_lower`; 60 % of that again: the fit's
+        largest array, whose first touch dominates a one-off call). The layout is
+        told by ``L.ndim``, which numba knows when it compiles: each layout's
+        kernel has no branch on it
     size : int or tuple, the block size p (see the module docstring)
 
     Returns
@@ -547,28 +585,40 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
     d = coeffs.shape[0] - 1
     M = np.zeros((b, b))  # H_{t,s} = β diag(w): only the diagonal is ever written
     off = np.zeros((b, b))  # L_{t,t−1} when L holds the diagonal blocks alone
-    stored = L.shape[1] > 1
+    stored = L.ndim == 4 and L.shape[1] > 1
+    # packed diagonal blocks (L.ndim == 2): L_tt and L_{t−1,t−1} are formed in these
+    current = np.zeros((b, b))
+    previous = np.zeros((b, b))
     ref = np.empty(b)
     worst = np.inf
     worst_t = 0
     logdet = 0.0
     trace = 0.0
     for t in range(N):
-        Ll = L[t, 1] if d == 1 and stored else off
+        Ll = off
+        if L.ndim == 4:
+            if d == 1 and stored:
+                Ll = L[t, 1]
         if d > 1:
-            for lag in range(min(d, t), 0, -1):
-                beta = _difference_band(coeffs, N, lag, t - lag)
-                for i in range(b):
-                    for j in range(b):
-                        M[i, j] = 0.0
-                    M[i, i] = beta * w[i]
-                offdiagonal_step(L, M, t, lag, d, b)
+            if L.ndim == 4:
+                for lag in range(min(d, t), 0, -1):
+                    beta = _difference_band(coeffs, N, lag, t - lag)
+                    for i in range(b):
+                        for j in range(b):
+                            M[i, j] = 0.0
+                        M[i, i] = beta * w[i]
+                    offdiagonal_step(L, M, t, lag, d, b)
         elif t > 0:
-            _first_difference_offdiagonal(
-                L[t - 1, 0], Ll, _difference_band(coeffs, N, 1, t - 1), w, b
-            )
+            if L.ndim == 2:
+                Lss = previous
+            else:
+                Lss = L[t - 1, 0]
+            _first_difference_offdiagonal(Lss, Ll, _difference_band(coeffs, N, 1, t - 1), w, b)
         beta = _difference_band(coeffs, N, 0, t)
-        Ltt = L[t, 0]
+        if L.ndim == 2:
+            Ltt = current
+        else:
+            Ltt = L[t, 0]
         for i in range(b):
             for j in range(i + 1):
                 acc = 0.0
@@ -578,8 +628,10 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
             trace += Ltt[i, i]
             Ltt[i, i] += beta * w[i]
             ref[i] = Ltt[i, i]
+        ratio = -1.0
         if d > 1:
-            ratio = diagonal_step(L, t, d, b, ref)
+            if L.ndim == 4:
+                ratio = diagonal_step(L, t, d, b, ref)
         else:
             if t > 0:
                 # L_{t,t−1} is upper triangular: Σ_q over q >= i only
@@ -610,7 +662,7 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
                         for k in range(b):
                             acc += Ll[i, k] * X[t - 1, c, k]
                         value -= acc
-                else:
+                elif L.ndim == 4:
                     for lag in range(1, min(d, t) + 1):
                         acc = 0.0
                         for k in range(b):
@@ -619,7 +671,10 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
                 for k in range(i):
                     value -= Ltt[i, k] * X[t, c, k]
                 X[t, c, i] = value * Ltt[i, i]
-        logdet += _log_det_block(L, t, b)
+        logdet += _log_det_pivots(Ltt, b)
+        if L.ndim == 2:
+            _pack_lower(Ltt, L[t], b)
+            current, previous = previous, current
     return worst, worst_t, logdet, trace
 
 
@@ -629,7 +684,8 @@ def rows_backward(L, X, cov, phi, y, w, coeffs, rss, squares, size):  # pragma: 
 
     X (N, n, p) holds L⁻¹ rhs and is overwritten with Θ; ``cov`` (N, p, p), or
     (0, p, p) to skip the covariances, receives the diagonal blocks of H⁻¹ (which
-    needs the off-diagonal blocks stored: L (N, d+1, p, p)).
+    needs the off-diagonal blocks stored: L (N, d+1, p, p)); L may be any layout of
+    :func:`rows_factor_forward`'s.
     As each Θ_t becomes final the same sweep adds, per output row c,
     rss_c = Σ_tj (y_tjc − Θ_t[c]·φ_tj)² and squares_c = Σ_t Σ_a w_a ((DΘ)_t[c, a])²
     (rss, squares (n,) outputs).
@@ -640,7 +696,8 @@ def rows_backward(L, X, cov, phi, y, w, coeffs, rss, squares, size):  # pragma: 
     n = X.shape[1]
     q = phi.shape[1]
     compute_cov = cov.shape[0] == N
-    stored = L.shape[1] > 1
+    stored = L.ndim == 4 and L.shape[1] > 1
+    current = np.zeros((b, b))  # a packed L_tt (L.ndim == 2), unpacked
     window = np.zeros((d + 1, d + 1, b, b))  # as in backward
     off = np.zeros((b, b))  # L_{t+1,t}, recomputed when not stored
     Ll = off
@@ -650,12 +707,18 @@ def rows_backward(L, X, cov, phi, y, w, coeffs, rss, squares, size):  # pragma: 
         rss[c] = 0.0
         squares[c] = 0.0
     for t in range(N - 1, -1, -1):
+        if L.ndim == 2:
+            _unpack_lower(L[t], current, b)
+            Ltt = current
+        else:
+            Ltt = L[t, 0]
         if d == 1 and t + 1 < N:
             if stored:
-                Ll = L[t + 1, 1]
+                if L.ndim == 4:
+                    Ll = L[t + 1, 1]
             else:
                 Ll = off
-                _first_difference_offdiagonal(L[t, 0], off, _difference_band(coeffs, N, 1, t), w, b)
+                _first_difference_offdiagonal(Ltt, off, _difference_band(coeffs, N, 1, t), w, b)
         # x_tc = L_tt⁻ᵀ (z_tc − Σ_lag L_{t+lag,t}ᵀ x_{t+lag,c}) for each row c (row by
         # row: interleaving the rows' entries measured 1.8x slower)
         # (rounded as :func:`_backward_step` rounds it)
@@ -668,15 +731,15 @@ def rows_backward(L, X, cov, phi, y, w, coeffs, rss, squares, size):  # pragma: 
                         for k in range(b):
                             acc += Ll[k, i] * X[t + 1, c, k]
                         value -= acc
-                else:
+                elif L.ndim == 4:
                     for lag in range(1, min(d, N - 1 - t) + 1):
                         acc = 0.0
                         for k in range(b):
                             acc += L[t + lag, lag, k, i] * X[t + lag, c, k]
                         value -= acc
                 for k in range(i + 1, b):
-                    value -= L[t, 0, k, i] * X[t, c, k]
-                X[t, c, i] = value * L[t, 0, i, i]
+                    value -= Ltt[k, i] * X[t, c, k]
+                X[t, c, i] = value * Ltt[i, i]
         for c in range(n):
             # Θ_t is final, and so are Θ_{t+1} … Θ_{t+d}: this step's residuals
             # and the difference that starts here.
@@ -704,8 +767,9 @@ def rows_backward(L, X, cov, phi, y, w, coeffs, rss, squares, size):  # pragma: 
                         difference += coeffs[lag] * X[t + lag, c, a]
                     total += w[a] * difference * difference
                 squares[c] += total
-        if compute_cov:
-            _selected_inverse_step(L, window, rhs, cov, t, d, b)
+        if L.ndim == 4:
+            if compute_cov:
+                _selected_inverse_step(L, window, rhs, cov, t, d, b)
 
 
 @numba.njit(cache=True)
