@@ -550,6 +550,18 @@ def _first_difference_offdiagonal(Lss, out, beta, w, b):  # pragma: no cover - c
             out[i, j] = acc * Lss[j, j]
 
 
+@numba.njit(cache=True, inline="always")
+def _subtract_upper_gram(Ltt, off, b):  # pragma: no cover - compiled
+    """``Ltt`` (lower triangle) ← Ltt − off offᵀ for an upper triangular ``off`` =
+    L_{t,t−1} (:func:`_first_difference_offdiagonal`): Σ_k over k >= i only."""
+    for i in range(b):
+        for j in range(i + 1):
+            acc = 0.0
+            for k in range(i, b):
+                acc += off[i, k] * off[j, k]
+            Ltt[i, j] -= acc
+
+
 @numba.njit(cache=True)
 def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - compiled
     """:func:`factor_forward` for output rows that share one system, from the raw data.
@@ -634,13 +646,7 @@ def rows_factor_forward(phi, y, w, coeffs, X, L, size):  # pragma: no cover - co
                 ratio = diagonal_step(L, t, d, b, ref)
         else:
             if t > 0:
-                # L_{t,t−1} is upper triangular: Σ_q over q >= i only
-                for i in range(b):
-                    for j in range(i + 1):
-                        acc = 0.0
-                        for k in range(i, b):
-                            acc += Ll[i, k] * Ll[j, k]
-                        Ltt[i, j] -= acc
+                _subtract_upper_gram(Ltt, Ll, b)
             ratio = _cholesky_block(Ltt, ref, b)
         if ratio < worst:
             worst = ratio
@@ -823,13 +829,7 @@ def first_difference_solve(phi, data_scale, wsq, bands, X, L, size):  # pragma: 
             ref[i] = Ltt[i, i]
         if t > 0:
             _first_difference_offdiagonal(L[t - 1, 0], off, bands[1, t - 1], wsq, b)
-            # L_{t,t−1} is upper triangular: Σ_k over k >= i only
-            for i in range(b):
-                for j in range(i + 1):
-                    acc = 0.0
-                    for k in range(i, b):
-                        acc += off[i, k] * off[j, k]
-                    Ltt[i, j] -= acc
+            _subtract_upper_gram(Ltt, off, b)
         ratio = _cholesky_block(Ltt, ref, b)
         if ratio < worst:
             worst = ratio

@@ -29,6 +29,7 @@ __all__ = [
     "weighted_difference",
     "add_weighted_difference_adjoint",
     "add_data_block",
+    "set_penalty_block",
     "nt_scaling",
     "apply_scaling",
     "elimination_terms",
@@ -302,6 +303,24 @@ def _penalty_row(v, eta, s_coef, penalty, w, r, offset, out, b):  # pragma: no c
 
 
 @numba.njit(cache=True)
+def set_penalty_block(ring, coeffs, t, R, out):  # pragma: no cover - compiled
+    """Lower triangle of out = Σ_r c_{t−r}² (ΛSΛ)_r: the penalty part of step t's diagonal
+    Newton block, from the ring (d + 1, b, b) of the last d + 1 difference rows'
+    scaled blocks (R = N − d difference rows)."""
+    d = coeffs.shape[0] - 1
+    b = out.shape[0]
+    for i in range(b):
+        for j in range(i + 1):
+            out[i, j] = 0.0
+    for r in range(max(0, t - d), min(t, R - 1) + 1):
+        weight = coeffs[t - r] * coeffs[t - r]
+        P = ring[r % (d + 1)]
+        for i in range(b):
+            for j in range(i + 1):
+                out[i, j] += weight * P[i, j]
+
+
+@numba.njit(cache=True)
 def add_data_block(phi, t, n_rep, out):  # pragma: no cover - compiled
     """Lower triangle of out += 2 I_r ⊗ Σ_q φ_tqφ_tqᵀ: the data part of step t's diagonal
     Newton block (phi (N, rows, p), r = n_rep output rows sharing the regressors)."""
@@ -405,15 +424,7 @@ def _factor_newton(
                             M[j, i] = 0.0
                 offdiagonal_step(L, M, t, lag, d, b)
             # The diagonal block, lower triangle only, straight into L.
-            for i in range(b):
-                for j in range(i + 1):
-                    Ltt[i, j] = 0.0
-            for r in range(max(0, t - d), min(t, R - 1) + 1):
-                weight = coeffs[t - r] * coeffs[t - r]
-                P = ring[r % (d + 1)]
-                for i in range(b):
-                    for j in range(i + 1):
-                        Ltt[i, j] += weight * P[i, j]
+            set_penalty_block(ring, coeffs, t, R, Ltt)
         add_data_block(phi, t, n_rep, Ltt)  # the data part
         for i in range(b if any_pinned else 0):
             if pinned[i] != 0.0:

@@ -209,15 +209,7 @@ def factor_newton_wide(
                 M.ctypes, n_ptr,
             )  # fmt: skip
         Ltt = L[t, 0]
-        for i in range(b):
-            for j in range(i + 1):
-                Ltt[i, j] = 0.0
-        for r in range(max(0, t - d), min(t, R - 1) + 1):
-            weight = coeffs[t - r] * coeffs[t - r]
-            P = ring[r % (d + 1)]
-            for i in range(b):
-                for j in range(i + 1):
-                    Ltt[i, j] += weight * P[i, j]
+        cones.set_penalty_block(ring, coeffs, t, R, Ltt)
         cones.add_data_block(phi, t, n_rep, Ltt)  # the data part
         for lag in range(1, min(d, t) + 1):
             # Lower triangle of Ltt −= L_{t,s}L_{t,s}ᵀ: upper in column-major order.
