@@ -301,7 +301,10 @@ def null_space_basis(N: int, coeffs: np.ndarray) -> np.ndarray:
         ref = 0.0 if abs(r) <= 1 else N - 1.0
         if abs(r) < 1e-12:
             continue  # a root at 0 contributes no persistent sequence
-        base = np.exp((t - ref) * np.log(complex(r)))
+        if r == 1:  # the root of every difference operator: 1^t, no complex powers
+            base = np.ones(N)
+        else:
+            base = np.exp((t - ref) * np.log(complex(r)))
         for m in range(multiplicity):
             seq = base * (t / max(N - 1, 1)) ** m
             cols.append(seq.real)
