@@ -152,14 +152,16 @@ class RegressionProblem:
         rowwise_matvec(np.ascontiguousarray(theta), self.phi, fitted)
         return np.subtract(self.y, fitted, out=fitted)
 
-    def output_rss(self, theta: np.ndarray) -> np.ndarray:
-        """Residual sum of squares per output, shape (n,)."""
-        resid = self.residuals(theta)
+    def output_rss(self, theta: np.ndarray, residuals: np.ndarray | None = None) -> np.ndarray:
+        """Residual sum of squares per output, shape (n,); ``residuals`` (N, q, n):
+        :meth:`residuals` of ``theta`` where the caller has them already."""
+        resid = self.residuals(theta) if residuals is None else residuals
         return np.einsum("tji,tji->i", resid, resid)
 
-    def gram(self) -> np.ndarray:
-        """Σ_j φ_tj φ_tjᵀ per step, shape (N, p, p)."""
-        return np.einsum("tja,tjb->tab", self.phi, self.phi)
+    def gram(self, start: int = 0) -> np.ndarray:
+        """Σ_j φ_tj φ_tjᵀ per step t >= ``start``, shape (N − start, p, p)."""
+        phi = self.phi[start:]
+        return np.einsum("tja,tjb->tab", phi, phi)
 
     def cross(self) -> np.ndarray:
         """Σ_j φ_tj y_tjᵀ per step, shape (N, p, n)."""
@@ -299,7 +301,10 @@ def null_space_basis(N: int, coeffs: np.ndarray) -> np.ndarray:
         ref = 0.0 if abs(r) <= 1 else N - 1.0
         if abs(r) < 1e-12:
             continue  # a root at 0 contributes no persistent sequence
-        base = np.exp((t - ref) * np.log(complex(r)))
+        if r == 1:  # the root of every difference operator: 1^t, no complex powers
+            base = np.ones(N)
+        else:
+            base = np.exp((t - ref) * np.log(complex(r)))
         for m in range(multiplicity):
             seq = base * (t / max(N - 1, 1)) ** m
             cols.append(seq.real)

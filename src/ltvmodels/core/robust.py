@@ -106,7 +106,10 @@ def default_delta(problem: RegressionProblem, theta: np.ndarray) -> np.ndarray:
 
 
 def residual_outliers(
-    problem: RegressionProblem, theta: np.ndarray, threshold: float = OUTLIER_THRESHOLD
+    problem: RegressionProblem,
+    theta: np.ndarray,
+    threshold: float = OUTLIER_THRESHOLD,
+    residuals: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The residual entries of ``theta`` (N, n, p) beyond ``threshold`` robust scales.
 
@@ -118,8 +121,9 @@ def residual_outliers(
     median), leaving out the entries the fit reproduces (within REPRODUCED ×
     the residuals' RMS or ROUNDING × the largest abs(y_i)). Returns the mask
     (N, q, n) of abs(r_ti) > threshold · σ̂_i (False where unobserved) and σ̂ (n,).
+    ``residuals`` (N, q, n): ``problem.residuals(theta)`` where the caller has them.
     """
-    r = problem.residuals(theta)
+    r = problem.residuals(theta) if residuals is None else residuals
     mask = np.zeros(r.shape, dtype=np.bool_)
     sigma = np.zeros(r.shape[2])
     _outlier_mask(r, problem.y, problem.observed, threshold, mask, sigma)

@@ -93,6 +93,10 @@ class SparseSolution:
     pattern : ndarray, shape (K,), or None
         The weights divided by their largest finite one: ``lambda_max`` belongs
         to this pattern, and a warm start with the same pattern passes it on.
+    residuals : ndarray, shape (N, q, n), or None
+        y_tj − Θ_t φ_tj at ``theta`` (0 where unobserved), those ``rss`` was
+        computed from: the model's noise variance and outlier check read them
+        instead of recomputing them; None for a start that was not solved.
     """
 
     theta: np.ndarray
@@ -109,6 +113,7 @@ class SparseSolution:
     admm: SparseResult | None = None
     ipm: InteriorPointResult | None = None
     pattern: np.ndarray | None = None
+    residuals: np.ndarray | None = None
 
 
 def solve_sparse(
@@ -166,7 +171,8 @@ def solve_sparse(
     if np.all(weights > 0) and scale >= lam_max:
         # Dk = 0 is optimal (λ_max's dual certificate): the null-space fit, exactly.
         theta_bar = null_space_fit(problem) if theta_bar is None else theta_bar
-        rss = float(np.sum(problem.residuals(theta_bar) ** 2))
+        resid = problem.residuals(theta_bar)
+        rss = float(np.sum(resid**2))
         return SparseSolution(
             theta=theta_bar,
             solver="closed form (lam >= lambda_max)",
@@ -178,6 +184,7 @@ def solve_sparse(
             details={"duality_gap": 0.0},
             closed_form=True,
             pattern=pattern,
+            residuals=resid,
         )
     if ipm_suits(penalty, K) and np.all(weights > 0):
         ip = fit_sparse_ipm(
@@ -188,13 +195,14 @@ def solve_sparse(
             max_iter=max_iter,
             warm_start=None if warm_start is None else warm_start.ipm,
         )
+        resid = problem.residuals(ip.theta)
         return SparseSolution(
             theta=ip.theta,
             solver="interior point (block-banded Newton systems)",
             iterations=ip.iterations,
             converged=ip.converged,
             objective=ip.objective,
-            rss=float(np.sum(problem.residuals(ip.theta) ** 2)),
+            rss=float(np.sum(resid**2)),
             lambda_max=lam_max,
             details={
                 "duality_gap": ip.duality_gap,
@@ -206,6 +214,7 @@ def solve_sparse(
             stalled=ip.stalled,
             ipm=ip,
             pattern=pattern,
+            residuals=resid,
         )
     if np.isinf(weights).any():
         raise NotImplementedError(
@@ -222,13 +231,14 @@ def solve_sparse(
         tol=tol,
         warm_start=None if warm_start is None else warm_start.admm,
     )
+    resid = problem.residuals(result.theta)
     return SparseSolution(
         theta=result.theta,
         solver="ADMM (banded k-update)",
         iterations=result.iterations,
         converged=result.converged,
         objective=result.objective,
-        rss=float(np.sum(problem.residuals(result.theta) ** 2)),
+        rss=float(np.sum(resid**2)),
         lambda_max=lam_max,
         details={
             "duality_gap": result.duality_gap,
@@ -240,6 +250,7 @@ def solve_sparse(
         },
         admm=result,
         pattern=pattern,
+        residuals=resid,
     )
 
 

@@ -12,6 +12,7 @@ norm (:mod:`.ipm`, :mod:`.admm`):
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from scipy.linalg import solveh_banded
 
@@ -129,6 +130,13 @@ def difference_preimage(v: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
     """
     d = len(coeffs) - 1
     c = np.asarray(coeffs, dtype=float)
+    if d == 1 and c[0] == -c[1] and c[0] != 0 and v.shape[0] > 1:
+        # First differences: null(D) is the constants and Dᵀμ = v − mean(v) is solved
+        # by a running sum, μ_s = Σ_{r<=s} (v_r − v̄) / c_0 — the same least-squares
+        # solution as the banded Cholesky solve below (and more accurate: no
+        # factor of a matrix of condition ~N²), in two passes over v.
+        flat = np.ascontiguousarray(v, dtype=float).reshape(v.shape[0], -1)
+        return _first_difference_preimage(flat, float(c[0])).reshape((-1,) + v.shape[1:])
     acf = np.array([np.dot(c[: d + 1 - lag], c[lag:]) for lag in range(d + 1)])
     rows = v.shape[0] - d
     ab = np.zeros((d + 1, rows))
@@ -137,3 +145,23 @@ def difference_preimage(v: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
     Dv = apply_difference(v, c)
     # LAPACK's banded solver needs two rows or more
     return Dv / acf[0] if rows == 1 else solveh_banded(ab, Dv, check_finite=False)
+
+
+@numba.njit(cache=True)
+def _first_difference_preimage(v, c0):  # pragma: no cover - compiled
+    """μ (N − 1, K) with μ_s = Σ_{r<=s} (v_r − v̄) / c_0 for v (N, K): Dᵀμ = v − v̄ for
+    D = c_0·(first differences), one pass for the means and one for the sums."""
+    N, K = v.shape
+    mean = np.zeros(K)
+    for t in range(N):
+        for j in range(K):
+            mean[j] += v[t, j]
+    for j in range(K):
+        mean[j] /= N
+    out = np.empty((N - 1, K))
+    running = np.zeros(K)
+    for t in range(N - 1):
+        for j in range(K):
+            running[j] += v[t, j] - mean[j]
+            out[t, j] = running[j] / c0
+    return out

@@ -433,7 +433,9 @@ def sparse_model(
         **solution.details,
         "rss": solution.rss,
         "lambda_max": solution.lambda_max,
-        **outlier_info(problem, solution.theta),
+        # the residuals rss was computed from serve the outlier check and the noise
+        # variance too (three passes over the data were one)
+        **outlier_info(problem, solution.theta, residuals=solution.residuals),
     }
     status = FitStatus(
         "closed_form"
@@ -446,7 +448,7 @@ def sparse_model(
         solution.objective,
         {**solution.details, "lambda_max": solution.lambda_max},
     )
-    noise_var = problem.output_rss(solution.theta) / max(problem.n_observed, 1)
+    noise_var = problem.output_rss(solution.theta, solution.residuals) / max(problem.n_observed, 1)
     info["loglik_note"] = f"norm={norm!r} has no Gaussian likelihood; loglik is None"
     changepoints = find_changepoints(
         activation(k, problem.coeffs), degree=problem.degree, min_level=residue_level(k)
@@ -479,7 +481,7 @@ def last_segment_unit_cov(
     if problem.degree != 1:
         return None
     start = int(changepoints[-1]) if len(changepoints) else 0
-    gram = problem.gram()[start:].sum(axis=0)
+    gram = problem.gram(start).sum(axis=0)  # the last segment's steps only
     try:
         factor = np.linalg.cholesky(gram)
     except np.linalg.LinAlgError:

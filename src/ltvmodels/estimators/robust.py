@@ -26,15 +26,18 @@ __all__ = ["outlier_info", "robust_model", "robust_record_parts"]
 ModelT = TypeVar("ModelT", bound=RegressionModel)  # the model the caller's factory builds
 
 
-def outlier_info(problem: RegressionProblem, theta: np.ndarray) -> dict[str, Any]:
+def outlier_info(
+    problem: RegressionProblem, theta: np.ndarray, residuals: np.ndarray | None = None
+) -> dict[str, Any]:
     """The ``info`` entries of ``model.outliers`` for the fit ``theta`` (N, n, p) of
     ``problem`` (every fit): "outliers" (N, q, n), the residual entries beyond
     "outlier_threshold" × "outlier_scale" (σ̂ per output,
     :func:`~ltvmodels.core.robust.residual_outliers`), and "n_outliers"; none for
-    pseudo-rows (EM's M-step), which are no samples."""
+    pseudo-rows (EM's M-step), which are no samples. ``residuals`` (N, q, n):
+    ``problem.residuals(theta)`` where the caller has them already."""
     if not problem.rows_are_samples:
         return {}
-    mask, sigma = residual_outliers(problem, theta)
+    mask, sigma = residual_outliers(problem, theta, residuals=residuals)
     return {
         "outliers": mask,
         "outlier_scale": sigma.tolist(),
