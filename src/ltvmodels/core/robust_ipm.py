@@ -632,7 +632,17 @@ def fit_laplace_ipm_diagonal(
         filtered = np.zeros(n, dtype=np.bool_)  # those the Kalman form solved
         if kalman is not None and (active & accurate).any():
             filtered = _kalman_directions(
-                kalman, phi, a, no_targets, w2, coeffs, active & accurate, moved, rhs, accurate
+                kalman,
+                phi,
+                a,
+                no_targets,
+                w2,
+                coeffs,
+                active & accurate,
+                moved,
+                rhs,
+                accurate,
+                True,
             )
             need = active & ~filtered
         factor = None
@@ -667,7 +677,7 @@ def fit_laplace_ipm_diagonal(
         if kalman is not None and filtered.any():
             # the predictor's matrices: the filter solves the same outputs again
             left = filtered & ~_kalman_directions(
-                kalman, phi, a, no_targets, w2, coeffs, filtered, moved, rhs, accurate
+                kalman, phi, a, no_targets, w2, coeffs, filtered, moved, rhs, accurate, False
             )
             if left.any():
                 WeightedRowsFactor(phi, a, w2, coeffs, rhs, left, what=what).finish(rhs)
@@ -704,21 +714,26 @@ def _kalman_directions(
     moved: np.ndarray,
     rhs: np.ndarray,
     accurate: np.ndarray,
+    check: bool,
 ) -> np.ndarray:
     """Solve the Newton systems of the outputs ``which`` for their right-hand sides
     ``rhs`` (n, N, p, 1) by the Kalman form, in place; returns those solved.
 
     The covariance form loses digits as the row weights κ grow without bound
-    (entries whose residual tends to 0): the rank-one downdates of P cancel. A
-    solution is kept only if its residual ‖HΔk − rhs‖∞ is within KALMAN_RESIDUAL of
-    ‖rhs‖∞; an output whose solution is not (or that the filter leaves) is taken
-    off ``accurate`` for good (κ only grows) and left to the factorization.
+    (entries whose residual tends to 0): the rank-one downdates of P cancel. With
+    ``check`` (the first solve with a matrix), a solution is kept only if its
+    residual ‖HΔk − rhs‖∞ is within KALMAN_RESIDUAL of ‖rhs‖∞; an output whose
+    solution is not (or that the filter leaves) is taken off ``accurate`` for good
+    (κ only grows) and left to the factorization. The corrector's solve repeats the
+    predictor's filter bit for bit with another right-hand side: not checked again
+    (a direction that is off costs steps, not the certificate, computed afresh).
     """
     left = kalman.solve(phi, a, no_targets, w2, coeffs, which, moved, linear=rhs[:, :, :, 0])
     solved = which & ~left
-    residual = np.zeros(len(which))
-    _newton_residual(phi, a, w2, coeffs, moved, rhs, solved, residual)
-    solved &= residual <= KALMAN_RESIDUAL
+    if check:
+        residual = np.zeros(len(which))
+        _newton_residual(phi, a, w2, coeffs, moved, rhs, solved, residual)
+        solved &= residual <= KALMAN_RESIDUAL
     accurate &= ~which | solved
     for i in np.flatnonzero(solved).tolist():
         rhs[i, :, :, 0] = moved[i]
