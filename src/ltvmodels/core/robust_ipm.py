@@ -951,7 +951,11 @@ def _laplace_step(
 ):  # pragma: no cover - compiled
     """The corrector's step min(1, fraction · the largest step keeping σ±, ζ± positive)
     per active output (into ``steps``) and, where it is at least ``min_step``, the
-    step itself: k += αΔk, b += αΔb, ζ± += αΔζ± (σ follows from k and b)."""
+    step itself: k += αΔk, b += αΔb, ζ± += αΔζ± (σ follows from k and b).
+
+    The ratio test keeps Δb, Δζ± in ``sp``, ``tp``, ``tm`` (the slacks and targets are
+    not needed after it: the next state recomputes them), so that the step is a plain
+    update without a second pass over φ."""
     n, N, q = c.shape
     p = phi.shape[2]
     for o in range(n):
@@ -963,13 +967,16 @@ def _laplace_step(
                 if not mask[o, t, j]:
                     continue
                 s_p, s_m, z_p, z_m = sp[o, t, j], sm[o, t, j], zp[o, t, j], zm[o, t, j]
-                _, ds_p, ds_m, dz_p, dz_m = _laplace_deltas(
+                db, ds_p, ds_m, dz_p, dz_m = _laplace_deltas(
                     phi, dk, o, t, j, c[o, t, j], s_p, s_m, z_p, z_m, tp[o, t, j], tm[o, t, j]
                 )
                 largest = _shrink(largest, s_p, ds_p)
                 largest = _shrink(largest, s_m, ds_m)
                 largest = _shrink(largest, z_p, dz_p)
                 largest = _shrink(largest, z_m, dz_m)
+                sp[o, t, j] = db
+                tp[o, t, j] = dz_p
+                tm[o, t, j] = dz_m
         step = min(1.0, fraction * largest)
         steps[o] = step
         if step < min_step:
@@ -980,10 +987,6 @@ def _laplace_step(
             for j in range(q):
                 if not mask[o, t, j]:
                     continue
-                s_p, s_m, z_p, z_m = sp[o, t, j], sm[o, t, j], zp[o, t, j], zm[o, t, j]
-                db, _, _, dz_p, dz_m = _laplace_deltas(
-                    phi, dk, o, t, j, c[o, t, j], s_p, s_m, z_p, z_m, tp[o, t, j], tm[o, t, j]
-                )
-                b[o, t, j] += step * db
-                zp[o, t, j] = z_p + step * dz_p
-                zm[o, t, j] = z_m + step * dz_m
+                b[o, t, j] += step * sp[o, t, j]
+                zp[o, t, j] += step * tp[o, t, j]
+                zm[o, t, j] += step * tm[o, t, j]
