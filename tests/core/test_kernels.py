@@ -204,6 +204,34 @@ def test_weighted_rows_kalman_equals_a_dense_solve(q, zeros):
         np.testing.assert_allclose(out[c], expected, rtol=1e-11, atol=1e-12 * scale)
 
 
+@pytest.mark.parametrize("q", [1, 2])
+def test_weighted_rows_kalman_general_term_equals_a_dense_solve(q):
+    """A general term g added to the right-hand side (H_c θ = Σ_j b φ + g_c), with and
+    without row targets, equals a dense solve; the outputs left inactive are not touched."""
+    rng = np.random.default_rng(8)
+    N, p, n = 40, 3, 3
+    coeffs = np.array([-1.5, 1.5])
+    phi = rng.standard_normal((N, q, p))
+    a = rng.uniform(0.05, 1.0, (N, q, n))
+    a[rng.random((N, q, n)) < 0.3] = 0.0
+    w = rng.uniform(0.5, 4.0, (n, p))
+    linear = rng.standard_normal((n, N, p))
+    active = np.array([True, True, False])
+    for targets in (np.zeros((N, q, n)), rng.standard_normal((N, q, n))):
+        out = np.full((n, N, p), 7.0)
+        unsolved = banded.WeightedRowsKalman(N, q, p, n).solve(
+            phi, a, targets, w, coeffs, active, out, linear=linear
+        )
+        assert not unsolved.any()
+        np.testing.assert_array_equal(out[2], 7.0)
+        for c in (0, 1):
+            H = _dense_weighted_rows(phi, a, w, coeffs, c)
+            rhs = np.einsum("tj,tja->ta", targets[:, :, c], phi) + linear[c]
+            expected = np.linalg.solve(H, rhs.reshape(-1)).reshape(N, p)
+            scale = np.abs(expected).max()
+            np.testing.assert_allclose(out[c], expected, rtol=1e-11, atol=1e-12 * scale)
+
+
 def test_weighted_rows_kalman_leaves_what_it_cannot_hand_over():
     """Too few steps for the information form to hand over, or a singular system: the
     outputs come back unsolved (the caller factors them, and the factorization

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ltvmodels.core import robust_ipm
 from ltvmodels.core.laplace import fit_laplace
 from ltvmodels.core.problem import RegressionProblem
 from ltvmodels.core.robust_ipm import fit_laplace_ipm_diagonal, fit_robust_ipm_squared
@@ -90,6 +91,45 @@ def test_matches_output_by_output(seed, order):
         assert np.all(np.abs(ip.psi) <= costs[:, :, i] + 1e-6 * costs.max())
         fixed = np.abs(alone.psi) < 0.5 * costs[:, :, i]  # not on a kink's edge
         assert np.allclose(ip.psi[fixed], alone.psi[fixed], atol=1e-4)
+
+
+def test_kalman_directions_agree_with_the_factorization(monkeypatch):
+    """A first difference solves the Newton systems by the Kalman form while its residual
+    stays below KALMAN_RESIDUAL, then by the block Cholesky factorization: the same
+    optimum as the factorization alone, which the Kalman form alone (no guard) misses
+    here (its downdates cancel once the weights of the zero residuals grow large)."""
+    problem, weight, costs, start = _problem(6, 1, q=1, p=3, N=200)
+    calls = {"kalman": 0, "factor": 0}
+    kalman_solve, factor = robust_ipm.WeightedRowsKalman.solve, robust_ipm.WeightedRowsFactor
+
+    def counted_solve(self, *args, **kwargs):
+        calls["kalman"] += 1
+        return kalman_solve(self, *args, **kwargs)
+
+    def counted_factor(*args, **kwargs):
+        calls["factor"] += 1
+        return factor(*args, **kwargs)
+
+    monkeypatch.setattr(robust_ipm.WeightedRowsKalman, "solve", counted_solve)
+    monkeypatch.setattr(robust_ipm, "WeightedRowsFactor", counted_factor)
+    kalman = fit_laplace_ipm_diagonal(problem, weight, costs, tol=TOL, max_iter=100, start=start)
+    assert calls["kalman"] > 0 and calls["factor"] > 0  # both routes taken
+    monkeypatch.setattr(robust_ipm.WeightedRowsKalman, "applies", staticmethod(lambda c, w: False))
+    factored = fit_laplace_ipm_diagonal(problem, weight, costs, tol=TOL, max_iter=100, start=start)
+    for ip, ref in zip(kalman, factored, strict=True):
+        assert ip.converged and ref.converged
+        assert ip.objective == pytest.approx(ref.objective, rel=1e-9)
+        np.testing.assert_allclose(ip.k, ref.k, atol=1e-6 * np.abs(ref.k).max())
+    monkeypatch.setattr(robust_ipm.WeightedRowsKalman, "applies", staticmethod(lambda c, w: True))
+    monkeypatch.setattr(robust_ipm, "KALMAN_RESIDUAL", np.inf)
+    try:  # the directions' errors stall the iterations, or reach a zero slack
+        unguarded = fit_laplace_ipm_diagonal(
+            problem, weight, costs, tol=TOL, max_iter=100, start=start
+        )
+        failed = not all(ip.converged for ip in unguarded)
+    except ZeroDivisionError:
+        failed = True
+    assert failed
 
 
 def test_fit_laplace_matrix_and_vector_weight_agree():

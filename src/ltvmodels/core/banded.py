@@ -468,11 +468,16 @@ class WeightedRowsKalman:
         coeffs: np.ndarray,
         active: np.ndarray,
         out: np.ndarray,
+        linear: np.ndarray | None = None,
     ) -> np.ndarray:
         """Solve the active outputs' systems into ``out`` (n, N, p).
 
         ``phi`` (N, q, p), ``a`` and ``targets`` (N, q, n) and ``w`` (n, p), C-contiguous
-        float, with :meth:`applies` true for ``coeffs`` and ``w``. Returns the active
+        float, with :meth:`applies` true for ``coeffs`` and ``w``. ``linear`` (n, N, p),
+        C-contiguous float, adds a general term g_tc to each right-hand side (H_c θ_c =
+        Σ_j b_tjc φ_tj + g_tc): a right-hand side the rows do not carry, e.g. a Newton
+        step's, with ``targets`` zero (it costs about one more product with P_t a step,
+        and no rounding of a large target against a large weight). Returns the active
         outputs (n,) bool left unsolved: those whose information matrix never
         became well conditioned, or met a matrix that is not positive definite
         (singular systems): factor them with :class:`WeightedRowsFactor`, which
@@ -481,10 +486,13 @@ class WeightedRowsKalman:
         n = a.shape[2]
         status = np.empty(n, dtype=np.int64)
         scale = float(coeffs[1]) ** 2  # ‖c_1 (θ_{t+1} − θ_t)‖²: the weight times c_1²
+        if linear is None:
+            linear = np.empty((n, 0, phi.shape[2]))
         kernels.weighted_rows_kalman(
             phi,
             a,
             targets,
+            linear,
             np.ascontiguousarray(w * scale, dtype=float),
             np.ascontiguousarray(active, dtype=np.bool_),
             self.cov,

@@ -1116,15 +1116,21 @@ def _times_regressor(P, phi, t, j, s, b):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def weighted_rows_kalman(
-    phi, a, targets, w, active, cov, mean, rows, X, status, size
+    phi, a, targets, linear, w, active, cov, mean, rows, X, status, size
 ):  # pragma: no cover - compiled
-    """Solve H_c θ_c = Σ_j b_tjc φ_tj, H_c = blkdiag_t(Σ_j a_tjc φ_tj φ_tjᵀ) + DᵀD ⊗ diag(w_c)
-    for a first difference D (rows of DᵀD: θ_{t+1} − θ_t), each output c with
-    ``active[c]``, by a Kalman filter and smoother (see above).
+    """Solve H_c θ_c = Σ_j b_tjc φ_tj + g_tc,
+    H_c = blkdiag_t(Σ_j a_tjc φ_tj φ_tjᵀ) + DᵀD ⊗ diag(w_c), for a first difference D
+    (rows of DᵀD: θ_{t+1} − θ_t), each output c with ``active[c]``, by a Kalman filter
+    and smoother (see above).
+
+    A general term g_t enters as p rows of weight 0 along the unit vectors, taken
+    before the step's rows: the mean moves by P_t⁻ g_t (the covariance not at all),
+    and the smoother's backward vector r by g_t.
 
     Parameters
     ----------
     phi : (N, q, p);  a, targets : (N, q, n) row weights a >= 0 and targets b
+    linear : (n, N, p) the terms g, or (n, 0, p): none
     w : (n, p) diagonal weights, > 0 (the difference's coefficient² folded in)
     active : (n,) bool
     cov : (n, N, p(p+1)/2), mean : (n, N, p), rows : (n, N, q, 2) work arrays: per step
@@ -1139,6 +1145,7 @@ def weighted_rows_kalman(
     b = block_size(size)
     N, q, _ = phi.shape
     n = a.shape[2]
+    general = linear.shape[1] > 0
     info = np.zeros((n, b, b))  # Λ (information steps, lower triangle) or P (exactly symmetric)
     vec = np.zeros((n, b))  # η or the filtered mean
     M = np.empty((b, b))
@@ -1166,6 +1173,14 @@ def weighted_rows_kalman(
                     for k in range(i + 1):
                         packed[idx] = Pc[i, k]
                         idx += 1
+                if general:  # x += P⁻ g
+                    for i in range(b):
+                        acc = 0.0
+                        for k in range(b):
+                            acc += Pc[i, k] * linear[c, t, k]
+                        s[i] = acc
+                    for i in range(b):
+                        xc[i] += s[i]
                 for j in range(q):
                     weight = a[t, j, c]
                     _times_regressor(Pc, phi, t, j, s, b)
@@ -1191,6 +1206,9 @@ def weighted_rows_kalman(
                     xc[i] += targets[t, j, c] * phi[t, j, i]
                     for k in range(i + 1):
                         Pc[i, k] += weight * phi[t, j, i] * phi[t, j, k]
+            if general:
+                for i in range(b):
+                    xc[i] += linear[c, t, i]
             for i in range(b):
                 mean[c, t, i] = xc[i]
             handover = False
@@ -1284,6 +1302,9 @@ def weighted_rows_kalman(
                 coef = rows[c, t, j, 0] - rows[c, t, j, 1] * along
                 for i in range(b):
                     r[i] += phi[t, j, i] * coef
+            if general:
+                for i in range(b):
+                    r[i] += linear[c, t, i]
             for i in range(b):
                 acc = mean[c, t, i]
                 for k in range(b):

@@ -39,7 +39,7 @@ import numpy as np
 
 from ..errors import ConvergenceWarning, SingularProblemError, warn
 from . import conekernels as cones
-from .banded import BlockFactor, BlockSystem, WeightedRowsFactor
+from .banded import BlockFactor, BlockSystem, WeightedRowsFactor, WeightedRowsKalman
 from .ipm import MIN_STEP, STEP_FRACTION, ConicProblem, NewtonSystem, feasible_start
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 from .sparse_common import difference_preimage
@@ -62,6 +62,10 @@ WARM_DUAL_NORM = 0.5
 # "sq", T = 1e5, with the pairing 2r clipped: 0.1 took 52 iterations over its
 # three outputs, 1 took 38, 3 took 35; the sign pairing and 0.1 took 61).
 LAPLACE_START_SLACK = 1.0
+# fit_laplace_ipm_diagonal keeps a Kalman solution of a Newton system whose relative
+# residual is at most this (the block Cholesky's are about 1e-14; the covariance
+# form's grow with the largest row weight, to 1e-9 at 4e6 on the benchmark "sq").
+KALMAN_RESIDUAL = 1e-10
 
 
 @dataclass
@@ -533,6 +537,11 @@ def fit_laplace_ipm_diagonal(
     time factors all their Newton systems (Σ_e κ_e φ_eφ_eᵀ + 2DᵀD ⊗ diag(w_c),
     :class:`~.banded.WeightedRowsFactor`), and the per-entry work (residuals,
     elimination, ratio tests, updates) is a few compiled passes per iteration.
+    For a first difference both systems of an iteration are solved by the Kalman
+    form instead (:class:`~.banded.WeightedRowsKalman`, the right-hand side as its
+    general term) as long as its solutions' relative residuals stay within
+    KALMAN_RESIDUAL: the covariance form loses digits once the weights κ of the
+    residuals tending to 0 grow large, and the factorization takes over.
 
     Parameters
     ----------
@@ -598,6 +607,13 @@ def fit_laplace_ipm_diagonal(
     objective, gap, dual_res = np.full(n, np.inf), np.full(n, np.inf), np.full(n, np.inf)
     factors: np.ndarray | None = None
     what = "the interior-point Newton system"
+    # a first difference: both solves of an iteration by the Kalman form (the filter
+    # runs twice: still cheaper than one factorization and its substitutions), the
+    # right-hand side as its general term; the outputs it leaves are factored
+    kalman = WeightedRowsKalman(N, q, p, n) if WeightedRowsKalman.applies(coeffs, w2) else None
+    no_targets = np.zeros((N, q, n) if kalman is not None else (0, q, n))
+    moved = np.empty((n, N, p) if kalman is not None else (n, 0, p))
+    accurate = np.full(n, kalman is not None)  # the outputs the Kalman form still solves
     while active.any():
         _laplace_state(
             phi, y, c, mask, k, b, zp, zm, w2, coeffs, active, sp, sm, a, rhs, r_k, stats
@@ -612,32 +628,59 @@ def fit_laplace_ipm_diagonal(
                 stalled[i], active[i] = stats[i, 5] == 0.0, False
         if not active.any():
             break
-        try:
-            factor = WeightedRowsFactor(phi, a, w2, coeffs, rhs, active, out=factors, what=what)
-        except SingularProblemError:
-            # which outputs lost definiteness: those stop (before their first step: raise)
-            before = int(active.sum())
-            for i in np.flatnonzero(active).tolist():
-                only = np.zeros(n, dtype=np.bool_)
-                only[i] = True
-                try:
-                    WeightedRowsFactor(phi, a, w2, coeffs, rhs.copy(), only, what=what)
-                except SingularProblemError:
-                    if iterations[i] == 0:
-                        raise
-                    stalled[i], active[i] = True, False
-            if int(active.sum()) == before:  # none alone: rounding in the joint sweep
-                stalled[active], active[:] = True, False
-            continue
-        factors = factor.L
+        need = active.copy()  # the outputs to factor
+        filtered = np.zeros(n, dtype=np.bool_)  # those the Kalman form solved
+        if kalman is not None and (active & accurate).any():
+            filtered = _kalman_directions(
+                kalman,
+                phi,
+                a,
+                no_targets,
+                w2,
+                coeffs,
+                active & accurate,
+                moved,
+                rhs,
+                accurate,
+                True,
+            )
+            need = active & ~filtered
+        factor = None
+        if need.any():
+            try:
+                factor = WeightedRowsFactor(phi, a, w2, coeffs, rhs, need, out=factors, what=what)
+            except SingularProblemError:
+                # which outputs lost definiteness: those stop (before their first step: raise)
+                before = int(active.sum())
+                for i in np.flatnonzero(need).tolist():
+                    only = np.zeros(n, dtype=np.bool_)
+                    only[i] = True
+                    try:
+                        WeightedRowsFactor(phi, a, w2, coeffs, rhs.copy(), only, what=what)
+                    except SingularProblemError:
+                        if iterations[i] == 0:
+                            raise
+                        stalled[i], active[i] = True, False
+                if int(active.sum()) == before:  # none alone: rounding in the joint sweep
+                    stalled[active], active[:] = True, False
+                continue
+            factors = factor.L
+            factor.finish(rhs)  # the affine (predictor) direction
         iterations[active] += 1
-        factor.finish(rhs)  # the affine (predictor) direction
         _laplace_affine(phi, c, mask, sp, sm, zp, zm, rhs, active, tp, tm, steps)
         for i in np.flatnonzero(active).tolist():
             step = min(1.0, steps[i])
             sigma_mu[i] = (1.0 - step) ** 3 * gap[i] / max(degree[i], 1.0)
         _laplace_corrector(phi, c, mask, sp, sm, zp, zm, sigma_mu, r_k, active, tp, tm, rhs)
-        factor.solve(rhs)
+        if factor is not None:
+            factor.solve(rhs)
+        if kalman is not None and filtered.any():
+            # the predictor's matrices: the filter solves the same outputs again
+            left = filtered & ~_kalman_directions(
+                kalman, phi, a, no_targets, w2, coeffs, filtered, moved, rhs, accurate, False
+            )
+            if left.any():
+                WeightedRowsFactor(phi, a, w2, coeffs, rhs, left, what=what).finish(rhs)
         _laplace_step(
             phi, c, mask, sp, sm, zp, zm, rhs, active, tp, tm, STEP_FRACTION, MIN_STEP, k, b, steps
         )
@@ -658,6 +701,75 @@ def fit_laplace_ipm_diagonal(
         )
         for i in range(n)
     ]
+
+
+def _kalman_directions(
+    kalman: WeightedRowsKalman,
+    phi: np.ndarray,
+    a: np.ndarray,
+    no_targets: np.ndarray,
+    w2: np.ndarray,
+    coeffs: np.ndarray,
+    which: np.ndarray,
+    moved: np.ndarray,
+    rhs: np.ndarray,
+    accurate: np.ndarray,
+    check: bool,
+) -> np.ndarray:
+    """Solve the Newton systems of the outputs ``which`` for their right-hand sides
+    ``rhs`` (n, N, p, 1) by the Kalman form, in place; returns those solved.
+
+    The covariance form loses digits as the row weights κ grow without bound
+    (entries whose residual tends to 0): the rank-one downdates of P cancel. With
+    ``check`` (the first solve with a matrix), a solution is kept only if its
+    residual ‖HΔk − rhs‖∞ is within KALMAN_RESIDUAL of ‖rhs‖∞; an output whose
+    solution is not (or that the filter leaves) is taken off ``accurate`` for good
+    (κ only grows) and left to the factorization. The corrector's solve repeats the
+    predictor's filter bit for bit with another right-hand side: not checked again
+    (a direction that is off costs steps, not the certificate, computed afresh).
+    """
+    left = kalman.solve(phi, a, no_targets, w2, coeffs, which, moved, linear=rhs[:, :, :, 0])
+    solved = which & ~left
+    if check:
+        residual = np.zeros(len(which))
+        _newton_residual(phi, a, w2, coeffs, moved, rhs, solved, residual)
+        solved &= residual <= KALMAN_RESIDUAL
+    accurate &= ~which | solved
+    for i in np.flatnonzero(solved).tolist():
+        rhs[i, :, :, 0] = moved[i]
+    return solved
+
+
+@numba.njit(cache=True)
+def _newton_residual(phi, a, w2, coeffs, x, rhs, which, out):  # pragma: no cover - compiled
+    """‖H x − rhs‖∞ / ‖rhs‖∞ per output in ``which`` (into ``out``), H = blkdiag_t(Σ_j κ φφᵀ)
+    + DᵀD ⊗ diag(w2) for a first difference D; x (n, N, p), rhs (n, N, p, 1)."""
+    N, q, p = phi.shape
+    c0, c1 = coeffs[0], coeffs[1]
+    weighted = np.empty(q)
+    for o in range(x.shape[0]):
+        if not which[o]:
+            continue
+        xo = x[o]
+        worst, size = 0.0, 0.0
+        for t in range(N):
+            for j in range(q):
+                fitted = 0.0
+                for m in range(p):
+                    fitted += phi[t, j, m] * xo[t, m]
+                weighted[j] = a[t, j, o] * fitted
+            for i in range(p):
+                acc = 0.0
+                if t > 0:
+                    acc += c1 * w2[o, i] * (c0 * xo[t - 1, i] + c1 * xo[t, i])
+                if t < N - 1:
+                    acc += c0 * w2[o, i] * (c0 * xo[t, i] + c1 * xo[t + 1, i])
+                for j in range(q):
+                    acc += weighted[j] * phi[t, j, i]
+                value = rhs[o, t, i, 0]
+                worst = max(worst, abs(acc - value))
+                size = max(size, abs(value))
+        out[o] = worst / size if size > 0.0 else (0.0 if worst == 0.0 else np.inf)
 
 
 @numba.njit(cache=True)
@@ -839,7 +951,11 @@ def _laplace_step(
 ):  # pragma: no cover - compiled
     """The corrector's step min(1, fraction · the largest step keeping σ±, ζ± positive)
     per active output (into ``steps``) and, where it is at least ``min_step``, the
-    step itself: k += αΔk, b += αΔb, ζ± += αΔζ± (σ follows from k and b)."""
+    step itself: k += αΔk, b += αΔb, ζ± += αΔζ± (σ follows from k and b).
+
+    The ratio test keeps Δb, Δζ± in ``sp``, ``tp``, ``tm`` (the slacks and targets are
+    not needed after it: the next state recomputes them), so that the step is a plain
+    update without a second pass over φ."""
     n, N, q = c.shape
     p = phi.shape[2]
     for o in range(n):
@@ -851,13 +967,16 @@ def _laplace_step(
                 if not mask[o, t, j]:
                     continue
                 s_p, s_m, z_p, z_m = sp[o, t, j], sm[o, t, j], zp[o, t, j], zm[o, t, j]
-                _, ds_p, ds_m, dz_p, dz_m = _laplace_deltas(
+                db, ds_p, ds_m, dz_p, dz_m = _laplace_deltas(
                     phi, dk, o, t, j, c[o, t, j], s_p, s_m, z_p, z_m, tp[o, t, j], tm[o, t, j]
                 )
                 largest = _shrink(largest, s_p, ds_p)
                 largest = _shrink(largest, s_m, ds_m)
                 largest = _shrink(largest, z_p, dz_p)
                 largest = _shrink(largest, z_m, dz_m)
+                sp[o, t, j] = db
+                tp[o, t, j] = dz_p
+                tm[o, t, j] = dz_m
         step = min(1.0, fraction * largest)
         steps[o] = step
         if step < min_step:
@@ -868,10 +987,6 @@ def _laplace_step(
             for j in range(q):
                 if not mask[o, t, j]:
                     continue
-                s_p, s_m, z_p, z_m = sp[o, t, j], sm[o, t, j], zp[o, t, j], zm[o, t, j]
-                db, _, _, dz_p, dz_m = _laplace_deltas(
-                    phi, dk, o, t, j, c[o, t, j], s_p, s_m, z_p, z_m, tp[o, t, j], tm[o, t, j]
-                )
-                b[o, t, j] += step * db
-                zp[o, t, j] = z_p + step * dz_p
-                zm[o, t, j] = z_m + step * dz_m
+                b[o, t, j] += step * sp[o, t, j]
+                zp[o, t, j] += step * tp[o, t, j]
+                zm[o, t, j] += step * tm[o, t, j]
