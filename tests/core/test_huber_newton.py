@@ -123,3 +123,103 @@ def test_first_difference_solves_agree_with_the_block_factorization(monkeypatch)
     assert abs(factored.iterations - kalman.iterations) <= 1
     assert factored.objective == pytest.approx(kalman.objective, rel=1e-12)
     np.testing.assert_allclose(factored.theta, kalman.theta, rtol=0, atol=1e-8)
+
+
+def _state_arrays(problem, weight, delta, seed):
+    """The compiled state pass's inputs at a point k near the fit, laid out per output."""
+    rng = np.random.default_rng(seed)
+    N, n, p = problem.N, problem.n, problem.p
+    thresholds = delta[None, None, :] * problem.row_scale[:, :, None]
+    k = rng.standard_normal((n, N, p)) * 0.1
+    return dict(
+        phi=np.ascontiguousarray(problem.phi),
+        y=np.ascontiguousarray(problem.y.transpose(2, 0, 1)),
+        limits=np.ascontiguousarray(thresholds.transpose(2, 0, 1)),
+        k=k,
+        w=weight.reshape(n, p).copy(),
+        coeffs=np.asarray(problem.coeffs, dtype=float),
+    )
+
+
+def _state(s, damping, known_resid=None):
+    """(KKT residuals, a, targets, rhs, residuals) of the state pass at s['k']."""
+    n, N, q = s["y"].shape
+    p = s["phi"].shape[2]
+    out, a, targets = np.empty(n), np.empty((N, q, n)), np.empty((N, q, n))
+    rhs = np.empty((n, N, p, 1))
+    resid = np.empty((n, N, q)) if known_resid is None else known_resid.copy()
+    known = np.full(n, known_resid is not None)
+    on = np.ones(n, dtype=bool)
+    huber._newton_state(
+        s["phi"], s["y"], s["limits"], s["k"], s["w"], s["coeffs"], damping, on, on,
+        out, a, targets, rhs, resid, known,
+    )  # fmt: skip
+    assert known.all()
+    return out, a, targets, rhs, resid
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_first_difference_passes_equal_the_general_ones(seed):
+    """The state pass and the line search's direction pass have a first-difference form
+    (no ring buffer, no loop over lags): the same sums in the same order as the
+    general form, so the same bits."""
+    problem, weight, delta = _problem(seed, 1)
+    s = _state_arrays(problem, weight, delta, seed)
+    damping = np.array([0.0, 1e-2, 1.0])
+    n = s["k"].shape[0]
+    for c in range(n):
+        general, first = [], []
+        for kernel, into in (
+            (huber._difference_state, general),
+            (huber._first_difference_state, first),
+        ):
+            N, q = s["y"].shape[1:]
+            a, targets = np.zeros((N, q, n)), np.zeros((N, q, n))
+            rhs, resid = np.zeros((n, N, s["phi"].shape[2], 1)), np.zeros((n, N, q))
+            value = kernel(
+                s["phi"], s["y"], s["limits"], s["k"], s["w"], s["coeffs"], damping,
+                np.ones(n, dtype=bool), a, targets, rhs, resid, np.zeros(n, dtype=bool), c,
+            )  # fmt: skip
+            into.extend([value, a, targets, rhs, resid])
+        for x, z in zip(general, first):
+            np.testing.assert_array_equal(x, z)
+    model = s["k"] + 0.01 * np.random.default_rng(seed).standard_normal(s["k"].shape)
+    for c in range(n):
+        g1, g2 = np.empty(s["y"].shape[1:]), np.empty(s["y"].shape[1:])
+        one = huber._direction(s["phi"], s["k"][c], model[c], s["w"][c], s["coeffs"], g1)
+        two = huber._first_difference_direction(
+            s["phi"], s["k"][c], model[c], s["w"][c], s["coeffs"], g2
+        )
+        assert one == two
+        np.testing.assert_array_equal(g1, g2)
+        # and both against plain numpy: g = φᵀd, the penalty along the line
+        d = model[c] - s["k"][c]
+        np.testing.assert_allclose(g1, np.einsum("tjk,tk->tj", s["phi"], d), rtol=1e-12)
+        Dd, Dk = np.diff(d, axis=0), np.diff(s["k"][c], axis=0)
+        expected = [
+            np.sum(s["w"][c] * Dd * Dd),
+            np.sum(s["w"][c] * Dd * Dk),
+            np.sum(s["w"][c] * Dk * Dk),
+        ]
+        np.testing.assert_allclose(one, expected, rtol=1e-12)
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_state_pass_reads_the_residuals_it_is_given(order):
+    """Given the residuals at k (kept across steps), the state pass forms the same KKT
+    residuals and Newton rows as from k itself, to rounding; without them it forms
+    and stores y − φk."""
+    problem, weight, delta = _problem(4, order)
+    s = _state_arrays(problem, weight, delta, 4)
+    damping = np.array([0.0, 1e-2, 1.0])
+    formed = _state(s, damping)
+    np.testing.assert_allclose(
+        formed[4], s["y"] - np.einsum("tjk,ctk->ctj", s["phi"], s["k"]), rtol=0, atol=1e-12
+    )
+    # residuals off by rounding, as a step's update r − αg leaves them
+    nudged = formed[4] * (1 + 1e-15)
+    given = _state(s, damping, known_resid=nudged)
+    np.testing.assert_array_equal(given[4], nudged)  # read, not formed again
+    np.testing.assert_allclose(given[0], formed[0], rtol=1e-9, atol=1e-13)
+    for x, z in zip(formed[1:4], given[1:4]):
+        np.testing.assert_allclose(x, z, rtol=1e-9, atol=1e-12)

@@ -28,7 +28,8 @@ exact generalized Newton model) after a step of length >= ``EXACT_STEP``: the
 outputs still needing steps are solved in one sweep over time (a Kalman
 filter and smoother for a first difference, :class:`~.banded.WeightedRowsKalman`,
 else :class:`~.banded.WeightedRowsFactor`); the KKT residuals and the Newton
-models' rows share one pass over the arrays, and the exact line search
+models' rows share one pass over the arrays (on the residuals r, kept across
+steps: a step of length α changes them by −α φᵀd), and the exact line search
 (:func:`line_minimum`, which the Python path calls too) one pass for the
 direction's residuals, after which it and both values of F need only those.
 """
@@ -416,7 +417,8 @@ def _fit_diagonal(
 
     ``thresholds`` are δ̃ (N, q, n), ``theta`` (N, n, p) the start (overwritten).
     Per step: one pass for the KKT residuals and the Newton models' rows
-    (:func:`_newton_state`), one sweep that solves the outputs still iterating
+    (:func:`_newton_state`, on the residuals kept from the previous step's line
+    search), one sweep that solves the outputs still iterating
     (for a first difference a Kalman filter and smoother,
     :class:`~.banded.WeightedRowsKalman`, about 3× faster than the block
     Cholesky sweep :class:`~.banded.WeightedRowsFactor`, which serves the other
@@ -565,7 +567,7 @@ def _fit_diagonal(
             resid,
             known,
         )
-    # the residuals kept across the steps: within rounding of y − φθ, formed again
+    # the residuals kept across the steps (y − φθ to rounding), not formed again
     r = resid.transpose(1, 2, 0)  # (N, q, n)
     objective = sum(
         _huber_value(resid[c], limits[c]) + _penalty_value(k[c], w[c], coeffs) for c in range(n)
