@@ -223,3 +223,51 @@ def test_state_pass_reads_the_residuals_it_is_given(order):
     np.testing.assert_allclose(given[0], formed[0], rtol=1e-9, atol=1e-13)
     for x, z in zip(formed[1:4], given[1:4]):
         np.testing.assert_allclose(x, z, rtol=1e-9, atol=1e-12)
+
+
+def test_majorizer_fallback_forms_the_residuals_again(monkeypatch):
+    """A line search that finds no decrease falls back to the majorize–minimize step,
+    from k (the line search has overwritten the kept residuals with the trial
+    point's): the fit with every output's first line search refused reaches the
+    same certified optimum, its objective that of its own residuals."""
+    problem, weight, delta = _problem(5, 1)
+    plain = huber.fit_huber(problem, weight, delta, tol=1e-10)
+    search = huber._line_search
+    refused = set()
+
+    def refuse_first(phi, limits, k, model, w, coeffs, r, g):
+        alpha, value, trial = search(phi, limits, k, model, w, coeffs, r, g)
+        if k.ctypes.data not in refused:  # each output's k: its own memory
+            refused.add(k.ctypes.data)
+            return 0.0, value, value
+        return alpha, value, trial
+
+    steps = []
+    majorizer = huber._majorizer_step
+
+    def record(phi, y, limits, k, w, coeffs, c, a, targets, model, *rest):
+        start = k[c].copy()
+        factors = majorizer(phi, y, limits, k, w, coeffs, c, a, targets, model, *rest)
+        steps.append((c, start, model[c, :, :, 0].copy()))
+        return factors
+
+    monkeypatch.setattr(huber, "_line_search", refuse_first)
+    monkeypatch.setattr(huber, "_majorizer_step", record)
+    fit = huber.fit_huber(problem, weight, delta, tol=1e-10)
+    assert len(refused) == problem.n and fit.converged
+    # each fallback is the majorize-minimize step from k (the Python path's)
+    thresholds = delta * problem.row_scale[:, :, None]
+    assert len(steps) == problem.n
+    for c, start, step in steps:
+        output = huber._output_problem(problem, c)
+        quadratic = huber._OutputQuadratic(problem, weight, weight, c, [], 1.0)
+        r = output.y[:, :, 0] - np.einsum("tjk,tk->tj", problem.phi, start)
+        expected = huber._reweighted_fit(output, quadratic, r, thresholds[:, :, c], 1.0)
+        np.testing.assert_allclose(step, expected, rtol=0, atol=1e-9)
+    assert fit.objective == pytest.approx(plain.objective, rel=1e-10)
+    r = problem.residuals(fit.theta)
+    direct = huber.huber_loss(r, thresholds).sum() + sum(
+        float(np.sum(weight.reshape(problem.n, -1)[i] * np.diff(fit.theta[:, i], axis=0) ** 2))
+        for i in range(problem.n)
+    )
+    assert fit.objective == pytest.approx(direct, rel=1e-12)

@@ -511,6 +511,8 @@ def _fit_diagonal(
             # near the optimum F changes by rounding only: no increase beyond that is a decrease
             if alpha == 0.0 or trial_value > value + 8 * eps * abs(value):
                 # no decrease along the Newton direction: the majorize-minimize step
+                # (from k, whose residuals the line search has overwritten)
+                known[c] = False
                 factors = _majorizer_step(
                     phi, y, limits, k, w, coeffs, c, a, targets, model, factors, resid, known
                 )
@@ -520,7 +522,7 @@ def _fit_diagonal(
                 known[c] = False  # a new point: the next state pass forms its residuals
                 damping[c] = NEWTON_DAMPING
             else:
-                _take_step(k[c], model[c, :, :, 0], alpha, resid[c], along)
+                _take_step(k[c], model[c, :, :, 0], alpha)
                 # a (nearly) full step: the outliers are (nearly) identified, and the
                 # exact Newton model (τ = 0) ends the iteration once they are
                 damping[c] = 0.0 if alpha >= EXACT_STEP else NEWTON_DAMPING
@@ -819,22 +821,20 @@ def _output_value(phi, y, limits, k, w, coeffs):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def _take_step(k, model, alpha, r, g):  # pragma: no cover - compiled
-    """k ← k + α (model − k) and its residuals r ← r − αg (g = φᵀ(model − k), shape of
-    r (N, q)) in place (one pass, no temporaries of the size of k)."""
+def _take_step(k, model, alpha):  # pragma: no cover - compiled
+    """k ← k + α (model − k) in place (one pass, no temporaries of the size of k)."""
     N, p = k.shape
     for t in range(N):
         for i in range(p):
             k[t, i] += alpha * (model[t, i] - k[t, i])
-        for j in range(r.shape[1]):
-            r[t, j] -= alpha * g[t, j]
 
 
 @numba.njit(cache=True)
 def _line_search(phi, limits, k, model, w, coeffs, r, g):  # pragma: no cover
     """The exact line search of one output from k (N, p) towards its model's minimizer
     ``model`` (N, p): (α, F_c at k, F_c at k + α·direction), with direction = model − k
-    (formed where it is used, not stored) and r (N, q) the residuals at k.
+    (formed where it is used, not stored) and r (N, q) the residuals at k, which it
+    overwrites with those at k + α·direction.
 
     One pass over the rows (:func:`_direction`) gives the fitted direction
     g = φᵀdirection (into ``g`` (N, q)) and, from the differences, the
@@ -852,7 +852,9 @@ def _line_search(phi, limits, k, model, w, coeffs, r, g):  # pragma: no cover
         for j in range(q):
             delta = limits[t, j]
             current = abs(r[t, j])
-            shifted = abs(r[t, j] - alpha * g[t, j])
+            moved = r[t, j] - alpha * g[t, j]
+            r[t, j] = moved  # the residuals after the step (if taken; else formed again)
+            shifted = abs(moved)
             value += current * current if current <= delta else delta * (2.0 * current - delta)
             trial_value += (
                 shifted * shifted if shifted <= delta else delta * (2.0 * shifted - delta)
