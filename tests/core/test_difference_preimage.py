@@ -4,18 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from dense_reference import difference_matrix
 
 from ltvmodels.core.problem import null_space_basis
 from ltvmodels.core.sparse_common import difference_preimage
-
-
-def dense_difference(N: int, coeffs: np.ndarray) -> np.ndarray:
-    """D (N − d, N): row t holds c_0 … c_d from column t."""
-    d = len(coeffs) - 1
-    D = np.zeros((N - d, N))
-    for t in range(N - d):
-        D[t, t : t + d + 1] = coeffs
-    return D
 
 
 def _preimage_cases() -> list[tuple[list[float], int, tuple[int, ...]]]:
@@ -39,7 +31,7 @@ def test_preimage_is_the_least_squares_solution(coeffs, N, shape):
     c = np.array(coeffs)
     rng = np.random.default_rng(N)
     v = rng.standard_normal((N,) + shape) * 3.0
-    D = dense_difference(N, c)
+    D = difference_matrix(N, c)
     expected, *_ = np.linalg.lstsq(D.T, v.reshape(N, -1), rcond=None)
     got = difference_preimage(v, c)
     assert got.shape == (N - len(c) + 1,) + shape
@@ -62,4 +54,4 @@ def test_null_space_basis_spans_the_null_space(coeffs):
     d = len(c) - 1
     assert basis.shape == (N, d)
     np.testing.assert_allclose(basis.T @ basis, np.eye(d), atol=1e-12)
-    np.testing.assert_allclose(dense_difference(N, c) @ basis, 0.0, atol=1e-10)
+    np.testing.assert_allclose(difference_matrix(N, c) @ basis, 0.0, atol=1e-10)

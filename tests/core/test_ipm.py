@@ -400,29 +400,37 @@ def test_fused_predictor_corrector_equals_the_separate_steps(coeffs, fixed, monk
         np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-11)
 
 
+def _weighted_row_problem(coeffs, data_seed, rng_seed, shared, norm):
+    """A jump-linear problem (T = 40) with random cone weights (equal across output rows
+    where ``shared``), its ConicProblem, the generator for what follows, and the dense
+    Φ (N n, N K) of its rows."""
+    data = ltv.systems.jump_linear(T=40, change_at=20, seed=data_seed)
+    pb = state_space_problem(data.x, data.u, np.array(coeffs))
+    rng = np.random.default_rng(rng_seed)
+    weights = rng.uniform(2.0, 20.0, pb.K)
+    if shared:
+        weights = np.tile(weights[: pb.p], pb.n)
+    N, K, n, p = pb.N, pb.K, pb.n, pb.p
+    Phi = np.zeros((N * n, N * K))
+    for t in range(N):
+        for i in range(n):
+            Phi[t * n + i, t * K + i * p : t * K + (i + 1) * p] = pb.phi[t, 0]
+    return pb, weights, ipm.ConicProblem(pb, weights, norm), rng, Phi
+
+
 @pytest.mark.parametrize("coeffs", [[-1.0, 1.0], [1.0, -2.0, 1.0]])
 @pytest.mark.parametrize("shared", [False, True])
 def test_reweighted_fit_solves_the_reweighted_normal_equations(coeffs, shared, monkeypatch):
     """One reweighted step is the dense solution of (2ΦᵀΦ + EᵀRE) k = 2Φᵀy with
     E = D ⊗ Λ and R the cones' weights 1/‖(ΛDk_prev)_c‖ (floored), and its duals are
     −R(Ek); output rows with equal weights share a factorization."""
-    data = ltv.systems.jump_linear(T=40, change_at=20, seed=12)
-    pb = state_space_problem(data.x, data.u, np.array(coeffs))
-    rng = np.random.default_rng(13)
-    weights = rng.uniform(2.0, 20.0, pb.K)
-    if shared:
-        weights = np.tile(weights[: pb.p], pb.n)
-    cp = ipm.ConicProblem(pb, weights, "group")
-    N, K, n, p = pb.N, pb.K, pb.n, pb.p
+    pb, weights, cp, rng, Phi = _weighted_row_problem(coeffs, 12, 13, shared, "group")
+    N, K = pb.N, pb.K
     k0 = rng.normal(size=(N, K))
     E = np.kron(difference_matrix(N, np.array(coeffs)), np.diag(weights))
     norms = np.linalg.norm((E @ k0.ravel()).reshape(cp.n_cones, K), axis=1)
     floor = 0.3  # large enough that some cones are floored
     rho = 1.0 / np.maximum(norms, floor * norms.max())
-    Phi = np.zeros((N * n, N * K))
-    for t in range(N):
-        for i in range(n):
-            Phi[t * n + i, t * K + i * p : t * K + (i + 1) * p] = pb.phi[t, 0]
     H = 2.0 * Phi.T @ Phi + E.T @ (np.repeat(rho, K)[:, None] * E)
     expected = np.linalg.solve(H, 2.0 * Phi.T @ pb.y[:, 0].ravel())
     monkeypatch.setattr(ipm, "REWEIGHT_STEPS", 1)
@@ -441,20 +449,10 @@ def test_reweighted_fit_solves_the_reweighted_normal_equations(coeffs, shared, m
 def test_quadratic_fit_solves_the_dense_normal_equations(coeffs, norm, shared):
     """The start's quadratic fit (group: the row systems of RowFits; l1: the Newton
     kernels) is the dense solution of (2ΦᵀΦ + ρEᵀE) k = 2Φᵀy with E = D ⊗ Λ."""
-    data = ltv.systems.jump_linear(T=40, change_at=20, seed=14)
-    pb = state_space_problem(data.x, data.u, np.array(coeffs))
-    rng = np.random.default_rng(15)
-    weights = rng.uniform(2.0, 20.0, pb.K)
-    if shared:
-        weights = np.tile(weights[: pb.p], pb.n)
-    cp = ipm.ConicProblem(pb, weights, norm)
-    N, K, n, p = pb.N, pb.K, pb.n, pb.p
+    pb, weights, cp, _, Phi = _weighted_row_problem(coeffs, 14, 15, shared, norm)
+    N, K = pb.N, pb.K
     rho = 0.37
     E = np.kron(difference_matrix(N, np.array(coeffs)), np.diag(weights))
-    Phi = np.zeros((N * n, N * K))
-    for t in range(N):
-        for i in range(n):
-            Phi[t * n + i, t * K + i * p : t * K + (i + 1) * p] = pb.phi[t, 0]
     H = 2.0 * Phi.T @ Phi + rho * E.T @ E
     expected = np.linalg.solve(H, 2.0 * Phi.T @ pb.y[:, 0].ravel())
     k = cp.quadratic_fit(rho)
