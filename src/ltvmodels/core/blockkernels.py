@@ -1142,30 +1142,42 @@ def weighted_rows_kalman(
     N, q, _ = phi.shape
     n = a.shape[2]
     general = linear.shape[1] > 0
-    info = np.zeros((n, b, b))  # Λ (information steps, lower triangle)
-    packed_cov = np.empty((n, b * (b + 1) // 2))  # P (covariance steps, packed lower triangle)
-    vec = np.zeros((n, b))  # η or the filtered mean
+    Pc = np.empty((b, b))  # Λ of the information steps (lower triangle)
+    Pp = np.empty(b * (b + 1) // 2)  # P of the covariance steps (packed lower triangle)
+    xc = np.empty(b)  # η or the filtered mean
+    noise = np.empty(b)  # the transition noise W⁻¹: no division per step
     M = np.empty((b, b))
     Z = np.empty((b, b))
     ref = np.empty(b)
     s = np.empty(b)
     v = np.empty(b)
-    tiny_ratio = 1e-12  # RELATIVE_PIVOT_TOL of the block Cholesky
-    noise = np.empty((n, b))  # the transition noise W⁻¹: no division per step
+    r = np.empty(b)
     for c in range(n):
         status[c] = -1
-        for i in range(b):
-            noise[c, i] = 1.0 / w[c, i]
-    for t in range(N):
-        for c in range(n):
-            if not active[c] or status[c] == -2:
-                continue
-            Pc, xc, wc = info[c], vec[c], w[c]
-            packed = cov[c, t]
-            if status[c] >= 0:  # covariance form: predict, then one update per row
-                Pp = packed_cov[c]
+    # Output c's filter runs beside output c − 1's smoother, in one loop over time: the
+    # filter's steps are a chain of dependent dot products, which leaves the processor
+    # room for the smoother's independent work.
+    for c in range(n + 1):
+        filtering = c < n and active[c]
+        back = c - 1  # the output smoothed
+        smoothing = back >= 0 and active[back] and status[back] >= 0
+        if filtering:
+            for i in range(b):
+                noise[i] = 1.0 / w[c, i]
+                xc[i] = 0.0
+                for k in range(b):
+                    Pc[i, k] = 0.0
+        if smoothing:
+            for i in range(b):
+                r[i] = 0.0
+        if not filtering and not smoothing:
+            continue
+        for step in range(N):
+            if filtering and status[c] >= 0:  # covariance form: predict, one update per row
+                t = step
+                packed = cov[c, t]
                 for i in range(b):
-                    Pp[i * (i + 3) // 2] += noise[c, i]  # (i, i)
+                    Pp[i * (i + 3) // 2] += noise[i]  # (i, i)
                     mean[c, t, i] = xc[i]
                 for idx in range(Pp.shape[0]):
                     packed[idx] = Pp[idx]
@@ -1196,112 +1208,122 @@ def weighted_rows_kalman(
                         xc[i] += s[i] * gain
                     if shrink != 0.0:
                         _downdate(Pp, s, shrink, b)
-                continue
-            # information form: Λ += Σ a φφᵀ, η += Σ b φ (lower triangle of Λ)
-            for j in range(q):
-                weight = a[t, j, c]
-                for i in range(b):
-                    xc[i] += targets[t, j, c] * phi[t, j, i]
-                    for k in range(i + 1):
-                        Pc[i, k] += weight * phi[t, j, i] * phi[t, j, k]
-            if general:
-                for i in range(b):
-                    xc[i] += linear[c, t, i]
-            for i in range(b):
-                mean[c, t, i] = xc[i]
-            handover = False
-            if b - 1 <= t < N - 1:  # Λ may be invertible: hand over if well conditioned
-                for i in range(b):
-                    for k in range(i + 1):
-                        M[i, k] = Pc[i, k]
-                    ref[i] = Pc[i, i]
-                handover = _cholesky_block(M, ref, b) >= KALMAN_SWITCH_RATIO
-                if handover:
-                    _cholesky_inverse(M, Z, v, b)  # Λ⁻¹
-            for i in range(b):
-                for k in range(i + 1):
-                    M[i, k] = Pc[i, k]
-                M[i, i] += wc[i]
-                ref[i] = M[i, i]
-            if _cholesky_block(M, ref, b) < tiny_ratio:
-                status[c] = -2
-                continue
-            if handover:  # P = Λ⁻¹ (its lower triangle, mirrored), x = P η
-                Pp = packed_cov[c]
-                idx = 0
-                for i in range(b):
-                    for k in range(i + 1):
-                        Pp[idx] = Z[i, k]
-                        idx += 1
-                for i in range(b):
-                    acc = 0.0
-                    for k in range(b):
-                        acc += Pp[_packed_index(i, k)] * xc[k]
-                    v[i] = acc
-                for i in range(b):
-                    xc[i] = v[i]
-                status[c] = t
-            else:
-                # Λ⁻ = W − W (Λ + W)⁻¹ W and η⁻ = W (Λ + W)⁻¹ η: with Z = L⁻¹ W, Λ⁻ = W − ZᵀZ
-                for col in range(b):
+            elif filtering and status[c] == -1:
+                done = _information_step(
+                    phi, a, targets, linear, w[c], Pc, Pp, xc, step, c, cov, mean, M, Z, ref, v
+                )
+                if done != 0:
+                    status[c] = step if done > 0 else -2
+            if smoothing:
+                t = N - 1 - step
+                if t > status[back]:  # de Jong's smoother (the rows' s as the filter stored them)
+                    Pt = cov[back, t]  # P_t⁻, packed
+                    for j in range(q - 1, -1, -1):
+                        along = 0.0
+                        for i in range(b):
+                            along += rows[back, t, j, 2 + i] * r[i]
+                        coef = rows[back, t, j, 0] - rows[back, t, j, 1] * along
+                        for i in range(b):
+                            r[i] += phi[t, j, i] * coef
+                    if general:
+                        for i in range(b):
+                            r[i] += linear[back, t, i]
                     for i in range(b):
-                        v[i] = wc[i] if i == col else 0.0
+                        acc = mean[back, t, i]
+                        for k in range(b):
+                            acc += Pt[_packed_index(i, k)] * r[k]
+                        X[back, t, i] = acc
+                else:  # an information step: θ_t = (Λ_t + W)⁻¹ (η_t + W θ_{t+1})
+                    idx = 0
+                    for i in range(b):
+                        for k in range(i + 1):
+                            M[i, k] = cov[back, t, idx]
+                            idx += 1
+                    for i in range(b):
+                        v[i] = mean[back, t, i] + w[back, i] * X[back, t + 1, i]
                     _lower_solve(M, v, b)
+                    _upper_solve(M, v, b)
                     for i in range(b):
-                        Z[i, col] = v[i]
-                for i in range(b):
-                    for k in range(i + 1):
-                        acc = 0.0
-                        for m in range(b):
-                            acc += Z[m, i] * Z[m, k]
-                        Pc[i, k] = (wc[i] if i == k else 0.0) - acc
-                for i in range(b):
-                    v[i] = xc[i]
-                _lower_solve(M, v, b)
-                _upper_solve(M, v, b)
-                for i in range(b):
-                    xc[i] = wc[i] * v[i]
-            idx = 0
-            for i in range(b):
-                for k in range(i + 1):
-                    packed[idx] = M[i, k]
-                    idx += 1
-    # backward: de Jong's smoother over the covariance steps (the rows' s = Pφ as the
-    # filter stored them), then the information steps
-    r = np.empty(b)
-    for c in range(n):
-        if not active[c] or status[c] < 0:
-            continue
-        t0 = status[c]
-        wc = w[c]
+                        X[back, t, i] = v[i]
+
+
+@numba.njit(cache=True)
+def _information_step(
+    phi, a, targets, linear, wc, Pc, Pp, xc, t, c, cov, mean, M, Z, ref, v
+):  # pragma: no cover - compiled
+    """One information step of output c in :func:`weighted_rows_kalman`: Λ (``Pc``, lower
+    triangle) and η (``xc``) take step t's rows; returns 1 if the covariance form takes
+    over after it (P = Λ⁻¹ into ``Pp``, packed, and x = P η into ``xc``), −1 if Λ + W
+    is not positive definite, else 0 (Λ and η carried to step t + 1)."""
+    N, q, b = phi.shape
+    general = linear.shape[1] > 0
+    packed = cov[c, t]
+    # Λ += Σ a φφᵀ, η += Σ b φ (lower triangle of Λ)
+    for j in range(q):
+        weight = a[t, j, c]
         for i in range(b):
-            r[i] = 0.0
-        for t in range(N - 1, t0, -1):
-            Pt = cov[c, t]  # P_t⁻, packed
-            for j in range(q - 1, -1, -1):
-                along = 0.0
-                for i in range(b):
-                    along += rows[c, t, j, 2 + i] * r[i]
-                coef = rows[c, t, j, 0] - rows[c, t, j, 1] * along
-                for i in range(b):
-                    r[i] += phi[t, j, i] * coef
-            if general:
-                for i in range(b):
-                    r[i] += linear[c, t, i]
+            xc[i] += targets[t, j, c] * phi[t, j, i]
+            for k in range(i + 1):
+                Pc[i, k] += weight * phi[t, j, i] * phi[t, j, k]
+    if general:
+        for i in range(b):
+            xc[i] += linear[c, t, i]
+    for i in range(b):
+        mean[c, t, i] = xc[i]
+    handover = False
+    if b - 1 <= t < N - 1:  # Λ may be invertible: hand over if well conditioned
+        for i in range(b):
+            for k in range(i + 1):
+                M[i, k] = Pc[i, k]
+            ref[i] = Pc[i, i]
+        handover = _cholesky_block(M, ref, b) >= KALMAN_SWITCH_RATIO
+        if handover:
+            _cholesky_inverse(M, Z, v, b)  # Λ⁻¹
+    for i in range(b):
+        for k in range(i + 1):
+            M[i, k] = Pc[i, k]
+        M[i, i] += wc[i]
+        ref[i] = M[i, i]
+    if _cholesky_block(M, ref, b) < 1e-12:  # RELATIVE_PIVOT_TOL of the block Cholesky
+        return -1
+    done = 0
+    if handover:  # P = Λ⁻¹ (its lower triangle), x = P η
+        idx = 0
+        for i in range(b):
+            for k in range(i + 1):
+                Pp[idx] = Z[i, k]
+                idx += 1
+        for i in range(b):
+            acc = 0.0
+            for k in range(b):
+                acc += Pp[_packed_index(i, k)] * xc[k]
+            v[i] = acc
+        for i in range(b):
+            xc[i] = v[i]
+        done = 1
+    else:
+        # Λ⁻ = W − W (Λ + W)⁻¹ W and η⁻ = W (Λ + W)⁻¹ η: with Z = L⁻¹ W, Λ⁻ = W − ZᵀZ
+        for col in range(b):
             for i in range(b):
-                acc = mean[c, t, i]
-                for k in range(b):
-                    acc += Pt[_packed_index(i, k)] * r[k]
-                X[c, t, i] = acc
-        for t in range(t0, -1, -1):  # θ_t = (Λ_t + W)⁻¹ (η_t + W θ_{t+1})
-            idx = 0
-            for i in range(b):
-                for k in range(i + 1):
-                    M[i, k] = cov[c, t, idx]
-                    idx += 1
-            for i in range(b):
-                v[i] = mean[c, t, i] + wc[i] * X[c, t + 1, i]
+                v[i] = wc[i] if i == col else 0.0
             _lower_solve(M, v, b)
-            _upper_solve(M, v, b)
             for i in range(b):
-                X[c, t, i] = v[i]
+                Z[i, col] = v[i]
+        for i in range(b):
+            for k in range(i + 1):
+                acc = 0.0
+                for m in range(b):
+                    acc += Z[m, i] * Z[m, k]
+                Pc[i, k] = (wc[i] if i == k else 0.0) - acc
+        for i in range(b):
+            v[i] = xc[i]
+        _lower_solve(M, v, b)
+        _upper_solve(M, v, b)
+        for i in range(b):
+            xc[i] = wc[i] * v[i]
+    idx = 0
+    for i in range(b):
+        for k in range(i + 1):
+            packed[idx] = M[i, k]
+            idx += 1
+    return done
