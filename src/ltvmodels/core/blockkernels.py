@@ -1061,7 +1061,10 @@ solve_fixed = solve
 # The filter keeps for the smoother P_t⁻ (its lower triangle, packed: P is held so
 # throughout, which halves the stores of each rank-one update), x_t⁻ and per row
 # e / F, a / F and s = P φ: the smoother then needs no product with P but θ_t's
-# (recomputing s there, by replaying the rows' updates, took about 15 % of a solve).
+# (where it recomputed s by replaying the rows' updates). The filter of one output
+# and the smoother of the one before share a loop over time. Together, at p = 5 and
+# T = 10⁵, about 0.7× the time of a solve with an unpacked P, a replaying smoother
+# and the outputs' filter steps interleaved, for one output or three.
 
 # The information form hands over once its matrix's smallest relative pivot²
 # (pivot² / diagonal) reaches this: P = Λ⁻¹ then has a condition of a few hundred at
@@ -1084,7 +1087,7 @@ def _cholesky_inverse(M, P, v, b):  # pragma: no cover - compiled
 @numba.njit(cache=True, inline="always")
 def _packed_index(i, k):  # pragma: no cover - compiled
     """The place of entry (i, k) of a symmetric matrix in its lower triangle packed row
-    by row (a constant where the block size is one)."""
+    by row (a constant of the compiled code where the block size is)."""
     return i * (i + 1) // 2 + k if k <= i else k * (k + 1) // 2 + i
 
 
