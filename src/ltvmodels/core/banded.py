@@ -437,13 +437,13 @@ class WeightedRowsKalman:
     ----------
     N, q, p, n : int
         Steps, rows per step, regressors and outputs: the work arrays' sizes
-        (p(p + 3)/2 + 2q numbers per step and output), kept between solves.
+        (p(p + 3)/2 + (p + 2)q numbers per step and output), kept between solves.
     """
 
     def __init__(self, N: int, q: int, p: int, n: int) -> None:
         self.cov = np.empty((n, N, p * (p + 1) // 2))
         self.mean = np.empty((n, N, p))
-        self.rows = np.empty((n, N, q, 2))
+        self.rows = np.empty((n, N, q, p + 2))
         self._size = kernel_size(N, p)
 
     @staticmethod

@@ -981,9 +981,9 @@ def _slope(r, g, limits, alpha, quad_a, quad_b):  # pragma: no cover - compiled
         for j in range(q):
             shifted = r[t, j] - alpha * g[t, j]
             delta = limits[t, j]
-            if abs(shifted) <= delta:
-                first += shifted * g[t, j]
-                curvature += g[t, j] * g[t, j]
-            else:
-                first += (delta if shifted > 0.0 else -delta) * g[t, j]
+            # without branches (a few percent of the entries are outliers, at random):
+            # the same sums, as clip(shifted, ±δ̃) is shifted or ±δ̃ and adding 0 keeps
+            # the (nonnegative) curvature
+            first += min(max(shifted, -delta), delta) * g[t, j]
+            curvature += g[t, j] * g[t, j] if abs(shifted) <= delta else 0.0
     return -2.0 * first + 2.0 * (alpha * quad_a + quad_b), 2.0 * (curvature + quad_a)
