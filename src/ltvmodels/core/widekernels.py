@@ -300,9 +300,10 @@ def _invert_spd(A, work):  # pragma: no cover - compiled
     but half the passes over A: the loads and stores, not the multiply-adds,
     bound these loops). The pair's pivots a and e − c²/a (B = [[a, c], [c, e]])
     are those of A's LDLᵀ factorization, positive exactly when A is positive
-    definite. CPU time per inversion at b = 35 and 60: 4.5 and 14 µs against
-    5.5 and 19 µs one pivot at a time (one loaded machine, best of nine),
-    against 16 and 43 µs for LAPACK's dpotrf + dpotri (called from Python).
+    definite. CPU time per inversion at b = 35 and 60: 4.4 and 15 µs against
+    5.4 and 20 µs one pivot at a time and 16 and 43 µs for LAPACK's dpotrf +
+    dpotri (called from Python); four pivots at a time, a blocked update through
+    BLAS (dgemm) and padded rows were not faster (one loaded machine, best of nine).
     ``work`` is (2, b). Returns False if a pivot is not positive.
     """
     b = A.shape[0]
