@@ -107,3 +107,49 @@ def test_indefinite_matrix_is_reported(kernel):
         else:
             worst, t = wide.factor_newton_wide(*args)
     assert worst < 0 and 0 <= t < 6
+
+
+@pytest.mark.parametrize("pinned", [(), (4, 11)])
+def test_first_kernel_odd_block_size(pinned):
+    # b = 21: the inversion sweeps its pivots in pairs and the last one alone.
+    rng = np.random.default_rng(5)
+    N, n, p = 8, 3, 7
+    args = newton_inputs(rng, N, n, p, 1, pinned=pinned)
+    H = dense_newton(*args)
+    F = rng.standard_normal((N, n * p, 2))
+    X = F.copy()
+    L, P = np.empty((N, 1, n * p, n * p)), np.empty((N, 2, n * p))
+    assert wide.factor_newton_wide_first(*args[:-1], L, P)[0] > 0
+    wide.solve_wide_first(L, P, X, args[7])
+    expected = np.linalg.solve(H, F.reshape(N * n * p, 2)).reshape(X.shape)
+    np.testing.assert_allclose(X, expected, rtol=1e-9, atol=1e-9 * np.abs(expected).max())
+
+
+@pytest.mark.parametrize(
+    ("n", "p", "last"),
+    [(4, 5, 8), (4, 5, 9), (4, 5, 19), (3, 7, 20)],  # first or second of a pair; alone
+)
+@pytest.mark.parametrize("share", [0.4, 0.8])
+def test_first_kernel_reports_a_failing_pivot_anywhere(n, p, last, share):
+    """S_0 ≈ P_0 = η⁻²(Λ² − s(Λv₁)(Λv₁)ᵀ) with v₁ nonzero at entries 2 and ``last``:
+    the pivots of its LDLᵀ factorization are positive up to ``last`` and there
+    s(v₂² + v_last²) − 1 changes sign, so it is positive definite for share = 0.4 and
+    not for 0.8 (the data part is a millionth of it)."""
+    rng = np.random.default_rng(7)
+    N = 4
+    phi, n_rep, v, eta, s_coef, penalty, w, coeffs, offset, pin, _ = newton_inputs(rng, N, n, p, 1)
+    phi = 1e-3 * phi
+    v[0, 1:] = 0.0
+    v[0, 1 + 2] = np.sqrt(0.5)
+    v[0, 1 + last] = np.sqrt(share)
+    s_coef[0] = 1.0
+    b = n * p
+    L, P = np.empty((N, 1, b, b)), np.empty((N, 2, b))
+    args = (phi, n_rep, v, eta, s_coef, penalty, w, coeffs, offset, pin)
+    worst, t = wide.factor_newton_wide_first(*args, L, P)
+    H = dense_newton(*args, None)
+    definite = np.linalg.eigvalsh(H[:b, :b]).min() > 0
+    assert definite == (share < 0.5)
+    assert (worst > 0) == definite
+    if not definite:
+        assert t == 0
