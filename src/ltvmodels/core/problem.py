@@ -106,7 +106,9 @@ class RegressionProblem:
         object.__setattr__(self, "y", np.ascontiguousarray(y))
         object.__setattr__(self, "phi", np.ascontiguousarray(phi))
         object.__setattr__(self, "coeffs", coeffs)
-        object.__setattr__(self, "observed", observed)
+        # C order: a Fortran-ordered mask (e.g. a transposed one) would compile the
+        # kernels that read it once more
+        object.__setattr__(self, "observed", np.ascontiguousarray(observed))
         object.__setattr__(self, "row_scale", row_scale)
         object.__setattr__(self, "rows_are_samples", bool(rows_are_samples))
         object.__setattr__(self, "_n_observed", n_observed)
@@ -149,7 +151,8 @@ class RegressionProblem:
     def residuals(self, theta: np.ndarray) -> np.ndarray:
         """y_tj − Θ_t φ_tj for Θ of shape (N, n, p); returns (N, q, n), 0 where unobserved."""
         fitted = np.empty_like(self.y)
-        rowwise_matvec(np.ascontiguousarray(theta), self.phi, fitted)
+        # writable: numba compiles a kernel once more for a read-only array (a result's)
+        rowwise_matvec(np.require(theta, float, ("C", "W")), self.phi, fitted)
         return np.subtract(self.y, fitted, out=fitted)
 
     def output_rss(self, theta: np.ndarray, residuals: np.ndarray | None = None) -> np.ndarray:
