@@ -118,19 +118,9 @@ MAX_REFINE = 12
 # The L-curve: rounds of halving the spacing around the corner (spacing 0.1 decade
 # after two, as the former grid of 30), and the solver tolerance of its fits (the
 # corner's curvature needs a few digits of the residual and penalty norms).
-# The corner moves with differences at that tolerance: on the 80 series of
-# benchmarks/bench_lcurve_choices.py, stopping each fit as soon as the
-# certificate of its iterate (:func:`ltvmodels.core.polish.certificate`) closes
-# the gap (5098 iterations instead of 5491) moved the choice on 9 series, and
-# fitting the two to four smallest coarse candidates to 1e-3 (refitted when the
-# corner came within one or two candidates) saved 1-2 % of the iterations or
-# moved a choice. At T = 10⁴ (jump-linear, group) the twelve candidates (eleven
-# interior-point fits) take 41 iterations (6, 8 and 7 for the three smallest λ,
-# 2-3 for the others), and the work around them (set-up, residuals, the curve)
-# a quarter of the time, two thirds of that the reweighted starts. More
-# reweighted fits (8, 16), duals pulled back to 0.95 or 0.999, starting
-# mid-grid and going down, or no reweighted fits for the interpolated
-# refinements took as many iterations or more.
+# The corner moves with differences at that tolerance: looser or certificate-based
+# stops moved the choice on some of the 80 series of benchmarks/bench_lcurve_choices.py
+# (run it with --compare before changing how these fits start or stop).
 LCURVE_ROUNDS = 2
 LCURVE_TOL = 1e-4
 # Robust cross-validation: the folds' solver limits (a score needs a few digits, not
