@@ -1114,7 +1114,7 @@ def _times_regressor(P, phi, t, j, s, b):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def weighted_rows_kalman(
-    phi, a, targets, linear, w, active, cov, mean, rows, X, status, size
+    phi, a, targets, linear, w, active, replay, cov, mean, rows, X, status, size
 ):  # pragma: no cover - compiled
     """Solve H_c θ_c = Σ_j b_tjc φ_tj + g_tc,
     H_c = blkdiag_t(Σ_j a_tjc φ_tj φ_tjᵀ) + DᵀD ⊗ diag(w_c), for a first difference D
@@ -1135,6 +1135,10 @@ def weighted_rows_kalman(
         step the factor of Λ_t + W and η_t (information steps) or P_t⁻ and x_t⁻
         (covariance steps; lower triangles packed row by row), per row e / F, a / F
         and s = P φ (P before the row's update)
+    replay : bool, the covariance steps' P_t⁻ and each row's s = Pφ are those ``cov`` and
+        ``rows`` hold from the last call, made with the same φ, a and w for every active
+        output (another right-hand side: ``targets``, ``linear``): the filter only moves
+        the mean with them, bit for bit as it would recompute them
     X : (n, N, p) output, the solutions of the active outputs whose status is >= 0
     status : (n,) int64 output: the step after which the covariance form took over,
         −1 if it never did (no solution: the caller factors that output), −2 if the
@@ -1176,7 +1180,32 @@ def weighted_rows_kalman(
         if not filtering and not smoothing:
             continue
         for step in range(N):
-            if filtering and status[c] >= 0:  # covariance form: predict, one update per row
+            if filtering and status[c] >= 0 and replay:  # the stored P⁻ and s: the mean only
+                t = step
+                packed = cov[c, t]
+                for i in range(b):
+                    mean[c, t, i] = xc[i]
+                if general:  # x += P⁻ g
+                    for i in range(b):
+                        acc = 0.0
+                        for k in range(b):
+                            acc += packed[_packed_index(i, k)] * linear[c, t, k]
+                        s[i] = acc
+                    for i in range(b):
+                        xc[i] += s[i]
+                for j in range(q):
+                    weight = a[t, j, c]
+                    along = 0.0
+                    curvature = 0.0
+                    for i in range(b):
+                        along += phi[t, j, i] * xc[i]
+                        curvature += phi[t, j, i] * rows[c, t, j, 2 + i]
+                    inv = 1.0 / (1.0 + weight * curvature)
+                    gain = (targets[t, j, c] - weight * along) * inv
+                    rows[c, t, j, 0] = gain
+                    for i in range(b):
+                        xc[i] += rows[c, t, j, 2 + i] * gain
+            elif filtering and status[c] >= 0:  # covariance form: predict, one update per row
                 t = step
                 packed = cov[c, t]
                 for i in range(b):
