@@ -1180,9 +1180,14 @@ def weighted_rows_kalman(
         if not filtering and not smoothing:
             continue
         for step in range(N):
-            if filtering and status[c] >= 0 and replay:  # the stored P⁻ and s: the mean only
+            if filtering and status[c] >= 0:  # covariance form: predict, one update per row
                 t = step
                 packed = cov[c, t]
+                if not replay:  # (a replay reads P⁻ and each row's s as stored)
+                    for i in range(b):
+                        Pp[i * (i + 3) // 2] += noise[i]  # (i, i)
+                    for idx in range(Pp.shape[0]):
+                        packed[idx] = Pp[idx]
                 for i in range(b):
                     mean[c, t, i] = xc[i]
                 if general:  # x += P⁻ g
@@ -1195,35 +1200,11 @@ def weighted_rows_kalman(
                         xc[i] += s[i]
                 for j in range(q):
                     weight = a[t, j, c]
-                    along = 0.0
-                    curvature = 0.0
-                    for i in range(b):
-                        along += phi[t, j, i] * xc[i]
-                        curvature += phi[t, j, i] * rows[c, t, j, 2 + i]
-                    inv = 1.0 / (1.0 + weight * curvature)
-                    gain = (targets[t, j, c] - weight * along) * inv
-                    rows[c, t, j, 0] = gain
-                    for i in range(b):
-                        xc[i] += rows[c, t, j, 2 + i] * gain
-            elif filtering and status[c] >= 0:  # covariance form: predict, one update per row
-                t = step
-                packed = cov[c, t]
-                for i in range(b):
-                    Pp[i * (i + 3) // 2] += noise[i]  # (i, i)
-                    mean[c, t, i] = xc[i]
-                for idx in range(Pp.shape[0]):
-                    packed[idx] = Pp[idx]
-                if general:  # x += P⁻ g
-                    for i in range(b):
-                        acc = 0.0
-                        for k in range(b):
-                            acc += Pp[_packed_index(i, k)] * linear[c, t, k]
-                        s[i] = acc
-                    for i in range(b):
-                        xc[i] += s[i]
-                for j in range(q):
-                    weight = a[t, j, c]
-                    _times_regressor(Pp, phi, t, j, s, b)
+                    if replay:
+                        for i in range(b):
+                            s[i] = rows[c, t, j, 2 + i]
+                    else:
+                        _times_regressor(Pp, phi, t, j, s, b)
                     along = 0.0
                     curvature = 0.0
                     for i in range(b):
@@ -1231,15 +1212,16 @@ def weighted_rows_kalman(
                         curvature += phi[t, j, i] * s[i]
                     inv = 1.0 / (1.0 + weight * curvature)
                     gain = (targets[t, j, c] - weight * along) * inv
-                    shrink = weight * inv
                     rows[c, t, j, 0] = gain
-                    rows[c, t, j, 1] = shrink
-                    for i in range(b):
-                        rows[c, t, j, 2 + i] = s[i]
                     for i in range(b):
                         xc[i] += s[i] * gain
-                    if shrink != 0.0:
-                        _downdate(Pp, s, shrink, b)
+                    if not replay:
+                        shrink = weight * inv
+                        rows[c, t, j, 1] = shrink
+                        for i in range(b):
+                            rows[c, t, j, 2 + i] = s[i]
+                        if shrink != 0.0:
+                            _downdate(Pp, s, shrink, b)
             elif filtering and status[c] == -1:
                 done = _information_step(
                     phi, a, targets, linear, w[c], Pc, Pp, xc, step, c, cov, mean, M, Z, ref, v
