@@ -232,6 +232,42 @@ def test_weighted_rows_kalman_general_term_equals_a_dense_solve(q):
             np.testing.assert_allclose(out[c], expected, rtol=1e-11, atol=1e-12 * scale)
 
 
+@pytest.mark.parametrize("q", [1, 2])
+def test_weighted_rows_kalman_replay_equals_a_fresh_solve(q):
+    """A second right-hand side with the rows of the last solve (``replay``: the stored
+    covariances and gains) gives the fresh filter's solution bit for bit, for a subset
+    of the outputs, and that of a dense solve."""
+    rng = np.random.default_rng(11)
+    N, p, n = 40, 3, 3
+    coeffs = np.array([-1.5, 1.5])
+    phi = rng.standard_normal((N, q, p))
+    a = rng.uniform(0.05, 1.0, (N, q, n))
+    a[rng.random((N, q, n)) < 0.3] = 0.0
+    w = rng.uniform(0.5, 4.0, (n, p))
+    targets = rng.standard_normal((N, q, n))
+    first, second = rng.standard_normal((2, n, N, p))
+    kalman = banded.WeightedRowsKalman(N, q, p, n)
+    out = np.empty((n, N, p))
+    kalman.solve(phi, a, targets, w, coeffs, np.ones(n, dtype=bool), out, linear=first)
+    active = np.array([True, False, True])
+    replayed = np.full((n, N, p), 7.0)
+    unsolved = kalman.solve(
+        phi, a, targets, w, coeffs, active, replayed, linear=second, replay=True
+    )
+    assert not unsolved.any()
+    fresh = np.full((n, N, p), 7.0)
+    banded.WeightedRowsKalman(N, q, p, n).solve(
+        phi, a, targets, w, coeffs, active, fresh, linear=second
+    )
+    np.testing.assert_array_equal(replayed, fresh)
+    for c in (0, 2):
+        H = _dense_weighted_rows(phi, a, w, coeffs, c)
+        rhs = np.einsum("tj,tja->ta", targets[:, :, c], phi) + second[c]
+        expected = np.linalg.solve(H, rhs.reshape(-1)).reshape(N, p)
+        scale = np.abs(expected).max()
+        np.testing.assert_allclose(replayed[c], expected, rtol=1e-11, atol=1e-12 * scale)
+
+
 def test_weighted_rows_kalman_leaves_what_it_cannot_hand_over():
     """Too few steps for the information form to hand over, or a singular system: the
     outputs come back unsolved (the caller factors them, and the factorization

@@ -469,6 +469,7 @@ class WeightedRowsKalman:
         active: np.ndarray,
         out: np.ndarray,
         linear: np.ndarray | None = None,
+        replay: bool = False,
     ) -> np.ndarray:
         """Solve the active outputs' systems into ``out`` (n, N, p).
 
@@ -482,6 +483,12 @@ class WeightedRowsKalman:
         became well conditioned, or met a matrix that is not positive definite
         (singular systems): factor them with :class:`WeightedRowsFactor`, which
         also reports the singular ones.
+
+        ``replay``: the last solve had the same ``phi``, ``a``, ``w`` and ``coeffs``
+        and every output of ``active`` among its active ones (only the right-hand side
+        differs, e.g. Mehrotra's corrector after the predictor): the filter reuses its
+        covariances and gains, which leaves about a third of its work per step, with
+        the same result bit for bit.
         """
         n = a.shape[2]
         status = np.empty(n, dtype=np.int64)
@@ -495,6 +502,7 @@ class WeightedRowsKalman:
             linear,
             np.ascontiguousarray(w * scale, dtype=float),
             np.ascontiguousarray(active, dtype=np.bool_),
+            bool(replay),
             self.cov,
             self.mean,
             self.rows,

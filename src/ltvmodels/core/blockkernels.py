@@ -1114,7 +1114,7 @@ def _times_regressor(P, phi, t, j, s, b):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def weighted_rows_kalman(
-    phi, a, targets, linear, w, active, cov, mean, rows, X, status, size
+    phi, a, targets, linear, w, active, replay, cov, mean, rows, X, status, size
 ):  # pragma: no cover - compiled
     """Solve H_c θ_c = Σ_j b_tjc φ_tj + g_tc,
     H_c = blkdiag_t(Σ_j a_tjc φ_tj φ_tjᵀ) + DᵀD ⊗ diag(w_c), for a first difference D
@@ -1135,6 +1135,10 @@ def weighted_rows_kalman(
         step the factor of Λ_t + W and η_t (information steps) or P_t⁻ and x_t⁻
         (covariance steps; lower triangles packed row by row), per row e / F, a / F
         and s = P φ (P before the row's update)
+    replay : bool, the covariance steps' P_t⁻ and each row's s = Pφ are those ``cov`` and
+        ``rows`` hold from the last call, made with the same φ, a and w for every active
+        output (another right-hand side: ``targets``, ``linear``): the filter only moves
+        the mean with them, bit for bit as it would recompute them
     X : (n, N, p) output, the solutions of the active outputs whose status is >= 0
     status : (n,) int64 output: the step after which the covariance form took over,
         −1 if it never did (no solution: the caller factors that output), −2 if the
@@ -1179,22 +1183,28 @@ def weighted_rows_kalman(
             if filtering and status[c] >= 0:  # covariance form: predict, one update per row
                 t = step
                 packed = cov[c, t]
+                if not replay:  # (a replay reads P⁻ and each row's s as stored)
+                    for i in range(b):
+                        Pp[i * (i + 3) // 2] += noise[i]  # (i, i)
+                    for idx in range(Pp.shape[0]):
+                        packed[idx] = Pp[idx]
                 for i in range(b):
-                    Pp[i * (i + 3) // 2] += noise[i]  # (i, i)
                     mean[c, t, i] = xc[i]
-                for idx in range(Pp.shape[0]):
-                    packed[idx] = Pp[idx]
                 if general:  # x += P⁻ g
                     for i in range(b):
                         acc = 0.0
                         for k in range(b):
-                            acc += Pp[_packed_index(i, k)] * linear[c, t, k]
+                            acc += packed[_packed_index(i, k)] * linear[c, t, k]
                         s[i] = acc
                     for i in range(b):
                         xc[i] += s[i]
                 for j in range(q):
                     weight = a[t, j, c]
-                    _times_regressor(Pp, phi, t, j, s, b)
+                    if replay:
+                        for i in range(b):
+                            s[i] = rows[c, t, j, 2 + i]
+                    else:
+                        _times_regressor(Pp, phi, t, j, s, b)
                     along = 0.0
                     curvature = 0.0
                     for i in range(b):
@@ -1202,15 +1212,16 @@ def weighted_rows_kalman(
                         curvature += phi[t, j, i] * s[i]
                     inv = 1.0 / (1.0 + weight * curvature)
                     gain = (targets[t, j, c] - weight * along) * inv
-                    shrink = weight * inv
                     rows[c, t, j, 0] = gain
-                    rows[c, t, j, 1] = shrink
-                    for i in range(b):
-                        rows[c, t, j, 2 + i] = s[i]
                     for i in range(b):
                         xc[i] += s[i] * gain
-                    if shrink != 0.0:
-                        _downdate(Pp, s, shrink, b)
+                    if not replay:
+                        shrink = weight * inv
+                        rows[c, t, j, 1] = shrink
+                        for i in range(b):
+                            rows[c, t, j, 2 + i] = s[i]
+                        if shrink != 0.0:
+                            _downdate(Pp, s, shrink, b)
             elif filtering and status[c] == -1:
                 done = _information_step(
                     phi, a, targets, linear, w[c], Pc, Pp, xc, step, c, cov, mean, M, Z, ref, v
