@@ -204,17 +204,30 @@ def test_weighted_rows_kalman_equals_a_dense_solve(q, zeros):
         np.testing.assert_allclose(out[c], expected, rtol=1e-11, atol=1e-12 * scale)
 
 
+def _kalman_rows(rng, N, q, p, n):
+    """A first difference's coefficients, φ (N, q, p), row weights a (N, q, n) with
+    about 30 % zeros, and penalty weights w (n, p)."""
+    phi = rng.standard_normal((N, q, p))
+    a = rng.uniform(0.05, 1.0, (N, q, n))
+    a[rng.random((N, q, n)) < 0.3] = 0.0
+    return np.array([-1.5, 1.5]), phi, a, rng.uniform(0.5, 4.0, (n, p))
+
+
+def _assert_dense_solution(solution, phi, a, w, coeffs, c, rhs):
+    """``solution`` (N, p) solves output c's system H θ = rhs (N, p), H built densely."""
+    H = _dense_weighted_rows(phi, a, w, coeffs, c)
+    expected = np.linalg.solve(H, rhs.reshape(-1)).reshape(rhs.shape)
+    scale = np.abs(expected).max()
+    np.testing.assert_allclose(solution, expected, rtol=1e-11, atol=1e-12 * scale)
+
+
 @pytest.mark.parametrize("q", [1, 2])
 def test_weighted_rows_kalman_general_term_equals_a_dense_solve(q):
     """A general term g added to the right-hand side (H_c θ = Σ_j b φ + g_c), with and
     without row targets, equals a dense solve; the outputs left inactive are not touched."""
     rng = np.random.default_rng(8)
     N, p, n = 40, 3, 3
-    coeffs = np.array([-1.5, 1.5])
-    phi = rng.standard_normal((N, q, p))
-    a = rng.uniform(0.05, 1.0, (N, q, n))
-    a[rng.random((N, q, n)) < 0.3] = 0.0
-    w = rng.uniform(0.5, 4.0, (n, p))
+    coeffs, phi, a, w = _kalman_rows(rng, N, q, p, n)
     linear = rng.standard_normal((n, N, p))
     active = np.array([True, True, False])
     for targets in (np.zeros((N, q, n)), rng.standard_normal((N, q, n))):
@@ -225,11 +238,8 @@ def test_weighted_rows_kalman_general_term_equals_a_dense_solve(q):
         assert not unsolved.any()
         np.testing.assert_array_equal(out[2], 7.0)
         for c in (0, 1):
-            H = _dense_weighted_rows(phi, a, w, coeffs, c)
             rhs = np.einsum("tj,tja->ta", targets[:, :, c], phi) + linear[c]
-            expected = np.linalg.solve(H, rhs.reshape(-1)).reshape(N, p)
-            scale = np.abs(expected).max()
-            np.testing.assert_allclose(out[c], expected, rtol=1e-11, atol=1e-12 * scale)
+            _assert_dense_solution(out[c], phi, a, w, coeffs, c, rhs)
 
 
 @pytest.mark.parametrize("q", [1, 2])
@@ -239,11 +249,7 @@ def test_weighted_rows_kalman_replay_equals_a_fresh_solve(q):
     of the outputs, and that of a dense solve."""
     rng = np.random.default_rng(11)
     N, p, n = 40, 3, 3
-    coeffs = np.array([-1.5, 1.5])
-    phi = rng.standard_normal((N, q, p))
-    a = rng.uniform(0.05, 1.0, (N, q, n))
-    a[rng.random((N, q, n)) < 0.3] = 0.0
-    w = rng.uniform(0.5, 4.0, (n, p))
+    coeffs, phi, a, w = _kalman_rows(rng, N, q, p, n)
     targets = rng.standard_normal((N, q, n))
     first, second = rng.standard_normal((2, n, N, p))
     kalman = banded.WeightedRowsKalman(N, q, p, n)
@@ -261,11 +267,8 @@ def test_weighted_rows_kalman_replay_equals_a_fresh_solve(q):
     )
     np.testing.assert_array_equal(replayed, fresh)
     for c in (0, 2):
-        H = _dense_weighted_rows(phi, a, w, coeffs, c)
         rhs = np.einsum("tj,tja->ta", targets[:, :, c], phi) + second[c]
-        expected = np.linalg.solve(H, rhs.reshape(-1)).reshape(N, p)
-        scale = np.abs(expected).max()
-        np.testing.assert_allclose(replayed[c], expected, rtol=1e-11, atol=1e-12 * scale)
+        _assert_dense_solution(replayed[c], phi, a, w, coeffs, c, rhs)
 
 
 def test_weighted_rows_kalman_leaves_what_it_cannot_hand_over():
