@@ -17,6 +17,15 @@ if _HERE not in sys.path:
 
 from dense_reference import simulate_ltv  # noqa: E402
 
+from ltvmodels.core import banded  # noqa: E402
+
+# The kernels compiled for a constant block size b (banded.kernel_size) are the same
+# source as those for a run-time b, compiled once per b: for every b up to 8 they took
+# about 100 s of the suite's compilation, a sixth of its time. Here they serve b <= 3
+# (and long series, and worker processes); larger blocks take the run-time-size
+# kernels, and tests/core/test_kernels.py compares the two.
+banded.FIXED_BLOCK_SMALL_B = 3
+
 
 @pytest.fixture
 def ltv_data():
