@@ -181,3 +181,23 @@ def test_difference_coefficients_are_fresh_arrays():
     first = options.difference_coefficients(2)
     first[0] = 42.0
     np.testing.assert_array_equal(options.difference_coefficients(2), [1.0, -2.0, 1.0])
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (5, 3), (4096, 2), (4097, 5), (9001, 3), (3, 4, 5)])
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_representable_reads_the_largest_magnitude_of_either_sign(shape, sign):
+    """The check reduces signed values (largest and smallest), not their magnitudes:
+    a column whose extreme entry is negative, anywhere in a long array, is named."""
+    rng = np.random.default_rng(0)
+    values = rng.standard_normal(shape)
+    flat = values.reshape(-1, shape[-1])
+    flat[1::3, -1] = np.nan  # NaN (missing) is ignored
+    flat[-1, -1] = sign * 1e101  # in the rest after the last full block, if any
+    column = shape[-1] - 1
+    with pytest.raises(ValueError, match=rf"column {column} has values of magnitude up to 1e\+101"):
+        arrays.representable(values, "x")
+    flat[:, -1] = sign * 1e-101  # every entry tiny
+    with pytest.raises(ValueError, match=r"too small"):
+        arrays.representable(values, "x")
+    flat[:, -1] = np.nan  # a column of NaN only passes
+    assert arrays.representable(values, "x") is values
