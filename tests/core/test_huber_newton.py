@@ -127,6 +127,37 @@ def test_first_difference_solves_agree_with_the_block_factorization(monkeypatch)
     np.testing.assert_allclose(factored.theta, kalman.theta, rtol=0, atol=1e-8)
 
 
+def test_majorize_minimize_fallback_reaches_the_clarabel_optimum(monkeypatch):
+    """Where the Newton direction gives no decrease, an output takes the
+    majorize–minimize step (a squared-loss fit with Huber's weights, by the block
+    factorization) instead. Forced here: two of the Kalman form's Newton solutions
+    are reflected through 0, which points most outputs uphill; the fit still
+    reaches the optimum and its certificate."""
+    problem, weight, delta = _problem(1, 1)
+    solve, factor = huber.WeightedRowsKalman.solve, huber.WeightedRowsFactor.__init__
+    newton, majorizer = [], []
+
+    def reflected(self, phi, a, targets, w, coeffs, active, out):
+        unsolved = solve(self, phi, a, targets, w, coeffs, active, out)
+        newton.append(int(np.count_nonzero(active)))
+        if len(newton) in (2, 3):
+            out[active] *= -1.0
+        return unsolved
+
+    def counted(self, *args, **kwargs):
+        majorizer.append(1)
+        factor(self, *args, **kwargs)
+
+    monkeypatch.setattr(huber.WeightedRowsKalman, "solve", reflected)
+    monkeypatch.setattr(huber.WeightedRowsFactor, "__init__", counted)
+    fit = huber.fit_huber(problem, weight, delta, tol=1e-10)
+    assert majorizer  # the case under test: a first difference factors only there
+    assert fit.converged and fit.kkt_residual <= 1e-10
+    optimum, k = _clarabel(problem, weight, delta)
+    assert fit.objective == pytest.approx(optimum, rel=1e-8)
+    np.testing.assert_allclose(fit.theta, k, atol=1e-5)
+
+
 def _kkt_and_objective(problem, weight, delta, theta):
     """Relative ‖∇F‖∞ per output and F at theta (N, n, p), by plain numpy."""
     N, n, p = problem.N, problem.n, problem.p
