@@ -342,3 +342,23 @@ def test_first_difference_solve_equals_a_dense_solve(q, fixed):
     # No data: the difference penalty alone is singular.
     worst, _ = kernels.first_difference_solve(0.0 * phi, 2.0, wsq, bands, rhs.copy(), L, size)
     assert worst <= 1e-12
+
+
+def test_kernels_receive_c_ordered_arrays_from_the_bordered_solve():
+    """Coefficients held constant (λ = inf) go through the bordered solve, whose
+    right-hand side is a concatenation that numpy may lay out in Fortran order: the
+    kernels must receive it C-ordered, as everywhere (each other layout compiles
+    them once more, seconds of a first call)."""
+    numba = pytest.importorskip("numba")
+    data = ltv.systems.jump_linear(T=60, change_at=30, seed=0)
+    lam = np.array([1.0, np.inf, 1.0, 1.0, 1.0, np.inf])
+    model = ltv.fit(data.x, data.u, lam=lam)
+    assert np.ptp(model.k[:, [1, 5]], axis=0).max() == 0.0  # the bordered solve ran
+    for kernel in (banded.kernels.factor_forward, banded.kernels.backward):
+        layouts = {
+            arg.layout
+            for signature in kernel.signatures
+            for arg in signature
+            if isinstance(arg, numba.types.Array)
+        }
+        assert layouts == {"C"}, kernel

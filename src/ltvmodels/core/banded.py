@@ -219,8 +219,12 @@ def _factor_forward(system: BlockSystem, rhs: np.ndarray, what: str):
 def _factor_solve(system: BlockSystem, rhs: np.ndarray, compute_cov: bool, what: str):
     """Factor, solve and (optionally) selected-invert; returns (X, cov, logdet).
 
-    ``rhs`` (N, b, r) is overwritten with the solution X.
+    ``rhs`` (N, b, r) is overwritten with the solution X if it is C-contiguous
+    float, otherwise a C-contiguous copy is: the kernels specialize on the
+    layout, and another one (a concatenation of F-ordered parts, as the bordered
+    solve's can be) compiled the factorization and solve again, ~5 s.
     """
+    rhs = np.ascontiguousarray(rhs, dtype=float)
     L, logdet, size = _factor_forward(system, rhs, what)
     cov = np.empty((system.N if compute_cov else 0, system.b, system.b))
     kernels.backward(L, rhs, cov, size)
