@@ -93,11 +93,20 @@ def test_matches_output_by_output(seed, order):
         assert np.allclose(ip.psi[fixed], alone.psi[fixed], atol=1e-4)
 
 
-@pytest.mark.parametrize("refinements", [0, robust_ipm.KALMAN_REFINEMENTS])
-def test_kalman_directions_agree_with_the_factorization(monkeypatch, refinements):
+@pytest.mark.parametrize(
+    "refinements, guard, factored",
+    [
+        (0, robust_ipm.KALMAN_RESIDUAL, True),  # the guard trips: the factorization takes over
+        # the refinements replace every factorization
+        (robust_ipm.KALMAN_REFINEMENTS, robust_ipm.KALMAN_RESIDUAL, False),
+        # refinement fails for some predictors and one corrector here: those factor
+        (robust_ipm.KALMAN_REFINEMENTS, 1e-14, True),
+    ],
+)
+def test_kalman_directions_agree_with_the_factorization(monkeypatch, refinements, guard, factored):
     """A first difference solves the Newton systems by the Kalman form while its residual
     stays below KALMAN_RESIDUAL, then refines its solutions (KALMAN_REFINEMENTS replayed
-    solves of the residual) or, without refinement, factors: the same optimum as the
+    solves of the residual) or, where that fails, factors: the same optimum as the
     factorization alone, which the Kalman form alone (no guard) misses here (its
     downdates cancel once the weights of the zero residuals grow large)."""
     problem, weight, costs, start = _problem(6, 1, q=1, p=3, N=200)
@@ -114,15 +123,15 @@ def test_kalman_directions_agree_with_the_factorization(monkeypatch, refinements
         return factor(*args, **kwargs)
 
     monkeypatch.setattr(robust_ipm, "KALMAN_REFINEMENTS", refinements)
+    monkeypatch.setattr(robust_ipm, "KALMAN_RESIDUAL", guard)
     monkeypatch.setattr(robust_ipm.WeightedRowsKalman, "solve", counted_solve)
     monkeypatch.setattr(robust_ipm, "WeightedRowsFactor", counted_factor)
     kalman = fit_laplace_ipm_diagonal(problem, weight, costs, tol=TOL, max_iter=100, start=start)
     assert calls["kalman"] > 0
     rounds = max(ip.iterations for ip in kalman)
-    if refinements == 0:  # the guard trips: the factorization takes over
-        assert calls["factor"] > 0
-    else:  # the refinements (replays beyond the correctors') replace the factorizations
-        assert calls["factor"] == 0 and calls["replay"] > rounds
+    assert (calls["factor"] > 0) == factored
+    if refinements > 0:  # replays beyond the correctors'
+        assert calls["replay"] > rounds
     monkeypatch.setattr(robust_ipm.WeightedRowsKalman, "applies", staticmethod(lambda c, w: False))
     factored = fit_laplace_ipm_diagonal(problem, weight, costs, tol=TOL, max_iter=100, start=start)
     for ip, ref in zip(kalman, factored, strict=True):

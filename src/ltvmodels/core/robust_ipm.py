@@ -627,8 +627,9 @@ def fit_laplace_ipm_diagonal(
         b[i] = np.abs(r[i]) + np.maximum(slack, LAPLACE_SLACK_FLOOR * np.abs(r[i]))
         zp[i] = np.where(m, (ci + pairing) / 2.0, 1.0)
         zm[i] = np.where(m, (ci - pairing) / 2.0, 1.0)
-        scale[i] = max(float(np.linalg.norm(ci * row_norms)), tiny)
-        c_norm[i] = max(float(np.linalg.norm(ci)), tiny)
+        # (sums of squares: np.linalg.norm's BLAS dot waits on its threads on a busy machine)
+        scale[i] = max(float(np.sqrt(np.sum((ci * row_norms) ** 2))), tiny)
+        c_norm[i] = max(float(np.sqrt(np.sum(ci**2))), tiny)
         degree[i] = 2 * count
     del r
     sp, sm = np.empty((n, N, q)), np.empty((n, N, q))
@@ -676,7 +677,9 @@ def fit_laplace_ipm_diagonal(
             _newton_residual(phi, a, w2, coeffs, dk, rhs, filtered, work[0], residual)
             off = filtered & ~(residual <= KALMAN_RESIDUAL)
             if off.any():
-                refined = _refine(kalman, phi, a, no_targets, w2, coeffs, off, rhs, dk, work)
+                refined = _refine(
+                    kalman, phi, a, no_targets, w2, coeffs, off, rhs, dk, work, residual
+                )
                 filtered &= ~off | refined
             accurate &= ~which | filtered  # κ only grows: an output left is left for good
         need = active & ~filtered  # the outputs to factor
@@ -720,10 +723,19 @@ def fit_laplace_ipm_diagonal(
             again = solved & refined  # as inaccurate as their predictors: refined too
             if again.any():
                 _newton_residual(phi, a, w2, coeffs, dk, rhs, again, work[0], residual)
-                solved &= ~again | _refine(
-                    kalman, phi, a, no_targets, w2, coeffs, again, rhs, dk, work
+                off = again & ~_refine(
+                    kalman, phi, a, no_targets, w2, coeffs, again, rhs, dk, work, residual
                 )
-            left = filtered & ~solved
+                accurate &= ~off  # factored from the next iteration on
+                if off.any():  # factored now if possible, else the best refined directions
+                    trial = rhs.copy()
+                    try:
+                        WeightedRowsFactor(phi, a, w2, coeffs, trial, off, what=what).finish(trial)
+                    except SingularProblemError:
+                        pass
+                    else:
+                        dk[off] = trial[off]
+            left = filtered & ~solved  # the filter left them (not expected: a replay)
             if left.any():
                 rows = _copied(rhs, dk, left)
                 WeightedRowsFactor(phi, a, w2, coeffs, rows, left, what=what).finish(rows)
@@ -840,6 +852,7 @@ def _refine(
     rhs: np.ndarray,
     dk: np.ndarray,
     work: np.ndarray,
+    norms: np.ndarray,
 ) -> np.ndarray:
     """Iterative refinement of the Kalman form's solutions ``dk`` (n, N, p, 1) of the
     Newton systems H Δk = ``rhs`` (n, N, p, 1) of the outputs ``which``, in place;
@@ -849,24 +862,31 @@ def _refine(
     The covariance form loses digits as the row weights κ grow without bound
     (entries whose residual tends to 0: the rank-one downdates of P cancel), but
     its solution stays a good approximate inverse: up to KALMAN_REFINEMENTS times,
-    the residual rhs − H Δk (computed exactly from H) is solved for a correction by
-    replaying the last solve's covariances and gains (a third of a solve's work),
-    much cheaper than factoring the system. ``work`` (2, n, N, p) holds the
-    residuals (on entry those of ``dk``, :func:`_newton_residual`) and the corrections."""
+    the residual rhs − H Δk (computed from H itself) is solved for a correction by
+    replaying the last solve's covariances and gains (no downdates: cheaper than a
+    solve, far cheaper than a factorization). A correction that does not reduce the
+    residual is undone (each output keeps its best solution). ``work`` (2, n, N, p)
+    holds the residuals (on entry those of ``dk``, :func:`_newton_residual`, with
+    their relative norms ``norms`` (n,), updated) and the corrections."""
     n = len(which)
     vector, correction = work[0], work[1]
-    norms = np.zeros(n)
+    fresh = np.zeros(n)
     todo = np.array(which, dtype=np.bool_)
     ok = np.zeros(n, dtype=np.bool_)
     for _ in range(KALMAN_REFINEMENTS):
         todo &= ~kalman.solve(
             phi, a, no_targets, w2, coeffs, todo, correction, linear=vector, replay=True
         )
-        for i in np.flatnonzero(todo).tolist():
+        last = {i: dk[i, :, :, 0].copy() for i in np.flatnonzero(todo).tolist()}
+        for i in last:
             dk[i, :, :, 0] += correction[i]
-        _newton_residual(phi, a, w2, coeffs, dk, rhs, todo, vector, norms)
+        _newton_residual(phi, a, w2, coeffs, dk, rhs, todo, vector, fresh)
+        worse = todo & ~(fresh < norms)  # NaN too
+        for i in np.flatnonzero(worse).tolist():
+            dk[i, :, :, 0] = last[i]
+        norms[:] = np.where(todo & ~worse, fresh, norms)
         ok |= todo & (norms <= KALMAN_RESIDUAL)
-        todo &= ~ok
+        todo &= ~ok & ~worse
         if not todo.any():
             break
     return ok
