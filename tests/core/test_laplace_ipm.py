@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from ltvmodels.core import robust_ipm
-from ltvmodels.core.laplace import fit_laplace
+from ltvmodels.core.laplace import certified_gap, fit_laplace
 from ltvmodels.core.problem import RegressionProblem
 from ltvmodels.core.robust_ipm import fit_laplace_ipm_diagonal, fit_robust_ipm_squared
 
@@ -93,27 +93,45 @@ def test_matches_output_by_output(seed, order):
         assert np.allclose(ip.psi[fixed], alone.psi[fixed], atol=1e-4)
 
 
-def test_kalman_directions_agree_with_the_factorization(monkeypatch):
+@pytest.mark.parametrize(
+    "refinements, guard, factored",
+    [
+        (0, robust_ipm.KALMAN_RESIDUAL, True),  # the guard trips: the factorization takes over
+        # the refinements replace every factorization
+        (robust_ipm.KALMAN_REFINEMENTS, robust_ipm.KALMAN_RESIDUAL, False),
+        # refinement fails for some predictors and one corrector here: those factor
+        (robust_ipm.KALMAN_REFINEMENTS, 1e-14, True),
+    ],
+)
+def test_kalman_directions_agree_with_the_factorization(monkeypatch, refinements, guard, factored):
     """A first difference solves the Newton systems by the Kalman form while its residual
-    stays below KALMAN_RESIDUAL, then by the block Cholesky factorization: the same
-    optimum as the factorization alone, which the Kalman form alone (no guard) misses
-    here (its downdates cancel once the weights of the zero residuals grow large)."""
+    stays below KALMAN_RESIDUAL, then refines its solutions (KALMAN_REFINEMENTS replayed
+    solves of the residual) or, where that fails, factors: the same optimum as the
+    factorization alone, which the Kalman form alone (no guard) misses here (its
+    downdates cancel once the weights of the zero residuals grow large)."""
     problem, weight, costs, start = _problem(6, 1, q=1, p=3, N=200)
-    calls = {"kalman": 0, "factor": 0}
+    calls = {"kalman": 0, "replay": 0, "factor": 0}
     kalman_solve, factor = robust_ipm.WeightedRowsKalman.solve, robust_ipm.WeightedRowsFactor
 
     def counted_solve(self, *args, **kwargs):
         calls["kalman"] += 1
+        calls["replay"] += bool(kwargs.get("replay"))
         return kalman_solve(self, *args, **kwargs)
 
     def counted_factor(*args, **kwargs):
         calls["factor"] += 1
         return factor(*args, **kwargs)
 
+    monkeypatch.setattr(robust_ipm, "KALMAN_REFINEMENTS", refinements)
+    monkeypatch.setattr(robust_ipm, "KALMAN_RESIDUAL", guard)
     monkeypatch.setattr(robust_ipm.WeightedRowsKalman, "solve", counted_solve)
     monkeypatch.setattr(robust_ipm, "WeightedRowsFactor", counted_factor)
     kalman = fit_laplace_ipm_diagonal(problem, weight, costs, tol=TOL, max_iter=100, start=start)
-    assert calls["kalman"] > 0 and calls["factor"] > 0  # both routes taken
+    assert calls["kalman"] > 0
+    rounds = max(ip.iterations for ip in kalman)
+    assert (calls["factor"] > 0) == factored
+    if refinements > 0:  # replays beyond the correctors'
+        assert calls["replay"] > rounds
     monkeypatch.setattr(robust_ipm.WeightedRowsKalman, "applies", staticmethod(lambda c, w: False))
     factored = fit_laplace_ipm_diagonal(problem, weight, costs, tol=TOL, max_iter=100, start=start)
     for ip, ref in zip(kalman, factored, strict=True):
@@ -122,14 +140,31 @@ def test_kalman_directions_agree_with_the_factorization(monkeypatch):
         np.testing.assert_allclose(ip.k, ref.k, atol=1e-6 * np.abs(ref.k).max())
     monkeypatch.setattr(robust_ipm.WeightedRowsKalman, "applies", staticmethod(lambda c, w: True))
     monkeypatch.setattr(robust_ipm, "KALMAN_RESIDUAL", np.inf)
-    try:  # the directions' errors stall the iterations, or reach a zero slack
-        unguarded = fit_laplace_ipm_diagonal(
-            problem, weight, costs, tol=TOL, max_iter=100, start=start
-        )
-        failed = not all(ip.converged for ip in unguarded)
-    except ZeroDivisionError:
-        failed = True
-    assert failed
+    # the directions' errors stall the iterations (or reach a zero slack: they stop there)
+    unguarded = fit_laplace_ipm_diagonal(problem, weight, costs, tol=TOL, max_iter=100, start=start)
+    assert not all(ip.converged for ip in unguarded)
+
+
+def test_most_rows_fitted_exactly_at_the_start():
+    """Most residuals exactly 0 at the start (median |r| = 0): the starting slacks stay
+    positive (a slack scaled by that median vanished in b = |r| + slack, and the zero
+    slack was divided by), and the optimum is certified by its own dual point."""
+    rng = np.random.default_rng(7)
+    N, q, n, p = 40, 1, 2, 2
+    phi = rng.standard_normal((N, q, p))
+    y = np.zeros((N, q, n))
+    y[::4] = rng.standard_normal((N // 4, q, n))  # the other rows are fitted by k = 0
+    problem = RegressionProblem(y=y, phi=phi, coeffs=np.array([-1.0, 1.0]))
+    weight, costs = np.ones((n, p)), np.ones((N, q, n))
+    results = fit_laplace_ipm_diagonal(
+        problem, weight, costs, tol=TOL, max_iter=100, start=np.zeros((N, n, p))
+    )
+    assert all(ip.converged for ip in results)
+    theta = np.stack([ip.k for ip in results], axis=1)
+    psi = np.stack([ip.psi for ip in results], axis=2)  # costs 1: ψ itself
+    objective, gap, rigorous = certified_gap(problem, theta, psi, weight.ravel(), "sq")
+    assert rigorous and gap <= 1e-7
+    assert objective == pytest.approx(_objective(problem, weight, costs, theta), rel=1e-12)
 
 
 def test_fit_laplace_matrix_and_vector_weight_agree():

@@ -62,6 +62,10 @@ WARM_DUAL_NORM = 0.5
 # "sq", T = 1e5, with the pairing 2r clipped: 0.1 took 52 iterations over its
 # three outputs, 1 took 38, 3 took 35; the sign pairing and 0.1 took 61).
 LAPLACE_START_SLACK = 1.0
+# Each starting slack is at least this fraction of its |r| (where the typical |r| is far
+# smaller, e.g. 0 when most rows are fitted exactly, a smaller slack is lost in b = |r| +
+# slack, which leaves σ = 0).
+LAPLACE_SLACK_FLOOR = 1e-8
 # For a first difference, fit_laplace_ipm_diagonal starts instead from this many
 # reweighted least-squares steps (weights c/(|r| + h)) from the squared-loss fit, h this
 # fraction of its median |r|, with the slacks 2h and the pairing c·r/(|r| + h): a point
@@ -75,6 +79,12 @@ LAPLACE_IRLS_SMOOTHING = 0.3
 # residual is at most this (the block Cholesky's are about 1e-14; the covariance
 # form's grow with the largest row weight, to 1e-9 at 4e6 on the benchmark "sq").
 KALMAN_RESIDUAL = 1e-10
+# A Kalman solution over that residual is first refined this many times (each a
+# replayed solve with the residual as right-hand side); only if it is still over
+# is the output factored. On the benchmark "sq" (T = 1e5) one refinement brought
+# the last iterations' residuals (3.7e-10 and 1.2e-9) to 1e-13; each had cost a
+# factorization (about two iterations' time) before.
+KALMAN_REFINEMENTS = 2
 
 
 @dataclass
@@ -553,7 +563,9 @@ def fit_laplace_ipm_diagonal(
     general term; the corrector's solve replays the predictor's covariances and
     gains) as long as its solutions' relative residuals stay within
     KALMAN_RESIDUAL: the covariance form loses digits once the weights κ of the
-    residuals tending to 0 grow large, and the factorization takes over.
+    residuals tending to 0 grow large. A solution over it is refined (up to
+    KALMAN_REFINEMENTS replayed solves of its residual, :func:`_refine`), and
+    only where that fails does the factorization take over.
 
     Parameters
     ----------
@@ -592,14 +604,8 @@ def fit_laplace_ipm_diagonal(
     smoothing, factors = None, None
     if LAPLACE_IRLS_STEPS > 0:
         smoothing = np.array(
-            [
-                LAPLACE_IRLS_SMOOTHING * float(np.median(np.abs(r[i][mask[i]])))
-                if mask[i].any()
-                else 1.0
-                for i in range(n)
-            ]
+            [LAPLACE_IRLS_SMOOTHING * _typical_size(r[i][mask[i]]) for i in range(n)]
         )
-        smoothing = np.maximum(smoothing, 1e-300)
         r, factors = _reweighted_start(kalman, phi, y, c, mask, w2, coeffs, smoothing, k, r)
     b, zp, zm = np.empty((n, N, q)), np.empty((n, N, q)), np.empty((n, N, q))
     row_norms = np.sqrt(np.einsum("tjk,tjk->tj", phi, phi))
@@ -608,21 +614,22 @@ def fit_laplace_ipm_diagonal(
     for i in range(n):
         m, ci = mask[i], c[i]
         count = int(m.sum())
-        spread = float(np.median(np.abs(r[i][m]))) if count else 1.0
         bound = START_DUAL_SHRINK * ci
         if smoothing is None:
-            slack = LAPLACE_START_SLACK * np.maximum(np.where(m, spread, 1.0), 1e-300)
+            slack = LAPLACE_START_SLACK * np.where(m, _typical_size(r[i][m]), 1.0)
             # the start's own stationarity pairing (2r: the squared-loss fit's), clipped
             # into the box: k is then stationary except through the outliers
             pairing = np.clip(2.0 * r[i], -bound, bound)
         else:  # that of the reweighted steps (LAPLACE_IRLS_STEPS), centred
             slack = np.where(m, 2.0 * smoothing[i], 1.0)
             pairing = np.clip(ci * r[i] / (np.abs(r[i]) + smoothing[i]), -bound, bound)
-        b[i] = np.abs(r[i]) + slack
+        # a slack below |r|'s rounding would vanish in b (σ = b ∓ r = 0): keep it above
+        b[i] = np.abs(r[i]) + np.maximum(slack, LAPLACE_SLACK_FLOOR * np.abs(r[i]))
         zp[i] = np.where(m, (ci + pairing) / 2.0, 1.0)
         zm[i] = np.where(m, (ci - pairing) / 2.0, 1.0)
-        scale[i] = max(float(np.linalg.norm(ci * row_norms)), tiny)
-        c_norm[i] = max(float(np.linalg.norm(ci)), tiny)
+        # (sums of squares: np.linalg.norm's BLAS dot waits on its threads on a busy machine)
+        scale[i] = max(float(np.sqrt(np.sum((ci * row_norms) ** 2))), tiny)
+        c_norm[i] = max(float(np.sqrt(np.sum(ci**2))), tiny)
         degree[i] = 2 * count
     del r
     sp, sm = np.empty((n, N, q)), np.empty((n, N, q))
@@ -639,8 +646,12 @@ def fit_laplace_ipm_diagonal(
     stalled = np.zeros(n, dtype=bool)
     objective, gap, dual_res = np.full(n, np.inf), np.full(n, np.inf), np.full(n, np.inf)
     what = "the interior-point Newton system"
+    # the Newton directions: solved in place in ``rhs`` by the factorization alone;
+    # with the Kalman form into their own array (``rhs`` kept for its residual check)
+    dk = rhs if kalman is None else np.empty((n, N, p, 1))
+    work = np.empty((2, n, N, p) if kalman is not None else (2, n, 0, p))
     no_targets = np.zeros((N, q, n) if kalman is not None else (0, q, n))
-    moved = np.empty((n, N, p) if kalman is not None else (n, 0, p))
+    residual = np.zeros(n)
     accurate = np.full(n, kalman is not None)  # the outputs the Kalman form still solves
     while active.any():
         _laplace_state(
@@ -656,27 +667,28 @@ def fit_laplace_ipm_diagonal(
                 stalled[i], active[i] = stats[i, 5] == 0.0, False
         if not active.any():
             break
-        need = active.copy()  # the outputs to factor
-        filtered = np.zeros(n, dtype=np.bool_)  # those the Kalman form solved
+        filtered = np.zeros(n, dtype=np.bool_)  # the outputs the Kalman form solved
+        refined = np.zeros(n, dtype=np.bool_)  # those of them that needed refinement
         if kalman is not None and (active & accurate).any():
-            filtered = _kalman_directions(
-                kalman,
-                phi,
-                a,
-                no_targets,
-                w2,
-                coeffs,
-                active & accurate,
-                moved,
-                rhs,
-                accurate,
-                True,
+            which = active & accurate
+            filtered = which & ~kalman.solve(
+                phi, a, no_targets, w2, coeffs, which, dk[:, :, :, 0], linear=rhs[:, :, :, 0]
             )
-            need = active & ~filtered
+            _newton_residual(phi, a, w2, coeffs, dk, rhs, filtered, work[0], residual)
+            off = filtered & ~(residual <= KALMAN_RESIDUAL)
+            if off.any():
+                refined = _refine(
+                    kalman, phi, a, no_targets, w2, coeffs, off, rhs, dk, work, residual
+                )
+                filtered &= ~off | refined
+            accurate &= ~which | filtered  # κ only grows: an output left is left for good
+        need = active & ~filtered  # the outputs to factor
         factor = None
         if need.any():
             try:
-                factor = WeightedRowsFactor(phi, a, w2, coeffs, rhs, need, out=factors, what=what)
+                factor = WeightedRowsFactor(
+                    phi, a, w2, coeffs, _copied(rhs, dk, need), need, out=factors, what=what
+                )
             except SingularProblemError:
                 # which outputs lost definiteness: those stop (before their first step: raise)
                 before = int(active.sum())
@@ -693,24 +705,42 @@ def fit_laplace_ipm_diagonal(
                     stalled[active], active[:] = True, False
                 continue
             factors = factor.L
-            factor.finish(rhs)  # the affine (predictor) direction
+            factor.finish(dk)  # the affine (predictor) direction
         iterations[active] += 1
-        _laplace_affine(phi, c, mask, sp, sm, zp, zm, rhs, active, tp, tm, steps)
+        _laplace_affine(phi, c, mask, sp, sm, zp, zm, dk, active, tp, tm, steps)
         for i in np.flatnonzero(active).tolist():
             step = min(1.0, steps[i])
             sigma_mu[i] = (1.0 - step) ** 3 * gap[i] / max(degree[i], 1.0)
         _laplace_corrector(phi, c, mask, sp, sm, zp, zm, sigma_mu, r_k, active, tp, tm, rhs)
         if factor is not None:
-            factor.solve(rhs)
+            factor.solve(_copied(rhs, dk, need))
         if kalman is not None and filtered.any():
             # the predictor's matrices: the filter solves the same outputs again
-            left = filtered & ~_kalman_directions(
-                kalman, phi, a, no_targets, w2, coeffs, filtered, moved, rhs, accurate, False
-            )
+            solved = filtered & ~kalman.solve(
+                phi, a, no_targets, w2, coeffs, filtered, dk[:, :, :, 0],
+                linear=rhs[:, :, :, 0], replay=True,
+            )  # fmt: skip
+            again = solved & refined  # as inaccurate as their predictors: refined too
+            if again.any():
+                _newton_residual(phi, a, w2, coeffs, dk, rhs, again, work[0], residual)
+                off = again & ~_refine(
+                    kalman, phi, a, no_targets, w2, coeffs, again, rhs, dk, work, residual
+                )
+                accurate &= ~off  # factored from the next iteration on
+                if off.any():  # factored now if possible, else the best refined directions
+                    trial = rhs.copy()
+                    try:
+                        WeightedRowsFactor(phi, a, w2, coeffs, trial, off, what=what).finish(trial)
+                    except SingularProblemError:
+                        pass
+                    else:
+                        dk[off] = trial[off]
+            left = filtered & ~solved  # the filter left them (not expected: a replay)
             if left.any():
-                WeightedRowsFactor(phi, a, w2, coeffs, rhs, left, what=what).finish(rhs)
+                rows = _copied(rhs, dk, left)
+                WeightedRowsFactor(phi, a, w2, coeffs, rows, left, what=what).finish(rows)
         _laplace_step(
-            phi, c, mask, sp, sm, zp, zm, rhs, active, tp, tm, STEP_FRACTION, MIN_STEP, k, b, steps
+            phi, c, mask, sp, sm, zp, zm, dk, active, tp, tm, STEP_FRACTION, MIN_STEP, k, b, steps
         )
         for i in np.flatnonzero(active).tolist():
             if steps[i] < MIN_STEP:
@@ -729,6 +759,15 @@ def fit_laplace_ipm_diagonal(
         )
         for i in range(n)
     ]
+
+
+def _typical_size(r: np.ndarray) -> float:
+    """The median |r|, or where that is 0 (most entries exactly 0) their mean |r|, or 1.0
+    where every entry is 0 (or there is none): a positive scale of the residuals."""
+    size = float(np.median(np.abs(r))) if r.size else 0.0
+    if not size > 0.0:
+        size = float(np.mean(np.abs(r))) if r.size else 0.0
+    return size if size > 0.0 and np.isfinite(size) else 1.0
 
 
 def _reweighted_start(
@@ -793,12 +832,16 @@ def _reweighted_start(
 
 def _laplace_objectives(c, r, k, w2, coeffs) -> np.ndarray:
     """Σ c|r| + Σ_t (Dk)ᵀ diag(w2/2) Dk per output (n,): r (n, N, q), k (n, N, p)."""
-    difference = apply_difference(k.transpose(1, 0, 2), coeffs)  # (N − d, n, p)
-    penalty = 0.5 * np.einsum("tci,ci->c", difference**2, w2)
+    d, N = len(coeffs) - 1, k.shape[1]
+    # Dk along axis 1, in k's own layout (no strided copy of the transpose)
+    difference = coeffs[0] * k[:, : N - d]
+    for lag in range(1, d + 1):
+        difference = difference + coeffs[lag] * k[:, lag : N - d + lag]
+    penalty = 0.5 * np.einsum("cti,ci->c", difference**2, w2)
     return np.sum(c * np.abs(r), axis=(1, 2)) + penalty
 
 
-def _kalman_directions(
+def _refine(
     kalman: WeightedRowsKalman,
     phi: np.ndarray,
     a: np.ndarray,
@@ -806,66 +849,92 @@ def _kalman_directions(
     w2: np.ndarray,
     coeffs: np.ndarray,
     which: np.ndarray,
-    moved: np.ndarray,
     rhs: np.ndarray,
-    accurate: np.ndarray,
-    check: bool,
+    dk: np.ndarray,
+    work: np.ndarray,
+    norms: np.ndarray,
 ) -> np.ndarray:
-    """Solve the Newton systems of the outputs ``which`` for their right-hand sides
-    ``rhs`` (n, N, p, 1) by the Kalman form, in place; returns those solved.
+    """Iterative refinement of the Kalman form's solutions ``dk`` (n, N, p, 1) of the
+    Newton systems H Δk = ``rhs`` (n, N, p, 1) of the outputs ``which``, in place;
+    returns those whose relative residual ‖H Δk − rhs‖∞/‖rhs‖∞ ends within
+    KALMAN_RESIDUAL (the others: factor them).
 
     The covariance form loses digits as the row weights κ grow without bound
-    (entries whose residual tends to 0): the rank-one downdates of P cancel. With
-    ``check`` (the first solve with a matrix), a solution is kept only if its
-    residual ‖HΔk − rhs‖∞ is within KALMAN_RESIDUAL of ‖rhs‖∞; an output whose
-    solution is not (or that the filter leaves) is taken off ``accurate`` for good
-    (κ only grows) and left to the factorization. The corrector's solve (``check``
-    false) has the predictor's matrices: the filter replays the covariances and gains
-    it stored, bit for bit, with another right-hand side; not checked again (a
-    direction that is off costs steps, not the certificate, computed afresh).
-    """
-    left = kalman.solve(
-        phi, a, no_targets, w2, coeffs, which, moved, linear=rhs[:, :, :, 0], replay=not check
-    )
-    solved = which & ~left
-    if check:
-        residual = np.zeros(len(which))
-        _newton_residual(phi, a, w2, coeffs, moved, rhs, solved, residual)
-        solved &= residual <= KALMAN_RESIDUAL
-    accurate &= ~which | solved
-    for i in np.flatnonzero(solved).tolist():
-        rhs[i, :, :, 0] = moved[i]
-    return solved
+    (entries whose residual tends to 0: the rank-one downdates of P cancel), but
+    its solution stays a good approximate inverse: up to KALMAN_REFINEMENTS times,
+    the residual rhs − H Δk (computed from H itself) is solved for a correction by
+    replaying the last solve's covariances and gains (no downdates: cheaper than a
+    solve, far cheaper than a factorization). A correction that does not reduce the
+    residual is undone (each output keeps its best solution). ``work`` (2, n, N, p)
+    holds the residuals (on entry those of ``dk``, :func:`_newton_residual`, with
+    their relative norms ``norms`` (n,), updated) and the corrections."""
+    n = len(which)
+    vector, correction = work[0], work[1]
+    fresh = np.zeros(n)
+    todo = np.array(which, dtype=np.bool_)
+    ok = np.zeros(n, dtype=np.bool_)
+    for _ in range(KALMAN_REFINEMENTS):
+        todo &= ~kalman.solve(
+            phi, a, no_targets, w2, coeffs, todo, correction, linear=vector, replay=True
+        )
+        last = {i: dk[i, :, :, 0].copy() for i in np.flatnonzero(todo).tolist()}
+        for i in last:
+            dk[i, :, :, 0] += correction[i]
+        _newton_residual(phi, a, w2, coeffs, dk, rhs, todo, vector, fresh)
+        worse = todo & ~(fresh < norms)  # NaN too
+        for i in np.flatnonzero(worse).tolist():
+            dk[i, :, :, 0] = last[i]
+        norms[:] = np.where(todo & ~worse, fresh, norms)
+        ok |= todo & (norms <= KALMAN_RESIDUAL)
+        todo &= ~ok & ~worse
+        if not todo.any():
+            break
+    return ok
+
+
+def _copied(rhs: np.ndarray, dk: np.ndarray, which: np.ndarray) -> np.ndarray:
+    """``dk`` with the right-hand sides ``rhs`` of the outputs ``which`` copied in (for
+    the factorization, which solves in place): nothing to copy where they are one array."""
+    if dk is not rhs:
+        dk[which] = rhs[which]
+    return dk
 
 
 @numba.njit(cache=True)
-def _newton_residual(phi, a, w2, coeffs, x, rhs, which, out):  # pragma: no cover - compiled
-    """‖H x − rhs‖∞ / ‖rhs‖∞ per output in ``which`` (into ``out``), H = blkdiag_t(Σ_j κ φφᵀ)
-    + DᵀD ⊗ diag(w2) for a first difference D; x (n, N, p), rhs (n, N, p, 1)."""
+def _newton_residual(phi, a, w2, coeffs, x, rhs, which, vector, out):  # pragma: no cover
+    """The residual rhs − H x (into ``vector`` (n, N, p)) and ‖H x − rhs‖∞ / ‖rhs‖∞ (into
+    ``out`` (n,); NaN if an entry of the residual is NaN) per output in ``which``,
+    H = blkdiag_t(Σ_j κ φφᵀ) + DᵀD ⊗ diag(w2) for a
+    first difference D; x and rhs (n, N, p, 1)."""
     N, q, p = phi.shape
     c0, c1 = coeffs[0], coeffs[1]
     weighted = np.empty(q)
+    carried = np.empty(p)  # (Dx)_{t−1}
     for o in range(x.shape[0]):
         if not which[o]:
             continue
-        xo = x[o]
         worst, size = 0.0, 0.0
         for t in range(N):
             for j in range(q):
                 fitted = 0.0
                 for m in range(p):
-                    fitted += phi[t, j, m] * xo[t, m]
+                    fitted += phi[t, j, m] * x[o, t, m, 0]
                 weighted[j] = a[t, j, o] * fitted
             for i in range(p):
                 acc = 0.0
                 if t > 0:
-                    acc += c1 * w2[o, i] * (c0 * xo[t - 1, i] + c1 * xo[t, i])
+                    acc += c1 * w2[o, i] * carried[i]
                 if t < N - 1:
-                    acc += c0 * w2[o, i] * (c0 * xo[t, i] + c1 * xo[t + 1, i])
+                    diff = c0 * x[o, t, i, 0] + c1 * x[o, t + 1, i, 0]
+                    acc += c0 * w2[o, i] * diff
+                    carried[i] = diff
                 for j in range(q):
                     acc += weighted[j] * phi[t, j, i]
                 value = rhs[o, t, i, 0]
-                worst = max(worst, abs(acc - value))
+                vector[o, t, i] = value - acc
+                miss = abs(acc - value)
+                if not miss <= worst:  # NaN too: a solution that is not finite fails
+                    worst = miss
                 size = max(size, abs(value))
         out[o] = worst / size if size > 0.0 else (0.0 if worst == 0.0 else np.inf)
 
@@ -879,34 +948,55 @@ def _laplace_state(
     r_k = Σ(ζ⁻ − ζ⁺)φ + 2DᵀWDk (n, N, p), the predictor's right-hand side
     Σ Aφ − r_k (``rhs`` (n, N, p, 1); target η± = −σ±ζ±, :meth:`_Entries.eliminate`),
     and ``stats`` (n, 6): the loss, the penalty, the gap Σσζ, ‖r_k‖², ‖r_b‖² and
-    whether every slack and dual is positive (1.0 or 0.0)."""
+    whether every slack and dual is positive (1.0 or 0.0).
+
+    One sweep over time: step t's part of 2DᵀWDk gathers the differences (Dk)_s,
+    s = t − d … t, that contain k_t, in the order a scatter over s would add them
+    (for a first difference the last one carried over from step t − 1, else
+    recomputed). An entry that is not interior (a slack or dual <= 0, or NaN) gets
+    κ = 0 and no part in ``rhs``: the output stops there (``stats``), before any
+    division by its slack."""
     N, q, p = phi.shape
     n = k.shape[0]
     d = coeffs.shape[0] - 1
+    c0, c1 = coeffs[0], coeffs[-1]
+    carried = np.empty(p)  # a first difference's w(Dk)_{t−1}
     for o in range(n):
         if not active[o]:
             continue
         ko = k[o]
         rko = r_k[o]
-        # 2DᵀWDk, scattered from each difference (no bounds tests per step)
-        for t in range(N):
-            for i in range(p):
-                rko[t, i] = 0.0
-        penalty = 0.0
-        for t in range(N - d):
-            for i in range(p):
-                acc = 0.0
-                for lag in range(d + 1):
-                    acc += coeffs[lag] * ko[t + lag, i]
-                penalty += 0.5 * w2[o, i] * acc * acc
-                acc *= w2[o, i]
-                for lag in range(d + 1):
-                    rko[t + lag, i] += coeffs[lag] * acc
-        loss, gap, rk2, rb2, interior = 0.0, 0.0, 0.0, 0.0, 1.0
         rhso = rhs[o]
+        penalty, loss, gap, rk2, rb2, interior = 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
         for t in range(N):
-            for i in range(p):
-                rhso[t, i, 0] = 0.0
+            if d == 1:
+                for i in range(p):
+                    acc = 0.0
+                    if t > 0:
+                        acc += c1 * carried[i]
+                    if t < N - 1:
+                        diff = c0 * ko[t, i] + c1 * ko[t + 1, i]
+                        penalty += 0.5 * w2[o, i] * diff * diff
+                        diff *= w2[o, i]
+                        acc += c0 * diff
+                        carried[i] = diff
+                    rko[t, i] = acc
+                    rhso[t, i, 0] = 0.0
+            else:
+                for i in range(p):
+                    acc = 0.0
+                    for lag in range(d, -1, -1):
+                        s = t - lag
+                        if s < 0 or s >= N - d:
+                            continue
+                        diff = 0.0
+                        for m in range(d + 1):
+                            diff += coeffs[m] * ko[s + m, i]
+                        if lag == 0:
+                            penalty += 0.5 * w2[o, i] * diff * diff
+                        acc += coeffs[lag] * (diff * w2[o, i])
+                    rko[t, i] = acc
+                    rhso[t, i, 0] = 0.0
             for j in range(q):
                 if not mask[o, t, j]:
                     sp[o, t, j] = 1.0
@@ -928,8 +1018,13 @@ def _laplace_state(
                 gap += s_p * z_p + s_m * z_m
                 r_b = cost - z_p - z_m
                 rb2 += r_b * r_b
+                data = z_m - z_p  # the data part of r_k
+                for i in range(p):
+                    rko[t, i] += data * phi[t, j, i]
                 if not (s_p > 0.0 and s_m > 0.0 and z_p > 0.0 and z_m > 0.0):
                     interior = 0.0
+                    a[t, j, o] = 0.0
+                    continue
                 g_p = z_p / s_p
                 g_m = z_m / s_m
                 G = g_p + g_m
@@ -938,9 +1033,7 @@ def _laplace_state(
                 # target η± = −σ±ζ±: η/σ = −ζ
                 E = -z_p - z_m - r_b
                 A = (z_m - z_p) - H * E / G
-                data = z_m - z_p  # the data part of r_k
                 for i in range(p):
-                    rko[t, i] += data * phi[t, j, i]
                     rhso[t, i, 0] += A * phi[t, j, i]
             for i in range(p):
                 rk2 += rko[t, i] * rko[t, i]
