@@ -420,7 +420,7 @@ def _fit_diagonal(
     (:func:`_newton_state`, on the residuals kept from the previous step's line
     search), one sweep that solves the outputs still iterating
     (for a first difference a Kalman filter and smoother,
-    :class:`~.banded.WeightedRowsKalman`, about 3× faster than the block
+    :class:`~.banded.WeightedRowsKalman`, 3.5–5.5× faster than the block
     Cholesky sweep :class:`~.banded.WeightedRowsFactor`, which serves the other
     orders and the systems the filter leaves), and per output one pass for the
     direction's residuals, after which the exact line search and both values
