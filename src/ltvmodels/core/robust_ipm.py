@@ -657,6 +657,7 @@ def fit_laplace_ipm_diagonal(
     dk = rhs if kalman is None else np.empty((n, N, p, 1))
     work = np.empty((2, n, N, p) if kalman is not None else (2, n, 0, p))
     no_targets = np.zeros((N, q, n) if kalman is not None else (0, q, n))
+    no_vector = np.empty((n, 0, p))
     residual = np.zeros(n)
     accurate = np.full(n, kalman is not None)  # the outputs the Kalman form still solves
     while active.any():
@@ -680,9 +681,11 @@ def fit_laplace_ipm_diagonal(
             filtered = which & ~kalman.solve(
                 phi, a, no_targets, w2, coeffs, which, dk[:, :, :, 0], linear=rhs[:, :, :, 0]
             )
-            _newton_residual(phi, a, w2, coeffs, dk, rhs, filtered, work[0], residual)
+            # the norms only: the residuals themselves are wanted for a refinement
+            _newton_residual(phi, a, w2, coeffs, dk, rhs, filtered, no_vector, residual)
             off = filtered & ~(residual <= KALMAN_RESIDUAL)
             if off.any():
+                _newton_residual(phi, a, w2, coeffs, dk, rhs, off, work[0], residual)
                 refined = _refine(
                     kalman, phi, a, no_targets, w2, coeffs, off, rhs, dk, work, residual
                 )
@@ -908,11 +911,12 @@ def _copied(rhs: np.ndarray, dk: np.ndarray, which: np.ndarray) -> np.ndarray:
 
 @numba.njit(cache=True)
 def _newton_residual(phi, a, w2, coeffs, x, rhs, which, vector, out):  # pragma: no cover
-    """The residual rhs − H x (into ``vector`` (n, N, p)) and ‖H x − rhs‖∞ / ‖rhs‖∞ (into
-    ``out`` (n,); NaN if an entry of the residual is NaN) per output in ``which``,
-    H = blkdiag_t(Σ_j κ φφᵀ) + DᵀD ⊗ diag(w2) for a
-    first difference D; x and rhs (n, N, p, 1)."""
+    """The residual rhs − H x (into ``vector`` (n, N, p), unless it is (n, 0, p): only the
+    norms) and ‖H x − rhs‖∞ / ‖rhs‖∞ (into ``out`` (n,); NaN if an entry of the
+    residual is NaN) per output in ``which``, H = blkdiag_t(Σ_j κ φφᵀ) + DᵀD ⊗ diag(w2)
+    for a first difference D; x and rhs (n, N, p, 1)."""
     N, q, p = phi.shape
+    store = vector.shape[1] > 0
     c0, c1 = coeffs[0], coeffs[1]
     weighted = np.empty(q)
     carried = np.empty(p)  # (Dx)_{t−1}
@@ -937,7 +941,8 @@ def _newton_residual(phi, a, w2, coeffs, x, rhs, which, vector, out):  # pragma:
                 for j in range(q):
                     acc += weighted[j] * phi[t, j, i]
                 value = rhs[o, t, i, 0]
-                vector[o, t, i] = value - acc
+                if store:
+                    vector[o, t, i] = value - acc
                 miss = abs(acc - value)
                 if not miss <= worst:  # NaN too: a solution that is not finite fails
                     worst = miss
