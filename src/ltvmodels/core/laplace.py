@@ -462,17 +462,23 @@ def _dual_bound(
     basis = null_space_basis(N, problem.coeffs)  # (N, d)
     ones = np.full((N, 1), 1.0 / np.sqrt(N))
     psi = psi.copy()
+    scaled = s[:, :, None] * problem.phi  # s φ̃ (N, q, p)
+    # the outputs with the same constant coefficients share their columns: one
+    # least-squares problem with a right-hand side each
+    patterns: dict[tuple[bool, ...], list[int]] = {}
     for i in range(n):
+        patterns.setdefault(tuple(const[i].tolist()), []).append(i)
+    for pattern, outputs in patterns.items():
         # columns Σ_t U_tl s_tj φ̃_tja: ψ_i ⊥ them ⇔ v_i ⊥ null(D) (constants: ⊥ 1)
         columns = [
-            (ones if const[i, a] else basis)[:, None, :] * (s * problem.phi[:, :, a])[:, :, None]
-            for a in range(p)
+            (ones if pattern[a] else basis)[:, None, :] * scaled[:, :, a, None] for a in range(p)
         ]
         Z = np.concatenate(columns, axis=2).reshape(-1, sum(c.shape[2] for c in columns))
-        target = psi[:, :, i].reshape(-1)
+        target = psi[:, :, outputs].reshape(-1, len(outputs))
         coef, *_ = np.linalg.lstsq(Z, target, rcond=None)
-        psi[:, :, i] = (target - Z @ coef).reshape(psi.shape[:2])
-    v = np.einsum("tj,tji,tja->tia", s, psi, problem.phi).reshape(N, n * p)
+        psi[:, :, outputs] = (target - Z @ coef).reshape(psi.shape[:2] + (len(outputs),))
+    weighted = s[:, :, None] * psi  # s ψ (N, q, n)
+    v = np.einsum("tji,tja->tia", weighted, problem.phi).reshape(N, n * p)
     mu = difference_preimage(v, problem.coeffs)  # (N − d, K)
     finite = ~np.isinf(weights)
     worst = max(1.0, float(np.abs(psi).max(initial=0.0)))
@@ -490,7 +496,7 @@ def _dual_bound(
             conjugate = 0.25 * float(
                 np.sum(mu[:, finite] * np.linalg.solve(block, mu[:, finite].T).T)
             )
-    value = float(np.einsum("tj,tji,tji->", s, psi, problem.y)) / worst
+    value = float(np.einsum("tji,tji->", weighted, problem.y)) / worst
     return value - conjugate
 
 

@@ -78,7 +78,13 @@ LAPLACE_IRLS_SMOOTHING = 0.3
 # fit_laplace_ipm_diagonal keeps a Kalman solution of a Newton system whose relative
 # residual is at most this (the block Cholesky's are about 1e-14; the covariance
 # form's grow with the largest row weight, to 1e-9 at 4e6 on the benchmark "sq").
-KALMAN_RESIDUAL = 1e-10
+# A direction that far from exact only perturbs the iterate at the level of
+# the stopping test's residuals' rounding (tol 1e-6): the last directions of the
+# benchmark "sq" (residuals 1.4e-9 and 3.7e-10) gave the same objective to 1e-16
+# relative unrefined as refined (also at T = 2e3 to 3e4, 5 % and 20 % outliers),
+# with the same iterations, and their 4 replayed solves and 6 residual passes
+# (about 7 % of the fit at T = 1e5) are saved; 1e-10 refined them.
+KALMAN_RESIDUAL = 1e-8
 # A Kalman solution over that residual is first refined this many times (each a
 # replayed solve with the residual as right-hand side); only if it is still over
 # is the output factored. On the benchmark "sq" (T = 1e5) one refinement brought
@@ -651,6 +657,7 @@ def fit_laplace_ipm_diagonal(
     dk = rhs if kalman is None else np.empty((n, N, p, 1))
     work = np.empty((2, n, N, p) if kalman is not None else (2, n, 0, p))
     no_targets = np.zeros((N, q, n) if kalman is not None else (0, q, n))
+    no_vector = np.empty((n, 0, p))
     residual = np.zeros(n)
     accurate = np.full(n, kalman is not None)  # the outputs the Kalman form still solves
     while active.any():
@@ -674,9 +681,11 @@ def fit_laplace_ipm_diagonal(
             filtered = which & ~kalman.solve(
                 phi, a, no_targets, w2, coeffs, which, dk[:, :, :, 0], linear=rhs[:, :, :, 0]
             )
-            _newton_residual(phi, a, w2, coeffs, dk, rhs, filtered, work[0], residual)
+            # the norms only: the residuals themselves are wanted for a refinement
+            _newton_residual(phi, a, w2, coeffs, dk, rhs, filtered, no_vector, residual)
             off = filtered & ~(residual <= KALMAN_RESIDUAL)
             if off.any():
+                _newton_residual(phi, a, w2, coeffs, dk, rhs, off, work[0], residual)
                 refined = _refine(
                     kalman, phi, a, no_targets, w2, coeffs, off, rhs, dk, work, residual
                 )
@@ -902,11 +911,12 @@ def _copied(rhs: np.ndarray, dk: np.ndarray, which: np.ndarray) -> np.ndarray:
 
 @numba.njit(cache=True)
 def _newton_residual(phi, a, w2, coeffs, x, rhs, which, vector, out):  # pragma: no cover
-    """The residual rhs − H x (into ``vector`` (n, N, p)) and ‖H x − rhs‖∞ / ‖rhs‖∞ (into
-    ``out`` (n,); NaN if an entry of the residual is NaN) per output in ``which``,
-    H = blkdiag_t(Σ_j κ φφᵀ) + DᵀD ⊗ diag(w2) for a
-    first difference D; x and rhs (n, N, p, 1)."""
+    """The residual rhs − H x (into ``vector`` (n, N, p), unless it is (n, 0, p): only the
+    norms) and ‖H x − rhs‖∞ / ‖rhs‖∞ (into ``out`` (n,); NaN if an entry of the
+    residual is NaN) per output in ``which``, H = blkdiag_t(Σ_j κ φφᵀ) + DᵀD ⊗ diag(w2)
+    for a first difference D; x and rhs (n, N, p, 1)."""
     N, q, p = phi.shape
+    store = vector.shape[1] > 0
     c0, c1 = coeffs[0], coeffs[1]
     weighted = np.empty(q)
     carried = np.empty(p)  # (Dx)_{t−1}
@@ -931,7 +941,8 @@ def _newton_residual(phi, a, w2, coeffs, x, rhs, which, vector, out):  # pragma:
                 for j in range(q):
                     acc += weighted[j] * phi[t, j, i]
                 value = rhs[o, t, i, 0]
-                vector[o, t, i] = value - acc
+                if store:
+                    vector[o, t, i] = value - acc
                 miss = abs(acc - value)
                 if not miss <= worst:  # NaN too: a solution that is not finite fails
                     worst = miss
@@ -961,6 +972,10 @@ def _laplace_state(
     d = coeffs.shape[0] - 1
     c0, c1 = coeffs[0], coeffs[-1]
     carried = np.empty(p)  # a first difference's w(Dk)_{t−1}
+    # step t's rows of r_k and of the right-hand side, summed here and stored once
+    # (sums into the output arrays are reloaded and stored at every entry)
+    rk_t = np.empty(p)
+    rhs_t = np.empty(p)
     for o in range(n):
         if not active[o]:
             continue
@@ -980,8 +995,8 @@ def _laplace_state(
                         diff *= w2[o, i]
                         acc += c0 * diff
                         carried[i] = diff
-                    rko[t, i] = acc
-                    rhso[t, i, 0] = 0.0
+                    rk_t[i] = acc
+                    rhs_t[i] = 0.0
             else:
                 for i in range(p):
                     acc = 0.0
@@ -995,8 +1010,8 @@ def _laplace_state(
                         if lag == 0:
                             penalty += 0.5 * w2[o, i] * diff * diff
                         acc += coeffs[lag] * (diff * w2[o, i])
-                    rko[t, i] = acc
-                    rhso[t, i, 0] = 0.0
+                    rk_t[i] = acc
+                    rhs_t[i] = 0.0
             for j in range(q):
                 if not mask[o, t, j]:
                     sp[o, t, j] = 1.0
@@ -1020,7 +1035,7 @@ def _laplace_state(
                 rb2 += r_b * r_b
                 data = z_m - z_p  # the data part of r_k
                 for i in range(p):
-                    rko[t, i] += data * phi[t, j, i]
+                    rk_t[i] += data * phi[t, j, i]
                 if not (s_p > 0.0 and s_m > 0.0 and z_p > 0.0 and z_m > 0.0):
                     interior = 0.0
                     a[t, j, o] = 0.0
@@ -1034,10 +1049,11 @@ def _laplace_state(
                 E = -z_p - z_m - r_b
                 A = (z_m - z_p) - H * E / G
                 for i in range(p):
-                    rhso[t, i, 0] += A * phi[t, j, i]
+                    rhs_t[i] += A * phi[t, j, i]
             for i in range(p):
-                rk2 += rko[t, i] * rko[t, i]
-                rhso[t, i, 0] -= rko[t, i]
+                rko[t, i] = rk_t[i]
+                rk2 += rk_t[i] * rk_t[i]
+                rhso[t, i, 0] = rhs_t[i] - rk_t[i]
         stats[o, 0] = loss
         stats[o, 1] = penalty
         stats[o, 2] = gap
@@ -1110,12 +1126,13 @@ def _laplace_corrector(
     side Σ Aφ − r_k (into ``rhs``)."""
     n, N, q = c.shape
     p = phi.shape[2]
+    row = np.empty(p)  # step t's right-hand side, summed here and stored once
     for o in range(n):
         if not active[o]:
             continue
         for t in range(N):
             for i in range(p):
-                rhs[o, t, i, 0] = -r_k[o, t, i]
+                row[i] = -r_k[o, t, i]
             for j in range(q):
                 if not mask[o, t, j]:
                     continue
@@ -1133,7 +1150,9 @@ def _laplace_corrector(
                 E = ratio_p + ratio_m - (c[o, t, j] - z_p - z_m)
                 A = ratio_p - ratio_m - H * E / G
                 for i in range(p):
-                    rhs[o, t, i, 0] += A * phi[t, j, i]
+                    row[i] += A * phi[t, j, i]
+            for i in range(p):
+                rhs[o, t, i, 0] = row[i]
 
 
 @numba.njit(cache=True)
