@@ -491,3 +491,58 @@ def test_reweighted_start_reaches_the_same_optimum_in_fewer_iterations(coeffs, m
         with_start += start.iterations
         without += plain.iterations
     assert with_start < without
+
+
+@pytest.mark.parametrize("coeffs", [[-1.0, 1.0], [1.0, -2.0, 1.0]])
+def test_centred_start_puts_each_cone_on_its_central_path(coeffs):
+    """From the reweighted start (k, z₁) each cone's slack is s = (s₀, ΛDk_c) with
+    s₀ = max(‖s₁‖ + δ, ‖s₁‖/‖z₁‖), δ the start's gap per cone: where the second
+    bound holds, s ∘ z = μ_c e (the vector part ‖s₁‖ − ‖z₁‖s₀ vanishes). The
+    starting gap sᵀz is recomputed here from the dense ΛD."""
+    data = ltv.systems.jump_linear(T=200, change_at=100, seed=3)
+    pb = state_space_problem(data.x, data.u, np.array(coeffs))
+    lam_max = ltv.lambda_max(data.x, data.u, norm="group", order=len(coeffs) - 1)
+    weights = np.full(pb.K, 0.1 * lam_max)
+    cp = ipm.ConicProblem(pb, weights, "group")
+    k, z1 = ipm.reweighted_start(pb, cp, ipm.feasible_start(pb, cp)[0])
+    with pytest.warns(ltv.ConvergenceWarning):  # the start only
+        start = ipm.fit_sparse_ipm(pb, weights, "group", max_iter=0)
+    np.testing.assert_array_equal(start.theta.reshape(pb.N, pb.K), k)
+    E = np.kron(difference_matrix(pb.N, np.array(coeffs)), np.diag(weights))
+    s1 = (E @ k.ravel()).reshape(cp.n_cones, pb.K)
+    s_norms, z_norms = np.linalg.norm(s1, axis=1), np.linalg.norm(z1, axis=1)
+    fitted = np.einsum("tip,tp->ti", k.reshape(pb.N, pb.n, pb.p), pb.phi[:, 0])
+    loss = np.sum((pb.y[:, 0] - fitted) ** 2)
+    delta = ipm.REWEIGHT_GAP_FRACTION * (loss + s_norms.sum()) / cp.n_cones
+    s0 = np.maximum(s_norms + delta, s_norms / z_norms)
+    centred = s0 > s_norms + delta
+    assert centred.any() and not centred.all()  # both kinds of cones occur here
+    # z₁ points against s₁: then the vector part of s ∘ z is (‖s₁‖ − ‖z₁‖s₀) s₁/‖s₁‖
+    np.testing.assert_allclose(np.einsum("ca,ca->c", s1, z1), -s_norms * z_norms, rtol=1e-9)
+    vector_part = s_norms[centred] - z_norms[centred] * s0[centred]
+    np.testing.assert_allclose(vector_part, 0.0, atol=1e-9 * s0.max())
+    gap = np.sum(s0 - s_norms * z_norms)
+    assert start.duality_gap == pytest.approx(gap, rel=1e-9)
+
+
+@pytest.mark.parametrize("coeffs", [[-1.0, 1.0], [1.0, -2.0, 1.0]])
+def test_centred_start_reaches_the_same_optimum_in_fewer_iterations(coeffs, monkeypatch):
+    """The centred reweighted start (CENTRED_START) against the slack ‖s₁‖ + δ of every
+    cone: the same optima, fewer iterations over three seeds and λ = 0.03-0.3 λ_max
+    (order 1: 65 against 72 here, order 2: 70 against 73)."""
+    centred = plain = 0
+    for seed in (14, 15, 16):
+        data = ltv.systems.jump_linear(T=300, change_at=150, seed=seed)
+        pb = state_space_problem(data.x, data.u, np.array(coeffs))
+        lam_max = ltv.lambda_max(data.x, data.u, norm="group", order=len(coeffs) - 1)
+        for fraction in (0.03, 0.1, 0.3):
+            weights = np.full(pb.K, fraction * lam_max)
+            start = ipm.fit_sparse_ipm(pb, weights, "group", tol=1e-8)
+            monkeypatch.setattr(ipm, "CENTRED_START", False)
+            uncentred = ipm.fit_sparse_ipm(pb, weights, "group", tol=1e-8)
+            monkeypatch.undo()
+            assert start.converged and uncentred.converged
+            assert start.objective == pytest.approx(uncentred.objective, rel=1e-7)
+            centred += start.iterations
+            plain += uncentred.iterations
+    assert centred < plain
