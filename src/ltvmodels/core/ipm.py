@@ -123,7 +123,8 @@ REWEIGHT_GAP_FRACTION = 0.001
 # start of :func:`fit_sparse_ipm`): 8, 12, 16, 20, 30 and 40 fits took 253, 236,
 # 223, 213, 197 and 190 iterations; beyond 20 the fits cost about what they save.
 WIDE_REWEIGHT_STEPS = 20
-# The reweighted start puts each cone on its own central path (see fit_sparse_ipm).
+# The reweighted start of wide fits puts each cone on its own central path (see
+# fit_sparse_ipm).
 CENTRED_START = True
 # A warm start of group cones (order 1) takes WARM_REWEIGHT_STEPS reweighted fits from
 # the previous solution's k (:func:`reweighted_start`) and then the reweighted
@@ -915,7 +916,11 @@ def fit_sparse_ipm(
     # puts it on that path, s ∘ z = μ_c e with μ_c = ‖s₁‖(1 − ‖z₁‖²)/‖z₁‖. On
     # 36 fits of jump systems with K = 35 and 60 (order 1, T = 1000 and 4000,
     # seeds 0-2, λ = 0.03-0.3 λ_max, tol 1e-6) 236 iterations instead of 268,
-    # K = 6 and 12 (T = 300 and 2000) 230 instead of 260, the same optima.
+    # the same optima; order 2 (K = 20 and 35, T = 300 and 1000) about as many
+    # (427 against 429). Wide blocks only: narrow ones gain too (K = 6 and 12,
+    # T = 300 and 2000: 230 instead of 260), but their iterates move within the
+    # tolerance, and with them the L-curve's corner on 2 of the 80 series of
+    # benchmarks/bench_lcurve_choices.py.
     s[:, 1:] = -r_z[:, 1:]
     fraction = START_GAP_FRACTION
     if warm:
@@ -925,7 +930,8 @@ def fit_sparse_ipm(
     delta = max(fraction * (loss + reg) / n_cones, 1e-12)
     s_norms = np.sqrt(np.sum(s[:, 1:] ** 2, axis=1))
     s[:, 0] = s_norms + delta
-    if CENTRED_START and z1 is not None and not warm:  # the reweighted start's duals
+    wide = cp.systems[0].wide
+    if CENTRED_START and wide and z1 is not None and not warm:  # the reweighted duals
         z_norms = np.sqrt(np.sum(z1**2, axis=1))
         np.maximum(s[:, 0], s_norms / np.maximum(z_norms, np.finfo(float).tiny), out=s[:, 0])
     t[:] = s[:, 0]
