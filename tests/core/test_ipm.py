@@ -491,3 +491,75 @@ def test_reweighted_start_reaches_the_same_optimum_in_fewer_iterations(coeffs, m
         with_start += start.iterations
         without += plain.iterations
     assert with_start < without
+
+
+def _wide_jump(T: int, seed: int, n: int = 4, m: int = 1):
+    """x (T, n), u (T, m) of a system whose A switches at T/2 (K = n(n + m) = 20 at
+    the defaults: the wide kernels' blocks for orders 1 and 2)."""
+    rng = np.random.default_rng(seed)
+    A = [rng.standard_normal((n, n)) for _ in range(2)]
+    A = [0.9 * a / np.abs(np.linalg.eigvals(a)).max() for a in A]
+    B, u = rng.standard_normal((n, m)), rng.standard_normal((T, m))
+    x = np.zeros((T, n))
+    for t in range(T - 1):
+        x[t + 1] = A[t >= T // 2] @ x[t] + B @ u[t] + 0.2 * rng.standard_normal(n)
+    return x, u
+
+
+@pytest.mark.parametrize("coeffs", [[-1.0, 1.0], [1.0, -2.0, 1.0]])
+def test_centred_start_puts_each_cone_on_its_central_path(coeffs):
+    """From the reweighted start (k, z₁) of a wide fit each cone's slack is
+    s = (s₀, ΛDk_c) with s₀ = max(‖s₁‖ + δ, ‖s₁‖/‖z₁‖), δ the start's gap per cone:
+    where the second bound holds, s ∘ z = μ_c e (the vector part ‖s₁‖ − ‖z₁‖s₀
+    vanishes). The starting gap sᵀz is recomputed here from the dense ΛD; a narrow
+    fit keeps s₀ = ‖s₁‖ + δ."""
+    x, u = _wide_jump(200, seed=3)
+    order = len(coeffs) - 1
+    pb = state_space_problem(x, u, np.array(coeffs))
+    lam_max = ltv.lambda_max(x, u, norm="group", order=order)
+    weights = np.full(pb.K, 0.1 * lam_max)
+    cp = ipm.ConicProblem(pb, weights, "group")
+    assert cp.systems[0].wide
+    steps = ipm.WIDE_REWEIGHT_STEPS
+    k, z1 = ipm.reweighted_start(pb, cp, ipm.feasible_start(pb, cp)[0], steps)
+    with pytest.warns(ltv.ConvergenceWarning):  # the start only
+        start = ipm.fit_sparse_ipm(pb, weights, "group", max_iter=0)
+    np.testing.assert_array_equal(start.theta.reshape(pb.N, pb.K), k)
+    E = np.kron(difference_matrix(pb.N, np.array(coeffs)), np.diag(weights))
+    s1 = (E @ k.ravel()).reshape(cp.n_cones, pb.K)
+    s_norms, z_norms = np.linalg.norm(s1, axis=1), np.linalg.norm(z1, axis=1)
+    fitted = np.einsum("tip,tp->ti", k.reshape(pb.N, pb.n, pb.p), pb.phi[:, 0])
+    loss = np.sum((pb.y[:, 0] - fitted) ** 2)
+    delta = ipm.REWEIGHT_GAP_FRACTION * (loss + s_norms.sum()) / cp.n_cones
+    s0 = np.maximum(s_norms + delta, s_norms / z_norms)
+    centred = s0 > s_norms + delta
+    assert centred.any() and not centred.all()  # both kinds of cones occur here
+    # z₁ points against s₁: then the vector part of s ∘ z is (‖s₁‖ − ‖z₁‖s₀) s₁/‖s₁‖
+    np.testing.assert_allclose(np.einsum("ca,ca->c", s1, z1), -s_norms * z_norms, rtol=1e-9)
+    vector_part = s_norms[centred] - z_norms[centred] * s0[centred]
+    np.testing.assert_allclose(vector_part, 0.0, atol=1e-9 * s0.max())
+    gap = np.sum(s0 - s_norms * z_norms)
+    assert start.duality_gap == pytest.approx(gap, rel=1e-9)
+
+
+def test_centred_start_reaches_the_same_optimum_in_fewer_iterations(monkeypatch):
+    """The centred reweighted start (CENTRED_START) of wide fits against the slack
+    ‖s₁‖ + δ of every cone: the same optima, fewer iterations over three seeds and
+    λ = 0.03-0.3 λ_max (order 1; order 2 takes about as many either way)."""
+    centred = plain = 0
+    coeffs, order = [-1.0, 1.0], 1
+    for seed in (0, 1, 2):
+        x, u = _wide_jump(300, seed)
+        pb = state_space_problem(x, u, np.array(coeffs))
+        lam_max = ltv.lambda_max(x, u, norm="group", order=order)
+        for fraction in (0.03, 0.1, 0.3):
+            weights = np.full(pb.K, fraction * lam_max)
+            start = ipm.fit_sparse_ipm(pb, weights, "group", tol=1e-8)
+            monkeypatch.setattr(ipm, "CENTRED_START", False)
+            uncentred = ipm.fit_sparse_ipm(pb, weights, "group", tol=1e-8)
+            monkeypatch.undo()
+            assert start.converged and uncentred.converged
+            assert start.objective == pytest.approx(uncentred.objective, rel=1e-7)
+            centred += start.iterations
+            plain += uncentred.iterations
+    assert centred < plain, (centred, plain)
