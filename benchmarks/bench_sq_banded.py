@@ -23,8 +23,10 @@ already filled by this process's warm-up), makes the data, and times the
 first fit; another fresh interpreter measures the fit's peak traced
 allocations (tracemalloc: peak during the call less what was traced before
 it, divided by T). The same call repeated in this process gives the repeated
-best. Printed: one-shot best and spread, repeated best and spread, their
-ratio and the peak bytes per step. Each fresh interpreter starts ``--pause``
+best. Printed: one-shot best and spread, repeated best and spread, the
+ratio of the bests, its range and the ratio of the medians (a one-shot call
+that found its memory already mapped by chance makes the best fast, not the
+median), and the peak bytes per step. Each fresh interpreter starts ``--pause``
 seconds after the last one ended: memory that a process freed a moment ago can
 come back to the next one already mapped by the host (a virtual machine whose
 host reclaims the guest's free memory takes about 2 s to do so), which made
@@ -141,7 +143,7 @@ def one_shot_rows(sizes: list[float], repeat: int, pause: float) -> None:
     """The --one-shot table: fresh process against the same call repeated in this one."""
     header = (
         f"{'T':>8} {'one-shot [s]':>13} {'spread':>13} {'repeated [s]':>13} {'spread':>13} "
-        f"{'ratio':>6} {'ratio range':>12} {'peak B/step':>11}"
+        f"{'ratio':>6} {'ratio range':>12} {'medians':>8} {'peak B/step':>11}"
     )
     print(header)
     print("-" * len(header))
@@ -160,6 +162,7 @@ def one_shot_rows(sizes: list[float], repeat: int, pause: float) -> None:
             f"{min(again):>13.3f} {min(again):>6.2f}–{max(again):<6.2f} "
             f"{min(fresh) / min(again):>5.2f}x "
             f"{min(fresh) / max(again):>5.2f}–{max(fresh) / min(again):<5.2f} "
+            f"{np.median(fresh) / np.median(again):>7.2f}x "
             f"{peak / T:>11.0f}",
             flush=True,
         )
