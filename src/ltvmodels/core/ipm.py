@@ -917,10 +917,10 @@ def fit_sparse_ipm(
     # 36 fits of jump systems with K = 35 and 60 (order 1, T = 1000 and 4000,
     # seeds 0-2, λ = 0.03-0.3 λ_max, tol 1e-6) 236 iterations instead of 268,
     # the same optima; order 2 (K = 20 and 35, T = 300 and 1000) about as many
-    # (427 against 429). Wide blocks only: narrow ones gain too (K = 6 and 12,
-    # T = 300 and 2000: 230 instead of 260), but their iterates move within the
-    # tolerance, and with them the L-curve's corner on 2 of the 80 series of
-    # benchmarks/bench_lcurve_choices.py.
+    # (427 against 429). Wide blocks only: narrow ones gain too (narrow jump
+    # systems, T = 300 and 2000: 230 iterations instead of 260), but their
+    # iterates move within the tolerance, and with them the L-curve's corner on
+    # 2 of the 80 series of benchmarks/bench_lcurve_choices.py.
     s[:, 1:] = -r_z[:, 1:]
     fraction = START_GAP_FRACTION
     if warm:
@@ -930,8 +930,7 @@ def fit_sparse_ipm(
     delta = max(fraction * (loss + reg) / n_cones, 1e-12)
     s_norms = np.sqrt(np.sum(s[:, 1:] ** 2, axis=1))
     s[:, 0] = s_norms + delta
-    wide = cp.systems[0].wide
-    if CENTRED_START and wide and z1 is not None and not warm:  # the reweighted duals
+    if CENTRED_START and cp.systems[0].wide and z1 is not None and not warm:
         z_norms = np.sqrt(np.sum(z1**2, axis=1))
         np.maximum(s[:, 0], s_norms / np.maximum(z_norms, np.finfo(float).tiny), out=s[:, 0])
     t[:] = s[:, 0]
