@@ -44,6 +44,10 @@ def _quiet_sktime():
         yield
 
 
+# Said by sktime's own checks, of its own code: predict_proba without the optional
+# skpro, and pandas' coming change to concat's sorting inside sktime's evaluation.
+@pytest.mark.filterwarnings("ignore:Forecasters' predict_proba requires skpro:UserWarning")
+@pytest.mark.filterwarnings("ignore:Sorting by default when concatenating all DatetimeIndex")
 @pytest.mark.parametrize("estimator", [LTVForecaster, LTVChangePointDetector])
 def test_sktime_check_estimator(estimator):
     from sktime.utils.estimator_checks import check_estimator
