@@ -344,6 +344,40 @@ def test_first_difference_solve_equals_a_dense_solve(q, fixed):
     assert worst <= 1e-12
 
 
+def test_first_difference_solve_pairs_right_hand_sides_exactly():
+    """Above PAIRED_RHS_MIN_B the kernel solves its right-hand sides two at a time:
+    each column's solution is the one it gets alone, bit for bit, and a dense solve's."""
+    from ltvmodels.core import blockkernels as kernels
+
+    rng = np.random.default_rng(11)
+    N, p, r = 25, kernels.PAIRED_RHS_MIN_B + 2, 3  # a pair and one alone
+    phi = rng.standard_normal((N, 1, p))
+    rho = rng.uniform(0.01, 50.0, N - 1)
+    wsq = rng.uniform(0.5, 4.0, p)
+    bands = np.zeros((2, N))
+    bands[0, :-1] += rho
+    bands[0, 1:] += rho
+    bands[1, :-1] = -rho
+    rhs = rng.standard_normal((N, r, p))
+    X, L = rhs.copy(), np.empty((N, 2, p, p))
+    assert kernels.first_difference_solve(phi, 2.0, wsq, bands, X, L, p)[0] > 0
+    for c in range(r):
+        alone = np.ascontiguousarray(rhs[:, c : c + 1])
+        kernels.first_difference_solve(phi, 2.0, wsq, bands, alone, L, p)
+        np.testing.assert_array_equal(X[:, c], alone[:, 0])
+    H = np.zeros((N * p, N * p))
+    for t in range(N):
+        H[t * p : (t + 1) * p, t * p : (t + 1) * p] = 2.0 * np.outer(phi[t, 0], phi[t, 0])
+        H[t * p : (t + 1) * p, t * p : (t + 1) * p] += np.diag(bands[0, t] * wsq)
+        if t + 1 < N:
+            H[(t + 1) * p : (t + 2) * p, t * p : (t + 1) * p] = np.diag(bands[1, t] * wsq)
+            H[t * p : (t + 1) * p, (t + 1) * p : (t + 2) * p] = np.diag(bands[1, t] * wsq)
+    expected = np.linalg.solve(H, rhs.transpose(0, 2, 1).reshape(N * p, r))
+    np.testing.assert_allclose(
+        X.transpose(0, 2, 1).reshape(N * p, r), expected, rtol=1e-9, atol=1e-11
+    )
+
+
 def test_kernels_receive_c_ordered_arrays_from_the_bordered_solve():
     """Coefficients held constant (λ = inf) go through the bordered solve, whose
     right-hand side is a concatenation that numpy may lay out in Fortran order: the
