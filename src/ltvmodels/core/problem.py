@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .blockkernels import rowwise_matvec
+from .robust_scale import column_center_spread
 
 __all__ = [
     "RegressionProblem",
@@ -338,13 +339,17 @@ class OutputSpread:
 def output_spread(problem: RegressionProblem) -> OutputSpread | None:
     """Each output entry's distance from its column's median in robust scales; None
     where no row is observed."""
+    if not problem.observed.any():
+        return None
     row_scale = problem.row_scale[:, :, None]
     given = problem.y / np.where(row_scale > 0, row_scale, 1.0)
-    values = given[problem.observed]  # (rows, n)
-    if values.shape[0] == 0:
-        return None
-    center = np.median(values, axis=0)
-    spread = 1.4826 * np.median(np.abs(values - center), axis=0)
-    distance = np.abs(given - center) / np.where(spread > 0, spread, np.inf)
-    scales = np.where(problem.observed[:, :, None], distance, 0.0)
+    n = problem.n
+    center, mad, rms = np.empty(n), np.empty(n), np.empty(n)
+    column_center_spread(given, problem.observed, center, mad, rms)
+    spread = 1.4826 * mad
+    # in place: each (N, q, n) temporary costs its page faults at large N
+    scales = np.subtract(given, center)
+    np.abs(scales, out=scales)
+    np.divide(scales, np.where(spread > 0, spread, np.inf), out=scales)
+    scales[~problem.observed] = 0.0
     return OutputSpread(given, center, spread, scales)

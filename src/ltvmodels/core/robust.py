@@ -40,6 +40,7 @@ from .losses import Loss, LossFit
 from .penalties import Penalty, named
 from .priorterms import PriorTerm
 from .problem import RegressionProblem, null_space_basis, output_spread
+from .robust_scale import column_center_spread, median_in_place
 from .sparse import solve_sparse
 from .sparse_common import difference_preimage, null_space_fit
 from .squared import SquaredSolver
@@ -94,11 +95,13 @@ ROUNDING = 1e-8
 def default_delta(problem: RegressionProblem, theta: np.ndarray) -> np.ndarray:
     """1.345 × the robust scale (1.4826 · MAD) of each output's residuals of ``theta``
     (N, n, p), the squared-loss fit."""
-    scale = np.where(problem.row_scale > 0, problem.row_scale, 1.0)[:, :, None]
-    resid = (problem.residuals(theta) / scale)[problem.observed]  # (rows, n), units of y
-    median = np.median(resid, axis=0)
-    sigma = MAD_TO_STD * np.median(np.abs(resid - median), axis=0)
-    rms = np.sqrt(np.mean(resid**2, axis=0))
+    resid = problem.residuals(theta)
+    scale = problem.row_scale[:, :, None]
+    np.divide(resid, scale, out=resid, where=scale > 0)  # in the units of y
+    n = problem.n
+    median, mad, rms = np.empty(n), np.empty(n), np.empty(n)
+    column_center_spread(resid, problem.observed, median, mad, rms)
+    sigma = MAD_TO_STD * mad
     # More than half the residuals zero: the MAD is 0, fall back to the RMS; an exact
     # fit has nothing to be robust against (any δ gives the squared-loss fit).
     sigma = np.where(sigma > 0, sigma, np.where(rms > 0, rms, 1.0))
@@ -158,50 +161,12 @@ def _outlier_mask(r, y, observed, threshold, mask, sigma):  # pragma: no cover -
                     kept += 1
         if kept == 0:
             continue
-        sigma[i] = MAD_TO_STD * _median_in_place(values[:kept])
+        sigma[i] = MAD_TO_STD * median_in_place(values[:kept])
         bound = threshold * sigma[i]
         for t in range(N):
             for j in range(q):
                 a = abs(r[t, j, i])
                 mask[t, j, i] = observed[t, j] and a > floor and a > bound
-
-
-@numba.njit(cache=True)
-def _median_in_place(a):  # pragma: no cover - compiled
-    """The median of ``a`` (reordered): Hoare's selection of the middle element(s).
-
-    Written out rather than numba's np.median, whose compilation (its partition and
-    selection helpers) took 1.2 s of the first fit in a fresh process; this takes
-    about 0.3 s. Invariant: a[:lo] <= a[lo:hi + 1] <= a[hi + 1:].
-    """
-    size = a.size
-    k = size // 2
-    lo, hi = 0, size - 1
-    while lo < hi:
-        pivot = a[(lo + hi) // 2]
-        i, j = lo, hi
-        while i <= j:
-            while a[i] < pivot:
-                i += 1
-            while a[j] > pivot:
-                j -= 1
-            if i <= j:
-                a[i], a[j] = a[j], a[i]
-                i += 1
-                j -= 1
-        if k <= j:
-            hi = j
-        elif k >= i:
-            lo = i
-        else:  # a[j + 1 : i] equal the pivot
-            break
-    upper = a[k]
-    if size % 2:
-        return upper
-    lower = a[0]  # a[:k] <= a[k]: the largest of them is the lower middle
-    for index in range(1, k):
-        lower = max(lower, a[index])
-    return 0.5 * (lower + upper)
 
 
 @dataclass
