@@ -144,29 +144,30 @@ def _outlier_mask(r, y, observed, threshold, mask, sigma):  # pragma: no cover -
     N, q, n = r.shape
     values = np.empty(N * q)
     for i in range(n):
+        # one strided pass: the sizes |r| of the observed entries, their RMS, the largest |y|
         total, largest, count = 0.0, 0.0, 0
         for t in range(N):
             for j in range(q):
                 if observed[t, j]:
-                    total += r[t, j, i] * r[t, j, i]
+                    size = abs(r[t, j, i])
+                    values[count] = size
+                    total += size * size
                     largest = max(largest, abs(y[t, j, i]))
                     count += 1
         rms = np.sqrt(total / max(count, 1))
         floor = max(REPRODUCED * rms, ROUNDING * largest)
         kept = 0
-        for t in range(N):
-            for j in range(q):
-                if observed[t, j] and abs(r[t, j, i]) > floor:
-                    values[kept] = abs(r[t, j, i])
-                    kept += 1
+        for index in range(count):  # the entries beyond the floor to the front, in place
+            size = values[index]
+            values[kept] = size
+            kept += size > floor
         if kept == 0:
             continue
         sigma[i] = MAD_TO_STD * median_in_place(values[:kept])
-        bound = threshold * sigma[i]
+        bound = max(threshold * sigma[i], floor)
         for t in range(N):
             for j in range(q):
-                a = abs(r[t, j, i])
-                mask[t, j, i] = observed[t, j] and a > floor and a > bound
+                mask[t, j, i] = observed[t, j] and abs(r[t, j, i]) > bound
 
 
 @dataclass
