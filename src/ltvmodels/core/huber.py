@@ -133,10 +133,13 @@ def fit_huber(
     penalty = SquaredSolver(problem, W, [])
     if not penalty.separable:
         raise NotImplementedError("loss='huber' needs a penalty that does not couple outputs")
-    # the squared-loss fit starts the iteration
-    theta = penalty.solve(1.0)[0] if start is None else start.copy()
+    # the squared-loss fit starts the iteration (the caller's is not changed: the
+    # compiled path reads it into its own layout, the general one updates a copy)
+    theta = penalty.solve(1.0)[0] if start is None else start
     if not priors and penalty.diagonal and np.isfinite(weight_diagonal(W)).all():
         return _fit_diagonal(problem, penalty.W0_diagonal, thresholds, theta, max_iter, tol)
+    if start is not None:
+        theta = start.copy()
     outputs = [_output_problem(problem, i) for i in range(n)]
     quadratics = [
         _OutputQuadratic(
@@ -415,7 +418,7 @@ def _fit_diagonal(
     majorize–minimize fallback) and the same certificate, except that τ drops to 0
     (the exact generalized Newton step) after a step of length >= ``EXACT_STEP``.
 
-    ``thresholds`` are δ̃ (N, q, n), ``theta`` (N, n, p) the start (overwritten).
+    ``thresholds`` are δ̃ (N, q, n), ``theta`` (N, n, p) the start (read only).
     Per step: one pass for the KKT residuals and the Newton models' rows
     (:func:`_newton_state`, on the residuals kept from the previous step's line
     search), one sweep that solves the outputs still iterating
@@ -433,7 +436,7 @@ def _fit_diagonal(
     limits = np.ascontiguousarray(thresholds.transpose(2, 0, 1), dtype=float)  # (n, N, q)
     coeffs = np.ascontiguousarray(problem.coeffs, dtype=float)
     w = np.ascontiguousarray(weight.reshape(n, p), dtype=float)
-    k = np.ascontiguousarray(theta.transpose(1, 0, 2))  # (n, N, p): each output contiguous
+    k = np.array(theta.transpose(1, 0, 2), dtype=float, order="C")  # (n, N, p), a copy
     a = np.empty((N, q, n))
     targets = np.empty((N, q, n))
     model = np.empty((n, N, p, 1))
