@@ -236,3 +236,31 @@ def test_info_contents():
         ),
         rel=1e-10,
     )
+
+
+@pytest.mark.parametrize(
+    "build",
+    [
+        lambda k, **kw: ltv.RegressionModel(k, 2, 3, **kw),
+        lambda k, **kw: ltv.LTVModel(k, 2, 1, **kw),
+        lambda k, **kw: ltv.ARXModel(k, 2, 1, 1, 1, 1, False, **kw),
+        lambda k, **kw: ltv.ARModel(k, 2, 1, True, **kw),
+    ],
+)
+def test_copy_false_takes_a_float_array_as_it_is(build):
+    k = np.random.default_rng(0).standard_normal((7, 6))
+    assert not np.shares_memory(build(k).k, k)  # the default: a copy
+    assert np.shares_memory(build(k, copy=False).k, k)
+    # anything else is converted and checked as always
+    listed = build(k.tolist(), copy=False)
+    np.testing.assert_array_equal(listed.k, k)
+    bad = k.copy()
+    bad[3, 2] = np.nan
+    with pytest.raises(ValueError, match="k"):
+        build(bad, copy=False)
+
+
+def test_a_fitted_model_shares_no_memory_with_the_data():
+    data = ltv.systems.jump_linear(T=200, change_at=100, seed=0)
+    model = ltv.fit(data.x, data.u, lam=10.0)
+    assert not np.shares_memory(model.k, data.x) and not np.shares_memory(model.k, data.u)

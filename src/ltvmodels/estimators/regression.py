@@ -46,7 +46,8 @@ __all__ = ["fit_regression", "fit_problem", "sparse_model", "last_segment_unit_c
 ModelT = TypeVar("ModelT", bound=RegressionModel)
 """The model a front-end's factory builds (RegressionModel, LTVModel, ARXModel, …)."""
 ModelFactory = Callable[..., ModelT]
-"""Builds the result: ``factory(k, fit=FitRecord(...))`` with k of shape (N, K)."""
+"""Builds the result: ``factory(k, fit=FitRecord(...))`` with k of shape (N, K), and
+``copy=False`` where k is the estimator's own array (see :class:`RegressionModel`)."""
 
 
 def fit_regression(
@@ -394,7 +395,8 @@ def _fit_with_lam(
         {"n_factorizations": result.n_factorizations},
     )
     return factory(
-        k,
+        k,  # the solver's own array, which nothing else holds: not copied again
+        copy=False,
         fit=FitRecord(
             norm=norm,
             coeffs=problem.coeffs,

@@ -89,6 +89,8 @@ class ARXModel(RegressionModel):
         Whether Θ_t ends with the constant term c_t.
     fit : FitRecord, optional
         What the estimator computed besides k; default: nothing (given coefficients).
+    copy : bool
+        False: take a float64 ``k`` as it is (see :class:`~ltvmodels.RegressionModel`).
     """
 
     def __init__(
@@ -101,13 +103,15 @@ class ARXModel(RegressionModel):
         nk: int,
         constant: bool,
         fit: FitRecord | None = None,
+        *,
+        copy: bool = True,
     ) -> None:
         self.n_inputs = options.integer(n_inputs, "n_inputs", minimum=0)
         self.na, self.nb, self.nk = options.lag_orders(na, nb, nk, min_na=0, min_nb=0)
         self.constant = options.flag(constant, "constant")
         n_outputs = options.integer(n_outputs, "n_outputs", minimum=1)
         p = n_outputs * self.na + self.n_inputs * self.nb + int(self.constant)
-        super().__init__(k, n_outputs, p, fit)
+        super().__init__(k, n_outputs, p, fit, copy=copy)
 
     # -- structure --------------------------------------------------------------------
     @property
@@ -499,8 +503,10 @@ class ARModel(ARXModel):
         na: int,
         constant: bool,
         fit: FitRecord | None = None,
+        *,
+        copy: bool = True,
     ) -> None:
-        super().__init__(k, n_outputs, 0, na, 0, 1, constant, fit)
+        super().__init__(k, n_outputs, 0, na, 0, 1, constant, fit, copy=copy)
 
     # An AR model has no inputs: its predict, simulate and forecast leave u out.
     def predict(self, y: ArrayLike) -> np.ndarray:  # type: ignore[override]

@@ -90,12 +90,26 @@ class RegressionModel:
         What the estimator computed besides k (penalty, λ, covariances,
         noise, likelihood, status, ``info``); default: nothing (given
         coefficients).
+    copy : bool
+        False: a float64 numpy ``k`` is taken as it is, not copied (an
+        estimator's own result, which nothing else holds: at T = 1e6 the copy
+        was a third of a fit's memory); it must not be changed afterwards.
+        Default True: the model keeps a copy.
     """
 
     def __init__(
-        self, k: ArrayLike, n_outputs: int, n_regressors: int, fit: FitRecord | None = None
+        self,
+        k: ArrayLike,
+        n_outputs: int,
+        n_regressors: int,
+        fit: FitRecord | None = None,
+        *,
+        copy: bool = True,
     ) -> None:
-        self._k = arrays.as_float_array(k, "k")  # a finite float64 copy
+        if not copy and type(k) is np.ndarray and k.dtype == np.float64 and np.isfinite(k).all():
+            self._k = k
+        else:
+            self._k = arrays.as_float_array(k, "k")  # a finite float64 copy
         self._n_outputs = options.integer(n_outputs, "n_outputs", minimum=1)
         self._n_regressors = options.integer(n_regressors, "n_regressors", minimum=1)
         if self._k.ndim != 2 or self._k.shape[1] != self._n_outputs * self._n_regressors:

@@ -108,6 +108,8 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         coefficients, e.g. ``LTVModel(k, 2, 1).simulate(x0, u)``).
     constant : bool
         Whether k holds an intercept c_t.
+    copy : bool
+        False: take a float64 ``k`` as it is (see :class:`~ltvmodels.RegressionModel`).
 
     See Also
     --------
@@ -122,11 +124,13 @@ class LTVModel(RegressionModel, LinearTimeVarying):
         n_inputs: int,
         fit: FitRecord | None = None,
         constant: bool = False,
+        *,
+        copy: bool = True,
     ) -> None:
         n_states = options.integer(n_states, "n_states", minimum=1)
         n_inputs = options.integer(n_inputs, "n_inputs", minimum=0)
         constant = options.flag(constant, "constant")
-        super().__init__(k, n_states, n_states + n_inputs + constant, fit)
+        super().__init__(k, n_states, n_states + n_inputs + constant, fit, copy=copy)
         self.n_states = n_states
         self.n_inputs = n_inputs
         self.constant = constant
