@@ -116,17 +116,19 @@ def robust_model(
         changepoints = find_changepoints(
             activation(k, problem.coeffs), degree=problem.degree, min_level=residue_level(k)
         )
+    residuals = problem.residuals(solution.theta)  # for the noise and the outliers
     if noise_var is None:
-        noise_var = problem.output_rss(solution.theta) / max(problem.n_observed, 1)
+        noise_var = problem.output_rss(solution.theta, residuals) / max(problem.n_observed, 1)
     return factory(
-        k,
+        k,  # the solver's own array, which nothing else holds: not copied again
+        copy=False,
         fit=FitRecord(
             norm=norm,
             coeffs=problem.coeffs,
             lam=lam,
             noise_var=noise_var,
             noise_cov=np.diag(noise_var),
-            info={**info, **outlier_info(problem, solution.theta)},
+            info={**info, **outlier_info(problem, solution.theta, residuals)},
             changepoints=changepoints,
             status=status,
         ),
