@@ -149,3 +149,33 @@ def test_polish_certifies_from_the_iterate_with_a_singular_reduced_hessian(monke
     # A handful of changes; the other differences vanish to the rounding of λ·Dk.
     norms = cone_norms(polished.k, pb, weights, "l1")
     assert np.mean(norms <= 1e-9 * norms.max()) > 0.99
+
+
+def test_polish_gives_up_within_its_bounds(monkeypatch):
+    """max_splits and max_active bound the work: none allowed, no result."""
+    pb, weights = problem_and_weights(3, 1, 4.0)
+    _, (k, s, z) = last_iterate(monkeypatch, pb, weights, "group", tol=1e-8)
+    assert polish.polish(pb, weights, "group", k, s, z, tol=1e-9) is not None
+    assert polish.polish(pb, weights, "group", k, s, z, tol=1e-9, max_splits=0) is None
+    assert polish.polish(pb, weights, "group", k, s, z, tol=1e-9, max_active=0) is None
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_certificate_dual_against_the_recurrence(order):
+    """certificate's dual u solves DᵀΛu = −∇f (rows t < R): for a first difference by a
+    cumulative sum, otherwise by the recurrence (scipy.signal.lfilter); checked here
+    against a dense least-squares solve of the same equations."""
+    pb, weights = problem_and_weights(5, order, 3.0, T=60)
+    k = np.random.default_rng(order).standard_normal((pb.N, pb.K))
+    _, gap, residual, u_norm = polish.certificate(pb, weights, k, named("group"))
+    theta = k.reshape(pb.N, pb.n, pb.p)
+    grad = -2.0 * np.einsum("tji,tja->tia", pb.residuals(theta), pb.phi).reshape(pb.N, pb.K)
+    R = pb.N - order
+    D = np.zeros((R, pb.N))
+    for lag, c in enumerate(COEFFS[order]):
+        D[np.arange(R), np.arange(R) + lag] = c
+    # (DᵀΛu)_t = −grad_t for the first R rows determines Λu (D's first R columns)
+    lam_u = np.linalg.solve(D[:, :R].T, -grad[:R])
+    u_dense = np.linalg.norm(lam_u / weights, axis=1)
+    np.testing.assert_allclose(u_norm, u_dense, rtol=1e-9)
+    assert gap >= 0.0 and residual >= 0.0
