@@ -258,6 +258,8 @@ def test_copy_false_takes_a_float_array_as_it_is(build):
     bad[3, 2] = np.nan
     with pytest.raises(ValueError, match="k"):
         build(bad, copy=False)
+    with pytest.raises(TypeError, match="copy"):
+        build(k, copy="no")
 
 
 def test_a_fitted_model_shares_no_memory_with_the_data():

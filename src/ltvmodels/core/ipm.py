@@ -959,7 +959,8 @@ def fit_sparse_ipm(
     elif rho is not None:
         z[:, 1:] = -rho * s[:, 1:]
     scale_k = stationarity_scale(problem)
-    converged = stalled = polished = False
+    converged = stalled = False
+    polished_result = None  # the active-set polish's, early or at the end
     early_polish = (
         EARLY_POLISH_GAP > 0
         and norm == "group"
@@ -985,11 +986,10 @@ def fit_sparse_ipm(
         if early_polish and gap <= EARLY_POLISH_GAP * objective:
             early_polish = False  # once
             limit = max(int(EARLY_POLISH_ACTIVE * n_cones), EARLY_POLISH_MIN_ACTIVE)
-            result = polish(problem, weights, norm, k, s, z, tol, EARLY_POLISH_SPLITS, limit)
-            if result is not None:
-                k, objective, gap = result.k, result.objective, result.duality_gap
-                primal_res, dual_res = 0.0, result.dual_residual
-                converged = polished = True
+            polished_result = polish(
+                problem, weights, norm, k, s, z, tol, EARLY_POLISH_SPLITS, limit
+            )
+            if polished_result is not None:
                 break
         newton = NewtonSystem(cp, s, z, r_z, r_k)
         # Predictor (affine) step, target −λ∘λ; then Mehrotra's corrector with the
@@ -1010,14 +1010,16 @@ def fit_sparse_ipm(
             stalled = True
             break
         cones.take_step(k, dk, t, dt, s, ds, z, dz, step)
-    if not converged and problem.degree in (1, 2) and not cp.const.any():
+    unsolved = polished_result is None and not converged
+    if unsolved and problem.degree in (1, 2) and not cp.const.any():
         # Near a degenerate optimum the Newton systems lose definiteness before
         # the gap closes; the active-set polish often still certifies an optimum.
-        result = polish(problem, weights, norm, k, s, z, tol)
-        if result is not None:
-            k, objective, gap = result.k, result.objective, result.duality_gap
-            primal_res, dual_res = 0.0, result.dual_residual
-            converged = polished = True
+        polished_result = polish(problem, weights, norm, k, s, z, tol)
+    polished = polished_result is not None
+    if polished_result is not None:
+        k, objective = polished_result.k, polished_result.objective
+        gap, primal_res, dual_res = polished_result.duality_gap, 0.0, polished_result.dual_residual
+        converged = True
     if not converged:
         reason = (
             "stalled at the limit of working precision"

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .blockkernels import rowwise_matvec
-from .robust_scale import column_center_spread
+from .robust_scale import MAD_TO_STD, column_center_spread
 
 __all__ = [
     "RegressionProblem",
@@ -346,7 +346,7 @@ def output_spread(problem: RegressionProblem) -> OutputSpread | None:
     n = problem.n
     center, mad, rms = np.empty(n), np.empty(n), np.empty(n)
     column_center_spread(given, problem.observed, center, mad, rms)
-    spread = 1.4826 * mad
+    spread = MAD_TO_STD * mad
     # in place: each (N, q, n) temporary costs its page faults at large N
     scales = np.subtract(given, center)
     np.abs(scales, out=scales)

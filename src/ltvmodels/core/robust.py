@@ -40,7 +40,7 @@ from .losses import Loss, LossFit
 from .penalties import Penalty, named
 from .priorterms import PriorTerm
 from .problem import RegressionProblem, null_space_basis, output_spread
-from .robust_scale import column_center_spread, median_in_place
+from .robust_scale import MAD_TO_STD, column_center_spread, median_in_place
 from .sparse import solve_sparse
 from .sparse_common import difference_preimage, null_space_fit
 from .squared import SquaredSolver
@@ -58,7 +58,6 @@ __all__ = [
 ]
 
 HUBER_EFFICIENCY = 1.345  # δ / σ of Huber's 95 %-efficient estimator
-MAD_TO_STD = 1.4826  # σ / MAD of Gaussian noise
 # Tolerance of the squared-loss sparse fit that starts a robust one: its residuals'
 # MAD (the default δ) and a starting point need a few digits only.
 START_TOL = 1e-3

@@ -13,7 +13,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["column_center_spread", "median_in_place"]
+__all__ = ["MAD_TO_STD", "column_center_spread", "median_in_place"]
+
+MAD_TO_STD = 1.4826  # σ / MAD of Gaussian noise
 
 
 # Above this many entries a median is first bracketed by two order statistics of a

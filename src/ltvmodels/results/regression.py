@@ -106,6 +106,7 @@ class RegressionModel:
         *,
         copy: bool = True,
     ) -> None:
+        copy = options.flag(copy, "copy")
         if not copy and type(k) is np.ndarray and k.dtype == np.float64 and np.isfinite(k).all():
             self._k = k
         else:
