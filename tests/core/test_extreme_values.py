@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import ltvmodels as ltv
+from ltvmodels.core.problem import row_norms
 from ltvmodels.errors import ConvergenceWarning, SingularProblemError
 
 SPIKES = (1e10, 1e30, 1e50, 1e90)
@@ -83,3 +84,15 @@ def test_a_spike_marked_missing_fits(data):
     x[AT, 0] = np.nan
     model = ltv.fit(x, data.u, lam=5.0, norm="group")
     assert model.info["converged"] and np.isfinite(model.A).all()
+
+
+def test_row_norms_do_not_overflow_near_the_largest_floats():
+    """row_norms (the activation, a model's change points) scales rows whose squares
+    would overflow by a power of two: exact, and without numpy's overflow warning."""
+    v = np.random.default_rng(4).standard_normal((6, 4))
+    np.testing.assert_array_equal(row_norms(v), np.linalg.norm(v, axis=1))
+    huge = v * 2.0**1000  # about 1e301: squares overflow
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scaled = row_norms(huge)
+    np.testing.assert_array_equal(scaled, np.linalg.norm(v, axis=1) * 2.0**1000)

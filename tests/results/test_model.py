@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from dense_reference import random_data, simulate_ltv
@@ -266,3 +268,14 @@ def test_a_fitted_model_shares_no_memory_with_the_data():
     data = ltv.systems.jump_linear(T=200, change_at=100, seed=0)
     model = ltv.fit(data.x, data.u, lam=10.0)
     assert not np.shares_memory(model.k, data.x) and not np.shares_memory(model.k, data.u)
+
+
+def test_a_model_with_huge_coefficients_summarizes_without_overflow():
+    """Coefficients near 1e300 (finite, accepted): their change points and summary come
+    without numpy's overflow warning (the squares of the differences overflowed)."""
+    k = 0.3 * np.random.default_rng(0).standard_normal((8, 4)) * 1e300
+    model = ltv.LTVModel(k, 2, 0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        np.testing.assert_array_equal(model.changepoints, np.arange(1, 8))
+        assert "change" in model.summary().lower()

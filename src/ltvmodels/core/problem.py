@@ -24,6 +24,7 @@ __all__ = [
     "state_space_problem",
     "apply_difference",
     "activation",
+    "row_norms",
     "apply_difference_adjoint",
     "gram_bands",
     "null_space_basis",
@@ -254,7 +255,18 @@ def apply_difference(values: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
 
 def activation(k: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
     """a_t = ‖(Dk)_t‖₂ for t = 0 … N − d − 1 (paper Section III-G); k is (N, K)."""
-    return np.linalg.norm(apply_difference(k, coeffs), axis=1)
+    return row_norms(apply_difference(k, coeffs))
+
+
+def row_norms(values: np.ndarray) -> np.ndarray:
+    """‖v_t‖₂ of each row of ``values`` (N, K), also where the squares would overflow:
+    entries beyond 1e150 are scaled by a power of two first (exactly; below that the
+    plain norms, bit for bit)."""
+    largest = float(np.abs(values).max(initial=0.0))
+    if not (np.isfinite(largest) and largest > 1e150):
+        return np.linalg.norm(values, axis=1)
+    exponent = int(np.frexp(largest)[1])
+    return np.ldexp(np.linalg.norm(np.ldexp(values, -exponent), axis=1), exponent)
 
 
 def apply_difference_adjoint(values: np.ndarray, coeffs: np.ndarray, N: int) -> np.ndarray:

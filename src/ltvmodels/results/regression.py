@@ -14,7 +14,7 @@ from typing import Any, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..core.problem import activation
+from ..core.problem import activation, row_norms
 from ..validation import arrays, options
 from ..validation.arrays import describe
 from ..validation.time import continued
@@ -476,7 +476,7 @@ class RegressionModel:
         """Indices c with k_c ≠ k_{c−1} (relative change above 1e-8 of the scale of k)."""
         if self._changepoints is not None:
             return self._changepoints
-        step = np.linalg.norm(np.diff(self._k, axis=0), axis=1)
+        step = row_norms(np.diff(self._k, axis=0))
         scale = max(float(np.abs(self._k).max(initial=0.0)), 1e-300)
         return np.flatnonzero(step > 1e-8 * scale) + 1
 
