@@ -281,9 +281,11 @@ K_VARIANTS = [
     st.one_of(st.booleans(), choice_of(None, "yes", 2, np.bool_(True))),
     st.one_of(st.integers(1, 3), choice_of(0, -1, 1.5, "2", None)),
     st.sampled_from(ARRAY_VARIANTS),
+    st.one_of(st.booleans(), choice_of(None, "no", 0)),
 )
-def test_ltv_model_constructor(k_variant, n, m, constant, n_states_arg, x_variant):
-    """LTVModel(k, n_states, n_inputs, constant=...) with fuzzed k, then simulate/predict."""
+def test_ltv_model_constructor(k_variant, n, m, constant, n_states_arg, x_variant, copy):
+    """LTVModel(k, n_states, n_inputs, constant=..., copy=...) with fuzzed k, then
+    simulate/predict."""
     p = n + m + (1 if constant is True else 0)
     N = 8
     k = 0.3 * _fresh((N, n * p))
@@ -308,6 +310,7 @@ def test_ltv_model_constructor(k_variant, n, m, constant, n_states_arg, x_varian
         n_arg,
         m,
         constant=constant,
+        copy=copy,
         label="LTVModel",
         inspector=_constructed_inspector,
     )
