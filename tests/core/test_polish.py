@@ -64,9 +64,11 @@ def test_certificate_agrees_with_lambda_max(norm):
     pb, _ = problem_and_weights(5, 1, 1.0)
     k = null_space_fit(pb).reshape(pb.N, pb.K)
     lam_max = lambda_max(pb, named(norm), np.ones(pb.K), null_space_fit(pb))
-    _, gap, residual, u_norm = polish.certificate(pb, np.full(pb.K, 1.01 * lam_max), k, named(norm))
+    _, gap, residual, u_norm, _ = polish.certificate(
+        pb, np.full(pb.K, 1.01 * lam_max), k, named(norm)
+    )
     assert gap == pytest.approx(0.0, abs=1e-9) and residual < 1e-12 and u_norm.max() <= 1.0
-    _, _, residual, u_norm = polish.certificate(pb, np.full(pb.K, 0.5 * lam_max), k, named(norm))
+    _, _, residual, u_norm, _ = polish.certificate(pb, np.full(pb.K, 0.5 * lam_max), k, named(norm))
     assert u_norm.max() > 1.5 and residual > 1e-3
 
 
@@ -167,7 +169,7 @@ def test_certificate_dual_against_the_recurrence(order):
     against a dense least-squares solve of the same equations."""
     pb, weights = problem_and_weights(5, order, 3.0, T=60)
     k = np.random.default_rng(order).standard_normal((pb.N, pb.K))
-    _, gap, residual, u_norm = polish.certificate(pb, weights, k, named("group"))
+    _, gap, residual, u_norm, _ = polish.certificate(pb, weights, k, named("group"))
     theta = k.reshape(pb.N, pb.n, pb.p)
     grad = -2.0 * np.einsum("tji,tja->tia", pb.residuals(theta), pb.phi).reshape(pb.N, pb.K)
     R = pb.N - order

@@ -143,7 +143,7 @@ def fit_sparse(
         s_scale = rho * np.linalg.norm(apply_difference_adjoint(w * weights, problem.coeffs, N))
         s_rel = s / max(s_scale, dual_floor, 1e-300)
         if r_rel <= residual_tol and s_rel <= residual_tol:
-            value, gap, stationarity, _ = certificate(
+            value, gap, stationarity, *_ = certificate(
                 problem, weights, theta.reshape(N, K), penalty
             )
             gap_rel = gap / max(value, 1e-300)
@@ -164,7 +164,7 @@ def fit_sparse(
             n_fact += 1
     if not converged:
         if not np.isfinite(gap_rel):
-            value, gap, stationarity, _ = certificate(
+            value, gap, stationarity, *_ = certificate(
                 problem, weights, theta.reshape(N, K), penalty
             )
             gap_rel = gap / max(value, 1e-300)

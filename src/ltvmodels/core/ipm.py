@@ -1042,7 +1042,12 @@ def fit_sparse_ipm(
         converged=converged,
         polished=polished,
         stalled=stalled and not converged,
-        # a polished k comes with its own duals: the iterate's would not match it
-        dual=None if polished else z[:, 1:].copy(),
+        # a polished k comes with its certificate's duals (z₁ = −u): the iterate's
+        # would not match it
+        dual=(
+            -polished_result.dual.reshape(n_cones, -1)
+            if polished_result is not None
+            else z[:, 1:].copy()
+        ),
         weights=weights,
     )

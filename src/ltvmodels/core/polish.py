@@ -29,6 +29,7 @@ is rejected.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -37,7 +38,14 @@ from scipy.sparse.linalg import splu
 from .penalties import Penalty, named
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 
-__all__ = ["PolishResult", "vertex_cones", "certificate", "stationarity_scale", "polish"]
+__all__ = [
+    "Certificate",
+    "PolishResult",
+    "vertex_cones",
+    "certificate",
+    "stationarity_scale",
+    "polish",
+]
 
 # Newton iterations on the reduced problem (it converges quadratically from an
 # interior-point iterate; more means the split is wrong).
@@ -75,6 +83,17 @@ class PolishResult:
     duality_gap: float
     dual_residual: float
     newton_iterations: int
+    dual: np.ndarray  # (N − d, K): the certificate's u, DᵀΛu = −∇f(k), ‖u_c‖ <= 1
+
+
+class Certificate(NamedTuple):
+    """The optimality certificate of a sparse fit's k (:func:`certificate`)."""
+
+    objective: float
+    duality_gap: float  # Σ_c (‖e_c‖ − u_cᵀe_c) >= 0
+    dual_residual: float  # ‖DᵀΛu + ∇f(k)‖ / stationarity_scale
+    dual_norms: np.ndarray  # (n_cones,) ‖u_c‖ before the scaling into the dual cones
+    dual: np.ndarray  # (N − d, K) u, scaled so that every ‖u_c‖ <= 1
 
 
 def vertex_cones(s: np.ndarray, z: np.ndarray) -> np.ndarray:
@@ -234,11 +253,15 @@ class _Segments:
         return gram, rhs, E, theta, lambda th: np.repeat(th.reshape(S, K), lengths, axis=0)
 
 
-def certificate(problem: RegressionProblem, weights: np.ndarray, k: np.ndarray, penalty: Penalty):
-    """Objective, duality gap, relative dual residual and the dual norm per cone of k
-    (full problem) for a sparse ``penalty``.
+def certificate(
+    problem: RegressionProblem, weights: np.ndarray, k: np.ndarray, penalty: Penalty
+) -> Certificate:
+    """The optimality certificate of k (N, K) for the full problem with a sparse ``penalty``:
+    its objective, duality gap, relative dual residual, the dual norm per cone and
+    the dual u itself (scaled into the dual cones).
 
-    Any k (N, K) gets one; weights (K,) finite and >= 0.
+    Any k gets one; weights (K,) finite and >= 0. An interior-point iterate's cone
+    duals z₁ are −u at its optimum (:class:`~.ipm.InteriorPointResult`).
     """
     N, K = problem.N, problem.K
     coeffs = np.asarray(problem.coeffs, float)
@@ -266,7 +289,7 @@ def certificate(problem: RegressionProblem, weights: np.ndarray, k: np.ndarray, 
     gap = max(float(e_norm.sum() - np.sum(u * e)), 0.0)
     stationarity = apply_difference_adjoint(u * weights, coeffs, N) + grad
     residual = float(np.linalg.norm(stationarity)) / stationarity_scale(problem)
-    return objective, gap, residual, u_norm.ravel()
+    return Certificate(objective, gap, residual, u_norm.ravel(), u)
 
 
 def stationarity_scale(problem: RegressionProblem) -> float:
@@ -355,7 +378,7 @@ def polish(
             vertex[collapsed] = True
             start = k_split
             continue
-        obj, gap, dual_res, u_norm = certificate(problem, weights, k_split, named(norm))
+        obj, gap, dual_res, u_norm, u = certificate(problem, weights, k_split, named(norm))
         if gap <= tol * obj and dual_res <= tol:
             return PolishResult(
                 k=k_split,
@@ -363,6 +386,7 @@ def polish(
                 duality_gap=gap,
                 dual_residual=dual_res,
                 newton_iterations=newton_total,
+                dual=u,
             )
         violated = vertex & (u_norm > 1.0)
         if not violated.any():
