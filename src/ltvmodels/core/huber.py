@@ -42,7 +42,8 @@ import numba
 import numpy as np
 
 from ..errors import SingularProblemError
-from .banded import WeightedRowsFactor, WeightedRowsKalman
+from .banded import WeightedRowsFactor, WeightedRowsKalman, kernel_size
+from .blockkernels import block_size
 from .priorterms import PriorTerm
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 from .squared import SquaredSolver, weight_diagonal
@@ -443,6 +444,7 @@ def _fit_diagonal(
     factors: np.ndarray | None = None  # the factors' storage, reused
     # a first difference: the Kalman form, which takes the rows (a, b) (no right-hand sides)
     kalman = WeightedRowsKalman(N, q, p, n) if WeightedRowsKalman.applies(coeffs, w) else None
+    size = kernel_size(N, p)  # p, or a tuple: a constant of the state pass
     rhs = np.empty((n, 0, p, 1)) if kalman is not None else model
     damping = np.full(n, NEWTON_DAMPING)
     kkt = np.empty(n)
@@ -475,6 +477,7 @@ def _fit_diagonal(
             rhs,
             resid,
             known,
+            size,
         )
         if kkt.max() <= tol or iterations == max_iter:
             break
@@ -504,6 +507,7 @@ def _fit_diagonal(
                 rhs,
                 resid,
                 known,
+                size,
             )
             factors = _solve_models(phi, a, targets, w, coeffs, active, kalman, model, factors)
         progress = False
@@ -517,7 +521,7 @@ def _fit_diagonal(
                 # (from k, whose residuals the line search has overwritten)
                 known[c] = False
                 factors = _majorizer_step(
-                    phi, y, limits, k, w, coeffs, c, a, targets, model, factors, resid, known
+                    phi, y, limits, k, w, coeffs, c, a, targets, model, factors, resid, known, size
                 )
                 step = model[c, :, :, 0]
                 decreased = _output_value(phi, y[c], limits[c], step, w[c], coeffs) < value
@@ -549,6 +553,7 @@ def _fit_diagonal(
                 rhs,
                 resid,
                 known,
+                size,
             )
             stalled = bool(kkt.max() > tol)
             break
@@ -571,6 +576,7 @@ def _fit_diagonal(
             rhs,
             resid,
             known,
+            size,
         )
     # the residuals kept across the steps (y − φθ to rounding), not formed again
     r = resid.transpose(1, 2, 0)  # (N, q, n)
@@ -607,7 +613,9 @@ def _solve_models(phi, a, targets, w, coeffs, active, kalman, model, factors):
     return factors
 
 
-def _majorizer_step(phi, y, limits, k, w, coeffs, c, a, targets, model, factors, resid, known):
+def _majorizer_step(
+    phi, y, limits, k, w, coeffs, c, a, targets, model, factors, resid, known, size
+):
     """The majorize–minimize step (τ = 1) of output c alone, into ``model[c]``; returns
     the factors' storage for the next call (``resid``, ``known``: see :func:`_newton_state`)."""
     n = k.shape[0]
@@ -617,7 +625,7 @@ def _majorizer_step(phi, y, limits, k, w, coeffs, c, a, targets, model, factors,
     kkt = np.empty(n)
     # the other outputs' models are still to be used: only output c's rows change
     _newton_state(
-        phi, y, limits, k, w, coeffs, full, only, only, kkt, a, targets, model, resid, known
+        phi, y, limits, k, w, coeffs, full, only, only, kkt, a, targets, model, resid, known, size
     )
     factor = WeightedRowsFactor(phi, a, w, coeffs, model, only, out=factors)
     factor.finish(model)
@@ -626,7 +634,7 @@ def _majorizer_step(phi, y, limits, k, w, coeffs, c, a, targets, model, factors,
 
 @numba.njit(cache=True)
 def _newton_state(
-    phi, y, limits, k, w, coeffs, damping, evaluate, rows, out, a, targets, rhs, resid, known
+    phi, y, limits, k, w, coeffs, damping, evaluate, rows, out, a, targets, rhs, resid, known, size
 ):  # pragma: no cover - compiled
     """At k (n, N, p), in one pass per output where ``evaluate`` (n,) is set: ‖∇F‖∞ of
     each output into ``out`` (n,),
@@ -637,28 +645,59 @@ def _newton_state(
 
     ``y`` and ``limits`` (the thresholds δ̃) are per output, shape (n, N, q). ``resid``
     (n, N, q) holds the residuals y − φk of the outputs with ``known`` (n,) set (read,
-    not formed); the others' are formed here, stored, and ``known`` set.
+    not formed); the others' are formed here, stored, and ``known`` set. ``size``: p, or a
+    tuple of length p (:func:`~.banded.kernel_size`), which makes p a constant of the
+    compiled pass (a first difference's: a quarter faster at p = 5, T = 10⁵).
     """
     for c in range(k.shape[0]):
         if evaluate[c]:
             if coeffs.shape[0] == 2:
                 # a first difference (the usual case): the same sums in the same order
                 out[c] = _first_difference_state(
-                    phi, y, limits, k, w, coeffs, damping, rows, a, targets, rhs, resid, known, c
+                    phi,
+                    y,
+                    limits,
+                    k,
+                    w,
+                    coeffs,
+                    damping,
+                    rows,
+                    a,
+                    targets,
+                    rhs,
+                    resid,
+                    known,
+                    c,
+                    size,
                 )
             else:
                 out[c] = _difference_state(
-                    phi, y, limits, k, w, coeffs, damping, rows, a, targets, rhs, resid, known, c
+                    phi,
+                    y,
+                    limits,
+                    k,
+                    w,
+                    coeffs,
+                    damping,
+                    rows,
+                    a,
+                    targets,
+                    rhs,
+                    resid,
+                    known,
+                    c,
+                    size,
                 )
             known[c] = True
 
 
 @numba.njit(cache=True)
 def _difference_state(
-    phi, y, limits, k, w, coeffs, damping, rows, a, targets, rhs, resid, known, c
+    phi, y, limits, k, w, coeffs, damping, rows, a, targets, rhs, resid, known, c, size
 ):  # pragma: no cover - compiled
     """:func:`_newton_state` of output c, any difference order d: its KKT residual."""
-    N, q, p = phi.shape
+    N, q, _ = phi.shape
+    p = block_size(size)
     d = coeffs.shape[0] - 1
     fill = rhs.shape[1] == N
     # W Dk over the last d + 1 differences: (W Dk)_s in row s % (d + 1)
@@ -721,12 +760,13 @@ def _difference_state(
 
 @numba.njit(cache=True)
 def _first_difference_state(
-    phi, y, limits, k, w, coeffs, damping, rows, a, targets, rhs, resid, known, c
+    phi, y, limits, k, w, coeffs, damping, rows, a, targets, rhs, resid, known, c, size
 ):  # pragma: no cover - compiled
     """:func:`_difference_state` for d = 1: (W Dk)_{t−1} and (W Dk)_t kept as they are
     (0 beyond the ends) instead of in a ring: twice as fast (the rows' loop is the
     same, written out: called as an inlined function it took twice the time too)."""
-    N, q, p = phi.shape
+    N, q, _ = phi.shape
+    p = block_size(size)
     first, second = coeffs[0], coeffs[1]
     fill = rhs.shape[1] == N
     previous = np.zeros(p)
