@@ -64,6 +64,8 @@ __all__ = [
 # back to the majorize-minimize step.
 NEWTON_DAMPING = 1e-2
 LINE_SEARCH_STEPS = 30
+# The resolution of the line search's α (in [0, 1]).
+LINE_SEARCH_TOL = 1e-12
 # The smallest damping, reached once the outliers are identified (a smaller τ
 # would inflate the model's rows beyond δ̃ by 1/√τ).
 MIN_DAMPING = 1e-4
@@ -1004,10 +1006,18 @@ def line_minimum(r, g, limits, quad_a, quad_b):  # pragma: no cover - compiled
             high = alpha
         else:
             low = alpha
+        if second > 0.0 and abs(first) <= LINE_SEARCH_TOL * second:
+            # α is the root of its quadratic piece to within LINE_SEARCH_TOL: done. (At
+            # such a root f' is rounding, whose sign keeps one end of the bracket far:
+            # without this stop the bisection took 25-30 passes over the data to close
+            # it, in the first Newton steps at T = 10⁵.)
+            if low <= alpha - first / second <= high:
+                alpha -= first / second
+            break
         alpha = alpha - first / second if second > 0.0 else 0.5 * (low + high)
         if not low < alpha < high:
             alpha = 0.5 * (low + high)
-        if high - low <= 1e-12:
+        if high - low <= LINE_SEARCH_TOL:
             break
         first, second = _slope(r, g, limits, alpha, quad_a, quad_b)
         if first == 0.0:
