@@ -656,40 +656,14 @@ def _newton_state(
             if coeffs.shape[0] == 2:
                 # a first difference (the usual case): the same sums in the same order
                 out[c] = _first_difference_state(
-                    phi,
-                    y,
-                    limits,
-                    k,
-                    w,
-                    coeffs,
-                    damping,
-                    rows,
-                    a,
-                    targets,
-                    rhs,
-                    resid,
-                    known,
-                    c,
+                    phi, y, limits, k, w, coeffs, damping, rows, a, targets, rhs, resid, known, c,
                     size,
-                )
+                )  # fmt: skip
             else:
                 out[c] = _difference_state(
-                    phi,
-                    y,
-                    limits,
-                    k,
-                    w,
-                    coeffs,
-                    damping,
-                    rows,
-                    a,
-                    targets,
-                    rhs,
-                    resid,
-                    known,
-                    c,
+                    phi, y, limits, k, w, coeffs, damping, rows, a, targets, rhs, resid, known, c,
                     size,
-                )
+                )  # fmt: skip
             known[c] = True
 
 
