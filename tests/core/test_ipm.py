@@ -643,10 +643,10 @@ def test_polished_fits_carry_their_certificates_duals_into_a_path():
             # stationarity 2Φᵀ(Φk − y) = DᵀΛz₁ at the polished k (dense D)
             fitted = np.einsum("tp,tip->ti", pb.phi[:, 0], warm.theta)
             gradient = 2.0 * np.einsum("ti,tp->tip", fitted - pb.y[:, 0], pb.phi[:, 0])
-            D = np.kron(difference_matrix(pb.N, np.array([-1.0, 1.0])), np.eye(pb.K))
-            dual_side = D.T @ (z1 * weights).ravel()
+            D = difference_matrix(pb.N, np.array([-1.0, 1.0]))  # applied to each coefficient
+            dual_side = D.T @ (z1 * weights)  # (N, K)
             scale = np.abs(gradient).max()
-            np.testing.assert_allclose(gradient.ravel(), dual_side, atol=1e-6 * scale)
+            np.testing.assert_allclose(gradient.reshape(pb.N, pb.K), dual_side, atol=1e-6 * scale)
         if previous is not None:
             warm_iterations += warm.iterations
             without_iterations += plain.iterations
