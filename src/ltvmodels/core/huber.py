@@ -42,7 +42,7 @@ import numba
 import numpy as np
 
 from ..errors import SingularProblemError
-from .banded import WeightedRowsFactor, WeightedRowsKalman, kernel_size
+from .banded import WeightedRowsFactor, WeightedRowsKalman, long_series_size
 from .blockkernels import block_size
 from .priorterms import PriorTerm
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
@@ -446,7 +446,7 @@ def _fit_diagonal(
     factors: np.ndarray | None = None  # the factors' storage, reused
     # a first difference: the Kalman form, which takes the rows (a, b) (no right-hand sides)
     kalman = WeightedRowsKalman(N, q, p, n) if WeightedRowsKalman.applies(coeffs, w) else None
-    size = kernel_size(N, p)  # p, or a tuple: a constant of the state pass
+    size = long_series_size(N, p)  # p, or a tuple: a constant of the state pass
     rhs = np.empty((n, 0, p, 1)) if kalman is not None else model
     damping = np.full(n, NEWTON_DAMPING)
     kkt = np.empty(n)
@@ -648,7 +648,7 @@ def _newton_state(
     ``y`` and ``limits`` (the thresholds δ̃) are per output, shape (n, N, q). ``resid``
     (n, N, q) holds the residuals y − φk of the outputs with ``known`` (n,) set (read,
     not formed); the others' are formed here, stored, and ``known`` set. ``size``: p, or a
-    tuple of length p (:func:`~.banded.kernel_size`), which makes p a constant of the
+    tuple of length p (:func:`~.banded.long_series_size`), which makes p a constant of the
     compiled pass (a first difference's: a quarter faster at p = 5, T = 10⁵).
     """
     for c in range(k.shape[0]):

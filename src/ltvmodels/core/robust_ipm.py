@@ -39,7 +39,13 @@ import numpy as np
 
 from ..errors import ConvergenceWarning, SingularProblemError, warn
 from . import conekernels as cones
-from .banded import BlockFactor, BlockSystem, WeightedRowsFactor, WeightedRowsKalman, kernel_size
+from .banded import (
+    BlockFactor,
+    BlockSystem,
+    WeightedRowsFactor,
+    WeightedRowsKalman,
+    long_series_size,
+)
 from .blockkernels import block_size
 from .ipm import MIN_STEP, STEP_FRACTION, ConicProblem, NewtonSystem, feasible_start
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
@@ -606,7 +612,7 @@ def fit_laplace_ipm_diagonal(
     # factorization and its substitutions), the right-hand side as its general term;
     # the outputs it leaves are factored
     kalman = WeightedRowsKalman(N, q, p, n) if WeightedRowsKalman.applies(coeffs, w2) else None
-    size = kernel_size(N, p)  # p, or a tuple: a constant of the per-entry passes
+    size = long_series_size(N, p)  # p, or a tuple: a constant of the per-entry passes
     # the start: b = |r| + a slack, ζ± = (c ± pairing)/2 inside [0, c]
     r, objectives = np.empty((n, N, q)), np.empty(n)
     _laplace_residuals(phi, y, c, k, w2, coeffs, np.ones(n, dtype=np.bool_), r, objectives, size)
@@ -811,7 +817,7 @@ def _reweighted_start(
     pairing c·r/m. An output the Kalman form leaves is factored. The steps decrease the
     objective; an output whose step does not (rounding: a regressor far beyond the
     others'), or whose system is singular, keeps its last k and stops (``size``: p or
-    a tuple of length p, :func:`~.banded.kernel_size`). The rows, the
+    a tuple of length p, :func:`~.banded.long_series_size`). The rows, the
     residuals and the objectives are compiled passes (:func:`_reweighted_rows`,
     :func:`_laplace_residuals`): as numpy expressions their temporaries were half the
     time of the steps at T = 1e5.
@@ -1012,7 +1018,7 @@ def _laplace_state(
     κ = 0 and no part in ``rhs``: the output stops there (``stats``), before any
     division by its slack.
 
-    ``size``: p, or a tuple of length p (:func:`~.banded.kernel_size`), which makes p a
+    ``size``: p, or a tuple of length p (:func:`~.banded.long_series_size`), which makes p a
     constant of the compiled pass (here and in the other per-entry passes: 10-30 %
     faster at p = 5, T = 10⁵, the same sums)."""
     N, q, _ = phi.shape
