@@ -396,3 +396,22 @@ def test_kernels_receive_c_ordered_arrays_from_the_bordered_solve():
             if isinstance(arg, numba.types.Array)
         }
         assert layouts == {"C"}, kernel
+
+
+@pytest.mark.parametrize("loss", ["huber", "laplace"])
+@pytest.mark.parametrize("order", [1, 2])
+def test_robust_losses_constant_size_passes_equal_the_generic_ones(monkeypatch, loss, order):
+    """Long series run the robust losses' per-entry passes compiled for a constant p
+    (banded.long_series_size): the same sums in the same order, so the same fit bit for
+    bit as the passes for a run-time p (here forced by a threshold of 0 unknowns)."""
+    rng = np.random.default_rng(11)
+    x = rng.standard_normal((150, 2))
+    x[[20, 70, 110], 0] += 8.0  # outliers
+    u = rng.standard_normal((150, 1))
+    assert banded.long_series_size(149, 3) == 3  # short: the run-time p
+    generic = ltv.fit(x, u, lam=3.0, order=order, loss=loss)
+    monkeypatch.setattr(banded, "FIXED_BLOCK_MIN_SIZE", 0)
+    assert banded.long_series_size(149, 3) == (0, 0, 0)
+    constant = ltv.fit(x, u, lam=3.0, order=order, loss=loss)
+    np.testing.assert_array_equal(constant.k, generic.k)
+    assert constant.info["iterations"] == generic.info["iterations"]
