@@ -115,7 +115,7 @@ def test_first_difference_solves_agree_with_the_block_factorization(monkeypatch)
     kalman = huber.fit_huber(problem, weight, delta, tol=1e-10)
     calls = []
 
-    def leave_all(self, phi, a, targets, w, coeffs, active, out):
+    def leave_all(self, phi, a, targets, w, coeffs, active, out, max_reduction):
         calls.append(int(np.count_nonzero(active)))
         return np.array(active, dtype=bool)
 
@@ -137,8 +137,8 @@ def test_majorize_minimize_fallback_reaches_the_clarabel_optimum(monkeypatch):
     solve, factor = huber.WeightedRowsKalman.solve, huber.WeightedRowsFactor.__init__
     newton, majorizer = [], []
 
-    def reflected(self, phi, a, targets, w, coeffs, active, out):
-        unsolved = solve(self, phi, a, targets, w, coeffs, active, out)
+    def reflected(self, phi, a, targets, w, coeffs, active, out, max_reduction):
+        unsolved = solve(self, phi, a, targets, w, coeffs, active, out, max_reduction=max_reduction)
         newton.append(int(np.count_nonzero(active)))
         if len(newton) in (2, 3):
             out[active] *= -1.0

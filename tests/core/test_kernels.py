@@ -271,6 +271,29 @@ def test_weighted_rows_kalman_replay_equals_a_fresh_solve(q):
         _assert_dense_solution(replayed[c], phi, a, w, coeffs, c, rhs)
 
 
+def test_weighted_rows_kalman_leaves_rows_that_would_cancel_digits():
+    """``max_reduction``: an output with a row whose update divides the variance along
+    its regressor by more than the limit (1 + a φᵀPφ, here a regressor 10⁶ times the
+    others') comes back unsolved, the others solved as without the limit; with no limit
+    that output is solved too."""
+    rng = np.random.default_rng(4)
+    N, q, p, n = 40, 1, 3, 3
+    coeffs, phi, a, w = _kalman_rows(rng, N, q, p, n)
+    a[:, :, :] = np.where(a > 0, a, 0.5)  # every row counts
+    phi[25, 0, 0] = 1e6
+    a[25, 0, 1] = 0.0  # output 1 leaves that row out
+    targets = rng.standard_normal((N, q, n))
+    active = np.ones(n, dtype=bool)
+    limited, plain = np.full((n, N, p), 7.0), np.full((n, N, p), 7.0)
+    kalman = banded.WeightedRowsKalman(N, q, p, n)
+    unsolved = kalman.solve(phi, a, targets, w, coeffs, active, limited, max_reduction=1e8)
+    np.testing.assert_array_equal(unsolved, [True, False, True])
+    assert not kalman.solve(phi, a, targets, w, coeffs, active, plain).any()
+    np.testing.assert_array_equal(limited[1], plain[1])
+    rhs = np.einsum("tj,tja->ta", targets[:, :, 1], phi)
+    _assert_dense_solution(limited[1], phi, a, w, coeffs, 1, rhs)
+
+
 def test_weighted_rows_kalman_leaves_what_it_cannot_hand_over():
     """Too few steps for the information form to hand over, or a singular system: the
     outputs come back unsolved (the caller factors them, and the factorization

@@ -487,6 +487,7 @@ class WeightedRowsKalman:
         out: np.ndarray,
         linear: np.ndarray | None = None,
         replay: bool = False,
+        max_reduction: float = np.inf,
     ) -> np.ndarray:
         """Solve the active outputs' systems into ``out`` (n, N, p).
 
@@ -506,6 +507,10 @@ class WeightedRowsKalman:
         differs, e.g. Mehrotra's corrector after the predictor): the filter reuses its
         covariances and gains, which leaves about a third of its work per step, with
         the same result bit for bit.
+
+        ``max_reduction``: an output with a row whose update divides the variance along
+        its regressor by more than this (1 + a φᵀPφ; the covariance form loses about
+        log10 of it in digits) is left unsolved too (default: none is).
         """
         n = a.shape[2]
         status = np.empty(n, dtype=np.int64)
@@ -526,6 +531,7 @@ class WeightedRowsKalman:
             out,
             status,
             self._size,
+            float(max_reduction),
         )
         return np.asarray(active, dtype=bool) & (status < 0)
 

@@ -1153,7 +1153,7 @@ def _times_regressor(P, phi, t, j, s, b):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def weighted_rows_kalman(
-    phi, a, targets, linear, w, active, replay, cov, mean, rows, X, status, size
+    phi, a, targets, linear, w, active, replay, cov, mean, rows, X, status, size, max_reduction
 ):  # pragma: no cover - compiled
     """Solve H_c θ_c = Σ_j b_tjc φ_tj + g_tc,
     H_c = blkdiag_t(Σ_j a_tjc φ_tj φ_tjᵀ) + DᵀD ⊗ diag(w_c), for a first difference D
@@ -1181,8 +1181,14 @@ def weighted_rows_kalman(
     X : (n, N, p) output, the solutions of the active outputs whose status is >= 0
     status : (n,) int64 output: the step after which the covariance form took over,
         −1 if it never did (no solution: the caller factors that output), −2 if the
-        information form met a matrix that is not positive definite (likewise)
+        information form met a matrix that is not positive definite (likewise), −3 if
+        a row's update would have lost too many digits (``max_reduction``; likewise)
     size : int or tuple, the block size p
+    max_reduction : float, the largest factor 1 + a φᵀPφ by which a row's update may
+        divide the variance along φ (inf: any): P − a s sᵀ/(1 + a φᵀPφ) cancels about
+        log10 of it in digits (a regressor orders of magnitude beyond the others'
+        gives such a row); an output with a larger one stops, status −3. Not checked
+        in a replay (the same rows as checked before).
     """
     b = block_size(size)
     N, q, _ = phi.shape
@@ -1249,6 +1255,9 @@ def weighted_rows_kalman(
                     for i in range(b):
                         along += phi[t, j, i] * xc[i]
                         curvature += phi[t, j, i] * s[i]
+                    if not replay and 1.0 + weight * curvature > max_reduction:
+                        status[c] = -3  # the filter of output c stops here
+                        break
                     inv = 1.0 / (1.0 + weight * curvature)
                     gain = (targets[t, j, c] - weight * along) * inv
                     rows[c, t, j, 0] = gain
