@@ -205,3 +205,12 @@ def test_the_default_huber_threshold_is_1_345_robust_scales(norm):
     rel = 1e-12 if norm == "sq" else 1e-2
     assert model.info["huber_delta"] == pytest.approx(1.345 * 1.4826 * mad, rel=rel)
     assert model.info["huber_delta_rule"].startswith("1.345")
+
+
+@pytest.mark.parametrize("norm", ["sq", "group"])
+def test_a_laplace_fit_short_of_its_tolerance_names_its_solver(norm):
+    """The interior-point route reports its iterations, not "0 smoothing stages"."""
+    data = ltv.systems.jump_linear(T=200, change_at=100, seed=0)
+    with pytest.warns(ltv.ConvergenceWarning, match="interior-point iterations") as caught:
+        ltv.fit(data.x, data.u, lam=5.0, norm=norm, loss="laplace", max_iter=1)
+    assert not any("smoothing stages" in str(w.message) for w in caught)

@@ -319,7 +319,12 @@ class LaplaceLoss(Loss):
             dual=result.psi,
             failure=(
                 f"the duality gap {result.duality_gap:.3g} (relative) did not reach its "
-                f"tolerance {tol:g} in {result.stages} smoothing stages"
+                f"tolerance {tol:g} "
+                + (
+                    f"in {result.stages} smoothing stages"
+                    if result.stages
+                    else f"after {result.iterations} interior-point iterations (of all outputs)"
+                )
             ),
         )
 
