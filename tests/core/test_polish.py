@@ -59,6 +59,32 @@ def test_polish_certifies_the_interior_point_optimum_with_exact_zeros(monkeypatc
 
 
 @pytest.mark.parametrize("norm", ["group", "l1"])
+@pytest.mark.parametrize("order", [1, 2])
+def test_dense_and_sparse_reduced_solves_agree(monkeypatch, norm, order):
+    """Reduced problems up to DENSE_SIZE unknowns are solved with dense matrices, larger
+    ones with sparse LU: both reach the same certified optimum."""
+    pb, weights = problem_and_weights(3, order, 4.0)
+    _, (k, s, z) = last_iterate(monkeypatch, pb, weights, norm, tol=1e-8)
+    dense_solves = []
+    solve = np.linalg.solve
+
+    def counted(a, b):
+        dense_solves.append(a.shape[0])
+        return solve(a, b)
+
+    monkeypatch.setattr(polish.np.linalg, "solve", counted)
+    dense = polish.polish(pb, weights, norm, k, s, z, tol=1e-9)
+    assert dense_solves and max(dense_solves) <= polish.DENSE_SIZE
+    monkeypatch.setattr(polish, "DENSE_SIZE", 0)
+    del dense_solves[:]
+    sparse = polish.polish(pb, weights, norm, k, s, z, tol=1e-9)
+    assert not dense_solves
+    assert dense is not None and sparse is not None
+    np.testing.assert_allclose(dense.k, sparse.k, rtol=0, atol=1e-9 * np.abs(sparse.k).max())
+    assert dense.objective == pytest.approx(sparse.objective, rel=1e-12)
+
+
+@pytest.mark.parametrize("norm", ["group", "l1"])
 def test_certificate_agrees_with_lambda_max(norm):
     # The LTI (null-space) fit is optimal exactly when λ >= λ_max.
     pb, _ = problem_and_weights(5, 1, 1.0)

@@ -68,6 +68,9 @@ SPLIT_TIES = 1.5
 # until a cone reaches its vertex; on a definite Hessian it changes the Newton
 # steps by a relative 1e-12 of its condition number, which the iteration absorbs.
 HESSIAN_SHIFT = 1e-12
+# Reduced problems of at most this many unknowns are solved with dense matrices: at
+# that size scipy's sparse products and LU cost more in overhead than in arithmetic.
+DENSE_SIZE = 600
 # A Newton decrement below this fraction of the objective is below the objective's
 # rounding (its evaluation cancels terms of the size of ‖y‖²): the line search cannot
 # judge such a step, and takes it whole.
@@ -417,15 +420,17 @@ def _reduced_solve(problem, vertex, k, reduction, group):
     if system is None:
         return None
     gram, rhs, E, theta, expand = system
+    dense = gram.shape[0] <= DENSE_SIZE
+    if dense:
+        gram, E = gram.toarray(), E.toarray()
     y_sq = float(problem.y.ravel() @ problem.y.ravel())
 
     def objective(th: np.ndarray) -> float:
         e = (E @ th).reshape(-1, g)
         return float(th @ (0.5 * (gram @ th) - rhs) + y_sq + np.linalg.norm(e, axis=1).sum())
 
-    shift = sp.identity(gram.shape[0], format="csc") * (
-        HESSIAN_SHIFT * max(float(gram.diagonal().max(initial=0.0)), 1e-300)
-    )
+    size = HESSIAN_SHIFT * max(float(gram.diagonal().max(initial=0.0)), 1e-300)
+    shift = size * (np.eye(gram.shape[0]) if dense else sp.identity(gram.shape[0], format="csc"))
     current = objective(theta)
     for iteration in range(1, MAX_NEWTON + 1):
         e = (E @ theta).reshape(-1, g)
@@ -438,10 +443,17 @@ def _reduced_solve(problem, vertex, k, reduction, group):
         if g > 1 and e_norm.size:
             # Hessian of ‖e‖: (I − êêᵀ)/‖e‖ per cone, block diagonal.
             blocks = (np.eye(g) - unit[:, :, None] * unit[:, None, :]) / e_norm[:, None, None]
-            hessian = gram + E.T @ _block_diagonal(blocks) @ E
+            if dense:
+                cones = E.reshape(-1, g, E.shape[1])  # (active cones, g, unknowns)
+                hessian = gram + E.T @ np.matmul(blocks, cones).reshape(E.shape)
+            else:
+                hessian = gram + E.T @ _block_diagonal(blocks) @ E
         try:
-            step = splu((hessian + shift).tocsc()).solve(-grad)
-        except RuntimeError:
+            if dense:
+                step = np.linalg.solve(hessian + shift, -grad)
+            else:
+                step = splu((hessian + shift).tocsc()).solve(-grad)
+        except (RuntimeError, np.linalg.LinAlgError):
             return None
         decrease = -float(grad @ step)
         if not np.isfinite(decrease):
