@@ -429,8 +429,9 @@ def _reduced_solve(problem, vertex, k, reduction, group):
         e = (E @ th).reshape(-1, g)
         return float(th @ (0.5 * (gram @ th) - rhs) + y_sq + np.linalg.norm(e, axis=1).sum())
 
-    size = HESSIAN_SHIFT * max(float(gram.diagonal().max(initial=0.0)), 1e-300)
-    shift = size * (np.eye(gram.shape[0]) if dense else sp.identity(gram.shape[0], format="csc"))
+    shift_scale = HESSIAN_SHIFT * max(float(gram.diagonal().max(initial=0.0)), 1e-300)
+    unit_matrix = np.eye(gram.shape[0]) if dense else sp.identity(gram.shape[0], format="csc")
+    shift = shift_scale * unit_matrix
     current = objective(theta)
     for iteration in range(1, MAX_NEWTON + 1):
         e = (E @ theta).reshape(-1, g)
