@@ -55,11 +55,14 @@ def main() -> None:
         "how many choices agree with it",
     )
     parser.add_argument(
-        "--tol", type=float, default=None, help="the candidates' solver tolerance (LCURVE_TOL)"
+        "--tol",
+        type=float,
+        default=None,
+        help="every candidate's solver tolerance (LCURVE_TOL and LCURVE_FAR_TOL)",
     )
     args = parser.parse_args()
-    if args.tol is not None:
-        selection.LCURVE_TOL = args.tol
+    if args.tol is not None:  # every candidate's, the far ones' too
+        selection.LCURVE_TOL = selection.LCURVE_FAR_TOL = args.tol
     counts = {"iterations": 0, "unconverged": 0}
     solve = ipm.fit_sparse_ipm
 

@@ -6,6 +6,7 @@ from dense_reference import best_lam, difference_matrix, lam_criterion, simulate
 
 import ltvmodels as ltv
 from ltvmodels.core.problem import state_space_problem
+from ltvmodels.estimators import selection
 from ltvmodels.estimators.selection import criterion_fit, select_lambda
 
 
@@ -316,15 +317,39 @@ def test_ar_and_arx_lam_auto_report_progress():
 def test_lcurve_path_starts_give_the_cold_fits(norm):
     """The L-curve's sparse fits start from their neighbours' solutions (the refinements
     from the interpolation of both): each candidate's residual and penalty norms are
-    those of a cold fit at a tight tolerance, to the L-curve's solver tolerance."""
+    those of a cold fit at a tight tolerance, to the L-curve's solver tolerance (the far
+    candidates' for the two smallest, which lie far from this series' corner)."""
     data = ltv.systems.jump_linear(T=300, change_at=150, seed=5)
-    selection = select_lambda(data.x, data.u, norm=norm, method="lcurve")
+    choice = select_lambda(data.x, data.u, norm=norm, method="lcurve")
     pb = state_space_problem(data.x, data.u, np.array([-1.0, 1.0]))
-    assert selection.n_fits > 8  # the refinements ran
-    for lam, residual, penalty in zip(
-        selection.lams, selection.residual_norms, selection.penalty_norms, strict=True
+    assert choice.n_fits > 8  # the refinements ran
+    assert np.argmax(choice.scores) > selection.LCURVE_FAR_COUNT + 1
+    for index, (lam, residual, penalty) in enumerate(
+        zip(choice.lams, choice.residual_norms, choice.penalty_norms, strict=True)
     ):
+        far = index < selection.LCURVE_FAR_COUNT
+        within = 10 * (selection.LCURVE_FAR_TOL if far else selection.LCURVE_TOL)
         cold = criterion_fit(pb, norm, float(lam), tol=1e-9)
-        assert residual == pytest.approx(np.sqrt(cold["rss"]), rel=1e-3)
+        assert residual == pytest.approx(np.sqrt(cold["rss"]), rel=within)
         objective = cold["rss"] + lam * cold["penalty_norm"]
-        assert lam * penalty == pytest.approx(lam * cold["penalty_norm"], abs=1e-3 * objective)
+        assert lam * penalty == pytest.approx(lam * cold["penalty_norm"], abs=within * objective)
+
+
+@pytest.mark.parametrize("norm", ["group", "l1"])
+def test_far_lcurve_candidates_next_to_the_corner_are_solved_again(monkeypatch, norm):
+    """The default grid's two smallest candidates are solved to LCURVE_FAR_TOL only. On this
+    random-walk series a corner comes next to them during the search (group: the final
+    one), so they are solved again to LCURVE_TOL (more fits), and the choice and the numbers
+    around it are those of the search that solves every candidate to LCURVE_TOL."""
+    data = ltv.systems.random_walk_system(T=150, seed=0)
+    far = select_lambda(data.x, data.u, norm=norm, method="lcurve")
+    monkeypatch.setattr(selection, "LCURVE_FAR_COUNT", 0)
+    tight = select_lambda(data.x, data.u, norm=norm, method="lcurve")
+    assert far.lam == tight.lam and far.n_fits > tight.n_fits
+    np.testing.assert_array_equal(far.lams, tight.lams)
+    best = int(np.argmax(tight.scores))
+    near = slice(max(best - 1, 0), best + 2)
+    np.testing.assert_allclose(far.residual_norms[near], tight.residual_norms[near], rtol=1e-4)
+    np.testing.assert_allclose(far.penalty_norms[near], tight.penalty_norms[near], rtol=1e-3)
+    if norm == "group":
+        assert best <= selection.LCURVE_FAR_COUNT  # the corner at a far candidate

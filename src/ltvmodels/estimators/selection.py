@@ -14,7 +14,9 @@ scored as given (the likelihood and GCV still refined between them).
   (‖Dk‖₂ for "sq", Σ_t‖(Dk)_t‖₂ for "group", Σ_t‖(Dk)_t‖₁ for "l1"); the
   corner is the point of maximum curvature, found on a cubic spline through
   the candidates as functions of log λ. The sparse norms' fits run to a
-  relative tolerance of :data:`LCURVE_TOL`: the curvature needs a few digits.
+  relative tolerance of :data:`LCURVE_TOL`: the curvature needs a few digits
+  (the default grid's two smallest candidates, far from most corners, to
+  :data:`LCURVE_FAR_TOL` unless the corner comes next to them).
 * ``"gcv"`` (norm="sq"): generalized cross-validation
   N·n·RSS / (N·n − dof)², with the exact effective degrees of freedom
   dof = tr(Φ H⁻¹ Φᵀ) = Σ_t Σ_i φ_tᵀ (H⁻¹)_{t,i} φ_t from the diagonal blocks of
@@ -123,6 +125,17 @@ MAX_REFINE = 12
 # (run it with --compare before changing how these fits start or stop).
 LCURVE_ROUNDS = 2
 LCURVE_TOL = 1e-4
+# The default grid's LCURVE_FAR_COUNT smallest candidates are solved to LCURVE_FAR_TOL
+# only: they are the most expensive (group, order 1, jump-linear T = 10⁴: 21 of the 41
+# iterations) and usually far below the corner. Where the corner comes next to one of
+# them, that one is solved again to LCURVE_TOL before the corner is taken. On the 80
+# series of benchmarks/bench_lcurve_choices.py no choice moved, and the iterations
+# went down for every norm and order: group 776 → 751 (order 1) and 1038 → 983
+# (order 2), l1 1433 → 1412 and 2196 → 2159; the jump-linear series of T = 10⁴ takes 36
+# instead of 41. Solving again the candidates within two of the corner cost more than
+# it saved (l1, order 2: 2218), 1e-2 moved 6 choices, and three far candidates 2.
+LCURVE_FAR_COUNT = 2
+LCURVE_FAR_TOL = 1e-3
 # Robust cross-validation: the folds' solver limits (a score needs a few digits, not
 # the optimum to 1e-6), and the default grid's size (each candidate costs n_folds
 # robust fits).
@@ -517,24 +530,37 @@ def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, round
     Dk = 0) has no place on the logarithmic curve and is left out of the corner:
     its log R(Dk) is noise, and on the former grid of 30 the candidate λ_max
     (R = 0) moved the spline's corner to ~0.4 λ_max where the curvature has no
-    maximum.
+    maximum. The default grid's smallest candidates are solved to LCURVE_FAR_TOL
+    unless the corner comes near them (see LCURVE_FAR_COUNT).
     """
     fits: dict[float, dict | None] = {}
+    loose: set[float] = set()  # the candidates solved to LCURVE_FAR_TOL only
+    n_fits = 0
     total = len(grid) + 2 * rounds
     evidence = ScalarEvidence(problem) if norm == "sq" else None
 
-    def fit_at(lam: float) -> None:
-        solved = {value: f["solution"] for value, f in fits.items() if f and "solution" in f}
-        warm = _path_warm_start(solved, lam, problem.K)
+    def fit_at(lam: float, tol: float = LCURVE_TOL, warm: Any = None) -> None:
+        nonlocal n_fits
+        if warm is None:
+            solved = {value: f["solution"] for value, f in fits.items() if f and "solution" in f}
+            warm = _path_warm_start(solved, lam, problem.K)
         fits[lam] = (evidence and evidence.solution(lam)) or attempt(
-            lambda value: criterion_fit(problem, norm, value, tol=LCURVE_TOL, warm_start=warm), lam
+            lambda value: criterion_fit(problem, norm, value, tol=tol, warm_start=warm), lam
         )
+        n_fits += 1
+        if tol > LCURVE_TOL and fits[lam] is not None:
+            loose.add(lam)
+        else:
+            loose.discard(lam)
         if progress is not None:
-            progress(len(fits), max(total, len(fits)))
+            progress(n_fits, max(total, n_fits))
 
-    for lam in np.sort(grid):
-        fit_at(float(lam))
-    for round_ in range(rounds + 1):
+    far = 0 if given or evidence is not None else LCURVE_FAR_COUNT
+    for index, lam in enumerate(np.sort(grid)):
+        fit_at(float(lam), LCURVE_FAR_TOL if index < far else LCURVE_TOL)
+
+    def corner() -> tuple:
+        """(candidates, residual norms, penalty norms, curvatures, index of the corner)."""
         lams = np.array(sorted(fits))
         numbers = [fits[lam] for lam in lams]
         _scores([None if f is None else 0.0 for f in numbers], lams, skipped, data_name, worst=0.0)
@@ -567,16 +593,24 @@ def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, round
                 f"{lam_max:.6g}: the data leave nothing to choose); pass a "
                 "number for lam"
             )
-        best = int(np.argmax(curvature))
+        return lams, residual, penalty, curvature, int(np.argmax(curvature))
+
+    for round_ in range(rounds + 1):
+        lams, residual, penalty, curvature, best = corner()
+        # the corner and its neighbours need every digit: loose ones are solved again
+        while near := [lam for lam in lams[max(best - 1, 0) : best + 2] if lam in loose]:
+            for lam in near:
+                fit_at(float(lam), warm=fits[lam]["solution"])
+            lams, residual, penalty, curvature, best = corner()
         if round_ == rounds:
             break
         for neighbour in (best - 1, best + 1):  # halve the spacing around the corner
             if 0 <= neighbour < lams.size:
                 fit_at(float(np.sqrt(lams[best] * lams[neighbour])))
-    if progress is not None and len(fits) < total:  # fewer than planned: the bar ends full
-        progress(len(fits), len(fits))
+    if progress is not None and n_fits < total:  # fewer than planned: the bar ends full
+        progress(n_fits, n_fits)
     return LambdaSelection(
-        float(lams[best]), lams, curvature, "lcurve", norm, residual, penalty, n_fits=len(fits)
+        float(lams[best]), lams, curvature, "lcurve", norm, residual, penalty, n_fits=n_fits
     )
 
 
