@@ -26,8 +26,8 @@ def last_iterate(monkeypatch, pb, weights, norm, tol):
     saved = {}
     take_step = cones.take_step
 
-    def recording(k, dk, t, dt, s, ds, z, dz, step):
-        take_step(k, dk, t, dt, s, ds, z, dz, step)
+    def recording(k, dk, t, dt, s, ds, z, dz, step, dual_step):
+        take_step(k, dk, t, dt, s, ds, z, dz, step, dual_step)
         saved["iterate"] = (k.copy(), s.copy(), z.copy())
 
     monkeypatch.setattr(cones, "take_step", recording)

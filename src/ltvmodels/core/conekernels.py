@@ -547,7 +547,7 @@ def predictor_corrector(
 
     Fills (Δk, Δt, Δs, Δz) = (dk (N, K), dt, ds, dz) for the corrector;
     target and work are scratch arrays of the cones' shape. Returns the
-    largest step keeping s and z in the cones.
+    largest steps keeping s and z in the cones (each on its own).
     """
     n_cones, m = lam_sq.shape  # m at run time: compiled as a constant it gained nothing
     for c in range(n_cones):
@@ -562,10 +562,9 @@ def predictor_corrector(
     _corrector_target(lam, v, eta, ds, dz, sigma_mu, target, m)
     _direction_rhs(target, lam, v, eta, u_rz, z, alpha, beta, r_k, coeffs, w, work, dk, m)
     _solve_vector(L, dk, size)
-    step_s, step_z = _direction_finish(
+    return _direction_finish(
         dk, work, s, r_z, z, alpha, beta, v, eta, s_coef, coeffs, w, dt, ds, dz, m
     )
-    return min(step_s, step_z)
 
 
 @numba.njit(cache=True)
@@ -845,8 +844,8 @@ def _direction_finish(
 
 
 @numba.njit(cache=True)
-def take_step(k, dk, t, dt, s, ds, z, dz, step):  # pragma: no cover - compiled
-    """(k, t, s, z) += step · (Δk, Δt, Δs, Δz), in place."""
+def take_step(k, dk, t, dt, s, ds, z, dz, step, dual_step):  # pragma: no cover - compiled
+    """(k, t, s) += step · (Δk, Δt, Δs) and z += dual_step · Δz, in place."""
     for i in range(k.shape[0]):
         for j in range(k.shape[1]):
             k[i, j] += step * dk[i, j]
@@ -854,7 +853,7 @@ def take_step(k, dk, t, dt, s, ds, z, dz, step):  # pragma: no cover - compiled
         t[c] += step * dt[c]
         for a in range(s.shape[1]):
             s[c, a] += step * ds[c, a]
-            z[c, a] += step * dz[c, a]
+            z[c, a] += dual_step * dz[c, a]
 
 
 def corrector_target(lam, v, eta, ds_a, dz_a, sigma_mu, out):

@@ -50,6 +50,7 @@ from .problem import RegressionProblem, output_spread
 __all__ = [
     "STEP_FRACTION",
     "MIN_STEP",
+    "SEPARATE_STEP_DEGREES",
     "START_DUAL_RANGE",
     "WARM_DEGREES",
     "REWEIGHT_STEPS",
@@ -82,6 +83,21 @@ __all__ = [
 
 # Fraction of the way to the cone boundary taken by a step (CVXOPT's STEP).
 STEP_FRACTION = 0.99
+# Group fits of these orders on the compiled path (narrow blocks, no constant
+# coefficients) step the primal (k, t, s) and the dual z each as far as its own cones
+# allow (fit_sparse_ipm's ``separate_steps``). The reweighted start leaves many cones
+# just off their vertex with their duals near the boundary: a common step stayed at
+# 0.05-0.25 for the first two or three iterations (the primal's limit) while the dual
+# could go 0.8 of its way. Separate steps leave a stationarity residual
+# (α_p − α_d)·2ΦᵀΦΔk, which the next iterations close: convergence is still judged by
+# the same gap and residuals. Jump-linear system, λ = 17, tol 1e-6: T = 2000 7 → 5
+# iterations, T = 10⁴ 8 → 7; 288 fits of order 1 (jump-linear and random-walk,
+# T = 300-2000, seeds 0-5, λ = 0.001-0.9 λ_max) 1727 → 1595 iterations, objectives
+# within 3.5e-7, none unconverged. Order 2 is left out: near λ_max (the 128 fits of
+# benchmarks/bench_stalls.py) 9 ended with a warning instead of 0. Wide blocks keep
+# one step too (K = 60, T = 4000: their early polish then came later, 3 → 8
+# iterations), and so do l1 pairs (no gain).
+SEPARATE_STEP_DEGREES = (1,)
 # A step shorter than this makes no progress: the iterate is as good as it gets.
 MIN_STEP = 1e-10
 # The starting duality gap as a fraction of the starting objective (insensitive
@@ -562,21 +578,25 @@ class NewtonSystem:
             raise SingularProblemError(BOUNDARY) from None
 
     def predictor_corrector(self, gap: float):
-        """(Δk, Δt, Δs, Δz, largest step) of Mehrotra's predictor–corrector iteration.
+        """(Δk, Δt, Δs, Δz, primal step, dual step) of Mehrotra's predictor–corrector
+        iteration.
 
         Factors the Newton matrix, solves for the predictor target −λ∘λ (step α_a),
         then for the corrector target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a) with
         σ = (1 − min(1, α_a))³ and μ = gap / n_cones. Group cones without
         constant coefficients and with blocks below the wide kernels' sizes take it
         in two compiled calls (the factorization, then
-        :func:`.conekernels.predictor_corrector` for both solves); the others through
-        :meth:`affine_direction` and :meth:`direction`.
+        :func:`.conekernels.predictor_corrector` for both solves), which give the
+        largest steps keeping s and keeping z in the cones separately; the others
+        go through :meth:`affine_direction` and :meth:`direction`, and both steps
+        are then the largest keeping both.
         """
         cp = self.cp
         if self.pairs or len(cp.systems) != 1 or cp.systems[0].const.size or cp.systems[0].wide:
             _, _, ds_a, dz_a, step = self.affine_direction()
             sigma_mu = (1.0 - min(1.0, step)) ** 3 * gap / cp.n_cones
-            return self.direction(self.corrector_target(ds_a, dz_a, sigma_mu))
+            dk, dt, ds, dz, step = self.direction(self.corrector_target(ds_a, dz_a, sigma_mu))
+            return dk, dt, ds, dz, step, step
         system = cp.systems[0]
         target, work = np.empty_like(self.lam_sq), np.empty_like(self.lam_sq)
         dk, dt = np.empty((cp.N, cp.K)), np.empty(cp.n_cones)
@@ -584,14 +604,14 @@ class NewtonSystem:
         size = system.fixed if system.fixed is not None else system.L.shape[2]
         try:
             system.factor(cp, self)
-            step = cones.predictor_corrector(
+            step_s, step_z = cones.predictor_corrector(
                 cp.coeffs, cp.w, self.s, self.z, self.r_z, self.r_k, gap, self.v, self.eta,
                 self.lam, self.lam_sq, self.u_rz, self.alpha, self.beta, self.s_coef, system.L,
                 target, work, dk, dt, ds, dz, size,
             )  # fmt: skip
         except ZeroDivisionError:  # a cone's scaling underflowed or overflowed
             raise SingularProblemError(BOUNDARY) from None
-        return dk, dt, ds, dz, step
+        return dk, dt, ds, dz, step_s, step_z
 
     def predictor_target(self) -> np.ndarray:
         """The affine (predictor) target −λ∘λ."""
@@ -861,6 +881,7 @@ def fit_sparse_ipm(
     max_iter: int = 100,
     k0: np.ndarray | None = None,
     warm_start: InteriorPointResult | None = None,
+    separate_steps: bool = True,
 ) -> InteriorPointResult:
     """Minimize Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ(Dk)_t) by a primal-dual interior-point method.
 
@@ -883,6 +904,11 @@ def fit_sparse_ipm(
         with a small gap; group cones from WARM_REWEIGHT_STEPS reweighted fits
         from its k (:func:`reweighted_start`). Taken for order 1 (see
         WARM_DEGREES) without constant coefficients, ignored otherwise.
+    separate_steps : bool
+        Step the primal and the dual variables each as far as its cones allow,
+        where SEPARATE_STEP_DEGREES and the compiled path allow it (default);
+        False takes one step for both everywhere (the L-curve's fits: its corner
+        moves with the iterates at the fits' tolerance).
 
     Returns
     -------
@@ -890,6 +916,7 @@ def fit_sparse_ipm(
     """
     cp = ConicProblem(problem, weights, norm)
     N, K, n_cones = cp.N, cp.K, cp.n_cones
+    separate = separate_steps and problem.degree in SEPARATE_STEP_DEGREES
     t = np.zeros(n_cones)
     s, z = np.zeros(cp.cone_shape), np.zeros(cp.cone_shape)
     r_z, r_k = np.empty(cp.cone_shape), np.empty((N, K))
@@ -995,7 +1022,7 @@ def fit_sparse_ipm(
         # Predictor (affine) step, target −λ∘λ; then Mehrotra's corrector with the
         # target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a), σ = (1 − α_a)³.
         try:
-            dk, dt, ds, dz, step = newton.predictor_corrector(gap)
+            dk, dt, ds, dz, step, dual_step = newton.predictor_corrector(gap)
         except SingularProblemError as exc:
             if iterations == 0:
                 raise (dominating_output(problem) or exc) from None
@@ -1005,11 +1032,13 @@ def fit_sparse_ipm(
             stalled = True
             break
         iterations += 1
-        step = min(1.0, STEP_FRACTION * step)
-        if step < MIN_STEP:
+        if not separate:
+            step = dual_step = min(step, dual_step)
+        step, dual_step = min(1.0, STEP_FRACTION * step), min(1.0, STEP_FRACTION * dual_step)
+        if min(step, dual_step) < MIN_STEP:
             stalled = True
             break
-        cones.take_step(k, dk, t, dt, s, ds, z, dz, step)
+        cones.take_step(k, dk, t, dt, s, ds, z, dz, step, dual_step)
     unsolved = polished_result is None and not converged
     if unsolved and problem.degree in (1, 2) and not cp.const.any():
         # Near a degenerate optimum the Newton systems lose definiteness before

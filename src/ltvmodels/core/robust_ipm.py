@@ -231,7 +231,7 @@ def fit_robust_ipm(
         if step < MIN_STEP:
             stalled = True
             break
-        cones.take_step(k, dk, t, dt, s, ds, z, dz, step)
+        cones.take_step(k, dk, t, dt, s, ds, z, dz, step, step)
         entries.take_step(direction, dk, step)
     cp.phi = data_phi
     if not converged:
