@@ -43,7 +43,8 @@ class LambdaSelection:
         is minimized; ``dof`` and the norms are NaN there).
     n_fits : int or None
         The fits the choice took: one per candidate (for "ml" one banded
-        factorization each; "cv": ``n_folds`` per candidate).
+        factorization each; "cv": ``n_folds`` per candidate; the sparse
+        L-curve's far candidates solved again next to the corner count twice).
     """
 
     lam: float
