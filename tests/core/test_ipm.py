@@ -407,7 +407,7 @@ def test_fused_predictor_corrector_equals_the_separate_calls(coeffs, fixed, monk
     assert min(step_s, step_z) == pytest.approx(separate[4], rel=1e-9)
 
 
-def test_separate_primal_and_dual_steps_reach_the_optimum_in_fewer_iterations():
+def test_separate_primal_and_dual_steps_reach_the_optimum_in_fewer_iterations(monkeypatch):
     """Order-1 group fits on the compiled path step the primal and the dual variables
     each as far as its cones allow: on the jump-linear fit at T = 2000 the first steps
     are no longer held to the primal's 0.1-0.25, and the fit takes 5 iterations instead
@@ -416,21 +416,23 @@ def test_separate_primal_and_dual_steps_reach_the_optimum_in_fewer_iterations():
     pb = state_space_problem(data.x, data.u, np.array([-1.0, 1.0]))
     weights = np.full(pb.K, 17.0)
     separate = ipm.fit_sparse_ipm(pb, weights, "group", tol=1e-6)
-    common = ipm.fit_sparse_ipm(pb, weights, "group", tol=1e-6, separate_steps=False)
+    monkeypatch.setattr(ipm, "SEPARATE_STEP_DEGREES", ())
+    common = ipm.fit_sparse_ipm(pb, weights, "group", tol=1e-6)
     assert separate.converged and common.converged
     assert separate.iterations < common.iterations
     assert separate.objective == pytest.approx(common.objective, rel=2e-6)
 
 
 @pytest.mark.parametrize("norm,coeffs", [("group", [1.0, -2.0, 1.0]), ("l1", [-1.0, 1.0])])
-def test_one_step_for_primal_and_dual_outside_order_1_group_fits(norm, coeffs):
+def test_one_step_for_primal_and_dual_outside_order_1_group_fits(norm, coeffs, monkeypatch):
     """Order 2 (it stalled near λ_max with separate steps) and l1's pairs keep one step:
-    the fit is the same bit for bit either way."""
+    the fit is the same bit for bit as with no order taking separate steps."""
     data = ltv.systems.jump_linear(T=300, change_at=150, seed=1)
     pb = state_space_problem(data.x, data.u, np.array(coeffs))
     weights = np.full(pb.K, 5.0)
     default = ipm.fit_sparse_ipm(pb, weights, norm, tol=1e-6)
-    common = ipm.fit_sparse_ipm(pb, weights, norm, tol=1e-6, separate_steps=False)
+    monkeypatch.setattr(ipm, "SEPARATE_STEP_DEGREES", ())
+    common = ipm.fit_sparse_ipm(pb, weights, norm, tol=1e-6)
     assert default.converged
     np.testing.assert_array_equal(default.theta, common.theta)
 

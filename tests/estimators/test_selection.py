@@ -5,7 +5,6 @@ import pytest
 from dense_reference import best_lam, difference_matrix, lam_criterion, simulate_ltv
 
 import ltvmodels as ltv
-from ltvmodels.core.ipm import fit_sparse_ipm
 from ltvmodels.core.problem import state_space_problem
 from ltvmodels.estimators import selection
 from ltvmodels.estimators.selection import criterion_fit, select_lambda
@@ -354,17 +353,3 @@ def test_far_lcurve_candidates_next_to_the_corner_are_solved_again(monkeypatch, 
     np.testing.assert_allclose(far.penalty_norms[near], tight.penalty_norms[near], rtol=1e-3)
     if norm == "group":
         assert best <= selection.LCURVE_FAR_COUNT  # the corner at a far candidate
-
-
-def test_lcurve_fits_take_one_step_for_primal_and_dual():
-    """The L-curve's corner moves with its fits' iterates at their tolerance, so its
-    group fits keep one step for the primal and dual variables (bench_lcurve_choices:
-    separate steps moved 2 of the 20 order-1 choices away from the exactly solved ones)."""
-    data = ltv.systems.jump_linear(T=300, change_at=150, seed=2)
-    pb = state_space_problem(data.x, data.u, np.array([-1.0, 1.0]))
-    weights = np.full(pb.K, 5.0)
-    fit = criterion_fit(pb, "group", 5.0, tol=1e-4)
-    common = fit_sparse_ipm(pb, weights, "group", tol=1e-4, max_iter=200, separate_steps=False)
-    separate = fit_sparse_ipm(pb, weights, "group", tol=1e-4, max_iter=200)
-    np.testing.assert_array_equal(fit["theta"], common.theta)
-    assert not np.array_equal(separate.theta, common.theta)

@@ -85,15 +85,16 @@ __all__ = [
 STEP_FRACTION = 0.99
 # Group fits of these orders on the compiled path (narrow blocks, no constant
 # coefficients) step the primal (k, t, s) and the dual z each as far as its own cones
-# allow (fit_sparse_ipm's ``separate_steps``). The reweighted start leaves many cones
-# just off their vertex with their duals near the boundary: a common step stayed at
-# 0.05-0.25 for the first two or three iterations (the primal's limit) while the dual
-# could go 0.8 of its way. Separate steps leave a stationarity residual
-# (α_p − α_d)·2ΦᵀΦΔk, which the next iterations close: convergence is still judged by
-# the same gap and residuals. Jump-linear system, λ = 17, tol 1e-6: T = 2000 7 → 5
-# iterations, T = 10⁴ 8 → 7; 288 fits of order 1 (jump-linear and random-walk,
-# T = 300-2000, seeds 0-5, λ = 0.001-0.9 λ_max) 1727 → 1595 iterations, objectives
-# within 3.5e-7, none unconverged. Order 2 is left out: near λ_max (the 128 fits of
+# allow. The reweighted start leaves many cones just off their vertex with their duals
+# near the boundary: a common step stayed at 0.05-0.25 for the first two or three
+# iterations (the primal's limit) while the dual could go 0.8 of its way. Separate
+# steps leave a stationarity residual (α_p − α_d)·2ΦᵀΦΔk, which the next iterations
+# close: convergence is still judged by the same gap and residuals. Jump-linear
+# system, λ = 17, tol 1e-6: T = 2000 7 → 5 iterations, T = 10⁴ 8 → 7; 288 fits of
+# order 1 (jump-linear and random-walk, T = 300-2000, seeds 0-5, λ = 0.001-0.9
+# λ_max) 1727 → 1595 iterations, objectives within 3.5e-7, none unconverged; the
+# L-curves of benchmarks/bench_lcurve_choices.py 751 → 739 (group, order 1), no
+# choice moved. Order 2 is left out: near λ_max (the 128 fits of
 # benchmarks/bench_stalls.py) 9 ended with a warning instead of 0. Wide blocks keep
 # one step too (K = 60, T = 4000: their early polish then came later, 3 → 8
 # iterations), and so do l1 pairs (no gain).
@@ -881,7 +882,6 @@ def fit_sparse_ipm(
     max_iter: int = 100,
     k0: np.ndarray | None = None,
     warm_start: InteriorPointResult | None = None,
-    separate_steps: bool = True,
 ) -> InteriorPointResult:
     """Minimize Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ(Dk)_t) by a primal-dual interior-point method.
 
@@ -904,11 +904,6 @@ def fit_sparse_ipm(
         with a small gap; group cones from WARM_REWEIGHT_STEPS reweighted fits
         from its k (:func:`reweighted_start`). Taken for order 1 (see
         WARM_DEGREES) without constant coefficients, ignored otherwise.
-    separate_steps : bool
-        Step the primal and the dual variables each as far as its cones allow,
-        where SEPARATE_STEP_DEGREES and the compiled path allow it (default);
-        False takes one step for both everywhere (the L-curve's fits: its corner
-        moves with the iterates at the fits' tolerance).
 
     Returns
     -------
@@ -916,7 +911,7 @@ def fit_sparse_ipm(
     """
     cp = ConicProblem(problem, weights, norm)
     N, K, n_cones = cp.N, cp.K, cp.n_cones
-    separate = separate_steps and problem.degree in SEPARATE_STEP_DEGREES
+    separate = problem.degree in SEPARATE_STEP_DEGREES  # see NewtonSystem.predictor_corrector
     t = np.zeros(n_cones)
     s, z = np.zeros(cp.cone_shape), np.zeros(cp.cone_shape)
     r_z, r_k = np.empty(cp.cone_shape), np.empty((N, K))

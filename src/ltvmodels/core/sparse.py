@@ -124,7 +124,6 @@ def solve_sparse(
     max_iter: int,
     tol: float,
     warm_start: SparseSolution | None = None,
-    separate_steps: bool = True,
 ) -> SparseSolution:
     """Minimize Σ_t ‖y_t − Θ_t φ_t‖² + Σ_t R(Λ (Dk)_t) on validated inputs.
 
@@ -144,8 +143,6 @@ def solve_sparse(
         The solution of the same problem at other weights (a λ path): the
         interior-point method starts from its primal-dual pair, ADMM from its
         state, whichever solved both.
-    separate_steps : bool
-        The interior-point method's (:func:`.ipm.fit_sparse_ipm`).
 
     Returns
     -------
@@ -197,7 +194,6 @@ def solve_sparse(
             tol=tol,
             max_iter=max_iter,
             warm_start=None if warm_start is None else warm_start.ipm,
-            separate_steps=separate_steps,
         )
         resid = problem.residuals(ip.theta)
         return SparseSolution(

@@ -686,16 +686,8 @@ def criterion_fit(
         return out
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
-        # one step for the primal and dual variables: the L-curve's corner moves with
-        # the iterates at its tolerance (benchmarks/bench_lcurve_choices.py)
         solution = solve_sparse(
-            problem,
-            np.full(K, lam),
-            named(norm),
-            max_iter=200,
-            tol=tol,
-            warm_start=warm_start,
-            separate_steps=False,
+            problem, np.full(K, lam), named(norm), max_iter=200, tol=tol, warm_start=warm_start
         )
     k = solution.theta.reshape(problem.N, K)
     reg = named(norm).value(apply_difference(k, problem.coeffs))
