@@ -83,21 +83,21 @@ __all__ = [
 
 # Fraction of the way to the cone boundary taken by a step (CVXOPT's STEP).
 STEP_FRACTION = 0.99
-# Group fits of these orders on the compiled path (narrow blocks, no constant
-# coefficients) step the primal (k, t, s) and the dual z each as far as its own cones
-# allow. The reweighted start leaves many cones just off their vertex with their duals
-# near the boundary: a common step stayed at 0.05-0.25 for the first two or three
-# iterations (the primal's limit) while the dual could go 0.8 of its way. Separate
-# steps leave a stationarity residual (α_p − α_d)·2ΦᵀΦΔk, which the next iterations
-# close: convergence is still judged by the same gap and residuals. Jump-linear
-# system, λ = 17, tol 1e-6: T = 2000 7 → 5 iterations, T = 10⁴ 8 → 7; 288 fits of
+# Fits of these orders (narrow blocks, no constant coefficients) step the primal
+# (k, t, s) and the dual z each as far as its own cones allow. The reweighted start of
+# group cones leaves many of them just off their vertex with their duals near the
+# boundary: a common step stayed at 0.05-0.25 for the first two or three iterations
+# (the primal's limit) while the dual could go 0.8 of its way. Separate steps leave a
+# stationarity residual (α_p − α_d)·2ΦᵀΦΔk, which the next iterations close:
+# convergence is still judged by the same gap and residuals. Jump-linear system,
+# λ = 17, tol 1e-6: group T = 2000 7 → 5 iterations, T = 10⁴ 8 → 7. 288 fits of
 # order 1 (jump-linear and random-walk, T = 300-2000, seeds 0-5, λ = 0.001-0.9
-# λ_max) 1727 → 1595 iterations, objectives within 3.5e-7, none unconverged; the
-# L-curves of benchmarks/bench_lcurve_choices.py 751 → 739 (group, order 1), no
-# choice moved. Order 2 is left out: near λ_max (the 128 fits of
-# benchmarks/bench_stalls.py) 9 ended with a warning instead of 0. Wide blocks keep
-# one step too (K = 60, T = 4000: their early polish then came later, 3 → 8
-# iterations), and so do l1 pairs (no gain).
+# λ_max): group 1727 → 1645 iterations, l1 2910 → 2613, objectives within 4.3e-7,
+# none unconverged. The L-curves of benchmarks/bench_lcurve_choices.py: group 751 →
+# 739, l1 1412 → 1261 (order 1), no choice moved. Order 2 is left out: near λ_max
+# (the 128 fits of benchmarks/bench_stalls.py) 9 ended with a warning instead of 0.
+# Wide blocks keep one step too (K = 60, T = 4000: their early polish then came
+# later, 3 → 8 iterations).
 SEPARATE_STEP_DEGREES = (1,)
 # A step shorter than this makes no progress: the iterate is as good as it gets.
 MIN_STEP = 1e-10
@@ -579,25 +579,23 @@ class NewtonSystem:
             raise SingularProblemError(BOUNDARY) from None
 
     def predictor_corrector(self, gap: float):
-        """(Δk, Δt, Δs, Δz, primal step, dual step) of Mehrotra's predictor–corrector
-        iteration.
+        """(Δk, Δt, Δs, Δz, (step of s, step of z)) of Mehrotra's predictor–corrector
+        iteration: the largest steps keeping s and keeping z in their cones.
 
-        Factors the Newton matrix, solves for the predictor target −λ∘λ (step α_a),
-        then for the corrector target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a) with
-        σ = (1 − min(1, α_a))³ and μ = gap / n_cones. Group cones without
+        Factors the Newton matrix, solves for the predictor target −λ∘λ (step α_a,
+        the smaller of the two), then for the corrector target
+        σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a) with σ = (1 − min(1, α_a))³ and
+        μ = gap / n_cones. Group cones without
         constant coefficients and with blocks below the wide kernels' sizes take it
         in two compiled calls (the factorization, then
-        :func:`.conekernels.predictor_corrector` for both solves), which give the
-        largest steps keeping s and keeping z in the cones separately; the others
-        go through :meth:`affine_direction` and :meth:`direction`, and both steps
-        are then the largest keeping both.
+        :func:`.conekernels.predictor_corrector` for both solves); the others
+        through :meth:`affine_direction` and :meth:`direction`.
         """
         cp = self.cp
         if self.pairs or len(cp.systems) != 1 or cp.systems[0].const.size or cp.systems[0].wide:
-            _, _, ds_a, dz_a, step = self.affine_direction()
-            sigma_mu = (1.0 - min(1.0, step)) ** 3 * gap / cp.n_cones
-            dk, dt, ds, dz, step = self.direction(self.corrector_target(ds_a, dz_a, sigma_mu))
-            return dk, dt, ds, dz, step, step
+            _, _, ds_a, dz_a, steps = self.affine_direction()
+            sigma_mu = (1.0 - min(1.0, *steps)) ** 3 * gap / cp.n_cones
+            return self.direction(self.corrector_target(ds_a, dz_a, sigma_mu))
         system = cp.systems[0]
         target, work = np.empty_like(self.lam_sq), np.empty_like(self.lam_sq)
         dk, dt = np.empty((cp.N, cp.K)), np.empty(cp.n_cones)
@@ -612,7 +610,7 @@ class NewtonSystem:
             )  # fmt: skip
         except ZeroDivisionError:  # a cone's scaling underflowed or overflowed
             raise SingularProblemError(BOUNDARY) from None
-        return dk, dt, ds, dz, step_s, step_z
+        return dk, dt, ds, dz, (step_s, step_z)
 
     def predictor_target(self) -> np.ndarray:
         """The affine (predictor) target −λ∘λ."""
@@ -636,7 +634,8 @@ class NewtonSystem:
             raise SingularProblemError(BOUNDARY) from None
 
     def direction(self, target: np.ndarray):
-        """(Δk, Δt, Δs, Δz, largest step) for the target (after :meth:`affine_direction`)."""
+        """(Δk, Δt, Δs, Δz, (step of s, step of z)) for the target (after
+        :meth:`affine_direction`)."""
         try:
             work, rhs = self.rhs_for(target)
             return self.finish(self.cp.solve(rhs), work)
@@ -671,7 +670,7 @@ class NewtonSystem:
         return work, rhs
 
     def finish(self, dk: np.ndarray, work: np.ndarray):
-        """(Δk, Δt, Δs, Δz) and the largest steps keeping s and z in the cones."""
+        """(Δk, Δt, Δs, Δz) and the largest steps keeping s and keeping z in the cones."""
         cp = self.cp
         dt, ds, dz = np.empty(cp.n_cones), np.empty_like(work), np.empty_like(work)
         if self.pairs:
@@ -679,7 +678,7 @@ class NewtonSystem:
                 dk, work, self.inv_s, self.r_z, self.z, self.inv_alpha, self.ratio,
                 self.penalty, cp.coeffs, cp.w, dt, ds, dz,
             )  # fmt: skip
-            return dk, dt, ds, dz, min(steps)
+            return dk, dt, ds, dz, steps
         steps = cones.direction_finish(
             dk,
             work,
@@ -697,7 +696,7 @@ class NewtonSystem:
             ds,
             dz,
         )
-        return dk, dt, ds, dz, min(steps)
+        return dk, dt, ds, dz, steps
 
 
 def dominating_output(problem: RegressionProblem) -> SingularProblemError | None:
@@ -911,7 +910,9 @@ def fit_sparse_ipm(
     """
     cp = ConicProblem(problem, weights, norm)
     N, K, n_cones = cp.N, cp.K, cp.n_cones
-    separate = problem.degree in SEPARATE_STEP_DEGREES  # see NewtonSystem.predictor_corrector
+    separate = (
+        problem.degree in SEPARATE_STEP_DEGREES and not cp.const.any() and not cp.systems[0].wide
+    )
     t = np.zeros(n_cones)
     s, z = np.zeros(cp.cone_shape), np.zeros(cp.cone_shape)
     r_z, r_k = np.empty(cp.cone_shape), np.empty((N, K))
@@ -1013,17 +1014,19 @@ def fit_sparse_ipm(
             )
             if polished_result is not None:
                 break
-        newton = NewtonSystem(cp, s, z, r_z, r_k)
         # Predictor (affine) step, target −λ∘λ; then Mehrotra's corrector with the
         # target σμe − λ∘λ − (W⁻¹Δs_a) ∘ (WΔz_a), σ = (1 − α_a)³.
         try:
-            dk, dt, ds, dz, step, dual_step = newton.predictor_corrector(gap)
+            newton = NewtonSystem(cp, s, z, r_z, r_k)
+            dk, dt, ds, dz, (step, dual_step) = newton.predictor_corrector(gap)
         except SingularProblemError as exc:
             if iterations == 0:
                 raise (dominating_output(problem) or exc) from None
             # Near the optimum the scaling of cones at their vertex grows without
-            # bound; when it costs positive definiteness at working precision,
-            # the current iterate is as accurate as this arithmetic allows.
+            # bound; when it costs positive definiteness at working precision, or a
+            # cone's s or z is at its boundary in rounding (separate steps can take s
+            # there first at tight tolerances, e.g. 1e-11), the current iterate is as
+            # accurate as this arithmetic allows (the polish below may certify it).
             stalled = True
             break
         iterations += 1

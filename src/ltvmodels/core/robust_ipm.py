@@ -210,14 +210,14 @@ def fit_robust_ipm(
             work, rhs = newton.rhs_for(newton.predictor_target())
             affine = entries.eliminate(-entries.complementarity())
             rhs += affine.rhs
-            dk, _, ds_a, dz_a, cone_step = newton.finish(cp.factor_and_solve(newton, rhs), work)
+            dk, _, ds_a, dz_a, cone_steps = newton.finish(cp.factor_and_solve(newton, rhs), work)
         except SingularProblemError:
             if iterations == 0:
                 raise
             stalled = True  # the scaling lost definiteness at working precision
             break
         iterations += 1
-        step = min(1.0, cone_step, affine.step(dk))
+        step = min(1.0, *cone_steps, affine.step(dk))
         mu = gap / degree
         sigma_mu = (1.0 - step) ** 3 * mu
         # Mehrotra's corrector, for the cones (conekernels) and the orthants
@@ -226,8 +226,8 @@ def fit_robust_ipm(
         work, rhs = newton.rhs_for(target)
         direction = entries.eliminate(orthant_target)
         rhs += direction.rhs
-        dk, dt, ds, dz, cone_step = newton.finish(cp.solve(rhs), work)
-        step = min(1.0, STEP_FRACTION * min(cone_step, direction.step(dk)))
+        dk, dt, ds, dz, cone_steps = newton.finish(cp.solve(rhs), work)
+        step = min(1.0, STEP_FRACTION * min(*cone_steps, direction.step(dk)))
         if step < MIN_STEP:
             stalled = True
             break
