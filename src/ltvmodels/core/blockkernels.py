@@ -44,6 +44,8 @@ import numpy as np
 from numba.core import types
 from numba.extending import intrinsic
 
+from .precompiled import attach
+
 __all__ = [
     "block_size",
     "offdiagonal_step",
@@ -1389,3 +1391,7 @@ def _information_step(
             packed[idx] = M[i, k]
             idx += 1
     return done
+
+
+# the signatures of a first fit, compiled ahead of time where the package was built with them
+attach(globals())

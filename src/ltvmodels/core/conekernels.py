@@ -24,6 +24,7 @@ import numba
 import numpy as np
 
 from .blockkernels import block_size, diagonal_step, offdiagonal_step
+from .precompiled import attach
 
 __all__ = [
     "weighted_difference",
@@ -1024,3 +1025,7 @@ def corrector_target_pairs(lam_sq, ds_a, dz_a, sigma_mu, out):  # pragma: no cov
     for c in range(lam_sq.shape[0]):
         out[c, 0] = sigma_mu - lam_sq[c, 0] - (ds_a[c, 0] * dz_a[c, 0] + ds_a[c, 1] * dz_a[c, 1])
         out[c, 1] = -lam_sq[c, 1] - (ds_a[c, 0] * dz_a[c, 1] + ds_a[c, 1] * dz_a[c, 0])
+
+
+# the signatures of a first fit, compiled ahead of time where the package was built with them
+attach(globals())

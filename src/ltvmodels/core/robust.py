@@ -38,6 +38,7 @@ from .banded import solve_shared_rows
 from .laplace import certified_gap
 from .losses import Loss, LossFit
 from .penalties import Penalty, named
+from .precompiled import attach
 from .priorterms import PriorTerm
 from .problem import RegressionProblem, null_space_basis, output_spread
 from .robust_scale import MAD_TO_STD, column_center_spread, median_in_place
@@ -513,3 +514,7 @@ def _exact_fit(problem, W, penalty: Penalty, theta, loss: Loss, delta, rule) -> 
         beyond_delta=beyond,
         delta_rule=rule,
     )
+
+
+# the signatures of a first fit, compiled ahead of time where the package was built with them
+attach(globals())

@@ -13,6 +13,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from .precompiled import attach
+
 __all__ = ["MAD_TO_STD", "column_center_spread", "median_in_place"]
 
 MAD_TO_STD = 1.4826  # σ / MAD of Gaussian noise
@@ -129,3 +131,7 @@ def column_center_spread(values, observed, center, mad, rms):  # pragma: no cove
                     buffer[count] = abs(values[t, j, i] - middle)
                     count += 1
         mad[i] = median_in_place(buffer[:count])
+
+
+# the signatures of a first fit, compiled ahead of time where the package was built with them
+attach(globals())

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from .precompiled import attach
+
 __all__ = ["simulate_affine"]
 
 
@@ -30,3 +32,7 @@ def simulate_affine(A, B, w, x0, u):  # pragma: no cover - compiled
                 acc += B[t, i, j] * u[t, j]
             x[t + 1, i] = acc
     return x
+
+
+# the signatures of a first fit, compiled ahead of time where the package was built with them
+attach(globals())

@@ -18,6 +18,7 @@ from scipy.linalg import solveh_banded
 
 from .banded import BlockFactor, BlockSystem
 from .penalties import Penalty
+from .precompiled import attach
 from .problem import (
     RegressionProblem,
     apply_difference,
@@ -169,3 +170,7 @@ def _first_difference_preimage(v, c0):  # pragma: no cover - compiled
             running[j] += v[t, j] - mean[j]
             out[t, j] = running[j] / c0
     return out
+
+
+# the signatures of a first fit, compiled ahead of time where the package was built with them
+attach(globals())

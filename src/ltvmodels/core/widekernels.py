@@ -44,6 +44,7 @@ from numba.extending import get_cython_function_address
 from threadpoolctl import ThreadpoolController
 
 from . import conekernels as cones
+from .precompiled import attach
 
 __all__ = [
     "one_blas_thread",
@@ -532,3 +533,7 @@ def _symmetric_matvec(S, x, out):  # pragma: no cover - compiled
         xj = x[j]
         for i in range(b):
             out[i] += S[j, i] * xj
+
+
+# the signatures of a first fit, compiled ahead of time where the package was built with them
+attach(globals())
