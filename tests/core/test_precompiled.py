@@ -137,6 +137,25 @@ def test_other_argument_types_compile_instead_of_reaching_the_compiled_kernel():
     assert len(simulate_affine.signatures) == len(compiled) + 1  # compiled for this layout
 
 
+@attached
+def test_a_served_signature_compiled_later_keeps_one_function_in_the_dispatch(monkeypatch):
+    """Where numba compiles a served signature itself (as for a compiled caller), calls
+    from Python still dispatch in C: two functions for one signature would send every
+    call through the dispatcher's Python fallback (its ``_compile_for_args``)."""
+    from ltvmodels.core.simulation import simulate_affine
+
+    rng = np.random.default_rng(1)
+    A, B = 0.5 * rng.standard_normal((20, 2, 2)), rng.standard_normal((20, 2, 1))
+    w, x0, u = rng.standard_normal((20, 2)), rng.standard_normal(2), rng.standard_normal((20, 1))
+    served = simulate_affine(A, B, w, x0, u)
+    (_, _, arguments, result), *_ = precompiled.manifest()["ltvmodels.core.simulation"]
+    simulate_affine.compile(result(*arguments))  # numba's own compilation of it
+    fallback = []
+    monkeypatch.setattr(simulate_affine, "_compile_for_args", lambda *a, **k: fallback.append(a))
+    np.testing.assert_array_equal(simulate_affine(A, B, w, x0, u), served)
+    assert fallback == []
+
+
 @pytest.mark.slow
 @attached
 def test_first_fits_equal_those_of_the_jit_bit_for_bit():

@@ -11,7 +11,8 @@ Each kernel module ends with ``attach(globals())``: every listed signature of
 its kernels is then served by the compiled function, through the kernel's own
 numba dispatcher (its type dispatch picks the compiled function for exactly
 that signature; any other argument types compile as before). Calls from other
-compiled code are unchanged. Nothing is attached (and every kernel compiles at
+compiled code are unchanged (numba compiles the kernel into them where a
+caller is not precompiled). Nothing is attached (and every kernel compiles at
 first use, as without this module) where
 
 * the extension was not built (no C compiler at install, or ``numba.pycc``
@@ -129,7 +130,7 @@ def status() -> tuple[Any, str]:
     """(the extension module or None, why not / "attached")."""
     if os.environ.get(SWITCH, "1") == "0":
         return None, f"switched off ({SWITCH}=0)"
-    if not hasattr(CPUDispatcher, "_insert"):
+    if not all(hasattr(CPUDispatcher, name) for name in ("_insert", "_clear", "add_overload")):
         return None, f"numba {numba.__version__}'s dispatchers cannot take compiled functions"
     try:
         extension = importlib.import_module(EXTENSION)
@@ -145,11 +146,43 @@ def attach(namespace: dict[str, Any]) -> None:
     extension = status()[0]
     if extension is None:
         return
+    served: dict[str, dict[tuple[types.Type, ...], Any]] = {}
     for function, index, arguments, _ in manifest().get(namespace["__name__"], []):
-        compiled = getattr(extension, export_name(function, index))
-        # numba's own step that adds a compiled overload: its type dispatch by type codes
-        codes = [argument._code for argument in arguments]  # type: ignore[attr-defined]
-        namespace[function]._insert(codes, compiled, False)
+        served.setdefault(function, {})[arguments] = getattr(
+            extension, export_name(function, index)
+        )
+    for function, functions in served.items():
+        _serve(namespace[function], functions)
+
+
+def _serve(dispatcher: Any, served: dict[tuple[types.Type, ...], Any]) -> None:
+    """Add the compiled ``served`` functions (by argument types) to a numba dispatcher.
+
+    numba's own step that adds a compiled overload (``_insert``: its type dispatch by
+    type codes). Where numba later compiles one of these signatures itself (a
+    compiled caller needs the kernel's code), its type dispatch would hold two
+    functions for one signature and resolve every call from Python slowly (~30 µs):
+    the served one is then dropped and the table rebuilt from numba's own overloads.
+    """
+
+    def insert_served() -> None:
+        for arguments, function in served.items():
+            codes = [argument._code for argument in arguments]  # type: ignore[attr-defined]
+            dispatcher._insert(codes, function, False)
+
+    add_compiled = dispatcher.add_overload
+
+    def add_overload(result: Any) -> None:
+        add_compiled(result)
+        if served.pop(tuple(result.signature.args), None) is not None:
+            dispatcher._clear()
+            for arguments, compiled in dispatcher.overloads.items():
+                codes = [argument._code for argument in arguments]
+                dispatcher._insert(codes, compiled.entry_point, compiled.objectmode)
+            insert_served()
+
+    dispatcher.add_overload = add_overload
+    insert_served()
 
 
 def build(output_dir: str, output_file: str) -> None:
