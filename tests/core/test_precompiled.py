@@ -98,6 +98,12 @@ def test_source_stamp_is_reproducible_and_63_bits():
     assert 0 <= stamp < 2**63
 
 
+@attached
+def test_the_extension_carries_the_stamp_of_these_sources():
+    path = precompiled.status()[0].__file__
+    assert precompiled.built_stamp(path) == precompiled.source_stamp()
+
+
 def test_switched_off_says_so_and_exits_with_1():
     env = dict(os.environ, **{precompiled.SWITCH: "0"})
     run = subprocess.run(

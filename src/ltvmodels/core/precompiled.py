@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib
+import importlib.util
 import json
 import os
 import sys
@@ -52,6 +53,7 @@ __all__ = [
     "SWITCH",
     "attach",
     "build",
+    "built_stamp",
     "export_name",
     "manifest",
     "parse_type",
@@ -123,6 +125,16 @@ def workloads() -> str:
     """The code of the first calls whose signatures :data:`MANIFEST` lists (it fits
     ``models``, a list of fitted models)."""
     return "\n".join(json.loads(MANIFEST.read_text())["workloads"])
+
+
+def built_stamp(path: str) -> int:
+    """The :func:`source_stamp` that the extension module in the file ``path`` was built with."""
+    spec = importlib.util.spec_from_file_location(EXTENSION, path)
+    if spec is None or spec.loader is None:
+        raise ImportError(f"{path} is not an extension module")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return int(getattr(module, STAMP_FUNCTION)())
 
 
 @cache
@@ -198,7 +210,8 @@ def build(output_dir: str, output_file: str) -> None:
         from numba.pycc import CC
 
     compiler = CC(EXTENSION.rsplit(".", 1)[1])
-    compiler.output_dir, compiler.output_file = output_dir, output_file
+    # under another name first: a process importing the file never sees it half written
+    compiler.output_dir, compiler.output_file = output_dir, f".{output_file}.partial"
     for module, kernels in manifest().items():
         namespace = importlib.import_module(module).__dict__
         for function, index, arguments, result in kernels:
@@ -211,6 +224,7 @@ def build(output_dir: str, output_file: str) -> None:
 
     compiler.export(STAMP_FUNCTION, types.int64())(stamp)
     compiler.compile()
+    os.replace(Path(output_dir) / compiler.output_file, Path(output_dir) / output_file)
 
 
 if __name__ == "__main__":
