@@ -18,12 +18,12 @@ first use, as without this module) where
 * the extension was not built (no C compiler at install, or ``numba.pycc``
   missing),
 * it is stale: its :func:`source_stamp` (this package's ``core`` sources, the
-  manifest and the numba version it was built with) differs from the running
-  one's, e.g. after editing a kernel in a development install (``pip install
+  manifest and the numba and numpy versions it was built with) differs from
+  the running one's, e.g. after editing a kernel in a development install (``pip install
   -e .`` again rebuilds it),
 * the environment variable ``LTVMODELS_PRECOMPILED`` is ``0``,
-* the numba dispatcher lacks the method this relies on (``_insert``, numba's
-  own way to add a compiled overload) in a future numba.
+* the numba dispatcher lacks the methods this relies on (``_insert`` and
+  ``_clear``, numba's own way to add compiled overloads) in a future numba.
 
 ``python -m ltvmodels.core.precompiled`` says which, and exits with 1 unless
 the kernels are attached.
@@ -149,7 +149,7 @@ def status() -> tuple[Any, str]:
     except ImportError as error:
         return None, f"not built ({error}): the kernels compile at first use"
     if getattr(extension, STAMP_FUNCTION)() != source_stamp():
-        return None, "stale: built from other sources or numba; reinstall to rebuild it"
+        return None, "stale: built from other sources, numba or numpy; reinstall to rebuild it"
     return extension, "attached"
 
 
@@ -177,10 +177,13 @@ def _serve(dispatcher: Any, served: dict[tuple[types.Type, ...], Any]) -> None:
     the served one is then dropped and the table rebuilt from numba's own overloads.
     """
 
+    def insert(arguments: tuple[types.Type, ...], function: Any, objectmode: bool) -> None:
+        codes = [argument._code for argument in arguments]  # type: ignore[attr-defined]
+        dispatcher._insert(codes, function, objectmode)
+
     def insert_served() -> None:
         for arguments, function in served.items():
-            codes = [argument._code for argument in arguments]  # type: ignore[attr-defined]
-            dispatcher._insert(codes, function, False)
+            insert(arguments, function, False)
 
     add_compiled = dispatcher.add_overload
 
@@ -189,8 +192,7 @@ def _serve(dispatcher: Any, served: dict[tuple[types.Type, ...], Any]) -> None:
         if served.pop(tuple(result.signature.args), None) is not None:
             dispatcher._clear()
             for arguments, compiled in dispatcher.overloads.items():
-                codes = [argument._code for argument in arguments]
-                dispatcher._insert(codes, compiled.entry_point, compiled.objectmode)
+                insert(arguments, compiled.entry_point, compiled.objectmode)
             insert_served()
 
     dispatcher.add_overload = add_overload
