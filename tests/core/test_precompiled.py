@@ -12,6 +12,7 @@ import os
 import subprocess
 import sys
 import tempfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -72,17 +73,20 @@ def test_manifest_lists_existing_kernels_with_numba_types():
     )
     for module, kernels in listed.items():
         namespace = importlib.import_module(module).__dict__
+        indices: dict[str, list[int]] = {}
         for function, index, arguments, result in kernels:
             assert hasattr(namespace[function], "py_func"), (module, function)
             assert len(arguments) == namespace[function].py_func.__code__.co_argcount
-            assert precompiled.export_name(function, index) == f"{function}__{index}"
             assert all(isinstance(t, types.Type) for t in (*arguments, result))
+            indices.setdefault(function, []).append(index)
+        # each signature of a kernel has its own export
+        assert all(found == list(range(len(found))) for found in indices.values())
 
 
 def test_every_listed_module_attaches_its_kernels():
     for module in precompiled.manifest():
-        source = importlib.import_module(module).__file__
-        assert "\nattach(globals())\n" in open(source).read(), module
+        source = Path(importlib.import_module(module).__file__)
+        assert "\nattach(globals())\n" in source.read_text(), module
 
 
 def test_manifest_types_must_round_trip():
@@ -92,10 +96,13 @@ def test_manifest_types_must_round_trip():
             precompiled.parse_type(text)
 
 
-def test_source_stamp_is_reproducible_and_63_bits():
+def test_source_stamp_is_reproducible_and_changes_with_the_sources(monkeypatch, tmp_path):
     stamp = precompiled.source_stamp()
-    assert stamp == precompiled.source_stamp()
-    assert 0 <= stamp < 2**63
+    assert stamp == precompiled.source_stamp() and 0 <= stamp < 2**63
+    edited = tmp_path / precompiled.MANIFEST.name
+    edited.write_text(precompiled.MANIFEST.read_text() + " ")  # one byte more
+    monkeypatch.setattr(precompiled, "MANIFEST", edited)
+    assert precompiled.source_stamp() != stamp  # a stale extension is not attached
 
 
 @attached
