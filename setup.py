@@ -62,7 +62,10 @@ class BuildPrecompiled(build_ext):
             "sys.exit(built_stamp(sys.argv[1]) != source_stamp())"
         )
         run = subprocess.run(
-            [sys.executable, "-c", check, path, sys.path[0]], capture_output=True, text=True
+            [sys.executable, "-c", check, path, sys.path[0]],
+            capture_output=True,
+            text=True,
+            timeout=300,
         )
         if run.returncode != 0:
             print(f"the precompiled kernels in {path} are rebuilt: {run.stderr or 'stale'}")
