@@ -188,22 +188,94 @@ def test_polish_gives_up_within_its_bounds(monkeypatch):
     assert polish.polish(pb, weights, "group", k, s, z, tol=1e-9, max_active=0) is None
 
 
+@pytest.mark.parametrize("norm", ["group", "l1"])
 @pytest.mark.parametrize("order", [1, 2])
-def test_certificate_dual_against_the_recurrence(order):
-    """certificate's dual u solves DᵀΛu = −∇f (rows t < R): for a first difference by a
-    cumulative sum, otherwise by the recurrence (scipy.signal.lfilter); checked here
-    against a dense least-squares solve of the same equations."""
+def test_certificate_against_a_dense_reference(order, norm):
+    """certificate (one compiled pass) against the same terms from dense matrices: the
+    dual u solves DᵀΛu = −∇f on the rows t < R (D's first R columns), scaled into the
+    dual cones; a coefficient of weight 0 has u = 0 and no cone term."""
     pb, weights = problem_and_weights(5, order, 3.0, T=60)
+    weights[1] = 0.0
     k = np.random.default_rng(order).standard_normal((pb.N, pb.K))
-    _, gap, residual, u_norm, _ = polish.certificate(pb, weights, k, named("group"))
+    objective, gap, residual, u_norm, u = polish.certificate(pb, weights, k, named(norm))
     theta = k.reshape(pb.N, pb.n, pb.p)
-    grad = -2.0 * np.einsum("tji,tja->tia", pb.residuals(theta), pb.phi).reshape(pb.N, pb.K)
+    resid = pb.residuals(theta)
+    grad = -2.0 * np.einsum("tji,tja->tia", resid, pb.phi).reshape(pb.N, pb.K)
     R = pb.N - order
     D = np.zeros((R, pb.N))
     for lag, c in enumerate(COEFFS[order]):
         D[np.arange(R), np.arange(R) + lag] = c
-    # (DᵀΛu)_t = −grad_t for the first R rows determines Λu (D's first R columns)
     lam_u = np.linalg.solve(D[:, :R].T, -grad[:R])
-    u_dense = np.linalg.norm(lam_u / weights, axis=1)
-    np.testing.assert_allclose(u_norm, u_dense, rtol=1e-9)
-    assert gap >= 0.0 and residual >= 0.0
+    u_dense = np.divide(lam_u, weights, out=np.zeros_like(lam_u), where=weights > 0)
+    e = (D @ k) * weights
+    if norm == "group":
+        u_norms, e_norms = np.linalg.norm(u_dense, axis=1), np.linalg.norm(e, axis=1)
+    else:
+        u_norms, e_norms = np.abs(u_dense).ravel(), np.abs(e).ravel()
+    np.testing.assert_allclose(u_norm, u_norms, rtol=1e-9)
+    scaled = u_dense / max(1.0, u_norms.max())
+    np.testing.assert_allclose(u, scaled, rtol=1e-9, atol=1e-12 * np.abs(scaled).max())
+    assert objective == pytest.approx(np.sum(resid**2) + e_norms.sum(), rel=1e-12)
+    assert gap == pytest.approx(max(e_norms.sum() - np.sum(scaled * e), 0.0), rel=1e-9)
+    stationarity = D.T @ (scaled * weights) + grad
+    assert residual == pytest.approx(
+        np.linalg.norm(stationarity) / polish.stationarity_scale(pb), rel=1e-9
+    )
+
+
+def jump_problem(norm, T=400, seed=2):
+    """The jump-linear problem of order 1 and its λ_max."""
+    d = ltv.systems.jump_linear(T=T, change_at=T // 2, seed=seed)
+    pb = state_space_problem(d.x, d.u, COEFFS[1])
+    return pb, lambda_max(pb, named(norm), np.ones(pb.K), null_space_fit(pb))
+
+
+def changes(result, pb, norm):
+    """The number of nonzero differences (cones off their vertex) of a result."""
+    norms = cone_norms(result.theta.reshape(pb.N, pb.K), pb, np.ones(pb.K), norm)
+    return np.count_nonzero(norms)
+
+
+@pytest.mark.parametrize("norm", ["group", "l1"])
+def test_a_warm_start_is_polished_from_the_last_split(monkeypatch, norm):
+    """Along a λ path the warm fit is the active-set polish of the previous solution's
+    split, certified without an interior-point iteration, at the optimum of a cold
+    fit solved to 1e-10: up the path cones reach their vertex; down it, from a polished
+    solution's exact zeros, cones must leave it (opened along their duals). (l1 takes
+    the polish where it is switched on, here with room for its dozen active entries.)"""
+    monkeypatch.setattr(ipm, "WARM_POLISH_NORMS", ("group", "l1"))
+    monkeypatch.setattr(ipm, "WARM_POLISH_ACTIVE", 32)
+    pb, lam_max = jump_problem(norm)
+    previous = ipm.fit_sparse_ipm(pb, np.full(pb.K, 0.15 * lam_max), norm, tol=1e-6)
+    counts = []
+    for fraction in (0.3, 0.1):
+        weights = np.full(pb.K, fraction * lam_max)
+        warm = ipm.fit_sparse_ipm(pb, weights, norm, tol=1e-6, warm_start=previous)
+        cold = ipm.fit_sparse_ipm(pb, weights, norm, tol=1e-10)
+        assert warm.polished and warm.iterations == 0 and warm.converged
+        assert warm.duality_gap <= 1e-6 * warm.objective
+        assert warm.objective <= cold.objective * (1 + 1e-9)
+        assert warm.objective == pytest.approx(cold.objective, rel=1e-8)
+        # its duals are the certificate's (in the dual cones): the next warm start
+        assert warm.dual.shape == previous.dual.shape
+        assert np.abs(warm.dual).max() <= 1.0 + 1e-12
+        counts.append(changes(warm, pb, norm))
+        previous = warm
+    # exact zeros: a handful of changes, more at the smaller λ
+    assert 0 < counts[0] < counts[1] < 0.05 * pb.N
+
+
+def test_the_warm_polish_is_bounded(monkeypatch):
+    """Without the polish (WARM_POLISH_SPLITS = 0), or from a split with more active
+    cones than WARM_POLISH_ACTIVE, the warm fit iterates to the same optimum."""
+    pb, lam_max = jump_problem("group")
+    previous = ipm.fit_sparse_ipm(pb, np.full(pb.K, 0.1 * lam_max), "group", tol=1e-6)
+    weights = np.full(pb.K, 0.2 * lam_max)
+    polished = ipm.fit_sparse_ipm(pb, weights, "group", tol=1e-6, warm_start=previous)
+    assert polished.polished
+    for splits, active in ((0, ipm.WARM_POLISH_ACTIVE), (ipm.WARM_POLISH_SPLITS, 0)):
+        monkeypatch.setattr(ipm, "WARM_POLISH_SPLITS", splits)
+        monkeypatch.setattr(ipm, "WARM_POLISH_ACTIVE", active)
+        iterated = ipm.fit_sparse_ipm(pb, weights, "group", tol=1e-6, warm_start=previous)
+        assert not iterated.polished and iterated.iterations > 0 and iterated.converged
+        assert iterated.objective == pytest.approx(polished.objective, rel=1e-6)

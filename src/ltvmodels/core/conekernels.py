@@ -27,6 +27,7 @@ from .blockkernels import block_size, diagonal_step, offdiagonal_step
 from .precompiled import attach
 
 __all__ = [
+    "certificate_terms",
     "weighted_difference",
     "add_weighted_difference_adjoint",
     "add_data_block",
@@ -116,6 +117,86 @@ def add_weighted_difference_adjoint(v, coeffs, w, scale, out):  # pragma: no cov
                 value = scale * w[j] * v[r * C + c, 1 + i]
                 for q in range(coeffs.shape[0]):
                     out[r + q, j] += coeffs[q] * value
+
+
+@numba.njit(cache=True)
+def certificate_terms(k, y, phi, coeffs, w, group, u, grad, e_norms, u_norms):  # pragma: no cover
+    """The optimality certificate of a sparse fit's k (:func:`.polish.certificate`) in three
+    passes over time: returns (Σ r², Σ_c ‖e_c‖, the gap Σ_c (‖e_c‖ − u_cᵀe_c) >= 0,
+    ‖DᵀΛu + ∇f‖²) with e = ΛDk.
+
+    k (N, K) in (output, regressor) order, y (N, q, n), φ (N, q, p), the difference
+    coefficients (d + 1,), weights w (K,) >= 0, ``group``: one cone per row of D (else
+    one per entry). Outputs: ``u`` (N − d, K), the dual with DᵀΛu = −∇f on the rows
+    t < N − d (∇f_t = −2 Σ_j r_tj φ_tjᵀ, into ``grad`` (N, K); u = 0 where w = 0)
+    divided by max(1, max_c ‖u_c‖), so that it lies in the dual cones; e_norms and
+    u_norms (cones,): ‖e_c‖ and ‖u_c‖ before that division. The recurrence is
+    (Λu)_t = (−∇f_t − Σ_{q>=1} c_q (Λu)_{t−q}) / c_0."""
+    N, K = k.shape
+    q, n, p = y.shape[1], y.shape[2], phi.shape[2]
+    d = coeffs.shape[0] - 1
+    R = N - d
+    # reciprocals: a division per entry and pass cost more than the rest of the pass
+    inverse_c0 = 1.0 / coeffs[0]
+    inverse_w = np.zeros(K)
+    for a in range(K):
+        if w[a] > 0.0:
+            inverse_w[a] = 1.0 / w[a]
+    loss = 0.0
+    for t in range(N):
+        for a in range(K):
+            grad[t, a] = 0.0
+        for j in range(q):
+            for i in range(n):
+                fitted = 0.0
+                for b in range(p):
+                    fitted += k[t, i * p + b] * phi[t, j, b]
+                residual = y[t, j, i] - fitted
+                loss += residual * residual
+                for b in range(p):
+                    grad[t, i * p + b] -= 2.0 * residual * phi[t, j, b]
+        if t < R:
+            for a in range(K):
+                acc = -grad[t, a]
+                for lag in range(1, min(d, t) + 1):
+                    acc -= coeffs[lag] * u[t - lag, a]
+                u[t, a] = acc * inverse_c0  # Λu until the next pass: the recurrence reads it
+    penalty, inner, largest = 0.0, 0.0, 1.0
+    for r in range(R):
+        cone_e, cone_u = 0.0, 0.0
+        for a in range(K):
+            acc = 0.0
+            for lag in range(d + 1):
+                acc += coeffs[lag] * k[r + lag, a]
+            e = w[a] * acc
+            value = u[r, a] * inverse_w[a]
+            u[r, a] = value
+            inner += value * e
+            if group:
+                cone_e += e * e
+                cone_u += value * value
+            else:
+                e_norms[r * K + a] = abs(e)
+                u_norms[r * K + a] = abs(value)
+                penalty += abs(e)
+                largest = max(largest, abs(value))
+        if group:
+            e_norms[r] = np.sqrt(cone_e)
+            u_norms[r] = np.sqrt(cone_u)
+            penalty += e_norms[r]
+            largest = max(largest, u_norms[r])
+    stationarity = 0.0
+    shrink = 1.0 / largest
+    for t in range(N):
+        for a in range(K):
+            if t < R:
+                u[t, a] *= shrink
+            acc = grad[t, a]
+            for lag in range(d + 1):
+                if 0 <= t - lag < R:
+                    acc += coeffs[lag] * w[a] * u[t - lag, a]
+            stationarity += acc * acc
+    return loss, penalty, max(penalty - inner / largest, 0.0), stationarity
 
 
 @numba.njit(cache=True, inline="always")

@@ -12,9 +12,12 @@ is smooth near its solution, and k lives in a small subspace k = Bθ:
 piecewise constant (order 1) or continuous piecewise linear (order 2) with
 knots where the active rows of D are (per coefficient for ``l1``, shared by
 all coefficients for ``group``). Damped Newton on θ converges in a few steps
-on sparse systems of the size of the number of changes, not of N. (It is
-used as a fallback only: on long series with many small changes the split
-settles in the last iterations, when polishing no longer saves time.)
+on sparse systems of the size of the number of changes, not of N. The
+interior-point method calls it as a fallback (on long series with many small
+changes the split settles in the last iterations, when polishing no longer
+saves time), early for wide group blocks, and first of all for a warm start
+along a λ path (:func:`path_polish`): the neighbouring solution's split,
+corrected as λ moves, often certifies the new optimum without an iteration.
 
 The result is accepted only with a certificate for the full problem: the
 dual vector u with DᵀΛu = −∇f(k) (f the squared loss) is unique because DᵀΛ
@@ -35,6 +38,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
+from . import conekernels as cones
 from .penalties import Penalty, named
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 
@@ -45,6 +49,7 @@ __all__ = [
     "certificate",
     "stationarity_scale",
     "polish",
+    "path_polish",
 ]
 
 # Newton iterations on the reduced problem (it converges quadratically from an
@@ -75,6 +80,10 @@ DENSE_SIZE = 600
 # rounding (its evaluation cancels terms of the size of ‖y‖²): the line search cannot
 # judge such a step, and takes it whole.
 RESOLVABLE_DECREASE = 1e-13
+# :func:`path_polish` opens a released cone by this fraction of the largest active
+# difference ‖(ΛDk)_c‖: small, so that Newton starts next to the last solve's k, but
+# far above rounding, so that the cone's direction is that of its dual.
+OPEN_FRACTION = 1e-3
 
 
 @dataclass
@@ -264,35 +273,49 @@ def certificate(
     the dual u itself (scaled into the dual cones).
 
     Any k gets one; weights (K,) finite and >= 0. An interior-point iterate's cone
-    duals z₁ are −u at its optimum (:class:`~.ipm.InteriorPointResult`).
+    duals z₁ are −u at its optimum (:class:`~.ipm.InteriorPointResult`). The dual
+    solves DᵀΛu = −∇f(k) on the rows t < N − d, the recurrence
+    Σ_q c_q (Λu)_{t−q} = −∇f_t; a coefficient without penalty (weight 0) has no
+    dual (u = 0): its gradient must vanish, which the stationarity residual
+    measures. The group and l1 cones are computed in compiled passes
+    (:func:`.conekernels.certificate_terms`), any other penalty's from its norms.
     """
     N, K = problem.N, problem.K
-    coeffs = np.asarray(problem.coeffs, float)
+    coeffs = np.ascontiguousarray(problem.coeffs, dtype=float)
     R = N - (len(coeffs) - 1)
-    theta = k.reshape(N, problem.n, problem.p)
-    resid = problem.residuals(theta)
-    grad = -2.0 * np.einsum("tji,tja->tia", resid, problem.phi).reshape(N, K)
-    # DᵀΛu = −grad: the rows t < R are the recurrence Σ_q c_q (Λu)_{t−q} = −grad_t.
-    if len(coeffs) == 2 and coeffs[0] == -coeffs[1]:
-        # a first difference: (Λu)_t = (Λu)_{t−1} + grad_t / c₁, a cumulative sum
-        # (scipy.signal's lfilter, below, took 0.4 s to import on a first polish)
-        lam_u = np.cumsum(grad[:R], axis=0) / coeffs[1]
-    else:
-        from scipy.signal import lfilter
+    group = {"group": True, "l1": False}.get(penalty.name)  # the cones compiled
+    if group is not None:
+        n_cones = R if group else R * K
+        u, grad = np.empty((R, K)), np.empty((N, K))
+        e_norm, u_norm = np.empty(n_cones), np.empty(n_cones)
+        loss, reg, gap, stationarity = cones.certificate_terms(
+            np.ascontiguousarray(k, dtype=float),
+            np.ascontiguousarray(problem.y, dtype=float),
+            np.ascontiguousarray(problem.phi, dtype=float),
+            coeffs,
+            np.ascontiguousarray(weights, dtype=float),
+            group,
+            u,
+            grad,
+            e_norm,
+            u_norm,
+        )
+        residual = float(np.sqrt(stationarity)) / stationarity_scale(problem)
+        return Certificate(float(loss + reg), float(gap), residual, u_norm, u)
+    resid = problem.residuals(k.reshape(N, problem.n, problem.p))
+    gradient = -2.0 * np.einsum("tji,tja->tia", resid, problem.phi).reshape(N, K)
+    from scipy.signal import lfilter  # (0.4 s to import: only for other penalties)
 
-        lam_u = lfilter([1.0], coeffs, -grad[:R], axis=0)
-    # A coefficient without penalty (weight 0) has no dual: its gradient must vanish,
-    # which the stationarity residual below measures.
+    lam_u = lfilter([1.0], coeffs, -gradient[:R], axis=0)
     u = np.divide(lam_u, weights, out=np.zeros_like(lam_u), where=weights > 0)
     e = apply_difference(k, coeffs) * weights
-    e_norm, u_norm = penalty.cone_norms(e), penalty.dual_norms(u)
-    scale = max(1.0, float(u_norm.max(initial=0.0)))
-    u /= scale
-    objective = float(np.sum(resid**2) + e_norm.sum())
-    gap = max(float(e_norm.sum() - np.sum(u * e)), 0.0)
-    stationarity = apply_difference_adjoint(u * weights, coeffs, N) + grad
+    e_norms, u_norms = penalty.cone_norms(e), penalty.dual_norms(u)
+    u /= max(1.0, float(u_norms.max(initial=0.0)))
+    objective = float(np.sum(resid**2) + e_norms.sum())
+    gap = max(float(e_norms.sum() - np.sum(u * e)), 0.0)
+    stationarity = apply_difference_adjoint(u * weights, coeffs, N) + gradient
     residual = float(np.linalg.norm(stationarity)) / stationarity_scale(problem)
-    return Certificate(objective, gap, residual, u_norm.ravel(), u)
+    return Certificate(objective, gap, residual, u_norms.ravel(), u)
 
 
 def stationarity_scale(problem: RegressionProblem) -> float:
@@ -356,18 +379,75 @@ def polish(
     PolishResult or None
         None when no corrected split passes the certificate.
     """
-    group = norm == "group"
-    vertex = vertex_cones(s, z)
-    reduction = (
-        _Segments(problem, weights)
-        if group and problem.degree == 1
-        else _Operators(problem, weights, group)
+    return _polish_split(
+        problem, weights, norm, k, vertex_cones(s, z), tol, max_splits, max_active, False
     )
+
+
+def path_polish(
+    problem: RegressionProblem,
+    weights: np.ndarray,
+    norm: str,
+    k: np.ndarray,
+    dual: np.ndarray,
+    tol: float,
+    max_splits: int,
+    max_active: int,
+) -> PolishResult | None:
+    """:func:`polish` from the solution of the same problem at other weights (a λ path),
+    for a first difference (None for other operators).
+
+    The split starts as that solution's: a cone is at its vertex where its
+    difference ‖(ΛDk)_c‖, relative to the largest, is below 1 − ‖z₁_c‖ (the
+    rule of :func:`vertex_cones` with s = (‖ΛDk‖, ΛDk) and z = (1, z₁)). Its
+    corrections differ where a vertex cone's dual exceeds 1: that solution
+    has e_c = 0 there too, so restarting from it gives the cone no direction.
+    Only the most violated cone moves to A, and Newton restarts from the last
+    solve's k with that cone opened along its dual u_c (the direction in which
+    the objective falls at the rate ‖u_c‖ − 1), by OPEN_FRACTION of the largest
+    active difference.
+
+    Parameters
+    ----------
+    problem, weights, norm, tol, max_splits, max_active
+        As in :func:`polish` (weights: the new ones).
+    k : ndarray, shape (N, K)
+        The other solution's coefficients.
+    dual : ndarray, shape (n_cones, g)
+        Its cone duals z₁ (:class:`~.ipm.InteriorPointResult`'s ``dual``).
+
+    Returns
+    -------
+    PolishResult or None
+    """
+    if problem.degree != 1:  # (a first difference: the coefficients sum to zero)
+        return None
+    g = problem.K if norm == "group" else 1
+    e_norms = named(norm).cone_norms(apply_difference(k, problem.coeffs) * weights).reshape(-1)
+    largest = max(float(e_norms.max(initial=0.0)), 1e-300)
+    inside = 1.0 - np.sqrt(np.sum(dual.reshape(-1, g) ** 2, axis=1))
+    vertex = e_norms / largest < inside
+    return _polish_split(problem, weights, norm, k, vertex, tol, max_splits, max_active, True)
+
+
+def _polish_split(
+    problem, weights, norm, k, vertex, tol, max_splits, max_active, open_along_dual
+) -> PolishResult | None:
+    """The active-set iteration of :func:`polish` from the split ``vertex`` (per cone);
+    ``open_along_dual``: release cones as :func:`path_polish` does."""
+    group = norm == "group"
+    reduction = None
     newton_total = 0
     start = k
     for _ in range(max_splits):
         if max_active is not None and np.count_nonzero(~vertex) > max_active:
             return None
+        if reduction is None:
+            reduction = (
+                _Segments(problem, weights)
+                if group and problem.degree == 1
+                else _Operators(problem, weights, group)
+            )
         solved = _reduced_solve(problem, vertex, start, reduction, group)
         if solved is None:
             return None
@@ -394,6 +474,12 @@ def polish(
         violated = vertex & (u_norm > 1.0)
         if not violated.any():
             return None
+        if open_along_dual:
+            released = int(np.argmax(np.where(vertex, u_norm, 0.0)))
+            vertex = vertex.copy()
+            vertex[released] = False
+            start = k_split + _opening(problem, weights, norm, k_split, u, released, vertex)
+            continue
         # Only the most violated cones move: their moving changes all duals.
         violated &= u_norm - 1.0 >= (u_norm[violated].max() - 1.0) / SPLIT_TIES
         vertex = vertex & ~violated
@@ -401,6 +487,33 @@ def polish(
         # direction: restart from the iterate's k, whose differences point the right way.
         start = k
     return None
+
+
+def _opening(problem, weights, norm, k, u, cone, vertex) -> np.ndarray:
+    """δk (N, K) with ΛDδk zero but on ``cone``, where it is OPEN_FRACTION of the largest
+    active ‖(ΛDk)_c‖ (``vertex``: per cone) along u_c (u (N − 1, K), the certificate's
+    dual of k); D a first difference: δk is a step after the cone's row."""
+    K = problem.K
+    g = K if norm == "group" else 1
+    c0, c1 = (float(c) for c in problem.coeffs)
+    active = np.flatnonzero(~vertex)
+    active = active[active != cone]
+    rows = active * g // K  # the rows of D of the active cones, and their differences
+    e = (c0 * k[rows] + c1 * k[rows + 1]) * weights
+    if g == 1:
+        norms = np.abs(e[np.arange(active.size), active % K])
+    else:
+        norms = np.sqrt(np.sum(e**2, axis=1))
+    size = OPEN_FRACTION * float(np.max(norms, initial=0.0))
+    if not size > 0.0:  # no active cone: a fraction of the coefficients' scale
+        size = OPEN_FRACTION * (float(np.max(np.abs(k) * weights, initial=0.0)) or 1.0)
+    row, columns = cone * g // K, slice(cone * g % K, cone * g % K + g)
+    direction = u[row, columns]
+    step = np.zeros(K)
+    step[columns] = size * direction / max(float(np.sqrt(np.sum(direction**2))), 1e-300)
+    delta = np.zeros_like(k)
+    delta[row + 1 :] = step / np.where(weights > 0, weights, 1.0) / c1
+    return delta
 
 
 def _reduced_solve(problem, vertex, k, reduction, group):
