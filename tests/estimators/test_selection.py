@@ -353,3 +353,17 @@ def test_far_lcurve_candidates_next_to_the_corner_are_solved_again(monkeypatch, 
     np.testing.assert_allclose(far.penalty_norms[near], tight.penalty_norms[near], rtol=1e-3)
     if norm == "group":
         assert best <= selection.LCURVE_FAR_COUNT  # the corner at a far candidate
+
+
+def test_fit_lam_auto_starts_from_the_selections_solution():
+    """fit(lam="auto") with a sparse norm fits the chosen λ from the L-curve's solution
+    there: the polish of its split certifies the fit's tolerance without an iteration,
+    at the optimum of a cold fit solved to 1e-10."""
+    data = ltv.systems.jump_linear(T=2000, change_at=1000, seed=0)
+    model = ltv.fit(data.x, data.u, lam="auto", norm="group", compute_cov=False)
+    assert model.info["iterations"] == 0 and model.status.status == "optimal_polished"
+    assert model.info["duality_gap"] <= 1e-6 * model.info["objective"]
+    cold = ltv.fit(data.x, data.u, lam=model.lam, norm="group", compute_cov=False, tol=1e-10)
+    assert cold.info["iterations"] > 0
+    assert model.info["objective"] <= cold.info["objective"] * (1 + 1e-9)
+    assert model.info["objective"] == pytest.approx(cold.info["objective"], rel=1e-8)

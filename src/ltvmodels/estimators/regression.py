@@ -235,6 +235,7 @@ def _fit_or_choose_lam(
     checks.enough_data(problem)
     checks.identifiable(problem, has_prior=False)
     method = named(spec.norm).selection if named_loss(spec.loss).closed_form else "cv"
+    solutions: dict = {}  # the L-curve's sparse fits by λ
     selection = select_for_problem(
         problem,
         spec.norm,
@@ -243,11 +244,20 @@ def _fit_or_choose_lam(
         loss=spec.loss,
         delta=huber_delta,
         progress=spec.progress,
+        solutions=solutions,
     )
     if selection.huber_delta is not None:  # the model has the loss λ was chosen for
         huber_delta = np.array(selection.huber_delta)
     model = _fit_with_lam(
-        problem, spec, selection.lam, noise_var, huber_delta, factory, checks, checked=True
+        problem,
+        spec,
+        selection.lam,
+        noise_var,
+        huber_delta,
+        factory,
+        checks,
+        checked=True,
+        warm_start=solutions.get(selection.lam),
     )
     model.info["lam_selection"] = {
         "method": selection.method,
@@ -273,9 +283,11 @@ def _fit_with_lam(
     checks: _Checks,
     *,
     checked: bool = False,
+    warm_start: SparseSolution | None = None,
 ) -> ModelT:
     """The fit at a given λ; ``checked``: the sample count and identifiability were checked
-    (for a scalar λ chosen from the data)."""
+    (for a scalar λ chosen from the data); ``warm_start``: a sparse fit of the same
+    problem to start from (the selection's at that λ, solved to its own tolerance)."""
     n, p = problem.n, problem.p
     N, K = problem.N, problem.K
     norm, loss, prior_mode = spec.norm, spec.loss, spec.prior_mode
@@ -308,7 +320,9 @@ def _fit_with_lam(
                 max_iter=spec.max_iter,
                 tol=spec.tol,
             )
-        solution = solve_sparse(problem, weights, penalty, max_iter=spec.max_iter, tol=spec.tol)
+        solution = solve_sparse(
+            problem, weights, penalty, max_iter=spec.max_iter, tol=spec.tol, warm_start=warm_start
+        )
         return sparse_model(problem, lam, norm, solution, factory)
     if not checked:
         checks.enough_data(problem)  # before a (K, K) λ is checked

@@ -364,13 +364,16 @@ def select_for_problem(
     data_name: str = "lam",
     loss: str = "squared",
     delta: np.ndarray | None = None,
+    solutions: dict | None = None,
 ) -> LambdaSelection:
     """:func:`select_lambda` on a validated regression problem (any front-end).
 
     ``data_name`` is the argument an error blames when there is nothing to
     choose: ``lam`` for ``lam="auto"``, the data otherwise. A robust ``loss``
     takes method "cv" with Huber thresholds ``delta`` (None: the default rule
-    at the middle of the grid).
+    at the middle of the grid). ``solutions``, where given, receives the sparse
+    L-curve's solutions by λ (a :class:`~ltvmodels.core.sparse.SparseSolution`
+    each): the warm start of a fit at the chosen λ.
     """
     adaptive = lams is None  # the default range: a coarse grid, refined where it matters
     if adaptive:
@@ -434,6 +437,7 @@ def select_for_problem(
                 rounds=LCURVE_ROUNDS if adaptive else 0,
                 progress=progress,
                 given=not adaptive,
+                solutions=solutions,
             )
         )
     fits: dict[float, dict] = {}  # λ → the criterion fit's numbers (gcv)
@@ -515,12 +519,15 @@ def select_for_problem(
     )
 
 
-def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, rounds, progress, given):
+def _lcurve_selection(
+    problem, norm, grid, attempt, skipped, data_name, *, rounds, progress, given, solutions
+):
     """The L-curve's corner (see :func:`_lcurve_curvature`): fits on ``grid``, then
     ``rounds`` times two more fits halving the spacing on either side of the corner
     so far.
 
     ``given``: the candidates are the caller's (an error then blames ``lams``).
+    ``solutions`` (a dict or None) receives the sparse fits' solutions by λ.
     The sparse norms' fits run up the grid, each warm-started from the fit at the
     next smaller λ (a refinement from both neighbours, :func:`_path_warm_start`;
     group cones then take a few reweighted fits from that k,
@@ -609,6 +616,8 @@ def _lcurve_selection(problem, norm, grid, attempt, skipped, data_name, *, round
                 fit_at(float(np.sqrt(lams[best] * lams[neighbour])))
     if progress is not None and n_fits < total:  # fewer than planned: the bar ends full
         progress(n_fits, n_fits)
+    if solutions is not None:
+        solutions.update({lam: f["solution"] for lam, f in fits.items() if f and "solution" in f})
     return LambdaSelection(
         float(lams[best]), lams, curvature, "lcurve", norm, residual, penalty, n_fits=n_fits
     )
