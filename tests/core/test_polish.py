@@ -245,6 +245,7 @@ def test_a_warm_start_is_polished_from_the_last_split(monkeypatch, norm):
     the polish where it is switched on, here with room for its dozen active entries.)"""
     monkeypatch.setattr(ipm, "WARM_POLISH_NORMS", ("group", "l1"))
     monkeypatch.setattr(ipm, "WARM_POLISH_ACTIVE", 32)
+    monkeypatch.setattr(ipm, "WARM_POLISH_MIN_WORK", 0)  # a small problem: polished too
     pb, lam_max = jump_problem(norm)
     previous = ipm.fit_sparse_ipm(pb, np.full(pb.K, 0.15 * lam_max), norm, tol=1e-6)
     counts = []
@@ -266,16 +267,20 @@ def test_a_warm_start_is_polished_from_the_last_split(monkeypatch, norm):
 
 
 def test_the_warm_polish_is_bounded(monkeypatch):
-    """Without the polish (WARM_POLISH_SPLITS = 0), or from a split with more active
-    cones than WARM_POLISH_ACTIVE, the warm fit iterates to the same optimum."""
+    """Without the polish (WARM_POLISH_SPLITS = 0), from a split with more active cones
+    than WARM_POLISH_ACTIVE, or on a problem below WARM_POLISH_MIN_WORK (N·K² = 14,400
+    here), the warm fit iterates to the same optimum."""
     pb, lam_max = jump_problem("group")
     previous = ipm.fit_sparse_ipm(pb, np.full(pb.K, 0.1 * lam_max), "group", tol=1e-6)
     weights = np.full(pb.K, 0.2 * lam_max)
+    monkeypatch.setattr(ipm, "WARM_POLISH_MIN_WORK", 0)
     polished = ipm.fit_sparse_ipm(pb, weights, "group", tol=1e-6, warm_start=previous)
     assert polished.polished
-    for splits, active in ((0, ipm.WARM_POLISH_ACTIVE), (ipm.WARM_POLISH_SPLITS, 0)):
+    limits = (0, ipm.WARM_POLISH_ACTIVE, 0), (10, 0, 0), (10, 10, pb.N * pb.K**2 + 1)
+    for splits, active, work in limits:
         monkeypatch.setattr(ipm, "WARM_POLISH_SPLITS", splits)
         monkeypatch.setattr(ipm, "WARM_POLISH_ACTIVE", active)
+        monkeypatch.setattr(ipm, "WARM_POLISH_MIN_WORK", work)
         iterated = ipm.fit_sparse_ipm(pb, weights, "group", tol=1e-6, warm_start=previous)
         assert not iterated.polished and iterated.iterations > 0 and iterated.converged
         assert iterated.objective == pytest.approx(polished.objective, rel=1e-6)

@@ -245,22 +245,32 @@ class _Segments:
         # 2 I_n ⊗ Σ_s φφᵀ per segment, and 2 Σ_s φyᵀ in k's (output, regressor) order
         segment_gram = 2.0 * np.add.reduceat(self.gram_steps, starts, axis=0)
         blocks = np.einsum("ij,sab->siajb", np.eye(n), segment_gram).reshape(S, K, K)
-        gram = _block_diagonal(blocks).tocsc()
         cross = np.add.reduceat(self.cross_steps, starts, axis=0)  # (S, p, n)
         rhs = 2.0 * cross.transpose(0, 2, 1).reshape(S * K)
         # e_c = Λ(c₀θ_c + c₁θ_{c+1}): the difference across the boundary after segment c
         boundary = np.arange(S - 1)[:, None] * K + np.arange(K)
         scaled = np.broadcast_to(self.weights, (S - 1, K))
-        E = sp.csr_matrix(
-            (
-                np.concatenate([c0 * scaled.ravel(), c1 * scaled.ravel()]),
+        gram: np.ndarray | sp.spmatrix
+        E: np.ndarray | sp.spmatrix
+        if S * K <= DENSE_SIZE:  # dense at once: scipy's sparse constructors cost more
+            gram = np.zeros((S, K, S, K))
+            gram[np.arange(S), :, np.arange(S), :] = blocks
+            gram = gram.reshape(S * K, S * K)
+            E = np.zeros(((S - 1) * K, S * K))
+            E[boundary.ravel(), boundary.ravel()] = c0 * scaled.ravel()
+            E[boundary.ravel(), (boundary + K).ravel()] = c1 * scaled.ravel()
+        else:
+            gram = _block_diagonal(blocks).tocsc()
+            E = sp.csr_matrix(
                 (
-                    np.concatenate([boundary.ravel(), boundary.ravel()]),
-                    np.concatenate([boundary.ravel(), (boundary + K).ravel()]),
+                    np.concatenate([c0 * scaled.ravel(), c1 * scaled.ravel()]),
+                    (
+                        np.concatenate([boundary.ravel(), boundary.ravel()]),
+                        np.concatenate([boundary.ravel(), (boundary + K).ravel()]),
+                    ),
                 ),
-            ),
-            shape=((S - 1) * K, S * K),
-        )
+                shape=((S - 1) * K, S * K),
+            )
         theta = (np.add.reduceat(k, starts, axis=0) / lengths[:, None]).ravel()
         return gram, rhs, E, theta, lambda th: np.repeat(th.reshape(S, K), lengths, axis=0)
 
@@ -534,7 +544,7 @@ def _reduced_solve(problem, vertex, k, reduction, group):
         return None
     gram, rhs, E, theta, expand = system
     dense = gram.shape[0] <= DENSE_SIZE
-    if dense:
+    if dense and sp.issparse(gram):
         gram, E = gram.toarray(), E.toarray()
     y_sq = float(problem.y.ravel() @ problem.y.ravel())
 
