@@ -48,6 +48,9 @@ for data in series:
 data = series[0]  # λ chosen by each norm's default criterion, and the README's example
 models += [ltv.fit(data.x, data.u, lam="auto", norm=norm) for norm in ("sq", "group", "l1")]
 models.append(ltv.fit(data.x, data.u, lam="auto", norm="group", refine=True))
+# a selection long enough for the warm starts' polish (ipm.WARM_POLISH_MIN_WORK)
+data = ltv.systems.jump_linear(T=2000, change_at=1000, seed=0)
+models.append(ltv.fit(data.x, data.u, lam="auto", norm="group"))
 """
 
 RECORDER = """
