@@ -121,7 +121,7 @@ def add_weighted_difference_adjoint(v, coeffs, w, scale, out):  # pragma: no cov
 
 @numba.njit(cache=True)
 def certificate_terms(k, y, phi, coeffs, w, group, u, grad, e_norms, u_norms):  # pragma: no cover
-    """The optimality certificate of a sparse fit's k (:func:`.polish.certificate`) in three
+    """The optimality certificate of a sparse fit's k (:func:`.polish.certificate`) in four
     passes over time: returns (Σ r², Σ_c ‖e_c‖, the gap Σ_c (‖e_c‖ − u_cᵀe_c) >= 0,
     ‖DᵀΛu + ∇f‖²) with e = ΛDk.
 
@@ -133,7 +133,6 @@ def certificate_terms(k, y, phi, coeffs, w, group, u, grad, e_norms, u_norms):  
     u_norms (cones,): ‖e_c‖ and ‖u_c‖ before that division. The recurrence is
     (Λu)_t = (−∇f_t − Σ_{q>=1} c_q (Λu)_{t−q}) / c_0."""
     N, K = k.shape
-    q, n, p = y.shape[1], y.shape[2], phi.shape[2]
     d = coeffs.shape[0] - 1
     R = N - d
     # reciprocals: a division per entry and pass cost more than the rest of the pass
@@ -142,25 +141,13 @@ def certificate_terms(k, y, phi, coeffs, w, group, u, grad, e_norms, u_norms):  
     for a in range(K):
         if w[a] > 0.0:
             inverse_w[a] = 1.0 / w[a]
-    loss = 0.0
-    for t in range(N):
+    loss = _data_residuals(k, y, phi, grad)
+    for t in range(R):
         for a in range(K):
-            grad[t, a] = 0.0
-        for j in range(q):
-            for i in range(n):
-                fitted = 0.0
-                for b in range(p):
-                    fitted += k[t, i * p + b] * phi[t, j, b]
-                residual = y[t, j, i] - fitted
-                loss += residual * residual
-                for b in range(p):
-                    grad[t, i * p + b] -= 2.0 * residual * phi[t, j, b]
-        if t < R:
-            for a in range(K):
-                acc = -grad[t, a]
-                for lag in range(1, min(d, t) + 1):
-                    acc -= coeffs[lag] * u[t - lag, a]
-                u[t, a] = acc * inverse_c0  # Λu until the next pass: the recurrence reads it
+            acc = -grad[t, a]
+            for lag in range(1, min(d, t) + 1):
+                acc -= coeffs[lag] * u[t - lag, a]
+            u[t, a] = acc * inverse_c0  # Λu until the next pass: the recurrence reads it
     penalty, inner, largest = 0.0, 0.0, 1.0
     for r in range(R):
         cone_e, cone_u = 0.0, 0.0
