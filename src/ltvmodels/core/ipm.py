@@ -169,16 +169,16 @@ EARLY_POLISH_MIN_ACTIVE = 32
 # iteration is needed. On the L-curve of the jump-linear system (T = 10⁴, group) it
 # certified 7 of the 12 candidates, in 3-10 ms each against 20-40 ms of warm
 # iterations: the selection took 0.21 s instead of 0.30 s. On the 20 group series of
-# order 1 of benchmarks/bench_lcurve_choices.py the same choices, 634 iterations
-# instead of 739. Starts with at most 10 active cones were certified 59 times in 60;
-# with 11-32, 7 times in 22, at a cost (1.1 s) beyond the iterations saved. Only from
-# N·K² >= WARM_POLISH_MIN_WORK (the size of a Newton system's blocks) on: below it the
-# polish's fixed costs exceed the few cheap iterations it saves (L-curves of three
-# jump-linear series, K = 6, took 1.3-1.6x as long with it at T = 400, as long at
-# T = 1000, 0.88x at 2000, 0.61x at 10⁴; random-walk series, K = 15, 1.02x at T = 400,
-# 0.94x at 2000). l1 cones are not polished by default: their reduced problems go
-# through sparse operators, and its selections took 45-80 % longer at T = 150-400
-# (about as long at 2000-10⁴).
+# order 1 of benchmarks/bench_lcurve_choices.py the same choices, 713 iterations
+# instead of 739 (634 without the size bound below). Starts with at most 10 active
+# cones were certified 59 times in 60; with 11-32, 7 times in 22, at a cost (1.1 s)
+# beyond the iterations saved. Only from N·K² >= WARM_POLISH_MIN_WORK (the size of a
+# Newton system's blocks) on: below it the polish's fixed costs exceed the few cheap
+# iterations it saves (L-curves of three jump-linear series, K = 6, took 1.3-1.6x as
+# long with it at T = 400, as long at T = 1000, 0.88x at 2000, 0.61x at 10⁴;
+# random-walk series, K = 15, 1.02x at T = 400, 0.94x at 2000). l1 cones are not
+# polished by default: their reduced problems go through sparse operators, and its
+# selections took 45-80 % longer at T = 150-400 (about as long at 2000-10⁴).
 WARM_POLISH_NORMS = ("group",)
 WARM_POLISH_SPLITS = 10
 WARM_POLISH_ACTIVE = 10
