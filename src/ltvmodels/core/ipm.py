@@ -967,7 +967,7 @@ def fit_sparse_ipm(
             WARM_POLISH_ACTIVE,
         )
         if polished_result is not None:
-            return _polished(problem, polished_result, weights, cp.n_cones, iterations=0)
+            return _polished(problem, polished_result, weights, n_cones, iterations=0)
     if warm_from is not None:
         k = np.array(warm_from.theta.reshape(N, K))
         reweighted = None
