@@ -275,6 +275,86 @@ class _Segments:
         return gram, rhs, E, theta, lambda th: np.repeat(th.reshape(S, K), lengths, axis=0)
 
 
+class _CoefficientSegments:
+    """:class:`_Operators` for l1 cones and a first difference, where each coefficient is
+    constant between its own active rows (its segments). The gram couples the segments
+    of one output's coefficients that overlap in time: the steps of an output are cut
+    at every boundary of its coefficients, and each piece's sum of φφᵀ
+    (np.add.reduceat) goes to the pairs of segments that contain it. At T = 10⁴, K = 6
+    a reduced system takes 1.6 ms; through :class:`_Operators` (sparse products with
+    B) it took 4 ms and their construction 5 ms."""
+
+    def __init__(self, problem: RegressionProblem, weights: np.ndarray) -> None:
+        self.problem, self.weights = problem, np.asarray(weights, float)
+        self.gram_steps = problem.gram()  # (N, p, p)
+        self.cross_steps = problem.cross()  # (N, p, n)
+
+    def system(self, vertex: np.ndarray, k: np.ndarray):
+        """As :meth:`_Operators.system`."""
+        problem = self.problem
+        N, n, p, K = problem.N, problem.n, problem.p, problem.K
+        c0, c1 = (float(c) for c in problem.coeffs)
+        active = np.flatnonzero(~vertex)  # cone r·K + j: row r of D, coefficient j
+        rows, coefficient = np.divmod(active, K)
+        # coefficient j's segments start at 0 and after each of its active rows (ascending)
+        by_coefficient = np.argsort(coefficient, kind="stable")
+        counts = np.bincount(coefficient, minlength=K)
+        first_cone = np.concatenate([[0], np.cumsum(counts)])
+        starts = [
+            np.concatenate([[0], rows[by_coefficient[first_cone[j] : first_cone[j + 1]]] + 1])
+            for j in range(K)
+        ]
+        offset = np.concatenate([[0], np.cumsum(counts + 1)])  # θ's index of segment 0 of j
+        size = int(offset[-1])
+        lengths = [np.diff(np.concatenate([s, [N]])) for s in starts]
+        theta = np.concatenate([np.add.reduceat(k[:, j], starts[j]) / lengths[j] for j in range(K)])
+        cross = self.cross_steps
+        rhs = 2.0 * np.concatenate(
+            [np.add.reduceat(cross[:, j % p, j // p], starts[j]) for j in range(K)]
+        )
+        # 2 Σ φφᵀ over the pieces of each output: pair (a, b) of a piece couples the
+        # segment of coefficient a that holds it with that of coefficient b
+        entry_rows, entry_cols, entry_values = [], [], []
+        for i in range(n):
+            own = range(i * p, (i + 1) * p)
+            pieces = np.unique(np.concatenate([starts[j] for j in own]))
+            index = np.stack(
+                [offset[j] + np.searchsorted(starts[j], pieces, side="right") - 1 for j in own],
+                axis=1,
+            )  # (pieces, p)
+            sums = np.add.reduceat(self.gram_steps, pieces, axis=0)  # (pieces, p, p)
+            entry_rows.append(np.broadcast_to(index[:, :, None], sums.shape).ravel())
+            entry_cols.append(np.broadcast_to(index[:, None, :], sums.shape).ravel())
+            entry_values.append(2.0 * sums.ravel())
+        gram = sp.csc_matrix(
+            (
+                np.concatenate(entry_values),
+                (np.concatenate(entry_rows), np.concatenate(entry_cols)),
+            ),
+            shape=(size, size),
+        )  # (duplicates summed)
+        # e_c = λ_j(c₀θ_{j,s} + c₁θ_{j,s+1}) for the cone after segment s of coefficient j
+        position = np.empty(active.size, dtype=np.int64)
+        position[by_coefficient] = np.arange(active.size) - first_cone[coefficient[by_coefficient]]
+        left = offset[coefficient] + position
+        scaled = self.weights[coefficient]
+        E = sp.csr_matrix(
+            (
+                np.concatenate([c0 * scaled, c1 * scaled]),
+                (np.tile(np.arange(active.size), 2), np.concatenate([left, left + 1])),
+            ),
+            shape=(active.size, size),
+        )
+
+        def expand(th: np.ndarray) -> np.ndarray:
+            out = np.empty((N, K))
+            for j in range(K):
+                out[:, j] = np.repeat(th[offset[j] : offset[j + 1]], lengths[j])
+            return out
+
+        return gram, rhs, E, theta, expand
+
+
 def certificate(
     problem: RegressionProblem, weights: np.ndarray, k: np.ndarray, penalty: Penalty
 ) -> Certificate:
@@ -446,18 +526,19 @@ def _polish_split(
     """The active-set iteration of :func:`polish` from the split ``vertex`` (per cone);
     ``open_along_dual``: release cones as :func:`path_polish` does."""
     group = norm == "group"
-    reduction = None
+    reduction: _Operators | _Segments | _CoefficientSegments | None = None
     newton_total = 0
     start = k
     for _ in range(max_splits):
         if max_active is not None and np.count_nonzero(~vertex) > max_active:
             return None
         if reduction is None:
-            reduction = (
-                _Segments(problem, weights)
-                if group and problem.degree == 1
-                else _Operators(problem, weights, group)
-            )
+            if problem.degree != 1:
+                reduction = _Operators(problem, weights, group)
+            elif group:
+                reduction = _Segments(problem, weights)
+            else:
+                reduction = _CoefficientSegments(problem, weights)
         solved = _reduced_solve(problem, vertex, start, reduction, group)
         if solved is None:
             return None
