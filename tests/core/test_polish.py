@@ -9,7 +9,7 @@ import ltvmodels as ltv
 from ltvmodels.core import conekernels as cones
 from ltvmodels.core import ipm, polish
 from ltvmodels.core.penalties import named
-from ltvmodels.core.problem import apply_difference, state_space_problem
+from ltvmodels.core.problem import RegressionProblem, apply_difference, state_space_problem
 from ltvmodels.core.sparse_common import lambda_max, null_space_fit
 
 COEFFS = {1: np.array([-1.0, 1.0]), 2: np.array([1.0, -2.0, 1.0])}
@@ -82,6 +82,36 @@ def test_dense_and_sparse_reduced_solves_agree(monkeypatch, norm, order):
     assert dense is not None and sparse is not None
     np.testing.assert_allclose(dense.k, sparse.k, rtol=0, atol=1e-9 * np.abs(sparse.k).max())
     assert dense.objective == pytest.approx(sparse.objective, rel=1e-12)
+
+
+def test_l1_polish_with_several_rows_outputs_and_weights(monkeypatch):
+    """The l1 polish of order 1 works on each coefficient's own segments, coupled where
+    an output's coefficients overlap in time: with q = 3 rows per step (one missing),
+    n = 2 outputs and a different λ per coefficient it reaches the optimum of a cold
+    fit solved to 1e-10, with most differences exactly zero."""
+    rng = np.random.default_rng(7)
+    N, q, n, p = 200, 3, 2, 2
+    phi = rng.standard_normal((N, q, p))
+    jumps = rng.standard_normal((N, n, p)) * (rng.random((N, n, p)) < 0.02)
+    theta = np.cumsum(jumps, axis=0)
+    y = np.einsum("tja,tia->tji", phi, theta) + 0.1 * rng.standard_normal((N, q, n))
+    observed = np.ones((N, q), dtype=bool)
+    observed[17, 1] = False
+    phi[~observed], y[~observed] = 0.0, 0.0
+    pb = RegressionProblem(y=y, phi=phi, coeffs=COEFFS[1], observed=observed)
+    lam_max = lambda_max(pb, named("l1"), np.ones(pb.K), null_space_fit(pb))
+    weights = 0.05 * lam_max * (0.5 + rng.random(pb.K))
+    result, (k, s, z) = last_iterate(monkeypatch, pb, weights, "l1", tol=1e-8)
+    polished = polish.polish(pb, weights, "l1", k, s, z, tol=1e-9)
+    reference = ipm.fit_sparse_ipm(pb, weights, "l1", tol=1e-10)
+    assert polished is not None
+    assert polished.duality_gap <= 1e-9 * polished.objective
+    assert polished.objective <= reference.objective * (1 + 1e-10)
+    assert polished.objective == pytest.approx(reference.objective, rel=1e-9)
+    scale = np.abs(polished.k).max()
+    np.testing.assert_allclose(polished.k, reference.theta.reshape(N, pb.K), atol=1e-5 * scale)
+    norms = cone_norms(polished.k, pb, weights, "l1")
+    assert 0 < np.count_nonzero(norms) < 0.1 * norms.size
 
 
 @pytest.mark.parametrize("norm", ["group", "l1"])
@@ -241,11 +271,11 @@ def test_a_warm_start_is_polished_from_the_last_split(monkeypatch, norm):
     """Along a λ path the warm fit is the active-set polish of the previous solution's
     split, certified without an interior-point iteration, at the optimum of a cold
     fit solved to 1e-10: up the path cones reach their vertex; down it, from a polished
-    solution's exact zeros, cones must leave it (opened along their duals). (l1 takes
-    the polish where it is switched on, here with room for its dozen active entries.)"""
-    monkeypatch.setattr(ipm, "WARM_POLISH_NORMS", ("group", "l1"))
-    monkeypatch.setattr(ipm, "WARM_POLISH_ACTIVE", 32)
-    monkeypatch.setattr(ipm, "WARM_POLISH_MIN_WORK", 0)  # a small problem: polished too
+    solution's exact zeros, cones must leave it (opened along their duals). (Here with
+    room for l1's dozen active entries.)"""
+    monkeypatch.setattr(ipm, "WARM_POLISH_ACTIVE", {"group": 32, "l1": 32})
+    # a small problem: polished too
+    monkeypatch.setattr(ipm, "WARM_POLISH_MIN_WORK", {"group": 0, "l1": 0})
     pb, lam_max = jump_problem(norm)
     previous = ipm.fit_sparse_ipm(pb, np.full(pb.K, 0.15 * lam_max), norm, tol=1e-6)
     counts = []
@@ -266,21 +296,29 @@ def test_a_warm_start_is_polished_from_the_last_split(monkeypatch, norm):
     assert 0 < counts[0] < counts[1] < 0.05 * pb.N
 
 
-def test_the_warm_polish_is_bounded(monkeypatch):
-    """Without the polish (WARM_POLISH_SPLITS = 0), from a split with more active cones
-    than WARM_POLISH_ACTIVE, or on a problem below WARM_POLISH_MIN_WORK (N·K² = 14,400
-    here), the warm fit iterates to the same optimum."""
-    pb, lam_max = jump_problem("group")
-    previous = ipm.fit_sparse_ipm(pb, np.full(pb.K, 0.1 * lam_max), "group", tol=1e-6)
+@pytest.mark.parametrize("norm", ["group", "l1"])
+def test_the_warm_polish_is_bounded(monkeypatch, norm):
+    """Without the polish (WARM_POLISH_SPLITS = 0), for a norm not listed, from a split
+    with more active cones than WARM_POLISH_ACTIVE, or on a problem below
+    WARM_POLISH_MIN_WORK (N·K² = 14,400 here), the warm fit iterates to the same
+    optimum."""
+    pb, lam_max = jump_problem(norm)
+    previous = ipm.fit_sparse_ipm(pb, np.full(pb.K, 0.1 * lam_max), norm, tol=1e-6)
     weights = np.full(pb.K, 0.2 * lam_max)
-    monkeypatch.setattr(ipm, "WARM_POLISH_MIN_WORK", 0)
-    polished = ipm.fit_sparse_ipm(pb, weights, "group", tol=1e-6, warm_start=previous)
+    monkeypatch.setattr(ipm, "WARM_POLISH_MIN_WORK", {norm: 0})
+    polished = ipm.fit_sparse_ipm(pb, weights, norm, tol=1e-6, warm_start=previous)
     assert polished.polished
-    limits = (0, ipm.WARM_POLISH_ACTIVE, 0), (10, 0, 0), (10, 10, pb.N * pb.K**2 + 1)
-    for splits, active, work in limits:
+    active = ipm.WARM_POLISH_ACTIVE[norm]
+    limits = (
+        (0, {norm: active}, 0),
+        (10, {}, 0),
+        (10, {norm: 0}, 0),
+        (10, {norm: active}, pb.N * pb.K**2 + 1),
+    )
+    for splits, most_active, work in limits:
         monkeypatch.setattr(ipm, "WARM_POLISH_SPLITS", splits)
-        monkeypatch.setattr(ipm, "WARM_POLISH_ACTIVE", active)
-        monkeypatch.setattr(ipm, "WARM_POLISH_MIN_WORK", work)
-        iterated = ipm.fit_sparse_ipm(pb, weights, "group", tol=1e-6, warm_start=previous)
+        monkeypatch.setattr(ipm, "WARM_POLISH_ACTIVE", most_active)
+        monkeypatch.setattr(ipm, "WARM_POLISH_MIN_WORK", {norm: work})
+        iterated = ipm.fit_sparse_ipm(pb, weights, norm, tol=1e-6, warm_start=previous)
         assert not iterated.polished and iterated.iterations > 0 and iterated.converged
         assert iterated.objective == pytest.approx(polished.objective, rel=1e-6)

@@ -162,9 +162,9 @@ EARLY_POLISH_GAP = 1e-3
 EARLY_POLISH_SPLITS = 10
 EARLY_POLISH_ACTIVE = 0.01
 EARLY_POLISH_MIN_ACTIVE = 32
-# A warm start (order 1, a norm of WARM_POLISH_NORMS) first tries the active-set polish
+# A warm start (order 1, a norm of WARM_POLISH_ACTIVE) first tries the active-set polish
 # from the previous solution's split (:func:`.polish.path_polish`), where that solution
-# has at most WARM_POLISH_ACTIVE active cones, with at most WARM_POLISH_SPLITS
+# has at most WARM_POLISH_ACTIVE[norm] active cones, with at most WARM_POLISH_SPLITS
 # corrections of the split; where it certifies the answer to the fit's tolerance, no
 # iteration is needed. On the L-curve of the jump-linear system (T = 10⁴, group) it
 # certified 7 of the 12 candidates, in 3-10 ms each against 20-40 ms of warm
@@ -172,17 +172,23 @@ EARLY_POLISH_MIN_ACTIVE = 32
 # order 1 of benchmarks/bench_lcurve_choices.py the same choices, 713 iterations
 # instead of 739 (634 without the size bound below). Starts with at most 10 active
 # cones were certified 59 times in 60; with 11-32, 7 times in 22, at a cost (1.1 s)
-# beyond the iterations saved. Only from N·K² >= WARM_POLISH_MIN_WORK (the size of a
-# Newton system's blocks) on: below it the polish's fixed costs exceed the few cheap
-# iterations it saves (L-curves of three jump-linear series, K = 6, took 1.3-1.6x as
-# long with it at T = 400, as long at T = 1000, 0.88x at 2000, 0.61x at 10⁴;
-# random-walk series, K = 15, 1.02x at T = 400, 0.94x at 2000). l1 cones are not
-# polished by default: their reduced problems go through sparse operators, and its
-# selections took 45-80 % longer at T = 150-400 (about as long at 2000-10⁴).
-WARM_POLISH_NORMS = ("group",)
+# beyond the iterations saved. Only from N·K² >= WARM_POLISH_MIN_WORK[norm] (the size
+# of a Newton system's blocks) on: below it the polish's fixed costs exceed the few
+# cheap iterations it saves (group: L-curves of three jump-linear series, K = 6, took
+# 1.3-1.6x as long with it at T = 400, as long at T = 1000, 0.88x at 2000, 0.61x at
+# 10⁴; random-walk series, K = 15, 1.02x at T = 400, 0.94x at 2000).
+# l1 (scalar cones; reduced problems on each coefficient's own segments): on the 20 l1
+# series of order 1 of that benchmark and four of T = 4000-10⁴ (at every size), starts
+# with at most 10 active cones were certified 38 times in 38, with 11-20 34 times in
+# 43, with 21-32 3 times in 11, with more 10 times in 151 (10.8 s of failed attempts).
+# L-curves of two series with / without it (paired rounds, medians): jump-linear 1.04x
+# at T = 1500, 0.87x at 2000, 0.73x at 10⁴; random-walk 1.09-1.17x at T = 400, 0.96x
+# at 1000, 1.03-1.07x at 1500-2000 (within the rounds' spread; few of its starts are
+# within the bound). Its size bound leaves out the random-walk series of T = 400 and the
+# jump-linear ones up to T = 2777 (N·K² = 100,000), 2000 among them.
 WARM_POLISH_SPLITS = 10
-WARM_POLISH_ACTIVE = 10
-WARM_POLISH_MIN_WORK = 50_000
+WARM_POLISH_ACTIVE = {"group": 10, "l1": 20}
+WARM_POLISH_MIN_WORK = {"group": 50_000, "l1": 100_000}
 # A warm start of group cones (order 1) takes WARM_REWEIGHT_STEPS reweighted fits from
 # the previous solution's k (:func:`reweighted_start`) and then the reweighted
 # start's gap: the previous duals, rescaled (:func:`warm_dual`), leave the new
@@ -920,7 +926,7 @@ def fit_sparse_ipm(
         Starting coefficients (default: zeros).
     warm_start : InteriorPointResult, optional
         The solution of the same problem at other weights (a regularization
-        path): first the active-set polish of its split (see WARM_POLISH_NORMS),
+        path): first the active-set polish of its split (see WARM_POLISH_ACTIVE),
         which ends the fit where it certifies the answer; otherwise a start from
         its k and its duals rescaled by :func:`warm_dual`, with a small gap; group
         cones from WARM_REWEIGHT_STEPS reweighted fits from its k
@@ -952,9 +958,9 @@ def fit_sparse_ipm(
     if (
         warm_from is not None
         and warm_from.dual is not None  # (always: for the type checker)
-        and norm in WARM_POLISH_NORMS
+        and norm in WARM_POLISH_ACTIVE
         and WARM_POLISH_SPLITS > 0
-        and N * K * K >= WARM_POLISH_MIN_WORK
+        and N * K * K >= WARM_POLISH_MIN_WORK[norm]
     ):
         polished_result = path_polish(
             problem,
@@ -964,7 +970,7 @@ def fit_sparse_ipm(
             warm_from.dual,
             tol,
             WARM_POLISH_SPLITS,
-            WARM_POLISH_ACTIVE,
+            WARM_POLISH_ACTIVE[norm],
         )
         if polished_result is not None:
             return _polished(problem, polished_result, weights, n_cones, iterations=0)
