@@ -275,19 +275,14 @@ class _Segments:
         return gram, rhs, E, theta, lambda th: np.repeat(th.reshape(S, K), lengths, axis=0)
 
 
-class _CoefficientSegments:
-    """:class:`_Operators` for l1 cones and a first difference, where each coefficient is
-    constant between its own active rows (its segments). The gram couples the segments
-    of one output's coefficients that overlap in time: the steps of an output are cut
-    at every boundary of its coefficients, and each piece's sum of φφᵀ
-    (np.add.reduceat) goes to the pairs of segments that contain it. At T = 10⁴, K = 6
-    a reduced system takes 1.6 ms; through :class:`_Operators` (sparse products with
-    B) it took 4 ms and their construction 5 ms."""
-
-    def __init__(self, problem: RegressionProblem, weights: np.ndarray) -> None:
-        self.problem, self.weights = problem, np.asarray(weights, float)
-        self.gram_steps = problem.gram()  # (N, p, p)
-        self.cross_steps = problem.cross()  # (N, p, n)
+class _CoefficientSegments(_Segments):
+    """:class:`_Segments` for l1 cones, where each coefficient is constant between its
+    own active rows (its segments). The gram couples the segments of one output's
+    coefficients that overlap in time: the steps of an output are cut at every
+    boundary of its coefficients, and each piece's sum of φφᵀ (np.add.reduceat) goes
+    to the pairs of segments that contain it. At T = 10⁴, K = 6 a reduced system takes
+    1.6 ms; through :class:`_Operators` (sparse products with B) it took 4 ms and
+    their construction 5 ms."""
 
     def system(self, vertex: np.ndarray, k: np.ndarray):
         """As :meth:`_Operators.system`."""
@@ -526,7 +521,7 @@ def _polish_split(
     """The active-set iteration of :func:`polish` from the split ``vertex`` (per cone);
     ``open_along_dual``: release cones as :func:`path_polish` does."""
     group = norm == "group"
-    reduction: _Operators | _Segments | _CoefficientSegments | None = None
+    reduction: _Operators | _Segments | None = None
     newton_total = 0
     start = k
     for _ in range(max_splits):
