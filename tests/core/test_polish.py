@@ -101,7 +101,7 @@ def test_l1_polish_with_several_rows_outputs_and_weights(monkeypatch):
     pb = RegressionProblem(y=y, phi=phi, coeffs=COEFFS[1], observed=observed)
     lam_max = lambda_max(pb, named("l1"), np.ones(pb.K), null_space_fit(pb))
     weights = 0.05 * lam_max * (0.5 + rng.random(pb.K))
-    result, (k, s, z) = last_iterate(monkeypatch, pb, weights, "l1", tol=1e-8)
+    _, (k, s, z) = last_iterate(monkeypatch, pb, weights, "l1", tol=1e-8)
     polished = polish.polish(pb, weights, "l1", k, s, z, tol=1e-9)
     reference = ipm.fit_sparse_ipm(pb, weights, "l1", tol=1e-10)
     assert polished is not None
