@@ -322,3 +322,24 @@ def test_the_warm_polish_is_bounded(monkeypatch, norm):
         iterated = ipm.fit_sparse_ipm(pb, weights, norm, tol=1e-6, warm_start=previous)
         assert not iterated.polished and iterated.iterations > 0 and iterated.converged
         assert iterated.objective == pytest.approx(polished.objective, rel=1e-6)
+
+
+@pytest.mark.parametrize("norm", ["group", "l1"])
+def test_a_polished_path_of_trajectories_with_gaps_and_weights(monkeypatch, norm):
+    """fit_path with the warm polish taken at any size, on two trajectories with a
+    missing sample and sample weights: each λ's fit has the objective of a fit of its
+    own solved to 1e-9, and some of them are certified by the polish alone."""
+    monkeypatch.setattr(ipm, "WARM_POLISH_MIN_WORK", {"group": 0, "l1": 0})
+    rng = np.random.default_rng(11)
+    runs = [ltv.systems.jump_linear(T=400, change_at=200, seed=seed) for seed in (4, 5)]
+    x, u = np.stack([d.x for d in runs]), np.stack([d.u for d in runs])
+    x[1, 123, 0] = np.nan
+    weights = 0.5 + rng.random(399)
+    lams = ltv.lambda_max(x, u, norm=norm) * np.array([0.5, 0.2, 0.05])
+    path = ltv.fit_path(x, u, lams=lams, norm=norm, weights=weights, compute_cov=False)
+    for model, lam in zip(path, lams, strict=True):
+        alone = ltv.fit(x, u, lam=lam, norm=norm, weights=weights, tol=1e-9, compute_cov=False)
+        assert model.status.objective == pytest.approx(alone.status.objective, rel=1e-6)
+        assert model.status.objective >= alone.status.objective * (1 - 1e-9)
+    # the warm fits polished without an iteration
+    assert any(model.info["iterations"] == 0 for model in path[1:])
