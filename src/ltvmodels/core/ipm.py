@@ -183,7 +183,7 @@ EARLY_POLISH_MIN_ACTIVE = 32
 # 43, with 21-32 3 times in 11, with more 10 times in 151 (10.8 s of failed attempts).
 # L-curves of two series with / without it (paired rounds, medians): jump-linear 1.04x
 # at T = 1500, 0.87x at 2000, 0.73x at 10⁴; random-walk 1.09-1.17x at T = 400, 0.96x
-# at 1000, 1.03-1.07x at 1500-2000 (within the rounds' spread; few of its starts are
+# at 1000, 0.99-1.07x at 1500-2000 (within the rounds' spread; few of its starts are
 # within the bound). Its size bound leaves out the random-walk series of T = 400 and the
 # jump-linear ones up to T = 2777 (N·K² = 100,000), 2000 among them.
 WARM_POLISH_SPLITS = 10
