@@ -262,7 +262,7 @@ class _RowSystem:
         b = rows.stop - rows.start
         self.pinned = const[rows].astype(float)
         self.const = np.flatnonzero(const[rows])
-        self.first = cp.degree == 1
+        self.first = cp.degree == 1 and cp.block_inverses  # the explicit-inverse route
         # The group cones' K × K blocks (l1's p × p systems were not measured there).
         group = cp.cone_shape[1] > 2
         self.wide = group and b >= (WIDE_MIN_SIZE_FIRST if self.first else WIDE_MIN_SIZE)
@@ -383,13 +383,24 @@ class ConicProblem:
 
     Cone vectors are (n_cones, g + 1) arrays as in :mod:`.conekernels`.
     Coefficients with weight inf are constant in time: their cone entries get
-    weight 0 and their steps come from the systems' borders.
+    weight 0 and their steps come from the systems' borders. ``block_inverses``:
+    whether the wide Newton blocks of a first difference may be eliminated with
+    explicit inverses (:func:`.widekernels.factor_newton_wide_first`, faster),
+    else they are factored by Cholesky (:func:`.widekernels.factor_newton_wide`
+    from WIDE_MIN_SIZE on, the scalar loops below).
     """
 
-    def __init__(self, problem: RegressionProblem, weights: np.ndarray, norm: str):
+    def __init__(
+        self,
+        problem: RegressionProblem,
+        weights: np.ndarray,
+        norm: str,
+        block_inverses: bool = True,
+    ):
         self.problem = problem
         self.N, self.n, self.p, self.K = problem.N, problem.n, problem.p, problem.K
         self.degree = problem.degree
+        self.block_inverses = block_inverses
         self.y = np.ascontiguousarray(problem.y)
         self.phi = np.ascontiguousarray(problem.phi)
         self.coeffs = np.ascontiguousarray(problem.coeffs, dtype=float)

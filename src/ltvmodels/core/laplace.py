@@ -6,9 +6,9 @@ Objective (rows scaled by s = √w as in :mod:`.huber`, so w|r| = s|r̃|):
 
 Methods:
 
-* Finite weights (and, for "group"/"l1", at most IPM_MAX_K coefficients per
-  step): the interior-point method with residual cones (:mod:`.robust_ipm`),
-  part by part (each output for "sq" and "l1").
+* Finite positive weights (and, for "group", at most GROUP_IPM_MAX_K
+  coefficients per step): the interior-point method with residual cones
+  (:mod:`.robust_ipm`), part by part (each output for "sq" and "l1").
 * Otherwise (coefficients held constant, or many per step): |r| is
   smoothed by the Huber function, h_δ(r)/(2δ), which lies within
   [|r| − δ/2, |r|]; its minimizer, that of Σ w h_δ(r) + 2δ P(k), is computed
@@ -137,7 +137,7 @@ def fit_laplace(
     psi = np.zeros_like(problem.y)
     iterations, stages, smoothing, kkt, stalled, methods = 0, 0, 0.0, 0.0, False, []
     for part, weights, part_costs, index in parts:
-        method = IPM if norm == "sq" or ipm_applies(weights) else SMOOTHING
+        method = IPM if norm == "sq" or ipm_applies(weights, norm) else SMOOTHING
         if method not in methods:
             methods.append(method)
         if method == IPM:

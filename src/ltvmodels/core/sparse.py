@@ -28,11 +28,8 @@ from .penalties import Penalty
 from .problem import RegressionProblem
 from .sparse_common import lambda_max, null_space_fit
 
-__all__ = ["IPM_MAX_K", "ipm_suits", "SparseSolution", "solve_sparse", "path_start"]
+__all__ = ["GROUP_IPM_MAX_K", "ipm_suits", "SparseSolution", "solve_sparse", "path_start"]
 
-# The robust losses' interior-point method (:mod:`.robust_ipm`) takes up to this
-# many parameters per time step (see :mod:`.huber_sparse`, :mod:`.laplace`).
-IPM_MAX_K = 20
 # The interior-point method's Newton blocks are K × K for "group" (cost ~ N·K³ per
 # iteration) and p × p per output row for "l1" (~ N·n·p³). Measured on jump-linear
 # systems (T = 1000 and 4000, jump systems of n = 4–16 states, m = 2–4 inputs): for
