@@ -31,7 +31,8 @@ MANIFEST = ROOT / "src" / "ltvmodels" / "core" / "precompiled.json"
 
 # The first calls served: each norm on the paper's jump-linear system (T = 400, n = 2,
 # m = 1, as in benchmarks/bench_first_use.py) and on random-walk systems of the usual
-# sizes, and λ chosen automatically on the former. Small blocks take kernels compiled
+# sizes, alone, with each robust loss and with a second-order difference, and λ chosen
+# automatically on the former. Small blocks take kernels compiled
 # for their size (core/banded.py, kernel_size: p = n + m for "sq" and "l1", n·p for
 # "group" up to 8; larger "group" blocks share one set), so each (n, m) with a new
 # block size adds kernels.
@@ -48,13 +49,21 @@ for data in series:
 data = series[0]  # λ chosen by each norm's default criterion, and the README's example
 models += [ltv.fit(data.x, data.u, lam="auto", norm=norm) for norm in ("sq", "group", "l1")]
 models.append(ltv.fit(data.x, data.u, lam="auto", norm="group", refine=True))
+# the robust losses and the second-order difference of every norm (but the largest
+# system's group fits: their blocks are factored by LAPACK's Cholesky, whose calls
+# cannot be linked into the extension and compile at first use, about 2.5 s)
+for data in series:
+    for norm, lam in (("sq", 30.0), ("group", 20.0), ("l1", 20.0)):
+        if norm != "group" or data is not series[-1]:
+            for options in ({{"loss": "huber"}}, {{"loss": "laplace"}}, {{"order": 2}}):
+                models.append(ltv.fit(data.x, data.u, lam=lam, norm=norm, **options))
 # a selection long enough for the warm starts' polish (ipm.WARM_POLISH_MIN_WORK)
 data = ltv.systems.jump_linear(T=2000, change_at=1000, seed=0)
 models.append(ltv.fit(data.x, data.u, lam="auto", norm="group"))
 """
 
 RECORDER = """
-import json, sys
+import json, re, sys
 from numba.core import event, types
 
 found = {}
@@ -77,7 +86,12 @@ exec(compile(sys.argv[1], "<workloads>", "exec"))
 entries = []
 for (module, name, _), args in sorted(found.items()):
     dispatcher = getattr(sys.modules[module], name)
-    signature = dispatcher.overloads[tuple(args)].signature
+    compiled = dispatcher.overloads[tuple(args)]
+    # a kernel that calls LAPACK through a symbol registered at run time (widekernels'
+    # ltvmodels_dpotrf, llvm.add_symbol) cannot be linked into an extension module
+    if re.search(r"^declare .*@ltvmodels_", compiled.library.get_llvm_str(), re.MULTILINE):
+        continue
+    signature = compiled.signature
     entries.append(
         {
             "module": module,

@@ -44,6 +44,7 @@ import numpy as np
 from ..errors import SingularProblemError
 from .banded import WeightedRowsFactor, WeightedRowsKalman, long_series_size
 from .blockkernels import block_size
+from .precompiled import attach
 from .priorterms import PriorTerm
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 from .squared import SquaredSolver, weight_diagonal
@@ -1030,3 +1031,7 @@ def _slope(r, g, limits, alpha, quad_a, quad_b):  # pragma: no cover - compiled
             first += min(max(shifted, -delta), delta) * g[t, j]
             curvature += g[t, j] * g[t, j] if abs(shifted) <= delta else 0.0
     return -2.0 * first + 2.0 * (alpha * quad_a + quad_b), 2.0 * (curvature + quad_a)
+
+
+# the signatures of a first fit, compiled ahead of time where the package was built with them
+attach(globals())

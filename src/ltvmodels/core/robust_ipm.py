@@ -48,6 +48,7 @@ from .banded import (
 )
 from .blockkernels import block_size
 from .ipm import MIN_STEP, STEP_FRACTION, ConicProblem, NewtonSystem, feasible_start
+from .precompiled import attach
 from .problem import RegressionProblem, apply_difference, apply_difference_adjoint
 from .sparse_common import difference_preimage
 
@@ -1266,3 +1267,7 @@ def _laplace_step(
                 b[o, t, j] += step * sp[o, t, j]
                 zp[o, t, j] += step * tp[o, t, j]
                 zm[o, t, j] += step * tm[o, t, j]
+
+
+# the signatures of a first fit, compiled ahead of time where the package was built with them
+attach(globals())
