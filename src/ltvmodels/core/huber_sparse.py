@@ -158,9 +158,10 @@ def ipm_applies(weights: np.ndarray, norm: str) -> bool:
 
     Measured against the other routes (one-off runs, jump systems, order 1, λ = 0.1 and
     0.01 λ_max, tol 1e-6): for "group" at K = 24, 35 and 60 (T = 400) the interior point
-    took 0.04-0.6 s, where Huber's proximal Newton took 0.2-3.7 s and Laplace's smoothing
-    21-150 s (243-368 s at K = 35, T = 2000); for "l1" at p = 24 (16 outputs) 2.7-5.5 s
-    against 7-34 s. The objectives agree within the tolerance."""
+    took 0.05-0.8 s, where Huber's proximal Newton took 0.2-3.7 s and Laplace's smoothing
+    21-150 s (at K = 35, T = 2000: 1.4-2.0 s against 243-368 s); for "l1" at p = 24
+    (16 outputs, T = 400) 2.7-5.5 s against 7-34 s. The objectives agree within the
+    tolerance."""
     finite = bool(np.all(np.isfinite(weights)) and np.all(weights > 0))
     return finite and (norm != "group" or weights.size <= GROUP_IPM_MAX_K)
 
