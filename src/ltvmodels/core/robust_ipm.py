@@ -152,8 +152,8 @@ def fit_robust_ipm(
     # grow without bound near the optimum. Laplace fits of K = 15 and 24 (T = 40, order 1,
     # three seeds, three λ, tol 1e-6 and 1e-9) ended short of their tolerance in 23 of 36
     # cases with the inverses (5 of 18 at 1e-6), at gaps up to 3e-4; by Cholesky none did.
-    # Its price on jump systems (the same iterations): 1.0-1.3x at T = 400, 1.4-2.0x at
-    # T = 2000-10^4.
+    # Its price on jump systems (the same iterations): K = 12-15 1.0-1.3x at T = 400 and
+    # 1.4-1.7x at T = 2000-10^4; K = 24-60 1.3-2.5x.
     cp = ConicProblem(part, weights, norm, block_inverses=False)
     entries = _Entries(part, loss, costs)
     data_phi = cp.phi
