@@ -262,16 +262,16 @@ class _RowSystem:
         b = rows.stop - rows.start
         self.pinned = const[rows].astype(float)
         self.const = np.flatnonzero(const[rows])
-        self.first = cp.degree == 1 and cp.block_inverses  # the explicit-inverse route
+        inverses = cp.degree == 1 and cp.block_inverses
         # The group cones' K × K blocks (l1's p × p systems were not measured there).
         group = cp.cone_shape[1] > 2
-        self.wide = group and b >= (WIDE_MIN_SIZE_FIRST if self.first else WIDE_MIN_SIZE)
+        self.wide = group and b >= (WIDE_MIN_SIZE_FIRST if inverses else WIDE_MIN_SIZE)
         self.coeffs = cp.coeffs
-        # The wide order-1 factor keeps S_t⁻¹ per step and P_t as (δ_t, a_t): no
-        # off-diagonal blocks (see widekernels.factor_newton_wide_first).
-        wide_first = self.wide and self.first
-        self.L = np.empty((cp.N, 1 if wide_first else cp.degree + 1, b, b))
-        self.P = np.empty((cp.N, 2, b)) if wide_first else None
+        # Wide blocks eliminated with explicit inverses: the factor keeps S_t⁻¹ per step
+        # and P_t as (δ_t, a_t), no off-diagonal blocks (widekernels.factor_newton_wide_first).
+        self.inverses = self.wide and inverses
+        self.L = np.empty((cp.N, 1 if self.inverses else cp.degree + 1, b, b))
+        self.P = np.empty((cp.N, 2, b)) if self.inverses else None
         small = cp.N * b >= FIXED_KERNEL_MIN_SIZE and b <= 16 and not self.wide
         self.fixed = (0,) * b if small else None
         if self.const.size:
@@ -322,7 +322,7 @@ class _RowSystem:
             self.pinned,
             self.L,
         )
-        if self.wide and self.first:
+        if self.inverses:
             worst, worst_t = wide.factor_newton_wide_first(*args, self.P)
         elif self.wide:
             with wide.one_blas_thread():
@@ -336,7 +336,7 @@ class _RowSystem:
 
     def solve_columns(self, Z: np.ndarray) -> None:
         """H_b X = Z in place for Z (N, b, r), C-contiguous, with the current factor."""
-        if self.wide and self.first:
+        if self.inverses:
             wide.solve_wide_first(self.L, self.P, Z, self.coeffs)
         elif self.wide:
             wide.solve_wide(self.L, Z)
