@@ -26,7 +26,11 @@ it, divided by T). The same call repeated in this process gives the repeated
 best. Printed: one-shot best and spread, repeated best and spread, the
 ratio of the bests, its range and the ratio of the medians (a one-shot call
 that found its memory already mapped by chance makes the best fast, not the
-median), and the peak bytes per step. Each fresh interpreter starts ``--pause``
+median), the peak bytes per step, and what the memory alone costs: the median time
+a fresh interpreter takes, after making the same data, to write as many bytes as
+the fit's traced peak for the first time (without the fit's work), and the ratio
+of the repeated best plus that write to the repeated best. Each fresh interpreter
+starts ``--pause``
 seconds after the last one ended: memory that a process freed a moment ago can
 come back to the next one already mapped by the host (a virtual machine whose
 host reclaims the guest's free memory takes about 2 s to do so), which made
@@ -106,9 +110,17 @@ ONE_SHOT = textwrap.dedent(
     import ltvmodels as ltv
     from ltvmodels.systems import random_walk_system
 
-    T, lam, traced = int(sys.argv[1]), float(sys.argv[2]), sys.argv[3] == "1"
+    T, lam, mode = int(sys.argv[1]), float(sys.argv[2]), sys.argv[3]
+    traced = mode == "traced"
     data = random_walk_system(T=T, n=3, m=2, drift_std=1e-3, noise_std=0.1, seed=0)
     fit = ltv.fit  # the lazy import of the estimators, outside the timing
+    if mode.startswith("touch="):  # the first write of that many bytes, nothing else
+        import numpy as np
+        block = np.empty(int(mode[6:]) // 8)
+        start = time.perf_counter()
+        block.fill(0.0)
+        print(time.perf_counter() - start, 0)
+        sys.exit()
     if traced:
         tracemalloc.start()
         before = tracemalloc.get_traced_memory()[0]
@@ -124,12 +136,13 @@ ONE_SHOT = textwrap.dedent(
 ONE_SHOT_TIMEOUT = 600.0  # seconds a fresh process may take before the benchmark gives up
 
 
-def one_shot(T: int, traced: bool, pause: float = 0.0) -> tuple[float, int]:
-    """Wall time of the fit as a fresh process's only call, and its peak traced bytes
-    (the process started ``pause`` seconds from now)."""
+def one_shot(T: int, mode: str, pause: float = 0.0) -> tuple[float, int]:
+    """Wall time of the fit as a fresh process's only call (``mode`` "fit"), and its peak
+    traced bytes ("traced"), or of the first write of B bytes after making the data
+    ("touch=B"); the process started ``pause`` seconds from now."""
     time.sleep(pause)
     done = subprocess.run(
-        [sys.executable, "-c", ONE_SHOT, str(T), str(LAM), "1" if traced else "0"],
+        [sys.executable, "-c", ONE_SHOT, str(T), str(LAM), mode],
         capture_output=True,
         text=True,
         check=True,
@@ -143,14 +156,16 @@ def one_shot_rows(sizes: list[float], repeat: int, pause: float) -> None:
     """The --one-shot table: fresh process against the same call repeated in this one."""
     header = (
         f"{'T':>8} {'one-shot [s]':>13} {'spread':>13} {'repeated [s]':>13} {'spread':>13} "
-        f"{'ratio':>6} {'ratio range':>12} {'medians':>8} {'peak B/step':>11}"
+        f"{'ratio':>6} {'ratio range':>12} {'medians':>8} {'peak B/step':>11} "
+        f"{'peak write [s]':>14} {'+write':>6}"
     )
     print(header)
     print("-" * len(header))
     for size in sizes:
         T = int(size)
-        fresh = [one_shot(T, traced=False, pause=pause)[0] for _ in range(repeat)]
-        _, peak = one_shot(T, traced=True)
+        fresh = [one_shot(T, "fit", pause=pause)[0] for _ in range(repeat)]
+        _, peak = one_shot(T, "traced")
+        touch = [one_shot(T, f"touch={peak}", pause=pause)[0] for _ in range(repeat)]
         data = random_walk_system(T=T, n=3, m=2, drift_std=1e-3, noise_std=0.1, seed=0)
         again = []
         for _ in range(repeat):
@@ -163,7 +178,8 @@ def one_shot_rows(sizes: list[float], repeat: int, pause: float) -> None:
             f"{min(fresh) / min(again):>5.2f}x "
             f"{min(fresh) / max(again):>5.2f}–{max(fresh) / min(again):<5.2f} "
             f"{np.median(fresh) / np.median(again):>7.2f}x "
-            f"{peak / T:>11.0f}",
+            f"{peak / T:>11.0f} "
+            f"{np.median(touch):>14.3f} {(min(again) + np.median(touch)) / min(again):>5.2f}x",
             flush=True,
         )
 
