@@ -30,11 +30,10 @@ median), the peak bytes per step, and what the memory alone costs: the median ti
 a fresh interpreter takes, after making the same data, to write as many bytes as
 the fit's traced peak for the first time (without the fit's work), and the ratio
 of the repeated best plus that write to the repeated best. Each fresh interpreter
-starts ``--pause``
-seconds after the last one ended: memory that a process freed a moment ago can
-come back to the next one already mapped by the host (a virtual machine whose
-host reclaims the guest's free memory takes about 2 s to do so), which made
-a one-shot call as fast as a repeated one by chance.
+starts ``--pause`` seconds after the last one ended: memory that a process freed a
+moment ago can come back to the next one already mapped by the host (a virtual
+machine whose host reclaims the guest's free memory takes about 2 s to do so),
+which made a one-shot call as fast as a repeated one by chance.
 
 Run:  python benchmarks/bench_sq_banded.py [--sizes 1e4 1e5 1e6] [--repeat 3]
       python benchmarks/bench_sq_banded.py --one-shot [--sizes 1e6] [--repeat 5] [--pause 3]
