@@ -219,7 +219,11 @@ FIXED_KERNEL_MIN_SIZE = 2_000
 # time of whole fits (norm="group", jump systems, T = 1000, λ = 0.1 λ_max, best of
 # three, range of the ratios loops/wide): order 1, K = 8: 1.27–1.31, K = 12:
 # 1.45–1.61, K = 15: 1.04–2.39, K = 24: 2.67–3.32; order 2, K = 8: 0.67–0.72,
-# K = 12: 0.98–1.07, K = 15: 0.90–0.98, K = 24: 1.15–1.43.
+# K = 12: 0.98–1.07, K = 15: 0.90–0.98, K = 24: 1.15–1.43. The same for norm="l1"'s
+# p × p blocks (wall time, best of two, λ = 0.1 and 0.01 λ_max, T = 1000): order 1,
+# p = 12: 1.24–1.28, p = 16: 1.58–1.61, p = 24: 2.6–3.0 (T = 4000: 2.2–3.3); order 2,
+# p = 16: 1.19–1.23, p = 24: 1.65–1.68; the robust losses' l1 fits (T = 400, p = 24)
+# 1.5–2.0.
 WIDE_MIN_SIZE = 16
 WIDE_MIN_SIZE_FIRST = 12
 
@@ -263,9 +267,8 @@ class _RowSystem:
         self.pinned = const[rows].astype(float)
         self.const = np.flatnonzero(const[rows])
         inverses = cp.degree == 1 and cp.block_inverses
-        # The group cones' K × K blocks (l1's p × p systems were not measured there).
-        group = cp.cone_shape[1] > 2
-        self.wide = group and b >= (WIDE_MIN_SIZE_FIRST if inverses else WIDE_MIN_SIZE)
+        # The group cones' K × K blocks, or l1's p × p blocks of one output row
+        self.wide = b >= (WIDE_MIN_SIZE_FIRST if inverses else WIDE_MIN_SIZE)
         self.coeffs = cp.coeffs
         # Wide blocks eliminated with explicit inverses: the factor keeps S_t⁻¹ per step
         # and P_t as (δ_t, a_t), no off-diagonal blocks (widekernels.factor_newton_wide_first).
