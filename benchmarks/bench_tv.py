@@ -12,10 +12,14 @@ for order 1 and 2 and both norms. cvxpy runs up to
 With ``--wide`` it instead times wider models — jump systems with n = 4, 5, 6
 states and m = 2, 2, 4 inputs (K = 24, 35, 60 parameters per step; A switches
 between two random stable matrices at T/2, σ = 0.2, λ = 5, order 1) at
-T = 1000 and 4000 — and prints the solver the dispatch chose.
+T = 1000 and 4000 — and prints the solver the dispatch chose. ``--systems``
+replaces those (n, m), e.g. ``--norms l1 --systems 16,8 10,6`` for l1 with
+24 and 16 regressors per output (its Newton blocks are (n + m) × (n + m));
+``--T`` replaces the two lengths.
 
 Run:  python benchmarks/bench_tv.py [--sizes 400 2000 10000 100000] [--scs]
-          [--norms group l1] [--orders 1 2] [--repeat 3] [--wide]
+          [--norms group l1] [--orders 1 2] [--repeat 3]
+          [--wide [--systems 4,2 5,2 6,4] [--T 1000 4000]]
 """
 
 from __future__ import annotations
@@ -61,8 +65,8 @@ def wide(args) -> None:
     print(header)
     print("-" * len(header))
     for norm in args.norms:
-        for n, m in WIDE:
-            for T in (1000, 4000):
+        for n, m in args.systems:
+            for T in args.T:
                 x, u = wide_jump(n, m, T)
 
                 def ours():
@@ -128,6 +132,14 @@ def main() -> None:
     parser.add_argument(
         "--wide", action="store_true", help="time wider models (K = 24, 35, 60) instead"
     )
+    parser.add_argument(
+        "--systems",
+        nargs="+",
+        type=lambda text: tuple(int(v) for v in text.split(",")),
+        default=WIDE,
+        help="(n, m) of the --wide jump systems, as n,m",
+    )
+    parser.add_argument("--T", nargs="+", type=int, default=[1000, 4000], help="--wide lengths")
     args = parser.parse_args()
     if args.wide:
         wide(args)
