@@ -67,6 +67,9 @@ GAP_GROWTH = 100.0
 STAGE_TOL_FACTOR = 1e-3
 STAGE_TOL_FLOOR = 1e-10
 STAGE_STEPS = 200
+# Where every interior point met its own test but the certificate (their dual point
+# made exactly feasible) missed tol, they run once more to this fraction of tol.
+CERTIFICATE_RETRY = 1e-2
 
 
 @dataclass
@@ -84,13 +87,9 @@ class LaplaceFit:
     converged: bool
     psi: np.ndarray  # (N, q, n) the dual point of the certificate
     polished: bool = False  # the exact active-set solution (norm="sq") gave the result
-    # Ended short of tol at working precision: less smoothing fails, an interior point
-    # stalled, or every interior point met its own test (its iterates' gap and dual
-    # residual) while the certificate, its dual point made exactly feasible, missed tol.
-    # In that last case a retry to a 100× tighter own test gave no better certificate
-    # (5 of 270 short group fits at tol 1e-9; the gaps grew): iterations do not help.
-    stalled: bool = False
+    stalled: bool = False  # ended short of tol at working precision
     method: str = SMOOTHING  # how it was solved (parts may differ)
+    own_tests_met: bool = False  # every part by the interior point, each to its own test
 
 
 def fit_laplace(
@@ -121,6 +120,45 @@ def fit_laplace(
     start : ndarray, shape (N, n, p)
         Starting coefficients (the squared-loss fit).
     """
+    fit = _fit_laplace(problem, penalty, norm, delta, max_iter=max_iter, tol=tol, start=start)
+    if fit.converged or not fit.own_tests_met:
+        return fit
+    # Each interior point met its own test (its iterates' gap and dual residual), but the
+    # certificate lost more than the margin left to making their dual point feasible
+    # (l1, 16 regressors, order 2: parts at gaps <= 2.3e-7 and dual residuals up to
+    # 2.8e-8 certified 1.01e-6 > 1e-6). Once more to a tighter own test; what is still
+    # short then is short at working precision (at tol 1e-9 on short series the retry
+    # never helped).
+    again = _fit_laplace(
+        problem,
+        penalty,
+        norm,
+        delta,
+        max_iter=max_iter,
+        tol=tol,
+        start=start,
+        ipm_tol=tol * CERTIFICATE_RETRY,
+    )
+    best = again if again.duality_gap <= fit.duality_gap else fit
+    best.iterations = fit.iterations + again.iterations
+    best.stalled = not best.converged
+    return best
+
+
+def _fit_laplace(
+    problem: RegressionProblem,
+    penalty: np.ndarray,
+    norm: str,
+    delta: np.ndarray,
+    *,
+    max_iter: int,
+    tol: float,
+    start: np.ndarray,
+    ipm_tol: float | None = None,
+) -> LaplaceFit:
+    """One attempt of :func:`fit_laplace`, its interior points run to ``ipm_tol``
+    (``tol`` unless given)."""
+    ipm_tol = tol if ipm_tol is None else ipm_tol
     N, p = problem.N, problem.p
     costs = np.repeat(problem.row_scale[:, :, None], problem.n, 2)
     if norm == "sq":
@@ -133,7 +171,14 @@ def fit_laplace(
         solver = SquaredSolver(problem, penalty, [])
         if solver.diagonal:  # all outputs at once, on compiled kernels
             return _fit_diagonal(
-                problem, penalty, solver.W0_diagonal, costs, max_iter=max_iter, tol=tol, start=start
+                problem,
+                penalty,
+                solver.W0_diagonal,
+                costs,
+                max_iter=max_iter,
+                tol=tol,
+                start=start,
+                ipm_tol=ipm_tol,
             )
         parts = sparse_parts(problem, weight_diagonal(penalty), "l1", costs)
     else:  # the sparse norms part by part: the interior-point method where it applies
@@ -154,7 +199,7 @@ def fit_laplace(
                     rows = slice(index.start * p, index.stop * p)
                     block = penalty[rows] if penalty.ndim == 1 else penalty[rows, rows]
                     ip = fit_robust_ipm_squared(
-                        part, block, "laplace", part_costs, tol=tol, max_iter=max_iter, start=k0
+                        part, block, "laplace", part_costs, tol=ipm_tol, max_iter=max_iter, start=k0
                     )
                 else:
                     ip = fit_robust_ipm(
@@ -163,7 +208,7 @@ def fit_laplace(
                         norm,
                         "laplace",
                         part_costs,
-                        tol=tol,
+                        tol=ipm_tol,
                         max_iter=max_iter,
                         start=k0,
                     )
@@ -200,20 +245,22 @@ def fit_laplace(
         stages=stages,
         smoothing=smoothing,
         converged=gap <= tol,
-        stalled=(stalled or own_tests_met) and gap > tol,
+        stalled=stalled and gap > tol,
         psi=psi,
         method="; ".join(methods),
+        own_tests_met=own_tests_met,
     )
 
 
-def _fit_diagonal(problem, penalty, weight, costs, *, max_iter, tol, start) -> LaplaceFit:
+def _fit_diagonal(problem, penalty, weight, costs, *, max_iter, tol, start, ipm_tol) -> LaplaceFit:
     """:func:`fit_laplace` for norm="sq" with a finite diagonal ``penalty`` (its diagonal
     ``weight`` (K,)): the interior-point method on every output at once
     (:func:`.robust_ipm.fit_laplace_ipm_diagonal`, the iterations of
-    :func:`.robust_ipm.fit_robust_ipm_squared` output by output), then the same certificate."""
+    :func:`.robust_ipm.fit_robust_ipm_squared` output by output, to ``ipm_tol``), then
+    the same certificate."""
     N, n, p = problem.N, problem.n, problem.p
     results = fit_laplace_ipm_diagonal(
-        problem, weight.reshape(n, p), costs, tol=tol, max_iter=max_iter, start=start
+        problem, weight.reshape(n, p), costs, tol=ipm_tol, max_iter=max_iter, start=start
     )
     theta = np.stack([ip.k for ip in results], axis=1)
     psi = np.stack(
@@ -235,10 +282,10 @@ def _fit_diagonal(problem, penalty, weight, costs, *, max_iter, tol, start) -> L
         stages=0,
         smoothing=0.0,
         converged=gap <= tol,
-        stalled=(any(ip.stalled for ip in results) or all(ip.converged for ip in results))
-        and gap > tol,
+        stalled=any(ip.stalled for ip in results) and gap > tol,
         psi=psi,
         method=IPM,
+        own_tests_met=all(ip.converged for ip in results),
     )
 
 
