@@ -68,6 +68,8 @@ CASES = [
     dict(order=2, pairs=True),
     dict(order=1, pinned=(0, 7)),
     dict(order=2, pinned=(3,)),
+    dict(order=1, pairs=True, pinned=(2, 11)),  # l1's blocks with constant coefficients
+    dict(order=2, pairs=True, pinned=(5,)),
 ]
 
 

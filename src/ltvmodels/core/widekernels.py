@@ -5,7 +5,8 @@ The interior-point method's Newton matrix (:mod:`.ipm`)
     H = 2ΦᵀΦ + DᵀΛSΛD
 
 has N × N blocks of size b × b and block bandwidth d (the order of D). For
-``norm="group"`` the blocks are dense K × K (b = K = n·p). The scalar loops of
+``norm="group"`` the blocks are dense K × K (b = K = n·p); for ``"l1"`` each output
+row has its own system of p × p blocks (b = p). The scalar loops of
 :mod:`.blockkernels` and :mod:`.conekernels` are fastest for small blocks; from
 a dozen or so coefficients on (``WIDE_MIN_SIZE`` in :mod:`.ipm`, with the
 measured crossovers) the kernels here are faster:
