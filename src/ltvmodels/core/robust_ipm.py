@@ -59,8 +59,8 @@ __all__ = [
     "fit_robust_ipm_squared",
 ]
 
-# The starting slack of each entry's orthant, relative to the median |r|; and how
-# far inside [0, c] the starting duals ζ± sit.
+# The starting slack of each entry's orthant, relative to the median |r| (Huber's;
+# Laplace's: LAPLACE_START_SLACK); and how far inside [0, c] the starting duals ζ± sit.
 START_SLACK = 0.1
 START_DUAL_SHRINK = 0.9
 # From a given start, the cone duals' norms are capped here (0.5 took 12
@@ -398,16 +398,25 @@ class _Entries:
         r = self.residuals(k)
         c = self.c
         spread = float(np.median(np.abs(r[self.mask]))) if self.count else 1.0
-        slack = START_SLACK * np.maximum(np.where(self.mask, spread, 1.0), 1e-300)
+        scale = np.maximum(np.where(self.mask, spread, 1.0), 1e-300)
         if self.loss_name == "huber":
             delta = c / 2.0
             self.w = np.where(self.mask, r - np.clip(r, -delta, delta), 0.0)
-            self.b = np.abs(self.w) + slack
+            self.b = np.abs(self.w) + START_SLACK * scale
             pairing = 2.0 * START_DUAL_SHRINK * np.clip(r, -delta, delta)
         else:
+            # As fit_laplace_ipm_diagonal's start: the squared-loss start's own pairing 2r
+            # clipped into the box, which leaves k stationary except through its outliers
+            # (with the cone duals that make it so), and a slack of LAPLACE_START_SLACK
+            # typical |r|. On wide jump systems (l1 and group, orders 1 and 2, T = 400) and
+            # the jump-linear system (T = 10⁴): 583 iterations in all instead of 781 with
+            # the pairing sign(r)·0.9c and a slack of 0.1 median |r|; slacks of 0.3 and 3
+            # typical |r| took 635 and 529.
             self.w = None
+            typical = np.where(self.mask, _typical_size(r[self.mask]), 1.0)
+            slack = np.maximum(LAPLACE_START_SLACK * typical, LAPLACE_SLACK_FLOOR * np.abs(r))
             self.b = np.abs(r) + slack
-            pairing = START_DUAL_SHRINK * c * np.sign(r)
+            pairing = np.clip(2.0 * r, -START_DUAL_SHRINK * c, START_DUAL_SHRINK * c)
         # ζ⁺ + ζ⁻ = c (stationarity in b), ζ⁺ − ζ⁻ a shrunk pairing: both >= 0.05c > 0;
         # entries outside the loss are frozen at σ = ζ = 1 and never move
         self.zeta = np.stack(
