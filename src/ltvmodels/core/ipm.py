@@ -480,6 +480,24 @@ class ConicProblem:
             rhs[:, system.rows] = system.solve(rhs[:, system.rows])
         return rhs
 
+    def newton_product(self, newton: NewtonSystem, x: np.ndarray) -> np.ndarray:
+        """H x (N, K) for the Newton matrix H = 2ΦᵀΦ + DᵀΛSΛD at ``newton``'s scaling
+        (the matrix :meth:`factor_and_solve` factors; no constant coefficients)."""
+        fitted = np.einsum("tjp,tip->tji", self.phi, x.reshape(self.N, self.n, self.p))
+        out = 2.0 * np.einsum("tjp,tji->tip", self.phi, fitted).reshape(self.N, self.K)
+        cone = np.zeros(self.cone_shape)
+        cones.weighted_difference(x, self.coeffs, self.w, cone)  # ΛDx per cone
+        y = cone[:, 1:]
+        if newton.pairs:  # S_c per cone of width 2
+            y *= newton.penalty[:, None]
+        else:  # S = η⁻²(I − s_coef v₁v₁ᵀ)
+            v1 = newton.v[:, 1:]
+            along = np.einsum("ci,ci->c", v1, y) * newton.s_coef
+            y -= along[:, None] * v1
+            y /= (newton.eta**2)[:, None]
+        cones.add_weighted_difference_adjoint(cone, self.coeffs, self.w, 1.0, out)
+        return out
+
     def dual_residual_norm(self, r_k: np.ndarray) -> float:
         """‖r_k‖ with the entries of constant coefficients summed over time."""
         if not self.const.any():
