@@ -67,7 +67,8 @@ START_DUAL_SHRINK = 0.9
 # this many, until the residual is within REFINE_TOL of the right-hand side. On wide
 # jump systems (l1 and group, T = 400, 54 fits of order 2 at the default tol) 13 stalled
 # short of tol without, 5 with one refinement, 4 with two; their time 28.7 s, 28.6 s and
-# 32.1 s (fewer stalled iterations pay for the extra solves). Order 1 never stalled there.
+# 32.1 s (fewer stalled iterations pay for the extra solves). Huber: 11 and 6 (one
+# refinement), 16.0 s and 17.7 s. Order 1 never stalled there.
 REFINEMENTS = 1
 REFINE_TOL = 1e-12
 # From a given start, the cone duals' norms are capped here (0.5 took 12
