@@ -106,7 +106,7 @@ KALMAN_RESIDUAL = 1e-8
 # is the output factored. On the benchmark "sq" (T = 1e5) one refinement brought
 # the last iterations' residuals (3.7e-10 and 1.2e-9) to 1e-13; each had cost a
 # factorization (about two iterations' time) before.
-KALMAN_REFINEMENTS = 1
+KALMAN_REFINEMENTS = 2
 
 
 @dataclass
