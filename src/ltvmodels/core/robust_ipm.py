@@ -284,14 +284,12 @@ def _solved(cp: ConicProblem, newton: NewtonSystem, rhs: np.ndarray, factor: boo
     computed in working precision, so that refinement cannot remove all of it:
     a few fits still stall.
     """
-    if cp.degree < 2 or cp.const.any():  # (the constants' border: not refined)
-        return cp.factor_and_solve(newton, rhs) if factor else cp.solve(rhs)
-    target = rhs.copy()
+    refine = cp.degree >= 2 and not cp.const.any()  # (the constants' border: not refined)
+    target = rhs.copy() if refine else rhs  # (the solves overwrite rhs)
     step = cp.factor_and_solve(newton, rhs) if factor else cp.solve(rhs)
-    size = float(np.linalg.norm(target))
-    for _ in range(REFINEMENTS):
+    for _ in range(REFINEMENTS if refine else 0):
         residual = target - cp.newton_product(newton, step)
-        if not float(np.linalg.norm(residual)) > REFINE_TOL * size:
+        if not np.linalg.norm(residual) > REFINE_TOL * np.linalg.norm(target):
             break
         step += cp.solve(residual)
     return step
@@ -430,12 +428,12 @@ class _Entries:
     def start(self, k: np.ndarray) -> None:
         r = self.residuals(k)
         c = self.c
-        spread = float(np.median(np.abs(r[self.mask]))) if self.count else 1.0
-        scale = np.maximum(np.where(self.mask, spread, 1.0), 1e-300)
         if self.loss_name == "huber":
+            spread = float(np.median(np.abs(r[self.mask]))) if self.count else 1.0
+            slack = START_SLACK * np.maximum(np.where(self.mask, spread, 1.0), 1e-300)
             delta = c / 2.0
             self.w = np.where(self.mask, r - np.clip(r, -delta, delta), 0.0)
-            self.b = np.abs(self.w) + START_SLACK * scale
+            self.b = np.abs(self.w) + slack
             pairing = 2.0 * START_DUAL_SHRINK * np.clip(r, -delta, delta)
         else:
             # As fit_laplace_ipm_diagonal's start: the squared-loss start's own pairing 2r
